@@ -1,0 +1,159 @@
+/* ctx.c: error recording, counted allocation with failure injection, phase timers. */
+#include "config.h"
+#include <moreau/ctx.h>
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+void mo_ctx_init(mo_ctx *ctx)
+{
+  memset(ctx, 0, sizeof *ctx);
+  ctx->verbosity = 1;
+  ctx->seed = 1;
+}
+
+int mo_verror(mo_ctx *ctx, int code, const char *fmt, va_list ap)
+{
+  if (ctx->status != MO_OK) return code; /* keep the root cause */
+  ctx->status = code;
+  vsnprintf(ctx->errmsg, sizeof ctx->errmsg, fmt, ap);
+  return code;
+}
+
+int mo_error(mo_ctx *ctx, int code, const char *fmt, ...)
+{
+  va_list ap;
+  va_start(ap, fmt);
+  mo_verror(ctx, code, fmt, ap);
+  va_end(ap);
+  return code;
+}
+
+int mo_error_prefix(mo_ctx *ctx, const char *fmt, ...)
+{
+  char pre[512];
+  size_t lp, lm;
+  va_list ap;
+  if (ctx->status == MO_OK) return MO_OK;
+  va_start(ap, fmt);
+  vsnprintf(pre, sizeof pre, fmt, ap);
+  va_end(ap);
+  lp = strlen(pre);
+  lm = strlen(ctx->errmsg);
+  if (lp + 2 + lm >= sizeof ctx->errmsg) lm = sizeof ctx->errmsg - lp - 3;
+  memmove(ctx->errmsg + lp + 2, ctx->errmsg, lm);
+  memcpy(ctx->errmsg, pre, lp);
+  ctx->errmsg[lp] = ':';
+  ctx->errmsg[lp + 1] = ' ';
+  ctx->errmsg[lp + 2 + lm] = '\0';
+  return ctx->status;
+}
+
+void mo_ctx_clear_error(mo_ctx *ctx)
+{
+  ctx->status = MO_OK;
+  ctx->errmsg[0] = '\0';
+}
+
+const char *mo_strerror(int code)
+{
+  switch (code) {
+  case MO_OK: return "success";
+  case MO_ENOMEM: return "out of memory";
+  case MO_EINPUT: return "invalid input";
+  case MO_EIO: return "input/output error";
+  case MO_ESINGULAR: return "singular matrix";
+  case MO_ENOCONV: return "no convergence";
+  case MO_ENAN: return "NaN or infinity";
+  case MO_ELIMIT: return "size limit exceeded";
+  case MO_EINTERRUPT: return "interrupted";
+  case MO_EUNSUPPORTED: return "unsupported";
+  case MO_EINTERNAL: return "internal error";
+  default: return "unknown error";
+  }
+}
+
+static int alloc_refused(mo_ctx *ctx)
+{
+  if (!ctx) return 0;
+  ctx->alloc_calls++;
+  return ctx->alloc_fail_at > 0 && ctx->alloc_calls == ctx->alloc_fail_at;
+}
+
+void *mo_malloc(mo_ctx *ctx, size_t n)
+{
+  void *p = alloc_refused(ctx) ? NULL : malloc(n ? n : 1);
+  if (!p && ctx) mo_error(ctx, MO_ENOMEM, "out of memory (request of %zu bytes)", n);
+  return p;
+}
+
+void *mo_calloc(mo_ctx *ctx, size_t count, size_t size)
+{
+  void *p = alloc_refused(ctx) ? NULL : calloc(count ? count : 1, size ? size : 1);
+  if (!p && ctx) mo_error(ctx, MO_ENOMEM, "out of memory (request of %zu x %zu bytes)", count, size);
+  return p;
+}
+
+void *mo_realloc(mo_ctx *ctx, void *p, size_t n)
+{
+  void *q = alloc_refused(ctx) ? NULL : realloc(p, n ? n : 1);
+  if (!q && ctx) mo_error(ctx, MO_ENOMEM, "out of memory (request of %zu bytes)", n);
+  return q;
+}
+
+char *mo_strdup(mo_ctx *ctx, const char *s)
+{
+  size_t n = strlen(s) + 1;
+  char *d = mo_malloc(ctx, n);
+  if (d) memcpy(d, s, n);
+  return d;
+}
+
+void mo_free(void *p)
+{
+  free(p);
+}
+
+double mo_clock(void)
+{
+  struct timespec ts;
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+void mo_phase_add(mo_ctx *ctx, mo_phase ph, double t0)
+{
+  ctx->phase_time[ph] += mo_clock() - t0;
+  ctx->phase_calls[ph]++;
+}
+
+const char *mo_phase_name(mo_phase ph)
+{
+  static const char *names[MO_PH_N] = {"setup",    "assembly", "factor", "solve",
+                                       "geometry", "delassus", "contact", "output"};
+  return (unsigned)ph < MO_PH_N ? names[ph] : "?";
+}
+
+void mo_note_skip(mo_ctx *ctx, const char *fmt, ...)
+{
+  char buf[160];
+  va_list ap;
+  int i;
+  va_start(ap, fmt);
+  vsnprintf(buf, sizeof buf, fmt, ap);
+  va_end(ap);
+  for (i = 0; i < ctx->nskip; i++)
+    if (!strcmp(ctx->skipped[i], buf)) return;
+  if (ctx->nskip < MO_MAX_SKIPS) memcpy(ctx->skipped[ctx->nskip++], buf, sizeof buf);
+}
+
+void mo_log(const mo_ctx *ctx, int level, const char *fmt, ...)
+{
+  va_list ap;
+  if (level <= 0 || !ctx || ctx->verbosity < level) return;
+  va_start(ap, fmt);
+  vfprintf(stderr, fmt, ap);
+  va_end(ap);
+}

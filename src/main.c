@@ -1,0 +1,175 @@
+/* main.c: the moreau command line (argument handling and messages only; no numerics). */
+#include "config.h"
+#include <moreau/moreau.h>
+
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Set by SIGINT/SIGTERM; the library polls it through ctx.interrupt. */
+static volatile sig_atomic_t interrupted = 0;
+
+static void on_signal(int sig)
+{
+  (void)sig;
+  interrupted = 1;
+}
+
+static void usage(FILE *f)
+{
+  fprintf(f,
+          "usage: moreau COMMAND [ARGS]\n"
+          "\n"
+          "  run CASE [--solver S] [--set KEY=VALUE]... [--out DIR] [--log] [--quiet]\n"
+          "            run a case (a folder holding case.cfg, or a file); outputs in DIR\n"
+          "            (default out/<case>): history.csv, summary.json, fields.pvd\n"
+          "  check CASE [--solver S] [--set KEY=VALUE]...\n"
+          "            validate a case and build its scene without running it\n"
+          "  list-solvers   the registered contact back ends\n"
+          "  keys           every case-file key with its type, range and default\n"
+          "  --version, --help\n"
+          "\n"
+          "Exit status: 0 success, 1 the run failed (the outputs say how far it got),\n"
+          "2 bad command line or case file. See moreau(1) and doc/case-format.md.\n");
+}
+
+typedef struct {
+  mo_run_options o;
+  const char **sets;
+  int quiet;
+} cli;
+
+static int parse_run_args(int argc, char **argv, int i, cli *c)
+{
+  c->sets = calloc((size_t)argc, sizeof *c->sets);
+  if (!c->sets) return 2;
+  c->o.sets = c->sets;
+  c->o.progress = 1;
+  for (; i < argc; i++) {
+    const char *a = argv[i];
+    if (!strcmp(a, "--set") || !strcmp(a, "-s")) {
+      if (++i >= argc) { fprintf(stderr, "moreau: --set needs KEY=VALUE\n"); return 2; }
+      c->sets[c->o.nset++] = argv[i];
+    } else if (!strncmp(a, "--set=", 6)) {
+      c->sets[c->o.nset++] = a + 6;
+    } else if (!strcmp(a, "--solver")) {
+      if (++i >= argc) { fprintf(stderr, "moreau: --solver needs a name (see moreau list-solvers)\n"); return 2; }
+      c->o.solver = argv[i];
+    } else if (!strcmp(a, "--out") || !strcmp(a, "-o")) {
+      if (++i >= argc) { fprintf(stderr, "moreau: --out needs a folder\n"); return 2; }
+      c->o.outdir = argv[i];
+    } else if (!strcmp(a, "--dump-fclib")) {
+      if (++i >= argc) { fprintf(stderr, "moreau: --dump-fclib needs a folder\n"); return 2; }
+      c->o.dump_fclib = argv[i];
+    } else if (!strcmp(a, "--log")) {
+      c->o.log = 1;
+    } else if (!strcmp(a, "--quiet") || !strcmp(a, "-q")) {
+      c->quiet = 1;
+      c->o.progress = 0;
+    } else if (a[0] == '-' && a[1]) {
+      fprintf(stderr, "moreau: unknown option '%s'\n", a);
+      return 2;
+    } else if (!c->o.case_path) {
+      c->o.case_path = a;
+    } else {
+      fprintf(stderr, "moreau: one case at a time ('%s' and '%s')\n", c->o.case_path, a);
+      return 2;
+    }
+  }
+  if (!c->o.case_path) {
+    fprintf(stderr, "moreau: which case? (a folder holding case.cfg, or a file)\n");
+    return 2;
+  }
+  return 0;
+}
+
+static int exit_code(int st)
+{
+  return st == MO_EINPUT || st == MO_EIO ? 2 : 1;
+}
+
+static void print_key(const char *path, const char *type, const char *range, const char *deflt,
+                      const char *doc, void *data)
+{
+  (void)data;
+  printf("%-36s %-28s %-24s %-14s %s\n", path, type, range, deflt, doc);
+}
+
+int main(int argc, char **argv)
+{
+  mo_ctx ctx;
+  cli c;
+  int st, rc;
+  const char *cmd;
+  mo_ctx_init(&ctx);
+  memset(&c, 0, sizeof c);
+  if (argc < 2) {
+    usage(stderr);
+    return 2;
+  }
+  cmd = argv[1];
+  if (!strcmp(cmd, "--help") || !strcmp(cmd, "-h") || !strcmp(cmd, "help")) {
+    usage(stdout);
+    return 0;
+  }
+  if (!strcmp(cmd, "--version")) {
+    printf("moreau %s\n", PACKAGE_VERSION);
+    return 0;
+  }
+  if (!strcmp(cmd, "keys")) {
+    mo_case_schema_visit(print_key, NULL);
+    return 0;
+  }
+  if (!strcmp(cmd, "list-solvers")) {
+    return mo_cli_list_solvers(stdout);
+  }
+  if (!strcmp(cmd, "run") || !strcmp(cmd, "check")) {
+    struct sigaction sa;
+    mo_run_result res;
+    if ((rc = parse_run_args(argc, argv, 2, &c))) {
+      free(c.sets);
+      return rc;
+    }
+    if (c.quiet) ctx.verbosity = 0;
+    if (!strcmp(cmd, "check")) {
+      st = mo_check(&c.o, &ctx);
+      free(c.sets);
+      if (st) {
+        fprintf(stderr, "%s\n", ctx.errmsg);
+        return exit_code(st);
+      }
+      if (!c.quiet) printf("%s: ok\n", c.o.case_path);
+      return 0;
+    }
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal;
+    sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL);
+    ctx.interrupt = &interrupted;
+    st = mo_run(&c.o, &res, &ctx);
+    free(c.sets);
+    if (st) {
+      fprintf(stderr, "moreau: %s\n", ctx.errmsg);
+      if (res.outdir[0] && res.steps > 0)
+        fprintf(stderr, "moreau: outputs up to step %ld (t = %.6g) are in %s (summary.json says "
+                        "\"incomplete\")\n", res.steps, res.t, res.outdir);
+      return exit_code(st);
+    }
+    if (!c.quiet) {
+      int k;
+      printf("%s: %ld steps to t = %.6g in %.3f s\n", c.o.case_path, res.steps, res.t, res.wall);
+      if (res.energy0 > 0)
+        printf("  energy: initial %.6g, final %.6g (ratio %.6f)\n", res.energy0, res.energy1,
+               res.energy1 / res.energy0);
+      for (k = 0; k < res.nmetric; k++)
+        printf("  error of %s against the reference: L2 %.3e, Linf %.3e (relative)\n",
+               res.metric_name[k], res.metric_l2[k], res.metric_linf[k]);
+      printf("  outputs: %s/history.csv, %s/summary.json\n", res.outdir, res.outdir);
+    }
+    return 0;
+  }
+  fprintf(stderr, "moreau: unknown command '%s'\n\n", cmd);
+  usage(stderr);
+  return 2;
+}

@@ -1,0 +1,109 @@
+/* moreau/ctx.h: the context carried by every call (errors, allocation, timers, statistics). */
+#ifndef MOREAU_CTX_H
+#define MOREAU_CTX_H
+
+#include <stddef.h>
+#include <stdarg.h>
+#include <signal.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Status codes. Every fallible function returns one; 0 is success. A contact solve that does not
+   converge is not an error: it is a reason in the contact report (see contact.h). */
+enum {
+  MO_OK = 0,
+  MO_ENOMEM = 1,     /* allocation failed (or was refused by the injection allocator) */
+  MO_EINPUT = 2,     /* bad case file, option or argument: the message names file, line, key */
+  MO_EIO = 3,        /* a file could not be read or written */
+  MO_ESINGULAR = 4,  /* a matrix that must be definite or invertible is not */
+  MO_ENOCONV = 5,    /* an iteration the run depends on did not converge */
+  MO_ENAN = 6,       /* a NaN or an infinity appeared */
+  MO_ELIMIT = 7,     /* a size limit was exceeded (refused before allocating) */
+  MO_EINTERRUPT = 8, /* SIGINT or SIGTERM */
+  MO_EUNSUPPORTED = 9, /* the scene asks for something this build or back end cannot do */
+  MO_EINTERNAL = 10  /* a broken invariant: a bug */
+};
+
+/* Phases timed by the core; `moreau run --log` prints them as a table. */
+typedef enum {
+  MO_PH_SETUP = 0, /* reading the case, meshing, dof numbering */
+  MO_PH_ASSEMBLY,  /* element loops, triplet to CSC */
+  MO_PH_FACTOR,    /* symbolic and numeric factorizations */
+  MO_PH_SOLVE,     /* triangular solves and matrix-vector products of the stepper */
+  MO_PH_GEOMETRY,  /* contact pairing, frames, gaps, H */
+  MO_PH_DELASSUS,  /* W = H^T What^-1 H */
+  MO_PH_CONTACT,   /* the back end's solve */
+  MO_PH_OUTPUT,    /* histories, fields, summaries */
+  MO_PH_N
+} mo_phase;
+
+#define MO_ERRMSG_MAX 2048
+#define MO_MAX_SKIPS 32
+
+typedef struct mo_ctx {
+  /* error state: the first error recorded wins until mo_ctx_clear_error */
+  int status;
+  char errmsg[MO_ERRMSG_MAX];
+  /* verbosity: 0 quiet, 1 normal, 2 log, 3 debug */
+  int verbosity;
+  /* allocation failure injection (tests): when alloc_fail_at > 0, the alloc_fail_at-th
+     allocation through mo_malloc & co. fails; alloc_calls counts them */
+  long alloc_calls;
+  long alloc_fail_at;
+  /* per-phase wall time (s) and call counts */
+  double phase_time[MO_PH_N];
+  long phase_calls[MO_PH_N];
+  /* work the scene did not need, reported by --log (ARCHITECTURE.md §2 "leave out") */
+  int nskip;
+  char skipped[MO_MAX_SKIPS][160];
+  /* seed of every random choice (contact ordering, random test problems) */
+  unsigned long seed;
+  /* when non-NULL, a flag set asynchronously (SIGINT/SIGTERM handler of the program); long
+     loops poll it and stop cleanly with MO_EINTERRUPT */
+  volatile sig_atomic_t *interrupt;
+} mo_ctx;
+
+/* Initialise a context with defaults (verbosity 1, seed 1, no injection). */
+void mo_ctx_init(mo_ctx *ctx);
+
+/* Record an error (printf-style message) and return `code`. The first error is kept; later ones
+   are ignored until mo_ctx_clear_error, so the root cause is what the user reads. */
+int mo_error(mo_ctx *ctx, int code, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+int mo_verror(mo_ctx *ctx, int code, const char *fmt, va_list ap);
+/* Prepend context to the recorded message ("while X: <message>"). Returns ctx->status. */
+int mo_error_prefix(mo_ctx *ctx, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+void mo_ctx_clear_error(mo_ctx *ctx);
+const char *mo_strerror(int code);
+
+/* Allocation through the context: counted, and failing on purpose under injection. Returned
+   memory is released with mo_free (plain free is equivalent). mo_malloc(ctx, 0) returns a
+   valid pointer. Leaks are the business of valgrind and LeakSanitizer, run on the tests. On failure these record MO_ENOMEM in ctx and return NULL. */
+void *mo_malloc(mo_ctx *ctx, size_t n);
+void *mo_calloc(mo_ctx *ctx, size_t count, size_t size);
+void *mo_realloc(mo_ctx *ctx, void *p, size_t n);
+char *mo_strdup(mo_ctx *ctx, const char *s);
+void mo_free(void *p);
+
+/* Wall clock in seconds (CLOCK_MONOTONIC). */
+double mo_clock(void);
+/* Add the time since t0 to phase ph. */
+void mo_phase_add(mo_ctx *ctx, mo_phase ph, double t0);
+const char *mo_phase_name(mo_phase ph);
+
+/* Record (once) a piece of work the scene did not need. */
+void mo_note_skip(mo_ctx *ctx, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+
+/* Messages on stderr by verbosity level (0 never printed by the library). */
+void mo_log(const mo_ctx *ctx, int level, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+
+/* Number of elements of a static array. */
+#define MO_COUNT(a) (sizeof(a) / sizeof((a)[0]))
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,28 @@
+/* moreau/moreau.h: the whole public interface of libmoreau. */
+#ifndef MOREAU_MOREAU_H
+#define MOREAU_MOREAU_H
+
+#include <stdio.h>
+
+#include <moreau/ctx.h>
+#include <moreau/expr.h>
+#include <moreau/mesh.h>
+#include <moreau/fe.h>
+#include <moreau/sparse.h>
+#include <moreau/case.h>
+#include <moreau/scene.h>
+#include <moreau/step.h>
+#include <moreau/output.h>
+#include <moreau/run.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* `moreau list-solvers`: one line per registered contact back end. Returns an exit code. */
+int mo_cli_list_solvers(FILE *out);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,43 @@
+/* moreau/run.h: running a case end to end (what `moreau run` and `moreau check` do). */
+#ifndef MOREAU_RUN_H
+#define MOREAU_RUN_H
+
+#include <moreau/ctx.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct {
+  const char *case_path;        /* case folder or file */
+  const char *solver;           /* --solver: contact back end (overrides contact.solver) */
+  int nset;
+  const char *const *sets;      /* --set KEY=VALUE, applied in order */
+  const char *outdir;           /* --out (default: out/<case name>) */
+  int log;                      /* --log: timing table and skipped work */
+  int progress;                 /* draw a progress bar on stderr */
+  const char *dump_fclib;       /* --dump-fclib DIR */
+} mo_run_options;
+
+typedef struct {
+  long steps;                   /* steps completed */
+  double t;                     /* time reached */
+  double wall;                  /* wall time (s) */
+  double energy0, energy1;      /* total mechanical energy at start and end */
+  int complete;                 /* 1 when the run reached its end time */
+  char outdir[4096];
+  int nmetric;                  /* errors against the reference */
+  char metric_name[32][64];
+  double metric_l2[32], metric_linf[32];
+} mo_run_result;
+
+/* Load, override, validate and build the scene without running it. */
+int mo_check(const mo_run_options *opt, mo_ctx *ctx);
+/* Run a case: outputs in opt->outdir (history.csv, summary.json, fields.pvd when asked).
+   On failure the outputs written so far stay readable and summary.json says "incomplete". */
+int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,138 @@
+/* moreau/scene.h: a scene built from a case: bodies, dof numbering, matrices, loads, initial
+   fields, time and output settings, probes and the closed-form reference. */
+#ifndef MOREAU_SCENE_H
+#define MOREAU_SCENE_H
+
+#include <moreau/case.h>
+#include <moreau/ctx.h>
+#include <moreau/expr.h>
+#include <moreau/fe.h>
+#include <moreau/mesh.h>
+#include <moreau/sparse.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef enum { MO_BODY_DEFORMABLE = 0, MO_BODY_PLANE } mo_body_kind;
+
+typedef struct mo_body {
+  char *name;
+  mo_body_kind kind;
+  mo_mesh *mesh;        /* deformable bodies */
+  mo_material mat;
+  int lumped;           /* lumped mass */
+  int dof0, ndof;       /* global dofs dof0 .. dof0+ndof-1; node a, component i: dof0+a*dim+i */
+  double mass;          /* total mass (kg, or kg per unit thickness as the hypothesis says) */
+  double point[3], normal[3], velocity[3]; /* plane obstacles (unit normal) */
+} mo_body;
+
+typedef enum { MO_PRESC_FIX = 0, MO_PRESC_VELOCITY, MO_PRESC_EXPR } mo_presc_kind;
+
+/* A prescribed (eliminated) dof. FIX holds the dof at its initial value; VELOCITY moves it at
+   constant velocity; EXPR follows an expression in t. */
+typedef struct {
+  int dof;
+  mo_presc_kind kind;
+  double u0, vel;
+  mo_expr *disp;
+} mo_presc;
+
+/* A load pattern: f(t) += amplitude(t) * F, F stored sparse over full dofs. */
+typedef struct {
+  int n;
+  int *dof;
+  double *val;
+  mo_expr *amp;  /* NULL: constant 1 */
+} mo_load;
+
+typedef enum {
+  MO_Q_UX = 0, MO_Q_UY, MO_Q_UZ, MO_Q_VX, MO_Q_VY, MO_Q_VZ, MO_Q_FX, MO_Q_FY, MO_Q_FZ, MO_Q_N
+} mo_quantity;
+const char *mo_quantity_name(mo_quantity q);
+
+typedef struct {
+  char *name;
+  int body;
+  int nnode;
+  int *node;      /* body-local node numbers */
+  int nq;
+  mo_quantity q[MO_Q_N];
+} mo_probe;
+
+typedef enum { MO_SCHEME_THETA = 0, MO_SCHEME_NEWMARK, MO_SCHEME_QUASISTATIC } mo_scheme;
+
+typedef struct {
+  mo_scheme scheme;
+  double dt, end;
+  long steps;
+  double theta, theta_f;  /* theta scheme */
+  double beta, gamma;     /* Newmark */
+} mo_time_settings;
+
+typedef struct {
+  int every;
+  int precision;
+  int energy;
+  int vtk;              /* write VTK series */
+  int vtk_every;
+  unsigned vtk_fields;  /* bit set of MO_VTK_* */
+} mo_output_settings;
+
+enum { MO_VTK_DISPLACEMENT = 1, MO_VTK_VELOCITY = 2, MO_VTK_STRESS = 4, MO_VTK_STRAIN = 8,
+       MO_VTK_VON_MISES = 16 };
+
+typedef enum { MO_REF_NONE = 0, MO_REF_BAR_RELEASE, MO_REF_BAR_STEP_VELOCITY } mo_reference_type;
+
+typedef struct {
+  mo_reference_type type;
+  double length, c, strain, velocity, x0;
+} mo_reference;
+
+/* Closed form: displacement and velocity along x of the reference bar at (x, t). */
+void mo_reference_bar(const mo_reference *R, double x, double t, double *u, double *v);
+/* Value of probe quantity q at (x, t) from the reference; 0 when it has none. */
+int mo_reference_eval(const mo_reference *R, mo_quantity q, double x, double t, double *val);
+const char *mo_reference_name(mo_reference_type t);
+
+typedef struct mo_scene {
+  char *title;
+  char *case_file;
+  int dim;
+  int nbody;
+  mo_body *body;
+  int ndof, nfree;
+  int *free_of;   /* ndof: free index of each dof, or -1 when prescribed */
+  int *full_of;   /* nfree: dof of each free index */
+  int npresc;
+  mo_presc *presc;
+  int nload;
+  mo_load *load;
+  mo_csc *K, *M;  /* full ndof x ndof (M is NULL for quasi-static scenes) */
+  double *u0, *v0;
+  double mass_total;
+  int has_moving_presc; /* some prescribed dof moves: coupling terms needed */
+  mo_time_settings time;
+  mo_output_settings out;
+  int nprobe;
+  mo_probe *probe;
+  mo_reference ref;
+  const mo_case *cs; /* the case it was built from (not owned) */
+} mo_scene;
+
+/* Build a scene from a validated case: meshes, sets, dofs, assembly of K and (for dynamic
+   schemes) M, loads, initial fields, probes. Semantic errors name file, line and key. */
+int mo_scene_build(const mo_case *cs, mo_scene **out, mo_ctx *ctx);
+void mo_scene_free(mo_scene *sc);
+
+/* External force f(t) over full dofs (overwrites f). */
+void mo_scene_fext(const mo_scene *sc, double t, double *f);
+/* Prescribed displacement and velocity of presc[k] at time t. */
+void mo_scene_presc_eval(const mo_scene *sc, int k, double t, double *u, double *v);
+/* Index of a body by name, or -1. */
+int mo_scene_body_index(const mo_scene *sc, const char *name);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

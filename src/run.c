@@ -1,0 +1,429 @@
+/* run.c: running a case: load, override, validate, build, step, write histories, fields and
+   the summary. */
+#include "config.h"
+#include <moreau/run.h>
+#include <moreau/case.h>
+#include <moreau/output.h>
+#include <moreau/scene.h>
+#include <moreau/step.h>
+#include "case_internal.h"
+
+#include <jansson.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/resource.h>
+#include <unistd.h>
+
+static int load_case(const mo_run_options *opt, mo_case **cs, mo_ctx *ctx)
+{
+  int st, k;
+  double t0 = mo_clock();
+  if ((st = mo_case_load(opt->case_path, cs, ctx))) return st;
+  if ((st = mo_case_validate(*cs, ctx))) goto fail;
+  for (k = 0; k < opt->nset; k++)
+    if ((st = mo_case_set(*cs, opt->sets[k], ctx))) goto fail;
+  if (opt->solver) {
+    char buf[256];
+    snprintf(buf, sizeof buf, "contact.solver=%s", opt->solver);
+    if ((st = mo_case_set(*cs, buf, ctx))) {
+      /* re-word: the user typed --solver, not --set */
+      char msg[MO_ERRMSG_MAX];
+      snprintf(msg, sizeof msg, "%s", ctx->errmsg);
+      mo_ctx_clear_error(ctx);
+      st = mo_error(ctx, MO_EINPUT, "--solver %s: %s", opt->solver,
+                    strstr(msg, ": ") ? strstr(msg, ": ") + 2 : msg);
+      goto fail;
+    }
+  }
+  if ((st = mo_case_validate(*cs, ctx))) goto fail;
+  mo_phase_add(ctx, MO_PH_SETUP, t0);
+  return MO_OK;
+fail:
+  mo_case_free(*cs);
+  *cs = NULL;
+  return st;
+}
+
+int mo_check(const mo_run_options *opt, mo_ctx *ctx)
+{
+  mo_case *cs = NULL;
+  mo_scene *sc = NULL;
+  int st = load_case(opt, &cs, ctx);
+  if (!st) st = mo_scene_build(cs, &sc, ctx);
+  mo_scene_free(sc);
+  mo_case_free(cs);
+  return st;
+}
+
+/* Default output folder: out/<case name>. */
+static void default_outdir(const char *case_path, char *buf, size_t n)
+{
+  char tmp[4096];
+  char *base, *dot;
+  size_t len;
+  snprintf(tmp, sizeof tmp, "%s", case_path);
+  len = strlen(tmp);
+  while (len > 1 && tmp[len - 1] == '/') tmp[--len] = '\0';
+  base = strrchr(tmp, '/');
+  base = base ? base + 1 : tmp;
+  if (!strcmp(base, "case.cfg") && base != tmp) { /* folder/case.cfg: use the folder */
+    base[-1] = '\0';
+    base = strrchr(tmp, '/');
+    base = base ? base + 1 : tmp;
+  }
+  dot = strrchr(base, '.');
+  if (dot && !strcmp(dot, ".cfg")) *dot = '\0';
+  snprintf(buf, n, "out/%s", base[0] ? base : "run");
+}
+
+/* --- probes and metrics ------------------------------------------------------------------------ */
+
+typedef struct {
+  int probe, q;          /* column source */
+  double x;              /* position for the reference */
+  int has_ref;
+  double se2, sr2, emax, rmax;
+  long n;
+} column;
+
+static double probe_value(const mo_scene *sc, const mo_probe *P, mo_quantity q, const mo_state *s)
+{
+  const mo_body *B = &sc->body[P->body];
+  int comp = (int)q % 3, kind = (int)q / 3, k, D = sc->dim;
+  double acc = 0;
+  for (k = 0; k < P->nnode; k++) {
+    int d = B->dof0 + P->node[k] * D + comp;
+    acc += kind == 0 ? s->u[d] : kind == 1 ? s->v[d] : s->reac[d];
+  }
+  return kind == 2 ? acc : acc / P->nnode;
+}
+
+/* --- progress ---------------------------------------------------------------------------------- */
+
+typedef struct {
+  int on;
+  double start, last;
+} progress;
+
+static void progress_draw(progress *p, long step, long steps, double t, int final)
+{
+  double now = mo_clock(), frac = steps > 0 ? (double)step / (double)steps : 1, eta;
+  int w = 30, k, fill;
+  if (!p->on || (!final && now - p->last < 0.1)) return;
+  p->last = now;
+  fill = (int)(frac * w + 0.5);
+  eta = frac > 0 ? (now - p->start) * (1 - frac) / frac : 0;
+  fputc('\r', stderr);
+  fputc('[', stderr);
+  for (k = 0; k < w; k++) fputc(k < fill ? '#' : '.', stderr);
+  fprintf(stderr, "] %3.0f%%  step %ld/%ld  t = %-10.4g  %s %.1fs   ", 100 * frac, step, steps, t,
+          final ? "wall" : "eta", final ? now - p->start : eta);
+  if (final) fputc('\n', stderr);
+  fflush(stderr);
+}
+
+/* --- summary ------------------------------------------------------------------------------------ */
+
+static json_t *timings_json(const mo_ctx *ctx, double wall)
+{
+  json_t *j = json_object(), *calls = json_object();
+  int p;
+  for (p = 0; p < MO_PH_N; p++) {
+    json_object_set_new(j, mo_phase_name((mo_phase)p), json_real(ctx->phase_time[p]));
+    json_object_set_new(calls, mo_phase_name((mo_phase)p), json_integer(ctx->phase_calls[p]));
+  }
+  json_object_set_new(j, "wall", json_real(wall));
+  json_object_set_new(j, "calls", calls);
+  return j;
+}
+
+static const char *scheme_name(mo_scheme s)
+{
+  return s == MO_SCHEME_NEWMARK ? "newmark" : s == MO_SCHEME_QUASISTATIC ? "quasistatic" : "theta";
+}
+
+static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
+                         const mo_stepper *S, const mo_state *s, const column *cols, int ncol,
+                         const char *const *names, double e0, double e1, double drift,
+                         double balance, int complete, const char *reason, double wall,
+                         mo_ctx *ctx)
+{
+  json_t *root = json_object(), *scene = json_object(), *bodies = json_array(), *time = json_object();
+  json_t *energy = json_object(), *metrics = json_object(), *skipped = json_array(), *ls = json_object();
+  char path[4200], *text;
+  int b, k, st;
+  long nf = 0, nsym = 0, nsol = 0;
+  json_object_set_new(root, "moreau", json_string(PACKAGE_VERSION));
+  json_object_set_new(root, "case", json_string(mo_case_file(cs)));
+  json_object_set_new(root, "title", json_string(sc ? sc->title : ""));
+  json_object_set_new(root, "status", json_string(complete ? "complete" : "incomplete"));
+  if (!complete) json_object_set_new(root, "reason", json_string(reason ? reason : "unknown"));
+  json_object_set_new(root, "settings", mo_case_to_json(cs));
+  if (sc) {
+    json_object_set_new(scene, "dim", json_integer(sc->dim));
+    json_object_set_new(scene, "dofs", json_integer(sc->ndof));
+    json_object_set_new(scene, "free_dofs", json_integer(sc->nfree));
+    json_object_set_new(scene, "mass", json_real(sc->mass_total));
+    for (b = 0; b < sc->nbody; b++) {
+      const mo_body *B = &sc->body[b];
+      json_t *jb = json_object();
+      json_object_set_new(jb, "name", json_string(B->name));
+      json_object_set_new(jb, "type", json_string(B->kind == MO_BODY_PLANE ? "plane" : "deformable"));
+      if (B->kind == MO_BODY_DEFORMABLE) {
+        json_object_set_new(jb, "element", json_string(mo_eltype_get(B->mesh->type)->name));
+        json_object_set_new(jb, "nodes", json_integer(B->mesh->nnode));
+        json_object_set_new(jb, "elements", json_integer(B->mesh->nelem));
+        json_object_set_new(jb, "hypothesis", json_string(mo_hyp_name(B->mat.hyp)));
+        json_object_set_new(jb, "mass", json_real(B->mass));
+      }
+      json_array_append_new(bodies, jb);
+    }
+    json_object_set_new(scene, "bodies", bodies);
+    json_object_set_new(root, "scene", scene);
+    json_object_set_new(time, "scheme", json_string(scheme_name(sc->time.scheme)));
+    json_object_set_new(time, "dt", json_real(sc->time.dt));
+    json_object_set_new(time, "steps", json_integer(sc->time.steps));
+    json_object_set_new(time, "end", json_real(sc->time.end));
+    if (sc->time.scheme == MO_SCHEME_THETA) {
+      json_object_set_new(time, "theta", json_real(sc->time.theta));
+      json_object_set_new(time, "theta_f", json_real(sc->time.theta_f));
+    } else if (sc->time.scheme == MO_SCHEME_NEWMARK) {
+      json_object_set_new(time, "beta", json_real(sc->time.beta));
+      json_object_set_new(time, "gamma", json_real(sc->time.gamma));
+    }
+    json_object_set_new(time, "steps_done", json_integer(s ? s->step : 0));
+    json_object_set_new(time, "t_reached", json_real(s ? s->t : 0));
+    json_object_set_new(root, "time", time);
+  } else {
+    json_decref(scene);
+    json_decref(bodies);
+    json_decref(time);
+  }
+  json_object_set_new(energy, "initial", json_real(e0));
+  json_object_set_new(energy, "final", json_real(e1));
+  json_object_set_new(energy, "ratio", json_real(e0 != 0 ? e1 / e0 : NAN));
+  json_object_set_new(energy, "max_relative_drift", json_real(drift));
+  json_object_set_new(energy, "balance_error", json_real(balance));
+  if (s) {
+    json_object_set_new(energy, "external_work", json_real(s->wext));
+    json_object_set_new(energy, "support_work", json_real(s->wsupport));
+  }
+  json_object_set_new(root, "energy", energy);
+  for (k = 0; k < ncol; k++) {
+    json_t *m;
+    if (!cols[k].has_ref || cols[k].n == 0) continue;
+    m = json_object();
+    json_object_set_new(m, "l2_rel", json_real(cols[k].sr2 > 0 ? sqrt(cols[k].se2 / cols[k].sr2) : NAN));
+    json_object_set_new(m, "linf_rel", json_real(cols[k].rmax > 0 ? cols[k].emax / cols[k].rmax : NAN));
+    json_object_set_new(m, "linf_abs", json_real(cols[k].emax));
+    json_object_set_new(m, "samples", json_integer(cols[k].n));
+    json_object_set_new(metrics, names[k + 1], m);
+  }
+  if (sc && sc->ref.type != MO_REF_NONE) json_object_set_new(root, "reference", json_string(mo_reference_name(sc->ref.type)));
+  json_object_set_new(root, "metrics", metrics);
+  if (S) {
+    mo_linsolver_stats(mo_stepper_solver((mo_stepper *)S), &nf, &nsym, &nsol);
+    json_object_set_new(ls, "name", json_string(mo_linsolver_name(mo_stepper_solver((mo_stepper *)S))));
+    json_object_set_new(ls, "n", json_integer(sc->nfree));
+    json_object_set_new(ls, "nnz", json_integer(mo_csc_nnz(mo_stepper_matrix(S))));
+    json_object_set_new(ls, "factorizations", json_integer(nf));
+    json_object_set_new(ls, "symbolic_analyses", json_integer(nsym));
+    json_object_set_new(ls, "solves", json_integer(nsol));
+    json_object_set_new(root, "linear_solver", ls);
+  } else
+    json_decref(ls);
+  json_object_set_new(root, "timings", timings_json(ctx, wall));
+  for (k = 0; k < ctx->nskip; k++) json_array_append_new(skipped, json_string(ctx->skipped[k]));
+  json_object_set_new(root, "skipped", skipped);
+  {
+    struct rusage ru;
+    if (getrusage(RUSAGE_SELF, &ru) == 0)
+      json_object_set_new(root, "peak_rss_bytes", json_integer((json_int_t)ru.ru_maxrss * 1024));
+  }
+  text = json_dumps(root, JSON_INDENT(2) | JSON_PRESERVE_ORDER | JSON_REAL_PRECISION(12));
+  json_decref(root);
+  if (!text) return mo_error(ctx, MO_ENOMEM, "cannot format summary.json");
+  snprintf(path, sizeof path, "%s/summary.json", dir);
+  st = mo_write_file_atomic(path, text, strlen(text), ctx);
+  free(text);
+  return st;
+}
+
+static void print_log(const mo_ctx *ctx, double wall)
+{
+  int p;
+  fprintf(stderr, "\n%-10s %12s %7s %10s\n", "phase", "seconds", "share", "calls");
+  for (p = 0; p < MO_PH_N; p++)
+    fprintf(stderr, "%-10s %12.6f %6.1f%% %10ld\n", mo_phase_name((mo_phase)p), ctx->phase_time[p],
+            wall > 0 ? 100 * ctx->phase_time[p] / wall : 0, ctx->phase_calls[p]);
+  fprintf(stderr, "%-10s %12.6f\n", "wall", wall);
+  fprintf(stderr, "\nwork this scene did not need:\n");
+  if (!ctx->nskip) fprintf(stderr, "  (none)\n");
+  for (p = 0; p < ctx->nskip; p++) fprintf(stderr, "  - %s\n", ctx->skipped[p]);
+}
+
+int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
+{
+  mo_case *cs = NULL;
+  mo_scene *sc = NULL;
+  mo_stepper *S = NULL;
+  mo_state s;
+  mo_csv *csv = NULL;
+  mo_vtk *vtk = NULL;
+  column *cols = NULL;
+  char **names = NULL, *namebuf = NULL, outdir[4096], path[4200];
+  double *row = NULL, *work = NULL, start = mo_clock(), e0 = 0, e1 = 0, drift = 0, balance = 0;
+  int st, ncol = 0, nprobecol = 0, k, p, complete = 0, ecol0 = 0;
+  char reason[MO_ERRMSG_MAX] = "";
+  progress prog;
+  memset(&s, 0, sizeof s);
+  memset(res, 0, sizeof *res);
+  memset(&prog, 0, sizeof prog);
+
+  if ((st = load_case(opt, &cs, ctx))) return st;
+  if (opt->outdir) snprintf(outdir, sizeof outdir, "%s", opt->outdir);
+  else default_outdir(opt->case_path, outdir, sizeof outdir);
+  snprintf(res->outdir, sizeof res->outdir, "%s", outdir);
+  if ((st = mo_scene_build(cs, &sc, ctx))) goto done;
+  if ((st = mo_mkdir_p(outdir, ctx))) goto done;
+  if ((st = mo_stepper_create(sc, &S, ctx))) goto done;
+  if ((st = mo_state_alloc(sc, &s, ctx))) goto done;
+  if ((st = mo_stepper_init_state(S, &s, ctx))) goto done;
+
+  /* columns: t, probes, energies */
+  for (p = 0; p < sc->nprobe; p++) nprobecol += sc->probe[p].nq;
+  ncol = 1 + nprobecol + (sc->out.energy ? 5 : 0);
+  cols = mo_calloc(ctx, (size_t)(nprobecol ? nprobecol : 1), sizeof *cols);
+  names = mo_calloc(ctx, (size_t)ncol, sizeof *names);
+  namebuf = mo_calloc(ctx, (size_t)ncol, 80);
+  row = mo_calloc(ctx, (size_t)ncol, sizeof *row);
+  work = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof *work);
+  if (!cols || !names || !namebuf || !row || !work) { st = MO_ENOMEM; goto done; }
+  for (k = 0; k < ncol; k++) names[k] = namebuf + 80 * k;
+  snprintf(names[0], 80, "t");
+  for (p = 0, k = 0; p < sc->nprobe; p++) {
+    const mo_probe *P = &sc->probe[p];
+    int q;
+    for (q = 0; q < P->nq; q++, k++) {
+      double dummy;
+      cols[k].probe = p;
+      cols[k].q = (int)P->q[q];
+      cols[k].x = sc->body[P->body].mesh->x[P->node[0] * sc->dim];
+      cols[k].has_ref = mo_reference_eval(&sc->ref, P->q[q], cols[k].x, 0, &dummy);
+      snprintf(names[1 + k], 80, "%s.%s", P->name, mo_quantity_name(P->q[q]));
+    }
+  }
+  if (sc->out.energy) {
+    ecol0 = 1 + nprobecol;
+    snprintf(names[ecol0], 80, "energy.kinetic");
+    snprintf(names[ecol0 + 1], 80, "energy.elastic");
+    snprintf(names[ecol0 + 2], 80, "energy.total");
+    snprintf(names[ecol0 + 3], 80, "energy.external_work");
+    snprintf(names[ecol0 + 4], 80, "energy.support_work");
+  }
+  snprintf(path, sizeof path, "%s/history.csv", outdir);
+  if ((st = mo_csv_open(path, (const char *const *)names, ncol, sc->out.precision, &csv, ctx))) goto done;
+  if (sc->out.vtk) {
+    if ((st = mo_vtk_open(outdir, sc, &vtk, ctx))) goto done;
+  } else
+    mo_note_skip(ctx, "field output (no output.vtk group)");
+  if (!sc->nprobe) mo_note_skip(ctx, "probe histories (no output.probes)");
+
+  prog.on = opt->progress && isatty(2) && ctx->verbosity >= 1;
+  prog.start = prog.last = mo_clock();
+  e0 = mo_energy_kinetic(sc, s.v, work) + mo_energy_elastic(sc, s.u, work);
+
+  for (;;) {
+    int last = s.step == sc->time.steps, write_row = s.step % sc->out.every == 0 || last;
+    double t0 = mo_clock(), ek = 0, ee = 0;
+    /* probes and errors at every step; energies when a row is written */
+    for (k = 0; k < nprobecol; k++) {
+      const mo_probe *P = &sc->probe[cols[k].probe];
+      double v = probe_value(sc, P, (mo_quantity)cols[k].q, &s), r;
+      row[1 + k] = v;
+      if (cols[k].has_ref && mo_reference_eval(&sc->ref, (mo_quantity)cols[k].q, cols[k].x, s.t, &r)) {
+        double e = fabs(v - r);
+        cols[k].se2 += e * e;
+        cols[k].sr2 += r * r;
+        if (e > cols[k].emax) cols[k].emax = e;
+        if (fabs(r) > cols[k].rmax) cols[k].rmax = fabs(r);
+        cols[k].n++;
+      }
+    }
+    if (write_row) {
+      row[0] = s.t;
+      if (sc->out.energy || last) {
+        ek = mo_energy_kinetic(sc, s.v, work);
+        ee = mo_energy_elastic(sc, s.u, work);
+        e1 = ek + ee;
+        if (e0 > 0 && fabs(e1 - e0) / e0 > drift) drift = fabs(e1 - e0) / e0;
+        balance = e1 - e0 - s.wext - s.wsupport;
+      }
+      if (sc->out.energy) {
+        row[ecol0] = ek;
+        row[ecol0 + 1] = ee;
+        row[ecol0 + 2] = ek + ee;
+        row[ecol0 + 3] = s.wext;
+        row[ecol0 + 4] = s.wsupport;
+      }
+      if ((st = mo_csv_row(csv, row, ctx))) goto done;
+    }
+    if (vtk && (s.step % sc->out.vtk_every == 0 || last))
+      if ((st = mo_vtk_frame(vtk, sc, &s, ctx))) goto done;
+    mo_phase_add(ctx, MO_PH_OUTPUT, t0);
+    progress_draw(&prog, s.step, sc->time.steps, s.t, last);
+    if (last) break;
+    if (ctx->interrupt && *ctx->interrupt) {
+      st = mo_error(ctx, MO_EINTERRUPT, "interrupted at step %ld (t = %.6g)", s.step, s.t);
+      goto done;
+    }
+    if ((st = mo_stepper_step(S, &s, ctx))) goto done;
+  }
+  complete = 1;
+
+done:
+  if (prog.on && !complete) fputc('\n', stderr);
+  if (csv) mo_csv_close(csv, ctx);
+  res->steps = s.step;
+  res->t = s.t;
+  res->wall = mo_clock() - start;
+  res->energy0 = e0;
+  res->energy1 = e1;
+  res->complete = complete;
+  for (k = 0; k < nprobecol && res->nmetric < 32; k++)
+    if (cols && cols[k].has_ref && cols[k].n) {
+      snprintf(res->metric_name[res->nmetric], 64, "%s", names[1 + k]);
+      res->metric_l2[res->nmetric] = cols[k].sr2 > 0 ? sqrt(cols[k].se2 / cols[k].sr2) : NAN;
+      res->metric_linf[res->nmetric] = cols[k].rmax > 0 ? cols[k].emax / cols[k].rmax : NAN;
+      res->nmetric++;
+    }
+  if (st) snprintf(reason, sizeof reason, "%s", ctx->errmsg);
+  /* the summary is written whenever the output folder exists, also after a failure */
+  if (cs && sc && access(outdir, W_OK) == 0) {
+    int keep = ctx->status;
+    char msg[MO_ERRMSG_MAX];
+    snprintf(msg, sizeof msg, "%s", ctx->errmsg);
+    mo_ctx_clear_error(ctx);
+    if (write_summary(outdir, cs, sc, S, s.u ? &s : NULL, cols, nprobecol, (const char *const *)names, e0, e1,
+                      drift, balance, complete, reason, res->wall, ctx) && !st)
+      st = ctx->status;
+    else if (keep) {
+      ctx->status = keep;
+      snprintf(ctx->errmsg, sizeof ctx->errmsg, "%s", msg);
+    }
+  }
+  if (opt->log && sc) print_log(ctx, res->wall);
+  mo_vtk_close(vtk);
+  mo_free(cols);
+  mo_free(names);
+  mo_free(namebuf);
+  mo_free(row);
+  mo_free(work);
+  mo_state_release(&s);
+  mo_stepper_free(S);
+  mo_scene_free(sc);
+  mo_case_free(cs);
+  return st;
+}

@@ -1,0 +1,169 @@
+/* schema.c: every case-file key, its type, range, default and one line of documentation.
+   doc/case-format.md documents the same keys; tests/test_case_doc checks that it names them all. */
+#include "config.h"
+#include "case_internal.h"
+
+#include <math.h>
+#include <string.h>
+
+#define U NAN
+#define NONE U, U, 0, 0, 0, 0
+/* ranges: R(lo, hi, lo_open, hi_open) */
+#define R(lo, hi, lo_open, hi_open) lo, hi, lo_open, hi_open, 0, 0
+#define POS R(0, U, 1, 0)
+#define NONNEG R(0, U, 0, 0)
+#define A(lo, hi, lo_open, hi_open, amin, amax) lo, hi, lo_open, hi_open, amin, amax
+
+static const mo_key core_keys[] = {
+  {"title", K_STRING, NULL, NONE, 0, "\"\"", "One line naming the scene (printed in summaries and plots).", NULL},
+  {"description", K_STRING, NULL, NONE, 0, "\"\"", "Free text.", NULL},
+
+  /* --- bodies ------------------------------------------------------------------------------ */
+  {"bodies", K_LIST, NULL, NONE, 1, NULL, "The bodies of the scene: deformable meshes and rigid planes.", NULL},
+  {"bodies.[].name", K_STRING, NULL, NONE, 1, NULL, "Unique name, used by contact pairs, probes and --set.", NULL},
+  {"bodies.[].type", K_ENUM, "deformable|plane", NONE, 0, "\"deformable\"", "A finite-element body, or a rigid plane obstacle.", NULL},
+  {"bodies.[].point", K_FARRAY, NULL, A(U, U, 0, 0, 1, 3), 0, NULL, "Plane: a point of the plane (dim values).", NULL},
+  {"bodies.[].normal", K_FARRAY, NULL, A(U, U, 0, 0, 1, 3), 0, NULL, "Plane: outward normal, pointing toward the side bodies stay on (normalised).", NULL},
+  {"bodies.[].velocity", K_FARRAY, NULL, A(U, U, 0, 0, 1, 3), 0, "zero", "Plane: prescribed translation velocity (m/s).", NULL},
+
+  {"bodies.[].mesh", K_GROUP, NULL, NONE, 0, NULL, "Deformable body: its mesh.", NULL},
+  {"bodies.[].mesh.generator", K_ENUM, "bar|rectangle|box|disk", NONE, 1, NULL, "Structured generator: bar (1D, bar2), rectangle (2D, Q4 or T3), box (3D, H8), disk (2D, Q4 O-grid).", NULL},
+  {"bodies.[].mesh.length", K_FLOAT, NULL, POS, 0, NULL, "bar: length (m).", NULL},
+  {"bodies.[].mesh.origin", K_NUMS, NULL, A(U, U, 0, 0, 1, 3), 0, "zero", "bar: x of the first node; rectangle, box: lower corner.", NULL},
+  {"bodies.[].mesh.size", K_FARRAY, NULL, A(0, U, 1, 0, 2, 3), 0, NULL, "rectangle: [Lx, Ly]; box: [Lx, Ly, Lz] (m).", NULL},
+  {"bodies.[].mesh.elements", K_INTS, NULL, A(1, 1e7, 0, 0, 1, 3), 1, NULL, "Number of elements: bar: n; rectangle: [nx, ny]; box: [nx, ny, nz].", "at least one element per direction, at most 10^7"},
+  {"bodies.[].mesh.element", K_ENUM, "Q4|T3", NONE, 0, "\"Q4\"", "rectangle: element type.", NULL},
+  {"bodies.[].mesh.diagonal", K_ENUM, "right|left|alternate|union_jack", NONE, 0, "\"right\"", "rectangle with T3: how each cell is split (right: (a,b,d)+(b,c,d); left: (a,b,c)+(a,c,d); alternate; union_jack).", NULL},
+  {"bodies.[].mesh.center", K_FARRAY, NULL, A(U, U, 0, 0, 2, 2), 0, "[0, 0]", "disk: centre.", NULL},
+  {"bodies.[].mesh.radius", K_FLOAT, NULL, POS, 0, NULL, "disk: radius (m).", NULL},
+  {"bodies.[].mesh.core", K_INT, NULL, R(2, 10000, 0, 0), 0, "8", "disk: cells per side of the square core (even).", NULL},
+  {"bodies.[].mesh.rings", K_INT, NULL, R(1, 10000, 0, 0), 0, "4", "disk: rings of cells between the core and the circle.", NULL},
+  {"bodies.[].mesh.sets", K_LIST, NULL, NONE, 0, NULL, "Extra named node sets (with their boundary facets).", NULL},
+  {"bodies.[].mesh.sets.[].name", K_STRING, NULL, NONE, 1, NULL, "Set name.", NULL},
+  {"bodies.[].mesh.sets.[].box", K_FARRAY, NULL, A(U, U, 0, 0, 2, 6), 0, NULL, "Nodes inside [xmin, xmax(, ymin, ymax(, zmin, zmax))].", NULL},
+  {"bodies.[].mesh.sets.[].nodes", K_IARRAY, NULL, A(0, U, 0, 0, 1, 0), 0, NULL, "Explicit node numbers (0-based).", NULL},
+
+  {"bodies.[].material", K_GROUP, NULL, NONE, 0, NULL, "Deformable body: its material.", NULL},
+  {"bodies.[].material.model", K_ENUM, "elastic", NONE, 0, "\"elastic\"", "Constitutive model: linear isotropic elasticity.", NULL},
+  {"bodies.[].material.E", K_FLOAT, NULL, POS, 1, NULL, "Young's modulus (Pa).", "Young's modulus must be positive"},
+  {"bodies.[].material.nu", K_FLOAT, NULL, R(-1, 0.5, 1, 1), 0, "0", "Poisson's ratio.", "Poisson's ratio of an isotropic solid lies in (-1, 0.5); 0.5 (incompressible) is not supported by displacement elements"},
+  {"bodies.[].material.rho", K_FLOAT, NULL, POS, 1, NULL, "Mass density (kg/m^3).", "density must be positive"},
+  {"bodies.[].material.hypothesis", K_ENUM, "plane_strain|plane_stress|axisymmetric", NONE, 0, "\"plane_strain\"", "2D bodies: modelling hypothesis (axisymmetric: x is the radius, y the axis).", NULL},
+  {"bodies.[].material.area", K_FLOAT, NULL, POS, 0, "1", "1D bodies: cross-section area (m^2).", NULL},
+  {"bodies.[].material.thickness", K_FLOAT, NULL, POS, 0, "1", "Plane strain / plane stress: thickness (m).", NULL},
+  {"bodies.[].mass", K_ENUM, "consistent|lumped", NONE, 0, "\"consistent\"", "Mass matrix.", NULL},
+
+  {"bodies.[].fix", K_LIST, NULL, NONE, 0, NULL, "Homogeneous Dirichlet conditions (dofs eliminated).", NULL},
+  {"bodies.[].fix.[].set", K_STRING, NULL, NONE, 1, NULL, "Node set; \"a&b\" is the intersection of sets a and b.", NULL},
+  {"bodies.[].fix.[].dofs", K_SARRAY, "x|y|z|all", A(U, U, 0, 0, 1, 3), 0, "\"all\"", "Components fixed.", NULL},
+
+  {"bodies.[].prescribed", K_LIST, NULL, NONE, 0, NULL, "Prescribed motion of dofs (eliminated).", NULL},
+  {"bodies.[].prescribed.[].set", K_STRING, NULL, NONE, 1, NULL, "Node set (or intersection).", NULL},
+  {"bodies.[].prescribed.[].dof", K_ENUM, "x|y|z", NONE, 1, NULL, "Component.", NULL},
+  {"bodies.[].prescribed.[].velocity", K_FLOAT, NULL, NONE, 0, NULL, "Constant velocity from t = 0 (m/s): u = u0 + v t.", NULL},
+  {"bodies.[].prescribed.[].displacement", K_FEXPR, NULL, NONE, 0, NULL, "Displacement as a function of t (m); its velocity is differentiated numerically.", NULL},
+
+  {"bodies.[].loads", K_LIST, NULL, NONE, 0, NULL, "External loads.", NULL},
+  {"bodies.[].loads.[].type", K_ENUM, "nodal|pressure|traction", NONE, 1, NULL, "nodal: force on each node of the set; pressure: normal pressure on the facets (positive pushes inward); traction: force per unit area on the facets.", NULL},
+  {"bodies.[].loads.[].set", K_STRING, NULL, NONE, 1, NULL, "Node set (nodal) or facet set (pressure, traction).", NULL},
+  {"bodies.[].loads.[].value", K_VEXPR, NULL, A(U, U, 0, 0, 1, 3), 0, NULL, "nodal, traction: vector (dim components); pressure: scalar. Numbers or expressions in x, y, z.", NULL},
+  {"bodies.[].loads.[].values", K_FARRAY, NULL, A(U, U, 0, 0, 1, 0), 0, NULL, "pressure given per facet (in the set's order), or nodal forces per node: one value per item, along `direction`.", NULL},
+  {"bodies.[].loads.[].direction", K_FARRAY, NULL, A(U, U, 0, 0, 1, 3), 0, NULL, "nodal `values`: the direction of the forces.", NULL},
+  {"bodies.[].loads.[].amplitude", K_FEXPR, NULL, NONE, 0, "1", "Time factor multiplying the load: a number or an expression in t.", NULL},
+  {"bodies.[].body_force", K_VEXPR, NULL, A(U, U, 0, 0, 1, 3), 0, "zero", "Body force per unit mass (m/s^2), e.g. gravity [0.0, -9.81].", NULL},
+  {"bodies.[].initial", K_GROUP, NULL, NONE, 0, NULL, "Initial fields.", NULL},
+  {"bodies.[].initial.displacement", K_VEXPR, NULL, A(U, U, 0, 0, 1, 3), 0, "zero", "Initial displacement: dim numbers or expressions in x, y, z.", NULL},
+  {"bodies.[].initial.velocity", K_VEXPR, NULL, A(U, U, 0, 0, 1, 3), 0, "zero", "Initial velocity: dim numbers or expressions in x, y, z.", NULL},
+
+  /* --- time -------------------------------------------------------------------------------- */
+  {"time", K_GROUP, NULL, NONE, 1, NULL, "Time integration.", NULL},
+  {"time.scheme", K_ENUM, "theta|newmark|quasistatic", NONE, 0, "\"theta\"", "theta: the velocity theta-scheme shared by nscd and levelset; newmark: Newmark (beta, gamma) on displacements; quasistatic: load steps without inertia.", NULL},
+  {"time.dt", K_FLOAT, NULL, POS, 0, NULL, "Time step h (s). Required by the dynamic schemes.", "the time step must be positive"},
+  {"time.end", K_FLOAT, NULL, POS, 0, NULL, "End time (s); or give `steps`.", "the end time must be positive"},
+  {"time.steps", K_INT, NULL, R(1, 1e9, 0, 0), 0, "1 (quasistatic)", "Number of steps (load steps for quasistatic).", NULL},
+  {"time.theta", K_FLOAT, NULL, R(0.5, 1, 0, 0), 0, "0.5", "theta of u+ = u + h [theta v+ + (1 - theta) v-].", "theta must lie in [0.5, 1] for unconditional stability"},
+  {"time.theta_f", K_FLOAT, NULL, R(0.5, 1, 0, 0), 0, "theta", "Weight of f(t+) in the momentum balance: theta (Moreau-Jean) or 1 (Ben Dhia-Zammali).", "theta_f must lie in [0.5, 1]"},
+  {"time.beta", K_FLOAT, NULL, R(0, 0.5, 1, 0), 0, "0.25", "Newmark beta.", "Newmark beta must lie in (0, 0.5]"},
+  {"time.gamma", K_FLOAT, NULL, R(0.5, 1, 0, 0), 0, "0.5", "Newmark gamma.", "Newmark gamma must lie in [0.5, 1] (below 1/2 the scheme is unstable)"},
+
+  /* --- output ------------------------------------------------------------------------------ */
+  {"output", K_GROUP, NULL, NONE, 0, NULL, "What is written.", NULL},
+  {"output.every", K_INT, NULL, R(1, U, 0, 0), 0, "1", "Write a history row every N steps (the first and last steps are always written).", NULL},
+  {"output.precision", K_INT, NULL, R(3, 17, 0, 0), 0, "10", "Significant digits in CSV files.", NULL},
+  {"output.energy", K_BOOL, NULL, NONE, 0, "true", "History columns energy.kinetic, energy.elastic, energy.total, energy.external_work.", NULL},
+  {"output.probes", K_LIST, NULL, NONE, 0, NULL, "Points whose histories are written to history.csv.", NULL},
+  {"output.probes.[].name", K_STRING, NULL, NONE, 1, NULL, "Column prefix (columns are name.quantity).", NULL},
+  {"output.probes.[].body", K_STRING, NULL, NONE, 0, "the first body", "Body observed.", NULL},
+  {"output.probes.[].set", K_STRING, NULL, NONE, 0, NULL, "Node set: values are averaged over its nodes (forces summed).", NULL},
+  {"output.probes.[].point", K_FARRAY, NULL, A(U, U, 0, 0, 1, 3), 0, NULL, "The node nearest to this point.", NULL},
+  {"output.probes.[].node", K_INT, NULL, R(0, U, 0, 0), 0, NULL, "A node number (0-based).", NULL},
+  {"output.probes.[].quantities", K_SARRAY, "ux|uy|uz|vx|vy|vz|fx|fy|fz", A(U, U, 0, 0, 1, 9), 1, NULL, "u: displacement, v: velocity, f: support reaction (summed over the set).", NULL},
+  {"output.vtk", K_GROUP, NULL, NONE, 0, NULL, "VTK XML field series (fields.pvd + .vtu), written when present.", NULL},
+  {"output.vtk.every", K_INT, NULL, R(1, U, 0, 0), 0, "10", "Write fields every N steps (and at the last step).", NULL},
+  {"output.vtk.fields", K_SARRAY, "displacement|velocity|stress|strain|von_mises", A(U, U, 0, 0, 1, 5), 0, "all", "Fields written.", NULL},
+
+  /* --- reference solution ------------------------------------------------------------------ */
+  {"reference", K_GROUP, NULL, NONE, 0, NULL, "A closed-form solution the core compares the probes with (errors in summary.json).", NULL},
+  {"reference.type", K_ENUM, "bar_release|bar_step_velocity", NONE, 1, NULL, "bar_release: bar clamped at x = 0, free at x = L, released at rest from a uniform strain; bar_step_velocity: same bar, x = L given a constant velocity from rest.", NULL},
+  {"reference.length", K_FLOAT, NULL, POS, 0, NULL, "Bar length L (m).", NULL},
+  {"reference.wave_speed", K_FLOAT, NULL, POS, 0, NULL, "c = sqrt(E / rho) (m/s).", NULL},
+  {"reference.strain", K_FLOAT, NULL, NONE, 0, NULL, "bar_release: initial uniform strain.", NULL},
+  {"reference.velocity", K_FLOAT, NULL, NONE, 0, NULL, "bar_step_velocity: velocity of the end x = L (m/s).", NULL},
+  {"reference.origin", K_FLOAT, NULL, NONE, 0, "0", "x of the clamped end.", NULL},
+};
+
+static int path_matches(const char *pattern, const char *path)
+{
+  return !strcmp(pattern, path);
+}
+
+const mo_key *mo_schema_find(const char *path)
+{
+  size_t k;
+  for (k = 0; k < MO_COUNT(core_keys); k++)
+    if (path_matches(core_keys[k].path, path)) return &core_keys[k];
+  return NULL;
+}
+
+static const char *type_name(mo_key_type t)
+{
+  switch (t) {
+  case K_GROUP: return "group";
+  case K_LIST: return "list of groups";
+  case K_FLOAT: return "number";
+  case K_INT: return "integer";
+  case K_BOOL: return "boolean";
+  case K_STRING: return "string";
+  case K_ENUM: return "string";
+  case K_FARRAY: return "array of numbers";
+  case K_IARRAY: return "array of integers";
+  case K_SARRAY: return "string or array of strings";
+  case K_NUMS: return "number or array of numbers";
+  case K_INTS: return "integer or array of integers";
+  case K_FEXPR: return "number or expression";
+  case K_VEXPR: return "numbers or expressions";
+  }
+  return "?";
+}
+
+const char *mo_key_type_name(mo_key_type t);
+const char *mo_key_type_name(mo_key_type t) { return type_name(t); }
+
+void mo_case_schema_visit(mo_key_visit fn, void *data)
+{
+  size_t k;
+  for (k = 0; k < MO_COUNT(core_keys); k++) {
+    const mo_key *K = &core_keys[k];
+    char range[160] = "";
+    if (K->enums) snprintf(range, sizeof range, "%s", K->enums);
+    else if (!isnan(K->lo) || !isnan(K->hi)) {
+      char lo[40] = "-inf", hi[40] = "inf";
+      if (!isnan(K->lo)) snprintf(lo, sizeof lo, "%g", K->lo);
+      if (!isnan(K->hi)) snprintf(hi, sizeof hi, "%g", K->hi);
+      snprintf(range, sizeof range, "%c%s, %s%c", K->lo_open || isnan(K->lo) ? '(' : '[', lo, hi,
+               K->hi_open || isnan(K->hi) ? ')' : ']');
+    }
+    fn(K->path, type_name(K->type), range, K->required ? "required" : (K->deflt ? K->deflt : ""),
+       K->doc, data);
+  }
+}

@@ -1,0 +1,418 @@
+/* step.c: the theta-scheme, Newmark and quasi-static steps on free dofs with a factored
+   iteration matrix. */
+#include "config.h"
+#include <moreau/step.h>
+
+#include <math.h>
+#include <string.h>
+
+struct mo_stepper {
+  const mo_scene *sc;
+  mo_scheme scheme;
+  double h, theta, theta_f, beta, gamma;
+  mo_csc *Wfull;    /* M + c K over full dofs (for prescribed couplings); NULL when not needed */
+  mo_csc *W;        /* free-free restriction */
+  mo_linsolver *ls; /* its factorization */
+  double *rhs, *xf; /* free-size work */
+  double *w1, *w2, *w3; /* full-size work */
+  double *uprev, *vprev, *fprev; /* previous state for reactions */
+};
+
+int mo_state_alloc(const mo_scene *sc, mo_state *s, mo_ctx *ctx)
+{
+  size_t n = (size_t)(sc->ndof ? sc->ndof : 1);
+  memset(s, 0, sizeof *s);
+  s->u = mo_calloc(ctx, n, sizeof(double));
+  s->v = mo_calloc(ctx, n, sizeof(double));
+  s->f = mo_calloc(ctx, n, sizeof(double));
+  s->reac = mo_calloc(ctx, n, sizeof(double));
+  if (sc->time.scheme == MO_SCHEME_NEWMARK) s->a = mo_calloc(ctx, n, sizeof(double));
+  if (!s->u || !s->v || !s->f || !s->reac || (sc->time.scheme == MO_SCHEME_NEWMARK && !s->a)) {
+    mo_state_release(s);
+    return MO_ENOMEM;
+  }
+  return MO_OK;
+}
+
+void mo_state_release(mo_state *s)
+{
+  mo_free(s->u);
+  mo_free(s->v);
+  mo_free(s->a);
+  mo_free(s->f);
+  mo_free(s->reac);
+  memset(s, 0, sizeof *s);
+}
+
+int mo_state_copy(const mo_state *src, mo_state *dst, int ndof)
+{
+  size_t n = (size_t)ndof * sizeof(double);
+  dst->t = src->t;
+  dst->step = src->step;
+  dst->wext = src->wext;
+  dst->wsupport = src->wsupport;
+  dst->wcontact = src->wcontact;
+  memcpy(dst->u, src->u, n);
+  memcpy(dst->v, src->v, n);
+  memcpy(dst->f, src->f, n);
+  memcpy(dst->reac, src->reac, n);
+  if (src->a && dst->a) memcpy(dst->a, src->a, n);
+  return MO_OK;
+}
+
+static double dot(const double *a, const double *b, int n)
+{
+  double s = 0;
+  int i;
+  for (i = 0; i < n; i++) s += a[i] * b[i];
+  return s;
+}
+
+double mo_energy_kinetic(const mo_scene *sc, const double *v, double *work)
+{
+  if (!sc->M) return 0;
+  mo_csc_gaxpy(sc->M, 1, v, 0, work);
+  return 0.5 * dot(v, work, sc->ndof);
+}
+
+double mo_energy_elastic(const mo_scene *sc, const double *u, double *work)
+{
+  mo_csc_gaxpy(sc->K, 1, u, 0, work);
+  return 0.5 * dot(u, work, sc->ndof);
+}
+
+void mo_stepper_free(mo_stepper *S)
+{
+  if (!S) return;
+  mo_csc_free(S->Wfull);
+  mo_csc_free(S->W);
+  mo_linsolver_free(S->ls);
+  mo_free(S->rhs);
+  mo_free(S->xf);
+  mo_free(S->w1);
+  mo_free(S->w2);
+  mo_free(S->w3);
+  mo_free(S->uprev);
+  mo_free(S->vprev);
+  mo_free(S->fprev);
+  mo_free(S);
+}
+
+int mo_stepper_create(const mo_scene *sc, mo_stepper **out, mo_ctx *ctx)
+{
+  mo_stepper *S;
+  mo_csc *Wf = NULL;
+  int st, n = sc->ndof;
+  double c = 0, t0;
+  *out = NULL;
+  S = mo_calloc(ctx, 1, sizeof *S);
+  if (!S) return MO_ENOMEM;
+  S->sc = sc;
+  S->scheme = sc->time.scheme;
+  S->h = sc->time.dt;
+  S->theta = sc->time.theta;
+  S->theta_f = sc->time.theta_f;
+  S->beta = sc->time.beta;
+  S->gamma = sc->time.gamma;
+  S->rhs = mo_calloc(ctx, (size_t)(sc->nfree ? sc->nfree : 1), sizeof(double));
+  S->xf = mo_calloc(ctx, (size_t)(sc->nfree ? sc->nfree : 1), sizeof(double));
+  S->w1 = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
+  S->w2 = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
+  S->w3 = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
+  S->uprev = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
+  S->vprev = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
+  S->fprev = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
+  if (!S->rhs || !S->xf || !S->w1 || !S->w2 || !S->w3 || !S->uprev || !S->vprev || !S->fprev) {
+    mo_stepper_free(S);
+    return MO_ENOMEM;
+  }
+  t0 = mo_clock();
+  switch (S->scheme) {
+  case MO_SCHEME_THETA: c = S->h * S->h * S->theta * S->theta_f; break;
+  case MO_SCHEME_NEWMARK: c = S->beta * S->h * S->h; break;
+  case MO_SCHEME_QUASISTATIC: c = 1; break;
+  }
+  if (S->scheme == MO_SCHEME_QUASISTATIC) st = mo_csc_copy(sc->K, &Wf, ctx);
+  else st = mo_csc_add(sc->M, sc->K, 1, c, &Wf, ctx);
+  if (!st)
+    st = mo_csc_extract(Wf, sc->free_of, sc->nfree, sc->free_of, sc->nfree, &S->W, ctx);
+  mo_phase_add(ctx, MO_PH_ASSEMBLY, t0);
+  if (st) {
+    mo_csc_free(Wf);
+    mo_stepper_free(S);
+    return st;
+  }
+  if (sc->has_moving_presc) S->Wfull = Wf;
+  else {
+    mo_csc_free(Wf);
+    mo_note_skip(ctx, "coupling with prescribed motion (every prescribed dof is fixed)");
+  }
+  t0 = mo_clock();
+  st = mo_linsolver_create(&mo_linsolver_cholmod, &S->ls, ctx);
+  if (!st) st = mo_linsolver_factor(S->ls, S->W, ctx);
+  mo_phase_add(ctx, MO_PH_FACTOR, t0);
+  if (st) {
+    mo_error_prefix(ctx, "iteration matrix (%s)",
+                    S->scheme == MO_SCHEME_QUASISTATIC ? "stiffness K" : "M + c K");
+    mo_stepper_free(S);
+    return st;
+  }
+  *out = S;
+  return MO_OK;
+}
+
+void mo_stepper_gather(const mo_stepper *S, const double *full, double *fr)
+{
+  const int *fo = S->sc->full_of;
+  int i;
+  for (i = 0; i < S->sc->nfree; i++) fr[i] = full[fo[i]];
+}
+
+void mo_stepper_scatter(const mo_stepper *S, const double *fr, double *full)
+{
+  const int *fo = S->sc->full_of;
+  int i;
+  for (i = 0; i < S->sc->nfree; i++) full[fo[i]] = fr[i];
+}
+
+mo_linsolver *mo_stepper_solver(mo_stepper *S) { return S->ls; }
+const mo_csc *mo_stepper_matrix(const mo_stepper *S) { return S->W; }
+const mo_scene *mo_stepper_scene(const mo_stepper *S) { return S->sc; }
+
+double mo_stepper_du_dx(const mo_stepper *S)
+{
+  switch (S->scheme) {
+  case MO_SCHEME_THETA: return S->h * S->theta;
+  case MO_SCHEME_NEWMARK: return S->beta * S->h * S->h;
+  default: return 1;
+  }
+}
+
+/* Prescribed values at time t written into full vectors (u and/or v, a = 0 for moving
+   supports at constant velocity; expressions differentiated twice numerically). */
+static void presc_values(const mo_stepper *S, double t, double *u, double *v, double *a)
+{
+  const mo_scene *sc = S->sc;
+  int k;
+  for (k = 0; k < sc->npresc; k++) {
+    double pu, pv;
+    mo_scene_presc_eval(sc, k, t, &pu, &pv);
+    if (u) u[sc->presc[k].dof] = pu;
+    if (v) v[sc->presc[k].dof] = pv;
+    if (a) {
+      double acc = 0;
+      if (sc->presc[k].kind == MO_PRESC_EXPR) {
+        double h = 1e-5 * (sc->time.end > 0 ? sc->time.end : 1), up, vp, um, vm;
+        mo_scene_presc_eval(sc, k, t + h, &up, &vp);
+        mo_scene_presc_eval(sc, k, t - h, &um, &vm);
+        acc = (vp - vm) / (2 * h);
+      }
+      a[sc->presc[k].dof] = acc;
+    }
+  }
+}
+
+int mo_stepper_init_state(mo_stepper *S, mo_state *s, mo_ctx *ctx)
+{
+  const mo_scene *sc = S->sc;
+  int n = sc->ndof, st;
+  s->t = 0;
+  s->step = 0;
+  s->wext = s->wsupport = s->wcontact = 0;
+  memcpy(s->u, sc->u0, (size_t)n * sizeof(double));
+  memcpy(s->v, sc->v0, (size_t)n * sizeof(double));
+  presc_values(S, 0, s->u, s->v, NULL);
+  mo_scene_fext(sc, 0, s->f);
+  memset(s->reac, 0, (size_t)n * sizeof(double));
+  if (S->scheme == MO_SCHEME_NEWMARK) {
+    /* M_ff a0 = [f0 - K u0 - M z0]_f, z0 the prescribed accelerations */
+    mo_linsolver *Ml = NULL;
+    mo_csc *Mff = NULL;
+    memset(s->a, 0, (size_t)n * sizeof(double));
+    presc_values(S, 0, NULL, NULL, s->a);
+    memcpy(S->w1, s->f, (size_t)n * sizeof(double));
+    mo_csc_gaxpy(sc->K, -1, s->u, 1, S->w1);
+    mo_csc_gaxpy(sc->M, -1, s->a, 1, S->w1);
+    mo_stepper_gather(S, S->w1, S->rhs);
+    st = mo_csc_extract(sc->M, sc->free_of, sc->nfree, sc->free_of, sc->nfree, &Mff, ctx);
+    if (!st) st = mo_linsolver_create(&mo_linsolver_cholmod, &Ml, ctx);
+    if (!st) st = mo_linsolver_factor(Ml, Mff, ctx);
+    if (!st) st = mo_linsolver_solve(Ml, S->rhs, S->xf, ctx);
+    if (!st) mo_stepper_scatter(S, S->xf, s->a);
+    mo_linsolver_free(Ml);
+    mo_csc_free(Mff);
+    if (st) return mo_error_prefix(ctx, "initial acceleration (mass matrix)");
+  }
+  return MO_OK;
+}
+
+int mo_stepper_predict(mo_stepper *S, const mo_state *s, double *x, mo_ctx *ctx)
+{
+  const mo_scene *sc = S->sc;
+  int n = sc->ndof, i, st;
+  double h = S->h, tn = s->t + h, t0 = mo_clock();
+  double *f1 = S->w1, *w = S->w2, *z = S->w3;
+  mo_scene_fext(sc, tn, f1);
+  switch (S->scheme) {
+  case MO_SCHEME_THETA: {
+    /* J88 (3.3)_1 with the theta-scheme of ARCHITECTURE.md §2:
+       What v+ = M v - h K (u + h theta_f (1 - theta) v) + h (theta_f f+ + (1 - theta_f) f)
+                 - What_fp v+_p */
+    double tf = S->theta_f, c = h * tf * (1 - S->theta);
+    for (i = 0; i < n; i++) {
+      w[i] = s->u[i] + c * s->v[i];
+      f1[i] = h * (tf * f1[i] + (1 - tf) * s->f[i]);
+    }
+    mo_csc_gaxpy(sc->M, 1, s->v, 1, f1);
+    mo_csc_gaxpy(sc->K, -h, w, 1, f1);
+    memset(x, 0, (size_t)n * sizeof(double));
+    presc_values(S, tn, NULL, x, NULL);
+    if (S->Wfull) mo_csc_gaxpy(S->Wfull, -1, x, 1, f1);
+    break;
+  }
+  case MO_SCHEME_NEWMARK: {
+    /* (M + beta h^2 K) a+ = f+ - K w - M z, w = u + h v + h^2 (1/2 - beta) a on free dofs and
+       u+ on prescribed ones, z the prescribed accelerations */
+    double b = S->beta;
+    for (i = 0; i < n; i++) w[i] = s->u[i] + h * s->v[i] + h * h * (0.5 - b) * s->a[i];
+    presc_values(S, tn, w, NULL, NULL);
+    memset(x, 0, (size_t)n * sizeof(double));
+    presc_values(S, tn, NULL, NULL, x);
+    mo_csc_gaxpy(sc->K, -1, w, 1, f1);
+    if (S->Wfull) {
+      /* w_p already holds u+_p: K w includes K_fp u+_p; remove the beta h^2 K a_p part that
+         Wfull would add, by using M only for the accelerations */
+      mo_csc_gaxpy(sc->M, -1, x, 1, f1);
+    }
+    break;
+  }
+  case MO_SCHEME_QUASISTATIC:
+    /* K u+ = f+ - K_fp u+_p */
+    memset(w, 0, (size_t)n * sizeof(double));
+    presc_values(S, tn, w, NULL, NULL);
+    mo_csc_gaxpy(sc->K, -1, w, 1, f1);
+    memcpy(x, w, (size_t)n * sizeof(double));
+    break;
+  }
+  (void)z;
+  mo_stepper_gather(S, f1, S->rhs);
+  st = mo_linsolver_solve(S->ls, S->rhs, S->xf, ctx);
+  if (!st) mo_stepper_scatter(S, S->xf, x);
+  mo_phase_add(ctx, MO_PH_SOLVE, t0);
+  return st;
+}
+
+int mo_stepper_correct(mo_stepper *S, const double *imp, double *dx, mo_ctx *ctx)
+{
+  int st;
+  double t0 = mo_clock();
+  mo_stepper_gather(S, imp, S->rhs);
+  st = mo_linsolver_solve(S->ls, S->rhs, S->xf, ctx);
+  memset(dx, 0, (size_t)S->sc->ndof * sizeof(double));
+  if (!st) mo_stepper_scatter(S, S->xf, dx);
+  mo_phase_add(ctx, MO_PH_SOLVE, t0);
+  return st;
+}
+
+/* Support reactions over the step on prescribed dofs; K and M are symmetric, so row p is
+   column p and only the prescribed columns are visited. */
+static void reactions(const mo_stepper *S, mo_state *s)
+{
+  const mo_scene *sc = S->sc;
+  const mo_csc *K = sc->K, *M = sc->M;
+  double h = S->h, tf = S->theta_f;
+  int k, p;
+  for (k = 0; k < sc->npresc; k++) {
+    int d = sc->presc[k].dof;
+    double r = 0;
+    switch (S->scheme) {
+    case MO_SCHEME_THETA:
+      for (p = K->p[d]; p < K->p[d + 1]; p++)
+        r += K->x[p] * (tf * s->u[K->i[p]] + (1 - tf) * S->uprev[K->i[p]]);
+      for (p = M->p[d]; p < M->p[d + 1]; p++) r += M->x[p] * (s->v[M->i[p]] - S->vprev[M->i[p]]) / h;
+      r -= tf * s->f[d] + (1 - tf) * S->fprev[d];
+      break;
+    case MO_SCHEME_NEWMARK:
+      for (p = K->p[d]; p < K->p[d + 1]; p++) r += K->x[p] * s->u[K->i[p]];
+      for (p = M->p[d]; p < M->p[d + 1]; p++) r += M->x[p] * s->a[M->i[p]];
+      r -= s->f[d];
+      break;
+    case MO_SCHEME_QUASISTATIC:
+      for (p = K->p[d]; p < K->p[d + 1]; p++) r += K->x[p] * s->u[K->i[p]];
+      r -= s->f[d];
+      break;
+    }
+    s->reac[d] = r;
+  }
+}
+
+int mo_stepper_finish(mo_stepper *S, mo_state *s, const double *x, mo_ctx *ctx)
+{
+  const mo_scene *sc = S->sc;
+  int n = sc->ndof, i, l, k;
+  double h = S->h, tn = s->t + h, t0 = mo_clock(), dw = 0, ws = 0;
+  for (i = 0; i < n; i++)
+    if (!isfinite(x[i]))
+      return mo_error(ctx, MO_ENAN, "step %ld (t = %.6g): the %s of dof %d is not finite",
+                      s->step + 1, tn,
+                      S->scheme == MO_SCHEME_THETA ? "velocity" : S->scheme == MO_SCHEME_NEWMARK
+                      ? "acceleration" : "displacement", i);
+  memcpy(S->uprev, s->u, (size_t)n * sizeof(double));
+  memcpy(S->vprev, s->v, (size_t)n * sizeof(double));
+  memcpy(S->fprev, s->f, (size_t)n * sizeof(double));
+  switch (S->scheme) {
+  case MO_SCHEME_THETA:
+    for (i = 0; i < n; i++) {
+      s->u[i] += h * (S->theta * x[i] + (1 - S->theta) * s->v[i]);
+      s->v[i] = x[i];
+    }
+    break;
+  case MO_SCHEME_NEWMARK: {
+    double b = S->beta, g = S->gamma;
+    for (i = 0; i < n; i++) {
+      s->u[i] += h * s->v[i] + h * h * ((0.5 - b) * s->a[i] + b * x[i]);
+      s->v[i] += h * ((1 - g) * s->a[i] + g * x[i]);
+      s->a[i] = x[i];
+    }
+    break;
+  }
+  case MO_SCHEME_QUASISTATIC:
+    for (i = 0; i < n; i++) {
+      s->v[i] = (x[i] - s->u[i]) / h;
+      s->u[i] = x[i];
+    }
+    break;
+  }
+  /* prescribed dofs exactly on their path */
+  presc_values(S, tn, s->u, S->scheme == MO_SCHEME_QUASISTATIC ? NULL : s->v, NULL);
+  mo_scene_fext(sc, tn, s->f);
+  /* external work, trapezoidal in time, over the load patterns only */
+  for (l = 0; l < sc->nload; l++) {
+    const mo_load *L = &sc->load[l];
+    double a0 = L->amp ? mo_expr_eval(L->amp, &s->t) : 1, a1 = L->amp ? mo_expr_eval(L->amp, &tn) : 1;
+    for (k = 0; k < L->n; k++) dw += 0.5 * (a0 + a1) * L->val[k] * (s->u[L->dof[k]] - S->uprev[L->dof[k]]);
+  }
+  s->wext += dw;
+  s->t = tn;
+  s->step++;
+  if (sc->npresc) {
+    reactions(S, s);
+    if (sc->has_moving_presc) {
+      for (k = 0; k < sc->npresc; k++) {
+        int d = sc->presc[k].dof;
+        ws += s->reac[d] * (s->u[d] - S->uprev[d]);
+      }
+      s->wsupport += ws;
+    }
+  }
+  mo_phase_add(ctx, MO_PH_SOLVE, t0);
+  return MO_OK;
+}
+
+int mo_stepper_step(mo_stepper *S, mo_state *s, mo_ctx *ctx)
+{
+  double *x = S->w3;
+  int st = mo_stepper_predict(S, s, x, ctx);
+  if (st) return st;
+  return mo_stepper_finish(S, s, x, ctx);
+}
