@@ -535,10 +535,9 @@ static int validate_group(const mo_case *cs, const config_setting_t *g, const ch
     const config_setting_t *s = config_setting_get_elem(g, (unsigned)i);
     const char *name = config_setting_name(s);
     char sub[512], sug[128];
-    const mo_key *K;
+    mo_key K;
     snprintf(sub, sizeof sub, "%s%s%s", spath, spath[0] ? "." : "", name);
-    K = mo_schema_find(sub);
-    if (!K) {
+    if (!mo_schema_lookup(sub, &K)) {
       char where[600], gp[512];
       mo_case_where(cs, s, where, sizeof where);
       mo_case_path(g, gp, sizeof gp);
@@ -548,7 +547,7 @@ static int validate_group(const mo_case *cs, const config_setting_t *g, const ch
       return mo_error(ctx, MO_EINPUT, "%s: unknown key '%s'%s%s%s", where, name,
                       gp[0] ? " in '" : "", gp, gp[0] ? "'" : "");
     }
-    if ((st = validate_value(cs, s, K, sub, ctx))) return st;
+    if ((st = validate_value(cs, s, &K, sub, ctx))) return st;
   }
   R.parent = spath;
   R.g = g;
@@ -708,15 +707,14 @@ int mo_case_set(mo_case *cs, const char *assign, mo_ctx *ctx)
   /* validate the new value (and whatever was created on the way) against the schema */
   {
     char sp[512];
-    const mo_key *K;
+    mo_key K;
     config_setting_t *top = cur;
     /* climb to the outermost setting created by this override (no source line) */
     while (config_setting_parent(top) && config_setting_parent(config_setting_parent(top)) &&
            config_setting_source_line(config_setting_parent(top)) == 0)
       top = config_setting_parent(top);
     schema_path(top, sp, sizeof sp);
-    K = mo_schema_find(sp);
-    if (!K) {
+    if (!mo_schema_lookup(sp, &K)) {
       char parent[512], sug[128], *dot;
       const char *name = config_setting_name(top);
       snprintf(parent, sizeof parent, "%s", sp);
@@ -730,7 +728,7 @@ int mo_case_set(mo_case *cs, const char *assign, mo_ctx *ctx)
                       parent[0] ? " in '" : "", parent, parent[0] ? "'" : "");
       goto done;
     }
-    st = validate_value(cs, top, K, sp, ctx);
+    st = validate_value(cs, top, &K, sp, ctx);
   }
 done:
   config_destroy(&tmp);
@@ -822,6 +820,12 @@ int mo_case_lookup_int(const mo_case *cs, const char *path, int *v)
   if (!s || !is_integer(s)) return 0;
   *v = (int)num_value(s);
   return 1;
+}
+
+int mo_case_lookup_bool(const mo_case *cs, const char *path)
+{
+  const config_setting_t *s = config_lookup(&cs->cfg, path);
+  return s && config_setting_type(s) == CONFIG_TYPE_BOOL && config_setting_get_bool(s);
 }
 
 int mo_case_lookup_string(const mo_case *cs, const char *path, const char **v)

@@ -44,9 +44,9 @@ typedef struct {
   const char *why;    /* sentence appended to range errors ("Poisson's ratio ...") */
 } mo_key;
 
-/* Schema tables: the core's keys and each contact back end's option keys (built at run time
-   from the registry, so a new back end's options are validated and documented at once). */
-const mo_key *mo_schema_find(const char *path);
+/* Schema lookup: the core's keys and each contact back end's option keys (from the registry, so
+   a new back end's options are validated and documented at once). 1 when found. */
+int mo_schema_lookup(const char *path, mo_key *out);
 
 /* Location of a setting: "FILE:LINE" for a setting read from the file, "--set" for one created
    by an override. */
@@ -72,7 +72,7 @@ const char *mo_cfg_expr_at(const config_setting_t *g, const char *name, int i, c
                            size_t n);
 const char *mo_cfg_string_at(const config_setting_t *g, const char *name, int i);
 
-/* Settings after overrides as JSON text (for summary.json); caller frees with mo_free. */
+/* Settings after overrides as a JSON object (for summary.json). */
 struct json_t;
 struct json_t *mo_case_to_json(const mo_case *cs);
 

@@ -1,9 +1,38 @@
-/* registry.c: the explicit table of contact back ends (ARCHITECTURE.md §3). */
+/* registry.c: the explicit table of contact back ends (ARCHITECTURE.md §3). A new back end is
+   one folder under solvers/ and one line here. */
 #include "config.h"
 #include <moreau/moreau.h>
+#include <moreau/contact.h>
+
+#include <string.h>
+
+static const mo_contact_solver_type *const registry[] = {
+  NULL /* end */
+};
+
+int mo_contact_solver_count(void)
+{
+  return (int)(sizeof registry / sizeof registry[0]) - 1;
+}
+
+const mo_contact_solver_type *mo_contact_solver_at(int i)
+{
+  return i >= 0 && i < mo_contact_solver_count() ? registry[i] : NULL;
+}
+
+const mo_contact_solver_type *mo_contact_solver_find(const char *name)
+{
+  int i;
+  for (i = 0; i < mo_contact_solver_count(); i++)
+    if (!strcmp(registry[i]->name, name)) return registry[i];
+  return NULL;
+}
 
 int mo_cli_list_solvers(FILE *out)
 {
-  fprintf(out, "no contact back ends are registered in this build\n");
+  int i;
+  if (!mo_contact_solver_count()) fprintf(out, "no contact back ends are registered in this build\n");
+  for (i = 0; i < mo_contact_solver_count(); i++)
+    fprintf(out, "%-10s %s\n", registry[i]->name, registry[i]->summary);
   return 0;
 }

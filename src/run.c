@@ -3,6 +3,7 @@
 #include "config.h"
 #include <moreau/run.h>
 #include <moreau/case.h>
+#include <moreau/contact.h>
 #include <moreau/output.h>
 #include <moreau/scene.h>
 #include <moreau/step.h>
@@ -88,16 +89,45 @@ typedef struct {
   long n;
 } column;
 
-static double probe_value(const mo_scene *sc, const mo_probe *P, mo_quantity q, const mo_state *s)
+/* Contact data the probes read: nodal contact forces H r (full dofs), and per candidate. */
+typedef struct {
+  const mo_contact *C;
+  const mo_contact_driver *D;
+  double *Rfull;  /* ndof, contact forces at nodes */
+  int need_R;
+} contact_view;
+
+static double probe_value(const mo_scene *sc, const mo_probe *P, mo_quantity q, const mo_state *s,
+                          const contact_view *cv)
 {
   const mo_body *B = &sc->body[P->body];
   int comp = (int)q % 3, kind = (int)q / 3, k, D = sc->dim;
   double acc = 0;
+  if (q == MO_Q_PN || q == MO_Q_GN) {
+    /* candidates whose representative node is one of the probe's nodes */
+    int a, n = 0, d;
+    const double *r, *g;
+    if (!cv->C || !cv->D) return NAN;
+    d = mo_contact_dim(cv->C);
+    r = mo_contact_reactions(cv->D);
+    g = mo_contact_gaps(cv->C);
+    for (a = 0; a < mo_contact_ncandidates(cv->C); a++) {
+      const mo_candidate *c = mo_contact_candidate(cv->C, a);
+      if (c->node < 0 || mo_contact_pair_get(cv->C, c->pair)->sbody != P->body) continue;
+      for (k = 0; k < P->nnode; k++)
+        if (P->node[k] == c->node) {
+          double f = r[a * d] / (sc->time.scheme == MO_SCHEME_THETA ? sc->time.dt : 1);
+          acc += q == MO_Q_PN ? (c->w > 0 ? f / c->w : f) : g[a];
+          n++;
+        }
+    }
+    return n ? acc / n : NAN;
+  }
   for (k = 0; k < P->nnode; k++) {
     int d = B->dof0 + P->node[k] * D + comp;
-    acc += kind == 0 ? s->u[d] : kind == 1 ? s->v[d] : s->reac[d];
+    acc += kind == 0 ? s->u[d] : kind == 1 ? s->v[d] : kind == 2 ? s->reac[d] : (cv->Rfull ? cv->Rfull[d] : 0);
   }
-  return kind == 2 ? acc : acc / P->nnode;
+  return kind >= 2 ? acc : acc / P->nnode;
 }
 
 /* --- progress ---------------------------------------------------------------------------------- */
@@ -144,8 +174,11 @@ static const char *scheme_name(mo_scheme s)
   return s == MO_SCHEME_NEWMARK ? "newmark" : s == MO_SCHEME_QUASISTATIC ? "quasistatic" : "theta";
 }
 
+static json_t *contact_json(const mo_contact *C, const mo_contact_driver *D);
+
 static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
-                         const mo_stepper *S, const mo_state *s, const column *cols, int ncol,
+                         const mo_stepper *S, const mo_state *s, const mo_contact *C,
+                         const mo_contact_driver *drv, const column *cols, int ncol,
                          const char *const *names, double e0, double e1, double drift,
                          double balance, int complete, const char *reason, double wall,
                          mo_ctx *ctx)
@@ -209,8 +242,10 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
   if (s) {
     json_object_set_new(energy, "external_work", json_real(s->wext));
     json_object_set_new(energy, "support_work", json_real(s->wsupport));
+    json_object_set_new(energy, "contact_work", json_real(s->wcontact));
   }
   json_object_set_new(root, "energy", energy);
+  if (C && drv) json_object_set_new(root, "contact", contact_json(C, drv));
   for (k = 0; k < ncol; k++) {
     json_t *m;
     if (!cols[k].has_ref || cols[k].n == 0) continue;
@@ -264,37 +299,99 @@ static void print_log(const mo_ctx *ctx, double wall)
   for (p = 0; p < ctx->nskip; p++) fprintf(stderr, "  - %s\n", ctx->skipped[p]);
 }
 
+/* Export the step's local problem as an FCLIB file (--dump-fclib). */
+static int dump_fclib(const char *dir, const mo_contact_driver *D, long step, mo_ctx *ctx)
+{
+  double *W = NULL, *q = NULL, *mu = NULL;
+  int nc, d, st;
+  char path[4200], title[128];
+  const mo_contact_report *rep = mo_contact_last_report(D);
+  if (rep->reason == MO_CR_NOCONTACT) return MO_OK;
+  if ((st = mo_contact_driver_local_problem(D, &W, &q, &mu, &nc, &d, ctx))) return st;
+  if (d < 2) {
+    mo_free(W); mo_free(q); mo_free(mu);
+    mo_note_skip(ctx, "FCLIB export (1D frictionless contacts: FCLIB holds 2D and 3D problems)");
+    return MO_OK;
+  }
+  snprintf(path, sizeof path, "%s/step-%06ld.hdf5", dir, step);
+  snprintf(title, sizeof title, "moreau step %ld", step);
+  st = mo_fclib_write(path, d, nc, W, q, mu, mo_contact_reactions(D), mo_contact_local_velocity(D), title, ctx);
+  mo_free(W); mo_free(q); mo_free(mu);
+  return st;
+}
+
+static json_t *contact_json(const mo_contact *C, const mo_contact_driver *D)
+{
+  json_t *j = json_object();
+  long steps, it, maxit, wb;
+  double maxres;
+  const mo_contact_report *rep = mo_contact_last_report(D);
+  const mo_delassus *W = mo_contact_driver_delassus(D);
+  mo_contact_driver_totals(D, &steps, &it, &maxit, &wb, &maxres);
+  json_object_set_new(j, "solver", json_string(mo_contact_driver_type(D)->name));
+  json_object_set_new(j, "pairs", json_integer(mo_contact_npairs(C)));
+  json_object_set_new(j, "candidates", json_integer(mo_contact_ncandidates(C)));
+  json_object_set_new(j, "steps_with_contact", json_integer(steps));
+  json_object_set_new(j, "iterations_total", json_integer(it));
+  json_object_set_new(j, "iterations_max", json_integer(maxit));
+  json_object_set_new(j, "iterations_mean", json_real(steps ? (double)it / (double)steps : 0));
+  json_object_set_new(j, "residual_max", json_real(maxres));
+  json_object_set_new(j, "delassus_builds", json_integer(wb));
+  if (W) {
+    json_object_set_new(j, "delassus_blocks", json_integer(mo_delassus_nblocks(W)));
+    json_object_set_new(j, "delassus_columns_kept", json_boolean(mo_delassus_has_columns(W)));
+  }
+  json_object_set_new(j, "last_iterations", json_integer(rep->iterations));
+  json_object_set_new(j, "last_residual", json_real(rep->residual));
+  json_object_set_new(j, "last_reason", json_string(mo_contact_reason_name(rep->reason)));
+  json_object_set_new(j, "last_open", json_integer(rep->nopen));
+  json_object_set_new(j, "last_stick", json_integer(rep->nstick));
+  json_object_set_new(j, "last_slide", json_integer(rep->nslide));
+  return j;
+}
+
 int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
 {
   mo_case *cs = NULL;
   mo_scene *sc = NULL;
   mo_stepper *S = NULL;
+  mo_contact *C = NULL;
+  mo_contact_driver *drv = NULL;
   mo_state s;
   mo_csv *csv = NULL;
   mo_vtk *vtk = NULL;
   column *cols = NULL;
+  contact_view cv;
   char **names = NULL, *namebuf = NULL, outdir[4096], path[4200];
   double *row = NULL, *work = NULL, start = mo_clock(), e0 = 0, e1 = 0, drift = 0, balance = 0;
-  int st, ncol = 0, nprobecol = 0, k, p, complete = 0, ecol0 = 0;
+  int st, ncol = 0, nprobecol = 0, k, p, complete = 0, ecol0 = 0, ccol0 = 0, table = 0;
   char reason[MO_ERRMSG_MAX] = "";
   progress prog;
   memset(&s, 0, sizeof s);
   memset(res, 0, sizeof *res);
   memset(&prog, 0, sizeof prog);
+  memset(&cv, 0, sizeof cv);
 
   if ((st = load_case(opt, &cs, ctx))) return st;
   if (opt->outdir) snprintf(outdir, sizeof outdir, "%s", opt->outdir);
   else default_outdir(opt->case_path, outdir, sizeof outdir);
   snprintf(res->outdir, sizeof res->outdir, "%s", outdir);
   if ((st = mo_scene_build(cs, &sc, ctx))) goto done;
+  if ((st = mo_contact_build(sc, &C, ctx))) goto done;
+  if (opt->solver && !C) mo_note_skip(ctx, "contact solve (--solver given, but the case has no contact pairs)");
   if ((st = mo_mkdir_p(outdir, ctx))) goto done;
+  if (opt->dump_fclib && (st = mo_mkdir_p(opt->dump_fclib, ctx))) goto done;
   if ((st = mo_stepper_create(sc, &S, ctx))) goto done;
+  if (C && (st = mo_contact_driver_create(sc, C, S, &drv, ctx))) goto done;
   if ((st = mo_state_alloc(sc, &s, ctx))) goto done;
   if ((st = mo_stepper_init_state(S, &s, ctx))) goto done;
+  table = mo_case_lookup_bool(cs, "output.contact_table");
+  cv.C = C;
+  cv.D = drv;
 
-  /* columns: t, probes, energies */
+  /* columns: t, probes, energies, contact */
   for (p = 0; p < sc->nprobe; p++) nprobecol += sc->probe[p].nq;
-  ncol = 1 + nprobecol + (sc->out.energy ? 5 : 0);
+  ncol = 1 + nprobecol + (sc->out.energy ? 6 : 0) + (C ? 4 : 0);
   cols = mo_calloc(ctx, (size_t)(nprobecol ? nprobecol : 1), sizeof *cols);
   names = mo_calloc(ctx, (size_t)ncol, sizeof *names);
   namebuf = mo_calloc(ctx, (size_t)ncol, 80);
@@ -313,8 +410,15 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
       cols[k].x = sc->body[P->body].mesh->x[P->node[0] * sc->dim];
       cols[k].has_ref = mo_reference_eval(&sc->ref, P->q[q], cols[k].x, 0, &dummy);
       snprintf(names[1 + k], 80, "%s.%s", P->name, mo_quantity_name(P->q[q]));
+      if (P->q[q] >= MO_Q_CX && P->q[q] <= MO_Q_GN && !C) {
+        st = mo_error(ctx, MO_EINPUT, "%s: probe '%s' asks for '%s', but the case has no contact",
+                      mo_case_file(cs), P->name, mo_quantity_name(P->q[q]));
+        goto done;
+      }
+      if (P->q[q] >= MO_Q_CX && P->q[q] <= MO_Q_CZ) cv.need_R = 1;
     }
   }
+  if (cv.need_R && !(cv.Rfull = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof(double)))) { st = MO_ENOMEM; goto done; }
   if (sc->out.energy) {
     ecol0 = 1 + nprobecol;
     snprintf(names[ecol0], 80, "energy.kinetic");
@@ -322,6 +426,14 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
     snprintf(names[ecol0 + 2], 80, "energy.total");
     snprintf(names[ecol0 + 3], 80, "energy.external_work");
     snprintf(names[ecol0 + 4], 80, "energy.support_work");
+    snprintf(names[ecol0 + 5], 80, "energy.contact_work");
+  }
+  if (C) {
+    ccol0 = 1 + nprobecol + (sc->out.energy ? 6 : 0);
+    snprintf(names[ccol0], 80, "contact.closed");
+    snprintf(names[ccol0 + 1], 80, "contact.iterations");
+    snprintf(names[ccol0 + 2], 80, "contact.residual");
+    snprintf(names[ccol0 + 3], 80, "contact.force_n");
   }
   snprintf(path, sizeof path, "%s/history.csv", outdir);
   if ((st = mo_csv_open(path, (const char *const *)names, ncol, sc->out.precision, &csv, ctx))) goto done;
@@ -330,6 +442,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   } else
     mo_note_skip(ctx, "field output (no output.vtk group)");
   if (!sc->nprobe) mo_note_skip(ctx, "probe histories (no output.probes)");
+  if (!C) mo_note_skip(ctx, "contact (no contact pairs)");
 
   prog.on = opt->progress && isatty(2) && ctx->verbosity >= 1;
   prog.start = prog.last = mo_clock();
@@ -338,10 +451,14 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   for (;;) {
     int last = s.step == sc->time.steps, write_row = s.step % sc->out.every == 0 || last;
     double t0 = mo_clock(), ek = 0, ee = 0;
+    if (cv.need_R && drv) {
+      double sc_f = sc->time.scheme == MO_SCHEME_THETA ? 1 / sc->time.dt : 1;
+      mo_csc_gaxpy(mo_contact_H_full(C), sc_f, mo_contact_reactions(drv), 0, cv.Rfull);
+    }
     /* probes and errors at every step; energies when a row is written */
     for (k = 0; k < nprobecol; k++) {
       const mo_probe *P = &sc->probe[cols[k].probe];
-      double v = probe_value(sc, P, (mo_quantity)cols[k].q, &s), r;
+      double v = probe_value(sc, P, (mo_quantity)cols[k].q, &s, &cv), r;
       row[1 + k] = v;
       if (cols[k].has_ref && mo_reference_eval(&sc->ref, (mo_quantity)cols[k].q, cols[k].x, s.t, &r)) {
         double e = fabs(v - r);
@@ -359,7 +476,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
         ee = mo_energy_elastic(sc, s.u, work);
         e1 = ek + ee;
         if (e0 > 0 && fabs(e1 - e0) / e0 > drift) drift = fabs(e1 - e0) / e0;
-        balance = e1 - e0 - s.wext - s.wsupport;
+        balance = e1 - e0 - s.wext - s.wsupport - s.wcontact;
       }
       if (sc->out.energy) {
         row[ecol0] = ek;
@@ -367,6 +484,18 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
         row[ecol0 + 2] = ek + ee;
         row[ecol0 + 3] = s.wext;
         row[ecol0 + 4] = s.wsupport;
+        row[ecol0 + 5] = s.wcontact;
+      }
+      if (C) {
+        const mo_contact_report *rep = drv ? mo_contact_last_report(drv) : NULL;
+        const double *r = drv ? mo_contact_reactions(drv) : NULL;
+        double fsum = 0, fs = sc->time.scheme == MO_SCHEME_THETA ? 1 / sc->time.dt : 1;
+        int a, d = mo_contact_dim(C);
+        for (a = 0; r && a < mo_contact_ncandidates(C); a++) fsum += r[a * d] * fs;
+        row[ccol0] = rep && s.step ? mo_contact_ncandidates(C) - rep->nopen : 0;
+        row[ccol0 + 1] = rep && s.step ? rep->iterations : 0;
+        row[ccol0 + 2] = rep && s.step ? rep->residual : 0;
+        row[ccol0 + 3] = fsum;
       }
       if ((st = mo_csv_row(csv, row, ctx))) goto done;
     }
@@ -379,7 +508,10 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
       st = mo_error(ctx, MO_EINTERRUPT, "interrupted at step %ld (t = %.6g)", s.step, s.t);
       goto done;
     }
-    if ((st = mo_stepper_step(S, &s, ctx))) goto done;
+    if (drv) {
+      if ((st = mo_contact_step(drv, &s, ctx))) goto done;
+      if (opt->dump_fclib && (st = dump_fclib(opt->dump_fclib, drv, s.step, ctx))) goto done;
+    } else if ((st = mo_stepper_step(S, &s, ctx))) goto done;
   }
   complete = 1;
 
@@ -400,15 +532,21 @@ done:
       res->nmetric++;
     }
   if (st) snprintf(reason, sizeof reason, "%s", ctx->errmsg);
-  /* the summary is written whenever the output folder exists, also after a failure */
+  /* the summary (and the contact table) are written whenever the output folder exists, also
+     after a failure: they describe the last good step */
   if (cs && sc && access(outdir, W_OK) == 0) {
-    int keep = ctx->status;
+    int keep = ctx->status, st2;
     char msg[MO_ERRMSG_MAX];
     snprintf(msg, sizeof msg, "%s", ctx->errmsg);
     mo_ctx_clear_error(ctx);
-    if (write_summary(outdir, cs, sc, S, s.u ? &s : NULL, cols, nprobecol, (const char *const *)names, e0, e1,
-                      drift, balance, complete, reason, res->wall, ctx) && !st)
-      st = ctx->status;
+    st2 = write_summary(outdir, cs, sc, S, s.u ? &s : NULL, C, drv, cols, nprobecol,
+                        (const char *const *)names, e0, e1, drift, balance, complete, reason, res->wall, ctx);
+    if (!st2 && drv && s.u && s.step > 0) {
+      snprintf(path, sizeof path, "%s/contact.csv", outdir);
+      st2 = mo_contact_write_csv(path, sc, C, drv, &s, ctx);
+      if (!st2 && table && ctx->verbosity >= 1) mo_contact_print_table(stdout, sc, C, drv, &s, ctx);
+    }
+    if (st2 && !st) st = st2;
     else if (keep) {
       ctx->status = keep;
       snprintf(ctx->errmsg, sizeof ctx->errmsg, "%s", msg);
@@ -421,7 +559,10 @@ done:
   mo_free(namebuf);
   mo_free(row);
   mo_free(work);
+  mo_free(cv.Rfull);
   mo_state_release(&s);
+  mo_contact_driver_free(drv);
+  mo_contact_free(C);
   mo_stepper_free(S);
   mo_scene_free(sc);
   mo_case_free(cs);

@@ -13,7 +13,8 @@ static const char *const t_var[] = {"t"};
 
 const char *mo_quantity_name(mo_quantity q)
 {
-  static const char *n[MO_Q_N] = {"ux", "uy", "uz", "vx", "vy", "vz", "fx", "fy", "fz"};
+  static const char *n[MO_Q_N] = {"ux", "uy", "uz", "vx", "vy", "vz", "fx", "fy", "fz",
+                                  "cx", "cy", "cz", "pn", "gn"};
   return (unsigned)q < MO_Q_N ? n[q] : "?";
 }
 
@@ -757,7 +758,7 @@ static int build_output(mo_scene *sc, const mo_case *cs, mo_ctx *ctx)
       const char *q = mo_cfg_string_at(pg, "quantities", k);
       int qi;
       for (qi = 0; qi < MO_Q_N && strcmp(q, mo_quantity_name((mo_quantity)qi)); qi++) {}
-      if ((qi % 3) >= sc->dim)
+      if (qi < MO_Q_PN && (qi % 3) >= sc->dim)
         return mo_case_error(cs, mo_cfg_member(pg, "quantities"), ctx, "'%s' does not exist in %dD", q, sc->dim);
       P->q[P->nq++] = (mo_quantity)qi;
     }

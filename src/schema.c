@@ -2,6 +2,7 @@
    doc/case-format.md documents the same keys; tests/test_case_doc checks that it names them all. */
 #include "config.h"
 #include "case_internal.h"
+#include <moreau/contact.h>
 
 #include <math.h>
 #include <string.h>
@@ -31,7 +32,7 @@ static const mo_key core_keys[] = {
   {"bodies.[].mesh.length", K_FLOAT, NULL, POS, 0, NULL, "bar: length (m).", NULL},
   {"bodies.[].mesh.origin", K_NUMS, NULL, A(U, U, 0, 0, 1, 3), 0, "zero", "bar: x of the first node; rectangle, box: lower corner.", NULL},
   {"bodies.[].mesh.size", K_FARRAY, NULL, A(0, U, 1, 0, 2, 3), 0, NULL, "rectangle: [Lx, Ly]; box: [Lx, Ly, Lz] (m).", NULL},
-  {"bodies.[].mesh.elements", K_INTS, NULL, A(1, 1e7, 0, 0, 1, 3), 1, NULL, "Number of elements: bar: n; rectangle: [nx, ny]; box: [nx, ny, nz].", "at least one element per direction, at most 10^7"},
+  {"bodies.[].mesh.elements", K_INTS, NULL, A(1, 1e7, 0, 0, 1, 3), 0, NULL, "Number of elements: bar: n; rectangle: [nx, ny]; box: [nx, ny, nz].", "at least one element per direction, at most 10^7"},
   {"bodies.[].mesh.element", K_ENUM, "Q4|T3", NONE, 0, "\"Q4\"", "rectangle: element type.", NULL},
   {"bodies.[].mesh.diagonal", K_ENUM, "right|left|alternate|union_jack", NONE, 0, "\"right\"", "rectangle with T3: how each cell is split (right: (a,b,d)+(b,c,d); left: (a,b,c)+(a,c,d); alternate; union_jack).", NULL},
   {"bodies.[].mesh.center", K_FARRAY, NULL, A(U, U, 0, 0, 2, 2), 0, "[0, 0]", "disk: centre.", NULL},
@@ -86,6 +87,26 @@ static const mo_key core_keys[] = {
   {"time.beta", K_FLOAT, NULL, R(0, 0.5, 1, 0), 0, "0.25", "Newmark beta.", "Newmark beta must lie in (0, 0.5]"},
   {"time.gamma", K_FLOAT, NULL, R(0.5, 1, 0, 0), 0, "0.5", "Newmark gamma.", "Newmark gamma must lie in [0.5, 1] (below 1/2 the scheme is unstable)"},
 
+  /* --- contact ----------------------------------------------------------------------------- */
+  {"contact", K_GROUP, NULL, NONE, 0, NULL, "Contact pairs and the back end that solves them.", NULL},
+  {"contact.solver", K_STRING, NULL, NONE, 0, "\"nscd\"", "Contact back end (moreau list-solvers); --solver S overrides it.", NULL},
+  {"contact.signorini", K_ENUM, "position|velocity", NONE, 0, "\"position\"", "What the unilateral condition controls for back ends on the local problem: the end-of-step gap (J88 (3.2)_1) or the normal velocity of candidates predicted closed.", NULL},
+  {"contact.geometry", K_ENUM, "reference|step", NONE, 0, "\"reference\"", "Pairing: once in the reference configuration (small strains, small sliding) or again at the start of every step.", NULL},
+  {"contact.on_failure", K_ENUM, "stop|continue", NONE, 0, "\"stop\"", "A contact solve that does not converge stops the run with a diagnosis, or is counted and the run goes on.", NULL},
+  {"contact.pairs", K_LIST, NULL, A(U, U, 0, 0, 1, 0), 1, NULL, "Contact pairs: a slave surface against a master (a plane or a facet set).", NULL},
+  {"contact.pairs.[].name", K_STRING, NULL, NONE, 0, "pairK", "Pair name (reports, contact.csv).", NULL},
+  {"contact.pairs.[].slave", K_STRING, NULL, NONE, 1, NULL, "Slave body (deformable).", NULL},
+  {"contact.pairs.[].slave_set", K_STRING, NULL, NONE, 1, NULL, "Slave surface: a facet set (or, for concentrated reactions at nodes, a node set).", NULL},
+  {"contact.pairs.[].master", K_STRING, NULL, NONE, 1, NULL, "Master body: a plane body, or a deformable body with master_set.", NULL},
+  {"contact.pairs.[].master_set", K_STRING, NULL, NONE, 0, NULL, "Master facet set of a deformable master.", NULL},
+  {"contact.pairs.[].mu", K_FLOAT, NULL, NONNEG, 0, "0", "Coulomb friction coefficient.", "a friction coefficient is not negative"},
+  {"contact.pairs.[].reactions", K_ENUM, "concentrated|weighted", NONE, 0, "\"concentrated\"", "Reactions concentrated at the candidates, or P-weighted densities on dual cells (J88 §4.4).", NULL},
+  {"contact.pairs.[].collocation", K_ENUM, "nodes|gauss", NONE, 0, "\"nodes\"", "Candidates at the slave nodes, or at Gauss points of the slave facets.", NULL},
+  {"contact.pairs.[].gauss", K_INT, NULL, R(1, 4, 0, 0), 0, "2", "Gauss collocation: points per facet direction.", NULL},
+  {"contact.pairs.[].ends", K_ENUM, "dual|half|extend", NONE, 0, "\"dual\"", "Weighted reactions: how dual cells end where the slave surface ends (doc/theory.md §4.3).", NULL},
+  {"contact.pairs.[].off_master", K_ENUM, "nearest|inactive", NONE, 0, "\"nearest\"", "A slave point projecting off the master surface pairs with the nearest facet (clamped), or is inactive.", NULL},
+  {"contact.pairs.[].exclude", K_STRING, NULL, NONE, 0, NULL, "Node set of slave nodes that are not candidates.", NULL},
+
   /* --- output ------------------------------------------------------------------------------ */
   {"output", K_GROUP, NULL, NONE, 0, NULL, "What is written.", NULL},
   {"output.every", K_INT, NULL, R(1, U, 0, 0), 0, "1", "Write a history row every N steps (the first and last steps are always written).", NULL},
@@ -97,7 +118,8 @@ static const mo_key core_keys[] = {
   {"output.probes.[].set", K_STRING, NULL, NONE, 0, NULL, "Node set: values are averaged over its nodes (forces summed).", NULL},
   {"output.probes.[].point", K_FARRAY, NULL, A(U, U, 0, 0, 1, 3), 0, NULL, "The node nearest to this point.", NULL},
   {"output.probes.[].node", K_INT, NULL, R(0, U, 0, 0), 0, NULL, "A node number (0-based).", NULL},
-  {"output.probes.[].quantities", K_SARRAY, "ux|uy|uz|vx|vy|vz|fx|fy|fz", A(U, U, 0, 0, 1, 9), 1, NULL, "u: displacement, v: velocity, f: support reaction (summed over the set).", NULL},
+  {"output.probes.[].quantities", K_SARRAY, "ux|uy|uz|vx|vy|vz|fx|fy|fz|cx|cy|cz|pn|gn", A(U, U, 0, 0, 1, 14), 1, NULL, "u: displacement, v: velocity, f: support reaction, c: contact force (summed over the set), pn: contact pressure, gn: gap (candidates at the set's nodes, averaged).", NULL},
+  {"output.contact_table", K_BOOL, NULL, NONE, 0, "false", "Print the candidates' table in Jean's layout at the end of the run (node, D1, D2, RT, RN and the other representation's columns).", NULL},
   {"output.vtk", K_GROUP, NULL, NONE, 0, NULL, "VTK XML field series (fields.pvd + .vtu), written when present.", NULL},
   {"output.vtk.every", K_INT, NULL, R(1, U, 0, 0), 0, "10", "Write fields every N steps (and at the last step).", NULL},
   {"output.vtk.fields", K_SARRAY, "displacement|velocity|stress|strain|von_mises", A(U, U, 0, 0, 1, 5), 0, "all", "Fields written.", NULL},
@@ -112,17 +134,57 @@ static const mo_key core_keys[] = {
   {"reference.origin", K_FLOAT, NULL, NONE, 0, "0", "x of the clamped end.", NULL},
 };
 
-static int path_matches(const char *pattern, const char *path)
+/* Back-end options appear as contact.<backend>.<option>; their specs come from the registry,
+   so a new back end's options are validated and documented the moment it is registered. */
+static int backend_key(const char *path, mo_key *out)
 {
-  return !strcmp(pattern, path);
+  char name[64];
+  const char *rest, *dot;
+  const mo_contact_solver_type *T;
+  int k;
+  size_t len;
+  if (strncmp(path, "contact.", 8)) return 0;
+  rest = path + 8;
+  dot = strchr(rest, '.');
+  len = dot ? (size_t)(dot - rest) : strlen(rest);
+  if (len == 0 || len >= sizeof name) return 0;
+  memcpy(name, rest, len);
+  name[len] = '\0';
+  T = mo_contact_solver_find(name);
+  if (!T) return 0;
+  memset(out, 0, sizeof *out);
+  out->lo = out->hi = NAN;
+  if (!dot) {
+    out->path = path;
+    out->type = K_GROUP;
+    out->doc = T->summary;
+    return 1;
+  }
+  for (k = 0; k < T->noptions; k++) {
+    const mo_option_spec *o = &T->options[k];
+    if (strcmp(o->name, dot + 1)) continue;
+    out->path = path;
+    out->type = o->type == MO_OPT_INT ? K_INT : o->type == MO_OPT_DOUBLE ? K_FLOAT
+              : o->type == MO_OPT_BOOL ? K_BOOL : K_ENUM;
+    out->enums = o->type == MO_OPT_ENUM ? o->enums : NULL;
+    out->lo = o->lo;
+    out->hi = o->hi;
+    out->deflt = o->deflt;
+    out->doc = o->doc;
+    return 1;
+  }
+  return 0;
 }
 
-const mo_key *mo_schema_find(const char *path)
+int mo_schema_lookup(const char *path, mo_key *out)
 {
   size_t k;
   for (k = 0; k < MO_COUNT(core_keys); k++)
-    if (path_matches(core_keys[k].path, path)) return &core_keys[k];
-  return NULL;
+    if (!strcmp(core_keys[k].path, path)) {
+      *out = core_keys[k];
+      return 1;
+    }
+  return backend_key(path, out);
 }
 
 static const char *type_name(mo_key_type t)
@@ -149,21 +211,35 @@ static const char *type_name(mo_key_type t)
 const char *mo_key_type_name(mo_key_type t);
 const char *mo_key_type_name(mo_key_type t) { return type_name(t); }
 
+static void visit_one(const mo_key *K, mo_key_visit fn, void *data)
+{
+  char range[160] = "";
+  if (K->enums) snprintf(range, sizeof range, "%s", K->enums);
+  else if (!isnan(K->lo) || !isnan(K->hi)) {
+    char lo[40] = "-inf", hi[40] = "inf";
+    if (!isnan(K->lo)) snprintf(lo, sizeof lo, "%g", K->lo);
+    if (!isnan(K->hi)) snprintf(hi, sizeof hi, "%g", K->hi);
+    snprintf(range, sizeof range, "%c%s, %s%c", K->lo_open || isnan(K->lo) ? '(' : '[', lo, hi,
+             K->hi_open || isnan(K->hi) ? ')' : ']');
+  }
+  fn(K->path, type_name(K->type), range, K->required ? "required" : (K->deflt ? K->deflt : ""),
+     K->doc, data);
+}
+
 void mo_case_schema_visit(mo_key_visit fn, void *data)
 {
   size_t k;
-  for (k = 0; k < MO_COUNT(core_keys); k++) {
-    const mo_key *K = &core_keys[k];
-    char range[160] = "";
-    if (K->enums) snprintf(range, sizeof range, "%s", K->enums);
-    else if (!isnan(K->lo) || !isnan(K->hi)) {
-      char lo[40] = "-inf", hi[40] = "inf";
-      if (!isnan(K->lo)) snprintf(lo, sizeof lo, "%g", K->lo);
-      if (!isnan(K->hi)) snprintf(hi, sizeof hi, "%g", K->hi);
-      snprintf(range, sizeof range, "%c%s, %s%c", K->lo_open || isnan(K->lo) ? '(' : '[', lo, hi,
-               K->hi_open || isnan(K->hi) ? ')' : ']');
+  int b, o;
+  for (k = 0; k < MO_COUNT(core_keys); k++) visit_one(&core_keys[k], fn, data);
+  for (b = 0; b < mo_contact_solver_count(); b++) {
+    const mo_contact_solver_type *T = mo_contact_solver_at(b);
+    char path[160];
+    mo_key K;
+    snprintf(path, sizeof path, "contact.%s", T->name);
+    if (backend_key(path, &K)) visit_one(&K, fn, data);
+    for (o = 0; o < T->noptions; o++) {
+      snprintf(path, sizeof path, "contact.%s.%s", T->name, T->options[o].name);
+      if (backend_key(path, &K)) visit_one(&K, fn, data);
     }
-    fn(K->path, type_name(K->type), range, K->required ? "required" : (K->deflt ? K->deflt : ""),
-       K->doc, data);
   }
 }

@@ -30,6 +30,8 @@ const char *mo_case_dir(const mo_case *cs);
 int mo_case_lookup_float(const mo_case *cs, const char *path, double *v);
 int mo_case_lookup_int(const mo_case *cs, const char *path, int *v);
 int mo_case_lookup_string(const mo_case *cs, const char *path, const char **v);
+/* 1 when the boolean at path is present and true. */
+int mo_case_lookup_bool(const mo_case *cs, const char *path);
 void mo_case_free(mo_case *cs);
 
 /* The schema, for `moreau keys` and the documentation check: calls fn for every key. */

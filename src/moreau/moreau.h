@@ -14,6 +14,7 @@
 #include <moreau/step.h>
 #include <moreau/output.h>
 #include <moreau/run.h>
+#include <moreau/contact.h>
 
 #ifdef __cplusplus
 extern "C" {

@@ -46,8 +46,11 @@ typedef struct {
   mo_expr *amp;  /* NULL: constant 1 */
 } mo_load;
 
+/* Probe quantities: displacement, velocity, support reaction, contact force (vectors, by
+   component), contact pressure and gap (at the candidates of the probe's nodes). */
 typedef enum {
-  MO_Q_UX = 0, MO_Q_UY, MO_Q_UZ, MO_Q_VX, MO_Q_VY, MO_Q_VZ, MO_Q_FX, MO_Q_FY, MO_Q_FZ, MO_Q_N
+  MO_Q_UX = 0, MO_Q_UY, MO_Q_UZ, MO_Q_VX, MO_Q_VY, MO_Q_VZ, MO_Q_FX, MO_Q_FY, MO_Q_FZ,
+  MO_Q_CX, MO_Q_CY, MO_Q_CZ, MO_Q_PN, MO_Q_GN, MO_Q_N
 } mo_quantity;
 const char *mo_quantity_name(mo_quantity q);
 

@@ -1,0 +1,811 @@
+/* contact_geom.c: contact pairs from the case, slave points and candidates, closest-point
+   pairing, frames, gaps, the P* matrices of dual cells and the H operators (doc/theory.md §4). */
+#include "config.h"
+#include <moreau/contact.h>
+#include "case_internal.h"
+#include "contact_internal.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+const char *mo_contact_status_name(int s)
+{
+  return s == MO_CS_STICK ? "stick" : s == MO_CS_SLIDE ? "slide" : "open";
+}
+
+void mo_contact_free(mo_contact *C)
+{
+  int k;
+  if (!C) return;
+  for (k = 0; k < C->npair; k++) {
+    mo_free(C->pair[k].name);
+    mo_free(C->pair[k].sset);
+    mo_free(C->pair[k].mset);
+    mo_free(C->pair[k].exclude);
+    mo_free(C->pp[k].cand);
+    mo_free(C->pp[k].P);
+  }
+  mo_free(C->pair);
+  mo_free(C->pp);
+  mo_free(C->pt);
+  mo_free(C->cand);
+  mo_free(C->cpt);
+  mo_free(C->ccoef);
+  mo_free(C->g);
+  mo_free(C->frame);
+  mo_free(C->U0);
+  mo_free(C->active);
+  mo_csc_free(C->Hfull);
+  mo_csc_free(C->H);
+  mo_free(C->solver);
+  mo_free(C);
+}
+
+int mo_contact_dim(const mo_contact *C) { return C->dim; }
+int mo_contact_ncandidates(const mo_contact *C) { return C->nc; }
+int mo_contact_npairs(const mo_contact *C) { return C->npair; }
+const mo_contact_pair *mo_contact_pair_get(const mo_contact *C, int k) { return &C->pair[k]; }
+const mo_candidate *mo_contact_candidate(const mo_contact *C, int a) { return &C->cand[a]; }
+const mo_cpoint *mo_contact_point(const mo_contact *C, int k) { return &C->pt[k]; }
+const int *mo_contact_cand_points(const mo_contact *C) { return C->cpt; }
+const double *mo_contact_cand_coefs(const mo_contact *C) { return C->ccoef; }
+long mo_contact_h_version(const mo_contact *C) { return C->hversion; }
+const double *mo_contact_gaps(const mo_contact *C) { return C->g; }
+const double *mo_contact_frames(const mo_contact *C) { return C->frame; }
+const mo_csc *mo_contact_H(const mo_contact *C) { return C->H; }
+const mo_csc *mo_contact_H_full(const mo_contact *C) { return C->Hfull; }
+const double *mo_contact_U0(const mo_contact *C) { return C->U0; }
+
+int mo_contact_pair_P(const mo_contact *C, int pair, const double **P, int *n, const int **cands)
+{
+  if (pair < 0 || pair >= C->npair || !C->pp[pair].P) return MO_EINPUT;
+  *P = C->pp[pair].P;
+  *n = C->pp[pair].n;
+  *cands = C->pp[pair].cand;
+  return MO_OK;
+}
+
+/* --- frames ---------------------------------------------------------------------------------- */
+
+/* Frame rows n, t(, s) from the unit normal n (doc/theory.md §4.1): 2D t = (n_y, -n_x), so that
+   (t, n) is right-handed like (x, y); 3D t from the axis least aligned with n, s = n x t. */
+void mo_contact_frame_from_normal(int dim, const double *n, double *F)
+{
+  if (dim == 1) {
+    F[0] = n[0];
+  } else if (dim == 2) {
+    F[0] = n[0]; F[1] = n[1];
+    F[2] = n[1]; F[3] = -n[0];
+  } else {
+    double e[3] = {0, 0, 0}, t[3], len, d;
+    int k = 0, i;
+    if (fabs(n[1]) < fabs(n[k]) - 1e-12) k = 1;
+    if (fabs(n[2]) < fabs(n[k]) - 1e-12) k = 2;
+    e[k] = 1;
+    d = e[0] * n[0] + e[1] * n[1] + e[2] * n[2];
+    for (i = 0; i < 3; i++) t[i] = e[i] - d * n[i];
+    len = sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]);
+    for (i = 0; i < 3; i++) t[i] /= len;
+    for (i = 0; i < 3; i++) F[i] = n[i];
+    for (i = 0; i < 3; i++) F[3 + i] = t[i];
+    F[6] = n[1] * t[2] - n[2] * t[1];
+    F[7] = n[2] * t[0] - n[0] * t[2];
+    F[8] = n[0] * t[1] - n[1] * t[0];
+  }
+}
+
+/* --- positions -------------------------------------------------------------------------------- */
+
+static void node_pos(const mo_scene *sc, int b, int a, const double *u, double *x)
+{
+  const mo_body *B = &sc->body[b];
+  int D = sc->dim, i;
+  for (i = 0; i < D; i++) x[i] = B->mesh->x[a * D + i] + (u ? u[B->dof0 + a * D + i] : 0);
+}
+
+static void point_pos(const mo_contact *C, const mo_cpoint *p, const double *u, double *x)
+{
+  const mo_scene *sc = C->sc;
+  int D = sc->dim, i, k;
+  double y[3];
+  for (i = 0; i < D; i++) x[i] = 0;
+  for (k = 0; k < p->nn; k++) {
+    node_pos(sc, C->pair[p->pair].sbody, p->node[k], u, y);
+    for (i = 0; i < D; i++) x[i] += p->N[k] * y[i];
+  }
+}
+
+/* Facet factor of the measure: thickness, 2 pi r, cross-section area, or 1 (3D). */
+static double facet_factor(const mo_material *mat, const double *x)
+{
+  switch (mat->hyp) {
+  case MO_HYP_BAR: return mat->area;
+  case MO_HYP_PLANE_STRAIN:
+  case MO_HYP_PLANE_STRESS: return mat->thickness;
+  case MO_HYP_AXISYMMETRIC: return 2 * M_PI * x[0];
+  default: return 1;
+  }
+}
+
+/* Position, tangents and measure density of a facet at reference coordinates s. */
+static double facet_eval(const mo_scene *sc, int b, const mo_facetset *fs, int f, const double *s,
+                         const double *u, double *N, double *x, double *n)
+{
+  int D = sc->dim, nfn = fs->nfn, a, i;
+  double dN[8], t1[3] = {0, 0, 0}, t2[3] = {0, 0, 0}, y[3], len = 1;
+  mo_facet_shape(nfn, s, N, dN);
+  for (i = 0; i < D; i++) x[i] = 0;
+  for (a = 0; a < nfn; a++) {
+    node_pos(sc, b, fs->node[f * nfn + a], u, y);
+    for (i = 0; i < D; i++) {
+      x[i] += N[a] * y[i];
+      if (nfn == 2) t1[i] += dN[a] * y[i];
+      if (nfn == 4) { t1[i] += dN[2 * a] * y[i]; t2[i] += dN[2 * a + 1] * y[i]; }
+    }
+  }
+  if (nfn == 1) {
+    if (n) n[0] = fs->lface[f] == 0 ? -1 : 1;
+    return 1;
+  }
+  if (nfn == 2) {
+    len = sqrt(t1[0] * t1[0] + t1[1] * t1[1]);
+    if (n) { n[0] = t1[1] / len; n[1] = -t1[0] / len; }
+    return len;
+  }
+  {
+    double c[3] = {t1[1] * t2[2] - t1[2] * t2[1], t1[2] * t2[0] - t1[0] * t2[2],
+                   t1[0] * t2[1] - t1[1] * t2[0]};
+    len = sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
+    if (n) for (i = 0; i < 3; i++) n[i] = c[i] / len;
+  }
+  return len;
+}
+
+/* --- pairing ---------------------------------------------------------------------------------- */
+
+/* Closest point of x on master facet f: facet coordinates xi, shape values, distance,
+   and whether the unclamped projection lies on the facet. */
+static double project_facet(const mo_scene *sc, int b, const mo_facetset *fs, int f,
+                            const double *x, const double *u, double *xi, double *N, double *q,
+                            double *n, int *inside)
+{
+  int D = sc->dim, nfn = fs->nfn, i, it;
+  double d2 = 0;
+  if (nfn == 1) {
+    facet_eval(sc, b, fs, f, xi, u, N, q, n);
+    xi[0] = xi[1] = 0;
+    *inside = 1;
+  } else if (nfn == 2) {
+    double xa[3], xb[3], t[3], tt = 0, s = 0;
+    node_pos(sc, b, fs->node[2 * f], u, xa);
+    node_pos(sc, b, fs->node[2 * f + 1], u, xb);
+    for (i = 0; i < D; i++) { t[i] = xb[i] - xa[i]; tt += t[i] * t[i]; s += (x[i] - xa[i]) * t[i]; }
+    s /= tt;                                   /* 0 at a, 1 at b */
+    *inside = s >= -1e-9 && s <= 1 + 1e-9;
+    if (s < 0) s = 0;
+    if (s > 1) s = 1;
+    xi[0] = 2 * s - 1;
+    xi[1] = 0;
+    facet_eval(sc, b, fs, f, xi, u, N, q, n);
+  } else {
+    /* Newton on the bilinear face: minimise |x(xi) - p|^2 */
+    xi[0] = xi[1] = 0;
+    for (it = 0; it < 30; it++) {
+      double dN[8], a1[3] = {0, 0, 0}, a2[3] = {0, 0, 0}, r[3], y[3], A11, A12, A22, b1, b2, det, d0, d1;
+      int a;
+      mo_facet_shape(4, xi, N, dN);
+      for (i = 0; i < 3; i++) q[i] = 0;
+      for (a = 0; a < 4; a++) {
+        node_pos(sc, b, fs->node[4 * f + a], u, y);
+        for (i = 0; i < 3; i++) {
+          q[i] += N[a] * y[i];
+          a1[i] += dN[2 * a] * y[i];
+          a2[i] += dN[2 * a + 1] * y[i];
+        }
+      }
+      for (i = 0; i < 3; i++) r[i] = x[i] - q[i];
+      A11 = a1[0] * a1[0] + a1[1] * a1[1] + a1[2] * a1[2];
+      A12 = a1[0] * a2[0] + a1[1] * a2[1] + a1[2] * a2[2];
+      A22 = a2[0] * a2[0] + a2[1] * a2[1] + a2[2] * a2[2];
+      b1 = r[0] * a1[0] + r[1] * a1[1] + r[2] * a1[2];
+      b2 = r[0] * a2[0] + r[1] * a2[1] + r[2] * a2[2];
+      det = A11 * A22 - A12 * A12;
+      if (!(det > 0)) break;
+      d0 = (A22 * b1 - A12 * b2) / det;
+      d1 = (A11 * b2 - A12 * b1) / det;
+      xi[0] += d0;
+      xi[1] += d1;
+      if (fabs(d0) + fabs(d1) < 1e-13) break;
+      if (fabs(xi[0]) > 10 || fabs(xi[1]) > 10) break;
+    }
+    *inside = fabs(xi[0]) <= 1 + 1e-9 && fabs(xi[1]) <= 1 + 1e-9;
+    if (xi[0] > 1) xi[0] = 1;
+    if (xi[0] < -1) xi[0] = -1;
+    if (xi[1] > 1) xi[1] = 1;
+    if (xi[1] < -1) xi[1] = -1;
+    facet_eval(sc, b, fs, f, xi, u, N, q, n);
+  }
+  for (i = 0; i < D; i++) d2 += (x[i] - q[i]) * (x[i] - q[i]);
+  return sqrt(d2);
+}
+
+/* Pair point p (slave position x) with its master; frame and gap. */
+static void pair_point(mo_contact *C, mo_cpoint *p, const double *u, double t, int repair)
+{
+  const mo_scene *sc = C->sc;
+  const mo_contact_pair *P = &C->pair[p->pair];
+  int D = sc->dim, i;
+  double x[3];
+  point_pos(C, p, u, x);
+  if (P->master == MO_MASTER_PLANE) {
+    const mo_body *B = &sc->body[P->mbody];
+    double g = 0;
+    for (i = 0; i < D; i++) g += (x[i] - (B->point[i] + B->velocity[i] * t)) * B->normal[i];
+    mo_contact_frame_from_normal(D, B->normal, p->frame);
+    p->g = g;
+    p->off = 0;
+    return;
+  }
+  {
+    const mo_facetset *fs = mo_mesh_find_facetset(sc->body[P->mbody].mesh, P->mset);
+    double q[3], n[3], N[4], xi[2];
+    if (repair || p->mfacet < 0) {
+      double best = HUGE_VAL, bestin = HUGE_VAL;
+      int f, fbest = -1, fin = -1, inside;
+      for (f = 0; f < fs->n; f++) {
+        double d = project_facet(sc, P->mbody, fs, f, x, u, xi, N, q, n, &inside);
+        if (d < best) { best = d; fbest = f; }
+        if (inside && d < bestin) { bestin = d; fin = f; }
+      }
+      p->mfacet = fin >= 0 ? fin : fbest;
+      p->off = fin < 0;
+    }
+    {
+      int inside;
+      project_facet(sc, P->mbody, fs, p->mfacet, x, u, p->xi, N, q, n, &inside);
+      /* with a frozen pairing the projection stays on the chosen facet */
+    }
+    p->mn = fs->nfn;
+    for (i = 0; i < fs->nfn; i++) {
+      p->mnode[i] = fs->node[p->mfacet * fs->nfn + i];
+      p->mN[i] = N[i];
+    }
+    mo_contact_frame_from_normal(D, n, p->frame);
+    p->g = 0;
+    for (i = 0; i < D; i++) p->g += (x[i] - q[i]) * n[i];
+  }
+}
+
+/* --- H ----------------------------------------------------------------------------------------- */
+
+static int build_H(mo_contact *C, mo_ctx *ctx)
+{
+  const mo_scene *sc = C->sc;
+  int D = sc->dim, d = C->dim, m = d * C->nc, a, k, i, j, st;
+  mo_triplet T;
+  mo_csc *Hf = NULL, *H = NULL;
+  int *colmap;
+  if ((st = mo_triplet_init(&T, sc->ndof, m, (size_t)m * 8, ctx))) return st;
+  for (a = 0; a < C->nc; a++) {
+    const mo_candidate *c = &C->cand[a];
+    const double *F = &C->frame[a * d * d];
+    for (k = 0; k < c->np; k++) {
+      const mo_cpoint *p = &C->pt[C->cpt[c->first + k]];
+      const mo_contact_pair *P = &C->pair[p->pair];
+      double cf = C->ccoef[c->first + k];
+      int q;
+      for (q = 0; q < p->nn; q++) {
+        int dof0 = sc->body[P->sbody].dof0 + p->node[q] * D;
+        for (i = 0; i < d; i++)
+          for (j = 0; j < D; j++) {
+            double v = cf * p->N[q] * F[i * d + j];
+            if (v != 0 && (st = mo_triplet_add(&T, dof0 + j, a * d + i, v, ctx))) goto done;
+          }
+      }
+      if (P->master == MO_MASTER_FACETS && !p->off)
+        for (q = 0; q < p->mn; q++) {
+          int dof0 = sc->body[P->mbody].dof0 + p->mnode[q] * D;
+          for (i = 0; i < d; i++)
+            for (j = 0; j < D; j++) {
+              double v = -cf * p->mN[q] * F[i * d + j];
+              if (v != 0 && (st = mo_triplet_add(&T, dof0 + j, a * d + i, v, ctx))) goto done;
+            }
+        }
+    }
+  }
+  if ((st = mo_triplet_to_csc(&T, 0, &Hf, ctx))) goto done;
+  colmap = mo_malloc(ctx, (size_t)(m ? m : 1) * sizeof(int));
+  if (!colmap) { st = MO_ENOMEM; goto done; }
+  for (i = 0; i < m; i++) colmap[i] = i;
+  st = mo_csc_extract(Hf, sc->free_of, sc->nfree, colmap, m, &H, ctx);
+  mo_free(colmap);
+  if (st) goto done;
+  mo_csc_free(C->Hfull);
+  mo_csc_free(C->H);
+  C->Hfull = Hf;
+  C->H = H;
+  Hf = H = NULL;
+  C->hversion++;
+done:
+  mo_csc_free(Hf);
+  mo_csc_free(H);
+  mo_triplet_release(&T);
+  return st;
+}
+
+/* Candidate frames, gaps and obstacle velocities from the points. */
+static void candidates_update(mo_contact *C, const double *u, double t)
+{
+  const mo_scene *sc = C->sc;
+  int d = C->dim, D = sc->dim, a, k, i, j;
+  for (a = 0; a < C->nc; a++) {
+    const mo_candidate *c = &C->cand[a];
+    const mo_cpoint *rep = &C->pt[c->point];
+    const mo_contact_pair *P = &C->pair[c->pair];
+    double *F = &C->frame[a * d * d], g = 0, csum = 0;
+    int off = 0;
+    memcpy(F, rep->frame, (size_t)(d * d) * sizeof(double));
+    for (k = 0; k < c->np; k++) {
+      const mo_cpoint *p = &C->pt[C->cpt[c->first + k]];
+      double cf = C->ccoef[c->first + k], x[3], q[3], gk = 0;
+      /* the gap of each point along the candidate's normal */
+      point_pos(C, p, u, x);
+      if (P->master == MO_MASTER_PLANE) {
+        const mo_body *B = &sc->body[P->mbody];
+        for (i = 0; i < D; i++) gk += (x[i] - (B->point[i] + B->velocity[i] * t)) * F[i];
+      } else {
+        for (i = 0; i < D; i++) {
+          q[i] = 0;
+          for (j = 0; j < p->mn; j++) {
+            double y[3];
+            node_pos(sc, P->mbody, p->mnode[j], u, y);
+            q[i] += p->mN[j] * y[i];
+          }
+          gk += (x[i] - q[i]) * F[i];
+        }
+      }
+      g += cf * gk;
+      csum += cf;
+      off |= p->off && P->off == MO_OFF_INACTIVE;
+    }
+    C->g[a] = g; /* P* rows sum to 1 (partition of unity over the cell) */
+    C->active[a] = !off;
+    for (i = 0; i < d; i++) {
+      double s = 0;
+      if (P->master == MO_MASTER_PLANE)
+        for (j = 0; j < D; j++) s -= F[i * d + j] * sc->body[P->mbody].velocity[j];
+      C->U0[a * d + i] = s * csum;
+    }
+  }
+}
+
+int mo_contact_geometry(mo_contact *C, const double *u, double t, int repair, mo_ctx *ctx)
+{
+  int k, changed = 0, st = MO_OK;
+  double t0 = mo_clock();
+  if (repair || !C->H) {
+    for (k = 0; k < C->npt; k++) {
+      mo_cpoint old = C->pt[k];
+      pair_point(C, &C->pt[k], u, t, repair || !C->H);
+      if (old.mfacet != C->pt[k].mfacet || memcmp(old.frame, C->pt[k].frame, sizeof old.frame) ||
+          memcmp(old.mN, C->pt[k].mN, sizeof old.mN))
+        changed = 1;
+    }
+  }
+  candidates_update(C, u, t);
+  if (!C->H || changed) st = build_H(C, ctx);
+  mo_phase_add(ctx, MO_PH_GEOMETRY, t0);
+  return st;
+}
+
+/* --- dual cells and P* -------------------------------------------------------------------------- */
+
+/* Integrals over the part of facet f nearest to each of its nodes: A[a][s] = int_{cell a} f_s,
+   meas[a] = int_{cell a} 1 (measure with thickness / 2 pi r / area factor). */
+static void facet_cells(const mo_scene *sc, int b, const mo_facetset *fs, int f, double A[4][4],
+                        double meas[4])
+{
+  int nfn = fs->nfn, a, s, q, r;
+  static const double gp[2] = {-0.5773502691896257645, 0.5773502691896257645};
+  const mo_material *mat = &sc->body[b].mat;
+  memset(A, 0, 16 * sizeof(double));
+  memset(meas, 0, 4 * sizeof(double));
+  if (nfn == 1) {
+    double x[3], N[1];
+    double xi[2] = {0, 0};
+    facet_eval(sc, b, fs, f, xi, NULL, N, x, NULL);
+    A[0][0] = meas[0] = facet_factor(mat, x);
+    return;
+  }
+  for (a = 0; a < nfn; a++) {
+    /* the sub-cell of node a: half interval or quadrant of the reference facet */
+    double lo0, hi0, lo1 = 0, hi1 = 0;
+    if (nfn == 2) { lo0 = a == 0 ? -1 : 0; hi0 = a == 0 ? 0 : 1; }
+    else {
+      static const double sx[4] = {-1, 1, 1, -1}, sy[4] = {-1, -1, 1, 1};
+      lo0 = sx[a] < 0 ? -1 : 0; hi0 = sx[a] < 0 ? 0 : 1;
+      lo1 = sy[a] < 0 ? -1 : 0; hi1 = sy[a] < 0 ? 0 : 1;
+    }
+    for (q = 0; q < 2; q++)
+      for (r = 0; r < (nfn == 4 ? 2 : 1); r++) {
+        double xi[2], N[4], x[3], jac, w;
+        xi[0] = 0.5 * (lo0 + hi0) + 0.5 * (hi0 - lo0) * gp[q];
+        xi[1] = nfn == 4 ? 0.5 * (lo1 + hi1) + 0.5 * (hi1 - lo1) * gp[r] : 0;
+        jac = facet_eval(sc, b, fs, f, xi, NULL, N, x, NULL);
+        w = jac * 0.5 * (hi0 - lo0) * (nfn == 4 ? 0.5 * (hi1 - lo1) : 1) * facet_factor(mat, x);
+        meas[a] += w;
+        for (s = 0; s < nfn; s++) A[a][s] += w * N[s];
+      }
+  }
+}
+
+/* --- building from the case --------------------------------------------------------------------- */
+
+static int add_point(mo_contact *C, const mo_cpoint *p, mo_ctx *ctx)
+{
+  if (C->npt == C->ptcap) {
+    int cap = C->ptcap ? 2 * C->ptcap : 64;
+    mo_cpoint *q = mo_realloc(ctx, C->pt, (size_t)cap * sizeof *q);
+    if (!q) return MO_ENOMEM;
+    C->pt = q;
+    C->ptcap = cap;
+  }
+  C->pt[C->npt++] = *p;
+  return MO_OK;
+}
+
+static int add_candidate(mo_contact *C, const mo_candidate *c, const int *pts, const double *coef,
+                         mo_ctx *ctx)
+{
+  int k;
+  if (C->nc == C->ccap) {
+    int cap = C->ccap ? 2 * C->ccap : 64;
+    mo_candidate *q = mo_realloc(ctx, C->cand, (size_t)cap * sizeof *q);
+    if (!q) return MO_ENOMEM;
+    C->cand = q;
+    C->ccap = cap;
+  }
+  if (C->ncoef + c->np > C->coefcap) {
+    int cap = C->coefcap ? 2 * C->coefcap : 256;
+    int *ip;
+    double *dp;
+    while (cap < C->ncoef + c->np) cap *= 2;
+    ip = mo_realloc(ctx, C->cpt, (size_t)cap * sizeof *ip);
+    if (!ip) return MO_ENOMEM;
+    C->cpt = ip;
+    dp = mo_realloc(ctx, C->ccoef, (size_t)cap * sizeof *dp);
+    if (!dp) return MO_ENOMEM;
+    C->ccoef = dp;
+    C->coefcap = cap;
+  }
+  C->cand[C->nc] = *c;
+  C->cand[C->nc].first = C->ncoef;
+  for (k = 0; k < c->np; k++) {
+    C->cpt[C->ncoef + k] = pts[k];
+    C->ccoef[C->ncoef + k] = coef[k];
+  }
+  C->ncoef += c->np;
+  C->nc++;
+  return MO_OK;
+}
+
+static int node_fully_prescribed(const mo_scene *sc, int b, int a)
+{
+  int i;
+  for (i = 0; i < sc->dim; i++)
+    if (sc->free_of[sc->body[b].dof0 + a * sc->dim + i] >= 0) return 0;
+  return 1;
+}
+
+/* Points and candidates of pair k. */
+static int build_pair(mo_contact *C, int k, const config_setting_t *pg, mo_ctx *ctx)
+{
+  const mo_scene *sc = C->sc;
+  const mo_case *cs = sc->cs;
+  mo_contact_pair *P = &C->pair[k];
+  const mo_mesh *m = sc->body[P->sbody].mesh;
+  const mo_facetset *fs = mo_mesh_find_facetset(m, P->sset);
+  int *snodes = NULL, nsn = 0, *excl = NULL, nexcl = 0, *ptof = NULL, *iscand = NULL;
+  int i, a, f, st = MO_OK, D = sc->dim, dropped = 0;
+  if ((P->reactions == MO_REACT_WEIGHTED || P->colloc == MO_COLLOC_GAUSS) && !fs)
+    return mo_case_error(cs, mo_cfg_member(pg, "slave_set"), ctx,
+                         "%s reactions and Gauss collocation need a facet set; '%s' is not one",
+                         P->reactions == MO_REACT_WEIGHTED ? "weighted" : "concentrated", P->sset);
+  if (P->exclude && mo_mesh_nodeset_resolve(m, P->exclude, &excl, &nexcl, ctx)) {
+    char msg[MO_ERRMSG_MAX];
+    snprintf(msg, sizeof msg, "%s", ctx->errmsg);
+    mo_ctx_clear_error(ctx);
+    return mo_case_error(cs, mo_cfg_member(pg, "exclude"), ctx, "%s", msg);
+  }
+  /* slave surface nodes, sorted */
+  if (fs) {
+    snodes = mo_malloc(ctx, (size_t)(fs->n * fs->nfn + 1) * sizeof(int));
+    if (!snodes) { st = MO_ENOMEM; goto done; }
+    for (i = 0; i < fs->n * fs->nfn; i++) snodes[i] = fs->node[i];
+    nsn = fs->n * fs->nfn;
+    for (i = 1; i < nsn; i++) { /* insertion sort + unique */
+      int v = snodes[i], j = i;
+      while (j > 0 && snodes[j - 1] > v) { snodes[j] = snodes[j - 1]; j--; }
+      snodes[j] = v;
+    }
+    for (i = 0, a = 0; i < nsn; i++)
+      if (a == 0 || snodes[a - 1] != snodes[i]) snodes[a++] = snodes[i];
+    nsn = a;
+  } else {
+    if (mo_mesh_nodeset_resolve(m, P->sset, &snodes, &nsn, ctx)) {
+      char msg[MO_ERRMSG_MAX];
+      snprintf(msg, sizeof msg, "%s", ctx->errmsg);
+      mo_ctx_clear_error(ctx);
+      return mo_case_error(cs, mo_cfg_member(pg, "slave_set"), ctx, "%s", msg);
+    }
+  }
+  if (nsn == 0) {
+    st = mo_case_error(cs, mo_cfg_member(pg, "slave_set"), ctx, "the slave set '%s' is empty", P->sset);
+    goto done;
+  }
+  iscand = mo_calloc(ctx, (size_t)m->nnode, sizeof(int));
+  ptof = mo_malloc(ctx, (size_t)m->nnode * sizeof(int));
+  if (!iscand || !ptof) { st = MO_ENOMEM; goto done; }
+  for (i = 0; i < m->nnode; i++) ptof[i] = -1;
+  for (i = 0; i < nsn; i++) {
+    int n = snodes[i], ex = 0, j;
+    for (j = 0; j < nexcl; j++) ex |= excl[j] == n;
+    if (ex) continue;
+    if (node_fully_prescribed(sc, P->sbody, n)) { dropped++; continue; }
+    iscand[n] = 1;
+  }
+  if (dropped)
+    mo_note_skip(ctx, "pair '%s': %d fully prescribed slave node%s are not candidates", P->name,
+                 dropped, dropped > 1 ? "s" : "");
+
+  if (P->colloc == MO_COLLOC_GAUSS) {
+    mo_quad Q;
+    if ((st = mo_quad_facet(D - 1, P->gauss, &Q, ctx))) goto done;
+    for (f = 0; f < fs->n; f++) {
+      int q;
+      for (q = 0; q < Q.n; q++) {
+        mo_cpoint p;
+        mo_candidate c;
+        double x[3], N[4], jac, one = 1;
+        int pi;
+        memset(&p, 0, sizeof p);
+        memset(&c, 0, sizeof c);
+        p.pair = k;
+        p.nn = fs->nfn;
+        p.mfacet = -1;
+        jac = facet_eval(sc, P->sbody, fs, f, Q.xi[q], NULL, N, x, NULL);
+        for (a = 0; a < fs->nfn; a++) { p.node[a] = fs->node[f * fs->nfn + a]; p.N[a] = N[a]; }
+        for (i = 0; i < D; i++) p.x0[i] = x[i];
+        pi = C->npt;
+        if ((st = add_point(C, &p, ctx))) goto done;
+        c.pair = k;
+        c.np = 1;
+        c.node = -1;
+        c.point = pi;
+        c.w = jac * Q.w[q] * facet_factor(&sc->body[P->sbody].mat, x);
+        c.mu = P->mu;
+        if ((st = add_candidate(C, &c, &pi, &one, ctx))) goto done;
+      }
+    }
+    goto done;
+  }
+
+  /* node collocation: one point per surface node */
+  for (i = 0; i < nsn; i++) {
+    mo_cpoint p;
+    memset(&p, 0, sizeof p);
+    p.pair = k;
+    p.nn = 1;
+    p.node[0] = snodes[i];
+    p.N[0] = 1;
+    p.mfacet = -1;
+    node_pos(sc, P->sbody, snodes[i], NULL, p.x0);
+    ptof[snodes[i]] = C->npt;
+    if ((st = add_point(C, &p, ctx))) goto done;
+  }
+  {
+    /* dual cells: A[h][s] = int_{cell h} f_s, meas[h] (doc/theory.md §4.3) */
+    double *meas = mo_calloc(ctx, (size_t)m->nnode, sizeof(double));
+    int *cidx = mo_malloc(ctx, (size_t)m->nnode * sizeof(int)), ncand = 0;
+    int *rowpts = mo_malloc(ctx, (size_t)nsn * sizeof(int));
+    double *rowcoef = mo_malloc(ctx, (size_t)nsn * sizeof(double));
+    double *Arow = mo_calloc(ctx, (size_t)nsn * (size_t)nsn, sizeof(double));
+    int *sidx = mo_malloc(ctx, (size_t)m->nnode * sizeof(int));
+    if (!meas || !cidx || !rowpts || !rowcoef || !Arow || !sidx) {
+      mo_free(meas); mo_free(cidx); mo_free(rowpts); mo_free(rowcoef); mo_free(Arow); mo_free(sidx);
+      st = MO_ENOMEM;
+      goto done;
+    }
+    for (i = 0; i < m->nnode; i++) { cidx[i] = -1; sidx[i] = -1; }
+    for (i = 0; i < nsn; i++) {
+      sidx[snodes[i]] = i;
+      if (iscand[snodes[i]]) cidx[snodes[i]] = ncand++;
+    }
+    if (fs) {
+      double Af[4][4], mf[4];
+      for (f = 0; f < fs->n; f++) {
+        const int *fn = &fs->node[f * fs->nfn];
+        int allc = 1, s, owner[4];
+        for (a = 0; a < fs->nfn; a++) allc &= iscand[fn[a]];
+        if (P->ends == MO_ENDS_HALF && !allc) continue;
+        facet_cells(sc, P->sbody, fs, f, Af, mf);
+        for (a = 0; a < fs->nfn; a++) {
+          owner[a] = iscand[fn[a]] ? fn[a] : -1;
+          if (owner[a] < 0 && P->ends == MO_ENDS_EXTEND) { /* nearest candidate of the facet */
+            double best = HUGE_VAL, xa[3], xb[3];
+            int b2, dd;
+            node_pos(sc, P->sbody, fn[a], NULL, xa);
+            for (b2 = 0; b2 < fs->nfn; b2++) {
+              double dist = 0;
+              if (!iscand[fn[b2]]) continue;
+              node_pos(sc, P->sbody, fn[b2], NULL, xb);
+              for (dd = 0; dd < D; dd++) dist += (xa[dd] - xb[dd]) * (xa[dd] - xb[dd]);
+              if (dist < best) { best = dist; owner[a] = fn[b2]; }
+            }
+          }
+          if (owner[a] < 0) continue;
+          meas[owner[a]] += mf[a];
+          for (s = 0; s < fs->nfn; s++)
+            Arow[(size_t)sidx[owner[a]] * (size_t)nsn + (size_t)sidx[fn[s]]] += Af[a][s];
+        }
+      }
+    }
+    /* the pair's P* over its candidates (square), for tables and the tests */
+    C->pp[k].n = ncand;
+    C->pp[k].cand = mo_malloc(ctx, (size_t)(ncand ? ncand : 1) * sizeof(int));
+    C->pp[k].P = fs ? mo_calloc(ctx, (size_t)(ncand ? ncand : 1) * (size_t)(ncand ? ncand : 1), sizeof(double)) : NULL;
+    if (!C->pp[k].cand || (fs && !C->pp[k].P)) st = MO_ENOMEM;
+    for (i = 0; !st && i < nsn; i++) {
+      int h = snodes[i], s, np = 0;
+      mo_candidate c;
+      if (!iscand[h]) continue;
+      memset(&c, 0, sizeof c);
+      c.pair = k;
+      c.node = h;
+      c.point = ptof[h];
+      c.mu = P->mu;
+      c.w = fs ? meas[h] : 1;
+      if (fs && !(meas[h] > 0)) {
+        st = mo_case_error(cs, pg, ctx, "candidate node %d of pair '%s' has an empty dual cell "
+                           "(its facets were left out by ends = \"half\")", h, P->name);
+        break;
+      }
+      C->pp[k].cand[cidx[h]] = C->nc;
+      for (s = 0; s < nsn; s++) {
+        double Ps = fs ? Arow[(size_t)i * (size_t)nsn + (size_t)s] / meas[h] : (s == i);
+        if (fs && iscand[snodes[s]]) C->pp[k].P[(size_t)cidx[h] * (size_t)ncand + (size_t)cidx[snodes[s]]] = Ps;
+        if (P->reactions == MO_REACT_WEIGHTED) {
+          if (Ps != 0) { rowpts[np] = ptof[snodes[s]]; rowcoef[np++] = Ps; }
+        }
+      }
+      if (P->reactions == MO_REACT_CONCENTRATED) { rowpts[0] = ptof[h]; rowcoef[0] = 1; np = 1; }
+      c.np = np;
+      st = add_candidate(C, &c, rowpts, rowcoef, ctx);
+    }
+    mo_free(meas); mo_free(cidx); mo_free(rowpts); mo_free(rowcoef); mo_free(Arow); mo_free(sidx);
+  }
+done:
+  mo_free(snodes);
+  mo_free(excl);
+  mo_free(ptof);
+  mo_free(iscand);
+  return st;
+}
+
+int mo_contact_build(const mo_scene *sc, mo_contact **out, mo_ctx *ctx)
+{
+  const mo_case *cs = sc->cs;
+  const config_setting_t *cg = config_lookup(&cs->cfg, "contact"), *pl;
+  mo_contact *C;
+  int k, st = MO_OK, np, m;
+  *out = NULL;
+  if (!cg) return MO_OK;
+  pl = mo_cfg_member(cg, "pairs");
+  np = config_setting_length(pl);
+  C = mo_calloc(ctx, 1, sizeof *C);
+  if (!C) return MO_ENOMEM;
+  C->sc = sc;
+  C->dim = sc->dim;
+  C->pair = mo_calloc(ctx, (size_t)np, sizeof *C->pair);
+  C->pp = mo_calloc(ctx, (size_t)np, sizeof *C->pp);
+  C->solver = mo_strdup(ctx, mo_cfg_string(cg, "solver", "nscd"));
+  if (!C->pair || !C->pp || !C->solver) { st = MO_ENOMEM; goto fail; }
+  C->signorini = !strcmp(mo_cfg_string(cg, "signorini", "position"), "velocity") ? MO_SIGNORINI_VELOCITY : MO_SIGNORINI_POSITION;
+  C->repair = !strcmp(mo_cfg_string(cg, "geometry", "reference"), "step");
+  C->on_failure_continue = !strcmp(mo_cfg_string(cg, "on_failure", "stop"), "continue");
+  for (k = 0; k < np; k++) {
+    const config_setting_t *pg = config_setting_get_elem(pl, (unsigned)k);
+    mo_contact_pair *P = &C->pair[k];
+    const char *s;
+    char name[32];
+    int b, j;
+    C->npair++;
+    snprintf(name, sizeof name, "pair%d", k);
+    P->name = mo_strdup(ctx, mo_cfg_string(pg, "name", name));
+    P->sset = mo_strdup(ctx, mo_cfg_string(pg, "slave_set", ""));
+    s = mo_cfg_string(pg, "master_set", NULL);
+    P->mset = s ? mo_strdup(ctx, s) : NULL;
+    s = mo_cfg_string(pg, "exclude", NULL);
+    P->exclude = s ? mo_strdup(ctx, s) : NULL;
+    if (!P->name || !P->sset) { st = MO_ENOMEM; goto fail; }
+    for (j = 0; j < k; j++)
+      if (!strcmp(C->pair[j].name, P->name)) {
+        st = mo_case_error(cs, mo_cfg_member(pg, "name"), ctx, "pair name '%s' is used twice", P->name);
+        goto fail;
+      }
+    P->mu = mo_cfg_float(pg, "mu", 0);
+    P->reactions = !strcmp(mo_cfg_string(pg, "reactions", "concentrated"), "weighted") ? MO_REACT_WEIGHTED : MO_REACT_CONCENTRATED;
+    P->colloc = !strcmp(mo_cfg_string(pg, "collocation", "nodes"), "gauss") ? MO_COLLOC_GAUSS : MO_COLLOC_NODES;
+    P->gauss = mo_cfg_int(pg, "gauss", 2);
+    s = mo_cfg_string(pg, "ends", "dual");
+    P->ends = !strcmp(s, "half") ? MO_ENDS_HALF : !strcmp(s, "extend") ? MO_ENDS_EXTEND : MO_ENDS_DUAL;
+    P->off = !strcmp(mo_cfg_string(pg, "off_master", "nearest"), "inactive") ? MO_OFF_INACTIVE : MO_OFF_NEAREST;
+    if (P->reactions == MO_REACT_WEIGHTED && P->colloc == MO_COLLOC_GAUSS) {
+      st = mo_case_error(cs, mo_cfg_member(pg, "collocation"), ctx, "weighted reactions live on the dual cells of the slave nodes: use collocation = \"nodes\"");
+      goto fail;
+    }
+    b = mo_scene_body_index(sc, mo_cfg_string(pg, "slave", ""));
+    if (b < 0 || sc->body[b].kind != MO_BODY_DEFORMABLE) {
+      st = mo_case_error(cs, mo_cfg_member(pg, "slave"), ctx, "no deformable body named '%s'", mo_cfg_string(pg, "slave", ""));
+      goto fail;
+    }
+    P->sbody = b;
+    if (!mo_mesh_find_facetset(sc->body[b].mesh, P->sset) && !mo_mesh_find_nodeset(sc->body[b].mesh, P->sset) && !strchr(P->sset, '&')) {
+      st = mo_case_error(cs, mo_cfg_member(pg, "slave_set"), ctx, "body '%s' has no set '%s'", sc->body[b].name, P->sset);
+      goto fail;
+    }
+    b = mo_scene_body_index(sc, mo_cfg_string(pg, "master", ""));
+    if (b < 0) {
+      st = mo_case_error(cs, mo_cfg_member(pg, "master"), ctx, "no body named '%s'", mo_cfg_string(pg, "master", ""));
+      goto fail;
+    }
+    P->mbody = b;
+    if (sc->body[b].kind == MO_BODY_PLANE) {
+      P->master = MO_MASTER_PLANE;
+      if (P->mset) {
+        st = mo_case_error(cs, mo_cfg_member(pg, "master_set"), ctx, "a plane master has no set");
+        goto fail;
+      }
+    } else {
+      const mo_facetset *mfs;
+      P->master = MO_MASTER_FACETS;
+      if (!P->mset) {
+        st = mo_case_error(cs, pg, ctx, "a deformable master needs 'master_set' (a facet set of '%s')", sc->body[b].name);
+        goto fail;
+      }
+      mfs = mo_mesh_find_facetset(sc->body[b].mesh, P->mset);
+      if (!mfs || mfs->n == 0) {
+        st = mo_case_error(cs, mo_cfg_member(pg, "master_set"), ctx, "body '%s' has no facets in set '%s'", sc->body[b].name, P->mset);
+        goto fail;
+      }
+      if (b == P->sbody) mo_note_skip(ctx, "self-contact search (pair '%s' pairs a body with itself)", P->name);
+    }
+    if ((st = build_pair(C, k, pg, ctx))) goto fail;
+  }
+  if (C->nc == 0) {
+    st = mo_case_error(cs, pl, ctx, "the contact pairs have no candidate (every slave node is excluded or prescribed)");
+    goto fail;
+  }
+  m = C->dim * C->nc;
+  C->g = mo_calloc(ctx, (size_t)C->nc, sizeof(double));
+  C->frame = mo_calloc(ctx, (size_t)C->nc * (size_t)(C->dim * C->dim), sizeof(double));
+  C->U0 = mo_calloc(ctx, (size_t)m, sizeof(double));
+  C->active = mo_calloc(ctx, (size_t)C->nc, 1);
+  if (!C->g || !C->frame || !C->U0 || !C->active) { st = MO_ENOMEM; goto fail; }
+  {
+    int fr = 1;
+    for (k = 0; k < np; k++) fr &= C->pair[k].mu == 0;
+    if (fr) mo_note_skip(ctx, "friction (mu = 0 on every pair)");
+    fr = 1;
+    for (k = 0; k < np; k++) fr &= C->pair[k].master == MO_MASTER_PLANE;
+    if (fr && !C->repair) mo_note_skip(ctx, "geometric loop and H rebuilds (plane masters, small strains)");
+  }
+  if ((st = mo_contact_geometry(C, sc->u0, 0, 1, ctx))) goto fail;
+  *out = C;
+  return MO_OK;
+fail:
+  mo_contact_free(C);
+  return st;
+}

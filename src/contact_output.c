@@ -1,0 +1,199 @@
+/* contact_output.c: per-candidate results: contact.csv and the table in Jean's layout (J88
+   Figs. 3-4), with the other reaction representation (P images or P^-1 images). */
+#include "config.h"
+#include <moreau/contact.h>
+#include <moreau/output.h>
+#include "contact_internal.h"
+
+#include <gsl/gsl_linalg.h>
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+/* Reactions as forces (impulses over the step divided by h for the theta-scheme). */
+static double force_scale(const mo_scene *sc)
+{
+  return sc->time.scheme == MO_SCHEME_THETA ? 1 / sc->time.dt : 1;
+}
+
+/* The other representation of the reactions of pair k (d components per candidate), in the
+   pair's candidate order: concentrated r -> rho = (P*^T)^-1 r; weighted rho -> F = P*^T rho. */
+static int other_representation(const mo_contact *C, int k, const double *r, double *out,
+                                 mo_ctx *ctx)
+{
+  const double *P;
+  const int *cands;
+  int n, d = C->dim, i, j, c, st = MO_OK;
+  if (mo_contact_pair_P(C, k, &P, &n, &cands)) return MO_EUNSUPPORTED;
+  if (C->pair[k].reactions == MO_REACT_WEIGHTED) {
+    for (i = 0; i < n; i++)
+      for (c = 0; c < d; c++) {
+        double s = 0;
+        for (j = 0; j < n; j++) s += P[j * n + i] * r[cands[j] * d + c];
+        out[i * d + c] = s;
+      }
+    return MO_OK;
+  }
+  {
+    gsl_matrix *A = gsl_matrix_alloc((size_t)n, (size_t)n);
+    gsl_permutation *perm = gsl_permutation_alloc((size_t)n);
+    gsl_vector *b = gsl_vector_alloc((size_t)n), *x = gsl_vector_alloc((size_t)n);
+    int sg;
+    if (!A || !perm || !b || !x) st = mo_error(ctx, MO_ENOMEM, "P^-1 images");
+    for (i = 0; !st && i < n; i++)
+      for (j = 0; j < n; j++) gsl_matrix_set(A, (size_t)i, (size_t)j, P[j * n + i]); /* P*^T */
+    if (!st && gsl_linalg_LU_decomp(A, perm, &sg)) st = mo_error(ctx, MO_ESINGULAR, "P* is singular");
+    for (c = 0; !st && c < d; c++) {
+      for (i = 0; i < n; i++) gsl_vector_set(b, (size_t)i, r[cands[i] * d + c]);
+      if (gsl_linalg_LU_solve(A, perm, b, x)) { st = mo_error(ctx, MO_ESINGULAR, "P* is singular"); break; }
+      for (i = 0; i < n; i++) out[i * d + c] = gsl_vector_get(x, (size_t)i);
+    }
+    gsl_matrix_free(A);
+    gsl_permutation_free(perm);
+    gsl_vector_free(b);
+    gsl_vector_free(x);
+  }
+  return st;
+}
+
+static void cand_node_disp(const mo_scene *sc, const mo_contact *C, int a, const double *u, double *D)
+{
+  const mo_candidate *c = &C->cand[a];
+  const mo_cpoint *p = &C->pt[c->point];
+  const mo_body *B = &sc->body[C->pair[c->pair].sbody];
+  int i, k;
+  for (i = 0; i < sc->dim; i++) {
+    D[i] = 0;
+    for (k = 0; k < p->nn; k++) D[i] += p->N[k] * u[B->dof0 + p->node[k] * sc->dim + i];
+  }
+}
+
+int mo_contact_write_csv(const char *path, const mo_scene *sc, const mo_contact *C,
+                         const mo_contact_driver *Dr, const mo_state *s, mo_ctx *ctx)
+{
+  static const char *ax[3] = {"x", "y", "z"}, *dn[3] = {"D1", "D2", "D3"};
+  static const char *ln[3] = {"N", "T", "S"};
+  int d = C->dim, D = sc->dim, a, i, k, st = MO_OK;
+  const double *r = mo_contact_reactions(Dr), *U = mo_contact_local_velocity(Dr), *g = mo_contact_gaps(C);
+  const int *status = mo_contact_statuses(Dr);
+  double fs = force_scale(sc), *other = NULL;
+  int *has_other = NULL;
+  char *buf = NULL;
+  size_t cap = 1 << 16, len = 0;
+  other = mo_calloc(ctx, (size_t)C->nc * (size_t)d + 1, sizeof(double));
+  has_other = mo_calloc(ctx, (size_t)C->nc + 1, sizeof(int));
+  buf = mo_malloc(ctx, cap);
+  if (!other || !has_other || !buf) { st = MO_ENOMEM; goto done; }
+  for (k = 0; k < C->npair; k++) {
+    const double *P;
+    const int *cands;
+    int n;
+    double *tmp;
+    if (mo_contact_pair_P(C, k, &P, &n, &cands)) continue;
+    tmp = mo_malloc(ctx, (size_t)n * (size_t)d * sizeof(double) + 1);
+    if (!tmp) { st = MO_ENOMEM; goto done; }
+    if (!other_representation(C, k, r, tmp, ctx))
+      for (i = 0; i < n; i++) {
+        memcpy(&other[cands[i] * d], &tmp[i * d], (size_t)d * sizeof(double));
+        has_other[cands[i]] = 1;
+      }
+    mo_ctx_clear_error(ctx);
+    mo_free(tmp);
+  }
+#define APPEND(...)                                                                             \
+  do {                                                                                          \
+    int w_ = snprintf(buf + len, cap - len, __VA_ARGS__);                                       \
+    while (w_ >= 0 && (size_t)w_ >= cap - len) {                                                \
+      char *p_ = mo_realloc(ctx, buf, cap * 2);                                                 \
+      if (!p_) { st = MO_ENOMEM; goto done; }                                                   \
+      buf = p_; cap *= 2;                                                                       \
+      w_ = snprintf(buf + len, cap - len, __VA_ARGS__);                                         \
+    }                                                                                           \
+    len += (size_t)w_;                                                                          \
+  } while (0)
+  APPEND("pair,candidate,node");
+  for (i = 0; i < D; i++) APPEND(",%s", ax[i]);
+  for (i = 0; i < D; i++) APPEND(",%s", dn[i]);
+  APPEND(",gap");
+  for (i = 0; i < d; i++) APPEND(",U%s", ln[i]);
+  /* Jean's column order: RT before RN */
+  for (i = d - 1; i >= 0; i--) APPEND(",R%s", ln[i]);
+  APPEND(",status,measure,representation");
+  for (i = d - 1; i >= 0; i--) APPEND(",R%s_other", ln[i]);
+  APPEND("\n");
+  for (a = 0; a < C->nc; a++) {
+    const mo_candidate *c = &C->cand[a];
+    const mo_cpoint *p = &C->pt[c->point];
+    double Dd[3];
+    cand_node_disp(sc, C, a, s->u, Dd);
+    APPEND("%s,%d,%d", C->pair[c->pair].name, a, c->node);
+    for (i = 0; i < D; i++) APPEND(",%.10g", p->x0[i]);
+    for (i = 0; i < D; i++) APPEND(",%.10g", Dd[i]);
+    APPEND(",%.10g", g[a]);
+    for (i = 0; i < d; i++) APPEND(",%.10g", U[a * d + i]);
+    for (i = d - 1; i >= 0; i--) APPEND(",%.10g", r[a * d + i] * fs);
+    APPEND(",%s,%.10g,%s", mo_contact_status_name(status[a]), c->w,
+           C->pair[c->pair].reactions == MO_REACT_WEIGHTED ? "weighted" : "concentrated");
+    for (i = d - 1; i >= 0; i--) {
+      if (has_other[a]) APPEND(",%.10g", other[a * d + i] * fs);
+      else APPEND(",");
+    }
+    APPEND("\n");
+  }
+#undef APPEND
+  st = mo_write_file_atomic(path, buf, len, ctx);
+done:
+  mo_free(buf);
+  mo_free(other);
+  mo_free(has_other);
+  return st;
+}
+
+void mo_contact_print_table(FILE *f, const mo_scene *sc, const mo_contact *C,
+                            const mo_contact_driver *Dr, const mo_state *s, mo_ctx *ctx)
+{
+  int d = C->dim, k, i;
+  const double *r = mo_contact_reactions(Dr);
+  const int *status = mo_contact_statuses(Dr);
+  const mo_contact_report *rep = mo_contact_last_report(Dr);
+  double fs = force_scale(sc);
+  for (k = 0; k < C->npair; k++) {
+    const mo_contact_pair *P = &C->pair[k];
+    const double *Pm;
+    const int *cands;
+    int n, weighted = P->reactions == MO_REACT_WEIGHTED, have_other;
+    double Rx[3] = {0, 0, 0}, *oth;
+    if (mo_contact_pair_P(C, k, &Pm, &n, &cands)) continue;
+    oth = mo_calloc(ctx, (size_t)n * (size_t)d + 1, sizeof(double));
+    if (!oth) return;
+    have_other = other_representation(C, k, r, oth, ctx) == MO_OK;
+    mo_ctx_clear_error(ctx);
+    fprintf(f, "\npair %s (%s reactions)   t = %.6g   sweeps = %d   residual = %.3e\n", P->name,
+            weighted ? "weighted" : "concentrated", s->t, rep->iterations, rep->residual);
+    fprintf(f, "%5s %13s %13s %13s %13s  %-6s| %13s %13s\n", "node", "D1", "D2", "RT", "RN", "status",
+            "RT", "RN");
+    fprintf(f, "%5s %13s %13s %13s %13s  %-6s| %27s\n", "", "", "", weighted ? "weighted" : "concentrated",
+            "reactions", "", weighted ? "equiv. concentrated (P rho)" : "equiv. weighted (P^-1 r)");
+    for (i = 0; i < n; i++) {
+      int a = cands[i];
+      double Dd[3], rt = d > 1 ? r[a * d + 1] * fs : 0, rn = r[a * d] * fs;
+      const double *F = &mo_contact_frames(C)[a * d * d];
+      int j;
+      cand_node_disp(sc, C, a, s->u, Dd);
+      fprintf(f, "%5d %13.5e %13.5e %13.5e %13.5e  %-6s| ", i + 1, Dd[0], sc->dim > 1 ? Dd[1] : 0.0, rt, rn,
+              mo_contact_status_name(status[a]));
+      if (have_other)
+        fprintf(f, "%13.5e %13.5e\n", d > 1 ? oth[i * d + 1] * fs : 0.0, oth[i * d] * fs);
+      else
+        fprintf(f, "%13s %13s\n", "-", "-");
+      /* resultant in global axes: sum of the (weighted or concentrated) reactions */
+      for (j = 0; j < sc->dim; j++) {
+        int l;
+        for (l = 0; l < d; l++) Rx[j] += r[a * d + l] * fs * F[l * d + j];
+      }
+    }
+    fprintf(f, "%5s %13.5e %13.5e   (Rx, Ry: sum of the %s reactions)\n", "R", Rx[0],
+            sc->dim > 1 ? Rx[1] : 0.0, weighted ? "weighted" : "concentrated");
+    mo_free(oth);
+  }
+}

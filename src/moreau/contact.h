@@ -1,0 +1,334 @@
+/* moreau/contact.h: the core's half of contact: candidates, frames, gaps, the H operators
+   (concentrated and P-weighted reactions), the Delassus operator, the contact problem handed to
+   a back end, and the back-end type (the seam of ARCHITECTURE.md §3). */
+#ifndef MOREAU_CONTACT_H
+#define MOREAU_CONTACT_H
+
+#include <stdio.h>
+
+#include <moreau/ctx.h>
+#include <moreau/scene.h>
+#include <moreau/sparse.h>
+#include <moreau/step.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* --- candidates ---------------------------------------------------------------------------- */
+
+typedef enum { MO_REACT_CONCENTRATED = 0, MO_REACT_WEIGHTED } mo_reactions;
+typedef enum { MO_COLLOC_NODES = 0, MO_COLLOC_GAUSS } mo_collocation;
+/* How dual cells end where the slave surface ends (weighted reactions, doc/theory.md §4.3):
+   DUAL: every facet is split among its nodes; the parts of non-candidate nodes carry no
+   reaction (Jean's GRECO runs: last row [.., 1/8, 3/4] at a held end);
+   HALF: only facets whose nodes are all candidates count (Jean's printed P*: end rows
+   [3/4, 1/4] and [1/4, 3/4]);
+   EXTEND: the part of a non-candidate node goes to the nearest candidate of the facet. */
+typedef enum { MO_ENDS_DUAL = 0, MO_ENDS_HALF, MO_ENDS_EXTEND } mo_weighted_ends;
+typedef enum { MO_MASTER_PLANE = 0, MO_MASTER_FACETS } mo_master_kind;
+/* What happens to a slave point whose projection falls off the master surface. */
+typedef enum { MO_OFF_NEAREST = 0, MO_OFF_INACTIVE } mo_off_master;
+
+typedef enum { MO_CS_OPEN = 0, MO_CS_STICK, MO_CS_SLIDE } mo_contact_status;
+const char *mo_contact_status_name(int s);
+
+/* A contact pair of the case (contact.pairs.[k]). */
+typedef struct {
+  char *name;
+  int sbody;                 /* slave body */
+  char *sset;                /* slave node or facet set */
+  int mbody;                 /* master body: a plane or a deformable body */
+  char *mset;                /* master facet set (deformable master) */
+  mo_master_kind master;
+  double mu;
+  mo_reactions reactions;
+  mo_collocation colloc;
+  int gauss;                 /* points per facet direction (Gauss collocation) */
+  mo_weighted_ends ends;
+  mo_off_master off;
+  char *exclude;             /* node set whose nodes are not candidates (or NULL) */
+} mo_contact_pair;
+
+/* A point of a slave surface (a node, or a Gauss point of a facet) with its pairing. */
+typedef struct {
+  int pair;
+  int nn, node[4];           /* slave nodes (body-local) interpolating the point */
+  double N[4];               /* their shape values */
+  double x0[3];              /* reference position */
+  /* pairing, frozen inside a geometric loop */
+  int mfacet;                /* master facet (index in the master set), -1 for a plane */
+  int mn, mnode[4];
+  double mN[4];
+  double xi[2];              /* master facet coordinates of the projection */
+  int off;                   /* 1: the projection fell off the master (inactive) */
+  double frame[9];           /* rows: n (master to slave), t, s */
+  double g;                  /* gap in the current configuration (>= 0 open) */
+} mo_cpoint;
+
+/* A candidate alpha: a combination sum_k c_k of points (one point with c = 1 for concentrated
+   reactions and Gauss collocation; the P* row of its dual cell for weighted reactions). */
+typedef struct {
+  int pair;
+  int first, np;             /* entries first .. first+np-1 of the point/coefficient lists */
+  int node;                  /* representative slave node (body-local), -1 for a Gauss point */
+  int point;                 /* its representative point (frame, position) */
+  double w;                  /* measure: dual-cell length/area, Gauss weight, or 1 */
+  double mu;
+} mo_candidate;
+
+typedef struct mo_contact mo_contact;
+
+/* Build the contact set of a scene from its case's `contact` group (NULL when the case has
+   none): pairs, slave points, candidates, pairing and H in the reference configuration.
+   Fully prescribed slave nodes are not candidates (they cannot move). */
+int mo_contact_build(const mo_scene *sc, mo_contact **out, mo_ctx *ctx);
+void mo_contact_free(mo_contact *C);
+
+int mo_contact_dim(const mo_contact *C);          /* local dimension (1 in 1D, 2, 3) */
+int mo_contact_ncandidates(const mo_contact *C);
+int mo_contact_npairs(const mo_contact *C);
+const mo_contact_pair *mo_contact_pair_get(const mo_contact *C, int k);
+const mo_candidate *mo_contact_candidate(const mo_contact *C, int alpha);
+const mo_cpoint *mo_contact_point(const mo_contact *C, int k);
+/* Coefficients and points of candidate alpha: cand->np entries from cand->first. */
+const int *mo_contact_cand_points(const mo_contact *C);
+const double *mo_contact_cand_coefs(const mo_contact *C);
+
+/* Geometry at the displacement u (full dofs) and time t: pairing (closest point onto the
+   master; frozen when `repair` is 0), frames and gaps of every point, then the candidates'
+   gaps. H changes only when the pairing or the frames change (planes in small strain: never);
+   mo_contact_h_version tells. */
+int mo_contact_geometry(mo_contact *C, const double *u, double t, int repair, mo_ctx *ctx);
+long mo_contact_h_version(const mo_contact *C);
+/* Candidate gaps (nc) and frames (nc * dim * dim, rows n, t, s) after mo_contact_geometry. */
+const double *mo_contact_gaps(const mo_contact *C);
+const double *mo_contact_frames(const mo_contact *C);
+/* H over free dofs (nfree x dim*nc): U = H^T v + U0, R = H r. */
+const mo_csc *mo_contact_H(const mo_contact *C);
+/* H over full dofs (ndof x dim*nc), including prescribed rows (for tests and reactions). */
+const mo_csc *mo_contact_H_full(const mo_contact *C);
+/* Local velocity of the obstacles: U0 (dim*nc), from moving planes. */
+const double *mo_contact_U0(const mo_contact *C);
+/* The P* matrix of a pair (ncand_pair x ncand_pair over its candidates, row-major), built for
+   every pair so that concentrated and weighted reactions can be compared (J88 §4.4). */
+int mo_contact_pair_P(const mo_contact *C, int pair, const double **P, int *n, const int **cands);
+/* Build P* for a row of candidate nodes on uniform linear edges (tests: Jean's P*). */
+
+/* --- the Delassus operator ------------------------------------------------------------------
+   W = c H^T What^-1 H (c = 1 for the theta-scheme and quasi-static steps, beta h^2 for
+   Newmark), stored by d x d blocks (dense when every block is present), with the columns
+   C = What^-1 H kept when they fit in memory (then v+ = v_free + C r costs a dense product). */
+typedef struct mo_delassus mo_delassus;
+
+int mo_delassus_create(mo_delassus **out, mo_ctx *ctx);
+void mo_delassus_free(mo_delassus *D);
+/* (Re)build from H (nfree x m) and the factored What when H's version or the factorization
+   changed; a no-op otherwise. Returns 1 in *rebuilt when it did work. */
+int mo_delassus_update(mo_delassus *D, const mo_csc *H, long hversion, mo_linsolver *ls,
+                       long factor_version, double c, int dim, int *rebuilt, mo_ctx *ctx);
+int mo_delassus_m(const mo_delassus *D);
+int mo_delassus_dim(const mo_delassus *D);
+/* Block (alpha, beta), d x d row-major, or NULL when structurally zero. */
+const double *mo_delassus_block(const mo_delassus *D, int alpha, int beta);
+/* Row alpha: its nonzero blocks (columns beta[k], values blocks + k*d*d). */
+int mo_delassus_row(const mo_delassus *D, int alpha, const int **beta, const double **blocks);
+/* y = W x (+ beta y). */
+void mo_delassus_mult(const mo_delassus *D, const double *x, double beta, double *y);
+/* Dense copy (m x m row-major) for tests, FCLIB and small problems. */
+int mo_delassus_dense(const mo_delassus *D, double **W, mo_ctx *ctx);
+/* dx = What^-1 H r over free dofs: from the stored columns, or by one solve. */
+int mo_delassus_apply_Cinv(mo_delassus *D, const mo_csc *H, mo_linsolver *ls, const double *r,
+                           double *dx, mo_ctx *ctx);
+/* Number of stored blocks, and whether the columns What^-1 H are kept. */
+long mo_delassus_nblocks(const mo_delassus *D);
+int mo_delassus_has_columns(const mo_delassus *D);
+
+/* --- accuracy measures common to every back end ---------------------------------------------- */
+
+/* Natural-map residual of the discrete Signorini-Coulomb problem U = W r + q, as Siconos
+   (Debian's 4.4) defines it: sqrt(sum_alpha |r - P_K(r - (U + mu |U_t| e_n))|^2) divided by
+   max(|q|, |r|, |U|) (not divided when all three vanish). Local dimension d = 1 (frictionless,
+   normal only), 2 or 3. */
+double mo_fc_natural_map(int d, int nc, const double *mu, const double *r, const double *U,
+                         double qnorm);
+/* The unit (one contact) term of the residual: |r - P_K(r - (U + mu |U_t| e_n))|^2. */
+double mo_fc_natural_map_unit(int d, double mu, const double *r, const double *U);
+/* Projection onto the Coulomb cone |r_t| <= mu r_n (in place, dimension d). */
+void mo_fc_project_cone(int d, double mu, double *r);
+/* Jean's norms of the change between two iterates (doc/theory.md §5.3):
+   Quad = sqrt(sum |dU_a|^2 |r_a|^2) / sum (W_aa r_a).r_a,
+   Maxm = max |dU_a| |r_a| / (sum (W_aa r_a).r_a / nactive). dU = W_aa dr. */
+void mo_fc_jean_norms(const mo_delassus *W, int nc, const double *r_old, const double *r_new,
+                      double *quad, double *maxm);
+
+/* --- the seam: contact back ends -------------------------------------------------------------- */
+
+/* What the Signorini condition controls, for back ends on the local problem (doc/theory.md §5):
+   POSITION: g_k+1 = g_k + h (theta U+_n + (1 - theta) U-_n) >= 0 _|_ r_n >= 0 (J88 (3.2)_1);
+   VELOCITY: U+_n >= 0 _|_ r_n >= 0 on the index set of candidates predicted closed. */
+typedef enum { MO_SIGNORINI_POSITION = 0, MO_SIGNORINI_VELOCITY } mo_signorini;
+
+/* The contact problem of one step, built by the core and handed to a back end. Everything is
+   owned by the core and read-only for the back end. */
+typedef struct mo_contact_problem {
+  int dim;                   /* local dimension d: 1 (1D), 2 or 3; normal first */
+  int nc, m;                 /* candidates; m = d nc */
+  const double *mu;          /* nc friction coefficients */
+  const double *g;           /* nc gaps at the start of the step */
+  const double *Uprev;       /* m local velocities at the start of the step */
+  const double *w;           /* nc candidate measures */
+  const double *frame;       /* nc d x d frames */
+  const mo_contact *contact; /* candidates, points, pairs */
+  /* local relation U' = W r + b: U' is the local velocity (theta) or displacement increment
+     (newmark, quasistatic), plus in its normal component the Signorini offset of the chosen
+     formulation (g_k / (h theta) + ... for position-level theta, g_k for the others), so that
+     the law is U'_n >= 0 _|_ r_n >= 0 with Coulomb on U'_t; W is NULL when the back end did not
+     ask for it */
+  const mo_delassus *W;
+  const double *b;           /* m: the affine term q of U' = W r + q, Signorini offsets included */
+  const unsigned char *active; /* nc: candidates that may close this step (0: keep r = 0) */
+  mo_scheme scheme;
+  double h, theta, theta_f, beta, gamma;
+  mo_signorini signorini;
+  /* the global system, for back ends that work on it (KKT, Schur) */
+  int nfree;
+  const mo_csc *H;           /* nfree x m */
+  const mo_csc *What;        /* nfree x nfree iteration matrix */
+  mo_linsolver *ls;          /* its factorization */
+  const double *xfree;       /* nfree: the unconstrained step (v_free, a_free or u_free) */
+  double du_dx;              /* du = c dx over the step */
+  long step;                 /* step being computed (1-based) */
+  double t;                  /* time at the start of the step */
+} mo_contact_problem;
+
+/* What a back end returns. r holds the previous step's reactions on entry (warm start). */
+typedef struct mo_contact_vars {
+  double *r;                 /* m: impulses (theta) or forces (newmark, quasistatic) */
+  double *U;                 /* m: local velocities (increments) after the step */
+  int *status;               /* nc: MO_CS_* */
+  double *dx;                /* nfree: correction of the step's unknown, when dx_set */
+  int dx_set;                /* 1 when the back end wrote dx itself (KKT path) */
+} mo_contact_vars;
+
+/* Converged (> 0) and diverged (< 0) reasons, apart from error codes. */
+enum {
+  MO_CR_CONVERGED = 1,
+  MO_CR_NOCONTACT = 2,       /* no candidate closed: nothing to solve */
+  MO_CR_MAXITER = -1,
+  MO_CR_CYCLING = -2,
+  MO_CR_BREAKDOWN = -3,      /* a local solver or a factorization broke down */
+  MO_CR_NAN = -4
+};
+const char *mo_contact_reason_name(int reason);
+
+typedef struct mo_contact_report {
+  int iterations;            /* sweeps (nscd), Newton iterations (levelset), ... */
+  int loops[4];              /* geometric, friction threshold, level-set, Newton (levelset) */
+  double residual;           /* natural-map residual (computed by the core after the solve) */
+  double quad, maxm;         /* Jean's norms of the last change (iterative back ends) */
+  int nopen, nstick, nslide; /* status counts (counted by the core) */
+  int reason;                /* MO_CR_* */
+  char message[256];         /* what went wrong, with the candidates involved */
+} mo_contact_report;
+
+/* Typed options of a back end: the case keys contact.<name>.<option> and --set. */
+typedef enum { MO_OPT_INT = 0, MO_OPT_DOUBLE, MO_OPT_BOOL, MO_OPT_ENUM } mo_option_type;
+typedef struct {
+  const char *name;
+  mo_option_type type;
+  size_t offset;             /* offset in the back end's parameter struct */
+  const char *enums;         /* "a|b|c": stored as the index (int) */
+  double lo, hi;             /* closed range (NaN: unbounded) */
+  const char *deflt;         /* printed default */
+  const char *doc;
+} mo_option_spec;
+
+/* Capability flags: what the core must build for the back end. */
+enum {
+  MO_NEEDS_DELASSUS = 1,     /* W = H^T What^-1 H */
+  MO_NEEDS_GLOBAL = 2        /* H, What, its factor and x_free (KKT or Schur paths) */
+};
+
+typedef struct mo_contact_solver_type {
+  const char *name;          /* the value of contact.solver */
+  const char *summary;       /* one line for `moreau list-solvers` */
+  size_t state_size;         /* private state, allocated (zeroed) and freed by the core */
+  size_t params_size;        /* typed parameter struct, filled by defaults then options */
+  unsigned needs;            /* MO_NEEDS_* */
+  unsigned schemes;          /* bit (1 << mo_scheme) of every time scheme it supports */
+  const mo_option_spec *options;
+  int noptions;
+  void (*defaults)(void *params);
+  /* Prepare the state for a scene (called once, after the first geometry). May read P's
+     sizes and the contact set; must not keep pointers to P's arrays across calls. */
+  int (*init)(void *state, const void *params, const mo_contact_problem *P, mo_ctx *ctx);
+  /* Solve the step's contact problem. Must write r, U and status (and dx when it sets dx_set);
+     a non-converged solve is not an error: it sets rep->reason < 0 with a message, and the
+     core decides. Returns an error code only for real errors (memory, NaN it cannot explain). */
+  int (*solve)(void *state, const mo_contact_problem *P, mo_contact_vars *x,
+               mo_contact_report *rep, mo_ctx *ctx);
+  void (*free)(void *state);
+} mo_contact_solver_type;
+
+/* The registry: an explicit table in the core (src/registry.c). */
+const mo_contact_solver_type *mo_contact_solver_find(const char *name);
+int mo_contact_solver_count(void);
+const mo_contact_solver_type *mo_contact_solver_at(int i);
+/* Set one option of a parameter struct from its string value ("--set contact.nscd.tol=1e-8"). */
+int mo_option_set(const mo_option_spec *opts, int nopt, void *params, const char *key,
+                  const char *val, mo_ctx *ctx);
+
+/* --- the contact step ---------------------------------------------------------------------- */
+
+typedef struct mo_contact_driver mo_contact_driver;
+
+/* Set up the contact step of a run: the back end named by contact.solver (validated against
+   the registry and the scheme), its options from the case, the Delassus operator if needed. */
+int mo_contact_driver_create(const mo_scene *sc, mo_contact *C, mo_stepper *S,
+                             mo_contact_driver **out, mo_ctx *ctx);
+void mo_contact_driver_free(mo_contact_driver *D);
+/* One step with contact: predict, geometry, local problem, back-end solve, correction, finish.
+   A back end that does not converge makes this return MO_ENOCONV with a diagnosis in ctx,
+   unless contact.on_failure = "continue". */
+int mo_contact_step(mo_contact_driver *D, mo_state *s, mo_ctx *ctx);
+const mo_contact_report *mo_contact_last_report(const mo_contact_driver *D);
+const double *mo_contact_reactions(const mo_contact_driver *D);  /* m, last step */
+const double *mo_contact_local_velocity(const mo_contact_driver *D);
+const int *mo_contact_statuses(const mo_contact_driver *D);
+const mo_contact_solver_type *mo_contact_driver_type(const mo_contact_driver *D);
+const mo_delassus *mo_contact_driver_delassus(const mo_contact_driver *D);
+/* Totals over the run: steps with contact, back-end iterations, rebuilds of W. */
+void mo_contact_driver_totals(const mo_contact_driver *D, long *steps, long *iterations,
+                              long *max_iterations, long *w_builds, double *max_residual);
+/* The last step's local problem (W dense, q, mu) for export (FCLIB). */
+int mo_contact_driver_local_problem(const mo_contact_driver *D, double **W, double **q,
+                                    double **mu, int *nc, int *d, mo_ctx *ctx);
+
+/* Per-candidate results of the last step: contact.csv (pair, candidate, node, position,
+   displacement D1.., gap, local U, reactions as forces with RT before RN as in Jean's tables,
+   status, measure, and the other representation's reactions: P^-1 images of concentrated
+   reactions, P images of weighted ones). */
+int mo_contact_write_csv(const char *path, const mo_scene *sc, const mo_contact *C,
+                         const mo_contact_driver *D, const mo_state *s, mo_ctx *ctx);
+/* The same in Jean's layout (J88 Figs. 3-4), with the resultants and the sweeps. */
+void mo_contact_print_table(FILE *f, const mo_scene *sc, const mo_contact *C,
+                            const mo_contact_driver *D, const mo_state *s, mo_ctx *ctx);
+
+/* --- FCLIB local problems (doc/theory.md §4.6) ----------------------------------------------- */
+
+/* 1 when this build reads and writes FCLIB files. */
+int mo_fclib_available(void);
+/* Write U = W r + q, mu (W dense, m x m with m = d nc, d = 2 or 3) as an FCLIB local problem;
+   a solution (r, U) is written with it when r is not NULL. */
+int mo_fclib_write(const char *path, int d, int nc, const double *W, const double *q,
+                   const double *mu, const double *r, const double *U, const char *title,
+                   mo_ctx *ctx);
+/* Read an FCLIB local problem: W as CSC (m x m), q, mu; d the local dimension. */
+int mo_fclib_read(const char *path, int *d, int *nc, mo_csc **W, double **q, double **mu,
+                  mo_ctx *ctx);
+
+#ifdef __cplusplus
+}
+#endif
+#endif
