@@ -1,6 +1,7 @@
 /* case.c: reading case files, --set overrides, and validation against the schema. */
 #include "config.h"
 #include "case_internal.h"
+#include <moreau/contact.h>
 
 #include <ctype.h>
 #include <errno.h>
@@ -619,6 +620,20 @@ int mo_case_set(mo_case *cs, const char *assign, mo_ctx *ctx)
   memcpy(key, assign, (size_t)(eq - assign));
   key[eq - assign] = '\0';
   val = eq + 1;
+  {
+    /* "nscd.tol=..." is short for "contact.nscd.tol=..." (a back end's options) */
+    char first[64];
+    const char *dot = strchr(key, '.');
+    size_t l = dot ? (size_t)(dot - key) : 0;
+    if (l && l < sizeof first) {
+      memcpy(first, key, l);
+      first[l] = '\0';
+      if (mo_contact_solver_find(first) && strlen(key) + 9 < sizeof key) {
+        memmove(key + 8, key, strlen(key) + 1);
+        memcpy(key, "contact.", 8);
+      }
+    }
+  }
   sets = mo_realloc(ctx, cs->sets, (size_t)(cs->nset + 1) * sizeof *sets);
   if (!sets) return MO_ENOMEM;
   cs->sets = sets;

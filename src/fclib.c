@@ -8,6 +8,27 @@
 
 #ifdef HAVE_FCLIB
 #include <fclib.h>
+#include <hdf5.h>
+
+/* 1: an fclib_local group, 2: fclib_global, 0: neither (checked with HDF5 directly, so that
+   libfclib does not print errors for the group a file lacks). */
+static int mo_fclib_kind(const char *path)
+{
+  hid_t file;
+  int kind = 0;
+  H5E_auto2_t fn;
+  void *data;
+  H5Eget_auto2(H5E_DEFAULT, &fn, &data);
+  H5Eset_auto2(H5E_DEFAULT, NULL, NULL);
+  file = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
+  if (file >= 0) {
+    if (H5Lexists(file, "/fclib_local", H5P_DEFAULT) > 0) kind = 1;
+    else if (H5Lexists(file, "/fclib_global", H5P_DEFAULT) > 0) kind = 2;
+    H5Fclose(file);
+  }
+  H5Eset_auto2(H5E_DEFAULT, fn, data);
+  return kind;
+}
 
 int mo_fclib_available(void) { return 1; }
 
@@ -80,45 +101,129 @@ done:
   return st;
 }
 
-int mo_fclib_read(const char *path, int *d, int *nc, mo_csc **Wout, double **q, double **mu,
-                  mo_ctx *ctx)
+/* An fclib_matrix (triplets, compressed columns or rows) as CSC. */
+static int fclib_to_csc(const struct fclib_matrix *M, mo_csc **out, mo_ctx *ctx)
 {
-  struct fclib_local *pb;
-  struct fclib_matrix *M;
   mo_triplet T;
-  int m, st = MO_OK, k, j;
-  FILE *f = fopen(path, "rb");
-  *Wout = NULL;
-  *q = *mu = NULL;
-  if (!f) return mo_error(ctx, MO_EIO, "%s: cannot open", path);
-  fclose(f);
-  pb = fclib_read_local(path);
-  if (!pb || !pb->W) {
-    if (pb) fclib_delete_local(pb);
-    return mo_error(ctx, MO_EINPUT, "%s: not an FCLIB local problem (libfclib could not read it)", path);
-  }
-  M = pb->W;
-  m = M->m;
-  *d = pb->spacedim;
-  if ((*d != 2 && *d != 3) || M->n != m || m % *d) {
-    fclib_delete_local(pb);
-    return mo_error(ctx, MO_EINPUT, "%s: W is %d x %d with local dimension %d", path, M->m, M->n, *d);
-  }
-  if (pb->V || pb->R)
-    mo_log(ctx, 1, "%s: the equality constraints (V, R) of this mixed problem are ignored\n", path);
-  *nc = m / *d;
-  if ((st = mo_triplet_init(&T, m, m, (size_t)(M->nz >= 0 ? M->nz : M->nzmax) + 1, ctx))) goto done;
-  if (M->nz >= 0) /* triplets: p rows, i columns */
-    for (k = 0; k < M->nz && !st; k++) st = mo_triplet_add(&T, M->p[k], M->i[k], M->x[k], ctx);
+  int st, k, j;
+  if ((st = mo_triplet_init(&T, M->m, M->n, (size_t)(M->nz >= 0 ? M->nz : M->nzmax) + 1, ctx))) return st;
+  if (M->nz >= 0) /* triplets, CSparse's convention: i rows, p columns */
+    for (k = 0; k < M->nz && !st; k++) st = mo_triplet_add(&T, M->i[k], M->p[k], M->x[k], ctx);
   else if (M->nz == -1) /* compressed columns */
     for (j = 0; j < M->n && !st; j++)
       for (k = M->p[j]; k < M->p[j + 1] && !st; k++) st = mo_triplet_add(&T, M->i[k], j, M->x[k], ctx);
   else /* compressed rows */
     for (j = 0; j < M->m && !st; j++)
       for (k = M->p[j]; k < M->p[j + 1] && !st; k++) st = mo_triplet_add(&T, j, M->i[k], M->x[k], ctx);
-  if (!st) st = mo_triplet_to_csc(&T, 0, Wout, ctx);
+  if (!st) st = mo_triplet_to_csc(&T, 0, out, ctx);
   mo_triplet_release(&T);
-  if (st) goto done;
+  return st;
+}
+
+/* A global problem M v = H r + f, U = H^T v + w reduced to its local problem:
+   W = H^T M^-1 H, q = H^T M^-1 f + w (M factored by CHOLMOD). */
+static int reduce_global(const char *path, struct fclib_global *G, int *d, int *nc, mo_csc **Wout,
+                         double **q, double **mu, mo_ctx *ctx)
+{
+  mo_csc *M = NULL, *H = NULL;
+  mo_linsolver *ls = NULL;
+  mo_triplet T;
+  double *B = NULL, *X = NULL, *v = NULL;
+  int st, n, m, j0, i, k, p, chunk = 64;
+  memset(&T, 0, sizeof T);
+  if (G->G || G->b)
+    return mo_error(ctx, MO_EUNSUPPORTED, "%s: global problem with equality constraints (G, b): not supported", path);
+  if ((st = fclib_to_csc(G->M, &M, ctx)) || (st = fclib_to_csc(G->H, &H, ctx))) goto done;
+  n = M->nrow;
+  m = H->ncol;
+  *d = G->spacedim;
+  if ((*d != 2 && *d != 3) || H->nrow != n || m % *d) {
+    st = mo_error(ctx, MO_EINPUT, "%s: M is %d x %d, H is %d x %d, local dimension %d", path, M->nrow, M->ncol, H->nrow, H->ncol, *d);
+    goto done;
+  }
+  *nc = m / *d;
+  if ((st = mo_linsolver_create(&mo_linsolver_cholmod, &ls, ctx))) goto done;
+  if ((st = mo_linsolver_factor(ls, M, ctx))) { mo_error_prefix(ctx, "%s: M", path); goto done; }
+  B = mo_calloc(ctx, (size_t)n * (size_t)chunk + 1, sizeof(double));
+  X = mo_malloc(ctx, ((size_t)n * (size_t)chunk + 1) * sizeof(double));
+  v = mo_malloc(ctx, ((size_t)n + 1) * sizeof(double));
+  *q = mo_malloc(ctx, (size_t)m * sizeof(double));
+  *mu = mo_malloc(ctx, (size_t)*nc * sizeof(double));
+  if (!B || !X || !v || !*q || !*mu || (st = mo_triplet_init(&T, m, m, (size_t)m * 16, ctx))) { st = MO_ENOMEM; goto done; }
+  memcpy(*mu, G->mu, (size_t)*nc * sizeof(double));
+  /* q = H^T M^-1 f + w */
+  if ((st = mo_linsolver_solve(ls, G->f, v, ctx))) goto done;
+  mo_csc_gatxpy(H, 1, v, 0, *q);
+  for (i = 0; i < m; i++) (*q)[i] += G->w ? G->w[i] : 0;
+  /* W by chunks of columns */
+  for (j0 = 0; j0 < m; j0 += chunk) {
+    int nb = j0 + chunk > m ? m - j0 : chunk;
+    memset(B, 0, (size_t)n * (size_t)nb * sizeof(double));
+    for (k = 0; k < nb; k++)
+      for (p = H->p[j0 + k]; p < H->p[j0 + k + 1]; p++) B[(size_t)k * n + (size_t)H->i[p]] = H->x[p];
+    if ((st = mo_linsolver_solve_multi(ls, nb, B, X, ctx))) goto done;
+    for (i = 0; i < m; i++)
+      for (k = 0; k < nb; k++) {
+        double s = 0;
+        for (p = H->p[i]; p < H->p[i + 1]; p++) s += H->x[p] * X[(size_t)k * n + (size_t)H->i[p]];
+        if (s != 0 && (st = mo_triplet_add(&T, i, j0 + k, s, ctx))) goto done;
+      }
+  }
+  st = mo_triplet_to_csc(&T, 0, Wout, ctx);
+done:
+  mo_triplet_release(&T);
+  mo_csc_free(M);
+  mo_csc_free(H);
+  mo_linsolver_free(ls);
+  mo_free(B);
+  mo_free(X);
+  mo_free(v);
+  return st;
+}
+
+int mo_fclib_read(const char *path, int *d, int *nc, mo_csc **Wout, double **q, double **mu,
+                  mo_ctx *ctx)
+{
+  struct fclib_local *pb;
+  struct fclib_global *G;
+  int m, st = MO_OK;
+  FILE *f = fopen(path, "rb");
+  char head[8];
+  *Wout = NULL;
+  *q = *mu = NULL;
+  if (!f) return mo_error(ctx, MO_EIO, "%s: cannot open", path);
+  if (fread(head, 1, 8, f) != 8 || memcmp(head, "\x89HDF\r\n\x1a\n", 8)) {
+    fclose(f);
+    return mo_error(ctx, MO_EINPUT, "%s: not an HDF5 file", path);
+  }
+  fclose(f);
+  /* libfclib prints to stderr when a group is missing: ask for the kind the file holds */
+  if (mo_fclib_kind(path) == 2) {
+    G = fclib_read_global(path);
+    if (!G) return mo_error(ctx, MO_EINPUT, "%s: libfclib could not read the global problem", path);
+    st = reduce_global(path, G, d, nc, Wout, q, mu, ctx);
+    fclib_delete_global(G);
+    if (st) {
+      mo_csc_free(*Wout); mo_free(*q); mo_free(*mu);
+      *Wout = NULL; *q = *mu = NULL;
+    }
+    return st;
+  }
+  pb = fclib_read_local(path);
+  if (!pb || !pb->W) {
+    if (pb) fclib_delete_local(pb);
+    return mo_error(ctx, MO_EINPUT, "%s: not an FCLIB local problem (libfclib could not read it)", path);
+  }
+  m = pb->W->m;
+  *d = pb->spacedim;
+  if ((*d != 2 && *d != 3) || pb->W->n != m || m % *d) {
+    fclib_delete_local(pb);
+    return mo_error(ctx, MO_EINPUT, "%s: W is %d x %d with local dimension %d", path, pb->W->m, pb->W->n, *d);
+  }
+  if (pb->V || pb->R)
+    mo_log(ctx, 1, "%s: the equality constraints (V, R) of this mixed problem are ignored\n", path);
+  *nc = m / *d;
+  if ((st = fclib_to_csc(pb->W, Wout, ctx))) goto done;
   *q = mo_malloc(ctx, (size_t)m * sizeof(double));
   *mu = mo_malloc(ctx, (size_t)*nc * sizeof(double));
   if (!*q || !*mu) { st = MO_ENOMEM; goto done; }

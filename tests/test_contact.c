@@ -416,6 +416,7 @@ static void test_fclib(void)
   for (i = 0; i < m; i++)
     for (j = 0; j < m; j++) W[i * m + j] = (i == j ? 3.0 : 0) + 0.25 * cos(i + j);
   for (i = 0; i < m; i++) { q[i] = sin(2.0 * i) - 0.3; r[i] = 0.1 * i; U[i] = -0.2 * i; }
+  mo_mkdir_p("tests/out", &ctx);
   snprintf(path, sizeof path, "tests/out/fclib-roundtrip-%ld.hdf5", (long)getpid());
   ok(mo_fclib_write(path, d, nc, W, q, mu, r, U, "round trip", &ctx) == MO_OK, "FCLIB write %s", ctx.errmsg);
   ok(mo_fclib_read(path, &d2, &nc2, &W2, &q2, &mu2, &ctx) == MO_OK && d2 == 3 && nc2 == 3, "FCLIB read back");
@@ -464,8 +465,41 @@ static void test_fclib(void)
   mo_free(Wd);
 }
 
+
+/* The shared FCLIB problems: local ones read as they are, global ones reduced to
+   W = H^T M^-1 H, q = H^T M^-1 f + w (their stored "solutions" have v = 0 and do not satisfy
+   M v = H r + f, so they are not used as references). */
+static void test_fclib_shared(void)
+{
+  static const char *files[] = {"Box_Stacks-i0122-82-5", "Capsules-i125-1213",
+                                "LMGC_100_PR_PerioBox-i00361-60-03000", "Spheres-i099-356-679"};
+  const char *shared = getenv("MOREAU_SHARED");
+  size_t k;
+  if (!mo_fclib_available() || !shared) {
+    ok(1, "# SKIP no FCLIB or no shared data");
+    return;
+  }
+  for (k = 0; k < MO_COUNT(files); k++) {
+    char path[1024];
+    mo_ctx ctx;
+    int d, nc;
+    mo_csc *W = NULL;
+    double *q = NULL, *mu = NULL;
+    int st;
+    mo_ctx_init(&ctx);
+    snprintf(path, sizeof path, "%s/data/fclib/%s.hdf5", shared, files[k]);
+    st = mo_fclib_read(path, &d, &nc, &W, &q, &mu, &ctx);
+    ok(st == MO_OK && d == 3 && nc > 0, "%s: read (%d contacts; W asymmetry %.1e) %s", files[k], st ? 0 : nc,
+       W ? mo_csc_asymmetry(W) : 0.0, ctx.errmsg);
+    mo_csc_free(W);
+    mo_free(q);
+    mo_free(mu);
+  }
+}
+
 int main(void)
 {
+  test_fclib_shared();
   test_P();
   test_uniform_density();
   test_rigid();
