@@ -573,6 +573,7 @@ static int build_pair(mo_contact *C, int k, const config_setting_t *pg, mo_ctx *
         memset(&p, 0, sizeof p);
         memset(&c, 0, sizeof c);
         p.pair = k;
+        p.facet = f;
         p.nn = fs->nfn;
         p.mfacet = -1;
         jac = facet_eval(sc, P->sbody, fs, f, Q.xi[q], NULL, N, x, NULL);
@@ -597,6 +598,7 @@ static int build_pair(mo_contact *C, int k, const config_setting_t *pg, mo_ctx *
     mo_cpoint p;
     memset(&p, 0, sizeof p);
     p.pair = k;
+    p.facet = -1;
     p.nn = 1;
     p.node[0] = snodes[i];
     p.N[0] = 1;

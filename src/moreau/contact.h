@@ -53,6 +53,8 @@ typedef struct {
 /* A point of a slave surface (a node, or a Gauss point of a facet) with its pairing. */
 typedef struct {
   int pair;
+  int facet;                 /* slave facet (index in the slave facet set) of a Gauss point,
+                                -1 for a node point */
   int nn, node[4];           /* slave nodes (body-local) interpolating the point */
   double N[4];               /* their shape values */
   double x0[3];              /* reference position */
