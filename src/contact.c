@@ -194,6 +194,32 @@ static int apply_case_options(const mo_contact_solver_type *T, void *params, con
 
 /* --- the driver ---------------------------------------------------------------------------------- */
 
+int mo_contact_time_scheme(mo_scene *sc, const mo_contact *C, mo_ctx *ctx)
+{
+  const mo_contact_solver_type *T = mo_contact_solver_find(C->solver);
+  void *params;
+  mo_time_settings old = sc->time;
+  int st;
+  if (!T || !T->time_scheme) return MO_OK; /* unknown names are reported by the driver */
+  params = mo_calloc(ctx, 1, T->params_size ? T->params_size : 1);
+  if (!params) return MO_ENOMEM;
+  if (T->defaults) T->defaults(params);
+  st = apply_case_options(T, params, sc->cs, ctx);
+  if (!st) st = T->time_scheme(params, &sc->time, ctx);
+  mo_free(params);
+  if (st) return st;
+  if (sc->time.scheme != old.scheme) {
+    if (sc->time.scheme != MO_SCHEME_QUASISTATIC && !sc->M)
+      return mo_error(ctx, MO_EUNSUPPORTED, "contact back end %s runs a dynamic scheme, but the case is "
+                      "quasi-static (no mass matrix)", T->name);
+    mo_note_skip(ctx, "the case's %s scheme: back end %s runs %s (beta = %g, gamma = %g)",
+                 old.scheme == MO_SCHEME_THETA ? "theta" : old.scheme == MO_SCHEME_NEWMARK ? "newmark" : "quasistatic",
+                 T->name, sc->time.scheme == MO_SCHEME_NEWMARK ? "newmark" : "its own scheme",
+                 sc->time.beta, sc->time.gamma);
+  }
+  return MO_OK;
+}
+
 struct mo_contact_driver {
   const mo_scene *sc;
   mo_contact *C;
@@ -207,6 +233,7 @@ struct mo_contact_driver {
   mo_contact_report rep;
   int nc, m, d;
   double *b, *q, *U, *Uprev, *r, *rprev, *xfull, *xf, *dx, *dxfull, *mu, *gk, *w;
+  double *ukin;              /* local kinematics without the Signorini offsets */
   unsigned char *active;
   int *status;
   long steps, iterations, max_iterations, wbuilds, failures;
@@ -239,7 +266,7 @@ void mo_contact_driver_free(mo_contact_driver *D)
   mo_free(D->params);
   mo_delassus_free(D->W);
   mo_free(D->b); mo_free(D->q); mo_free(D->U); mo_free(D->Uprev); mo_free(D->r); mo_free(D->rprev);
-  mo_free(D->xfull); mo_free(D->xf); mo_free(D->dx); mo_free(D->dxfull); mo_free(D->mu); mo_free(D->gk); mo_free(D->w);
+  mo_free(D->xfull); mo_free(D->xf); mo_free(D->dx); mo_free(D->dxfull); mo_free(D->mu); mo_free(D->gk); mo_free(D->w); mo_free(D->ukin);
   mo_free(D->active);
   mo_free(D->status);
   mo_free(D);
@@ -292,6 +319,7 @@ int mo_contact_driver_create(const mo_scene *sc, mo_contact *C, mo_stepper *S,
   D->mu = mo_calloc(ctx, (size_t)D->nc, sizeof(double));
   D->gk = mo_calloc(ctx, (size_t)D->nc, sizeof(double));
   D->w = mo_calloc(ctx, (size_t)D->nc, sizeof(double));
+  D->ukin = mo_calloc(ctx, (size_t)D->m, sizeof(double));
   D->active = mo_calloc(ctx, (size_t)D->nc, 1);
   D->status = mo_calloc(ctx, (size_t)D->nc, sizeof(int));
   D->xfull = mo_calloc(ctx, (size_t)n + 1, sizeof(double));
@@ -299,7 +327,7 @@ int mo_contact_driver_create(const mo_scene *sc, mo_contact *C, mo_stepper *S,
   D->xf = mo_calloc(ctx, (size_t)nf + 1, sizeof(double));
   D->dx = mo_calloc(ctx, (size_t)nf + 1, sizeof(double));
   if (!D->params || !D->state || !D->b || !D->q || !D->U || !D->Uprev || !D->r || !D->rprev || !D->mu ||
-      !D->gk || !D->w || !D->active || !D->status || !D->xfull || !D->dxfull || !D->xf || !D->dx) {
+      !D->gk || !D->w || !D->ukin || !D->active || !D->status || !D->xfull || !D->dxfull || !D->xf || !D->dx) {
     mo_contact_driver_free(D);
     return MO_ENOMEM;
   }
@@ -338,8 +366,8 @@ int mo_contact_step(mo_contact_driver *D, mo_state *s, mo_ctx *ctx)
   /* 1. the unconstrained step */
   if ((st = mo_stepper_predict(S, s, D->xfull, ctx))) return st;
   mo_stepper_gather(S, D->xfull, D->xf);
-  /* 2. geometry at the start of the step */
-  if ((st = mo_contact_geometry(C, s->u, s->t, C->repair, ctx))) return st;
+  /* 2. geometry at the start of the step: computed at the end of the previous step (or by
+     mo_contact_build at t = 0), so that reported gaps are end-of-step values */
   g = mo_contact_gaps(C);
   memcpy(D->gk, g, (size_t)nc * sizeof(double));
   /* 3. the local free kinematics b: velocity (theta) or displacement increment */
@@ -501,7 +529,7 @@ int mo_contact_step(mo_contact_driver *D, mo_state *s, mo_ctx *ctx)
   for (i = 0; i < sc->nfree; i++) D->xfull[sc->full_of[i]] += D->dx[i];
   /* contact work: impulse . mean local velocity (theta), force . increment (others) */
   {
-    double w = 0, *Ukin = D->b;
+    double w = 0, *Ukin = D->ukin;
     if (D->W) { mo_delassus_mult(D->W, D->r, 0, Ukin); for (i = 0; i < m; i++) Ukin[i] += D->b[i]; }
     else for (i = 0; i < m; i++) Ukin[i] = D->U[i];
     for (i = 0; i < m; i++)
@@ -509,7 +537,8 @@ int mo_contact_step(mo_contact_driver *D, mo_state *s, mo_ctx *ctx)
     s->wcontact += w;
     if (scheme == MO_SCHEME_THETA) memcpy(D->Uprev, Ukin, (size_t)m * sizeof(double));
   }
-  return mo_stepper_finish(S, s, D->xfull, ctx);
+  if ((st = mo_stepper_finish(S, s, D->xfull, ctx))) return st;
+  return mo_contact_geometry(C, s->u, s->t, C->repair, ctx);
 }
 
 int mo_contact_driver_local_problem(const mo_contact_driver *D, double **W, double **q, double **mu,

@@ -8,6 +8,7 @@
 #include <moreau/scene.h>
 #include <moreau/step.h>
 #include "case_internal.h"
+#include "metrics.h"
 
 #include <jansson.h>
 #include <math.h>
@@ -83,6 +84,7 @@ static void default_outdir(const char *case_path, char *buf, size_t n)
 
 typedef struct {
   int probe, q;          /* column source */
+  int exact_col;         /* column of the exact value, or -1 */
   double x;              /* position for the reference */
   int has_ref;
   double se2, sr2, emax, rmax;
@@ -178,10 +180,10 @@ static json_t *contact_json(const mo_contact *C, const mo_contact_driver *D);
 
 static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
                          const mo_stepper *S, const mo_state *s, const mo_contact *C,
-                         const mo_contact_driver *drv, const column *cols, int ncol,
+                         const mo_contact_driver *drv, const mo_metrics *met, const column *cols, int ncol,
                          const char *const *names, double e0, double e1, double drift,
-                         double balance, int complete, const char *reason, double wall,
-                         mo_ctx *ctx)
+                         double balance, double growth, int complete, const char *reason,
+                         double wall, mo_ctx *ctx)
 {
   json_t *root = json_object(), *scene = json_object(), *bodies = json_array(), *time = json_object();
   json_t *energy = json_object(), *metrics = json_object(), *skipped = json_array(), *ls = json_object();
@@ -239,6 +241,7 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
   json_object_set_new(energy, "ratio", json_real(e0 != 0 ? e1 / e0 : NAN));
   json_object_set_new(energy, "max_relative_drift", json_real(drift));
   json_object_set_new(energy, "balance_error", json_real(balance));
+  json_object_set_new(energy, "max_growth", json_real(growth));
   if (s) {
     json_object_set_new(energy, "external_work", json_real(s->wext));
     json_object_set_new(energy, "support_work", json_real(s->wsupport));
@@ -257,6 +260,12 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
     json_object_set_new(metrics, names[k + 1], m);
   }
   if (sc && sc->ref.type != MO_REF_NONE) json_object_set_new(root, "reference", json_string(mo_reference_name(sc->ref.type)));
+  if (met) {
+    json_t *mj = mo_metrics_json(met);
+    json_object_update(metrics, mj);
+    json_decref(mj);
+    if (s) json_object_set_new(energy, "ratio_mechanical", json_real(mo_metrics_energy_ratio(met, s)));
+  }
   json_object_set_new(root, "metrics", metrics);
   if (S) {
     mo_linsolver_stats(mo_stepper_solver((mo_stepper *)S), &nf, &nsym, &nsol);
@@ -357,6 +366,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   mo_stepper *S = NULL;
   mo_contact *C = NULL;
   mo_contact_driver *drv = NULL;
+  mo_metrics *met = NULL;
   mo_state s;
   mo_csv *csv = NULL;
   mo_vtk *vtk = NULL;
@@ -364,7 +374,8 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   contact_view cv;
   char **names = NULL, *namebuf = NULL, outdir[4096], path[4200];
   double *row = NULL, *work = NULL, start = mo_clock(), e0 = 0, e1 = 0, drift = 0, balance = 0;
-  int st, ncol = 0, nprobecol = 0, k, p, complete = 0, ecol0 = 0, ccol0 = 0, table = 0;
+  double emax_growth = 0;
+  int st, ncol = 0, nprobecol = 0, nexact = 0, k, p, complete = 0, ecol0 = 0, ccol0 = 0, table = 0, x0col;
   char reason[MO_ERRMSG_MAX] = "";
   progress prog;
   memset(&s, 0, sizeof s);
@@ -381,17 +392,27 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   if (opt->solver && !C) mo_note_skip(ctx, "contact solve (--solver given, but the case has no contact pairs)");
   if ((st = mo_mkdir_p(outdir, ctx))) goto done;
   if (opt->dump_fclib && (st = mo_mkdir_p(opt->dump_fclib, ctx))) goto done;
+  if (C && (st = mo_contact_time_scheme(sc, C, ctx))) goto done;
   if ((st = mo_stepper_create(sc, &S, ctx))) goto done;
   if (C && (st = mo_contact_driver_create(sc, C, S, &drv, ctx))) goto done;
   if ((st = mo_state_alloc(sc, &s, ctx))) goto done;
   if ((st = mo_stepper_init_state(S, &s, ctx))) goto done;
   table = mo_case_lookup_bool(cs, "output.contact_table");
+  if ((st = mo_metrics_create(sc, C, &met, ctx))) goto done;
   cv.C = C;
   cv.D = drv;
 
-  /* columns: t, probes, energies, contact */
-  for (p = 0; p < sc->nprobe; p++) nprobecol += sc->probe[p].nq;
-  ncol = 1 + nprobecol + (sc->out.energy ? 6 : 0) + (C ? 4 : 0);
+  /* columns: t, probes, their exact values, energies, contact */
+  for (p = 0; p < sc->nprobe; p++) {
+    int q;
+    nprobecol += sc->probe[p].nq;
+    for (q = 0; q < sc->probe[p].nq; q++) {
+      double dummy;
+      const mo_probe *P = &sc->probe[p];
+      nexact += mo_reference_eval(&sc->ref, P->q[q], sc->body[P->body].mesh->x[P->node[0] * sc->dim], 0, &dummy);
+    }
+  }
+  ncol = 1 + nprobecol + nexact + (sc->out.energy ? 7 : 0) + (C ? 4 : 0);
   cols = mo_calloc(ctx, (size_t)(nprobecol ? nprobecol : 1), sizeof *cols);
   names = mo_calloc(ctx, (size_t)ncol, sizeof *names);
   namebuf = mo_calloc(ctx, (size_t)ncol, 80);
@@ -419,17 +440,25 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
     }
   }
   if (cv.need_R && !(cv.Rfull = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof(double)))) { st = MO_ENOMEM; goto done; }
+  x0col = 1 + nprobecol;
+  for (k = 0, p = 0; k < nprobecol; k++)
+    if (cols[k].has_ref) {
+      cols[k].exact_col = x0col + p++;
+      snprintf(names[cols[k].exact_col], 80, "%s.exact", names[1 + k]);
+    } else
+      cols[k].exact_col = -1;
   if (sc->out.energy) {
-    ecol0 = 1 + nprobecol;
+    ecol0 = 1 + nprobecol + nexact;
     snprintf(names[ecol0], 80, "energy.kinetic");
     snprintf(names[ecol0 + 1], 80, "energy.elastic");
     snprintf(names[ecol0 + 2], 80, "energy.total");
     snprintf(names[ecol0 + 3], 80, "energy.external_work");
     snprintf(names[ecol0 + 4], 80, "energy.support_work");
     snprintf(names[ecol0 + 5], 80, "energy.contact_work");
+    snprintf(names[ecol0 + 6], 80, "energy.ratio");
   }
   if (C) {
-    ccol0 = 1 + nprobecol + (sc->out.energy ? 6 : 0);
+    ccol0 = 1 + nprobecol + nexact + (sc->out.energy ? 7 : 0);
     snprintf(names[ccol0], 80, "contact.closed");
     snprintf(names[ccol0 + 1], 80, "contact.iterations");
     snprintf(names[ccol0 + 2], 80, "contact.residual");
@@ -446,6 +475,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
 
   prog.on = opt->progress && isatty(2) && ctx->verbosity >= 1;
   prog.start = prog.last = mo_clock();
+  mo_metrics_step(met, &s, NULL);
   e0 = mo_energy_kinetic(sc, s.v, work) + mo_energy_elastic(sc, s.u, work);
 
   for (;;) {
@@ -461,6 +491,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
       double v = probe_value(sc, P, (mo_quantity)cols[k].q, &s, &cv), r;
       row[1 + k] = v;
       if (cols[k].has_ref && mo_reference_eval(&sc->ref, (mo_quantity)cols[k].q, cols[k].x, s.t, &r)) {
+        row[cols[k].exact_col] = r;
         double e = fabs(v - r);
         cols[k].se2 += e * e;
         cols[k].sr2 += r * r;
@@ -485,6 +516,8 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
         row[ecol0 + 3] = s.wext;
         row[ecol0 + 4] = s.wsupport;
         row[ecol0 + 5] = s.wcontact;
+        row[ecol0 + 6] = mo_metrics_energy_ratio(met, &s);
+        if (row[ecol0 + 6] - 1 > emax_growth) emax_growth = row[ecol0 + 6] - 1;
       }
       if (C) {
         const mo_contact_report *rep = drv ? mo_contact_last_report(drv) : NULL;
@@ -512,6 +545,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
       if ((st = mo_contact_step(drv, &s, ctx))) goto done;
       if (opt->dump_fclib && (st = dump_fclib(opt->dump_fclib, drv, s.step, ctx))) goto done;
     } else if ((st = mo_stepper_step(S, &s, ctx))) goto done;
+    mo_metrics_step(met, &s, drv);
   }
   complete = 1;
 
@@ -539,8 +573,9 @@ done:
     char msg[MO_ERRMSG_MAX];
     snprintf(msg, sizeof msg, "%s", ctx->errmsg);
     mo_ctx_clear_error(ctx);
-    st2 = write_summary(outdir, cs, sc, S, s.u ? &s : NULL, C, drv, cols, nprobecol,
-                        (const char *const *)names, e0, e1, drift, balance, complete, reason, res->wall, ctx);
+    st2 = write_summary(outdir, cs, sc, S, s.u ? &s : NULL, C, drv, met, cols, nprobecol,
+                        (const char *const *)names, e0, e1, drift, balance, emax_growth, complete, reason,
+                        res->wall, ctx);
     if (!st2 && drv && s.u && s.step > 0) {
       snprintf(path, sizeof path, "%s/contact.csv", outdir);
       st2 = mo_contact_write_csv(path, sc, C, drv, &s, ctx);
@@ -554,6 +589,7 @@ done:
   }
   if (opt->log && sc) print_log(ctx, res->wall);
   mo_vtk_close(vtk);
+  mo_metrics_free(met);
   mo_free(cols);
   mo_free(names);
   mo_free(namebuf);

@@ -767,38 +767,6 @@ static int build_output(mo_scene *sc, const mo_case *cs, mo_ctx *ctx)
   return MO_OK;
 }
 
-const char *mo_reference_name(mo_reference_type t)
-{
-  switch (t) {
-  case MO_REF_BAR_RELEASE: return "bar_release";
-  case MO_REF_BAR_STEP_VELOCITY: return "bar_step_velocity";
-  default: return "none";
-  }
-}
-
-static int build_reference(mo_scene *sc, const mo_case *cs, mo_ctx *ctx)
-{
-  const config_setting_t *rg = config_lookup(&cs->cfg, "reference");
-  mo_reference *R = &sc->ref;
-  const char *type;
-  static const char *need_release[] = {"length", "wave_speed", "strain"};
-  static const char *need_step[] = {"length", "wave_speed", "velocity"};
-  const char **req;
-  int k;
-  if (!rg) return MO_OK;
-  type = mo_cfg_string(rg, "type", "");
-  R->type = !strcmp(type, "bar_release") ? MO_REF_BAR_RELEASE : MO_REF_BAR_STEP_VELOCITY;
-  req = R->type == MO_REF_BAR_RELEASE ? need_release : need_step;
-  for (k = 0; k < 3; k++)
-    if (!mo_cfg_member(rg, req[k])) return mo_case_error(cs, rg, ctx, "reference '%s' needs '%s'", type, req[k]);
-  R->length = mo_cfg_float(rg, "length", 1);
-  R->c = mo_cfg_float(rg, "wave_speed", 1);
-  R->strain = mo_cfg_float(rg, "strain", 0);
-  R->velocity = mo_cfg_float(rg, "velocity", 0);
-  R->x0 = mo_cfg_float(rg, "origin", 0);
-  return MO_OK;
-}
-
 /* --- driver ---------------------------------------------------------------------------------- */
 
 int mo_scene_build(const mo_case *cs, mo_scene **out, mo_ctx *ctx)
@@ -939,7 +907,7 @@ int mo_scene_build(const mo_case *cs, mo_scene **out, mo_ctx *ctx)
     if ((st = build_body_force(sc, cs, bg, b, f, ctx))) goto fail;
   }
   if ((st = build_output(sc, cs, ctx))) goto fail;
-  if ((st = build_reference(sc, cs, ctx))) goto fail;
+  if ((st = mo_reference_build(&sc->ref, sc, ctx))) goto fail;
   mo_phase_add(ctx, MO_PH_SETUP, t0);
 
   if (sc->time.scheme == MO_SCHEME_QUASISTATIC) mo_note_skip(ctx, "mass matrix (quasi-static scene)");
@@ -979,46 +947,4 @@ void mo_scene_presc_eval(const mo_scene *sc, int k, double t, double *u, double 
     *v = (mo_expr_eval(p->disp, &tp) - mo_expr_eval(p->disp, &tm)) / (2 * h);
   }
   }
-}
-
-/* --- closed forms ------------------------------------------------------------------------------ */
-
-/* Triangle wave: the odd (about 0), even (about L) extension of s -> s on [0, L], period 4L. */
-static double tri(double s, double L, double *slope)
-{
-  double p = fmod(s, 4 * L);
-  if (p < 0) p += 4 * L;
-  if (p < L) { *slope = 1; return p; }
-  if (p < 3 * L) { *slope = -1; return 2 * L - p; }
-  *slope = 1;
-  return p - 4 * L;
-}
-
-void mo_reference_bar(const mo_reference *R, double x, double t, double *u, double *v)
-{
-  double L = R->length, c = R->c, xi = x - R->x0;
-  if (R->type == MO_REF_BAR_RELEASE) {
-    /* d'Alembert: u = (g(xi - ct) + g(xi + ct)) / 2, g the extension of eps * xi */
-    double s1, s2, g1 = tri(xi - c * t, L, &s1), g2 = tri(xi + c * t, L, &s2);
-    *u = R->strain * 0.5 * (g1 + g2);
-    *v = R->strain * 0.5 * c * (s2 - s1);
-  } else {
-    /* u = V t xi / L + w, w fixed-fixed with w_t(., 0) = -V xi / L: d'Alembert with the odd
-       2L-periodic extension G of -V s / L and its antiderivative Phi */
-    double V = R->velocity, r1, r2, a = xi + c * t, b = xi - c * t;
-    r1 = a - 2 * L * floor((a + L) / (2 * L));
-    r2 = b - 2 * L * floor((b + L) / (2 * L));
-    *u = V * t * xi / L + (-V * r1 * r1 / (2 * L) + V * r2 * r2 / (2 * L)) / (2 * c);
-    *v = V * xi / L + 0.5 * (-V * r1 / L - V * r2 / L);
-  }
-}
-
-int mo_reference_eval(const mo_reference *R, mo_quantity q, double x, double t, double *val)
-{
-  double u, v;
-  if (R->type == MO_REF_NONE) return 0;
-  if (q != MO_Q_UX && q != MO_Q_VX) return 0;
-  mo_reference_bar(R, x, t, &u, &v);
-  *val = q == MO_Q_UX ? u : v;
-  return 1;
 }

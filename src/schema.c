@@ -126,12 +126,20 @@ static const mo_key core_keys[] = {
 
   /* --- reference solution ------------------------------------------------------------------ */
   {"reference", K_GROUP, NULL, NONE, 0, NULL, "A closed-form solution the core compares the probes with (errors in summary.json).", NULL},
-  {"reference.type", K_ENUM, "bar_release|bar_step_velocity", NONE, 1, NULL, "bar_release: bar clamped at x = 0, free at x = L, released at rest from a uniform strain; bar_step_velocity: same bar, x = L given a constant velocity from rest.", NULL},
+  {"reference.type", K_ENUM, "bar_release|bar_step_velocity|rods_impact|bar_obstacle|energy", NONE, 1, NULL, "energy: only the exact total energy (key energy); bar_release: bar clamped at x = origin, free at origin + L, released at rest from a uniform strain; bar_step_velocity: same bar, the far end given a constant velocity from rest; rods_impact: a rod against a rigid wall (or each of two identical rods); bar_obstacle: Doyen-Ern-Piperno's bar released against an obstacle (doc/theory.md §3).", NULL},
+  {"reference.body", K_STRING, NULL, NONE, 0, "the first deformable body", "The body the closed form describes (field errors).", NULL},
   {"reference.length", K_FLOAT, NULL, POS, 0, NULL, "Bar length L (m).", NULL},
-  {"reference.wave_speed", K_FLOAT, NULL, POS, 0, NULL, "c = sqrt(E / rho) (m/s).", NULL},
+  {"reference.wave_speed", K_FLOAT, NULL, POS, 0, NULL, "Wave speed c (sqrt(E / rho) for bars; state which one for 2D and 3D models) (m/s).", NULL},
   {"reference.strain", K_FLOAT, NULL, NONE, 0, NULL, "bar_release: initial uniform strain.", NULL},
-  {"reference.velocity", K_FLOAT, NULL, NONE, 0, NULL, "bar_step_velocity: velocity of the end x = L (m/s).", NULL},
-  {"reference.origin", K_FLOAT, NULL, NONE, 0, "0", "x of the clamped end.", NULL},
+  {"reference.velocity", K_FLOAT, NULL, NONE, 0, NULL, "bar_step_velocity: velocity of the far end; rods_impact: speed toward the obstacle (> 0) (m/s).", NULL},
+  {"reference.origin", K_FLOAT, NULL, NONE, 0, "0", "bar_release, bar_step_velocity: x of the clamped end; bar_obstacle: x of the contact end.", NULL},
+  {"reference.contact_end", K_FLOAT, NULL, NONE, 0, NULL, "rods_impact: x of the rod's contact end in the reference configuration.", NULL},
+  {"reference.direction", K_FLOAT, NULL, NONE, 0, "1", "rods_impact: +1 when the rod moves toward +x, -1 toward -x.", NULL},
+  {"reference.gap", K_FLOAT, NULL, NONNEG, 0, NULL, "rods_impact: distance the contact end travels before impact (half the gap of two identical rods) (m).", NULL},
+  {"reference.amplitude", K_FLOAT, NULL, NONE, 0, NULL, "bar_obstacle: initial displacement of the contact end (u0 = a (1 - x/L)) (m).", NULL},
+  {"reference.density", K_FLOAT, NULL, POS, 0, "1", "Density, for contact forces and pressures (kg/m^3).", NULL},
+  {"reference.area", K_FLOAT, NULL, POS, 0, "1", "Cross-section, for contact forces (m^2).", NULL},
+  {"reference.energy", K_FLOAT, NULL, NONE, 0, "E(0)", "Exact total mechanical energy, potential of the external loads included (e.g. m g h for a body dropped from h): energy ratios are E(t) / energy with E(t) = kinetic + elastic - external work - support work + (energy - E(0)) (J).", NULL},
 };
 
 /* Back-end options appear as contact.<backend>.<option>; their specs come from the registry,

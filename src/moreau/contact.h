@@ -271,6 +271,10 @@ typedef struct mo_contact_solver_type {
   int (*solve)(void *state, const mo_contact_problem *P, mo_contact_vars *x,
                mo_contact_report *rep, mo_ctx *ctx);
   void (*free)(void *state);
+  /* Optional: the time scheme this back end runs, set from its parameters before the stepper is
+     built (the newmark baseline runs Newmark with its own beta, gamma whatever time.scheme says).
+     NULL: the case's time settings. */
+  int (*time_scheme)(const void *params, mo_time_settings *T, mo_ctx *ctx);
 } mo_contact_solver_type;
 
 /* The registry: an explicit table in the core (src/registry.c). */
@@ -285,6 +289,9 @@ int mo_option_set(const mo_option_spec *opts, int nopt, void *params, const char
 
 typedef struct mo_contact_driver mo_contact_driver;
 
+/* Let the case's back end choose its time scheme (before mo_stepper_create). Notes the change
+   in the run's log when it changes the scheme. */
+int mo_contact_time_scheme(mo_scene *sc, const mo_contact *C, mo_ctx *ctx);
 /* Set up the contact step of a run: the back end named by contact.solver (validated against
    the registry and the scheme), its options from the case, the Delassus operator if needed. */
 int mo_contact_driver_create(const mo_scene *sc, mo_contact *C, mo_stepper *S,

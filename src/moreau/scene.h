@@ -85,15 +85,38 @@ typedef struct {
 enum { MO_VTK_DISPLACEMENT = 1, MO_VTK_VELOCITY = 2, MO_VTK_STRESS = 4, MO_VTK_STRAIN = 8,
        MO_VTK_VON_MISES = 16 };
 
-typedef enum { MO_REF_NONE = 0, MO_REF_BAR_RELEASE, MO_REF_BAR_STEP_VELOCITY } mo_reference_type;
+typedef enum {
+  MO_REF_NONE = 0,
+  MO_REF_BAR_RELEASE,        /* clamped-free bar released from a uniform strain (T5) */
+  MO_REF_BAR_STEP_VELOCITY,  /* clamped bar, far end given a constant velocity (T6) */
+  MO_REF_RODS_IMPACT,        /* a rod against a rigid wall, or half of two identical rods (T13) */
+  MO_REF_BAR_OBSTACLE,       /* Doyen-Ern-Piperno's bar released against an obstacle (T14) */
+  MO_REF_ENERGY              /* only the exact total energy (potential of the loads included) */
+} mo_reference_type;
 
 typedef struct {
   mo_reference_type type;
-  double length, c, strain, velocity, x0;
+  int body;                  /* the body the closed form describes (field errors) */
+  double length, c;          /* bar length L, wave speed c */
+  double strain, velocity;   /* bar_release: eps; bar_step_velocity and rods: v (speed) */
+  double x0;                 /* bar: clamped end; bar_obstacle: contact end; rods: contact end */
+  double direction;          /* rods: +1 when the rod moves toward +x, -1 otherwise */
+  double gap;                /* rods: distance the contact end travels before impact */
+  double amplitude;          /* bar_obstacle: initial displacement of the contact end */
+  double density, area;      /* for forces and pressures (E = rho c^2) */
+  double energy;             /* exact total energy (NaN: E(0)) */
 } mo_reference;
 
-/* Closed form: displacement and velocity along x of the reference bar at (x, t). */
-void mo_reference_bar(const mo_reference *R, double x, double t, double *u, double *v);
+/* Closed form along the bar at material coordinate x, time t: displacement, velocity and axial
+   strain along x (global axis). */
+void mo_reference_field(const mo_reference *R, double x, double t, double *u, double *v,
+                        double *eps);
+/* Contact pressure (>= 0) at the contact end at time t; 1 when the contact is closed. */
+int mo_reference_contact(const mo_reference *R, double t, double *pressure);
+/* Time of the first release after an impact (NaN when the closed form has none), and the
+   impulse of the contact force on the body over [0, T] (N s). */
+double mo_reference_release_time(const mo_reference *R);
+double mo_reference_impulse(const mo_reference *R, double T);
 /* Value of probe quantity q at (x, t) from the reference; 0 when it has none. */
 int mo_reference_eval(const mo_reference *R, mo_quantity q, double x, double t, double *val);
 const char *mo_reference_name(mo_reference_type t);
@@ -132,6 +155,8 @@ void mo_scene_free(mo_scene *sc);
 void mo_scene_fext(const mo_scene *sc, double t, double *f);
 /* Prescribed displacement and velocity of presc[k] at time t. */
 void mo_scene_presc_eval(const mo_scene *sc, int k, double t, double *u, double *v);
+/* Reference block of the case (called by mo_scene_build). */
+int mo_reference_build(mo_reference *R, const mo_scene *sc, mo_ctx *ctx);
 /* Index of a body by name, or -1. */
 int mo_scene_body_index(const mo_scene *sc, const char *name);
 

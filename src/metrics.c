@@ -1,0 +1,234 @@
+/* metrics.c: space-time errors against the closed forms, and the contact measures every back
+   end is compared on: penetration, normal velocity jump in contact, oscillation index, status
+   flips, release time, impulse, energy after each impact (doc/theory.md §7). */
+#include "config.h"
+#include "metrics.h"
+
+#include <math.h>
+#include <string.h>
+
+#define MAX_IMPACTS 64
+
+struct mo_metrics {
+  const mo_scene *sc;
+  const mo_contact *C;
+  double *work;              /* ndof */
+  double e0, eshift;         /* E(0), and the shift to the reference's exact energy */
+  /* field errors (1D bars against a bar reference) */
+  int fields;
+  double eu2, ru2, ev2, rv2, eh2, rh2;     /* sums over steps of squared L2 (H1) norms */
+  double eumax, rumax, evmax, rvmax;      /* max over steps of the L2 norms */
+  long nfield;
+  /* contact */
+  int nc, d;
+  double *Un, *Unprev;       /* normal relative velocities, nc */
+  int *status, *prevstatus;  /* per candidate */
+  double *tv;                /* total variation of U_n while closed, per candidate */
+  double max_pen, max_vn_closed, vscale, impulse, first_release, t_prev;
+  long flips;
+  int closed_prev;           /* number of candidates in contact at the previous step */
+  unsigned char *incontact;  /* per candidate, at the previous step */
+  double gtol;               /* a gap above this is open (1e-9 of the smallest element) */
+  int nimpact;
+  double impact_energy[MAX_IMPACTS], impact_time[MAX_IMPACTS];
+  int started;
+};
+
+void mo_metrics_free(mo_metrics *M)
+{
+  if (!M) return;
+  mo_free(M->work);
+  mo_free(M->Un);
+  mo_free(M->Unprev);
+  mo_free(M->status);
+  mo_free(M->prevstatus);
+  mo_free(M->tv);
+  mo_free(M->incontact);
+  mo_free(M);
+}
+
+int mo_metrics_create(const mo_scene *sc, const mo_contact *C, mo_metrics **out, mo_ctx *ctx)
+{
+  mo_metrics *M = mo_calloc(ctx, 1, sizeof *M);
+  const mo_reference *R = &sc->ref;
+  *out = NULL;
+  if (!M) return MO_ENOMEM;
+  M->sc = sc;
+  M->C = C;
+  M->work = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof(double));
+  if (!M->work) { mo_metrics_free(M); return MO_ENOMEM; }
+  M->first_release = NAN;
+  M->fields = R->type != MO_REF_NONE && R->type != MO_REF_ENERGY && R->body >= 0 &&
+              sc->body[R->body].mesh->dim == 1;
+  if (C) {
+    M->nc = mo_contact_ncandidates(C);
+    M->d = mo_contact_dim(C);
+    M->Un = mo_calloc(ctx, (size_t)M->nc * (size_t)M->d + 1, sizeof(double));
+    M->Unprev = mo_calloc(ctx, (size_t)M->nc + 1, sizeof(double));
+    M->status = mo_calloc(ctx, (size_t)M->nc + 1, sizeof(int));
+    M->prevstatus = mo_calloc(ctx, (size_t)M->nc + 1, sizeof(int));
+    M->tv = mo_calloc(ctx, (size_t)M->nc + 1, sizeof(double));
+    M->incontact = mo_calloc(ctx, (size_t)M->nc + 1, 1);
+    if (!M->Un || !M->Unprev || !M->status || !M->prevstatus || !M->tv || !M->incontact) { mo_metrics_free(M); return MO_ENOMEM; }
+    {
+      int b;
+      double hmin = HUGE_VAL, h;
+      for (b = 0; b < sc->nbody; b++)
+        if (sc->body[b].kind == MO_BODY_DEFORMABLE) {
+          mo_mesh_edge_range(sc->body[b].mesh, &h, NULL);
+          if (h < hmin) hmin = h;
+        }
+      M->gtol = 1e-9 * hmin;
+    }
+  }
+  *out = M;
+  return MO_OK;
+}
+
+static double mech_energy(const mo_metrics *M, const mo_state *s)
+{
+  const mo_scene *sc = M->sc;
+  return mo_energy_kinetic(sc, s->v, M->work) + mo_energy_elastic(sc, s->u, M->work) - s->wext - s->wsupport;
+}
+
+double mo_metrics_energy_ratio(const mo_metrics *M, const mo_state *s)
+{
+  double e = mech_energy(M, s) + M->eshift, e0 = M->e0 + M->eshift;
+  return e0 != 0 ? e / e0 : NAN;
+}
+
+/* Squared L2 norms over the reference body (2-point Gauss per bar element) of u_h - u, u,
+   v_h - v, v, and of the strain difference (H1 seminorm). */
+static void field_step(mo_metrics *M, const mo_state *s)
+{
+  const mo_scene *sc = M->sc;
+  const mo_reference *R = &sc->ref;
+  const mo_body *B = &sc->body[R->body];
+  const mo_mesh *m = B->mesh;
+  static const double gp[2] = {-0.5773502691896257645, 0.5773502691896257645};
+  double eu = 0, ru = 0, ev = 0, rv = 0, eh = 0, rh = 0;
+  int e, q;
+  for (e = 0; e < m->nelem; e++) {
+    int a = m->conn[2 * e], b = m->conn[2 * e + 1];
+    double xa = m->x[a], xb = m->x[b], Le = xb - xa;
+    double ua = s->u[B->dof0 + a], ub = s->u[B->dof0 + b], va = s->v[B->dof0 + a], vb = s->v[B->dof0 + b];
+    double eps_h = (ub - ua) / Le;
+    for (q = 0; q < 2; q++) {
+      double w = 0.5 * fabs(Le), Na = 0.5 * (1 - gp[q]), Nb = 0.5 * (1 + gp[q]);
+      double x = Na * xa + Nb * xb, u, v, ep, uh = Na * ua + Nb * ub, vh = Na * va + Nb * vb;
+      mo_reference_field(R, x, s->t, &u, &v, &ep);
+      eu += w * (uh - u) * (uh - u);
+      ru += w * u * u;
+      ev += w * (vh - v) * (vh - v);
+      rv += w * v * v;
+      eh += w * (eps_h - ep) * (eps_h - ep);
+      rh += w * ep * ep;
+    }
+  }
+  M->eu2 += eu; M->ru2 += ru; M->ev2 += ev; M->rv2 += rv; M->eh2 += eh; M->rh2 += rh;
+  if (sqrt(eu) > M->eumax) M->eumax = sqrt(eu);
+  if (sqrt(ru) > M->rumax) M->rumax = sqrt(ru);
+  if (sqrt(ev) > M->evmax) M->evmax = sqrt(ev);
+  if (sqrt(rv) > M->rvmax) M->rvmax = sqrt(rv);
+  M->nfield++;
+}
+
+void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *D)
+{
+  const mo_scene *sc = M->sc;
+  int a, closed = 0;
+  if (!M->started) {
+    M->e0 = mech_energy(M, s);
+    M->eshift = isnan(sc->ref.energy) ? 0 : sc->ref.energy - M->e0;
+    M->started = 1;
+  }
+  if (M->fields) field_step(M, s);
+  if (!M->C) return;
+  {
+    const mo_contact *C = M->C;
+    const double *g = mo_contact_gaps(C), *U0 = mo_contact_U0(C);
+    const int *st = D ? mo_contact_statuses(D) : NULL;
+    const double *r = D ? mo_contact_reactions(D) : NULL;
+    int d = M->d;
+    double h = sc->time.dt;
+    /* U = H^T v + U0: the relative velocity at the end of the step, whatever the scheme */
+    mo_csc_gatxpy(mo_contact_H_full(C), 1, s->v, 0, M->Un);
+    for (a = 0; a < M->nc; a++) {
+      double un = M->Un[a * d] + U0[a * d];
+      /* in contact: a compressive reaction, or a closed gap */
+      int inc = s->step > 0 && ((r && r[a * d] > 0) || g[a] <= M->gtol);
+      if (-g[a] > M->max_pen) M->max_pen = -g[a];
+      if (fabs(un) > M->vscale) M->vscale = fabs(un);
+      if (inc) {
+        closed++;
+        /* the jump of a persisting contact (the impact step itself is the impact) */
+        if (M->incontact[a]) {
+          if (fabs(un) > M->max_vn_closed) M->max_vn_closed = fabs(un);
+          M->tv[a] += fabs(un - M->Unprev[a]);
+        }
+      } else if (M->incontact[a] && isnan(M->first_release))
+        M->first_release = s->t;
+      if (s->step > 0 && st) {
+        if (st[a] != M->prevstatus[a]) M->flips++;
+        M->prevstatus[a] = st[a];
+      }
+      M->incontact[a] = (unsigned char)inc;
+      M->Unprev[a] = un;
+      if (r && s->step > 0)
+        M->impulse += r[a * d] * (sc->time.scheme == MO_SCHEME_THETA ? 1 : h);
+    }
+    /* the end of an impact: every candidate open again after some were closed */
+    if (M->closed_prev > 0 && closed == 0 && M->nimpact < MAX_IMPACTS) {
+      M->impact_energy[M->nimpact] = mo_metrics_energy_ratio(M, s);
+      M->impact_time[M->nimpact++] = s->t;
+    }
+    M->closed_prev = closed;
+  }
+}
+
+json_t *mo_metrics_json(const mo_metrics *M)
+{
+  json_t *j = json_object();
+  const mo_reference *R = &M->sc->ref;
+  if (M->fields && M->nfield) {
+    json_t *f = json_object();
+    json_object_set_new(f, "u_l2l2_rel", json_real(M->ru2 > 0 ? sqrt(M->eu2 / M->ru2) : NAN));
+    json_object_set_new(f, "v_l2l2_rel", json_real(M->rv2 > 0 ? sqrt(M->ev2 / M->rv2) : NAN));
+    json_object_set_new(f, "u_linfl2_rel", json_real(M->rumax > 0 ? M->eumax / M->rumax : NAN));
+    json_object_set_new(f, "v_linfl2_rel", json_real(M->rvmax > 0 ? M->evmax / M->rvmax : NAN));
+    json_object_set_new(f, "u_l2h1_rel", json_real(M->rh2 > 0 ? sqrt(M->eh2 / M->rh2) : NAN));
+    json_object_set_new(j, "field", f);
+  }
+  if (M->C) {
+    json_t *c = json_object(), *imp = json_array(), *impt = json_array();
+    double osc = 0, tref = mo_reference_release_time(R);
+    int a, k;
+    for (a = 0; a < M->nc; a++) if (M->tv[a] > osc) osc = M->tv[a];
+    json_object_set_new(c, "max_penetration", json_real(M->max_pen));
+    json_object_set_new(c, "max_vn_in_contact", json_real(M->max_vn_closed));
+    json_object_set_new(c, "velocity_scale", json_real(M->vscale));
+    json_object_set_new(c, "oscillation_index", json_real(M->vscale > 0 ? osc / M->vscale : 0));
+    json_object_set_new(c, "status_flips", json_integer(M->flips));
+    json_object_set_new(c, "release_time", json_real(M->first_release));
+    if (!isnan(tref)) {
+      json_object_set_new(c, "release_time_exact", json_real(tref));
+      json_object_set_new(c, "release_time_error", json_real(M->first_release - tref));
+    }
+    json_object_set_new(c, "impulse", json_real(M->impulse));
+    {
+      double iref = mo_reference_impulse(R, M->sc->time.end);
+      if (!isnan(iref) && iref != 0) {
+        json_object_set_new(c, "impulse_exact", json_real(iref));
+        json_object_set_new(c, "impulse_error", json_real((M->impulse - iref) / iref));
+      }
+    }
+    for (k = 0; k < M->nimpact; k++) {
+      json_array_append_new(imp, json_real(M->impact_energy[k]));
+      json_array_append_new(impt, json_real(M->impact_time[k]));
+    }
+    json_object_set_new(c, "energy_after_impacts", imp);
+    json_object_set_new(c, "impact_end_times", impt);
+    json_object_set_new(j, "contact", c);
+  }
+  return j;
+}
