@@ -24,6 +24,10 @@ static void usage(FILE *f)
           "  run CASE [--solver S] [--set KEY=VALUE]... [--out DIR] [--log] [--quiet]\n"
           "            run a case (a folder holding case.cfg, or a file); outputs in DIR\n"
           "            (default out/<case>): history.csv, summary.json, fields.pvd\n"
+          "  compare CASE [--solvers a,b,...] [--dt h1,h2,...] [--vary KEY=v1,v2,...]...\n"
+          "          [--set KEY=VALUE]... [--out DIR] [--metric NAME]\n"
+          "            the same scene by several back ends and time steps (and parameter grids):\n"
+          "            compare.csv, stability.csv, report.md, plots/ (default out/compare-<case>)\n"
           "  check CASE [--solver S] [--set KEY=VALUE]...\n"
           "            validate a case and build its scene without running it\n"
           "  list-solvers   the registered contact back ends\n"
@@ -84,10 +88,114 @@ static int parse_run_args(int argc, char **argv, int i, cli *c)
   return 0;
 }
 
+static int exit_code(int st);
+
+/* Split "a,b,c" in place into items (at most max). */
+static int split_list(char *s, char **items, int max)
+{
+  int n = 0;
+  char *save = NULL, *tok;
+  for (tok = strtok_r(s, ",", &save); tok && n < max; tok = strtok_r(NULL, ",", &save)) items[n++] = tok;
+  return n;
+}
+
+static int cmd_compare(int argc, char **argv, mo_ctx *ctx)
+{
+  mo_compare_options o;
+  mo_compare_result res;
+  char *solvers[16], *vals[MO_COMPARE_MAX_VARY][64], outbuf[4200];
+  double dts[64];
+  const char **sets = calloc((size_t)argc, sizeof *sets);
+  int i, k, st;
+  memset(&o, 0, sizeof o);
+  if (!sets) return 2;
+  o.sets = sets;
+  for (i = 2; i < argc; i++) {
+    const char *a = argv[i];
+    if (!strcmp(a, "--solvers") && i + 1 < argc) {
+      o.nsolver = split_list(argv[++i], solvers, 16);
+      o.solvers = (const char *const *)solvers;
+    } else if (!strcmp(a, "--dt") && i + 1 < argc) {
+      char *items[64], *end;
+      int n = split_list(argv[++i], items, 64);
+      for (k = 0; k < n; k++) {
+        dts[k] = strtod(items[k], &end);
+        if (*end || !(dts[k] > 0)) {
+          fprintf(stderr, "moreau compare: --dt: '%s' is not a positive time step\n", items[k]);
+          free(sets);
+          return 2;
+        }
+      }
+      o.ndt = n;
+      o.dt = dts;
+    } else if (!strcmp(a, "--vary") && i + 1 < argc) {
+      char *eq = strchr(argv[++i], '=');
+      if (!eq || o.nvary == MO_COMPARE_MAX_VARY) {
+        fprintf(stderr, "moreau compare: --vary KEY=v1,v2,... (at most %d keys)\n", MO_COMPARE_MAX_VARY);
+        free(sets);
+        return 2;
+      }
+      *eq = '\0';
+      o.vary[o.nvary].key = argv[i];
+      o.vary[o.nvary].nval = split_list(eq + 1, vals[o.nvary], 64);
+      o.vary[o.nvary].val = (const char *const *)vals[o.nvary];
+      o.nvary++;
+    } else if ((!strcmp(a, "--set") || !strcmp(a, "-s")) && i + 1 < argc) {
+      sets[o.nset++] = argv[++i];
+    } else if ((!strcmp(a, "--out") || !strcmp(a, "-o")) && i + 1 < argc) {
+      o.outdir = argv[++i];
+    } else if (!strcmp(a, "--metric") && i + 1 < argc) {
+      o.metric = argv[++i];
+    } else if (!strcmp(a, "--penetration-tol") && i + 1 < argc) {
+      o.penetration_tol = atof(argv[++i]);
+    } else if (!strcmp(a, "--quiet") || !strcmp(a, "-q")) {
+      ctx->verbosity = 0;
+    } else if (a[0] == '-' && a[1]) {
+      fprintf(stderr, "moreau compare: unknown or incomplete option '%s'\n", a);
+      free(sets);
+      return 2;
+    } else if (!o.case_path) {
+      o.case_path = a;
+    } else {
+      fprintf(stderr, "moreau compare: one case at a time\n");
+      free(sets);
+      return 2;
+    }
+  }
+  if (!o.case_path) {
+    fprintf(stderr, "moreau compare: which case?\n");
+    free(sets);
+    return 2;
+  }
+  if (!o.outdir) {
+    char tmp[4096], *base;
+    size_t l;
+    snprintf(tmp, sizeof tmp, "%s", o.case_path);
+    l = strlen(tmp);
+    while (l > 1 && tmp[l - 1] == '/') tmp[--l] = '\0';
+    base = strrchr(tmp, '/');
+    snprintf(outbuf, sizeof outbuf, "out/compare-%s", base ? base + 1 : tmp);
+    o.outdir = outbuf;
+  }
+  st = mo_compare(&o, &res, ctx);
+  free(sets);
+  if (st) {
+    fprintf(stderr, "moreau compare: %s\n", ctx->errmsg);
+    return exit_code(st);
+  }
+  if (ctx->verbosity >= 1) {
+    printf("%s: %d runs (%d stable, %d unstable, %d failed)\n", o.case_path, res.nrun, res.nstable, res.nunstable, res.nfailed);
+    printf("  outputs: %s/compare.csv, %s/report.md, %s/plots/ (%d figures, %d rendered)\n", o.outdir, o.outdir, o.outdir,
+           res.nfigures, res.rendered);
+  }
+  return 0;
+}
+
 static int exit_code(int st)
 {
   return st == MO_EINPUT || st == MO_EIO ? 2 : 1;
 }
+
 
 static void print_key(const char *path, const char *type, const char *range, const char *deflt,
                       const char *doc, void *data)
@@ -120,6 +228,15 @@ int main(int argc, char **argv)
   if (!strcmp(cmd, "keys")) {
     mo_case_schema_visit(print_key, NULL);
     return 0;
+  }
+  if (!strcmp(cmd, "compare")) {
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal;
+    sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL);
+    ctx.interrupt = &interrupted;
+    return cmd_compare(argc, argv, &ctx);
   }
   if (!strcmp(cmd, "list-solvers")) {
     return mo_cli_list_solvers(stdout);

@@ -1,0 +1,596 @@
+/* compare.c: `moreau compare`: the same scene by several back ends, time steps and parameter
+   grids; compare.csv, stability.csv, report.md and gnuplot figures (doc/theory.md §7). */
+#include "config.h"
+#include <moreau/compare.h>
+#include <moreau/output.h>
+#include <moreau/run.h>
+
+#include <errno.h>
+#include <jansson.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#define MAX_COLS 256
+
+typedef struct {
+  char label[256];
+  char solver[64];
+  double dt;
+  char vary[MO_COMPARE_MAX_VARY][128];  /* value of each varied key */
+  int status;                /* MO_OK or the error code */
+  char reason[512];
+  char cls[32];              /* stable, unstable, failure */
+  char why[256];
+  double wall;
+  long steps;
+  double val[MAX_COLS];      /* flattened metrics, NaN when absent */
+  char outdir[1024];
+  int ok;
+} run_row;
+
+typedef struct {
+  int n;
+  char name[MAX_COLS][96];
+} colset;
+
+static int col_index(colset *C, const char *name)
+{
+  int k;
+  for (k = 0; k < C->n; k++)
+    if (!strcmp(C->name[k], name)) return k;
+  if (C->n == MAX_COLS) return -1;
+  snprintf(C->name[C->n], sizeof C->name[0], "%s", name);
+  return C->n++;
+}
+
+/* Flatten the numbers of a JSON object into prefix.key columns. */
+static void flatten(json_t *j, const char *prefix, colset *C, run_row *r)
+{
+  const char *key;
+  json_t *v;
+  json_object_foreach(j, key, v) {
+    char name[96];
+    snprintf(name, sizeof name, "%s%s%s", prefix, prefix[0] ? "." : "", key);
+    if (json_is_object(v)) flatten(v, name, C, r);
+    else if (json_is_number(v)) {
+      int k = col_index(C, name);
+      if (k >= 0) r->val[k] = json_number_value(v);
+    } else if (json_is_array(v) && json_array_size(v) > 0 && json_is_number(json_array_get(v, json_array_size(v) - 1))) {
+      /* a list (energy after each impact): its last value */
+      int k;
+      snprintf(name, sizeof name, "%s%s%s_last", prefix, prefix[0] ? "." : "", key);
+      k = col_index(C, name);
+      if (k >= 0) r->val[k] = json_number_value(json_array_get(v, json_array_size(v) - 1));
+    }
+  }
+}
+
+static void read_summary(run_row *r, colset *C)
+{
+  char path[1200];
+  json_t *root, *m;
+  json_error_t err;
+  int k;
+  for (k = 0; k < MAX_COLS; k++) r->val[k] = NAN;
+  snprintf(path, sizeof path, "%s/summary.json", r->outdir);
+  root = json_load_file(path, 0, &err);
+  if (!root) return;
+  if ((m = json_object_get(root, "metrics"))) flatten(m, "", C, r);
+  if ((m = json_object_get(root, "energy"))) flatten(m, "energy", C, r);
+  if ((m = json_object_get(root, "contact"))) flatten(m, "contact", C, r);
+  if ((m = json_object_get(root, "scene")) && json_object_get(m, "hmin")) {
+    int kk = col_index(C, "scene.hmin");
+    if (kk >= 0) r->val[kk] = json_number_value(json_object_get(m, "hmin"));
+  }
+  json_decref(root);
+}
+
+static double colval(const run_row *r, const colset *C, const char *name)
+{
+  int k;
+  for (k = 0; k < C->n; k++)
+    if (!strcmp(C->name[k], name)) return r->val[k];
+  return NAN;
+}
+
+static void classify(run_row *r, const colset *C, double pen_rel)
+{
+  if (r->status != MO_OK) {
+    snprintf(r->cls, sizeof r->cls, "failure");
+    if (strstr(r->reason, "cycling")) snprintf(r->why, sizeof r->why, "status cycling");
+    else if (r->status == MO_ENOCONV) snprintf(r->why, sizeof r->why, "non-convergence");
+    else if (r->status == MO_ESINGULAR) snprintf(r->why, sizeof r->why, "singular matrix");
+    else if (r->status == MO_ENAN) snprintf(r->why, sizeof r->why, "NaN");
+    else if (r->status == MO_EINPUT) snprintf(r->why, sizeof r->why, "input rejected");
+    else snprintf(r->why, sizeof r->why, "%s", mo_strerror(r->status));
+    return;
+  }
+  {
+    double growth = colval(r, C, "energy.max_growth"), pen = colval(r, C, "contact.max_penetration");
+    double hmin = colval(r, C, "scene.hmin");
+    if (isnan(colval(r, C, "energy.final")) || isnan(growth)) {
+      snprintf(r->cls, sizeof r->cls, "unstable");
+      snprintf(r->why, sizeof r->why, "non-finite energy");
+    } else if (growth > 0.01) {
+      snprintf(r->cls, sizeof r->cls, "unstable");
+      snprintf(r->why, sizeof r->why, "energy growth %.2g %%", 100 * growth);
+    } else if (!isnan(pen) && !isnan(hmin) && pen > pen_rel * hmin) {
+      snprintf(r->cls, sizeof r->cls, "unstable");
+      snprintf(r->why, sizeof r->why, "penetration %.3g (%.2g of the smallest element)", pen, pen / hmin);
+    } else {
+      snprintf(r->cls, sizeof r->cls, "stable");
+      r->why[0] = '\0';
+    }
+  }
+}
+
+/* The error used for the work-precision figure: the option, else the first field error, else
+   the first probe displacement error. */
+static int pick_metric(const colset *C, const char *want)
+{
+  static const char *pref[] = {"field.u_l2l2_rel", "field.v_l2l2_rel"};
+  int k;
+  size_t p;
+  if (want) {
+    for (k = 0; k < C->n; k++)
+      if (!strcmp(C->name[k], want)) return k;
+    return -1;
+  }
+  for (p = 0; p < sizeof pref / sizeof pref[0]; p++)
+    for (k = 0; k < C->n; k++)
+      if (!strcmp(C->name[k], pref[p])) return k;
+  for (k = 0; k < C->n; k++)
+    if (strstr(C->name[k], "ux.l2_rel") || strstr(C->name[k], "uy.l2_rel") || strstr(C->name[k], "uz.l2_rel")) return k;
+  return -1;
+}
+
+static int write_text(const char *path, const char *text, mo_ctx *ctx)
+{
+  return mo_write_file_atomic(path, text, strlen(text), ctx);
+}
+
+/* A growable string. */
+typedef struct {
+  char *s;
+  size_t n, cap;
+  int err;
+} sbuf;
+
+static void sb_printf(sbuf *b, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+static void sb_printf(sbuf *b, const char *fmt, ...)
+{
+  va_list ap;
+  int w;
+  if (b->err) return;
+  for (;;) {
+    size_t room = b->cap - b->n;
+    va_start(ap, fmt);
+    w = vsnprintf(b->s ? b->s + b->n : NULL, b->s ? room : 0, fmt, ap);
+    va_end(ap);
+    if (w < 0) { b->err = 1; return; }
+    if (b->s && (size_t)w < room) { b->n += (size_t)w; return; }
+    {
+      size_t cap = b->cap ? 2 * b->cap : 4096;
+      char *p;
+      while (cap < b->n + (size_t)w + 1) cap *= 2;
+      p = realloc(b->s, cap);
+      if (!p) { b->err = 1; return; }
+      b->s = p;
+      b->cap = cap;
+    }
+  }
+}
+
+/* Column number (1-based, gnuplot) of `name` in a CSV header, 0 when absent. */
+static int csv_column(const char *path, const char *name)
+{
+  FILE *f = fopen(path, "r");
+  char line[16384], *tok, *save = NULL;
+  int k = 0;
+  if (!f) return 0;
+  if (!fgets(line, sizeof line, f)) { fclose(f); return 0; }
+  fclose(f);
+  line[strcspn(line, "\r\n")] = '\0';
+  for (tok = strtok_r(line, ",", &save); tok; tok = strtok_r(NULL, ",", &save)) {
+    k++;
+    if (!strcmp(tok, name)) return k;
+  }
+  return 0;
+}
+
+static int run_gnuplot(const char *dir, const char *script, mo_ctx *ctx)
+{
+#ifdef GNUPLOT_PATH
+  char cmd[2400];
+  int rc;
+  snprintf(cmd, sizeof cmd, "cd '%s' && '%s' '%s' > /dev/null 2>&1", dir, GNUPLOT_PATH, script);
+  rc = system(cmd);
+  if (rc != 0) mo_log(ctx, 1, "moreau compare: gnuplot failed on %s/%s (exit %d)\n", dir, script, rc);
+  return rc == 0;
+#else
+  (void)dir; (void)script; (void)ctx;
+  return 0;
+#endif
+}
+
+/* Sanitise a label for file names. */
+static void slug(const char *in, char *out, size_t n)
+{
+  size_t k = 0;
+  for (; *in && k + 1 < n; in++) out[k++] = (char)((*in == '/' || *in == ' ' || *in == '=' || *in == ',') ? '_' : *in);
+  out[k] = '\0';
+}
+
+int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ctx)
+{
+  int nsol = opt->nsolver ? opt->nsolver : 1, ndt = opt->ndt ? opt->ndt : 1, ngrid = 1, i, j, k, st = MO_OK;
+  int nrun, r, metric_col;
+  run_row *rows = NULL;
+  colset *C = NULL;
+  char dir[1024], path[1400];
+  sbuf b = {NULL, 0, 0, 0};
+  for (k = 0; k < opt->nvary; k++) ngrid *= opt->vary[k].nval;
+  nrun = nsol * ndt * ngrid;
+  memset(res, 0, sizeof *res);
+  if (nrun > 10000) return mo_error(ctx, MO_ELIMIT, "compare: %d runs (more than 10000): a smaller grid, please", nrun);
+  snprintf(dir, sizeof dir, "%s", opt->outdir);
+  if ((st = mo_mkdir_p(dir, ctx))) return st;
+  snprintf(path, sizeof path, "%s/plots", dir);
+  if ((st = mo_mkdir_p(path, ctx))) return st;
+  rows = mo_calloc(ctx, (size_t)nrun, sizeof *rows);
+  C = mo_calloc(ctx, 1, sizeof *C);
+  if (!rows || !C) { st = MO_ENOMEM; goto done; }
+
+  /* run every (solver, dt, grid point) */
+  for (r = 0; r < nrun; r++) {
+    run_row *R = &rows[r];
+    int si = r / (ndt * ngrid), di = (r / ngrid) % ndt, gi = r % ngrid, g = gi, nset = 0;
+    const char **sets = mo_calloc(ctx, (size_t)opt->nset + (size_t)opt->nvary + 2, sizeof *sets);
+    char dtset[64], varyset[MO_COMPARE_MAX_VARY][512], lab[512];
+    mo_run_options ro;
+    mo_run_result rr;
+    mo_ctx rc;
+    if (!sets) { st = MO_ENOMEM; goto done; }
+    for (k = 0; k < opt->nset; k++) sets[nset++] = opt->sets[k];
+    snprintf(R->solver, sizeof R->solver, "%s", opt->nsolver ? opt->solvers[si] : "case");
+    R->dt = opt->ndt ? opt->dt[di] : NAN;
+    if (opt->ndt) {
+      snprintf(dtset, sizeof dtset, "time.dt=%.17g", opt->dt[di]);
+      sets[nset++] = dtset;
+    }
+    snprintf(lab, sizeof lab, "%s", R->solver);
+    if (opt->ndt) snprintf(lab + strlen(lab), sizeof lab - strlen(lab), "-dt%g", R->dt);
+    for (k = opt->nvary - 1; k >= 0; k--) { /* the last key varies fastest */
+      int vi = g % opt->vary[k].nval;
+      g /= opt->vary[k].nval;
+      snprintf(R->vary[k], sizeof R->vary[k], "%s", opt->vary[k].val[vi]);
+      snprintf(varyset[k], sizeof varyset[k], "%s=%s", opt->vary[k].key, opt->vary[k].val[vi]);
+    }
+    for (k = 0; k < opt->nvary; k++) {
+      const char *dot = strrchr(opt->vary[k].key, '.');
+      sets[nset++] = varyset[k];
+      snprintf(lab + strlen(lab), sizeof lab - strlen(lab), "-%s%s", dot ? dot + 1 : opt->vary[k].key, R->vary[k]);
+    }
+    slug(lab, R->label, sizeof R->label);
+    if (snprintf(R->outdir, sizeof R->outdir, "%s/runs/%s", dir, R->label) >= (int)sizeof R->outdir) {
+      mo_free(sets);
+      st = mo_error(ctx, MO_EIO, "compare: output path too long under %s", dir);
+      goto done;
+    }
+    memset(&ro, 0, sizeof ro);
+    ro.case_path = opt->case_path;
+    ro.solver = opt->nsolver ? opt->solvers[si] : NULL;
+    ro.sets = sets;
+    ro.nset = nset;
+    ro.outdir = R->outdir;
+    mo_ctx_init(&rc);
+    rc.verbosity = 0;
+    rc.interrupt = ctx->interrupt;
+    R->status = mo_run(&ro, &rr, &rc);
+    mo_free(sets);
+    R->wall = rr.wall;
+    R->steps = rr.steps;
+    if (R->status && snprintf(R->reason, sizeof R->reason, "%s", rc.errmsg) >= (int)sizeof R->reason)
+      R->reason[sizeof R->reason - 1] = '\0';
+    read_summary(R, C);
+    classify(R, C, opt->penetration_tol > 0 ? opt->penetration_tol : 0.01);
+    if (ctx->verbosity >= 1)
+      fprintf(stderr, "[%d/%d] %-40s %8.3f s  %s%s%s\n", r + 1, nrun, R->label, R->wall, R->cls,
+              R->why[0] ? ": " : "", R->why);
+    if (R->status == MO_EINPUT || R->status == MO_EIO) {
+      /* a case that does not load fails every run the same way: stop here */
+      st = mo_error(ctx, R->status, "%s", R->reason);
+      nrun = r + 1;
+      break;
+    }
+    if (ctx->interrupt && *ctx->interrupt) {
+      st = mo_error(ctx, MO_EINTERRUPT, "compare interrupted after %d of %d runs", r + 1, nrun);
+      nrun = r + 1;
+      break;
+    }
+  }
+  res->nrun = nrun;
+  for (r = 0; r < nrun; r++) {
+    if (!strcmp(rows[r].cls, "stable")) res->nstable++;
+    else if (!strcmp(rows[r].cls, "unstable")) res->nunstable++;
+    else res->nfailed++;
+  }
+
+  /* compare.csv */
+  sb_printf(&b, "solver,dt");
+  for (k = 0; k < opt->nvary; k++) sb_printf(&b, ",%s", opt->vary[k].key);
+  sb_printf(&b, ",wall_s,steps,status,class,reason");
+  for (k = 0; k < C->n; k++) sb_printf(&b, ",%s", C->name[k]);
+  sb_printf(&b, "\n");
+  for (r = 0; r < nrun; r++) {
+    run_row *R = &rows[r];
+    char why[600];
+    size_t q;
+    snprintf(why, sizeof why, "%s%s%s", R->why, R->status && R->why[0] ? ": " : "", R->status ? R->reason : "");
+    for (q = 0; why[q]; q++) if (why[q] == ',' || why[q] == '\n' || why[q] == '"') why[q] = ';';
+    sb_printf(&b, "%s,%.10g", R->solver, R->dt);
+    for (k = 0; k < opt->nvary; k++) sb_printf(&b, ",%s", R->vary[k]);
+    sb_printf(&b, ",%.6g,%ld,%s,%s,%s", R->wall, R->steps, R->status ? "failed" : "complete", R->cls, why);
+    for (k = 0; k < C->n; k++) {
+      if (isnan(R->val[k])) sb_printf(&b, ",");
+      else sb_printf(&b, ",%.10g", R->val[k]);
+    }
+    sb_printf(&b, "\n");
+  }
+  if (b.err) { st = mo_error(ctx, MO_ENOMEM, "compare.csv"); goto done; }
+  snprintf(path, sizeof path, "%s/compare.csv", dir);
+  if ((st = write_text(path, b.s, ctx))) goto done;
+  if (opt->nvary) {
+    snprintf(path, sizeof path, "%s/stability.csv", dir);
+    b.n = 0;
+    sb_printf(&b, "solver,dt");
+    for (k = 0; k < opt->nvary; k++) sb_printf(&b, ",%s", opt->vary[k].key);
+    sb_printf(&b, ",class,reason,energy_max_growth,max_penetration,wall_s\n");
+    for (r = 0; r < nrun; r++) {
+      run_row *R = &rows[r];
+      char why[600];
+      size_t q;
+      snprintf(why, sizeof why, "%s", R->why);
+      for (q = 0; why[q]; q++) if (why[q] == ',' || why[q] == '\n') why[q] = ';';
+      sb_printf(&b, "%s,%.10g", R->solver, R->dt);
+      for (k = 0; k < opt->nvary; k++) sb_printf(&b, ",%s", R->vary[k]);
+      sb_printf(&b, ",%s,%s,%.6g,%.6g,%.6g\n", R->cls, why, colval(R, C, "energy.max_growth"),
+                colval(R, C, "contact.max_penetration"), R->wall);
+    }
+    if ((st = write_text(path, b.s, ctx))) goto done;
+  }
+
+  /* figures: data files and gnuplot scripts (kept so that users restyle them) */
+  metric_col = pick_metric(C, opt->metric);
+  {
+    int rendered = 0, nfig = 0;
+    /* 1. error against run time, one line per back end */
+    if (metric_col >= 0) {
+      sbuf gp = {NULL, 0, 0, 0};
+      sb_printf(&gp, "# work-precision: %s against wall time, one line per back end\n"
+                "set datafile separator ','\nset logscale xy\nset grid\nset key outside right\n"
+                "set xlabel 'wall time (s)'\nset ylabel '%s'\nset title 'error against run time'\n",
+                C->name[metric_col], C->name[metric_col]);
+      for (i = 0; i < nsol; i++) {
+        char f[1400], nm[128];
+        sbuf dat = {NULL, 0, 0, 0};
+        slug(rows[i * ndt * ngrid].solver, nm, sizeof nm);
+        for (r = 0; r < nrun; r++)
+          if (!strcmp(rows[r].solver, rows[i * ndt * ngrid].solver) && !rows[r].status && !isnan(rows[r].val[metric_col]) &&
+              rows[r].val[metric_col] > 0)
+            sb_printf(&dat, "%.6g,%.6g,%.6g\n", rows[r].wall, rows[r].val[metric_col], rows[r].dt);
+        snprintf(f, sizeof f, "%s/plots/work-precision-%s.csv", dir, nm);
+        if (dat.s) write_text(f, dat.s, ctx);
+        free(dat.s);
+      }
+      for (i = 0; i < 2; i++) {
+        int s2;
+        sb_printf(&gp, "%s", i == 0 ? "set terminal pngcairo size 900,600\nset output 'work-precision.png'\nplot "
+                                     : "set terminal svg size 900,600\nset output 'work-precision.svg'\nreplot\n");
+        if (i == 0)
+          for (s2 = 0; s2 < nsol; s2++) {
+            char nm[128];
+            slug(rows[s2 * ndt * ngrid].solver, nm, sizeof nm);
+            sb_printf(&gp, "%s'work-precision-%s.csv' using 1:2 with linespoints lw 2 title '%s'", s2 ? ", " : "", nm,
+                      rows[s2 * ndt * ngrid].solver);
+          }
+        if (i == 0) sb_printf(&gp, "\n");
+      }
+      snprintf(path, sizeof path, "%s/plots/work-precision.gp", dir);
+      if (gp.s) write_text(path, gp.s, ctx);
+      free(gp.s);
+      {
+        char pdir[1200];
+        snprintf(pdir, sizeof pdir, "%s/plots", dir);
+        rendered += run_gnuplot(pdir, "work-precision.gp", ctx);
+      }
+      nfig++;
+    }
+    /* 2. histories of each back end (smallest dt of the first grid point) against the exact
+          solution, and 3. the energy */
+    {
+      static const char *quant[] = {"ux", "vx", "uy", "vy", "uz", "vz", "cx", "cy", "cz", "pn"};
+      char first_hist[1400];
+      size_t qk;
+      int best = 0;
+      for (r = 0; r < nrun; r++)
+        if (rows[r].dt < rows[best].dt || isnan(rows[best].dt)) best = r;
+      snprintf(first_hist, sizeof first_hist, "%s/history.csv", rows[0].outdir);
+      for (qk = 0; qk < sizeof quant / sizeof quant[0]; qk++) {
+        /* the first probe with this quantity in the first run's history */
+        FILE *f = fopen(first_hist, "r");
+        char line[16384], *tok, *save = NULL, probe[128] = "";
+        if (!f) break;
+        if (!fgets(line, sizeof line, f)) { fclose(f); break; }
+        fclose(f);
+        line[strcspn(line, "\r\n")] = '\0';
+        for (tok = strtok_r(line, ",", &save); tok; tok = strtok_r(NULL, ",", &save)) {
+          size_t l = strlen(tok), lq = strlen(quant[qk]);
+          if (l > lq + 1 && !strcmp(tok + l - lq, quant[qk]) && tok[l - lq - 1] == '.' && !strstr(tok, ".exact") &&
+              strncmp(tok, "energy.", 7) && strncmp(tok, "contact.", 8)) {
+            snprintf(probe, sizeof probe, "%s", tok);
+            break;
+          }
+        }
+        if (!probe[0]) continue;
+        {
+          sbuf gp = {NULL, 0, 0, 0};
+          char nm[200], ex[160];
+          int first = 1, t2;
+          slug(probe, nm, sizeof nm);
+          snprintf(ex, sizeof ex, "%s.exact", probe);
+          sb_printf(&gp, "# history of %s: each back end at its smallest time step, and the exact solution\n"
+                    "set datafile separator ','\nset key autotitle columnhead outside right\nset grid\n"
+                    "set xlabel 't (s)'\nset ylabel '%s'\nset title '%s'\n", probe, probe, probe);
+          for (t2 = 0; t2 < 2; t2++) {
+            sb_printf(&gp, t2 == 0 ? "set terminal pngcairo size 900,600\nset output 'history-%s.png'\nplot " :
+                                     "set terminal svg size 900,600\nset output 'history-%s.svg'\nreplot\n", nm);
+            if (t2) continue;
+            for (i = 0; i < nsol; i++) {
+              /* the run of this solver with the smallest dt at the first grid point */
+              int rb = -1, cu, ce;
+              char h[1400];
+              for (r = 0; r < nrun; r++)
+                if (!strcmp(rows[r].solver, rows[i * ndt * ngrid].solver) && (r % ngrid) == 0 &&
+                    (rb < 0 || rows[r].dt < rows[rb].dt))
+                  rb = r;
+              if (rb < 0) continue;
+              snprintf(h, sizeof h, "%s/history.csv", rows[rb].outdir);
+              cu = csv_column(h, probe);
+              if (!cu) continue;
+              sb_printf(&gp, "%s'../runs/%s/history.csv' using 1:%d with lines lw 2 title '%s (h = %g)'", first ? "" : ", ",
+                        rows[rb].label, cu, rows[rb].solver, rows[rb].dt);
+              first = 0;
+              ce = csv_column(h, ex);
+              if (ce && i == nsol - 1)
+                sb_printf(&gp, ", '../runs/%s/history.csv' using 1:%d with lines lw 1 dt 2 lc rgb 'black' title 'exact'",
+                          rows[rb].label, ce);
+            }
+            sb_printf(&gp, "\n");
+          }
+          if (!first) {
+            char pdir[1200], sname[300];
+            snprintf(sname, sizeof sname, "history-%s.gp", nm);
+            snprintf(path, sizeof path, "%s/plots/%s", dir, sname);
+            write_text(path, gp.s, ctx);
+            snprintf(pdir, sizeof pdir, "%s/plots", dir);
+            rendered += run_gnuplot(pdir, sname, ctx);
+            nfig++;
+          }
+          free(gp.s);
+        }
+      }
+      (void)best;
+      /* energy */
+      {
+        sbuf gp = {NULL, 0, 0, 0};
+        int first = 1, t2;
+        sb_printf(&gp, "# energy ratio E(t)/E0 of each back end at its smallest time step\n"
+                  "set datafile separator ','\nset key outside right\nset grid\nset xlabel 't (s)'\n"
+                  "set ylabel 'E(t) / E0'\nset title 'energy'\n");
+        for (t2 = 0; t2 < 2; t2++) {
+          sb_printf(&gp, "%s", t2 == 0 ? "set terminal pngcairo size 900,600\nset output 'energy.png'\nplot "
+                                       : "set terminal svg size 900,600\nset output 'energy.svg'\nreplot\n");
+          if (t2) continue;
+          for (i = 0; i < nsol; i++) {
+            int rb = -1, ce;
+            char h[1400];
+            for (r = 0; r < nrun; r++)
+              if (!strcmp(rows[r].solver, rows[i * ndt * ngrid].solver) && (r % ngrid) == 0 &&
+                  (rb < 0 || rows[r].dt < rows[rb].dt))
+                rb = r;
+            if (rb < 0) continue;
+            snprintf(h, sizeof h, "%s/history.csv", rows[rb].outdir);
+            ce = csv_column(h, "energy.ratio");
+            if (!ce) continue;
+            sb_printf(&gp, "%s'../runs/%s/history.csv' using 1:%d with lines lw 2 title '%s (h = %g)'", first ? "" : ", ",
+                      rows[rb].label, ce, rows[rb].solver, rows[rb].dt);
+            first = 0;
+          }
+          sb_printf(&gp, "\n");
+        }
+        if (!first) {
+          char pdir[1200];
+          snprintf(path, sizeof path, "%s/plots/energy.gp", dir);
+          write_text(path, gp.s, ctx);
+          snprintf(pdir, sizeof pdir, "%s/plots", dir);
+          rendered += run_gnuplot(pdir, "energy.gp", ctx);
+          nfig++;
+        }
+        free(gp.s);
+      }
+    }
+    /* 4. stability map per back end */
+    if (opt->nvary >= 1) {
+      for (i = 0; i < nsol; i++) {
+        sbuf gp = {NULL, 0, 0, 0}, dat = {NULL, 0, 0, 0};
+        char nm[128], pdir[1200], sname[200];
+        int two = opt->nvary >= 2, cls;
+        slug(rows[i * ndt * ngrid].solver, nm, sizeof nm);
+        for (r = 0; r < nrun; r++) {
+          if (strcmp(rows[r].solver, rows[i * ndt * ngrid].solver)) continue;
+          cls = !strcmp(rows[r].cls, "stable") ? 0 : !strcmp(rows[r].cls, "unstable") ? 1 : 2;
+          sb_printf(&dat, "%s,%s,%d,%.6g\n", rows[r].vary[0], two ? rows[r].vary[1] : "0", cls, rows[r].dt);
+        }
+        snprintf(path, sizeof path, "%s/plots/stability-%s.csv", dir, nm);
+        if (dat.s) write_text(path, dat.s, ctx);
+        free(dat.s);
+        sb_printf(&gp, "# stability map of %s: green stable, orange unstable, red solver failure\n"
+                  "set datafile separator ','\nset grid\nset xlabel '%s'\nset ylabel '%s'\n"
+                  "set title 'stability: %s'\nset key outside right\n",
+                  rows[i * ndt * ngrid].solver, opt->vary[0].key, two ? opt->vary[1].key : "", rows[i * ndt * ngrid].solver);
+        sb_printf(&gp, "# switch to log axes for parameters spanning decades: set logscale x\n");
+        for (j = 0; j < 2; j++) {
+          sb_printf(&gp, j == 0 ? "set terminal pngcairo size 900,600\nset output 'stability-%s.png'\n"
+                                : "set terminal svg size 900,600\nset output 'stability-%s.svg'\n", nm);
+          sb_printf(&gp, "plot 'stability-%s.csv' using 1:($3==0?$2:1/0) with points pt 7 ps 2 lc rgb '#2a9d2a' title 'stable', "
+                    "'' using 1:($3==1?$2:1/0) with points pt 7 ps 2 lc rgb '#e69500' title 'unstable', "
+                    "'' using 1:($3==2?$2:1/0) with points pt 7 ps 2 lc rgb '#d62728' title 'failure'\n", nm);
+        }
+        snprintf(sname, sizeof sname, "stability-%s.gp", nm);
+        snprintf(path, sizeof path, "%s/plots/%s", dir, sname);
+        write_text(path, gp.s, ctx);
+        free(gp.s);
+        snprintf(pdir, sizeof pdir, "%s/plots", dir);
+        rendered += run_gnuplot(pdir, sname, ctx);
+        nfig++;
+      }
+    }
+    res->nfigures = nfig;
+    res->rendered = rendered;
+  }
+
+  /* report.md */
+  b.n = 0;
+  sb_printf(&b, "# moreau compare: %s\n\n", opt->case_path);
+  sb_printf(&b, "%d runs: %d stable, %d unstable, %d failed. Every run's outputs are under `runs/`; "
+            "all metrics are in `compare.csv`%s; figures in `plots/` (gnuplot scripts kept).\n\n",
+            nrun, res->nstable, res->nunstable, res->nfailed, opt->nvary ? ", the classification in `stability.csv`" : "");
+  sb_printf(&b, "| run | solver | dt | wall (s) | steps | class |%s%s\n", metric_col >= 0 ? " " : "",
+            metric_col >= 0 ? C->name[metric_col] : "");
+  sb_printf(&b, "| --- | --- | --- | --- | --- | --- |%s\n", metric_col >= 0 ? " --- |" : "");
+  for (r = 0; r < nrun; r++) {
+    run_row *R = &rows[r];
+    sb_printf(&b, "| %s | %s | %g | %.3f | %ld | %s%s%s |", R->label, R->solver, R->dt, R->wall, R->steps, R->cls,
+              R->why[0] ? ": " : "", R->why);
+    if (metric_col >= 0) sb_printf(&b, " %.4g |", R->val[metric_col]);
+    sb_printf(&b, "\n");
+  }
+  sb_printf(&b, "\n");
+  for (r = 0; r < nrun; r++)
+    if (rows[r].status) sb_printf(&b, "- `%s` failed: %s\n", rows[r].label, rows[r].reason);
+  sb_printf(&b, "\n## Figures\n\n");
+  if (metric_col >= 0) sb_printf(&b, "![work-precision](plots/work-precision.png)\n\n");
+  sb_printf(&b, "Histories against the exact solution: `plots/history-*.png`; energy: `plots/energy.png`%s.\n",
+            opt->nvary ? "; stability maps: `plots/stability-*.png`" : "");
+  snprintf(path, sizeof path, "%s/report.md", dir);
+  if (!b.err) st = write_text(path, b.s, ctx);
+done:
+  free(b.s);
+  mo_free(rows);
+  mo_free(C);
+  return st;
+}

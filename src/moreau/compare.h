@@ -1,0 +1,47 @@
+/* moreau/compare.h: the same scene by several back ends, time steps and parameter grids. */
+#ifndef MOREAU_COMPARE_H
+#define MOREAU_COMPARE_H
+
+#include <moreau/ctx.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define MO_COMPARE_MAX_VARY 4
+
+typedef struct {
+  const char *case_path;
+  int nsolver;
+  const char *const *solvers;  /* back ends (none: the case's) */
+  int ndt;
+  const double *dt;            /* time steps (none: the case's) */
+  int nvary;                   /* --vary KEY=v1,v2,...: a grid over every key */
+  struct {
+    const char *key;
+    int nval;
+    const char *const *val;
+  } vary[MO_COMPARE_MAX_VARY];
+  int nset;
+  const char *const *sets;     /* --set KEY=VALUE for every run */
+  const char *outdir;
+  const char *metric;          /* the error of the work-precision figure (a compare.csv column) */
+  double penetration_tol;      /* unstable above this fraction of the smallest element (0.01) */
+} mo_compare_options;
+
+typedef struct {
+  int nrun, nstable, nunstable, nfailed;
+  int nfigures, rendered;      /* figures scripted, and rendered by gnuplot */
+} mo_compare_result;
+
+/* Run every (back end, time step, grid point); write compare.csv (solver, dt, the varied keys,
+   wall_s, steps, status, class, reason, then every metric of summary.json flattened as
+   name.sub), stability.csv when keys vary, report.md, and plots/ (gnuplot scripts and their
+   PNG and SVG renderings when gnuplot is present). A failing run is recorded, not fatal; a
+   case that does not load stops the comparison. */
+int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ctx);
+
+#ifdef __cplusplus
+}
+#endif
+#endif
