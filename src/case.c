@@ -110,8 +110,9 @@ static int syntax_error(const mo_case *cs, const char *fallback, mo_ctx *ctx)
     hint = " (an array holds one type: write 0.0 rather than 0 next to decimals)";
   if (config_error_type(&cs->cfg) == CONFIG_ERR_FILE_IO)
     return mo_error(ctx, MO_EIO, "%s: cannot read the file (%s)", fallback, strerror(errno));
-  return mo_error(ctx, MO_EINPUT, "%s:%d: syntax error: %s%s", f ? f : fallback, line,
-                  t ? t : "?", hint);
+  if (t && !strcmp(t, "syntax error")) t = NULL; /* libconfig's text adds nothing */
+  return mo_error(ctx, MO_EINPUT, "%s:%d: syntax error%s%s%s", f ? f : fallback, line, t ? ": " : "",
+                  t ? t : "", hint);
 }
 
 static mo_case *case_new(const char *file, mo_ctx *ctx)
@@ -175,7 +176,8 @@ int mo_case_load_string(const char *text, const char *name, mo_case **out, mo_ct
   if (!config_read_string(&cs->cfg, text)) {
     int line = config_error_line(&cs->cfg);
     const char *t = config_error_text(&cs->cfg);
-    int st = mo_error(ctx, MO_EINPUT, "%s:%d: syntax error: %s", name, line, t ? t : "?");
+    int st = mo_error(ctx, MO_EINPUT, "%s:%d: syntax error%s%s", name, line,
+                      t && strcmp(t, "syntax error") ? ": " : "", t && strcmp(t, "syntax error") ? t : "");
     mo_case_free(cs);
     return st;
   }
@@ -250,10 +252,35 @@ static void suggest_visit(const char *path, const char *type, const char *range,
   }
 }
 
+/* Names people write for keys that have a shorter physical name here. */
+static const char *synonym(const char *name)
+{
+  static const struct { const char *from, *to; } syn[] = {
+    {"young", "E"}, {"youngs_modulus", "E"}, {"young_modulus", "E"}, {"modulus", "E"},
+    {"poisson", "nu"}, {"poisson_ratio", "nu"}, {"poissons_ratio", "nu"},
+    {"density", "rho"}, {"timestep", "dt"}, {"time_step", "dt"}, {"step", "dt"},
+    {"tmax", "end"}, {"t_end", "end"}, {"final_time", "end"}, {"friction", "mu"},
+    {"nelem", "elements"}, {"n_elements", "elements"}, {"gravity", "body_force"}};
+  size_t k;
+  for (k = 0; k < sizeof syn / sizeof syn[0]; k++)
+    if (!strcmp(syn[k].from, name)) return syn[k].to;
+  return NULL;
+}
+
 static const char *suggest(const char *parent, const char *name, char *buf, size_t n)
 {
   suggest_data S;
   int limit;
+  const char *syn = synonym(name);
+  if (syn) {
+    char path[512];
+    mo_key K;
+    snprintf(path, sizeof path, "%s%s%s", parent, parent[0] ? "." : "", syn);
+    if (mo_schema_lookup(path, &K)) {
+      snprintf(buf, n, "%s", syn);
+      return buf;
+    }
+  }
   memset(&S, 0, sizeof S);
   S.parent = parent;
   S.name = name;

@@ -719,10 +719,15 @@ int mo_contact_build(const mo_scene *sc, mo_contact **out, mo_ctx *ctx)
   C->on_failure_continue = !strcmp(mo_cfg_string(cg, "on_failure", "stop"), "continue");
   for (k = 0; k < np; k++) {
     const config_setting_t *pg = config_setting_get_elem(pl, (unsigned)k);
-    mo_contact_pair *P = &C->pair[k];
+    mo_contact_pair *P;
     const char *s;
     char name[32];
     int b, j;
+    if (!mo_cfg_bool(pg, "active", 1)) {
+      mo_note_skip(ctx, "contact pair %d (active = false)", k);
+      continue;
+    }
+    P = &C->pair[C->npair];
     C->npair++;
     snprintf(name, sizeof name, "pair%d", k);
     P->name = mo_strdup(ctx, mo_cfg_string(pg, "name", name));
@@ -732,7 +737,7 @@ int mo_contact_build(const mo_scene *sc, mo_contact **out, mo_ctx *ctx)
     s = mo_cfg_string(pg, "exclude", NULL);
     P->exclude = s ? mo_strdup(ctx, s) : NULL;
     if (!P->name || !P->sset) { st = MO_ENOMEM; goto fail; }
-    for (j = 0; j < k; j++)
+    for (j = 0; j < C->npair - 1; j++)
       if (!strcmp(C->pair[j].name, P->name)) {
         st = mo_case_error(cs, mo_cfg_member(pg, "name"), ctx, "pair name '%s' is used twice", P->name);
         goto fail;
@@ -784,7 +789,11 @@ int mo_contact_build(const mo_scene *sc, mo_contact **out, mo_ctx *ctx)
       }
       if (b == P->sbody) mo_note_skip(ctx, "self-contact search (pair '%s' pairs a body with itself)", P->name);
     }
-    if ((st = build_pair(C, k, pg, ctx))) goto fail;
+    if ((st = build_pair(C, C->npair - 1, pg, ctx))) goto fail;
+  }
+  if (C->npair == 0) { /* every pair inactive: a scene without contact */
+    mo_contact_free(C);
+    return MO_OK;
   }
   if (C->nc == 0) {
     st = mo_case_error(cs, pl, ctx, "the contact pairs have no candidate (every slave node is excluded or prescribed)");
@@ -798,10 +807,10 @@ int mo_contact_build(const mo_scene *sc, mo_contact **out, mo_ctx *ctx)
   if (!C->g || !C->frame || !C->U0 || !C->active) { st = MO_ENOMEM; goto fail; }
   {
     int fr = 1;
-    for (k = 0; k < np; k++) fr &= C->pair[k].mu == 0;
+    for (k = 0; k < C->npair; k++) fr &= C->pair[k].mu == 0;
     if (fr) mo_note_skip(ctx, "friction (mu = 0 on every pair)");
     fr = 1;
-    for (k = 0; k < np; k++) fr &= C->pair[k].master == MO_MASTER_PLANE;
+    for (k = 0; k < C->npair; k++) fr &= C->pair[k].master == MO_MASTER_PLANE;
     if (fr && !C->repair) mo_note_skip(ctx, "geometric loop and H rebuilds (plane masters, small strains)");
   }
   if ((st = mo_contact_geometry(C, sc->u0, 0, 1, ctx))) goto fail;

@@ -52,8 +52,17 @@ int mo_check(const mo_run_options *opt, mo_ctx *ctx)
 {
   mo_case *cs = NULL;
   mo_scene *sc = NULL;
+  mo_contact *C = NULL;
+  mo_contact_driver *D = NULL;
   int st = load_case(opt, &cs, ctx);
+  /* everything a run checks before its first factorization: scene, contact set, back end and
+     its options, time scheme */
   if (!st) st = mo_scene_build(cs, &sc, ctx);
+  if (!st) st = mo_contact_build(sc, &C, ctx);
+  if (!st && C) st = mo_contact_time_scheme(sc, C, ctx);
+  if (!st && C) st = mo_contact_driver_create(sc, C, NULL, &D, ctx);
+  mo_contact_driver_free(D);
+  mo_contact_free(C);
   mo_scene_free(sc);
   mo_case_free(cs);
   return st;

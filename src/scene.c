@@ -192,8 +192,9 @@ static int build_mesh(const mo_case *cs, const config_setting_t *mg, mo_mesh **o
       double lo[3], hi[3], ext = 0;
       int d;
       if (mo_cfg_count(sg, "box") != 2 * m->dim) {
+        int dim = m->dim;
         mo_mesh_free(m);
-        return mo_case_error(cs, mo_cfg_member(sg, "box"), ctx, "needs %d values in %dD", 2 * m->dim, m->dim);
+        return mo_case_error(cs, mo_cfg_member(sg, "box"), ctx, "needs %d values in %dD", 2 * dim, dim);
       }
       for (d = 0; d < m->dim; d++) {
         lo[d] = mo_cfg_num_at(sg, "box", 2 * d);
@@ -347,10 +348,11 @@ static int build_conditions(mo_scene *sc, const mo_case *cs, const config_settin
       st = add_presc(sc, B->dof0 + ids[k] * D + c, hv ? MO_PRESC_VELOCITY : MO_PRESC_EXPR,
                      mo_cfg_float(pg, "velocity", 0), e, owner, ctx);
       if (st) {
+        int node = ids[k];
         mo_expr_free(e);
         mo_free(ids);
         if (st == MO_ENOMEM) return st;
-        return mo_case_error(cs, pg, ctx, "node %d, component %c is already fixed or prescribed", ids[k], "xyz"[c]);
+        return mo_case_error(cs, pg, ctx, "node %d, component %c is already fixed or prescribed", node, "xyz"[c]);
       }
       if (hv && mo_cfg_float(pg, "velocity", 0) != 0) sc->has_moving_presc = 1;
       if (hd) sc->has_moving_presc = 1;

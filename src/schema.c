@@ -95,6 +95,7 @@ static const mo_key core_keys[] = {
   {"contact.on_failure", K_ENUM, "stop|continue", NONE, 0, "\"stop\"", "A contact solve that does not converge stops the run with a diagnosis, or is counted and the run goes on.", NULL},
   {"contact.pairs", K_LIST, NULL, A(U, U, 0, 0, 1, 0), 1, NULL, "Contact pairs: a slave surface against a master (a plane or a facet set).", NULL},
   {"contact.pairs.[].name", K_STRING, NULL, NONE, 0, "pairK", "Pair name (reports, contact.csv).", NULL},
+  {"contact.pairs.[].active", K_BOOL, NULL, NONE, 0, "true", "false leaves the pair out (variants of a scene chosen with --set).", NULL},
   {"contact.pairs.[].slave", K_STRING, NULL, NONE, 1, NULL, "Slave body (deformable).", NULL},
   {"contact.pairs.[].slave_set", K_STRING, NULL, NONE, 1, NULL, "Slave surface: a facet set (or, for concentrated reactions at nodes, a node set).", NULL},
   {"contact.pairs.[].master", K_STRING, NULL, NONE, 1, NULL, "Master body: a plane body, or a deformable body with master_set.", NULL},

@@ -84,7 +84,7 @@ int main(void)
          "bad.cfg:10: key 'time.theta': value 1.5 is out of range [0.5, 1]: theta must lie in [0.5, 1] for "
          "unconditional stability", "theta outside [0.5, 1]");
   is_str(check("end = 1.0;", "end = 1.0 ;;", NULL, 0),
-         "bad.cfg:10: syntax error: syntax error", "syntax error with its line");
+         "bad.cfg:10: syntax error", "syntax error with its line");
   is_str(check("initial", "initial", NULL, 0), "(test bug: pattern not found)", "helper detects a missing pattern");
   {
     const char *s1[] = {"time.dt=-1"};

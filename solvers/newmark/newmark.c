@@ -122,6 +122,13 @@ static int ac_contact(int d, double mu, double rho, const double *r, const doubl
   if (J)
     for (j = 0; j < m; j++) J[j] = rho * Wrows[j];
   if (d == 1) return MO_CS_STICK;
+  if (mu == 0) { /* frictionless: the cone is the normal half-line, r_t = 0 */
+    for (i = 1; i < d; i++) {
+      Phi[i] = r[i];
+      if (J) J[i * m + a * d + i] = 1;
+    }
+    return MO_CS_SLIDE;
+  }
   if (nz <= mu * xi) {
     for (i = 1; i < d; i++) {
       Phi[i] = rho * U[i];
