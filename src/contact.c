@@ -351,6 +351,41 @@ int mo_contact_driver_create(const mo_scene *sc, mo_contact *C, mo_stepper *S,
   return MO_OK;
 }
 
+/* The three candidates furthest from the contact law (natural map with U in force units,
+   U / W_aa), named by pair and node, for diagnoses. */
+static void worst_candidates(const mo_contact_driver *D, char *buf, size_t n)
+{
+  int d = D->d, a, k, best[3] = {-1, -1, -1};
+  double val[3] = {-1, -1, -1};
+  size_t len = 0;
+  for (a = 0; a < D->nc; a++) {
+    double Us[3], w = 1, e;
+    const double *Waa = D->W ? mo_delassus_block(D->W, a, a) : NULL;
+    int i;
+    if (!D->active[a]) continue;
+    if (Waa && Waa[0] > 0) w = Waa[0];
+    for (i = 0; i < d; i++) Us[i] = D->U[a * d + i] / w;
+    e = mo_fc_natural_map_unit(d, D->mu[a], D->r + a * d, Us);
+    for (k = 0; k < 3; k++)
+      if (e > val[k]) {
+        int j;
+        for (j = 2; j > k; j--) { val[j] = val[j - 1]; best[j] = best[j - 1]; }
+        val[k] = e;
+        best[k] = a;
+        break;
+      }
+  }
+  buf[0] = '\0';
+  for (k = 0; k < 3 && best[k] >= 0; k++) {
+    const mo_candidate *c = &D->C->cand[best[k]];
+    int w = snprintf(buf + len, n - len, "%s%d (pair '%s', %s %d)", k ? ", " : "", best[k], D->C->pair[c->pair].name,
+                     c->node >= 0 ? "node" : "Gauss point of facet", c->node >= 0 ? c->node : D->C->pt[c->point].facet);
+    if (w < 0 || (size_t)w >= n - len) break;
+    len += (size_t)w;
+  }
+  if (!len) snprintf(buf, n, "none active");
+}
+
 int mo_contact_step(mo_contact_driver *D, mo_state *s, mo_ctx *ctx)
 {
   const mo_scene *sc = D->sc;
@@ -506,13 +541,18 @@ int mo_contact_step(mo_contact_driver *D, mo_state *s, mo_ctx *ctx)
   }
   if (rep->reason < 0) {
     D->failures++;
-    if (!C->on_failure_continue)
+    if (!C->on_failure_continue) {
+      char worst[400];
+      worst_candidates(D, worst, sizeof worst);
       return mo_error(ctx, MO_ENOCONV,
                       "step %ld (t = %.6g): the %s contact solve stopped on %s after %d iterations "
-                      "(residual %.3e; %d closed of %d candidates)%s%s. Remedies: a smaller time step, "
-                      "a larger iteration limit (contact.%s options), or contact.on_failure = \"continue\"",
+                      "(residual %.3e; %d closed of %d candidates)%s%s. Candidates furthest from the "
+                      "contact law: %s. Remedies: a smaller time step, a larger iteration limit "
+                      "(contact.%s options), or contact.on_failure = \"continue\"",
                       P->step, s->t + h, D->T->name, mo_contact_reason_name(rep->reason), rep->iterations,
-                      rep->residual, nc - rep->nopen, nc, rep->message[0] ? ": " : "", rep->message, D->T->name);
+                      rep->residual, nc - rep->nopen, nc, rep->message[0] ? ": " : "", rep->message, worst,
+                      D->T->name);
+    }
   }
   /* 7. correction and update */
   if (!D->x.dx_set) {

@@ -167,14 +167,14 @@ int mo_mesh_add_facetset_from_nodes(mo_mesh *m, const char *name, const int *nod
   if (mo_mesh_find_facetset(m, name))
     return mo_error(ctx, MO_EINPUT, "facet set '%s' is defined twice", name);
   if ((st = boundary_facets(m, &F, &nb, ctx))) return st;
-  in = mo_calloc(ctx, (size_t)m->nnode, 1);
   fs = mo_realloc(ctx, m->facetset, (size_t)(m->nfacetset + 1) * sizeof *fs);
+  if (fs) m->facetset = fs; /* realloc freed the old block: keep the new one at once */
+  in = mo_calloc(ctx, (size_t)m->nnode, 1);
   if (!in || !fs) {
     mo_free(F);
     mo_free(in);
     return MO_ENOMEM;
   }
-  m->facetset = fs;
   fs = &m->facetset[m->nfacetset];
   memset(fs, 0, sizeof *fs);
   for (i = 0; i < n; i++) in[nodes[i]] = 1;

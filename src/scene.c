@@ -836,6 +836,13 @@ int mo_scene_build(const mo_case *cs, mo_scene **out, mo_ctx *ctx)
     B->dof0 = sc->ndof;
     B->ndof = B->mesh->nnode * dim;
     sc->ndof += B->ndof;
+    if (sc->ndof > (ctx->max_dofs > 0 ? ctx->max_dofs : 20000000L)) {
+      st = mo_case_error(cs, mo_cfg_member(bg, "mesh"), ctx, "the scene reaches %d dofs with body '%s', more than "
+                         "the limit of %ld (a direct factorization would not fit in memory)", sc->ndof, B->name,
+                         ctx->max_dofs > 0 ? ctx->max_dofs : 20000000L);
+      ctx->status = MO_ELIMIT;
+      goto fail;
+    }
   }
   if (!dim) {
     st = mo_case_error(cs, bl, ctx, "the scene needs at least one deformable body");

@@ -4,6 +4,7 @@
 #include <moreau/step.h>
 
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 struct mo_stepper {
@@ -346,17 +347,45 @@ static void reactions(const mo_stepper *S, mo_state *s)
   }
 }
 
+/* A non-finite unknown: say where, and whether the data or the step produced it. */
+static int nan_diagnosis(const mo_stepper *S, const mo_state *s, const double *x, int dof, mo_ctx *ctx)
+{
+  const mo_scene *sc = S->sc;
+  double tn = s->t + S->h;
+  int b, i, bad_load = -1, nbad = 0;
+  char where[160] = "";
+  for (i = 0; i < sc->ndof; i++) nbad += !isfinite(x[i]);
+  for (b = 0; b < sc->nbody; b++) {
+    const mo_body *B = &sc->body[b];
+    if (B->kind == MO_BODY_DEFORMABLE && dof >= B->dof0 && dof < B->dof0 + B->ndof) {
+      snprintf(where, sizeof where, " (body '%s', node %d, component %c)", B->name,
+               (dof - B->dof0) / sc->dim, "xyz"[(dof - B->dof0) % sc->dim]);
+      break;
+    }
+  }
+  for (i = 0; i < sc->nload && bad_load < 0; i++) {
+    const mo_load *L = &sc->load[i];
+    double a = L->amp ? mo_expr_eval(L->amp, &tn) : 1;
+    if (!isfinite(a)) bad_load = i;
+  }
+  if (bad_load >= 0)
+    return mo_error(ctx, MO_ENAN, "step %ld (t = %.6g): %d unknowns are not finite, the first dof %d%s. "
+                    "The cause is in the data: the amplitude of load %d (\"%s\") is not finite at t = %.6g; "
+                    "give it a value for every time of the run", s->step + 1, tn, nbad, dof, where, bad_load,
+                    mo_expr_source(sc->load[bad_load].amp), tn);
+  return mo_error(ctx, MO_ENAN, "step %ld (t = %.6g): %d unknowns are not finite, the first dof %d%s. "
+                  "The data are finite at this time, so the step itself diverged: check the material "
+                  "constants and the time step (a smaller step, or theta closer to 1, damps what the "
+                  "scheme cannot resolve)", s->step + 1, tn, nbad, dof, where);
+}
+
 int mo_stepper_finish(mo_stepper *S, mo_state *s, const double *x, mo_ctx *ctx)
 {
   const mo_scene *sc = S->sc;
   int n = sc->ndof, i, l, k;
   double h = S->h, tn = s->t + h, t0 = mo_clock(), dw = 0, ws = 0;
   for (i = 0; i < n; i++)
-    if (!isfinite(x[i]))
-      return mo_error(ctx, MO_ENAN, "step %ld (t = %.6g): the %s of dof %d is not finite",
-                      s->step + 1, tn,
-                      S->scheme == MO_SCHEME_THETA ? "velocity" : S->scheme == MO_SCHEME_NEWMARK
-                      ? "acceleration" : "displacement", i);
+    if (!isfinite(x[i])) return nan_diagnosis(S, s, x, i, ctx);
   memcpy(S->uprev, s->u, (size_t)n * sizeof(double));
   memcpy(S->vprev, s->v, (size_t)n * sizeof(double));
   memcpy(S->fprev, s->f, (size_t)n * sizeof(double));

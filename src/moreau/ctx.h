@@ -63,6 +63,8 @@ typedef struct mo_ctx {
   /* when non-NULL, a flag set asynchronously (SIGINT/SIGTERM handler of the program); long
      loops poll it and stop cleanly with MO_EINTERRUPT */
   volatile sig_atomic_t *interrupt;
+  /* size limits, refused with MO_ELIMIT before allocating (0: the defaults, 2e7 dofs) */
+  long max_dofs;
 } mo_ctx;
 
 /* Initialise a context with defaults (verbosity 1, seed 1, no injection). */
