@@ -475,8 +475,16 @@ static void test_fclib_shared(void)
                                 "LMGC_100_PR_PerioBox-i00361-60-03000", "Spheres-i099-356-679"};
   const char *shared = getenv("MOREAU_SHARED");
   size_t k;
+  char probe[1024];
+  FILE *pf;
+  if (shared) {
+    snprintf(probe, sizeof probe, "%s/data/fclib/%s.hdf5", shared, files[0]);
+    pf = fopen(probe, "rb");
+    if (pf) fclose(pf);
+    else shared = NULL;
+  }
   if (!mo_fclib_available() || !shared) {
-    ok(1, "# SKIP no FCLIB or no shared data");
+    ok(1, "# SKIP no FCLIB, or no ../shared/data/fclib beside the source tree");
     return;
   }
   for (k = 0; k < MO_COUNT(files); k++) {
