@@ -23,6 +23,8 @@ typedef struct {
   int have_prev;
   /* per multiplier: current values (y's p and Lam are gathered from and scattered to these) */
   double *pm, *lm;
+  double *gdir;              /* sliding directions at the previous Newton iterate (nc x 2) */
+  unsigned char *rev;        /* nc: the sliding direction reversed in the last Newton loop */
   /* work sized by the contact set (grown on demand) */
   double *y, *dy, *WCC, *J, *Uc, *Umc;
   int *ipiv;
@@ -103,7 +105,7 @@ static void ls_free(void *state)
   mo_free(L->pg); mo_free(L->ph); mo_free(L->lam); mo_free(L->U); mo_free(L->Umag); mo_free(L->r);
   mo_free(L->ph_prev); mo_free(L->lam_prev); mo_free(L->pm); mo_free(L->lm);
   mo_free(L->y); mo_free(L->dy); mo_free(L->WCC); mo_free(L->J); mo_free(L->Uc); mo_free(L->Umc);
-  mo_free(L->ipiv); mo_free(L->dv); mo_free(L->ddv); mo_free(L->hist);
+  mo_free(L->ipiv); mo_free(L->dv); mo_free(L->ddv); mo_free(L->hist); mo_free(L->gdir); mo_free(L->rev);
   memset(L, 0, sizeof *L);
 }
 
@@ -134,10 +136,12 @@ static int ls_init(void *state, const void *params, const mo_contact_problem *P,
   L->r = mo_calloc(ctx, (size_t)m + 1, sizeof(double));
   L->pm = mo_calloc(ctx, nm1, sizeof(double));
   L->lm = mo_calloc(ctx, 2 * nm1, sizeof(double));
+  L->gdir = mo_calloc(ctx, 2 * n1, sizeof(double));
+  L->rev = mo_calloc(ctx, n1, 1);
   L->dv = mo_calloc(ctx, (size_t)P->nfree + 1, sizeof(double));
   L->ddv = mo_calloc(ctx, (size_t)P->nfree + 1, sizeof(double));
   if (!L->su || !L->sv || !L->sf || !L->nsu || !L->nsv || !L->nsf || !L->pg || !L->ph || !L->lam ||
-      !L->ph_prev || !L->lam_prev || !L->U || !L->Umag || !L->r || !L->pm || !L->lm || !L->dv || !L->ddv)
+      !L->ph_prev || !L->lam_prev || !L->U || !L->Umag || !L->r || !L->pm || !L->lm || !L->dv || !L->ddv || !L->gdir || !L->rev)
     return MO_ENOMEM;
   return MO_OK;
 }
@@ -173,10 +177,34 @@ static int ls_reserve(ls_state *L, size_t ny, size_t nu, mo_ctx *ctx)
 
 /* --- one frozen-status solve: the Newton loop ------------------------------------------------------ */
 
+/* 1 when the sliding direction G = Lam_h + h2_t U'_t of a sliding candidate with friction
+   points against its direction at the previous Newton iterate (stored in L->gdir, nc x 2). */
+static int slide_reversed(ls_state *L, const double *y, const double *Uc, int first)
+{
+  ls_system *S = &L->S;
+  int jc, t, rev = 0;
+  for (jc = 0; jc < S->nC; jc++) {
+    int j = S->cset[jc];
+    double lam[2], G[2], dot = 0;
+    if (!S->dt || S->sf[j] || !(S->mu[j] > 0 && S->pg[j] > 0)) continue;
+    ls_lam_at(S, &L->A, y, j, lam);
+    for (t = 0; t < S->dt; t++) {
+      G[t] = lam[t] + S->h2_t * Uc[jc * S->nr + 1 + t];
+      dot += G[t] * L->gdir[2 * j + t];
+    }
+    if (!first && dot < 0) rev = L->rev[j] = 1;
+    for (t = 0; t < S->dt; t++) L->gdir[2 * j + t] = G[t];
+  }
+  return rev;
+}
+
 /* Solve F(y, U') = 0 for the frozen sign fields and threshold (T17)-(T20), by (generalized)
    Newton: U' = W_CC r + q on the Schur path, U' = q + H_C^T dv with What dv = H_C r on the KKT
    path. The system is linear except for the sliding directions: one step, plus the check, unless
-   a sliding direction turns. Returns MO_OK with *conv = 0 when newton_max is reached. */
+   a sliding direction turns. A sliding direction that reverses means that the candidate passes
+   through zero slip: the frozen status is wrong, and Newton hands back to the level-set loop
+   (in 2D, where G / |G| = sign G has no derivative, it would flip forever). Returns MO_OK with
+   *conv = 0 when newton_max is reached or a direction reverses. */
 static int ls_newton(ls_state *L, const mo_contact_problem *P, int kkt, int *its, int *conv,
                      mo_ctx *ctx)
 {
@@ -185,6 +213,7 @@ static int ls_newton(ls_state *L, const mo_contact_problem *P, int kkt, int *its
   int ny = S->ny, nu = S->nC * S->nr, it, e, k, col, st, mi, t;
   *its = 0;
   *conv = 0;
+  memset(L->rev, 0, (size_t)L->nc);
   if ((st = ls_reserve(L, (size_t)ny, (size_t)nu, ctx))) return st;
   /* start: r = 0 on the contact set (the system is linear in r), p and Lam from the current
      multipliers (the warm start of the sliding directions) */
@@ -201,6 +230,7 @@ static int ls_newton(ls_state *L, const mo_contact_problem *P, int kkt, int *its
     ls_system_eval(S, A, L->y, L->Uc, L->Umc);
     if (it > 0 && ls_system_converged(S, L->par.newton_tol)) { *conv = 1; break; }
     if (it == L->par.newton_max) break;
+    if (slide_reversed(L, L->y, L->Uc, it < 2) && it >= 2) break;
     if (kkt) {
       if ((st = ls_kkt_step(&L->K, S, P, L->dv, L->y, L->ddv, L->dy, ctx))) return st;
       for (k = 0; k < P->nfree; k++) L->dv[k] += L->ddv[k];
@@ -391,11 +421,6 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
         goto finish_zero;
       }
       if (st) return st;
-      if (!conv) {
-        rep->reason = MO_CR_MAXITER;
-        snprintf(rep->message, sizeof rep->message, "the Newton loop reached newton_max = %d on a "
-                 "frozen status (a sliding direction keeps turning)", L->par.newton_max);
-      }
       /* r over all candidates, and U' = W r + q (Schur) or q + H^T dv (KKT) */
       memset(L->r, 0, (size_t)m * sizeof(double));
       for (k = 0; k < S->nC; k++)
@@ -426,12 +451,19 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
             L->lam[j * 2 + t] = lam[t];
             g += v * v;
           }
-          if (P->mu[j] > 0) L->nsf[j] = sqrt(g) <= 1 + L->par.status_tol;
+          /* a slip that reversed in the frozen solve went through zero: try sticking */
+          if (P->mu[j] > 0) L->nsf[j] = L->rev[j] || sqrt(g) <= 1 + L->par.status_tol;
         }
       }
-      if (rep->reason < 0) break;
       for (j = 0; j < nc; j++)
         same &= L->nsu[j] == L->su[j] && L->nsv[j] == L->sv[j] && L->nsf[j] == L->sf[j];
+      if (same && !conv) {
+        /* Newton failed on a status that the signs confirm: nothing left to change */
+        rep->reason = MO_CR_MAXITER;
+        snprintf(rep->message, sizeof rep->message, "the Newton loop did not converge in %d iterations "
+                 "on a frozen status that the sign fields confirm (newton_max = %d)", its, L->par.newton_max);
+        break;
+      }
       if (same) break;
       /* cycling: the new state was visited before (T22) */
       for (j = 0; j < nc; j++) L->hist[(size_t)nhist * nc + j] = (unsigned char)(L->nsu[j] | L->nsv[j] << 1 | L->nsf[j] << 2);
