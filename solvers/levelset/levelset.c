@@ -25,6 +25,7 @@ typedef struct {
   double *pm, *lm;
   double *gdir;              /* sliding directions at the previous Newton iterate (nc x 2) */
   unsigned char *rev;        /* nc: the sliding direction reversed in the last Newton loop */
+  double *viol;              /* nc: how far the new solution is beyond a sign's boundary */
   /* work sized by the contact set (grown on demand) */
   double *y, *dy, *WCC, *J, *Uc, *Umc;
   int *ipiv;
@@ -63,7 +64,7 @@ static const mo_option_spec ls_options[] = {
    "Linear algebra: schur solves the frozen-status system on the contact set through W (the shared factorization, linear scenes); kkt assembles the saddle-point system over the free dofs and solves it with UMFPACK; auto is schur."},
   {"threshold_max", MO_OPT_INT, OFF(threshold_max), NULL, 1, 100000, "200",
    "Friction-threshold loop: iteration limit."},
-  {"threshold_tol", MO_OPT_DOUBLE, OFF(threshold_tol), NULL, 0, 1, "1e-12",
+  {"threshold_tol", MO_OPT_DOUBLE, OFF(threshold_tol), NULL, 0, 1, "1e-10",
    "Friction-threshold loop: stop when max |p - p_threshold| <= threshold_tol max |p|."},
   {"levelset_max", MO_OPT_INT, OFF(levelset_max), NULL, 1, 100000, "100",
    "Level-set loop: iteration limit (per friction threshold)."},
@@ -85,7 +86,7 @@ static void ls_defaults(void *params)
   p->su = LS_SU_INDEX_SET;
   p->path = LS_PATH_AUTO;
   p->threshold_max = 200;
-  p->threshold_tol = 1e-12;
+  p->threshold_tol = 1e-10;
   p->levelset_max = 100;
   p->newton_max = 50;
   p->newton_tol = 1e-10;
@@ -105,7 +106,7 @@ static void ls_free(void *state)
   mo_free(L->pg); mo_free(L->ph); mo_free(L->lam); mo_free(L->U); mo_free(L->Umag); mo_free(L->r);
   mo_free(L->ph_prev); mo_free(L->lam_prev); mo_free(L->pm); mo_free(L->lm);
   mo_free(L->y); mo_free(L->dy); mo_free(L->WCC); mo_free(L->J); mo_free(L->Uc); mo_free(L->Umc);
-  mo_free(L->ipiv); mo_free(L->dv); mo_free(L->ddv); mo_free(L->hist); mo_free(L->gdir); mo_free(L->rev);
+  mo_free(L->ipiv); mo_free(L->dv); mo_free(L->ddv); mo_free(L->hist); mo_free(L->gdir); mo_free(L->rev); mo_free(L->viol);
   memset(L, 0, sizeof *L);
 }
 
@@ -138,10 +139,11 @@ static int ls_init(void *state, const void *params, const mo_contact_problem *P,
   L->lm = mo_calloc(ctx, 2 * nm1, sizeof(double));
   L->gdir = mo_calloc(ctx, 2 * n1, sizeof(double));
   L->rev = mo_calloc(ctx, n1, 1);
+  L->viol = mo_calloc(ctx, n1, sizeof(double));
   L->dv = mo_calloc(ctx, (size_t)P->nfree + 1, sizeof(double));
   L->ddv = mo_calloc(ctx, (size_t)P->nfree + 1, sizeof(double));
   if (!L->su || !L->sv || !L->sf || !L->nsu || !L->nsv || !L->nsf || !L->pg || !L->ph || !L->lam ||
-      !L->ph_prev || !L->lam_prev || !L->U || !L->Umag || !L->r || !L->pm || !L->lm || !L->dv || !L->ddv || !L->gdir || !L->rev)
+      !L->ph_prev || !L->lam_prev || !L->U || !L->Umag || !L->r || !L->pm || !L->lm || !L->dv || !L->ddv || !L->gdir || !L->rev || !L->viol)
     return MO_ENOMEM;
   return MO_OK;
 }
@@ -215,15 +217,17 @@ static int ls_newton(ls_state *L, const mo_contact_problem *P, int kkt, int *its
   *conv = 0;
   memset(L->rev, 0, (size_t)L->nc);
   if ((st = ls_reserve(L, (size_t)ny, (size_t)nu, ctx))) return st;
-  /* start: r = 0 on the contact set (the system is linear in r), p and Lam from the current
-     multipliers (the warm start of the sliding directions) */
+  /* start from the previous solution (r, and dv on the KKT path: U' consistent with them), p and
+     Lam from the current multipliers: the sliding directions G / |G| start where the last solve
+     left them, not at the free slip of r = 0 */
   memset(L->y, 0, (size_t)ny * sizeof(double));
+  for (k = 0; k < S->nC; k++)
+    for (t = 0; t < S->nr; t++) L->y[k * S->nr + t] = L->r[S->cset[k] * S->d + t];
   for (mi = 0; mi < S->nM; mi++) {
     L->y[nu + mi] = L->pm[S->mset[mi]];
     for (t = 0; t < S->dt; t++) L->y[nu + S->nM + mi * S->dt + t] = L->lm[S->mset[mi] * 2 + t];
   }
-  if (kkt) memset(L->dv, 0, (size_t)P->nfree * sizeof(double));
-  else if ((st = ls_schur_wcc(S, P->W, L->WCC))) return st;
+  if (!kkt && (st = ls_schur_wcc(S, P->W, L->WCC))) return st;
   for (it = 0;; it++) {
     if (kkt) ls_kkt_velocity(S, P, L->dv, L->Uc, L->Umc);
     else ls_schur_velocity(S, L->WCC, P->b, L->y, L->Uc, L->Umc);
@@ -279,22 +283,37 @@ static void report_cycle(const ls_state *L, const mo_contact_problem *P, int k0,
   int j, k, len, shown = 0, total = 0;
   len = snprintf(rep->message, sizeof rep->message, "the sign fields cycle with period %d at candidate", n - k0);
   for (j = 0; j < L->nc; j++) {
-    int diff = 0;
-    for (k = k0 + 1; k < n; k++) diff |= L->hist[(size_t)k * L->nc + j] != L->hist[(size_t)k0 * L->nc + j];
+    unsigned diff = 0;
+    for (k = k0 + 1; k < n; k++) diff |= L->hist[(size_t)k * L->nc + j] ^ L->hist[(size_t)k0 * L->nc + j];
     if (!diff) continue;
     total++;
-    if (len < (int)sizeof rep->message - 80) {
+    if (len < (int)sizeof rep->message - 96) {
       char who[96];
-      unsigned char s0 = L->hist[(size_t)k0 * L->nc + j], s1 = L->hist[(size_t)(k0 + 1) * L->nc + j];
-      const char *what = (s0 ^ s1) & 1 ? "S_u" : (s0 ^ s1) & 2 ? "S_v" : "S_f";
       describe_candidate(P, j, who, sizeof who);
-      len += snprintf(rep->message + len, sizeof rep->message - (size_t)len, "%s %s %s",
-                      shown ? "," : "", who, what);
+      len += snprintf(rep->message + len, sizeof rep->message - (size_t)len, "%s %s%s%s%s", shown ? "," : "",
+                      who, diff & 1 ? " S_u" : "", diff & 2 ? " S_v" : "", diff & 4 ? " S_f" : "");
       shown++;
     }
   }
   if (total > shown && len < (int)sizeof rep->message - 24)
     snprintf(rep->message + len, sizeof rep->message - (size_t)len, " and %d more", total - shown);
+}
+
+/* Keep only the most violated sign change of the proposed update (ns* against s*; the violation
+   of each candidate's change is in L->viol): the safeguard against cycling of (T22). */
+static void one_sign(ls_state *L)
+{
+  int j, best = -1;
+  for (j = 0; j < L->nc; j++) {
+    int changed = L->nsu[j] != L->su[j] || L->nsv[j] != L->sv[j] || L->nsf[j] != L->sf[j];
+    if (changed && (best < 0 || L->viol[j] > L->viol[best])) best = j;
+  }
+  for (j = 0; j < L->nc; j++)
+    if (j != best) {
+      L->nsu[j] = L->su[j];
+      L->nsv[j] = L->sv[j];
+      L->nsf[j] = L->sf[j];
+    }
 }
 
 /* --- the step: geometry -> friction threshold -> level sets -> Newton (BDZ07 Fig. 2) -------------- */
@@ -311,7 +330,7 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
   const double c = P->scheme == MO_SCHEME_THETA ? P->h : 1;
   const int velocity = P->scheme == MO_SCHEME_THETA && P->signorini == MO_SIGNORINI_VELOCITY;
   const int end_gap = velocity && L->par.su == LS_SU_END_GAP;
-  int kkt = L->par.path == LS_PATH_KKT, st, j, t, thr, lsit, nhist, nls = 0, nnewt = 0, conv;
+  int kkt = L->par.path == LS_PATH_KKT, st, j, t, thr, lsit, nhist, nls = 0, nnewt = 0, conv, safe;
   double kn = 0, kt = 0, h_n, rho_n, rho_t = 0, h2_t = 0, h1_t = 0;
   int nkn = 0, nkt = 0;
   if (!P->W) return mo_error(ctx, MO_EINTERNAL, "levelset: the core did not build W");
@@ -347,9 +366,15 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
   S->k_n = L->par.k_n;
   S->k_t = L->par.k_t;
   S->projected = L->par.stabilization == LS_STAB_PROJECTED;
-  /* the starting sign fields from the warm start: U'0 = W r_prev + q */
+  /* the starting sign fields from the warm start: U'0 = W r_prev + q; the first Newton loop
+     starts from r_prev (Schur) or from r = 0, dv = 0 (KKT, where dv would have to match it) */
   mo_delassus_mult(P->W, x->r, 0, L->U);
   for (j = 0; j < m; j++) L->U[j] += P->b[j];
+  if (kkt) {
+    memset(L->r, 0, (size_t)m * sizeof(double));
+    memset(L->dv, 0, (size_t)P->nfree * sizeof(double));
+  } else
+    memcpy(L->r, x->r, (size_t)m * sizeof(double));
   for (j = 0; j < nc; j++) {
     double p0 = L->have_prev ? L->ph_prev[j] : (P->w[j] > 0 ? x->r[j * d] / (c * P->w[j]) : 0);
     L->su[j] = P->active[j] != 0;
@@ -399,6 +424,7 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
       }
     }
     /* the level-set loop */
+    safe = 0;
     nhist = 0;
     for (j = 0; j < nc; j++) L->hist[j] = (unsigned char)(L->su[j] | L->sv[j] << 1 | L->sf[j] << 2);
     nhist = 1;
@@ -436,13 +462,17 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
         L->nsu[j] = L->su[j];
         L->nsv[j] = L->sv[j];
         L->nsf[j] = L->sf[j];
+        L->viol[j] = 0;
         if (end_gap && P->active[j]) {
           double gend = P->g[j] + P->h * (P->theta * L->U[j * d] + (1 - P->theta) * P->Uprev[j * d]);
           L->nsu[j] = gend <= 0;
+          if (L->nsu[j] != L->su[j]) L->viol[j] = HUGE_VAL;
         }
         if (!L->su[j]) { L->nsv[j] = 0; continue; }
         tol = L->par.status_tol * (fabs(ph) + rho_n * L->Umag[j * d]);
         L->nsv[j] = ph - rho_n * L->U[j * d] >= -tol;
+        if (L->nsv[j] != L->sv[j])
+          L->viol[j] = fmax(L->viol[j], fabs(ph - rho_n * L->U[j * d]) / (fabs(ph) + rho_n * L->Umag[j * d] + 1e-300));
         if (dt) {
           double lam[2], g = 0;
           ls_lam_at(S, A, L->y, j, lam);
@@ -453,6 +483,7 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
           }
           /* a slip that reversed in the frozen solve went through zero: try sticking */
           if (P->mu[j] > 0) L->nsf[j] = L->rev[j] || sqrt(g) <= 1 + L->par.status_tol;
+          if (L->nsf[j] != L->sf[j]) L->viol[j] = fmax(L->viol[j], L->rev[j] ? 1 : fabs(sqrt(g) - 1));
         }
       }
       for (j = 0; j < nc; j++)
@@ -465,10 +496,22 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
         break;
       }
       if (same) break;
+      if (safe) one_sign(L);
       /* cycling: the new state was visited before (T22) */
       for (j = 0; j < nc; j++) L->hist[(size_t)nhist * nc + j] = (unsigned char)(L->nsu[j] | L->nsv[j] << 1 | L->nsf[j] << 2);
       for (k = 0; k < nhist - 1 && k0 < 0; k++)
         if (!memcmp(L->hist + (size_t)k * nc, L->hist + (size_t)nhist * nc, (size_t)nc)) k0 = k;
+      if (k0 >= 0 && !safe) {
+        /* changing every sign at once can cycle where the solution changes some of them only
+           (two coupled candidates at a stick/slip boundary): from the current state, change
+           one sign per iteration, the most violated, and call it cycling only if that cycles */
+        safe = 1;
+        memmove(L->hist, L->hist + (size_t)(nhist - 1) * nc, (size_t)nc);
+        nhist = 1;
+        one_sign(L);
+        for (j = 0; j < nc; j++) L->hist[(size_t)nc + j] = (unsigned char)(L->nsu[j] | L->nsv[j] << 1 | L->nsf[j] << 2);
+        k0 = -1;
+      }
       if (k0 >= 0) {
         rep->reason = MO_CR_CYCLING;
         report_cycle(L, P, k0, nhist, rep);
