@@ -386,7 +386,7 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
   /* the multipliers' starting values: the previous pressures at their candidates */
   for (j = 0; j < A->nm; j++) {
     int q = A->cp[j];
-    L->pm[j] = q < A->cp[j + 1] ? L->ph_prev[A->ci[q]] * (L->have_prev ? 1 : 0) : 0;
+    L->pm[j] = L->have_prev && q < A->cp[j + 1] ? L->ph_prev[A->ci[q]] : 0;
     L->lm[2 * j] = L->lm[2 * j + 1] = 0;
     if (L->have_prev && q < A->cp[j + 1])
       for (t = 0; t < dt; t++) L->lm[2 * j + t] = L->lam_prev[A->ci[q] * 2 + t];
@@ -431,7 +431,6 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
     for (lsit = 0;; lsit++) {
       int its, same = 1, k0 = -1, k;
       if ((st = ls_system_setup(S, A, nc, ctx))) return st;
-      if (kkt && P->nfree <= 0) return mo_error(ctx, MO_EINTERNAL, "levelset: kkt path without free dofs");
       st = ls_newton(L, P, kkt, &its, &conv, ctx);
       nnewt += its;
       nls++;
@@ -549,7 +548,8 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
   }
   rep->loops[1] = thr + 1;
 
-  /* outputs: impulses (or forces), U', statuses (core conventions) */
+  /* outputs in the core's conventions (T13): impulses (forces for quasi-static steps) r_n >= 0
+     compressive and r_t = -mu r_n Lam, U' = W r + q, statuses */
   memcpy(x->r, L->r, (size_t)m * sizeof(double));
   memcpy(x->U, L->U, (size_t)m * sizeof(double));
   for (j = 0; j < nc; j++) {
