@@ -433,8 +433,13 @@ int mo_contact_step(mo_contact_driver *D, mo_state *s, mo_ctx *ctx)
       /* g_k+1 = g_k + h (theta U+ + (1 - theta) U-) >= 0  (J88 (3.2)_1 with theta) */
       D->q[a * d] += (g[a] + h * (1 - theta) * D->Uprev[a * d]) / dtpos;
     else if (scheme == MO_SCHEME_THETA) {
-      /* velocity level on the index set of candidates predicted closed */
-      if (g[a] + h * D->Uprev[a * d] > 0) act = 0;
+      /* velocity level on the index set: the candidates predicted closed (the end-of-step gap
+         of (T2) if no contact impulse acted this step, g_k + h (theta U_free + (1 - theta) U-))
+         and those that carried a compressive impulse in the previous step (doc/theory.md §5):
+         a theta = 1 landing step leaves the gap it started with, and the contact must stay
+         in the set until the back end releases it (r = 0), not drop out on that gap */
+      if (g[a] + h * (theta * D->b[a * d] + (1 - theta) * D->Uprev[a * d]) > 0 && !(D->r[a * d] > 0))
+        act = 0;
     } else
       D->q[a * d] += g[a];
     D->active[a] = (unsigned char)act;

@@ -147,7 +147,7 @@ int mo_delassus_update(mo_delassus *D, const mo_csc *H, long hversion, mo_linsol
   D->built = 1;
   if (rebuilt) *rebuilt = 1;
 done:
-  for (a = 0; a < nb; a++) {
+  for (a = 0; a < nb; a++) { /* either list may be the allocation that failed */
     if (rcol) mo_free(rcol[a]);
     if (rval) mo_free(rval[a]);
   }

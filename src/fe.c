@@ -89,9 +89,11 @@ static int gauss_legendre(int order, double *x, double *w, mo_ctx *ctx)
 
 static int tensor_rule(int dim, int order, mo_quad *q, mo_ctx *ctx)
 {
-  double x[3], w[3];
-  int i, j, k, n = 0, st;
-  if (order < 1 || order > 3) return mo_error(ctx, MO_EINTERNAL, "quadrature order %d", order);
+  double x[4], w[4];
+  int i, j, k, n = 0, st, npts = order * (dim > 1 ? order : 1) * (dim > 2 ? order : 1);
+  /* up to 4 points per direction while the rule fits (facets: contact.pairs.[].gauss <= 4) */
+  if (order < 1 || order > 4 || npts > MO_QMAX)
+    return mo_error(ctx, MO_EINTERNAL, "quadrature order %d in dimension %d", order, dim);
   if ((st = gauss_legendre(order, x, w, ctx))) return st;
   q->dim = dim;
   for (k = 0; k < (dim > 2 ? order : 1); k++)

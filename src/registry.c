@@ -6,9 +6,11 @@
 
 #include <string.h>
 
+extern const mo_contact_solver_type mo_contact_solver_levelset;
 extern const mo_contact_solver_type mo_contact_solver_newmark;
 
 static const mo_contact_solver_type *const registry[] = {
+  &mo_contact_solver_levelset,
   &mo_contact_solver_newmark,
   NULL /* end */
 };

@@ -430,7 +430,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
       nexact += mo_reference_eval(&sc->ref, P->q[q], sc->body[P->body].mesh->x[P->node[0] * sc->dim], 0, &dummy);
     }
   }
-  ncol = 1 + nprobecol + nexact + (sc->out.energy ? 7 : 0) + (C ? 4 : 0);
+  ncol = 1 + nprobecol + nexact + (sc->out.energy ? 7 : 0) + (C ? 8 : 0);
   cols = mo_calloc(ctx, (size_t)(nprobecol ? nprobecol : 1), sizeof *cols);
   names = mo_calloc(ctx, (size_t)ncol, sizeof *names);
   namebuf = mo_calloc(ctx, (size_t)ncol, 80);
@@ -481,6 +481,12 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
     snprintf(names[ccol0 + 1], 80, "contact.iterations");
     snprintf(names[ccol0 + 2], 80, "contact.residual");
     snprintf(names[ccol0 + 3], 80, "contact.force_n");
+    /* the back end's nested loops (contact.h: geometric, friction threshold, level set,
+       Newton), zero for back ends without them */
+    snprintf(names[ccol0 + 4], 80, "contact.loops_geometry");
+    snprintf(names[ccol0 + 5], 80, "contact.loops_threshold");
+    snprintf(names[ccol0 + 6], 80, "contact.loops_levelset");
+    snprintf(names[ccol0 + 7], 80, "contact.loops_newton");
   }
   snprintf(path, sizeof path, "%s/history.csv", outdir);
   if ((st = mo_csv_open(path, (const char *const *)names, ncol, sc->out.precision, &csv, ctx))) goto done;
@@ -547,6 +553,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
         row[ccol0 + 1] = rep && s.step ? rep->iterations : 0;
         row[ccol0 + 2] = rep && s.step ? rep->residual : 0;
         row[ccol0 + 3] = fsum;
+        for (k = 0; k < 4; k++) row[ccol0 + 4 + k] = rep && s.step ? rep->loops[k] : 0;
       }
       if ((st = mo_csv_row(csv, row, ctx))) goto done;
     }

@@ -1,0 +1,599 @@
+/* levelset.c: the levelset contact back end: Ben Dhia and Zammali's Level-Set stabilized
+   Lagrangian (BDZ07 §3-5, BDZ04), frictionless and frictional, with the nested loops of BDZ07
+   Fig. 2 (doc/theory.md §6). */
+#include "config.h"
+#include "levelset.h"
+
+#include <math.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <string.h>
+
+typedef struct {
+  ls_params par;
+  int nc, d, m, friction;
+  ls_space A;
+  ls_system S;
+  ls_kkt K;
+  /* per candidate: sign fields, threshold, current pressure and semi-multiplier, U' */
+  unsigned char *su, *sv, *sf, *nsu, *nsv, *nsf;
+  double *pg, *ph, *lam, *U, *Umag, *r;
+  /* warm start from the previous step */
+  double *ph_prev, *lam_prev;
+  int have_prev;
+  /* per multiplier: current values (y's p and Lam are gathered from and scattered to these) */
+  double *pm, *lm;
+  double *gdir;              /* sliding directions at the previous Newton iterate (nc x 2) */
+  unsigned char *rev;        /* nc: the sliding direction reversed in the last Newton loop */
+  double *viol;              /* nc: how far the new solution is beyond a sign's boundary */
+  /* work sized by the contact set (grown on demand) */
+  double *y, *dy, *WCC, *J, *Uc, *Umc;
+  int *ipiv;
+  size_t cap_y, cap_u;
+  double *dv, *ddv;          /* KKT path: velocity correction over the free dofs */
+  /* status history of the level-set loop (cycling detection) */
+  unsigned char *hist;
+  int hist_cap;
+} ls_state;
+
+/* --- options ---------------------------------------------------------------------------------- */
+
+#define OFF(f) offsetof(ls_params, f)
+static const mo_option_spec ls_options[] = {
+  {"multipliers", MO_OPT_ENUM, OFF(multipliers), "auto|p1|p0", NAN, NAN, "\"auto\"",
+   "Multiplier space (BDZ07 (65)): auto is P1 at the nodes for node collocation and P0 per slave facet for Gauss collocation; p1 at Gauss points interpolates nodal multipliers with the facet's shape functions."},
+  {"h_n", MO_OPT_DOUBLE, OFF(h_n), NULL, 0, NAN, "0 (automatic)",
+   "h_n of BDZ07 (27), (67), in pressure per unit of U'; 0 takes the contact stiffness 1/(c w W_nn) averaged over the candidates (doc/theory.md (T16))."},
+  {"rho_n", MO_OPT_DOUBLE, OFF(rho_n), NULL, 0, NAN, "0 (automatic)",
+   "rho_n of the sign field S_v, BDZ07 (29) (or S of (15) for position-level and quasi-static steps); 0 is automatic as for h_n."},
+  {"k_n", MO_OPT_DOUBLE, OFF(k_n), NULL, 0, NAN, "0",
+   "Stabilization k_n of BDZ07 (37) (0: the Lagrangian formulation; k_n = h_n = rho_n: the augmented one)."},
+  {"stabilization", MO_OPT_ENUM, OFF(stabilization), "projected|unprojected", NAN, NAN, "\"projected\"",
+   "k_n term projected on the multiplier space over the contact set (BDZ07 Remark 4), or taken pointwise (inconsistent when the spaces differ: kept to show the perturbation, BDZ07 §6.4)."},
+  {"rho_t", MO_OPT_DOUBLE, OFF(rho_t), NULL, 0, NAN, "0 (automatic)",
+   "rho_tau of the friction sign field S_f, BDZ07 (41); 0 takes 1/(c w W_tt mu p) averaged over the contact set."},
+  {"h1_t", MO_OPT_DOUBLE, OFF(h1_t), NULL, 0, NAN, "0 (automatic)",
+   "h1_tau of BDZ07 (44) (sticking rows; it cancels from the discrete equations, kept for completeness); 0 is rho_t."},
+  {"h2_t", MO_OPT_DOUBLE, OFF(h2_t), NULL, 0, NAN, "0 (automatic)",
+   "h2_tau of BDZ07 (42), (44): the sliding direction (Lam + h2 [v_t]) / |...|; 0 is rho_t."},
+  {"k_t", MO_OPT_DOUBLE, OFF(k_t), NULL, 0, NAN, "0",
+   "Tangential stabilization k_tau of BDZ07 (49) on sticking points."},
+  {"su", MO_OPT_ENUM, OFF(su), "index_set|end_gap", NAN, NAN, "\"index_set\"",
+   "Theta steps at velocity level: S_u from the gap predicted without contact impulse (the core's index set, frozen in the step), or re-evaluated from the end-of-step gap in the level-set loop (BDZ07 (53) literally: it cycles at landing steps)."},
+  {"path", MO_OPT_ENUM, OFF(path), "auto|schur|kkt", NAN, NAN, "\"auto\"",
+   "Linear algebra: schur solves the frozen-status system on the contact set through W (the shared factorization, linear scenes); kkt assembles the saddle-point system over the free dofs and solves it with UMFPACK; auto is schur."},
+  {"threshold_max", MO_OPT_INT, OFF(threshold_max), NULL, 1, 100000, "200",
+   "Friction-threshold loop: iteration limit."},
+  {"threshold_tol", MO_OPT_DOUBLE, OFF(threshold_tol), NULL, 0, 1, "1e-10",
+   "Friction-threshold loop: stop when max |p - p_threshold| <= threshold_tol max |p|."},
+  {"levelset_max", MO_OPT_INT, OFF(levelset_max), NULL, 1, 100000, "100",
+   "Level-set loop: iteration limit (per friction threshold)."},
+  {"newton_max", MO_OPT_INT, OFF(newton_max), NULL, 1, 10000, "50",
+   "Newton loop: iteration limit (per frozen status)."},
+  {"newton_tol", MO_OPT_DOUBLE, OFF(newton_tol), NULL, 0, 1, "1e-10",
+   "Newton loop: stop when every equation's residual is below newton_tol times the size of its terms."},
+  {"status_tol", MO_OPT_DOUBLE, OFF(status_tol), NULL, 0, 1, "1e-10",
+   "Relative tolerance of the sign tests (S_v, S_f), so that round-off at a status boundary does not flip it."},
+};
+#undef OFF
+
+static void ls_defaults(void *params)
+{
+  ls_params *p = params;
+  memset(p, 0, sizeof *p);
+  p->multipliers = LS_MULT_AUTO;
+  p->stabilization = LS_STAB_PROJECTED;
+  p->su = LS_SU_INDEX_SET;
+  p->path = LS_PATH_AUTO;
+  p->threshold_max = 200;
+  p->threshold_tol = 1e-10;
+  p->levelset_max = 100;
+  p->newton_max = 50;
+  p->newton_tol = 1e-10;
+  p->status_tol = 1e-10;
+}
+
+/* --- state -------------------------------------------------------------------------------------- */
+
+static void ls_free(void *state)
+{
+  ls_state *L = state;
+  if (!L) return;
+  ls_space_free(&L->A);
+  ls_system_free(&L->S);
+  ls_kkt_free(&L->K);
+  mo_free(L->su); mo_free(L->sv); mo_free(L->sf); mo_free(L->nsu); mo_free(L->nsv); mo_free(L->nsf);
+  mo_free(L->pg); mo_free(L->ph); mo_free(L->lam); mo_free(L->U); mo_free(L->Umag); mo_free(L->r);
+  mo_free(L->ph_prev); mo_free(L->lam_prev); mo_free(L->pm); mo_free(L->lm);
+  mo_free(L->y); mo_free(L->dy); mo_free(L->WCC); mo_free(L->J); mo_free(L->Uc); mo_free(L->Umc);
+  mo_free(L->ipiv); mo_free(L->dv); mo_free(L->ddv); mo_free(L->hist); mo_free(L->gdir); mo_free(L->rev); mo_free(L->viol);
+  memset(L, 0, sizeof *L);
+}
+
+static int ls_init(void *state, const void *params, const mo_contact_problem *P, mo_ctx *ctx)
+{
+  ls_state *L = state;
+  int nc = P->nc, d = P->dim, m = P->m, j, st;
+  size_t n1 = (size_t)nc + 1, nm1;
+  L->par = *(const ls_params *)params;
+  L->nc = nc;
+  L->d = d;
+  L->m = m;
+  L->friction = 0;
+  for (j = 0; j < nc; j++) L->friction |= d > 1 && P->mu[j] > 0;
+  if (L->par.path == LS_PATH_KKT && (!P->H || !P->What || P->nfree <= 0))
+    return mo_error(ctx, MO_EINTERNAL, "levelset: the kkt path needs the global system (H, What)");
+  if ((st = ls_space_build(&L->A, P->contact, L->par.multipliers, ctx))) return st;
+  nm1 = (size_t)L->A.nm + 1;
+  L->su = mo_calloc(ctx, n1, 1); L->sv = mo_calloc(ctx, n1, 1); L->sf = mo_calloc(ctx, n1, 1);
+  L->nsu = mo_calloc(ctx, n1, 1); L->nsv = mo_calloc(ctx, n1, 1); L->nsf = mo_calloc(ctx, n1, 1);
+  L->pg = mo_calloc(ctx, n1, sizeof(double));
+  L->ph = mo_calloc(ctx, n1, sizeof(double));
+  L->lam = mo_calloc(ctx, 2 * n1, sizeof(double));
+  L->ph_prev = mo_calloc(ctx, n1, sizeof(double));
+  L->lam_prev = mo_calloc(ctx, 2 * n1, sizeof(double));
+  L->U = mo_calloc(ctx, (size_t)m + 1, sizeof(double));
+  L->Umag = mo_calloc(ctx, (size_t)m + 1, sizeof(double));
+  L->r = mo_calloc(ctx, (size_t)m + 1, sizeof(double));
+  L->pm = mo_calloc(ctx, nm1, sizeof(double));
+  L->lm = mo_calloc(ctx, 2 * nm1, sizeof(double));
+  L->gdir = mo_calloc(ctx, 2 * n1, sizeof(double));
+  L->rev = mo_calloc(ctx, n1, 1);
+  L->viol = mo_calloc(ctx, n1, sizeof(double));
+  L->dv = mo_calloc(ctx, (size_t)P->nfree + 1, sizeof(double));
+  L->ddv = mo_calloc(ctx, (size_t)P->nfree + 1, sizeof(double));
+  if (!L->su || !L->sv || !L->sf || !L->nsu || !L->nsv || !L->nsf || !L->pg || !L->ph || !L->lam ||
+      !L->ph_prev || !L->lam_prev || !L->U || !L->Umag || !L->r || !L->pm || !L->lm || !L->dv || !L->ddv || !L->gdir || !L->rev || !L->viol)
+    return MO_ENOMEM;
+  return MO_OK;
+}
+
+/* Grow the work arrays for ny unknowns and nu local velocities. */
+static int ls_reserve(ls_state *L, size_t ny, size_t nu, mo_ctx *ctx)
+{
+  if (ny > L->cap_y) {
+    double *a;
+    int *ip;
+    if (!(a = mo_realloc(ctx, L->y, (ny + 1) * sizeof(double)))) return MO_ENOMEM;
+    L->y = a;
+    if (!(a = mo_realloc(ctx, L->dy, (ny + 1) * sizeof(double)))) return MO_ENOMEM;
+    L->dy = a;
+    if (!(a = mo_realloc(ctx, L->J, (ny * ny + 1) * sizeof(double)))) return MO_ENOMEM;
+    L->J = a;
+    if (!(ip = mo_realloc(ctx, L->ipiv, (ny + 1) * sizeof(int)))) return MO_ENOMEM;
+    L->ipiv = ip;
+    L->cap_y = ny;
+  }
+  if (nu > L->cap_u) {
+    double *a;
+    if (!(a = mo_realloc(ctx, L->WCC, (nu * nu + 1) * sizeof(double)))) return MO_ENOMEM;
+    L->WCC = a;
+    if (!(a = mo_realloc(ctx, L->Uc, (nu + 1) * sizeof(double)))) return MO_ENOMEM;
+    L->Uc = a;
+    if (!(a = mo_realloc(ctx, L->Umc, (nu + 1) * sizeof(double)))) return MO_ENOMEM;
+    L->Umc = a;
+    L->cap_u = nu;
+  }
+  return MO_OK;
+}
+
+/* --- one frozen-status solve: the Newton loop ------------------------------------------------------ */
+
+/* 1 when the sliding direction G = Lam_h + h2_t U'_t of a sliding candidate with friction
+   points against its direction at the previous Newton iterate (stored in L->gdir, nc x 2). */
+static int slide_reversed(ls_state *L, const double *y, const double *Uc, int first)
+{
+  ls_system *S = &L->S;
+  int jc, t, rev = 0;
+  for (jc = 0; jc < S->nC; jc++) {
+    int j = S->cset[jc];
+    double lam[2], G[2], dot = 0;
+    if (!S->dt || S->sf[j] || !(S->mu[j] > 0 && S->pg[j] > 0)) continue;
+    ls_lam_at(S, &L->A, y, j, lam);
+    for (t = 0; t < S->dt; t++) {
+      G[t] = lam[t] + S->h2_t * Uc[jc * S->nr + 1 + t];
+      dot += G[t] * L->gdir[2 * j + t];
+    }
+    if (!first && dot < 0) rev = L->rev[j] = 1;
+    for (t = 0; t < S->dt; t++) L->gdir[2 * j + t] = G[t];
+  }
+  return rev;
+}
+
+/* Solve F(y, U') = 0 for the frozen sign fields and threshold (T17)-(T20), by (generalized)
+   Newton: U' = W_CC r + q on the Schur path, U' = q + H_C^T dv with What dv = H_C r on the KKT
+   path. The system is linear except for the sliding directions: one step, plus the check, unless
+   a sliding direction turns. A sliding direction that reverses means that the candidate passes
+   through zero slip: the frozen status is wrong, and Newton hands back to the level-set loop
+   (in 2D, where G / |G| = sign G has no derivative, it would flip forever). Returns MO_OK with
+   *conv = 0 when newton_max is reached or a direction reverses. */
+static int ls_newton(ls_state *L, const mo_contact_problem *P, int kkt, int *its, int *conv,
+                     mo_ctx *ctx)
+{
+  ls_system *S = &L->S;
+  const ls_space *A = &L->A;
+  int ny = S->ny, nu = S->nC * S->nr, it, e, k, col, st, mi, t;
+  *its = 0;
+  *conv = 0;
+  memset(L->rev, 0, (size_t)L->nc);
+  if ((st = ls_reserve(L, (size_t)ny, (size_t)nu, ctx))) return st;
+  /* start from the previous solution (r, and dv on the KKT path: U' consistent with them), p and
+     Lam from the current multipliers: the sliding directions G / |G| start where the last solve
+     left them, not at the free slip of r = 0 */
+  memset(L->y, 0, (size_t)ny * sizeof(double));
+  for (k = 0; k < S->nC; k++)
+    for (t = 0; t < S->nr; t++) L->y[k * S->nr + t] = L->r[S->cset[k] * S->d + t];
+  for (mi = 0; mi < S->nM; mi++) {
+    L->y[nu + mi] = L->pm[S->mset[mi]];
+    for (t = 0; t < S->dt; t++) L->y[nu + S->nM + mi * S->dt + t] = L->lm[S->mset[mi] * 2 + t];
+  }
+  if (!kkt && (st = ls_schur_wcc(S, P->W, L->WCC))) return st;
+  for (it = 0;; it++) {
+    if (kkt) ls_kkt_velocity(S, P, L->dv, L->Uc, L->Umc);
+    else ls_schur_velocity(S, L->WCC, P->b, L->y, L->Uc, L->Umc);
+    ls_system_eval(S, A, L->y, L->Uc, L->Umc);
+    if (it > 0 && ls_system_converged(S, L->par.newton_tol)) { *conv = 1; break; }
+    if (it == L->par.newton_max) break;
+    if (slide_reversed(L, L->y, L->Uc, it < 2) && it >= 2) break;
+    if (kkt) {
+      if ((st = ls_kkt_step(&L->K, S, P, L->dv, L->y, L->ddv, L->dy, ctx))) return st;
+      for (k = 0; k < P->nfree; k++) L->dv[k] += L->ddv[k];
+    } else {
+      /* J = dF/dy + dF/dU' W_CC (U' depends on the impulses, the first nu unknowns) */
+      memcpy(L->J, S->Jy, (size_t)ny * (size_t)ny * sizeof(double));
+      for (e = 0; e < ny; e++) {
+        const double *ju = S->JU + (size_t)e * nu;
+        double *jr = L->J + (size_t)e * ny;
+        for (k = 0; k < nu; k++) {
+          const double *wr;
+          if (ju[k] == 0) continue;
+          wr = L->WCC + (size_t)k * nu;
+          for (col = 0; col < nu; col++) jr[col] += ju[k] * wr[col];
+        }
+      }
+      for (e = 0; e < ny; e++) L->dy[e] = -S->F[e];
+      if ((st = ls_dense_solve(ny, L->J, L->dy, L->ipiv, ctx))) return st;
+    }
+    for (e = 0; e < ny; e++) L->y[e] += L->dy[e];
+    (*its)++;
+  }
+  /* keep the multipliers for the next solve */
+  for (mi = 0; mi < S->nM; mi++) {
+    L->pm[S->mset[mi]] = L->y[nu + mi];
+    for (t = 0; t < S->dt; t++) L->lm[S->mset[mi] * 2 + t] = L->y[nu + S->nM + mi * S->dt + t];
+  }
+  return MO_OK;
+}
+
+/* --- reports ------------------------------------------------------------------------------------------ */
+
+static void describe_candidate(const mo_contact_problem *P, int j, char *buf, size_t n)
+{
+  const mo_candidate *c = mo_contact_candidate(P->contact, j);
+  const mo_contact_pair *pr = mo_contact_pair_get(P->contact, c->pair);
+  if (c->node >= 0) snprintf(buf, n, "%d (node %d of '%s')", j, c->node, pr->name);
+  else snprintf(buf, n, "%d (Gauss point of facet %d of '%s')", j,
+                mo_contact_point(P->contact, c->point)->facet, pr->name);
+}
+
+/* The candidates whose sign fields differ among the states hist[k0 .. n-1] of a cycle. */
+static void report_cycle(const ls_state *L, const mo_contact_problem *P, int k0, int n,
+                         mo_contact_report *rep)
+{
+  int j, k, len, shown = 0, total = 0;
+  len = snprintf(rep->message, sizeof rep->message, "the sign fields cycle with period %d at candidate", n - k0);
+  for (j = 0; j < L->nc; j++) {
+    unsigned diff = 0;
+    for (k = k0 + 1; k < n; k++) diff |= L->hist[(size_t)k * L->nc + j] ^ L->hist[(size_t)k0 * L->nc + j];
+    if (!diff) continue;
+    total++;
+    if (len < (int)sizeof rep->message - 96) {
+      char who[96];
+      describe_candidate(P, j, who, sizeof who);
+      len += snprintf(rep->message + len, sizeof rep->message - (size_t)len, "%s %s%s%s%s", shown ? "," : "",
+                      who, diff & 1 ? " S_u" : "", diff & 2 ? " S_v" : "", diff & 4 ? " S_f" : "");
+      shown++;
+    }
+  }
+  if (total > shown && len < (int)sizeof rep->message - 24)
+    snprintf(rep->message + len, sizeof rep->message - (size_t)len, " and %d more", total - shown);
+}
+
+/* Keep only the most violated sign change of the proposed update (ns* against s*; the violation
+   of each candidate's change is in L->viol): the safeguard against cycling of (T22). */
+static void one_sign(ls_state *L)
+{
+  int j, best = -1;
+  for (j = 0; j < L->nc; j++) {
+    int changed = L->nsu[j] != L->su[j] || L->nsv[j] != L->sv[j] || L->nsf[j] != L->sf[j];
+    if (changed && (best < 0 || L->viol[j] > L->viol[best])) best = j;
+  }
+  for (j = 0; j < L->nc; j++)
+    if (j != best) {
+      L->nsu[j] = L->su[j];
+      L->nsv[j] = L->sv[j];
+      L->nsf[j] = L->sf[j];
+    }
+}
+
+/* --- the step: geometry -> friction threshold -> level sets -> Newton (BDZ07 Fig. 2) -------------- */
+
+static double safe_inv(double x) { return x > 0 && isfinite(1 / x) ? 1 / x : 0; }
+
+static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x,
+                    mo_contact_report *rep, mo_ctx *ctx)
+{
+  ls_state *L = state;
+  ls_system *S = &L->S;
+  const ls_space *A = &L->A;
+  const int nc = L->nc, d = L->d, m = L->m, dt = L->friction ? d - 1 : 0;
+  const double c = P->scheme == MO_SCHEME_THETA ? P->h : 1;
+  const int velocity = P->scheme == MO_SCHEME_THETA && P->signorini == MO_SIGNORINI_VELOCITY;
+  const int end_gap = velocity && L->par.su == LS_SU_END_GAP;
+  int kkt = L->par.path == LS_PATH_KKT, st, j, t, thr, lsit, nhist, nls = 0, nnewt = 0, conv, safe;
+  double kn = 0, kt = 0, h_n, rho_n, rho_t = 0, h2_t = 0, h1_t = 0;
+  int nkn = 0, nkt = 0;
+  if (!P->W) return mo_error(ctx, MO_EINTERNAL, "levelset: the core did not build W");
+  /* scales (T16): the contact stiffness 1 / (c w W_jj) in pressure per unit of U' */
+  for (j = 0; j < nc; j++) {
+    const double *Wjj = mo_delassus_block(P->W, j, j);
+    if (!P->active[j] || !Wjj) continue;
+    kn += safe_inv(c * P->w[j] * Wjj[0]);
+    nkn++;
+    if (dt) {
+      double wt = 0;
+      for (t = 1; t < d; t++) wt += Wjj[t * d + t] / (d - 1);
+      kt += safe_inv(c * P->w[j] * wt);
+      nkt++;
+    }
+  }
+  kn = nkn ? kn / nkn : 1;
+  kt = nkt ? kt / nkt : 1;
+  h_n = L->par.h_n > 0 ? L->par.h_n : kn;
+  rho_n = L->par.rho_n > 0 ? L->par.rho_n : kn;
+  memset(S, 0, offsetof(ls_system, cset));
+  S->d = d;
+  S->dt = dt;
+  S->nr = 1 + dt;
+  S->su = L->su;
+  S->sv = L->sv;
+  S->sf = L->sf;
+  S->pg = L->pg;
+  S->w = P->w;
+  S->mu = P->mu;
+  S->c = c;
+  S->h_n = h_n;
+  S->k_n = L->par.k_n;
+  S->k_t = L->par.k_t;
+  S->projected = L->par.stabilization == LS_STAB_PROJECTED;
+  /* the starting sign fields from the warm start: U'0 = W r_prev + q; the first Newton loop
+     starts from r_prev (Schur) or from r = 0, dv = 0 (KKT, where dv would have to match it) */
+  mo_delassus_mult(P->W, x->r, 0, L->U);
+  for (j = 0; j < m; j++) L->U[j] += P->b[j];
+  if (kkt) {
+    memset(L->r, 0, (size_t)m * sizeof(double));
+    memset(L->dv, 0, (size_t)P->nfree * sizeof(double));
+  } else
+    memcpy(L->r, x->r, (size_t)m * sizeof(double));
+  for (j = 0; j < nc; j++) {
+    double p0 = L->have_prev ? L->ph_prev[j] : (P->w[j] > 0 ? x->r[j * d] / (c * P->w[j]) : 0);
+    L->su[j] = P->active[j] != 0;
+    L->sv[j] = L->su[j] && p0 - rho_n * L->U[j * d] >= 0;
+    L->pg[j] = L->sv[j] && p0 > 0 ? p0 : 0;
+    for (t = 0; t < dt; t++) L->lam[j * 2 + t] = L->have_prev ? L->lam_prev[j * 2 + t] : 0;
+    L->sf[j] = 1;
+  }
+  /* the multipliers' starting values: the previous pressures at their candidates */
+  for (j = 0; j < A->nm; j++) {
+    int q = A->cp[j];
+    L->pm[j] = L->have_prev && q < A->cp[j + 1] ? L->ph_prev[A->ci[q]] : 0;
+    L->lm[2 * j] = L->lm[2 * j + 1] = 0;
+    if (L->have_prev && q < A->cp[j + 1])
+      for (t = 0; t < dt; t++) L->lm[2 * j + t] = L->lam_prev[A->ci[q] * 2 + t];
+  }
+  if (!L->hist || L->hist_cap < L->par.levelset_max + 1) {
+    unsigned char *h = mo_realloc(ctx, L->hist, ((size_t)L->par.levelset_max + 1) * (size_t)nc + 1);
+    if (!h) return MO_ENOMEM;
+    L->hist = h;
+    L->hist_cap = L->par.levelset_max + 1;
+  }
+  rep->reason = MO_CR_CONVERGED;
+  rep->loops[0] = 1; /* the geometric loop: the core freezes the pairing within the step (§6.5) */
+
+  /* the friction-threshold loop */
+  for (thr = 0;; thr++) {
+    /* rho_t (T16): 1 / (c w W_tt mu p) with the mean threshold over the contact set */
+    if (dt) {
+      double ps = 0, ms = 0;
+      int np = 0;
+      for (j = 0; j < nc; j++)
+        if (L->pg[j] > 0 && P->mu[j] > 0) { ps += L->pg[j]; ms += P->mu[j]; np++; }
+      rho_t = L->par.rho_t > 0 ? L->par.rho_t : np ? kt * np / (ms / np * ps) : 0;
+      h2_t = L->par.h2_t > 0 ? L->par.h2_t : rho_t;
+      h1_t = L->par.h1_t > 0 ? L->par.h1_t : rho_t;
+      S->h2_t = h2_t;
+      S->h1_t = h1_t;
+      /* S_f from the current semi-multipliers and U' */
+      for (j = 0; j < nc; j++) {
+        double g = 0;
+        for (t = 0; t < dt; t++) {
+          double v = L->lam[j * 2 + t] + rho_t * L->U[j * d + 1 + t];
+          g += v * v;
+        }
+        L->sf[j] = sqrt(g) <= 1 + L->par.status_tol;
+      }
+    }
+    /* the level-set loop */
+    safe = 0;
+    nhist = 0;
+    for (j = 0; j < nc; j++) L->hist[j] = (unsigned char)(L->su[j] | L->sv[j] << 1 | L->sf[j] << 2);
+    nhist = 1;
+    for (lsit = 0;; lsit++) {
+      int its, same = 1, k0 = -1, k;
+      if ((st = ls_system_setup(S, A, nc, ctx))) return st;
+      st = ls_newton(L, P, kkt, &its, &conv, ctx);
+      nnewt += its;
+      nls++;
+      if (st == MO_ESINGULAR || st == MO_ENAN) {
+        /* a breakdown of the frozen system is reported, not an error of the run */
+        size_t len = strlen(ctx->errmsg);
+        if (len >= sizeof rep->message) len = sizeof rep->message - 1;
+        memcpy(rep->message, ctx->errmsg, len);
+        rep->message[len] = '\0';
+        mo_ctx_clear_error(ctx);
+        rep->reason = st == MO_ENAN ? MO_CR_NAN : MO_CR_BREAKDOWN;
+        memset(L->r, 0, (size_t)m * sizeof(double));
+        goto finish_zero;
+      }
+      if (st) return st;
+      /* r over all candidates, and U' = W r + q (Schur) or q + H^T dv (KKT) */
+      memset(L->r, 0, (size_t)m * sizeof(double));
+      for (k = 0; k < S->nC; k++)
+        for (t = 0; t < S->nr; t++) L->r[S->cset[k] * d + t] = L->y[k * S->nr + t];
+      memcpy(L->U, P->b, (size_t)m * sizeof(double));
+      if (kkt) mo_csc_gatxpy(P->H, 1, L->dv, 1, L->U);
+      else mo_delassus_mult(P->W, L->r, 1, L->U);
+      for (j = 0; j < m; j++) L->Umag[j] = fabs(P->b[j]) + fabs(L->U[j] - P->b[j]);
+      /* the sign fields from the new solution: (T14), (T15), BDZ07 (69), (70), (48) */
+      for (j = 0; j < nc; j++) {
+        double ph = L->su[j] ? ls_p_at(S, A, L->y, j) : 0, tol;
+        L->ph[j] = ph;
+        L->nsu[j] = L->su[j];
+        L->nsv[j] = L->sv[j];
+        L->nsf[j] = L->sf[j];
+        L->viol[j] = 0;
+        if (end_gap && P->active[j]) {
+          double gend = P->g[j] + P->h * (P->theta * L->U[j * d] + (1 - P->theta) * P->Uprev[j * d]);
+          L->nsu[j] = gend <= 0;
+          if (L->nsu[j] != L->su[j]) L->viol[j] = HUGE_VAL;
+        }
+        if (!L->su[j]) { L->nsv[j] = 0; continue; }
+        tol = L->par.status_tol * (fabs(ph) + rho_n * L->Umag[j * d]);
+        L->nsv[j] = ph - rho_n * L->U[j * d] >= -tol;
+        if (L->nsv[j] != L->sv[j])
+          L->viol[j] = fmax(L->viol[j], fabs(ph - rho_n * L->U[j * d]) / (fabs(ph) + rho_n * L->Umag[j * d] + 1e-300));
+        if (dt) {
+          double lam[2], g = 0;
+          ls_lam_at(S, A, L->y, j, lam);
+          for (t = 0; t < dt; t++) {
+            double v = lam[t] + rho_t * L->U[j * d + 1 + t];
+            L->lam[j * 2 + t] = lam[t];
+            g += v * v;
+          }
+          /* a slip that reversed in the frozen solve went through zero: try sticking */
+          if (P->mu[j] > 0) L->nsf[j] = L->rev[j] || sqrt(g) <= 1 + L->par.status_tol;
+          if (L->nsf[j] != L->sf[j]) L->viol[j] = fmax(L->viol[j], L->rev[j] ? 1 : fabs(sqrt(g) - 1));
+        }
+      }
+      for (j = 0; j < nc; j++)
+        same &= L->nsu[j] == L->su[j] && L->nsv[j] == L->sv[j] && L->nsf[j] == L->sf[j];
+      if (same && !conv) {
+        /* Newton failed on a status that the signs confirm: nothing left to change */
+        rep->reason = MO_CR_MAXITER;
+        snprintf(rep->message, sizeof rep->message, "the Newton loop did not converge in %d iterations "
+                 "on a frozen status that the sign fields confirm (newton_max = %d)", its, L->par.newton_max);
+        break;
+      }
+      if (same) break;
+      if (safe) one_sign(L);
+      /* cycling: the new state was visited before (T22) */
+      for (j = 0; j < nc; j++) L->hist[(size_t)nhist * nc + j] = (unsigned char)(L->nsu[j] | L->nsv[j] << 1 | L->nsf[j] << 2);
+      for (k = 0; k < nhist - 1 && k0 < 0; k++)
+        if (!memcmp(L->hist + (size_t)k * nc, L->hist + (size_t)nhist * nc, (size_t)nc)) k0 = k;
+      if (k0 >= 0 && !safe) {
+        /* changing every sign at once can cycle where the solution changes some of them only
+           (two coupled candidates at a stick/slip boundary): from the current state, change
+           one sign per iteration, the most violated, and call it cycling only if that cycles */
+        safe = 1;
+        memmove(L->hist, L->hist + (size_t)(nhist - 1) * nc, (size_t)nc);
+        nhist = 1;
+        one_sign(L);
+        for (j = 0; j < nc; j++) L->hist[(size_t)nc + j] = (unsigned char)(L->nsu[j] | L->nsv[j] << 1 | L->nsf[j] << 2);
+        k0 = -1;
+      }
+      if (k0 >= 0) {
+        rep->reason = MO_CR_CYCLING;
+        report_cycle(L, P, k0, nhist, rep);
+        break;
+      }
+      if (lsit + 1 >= L->par.levelset_max) {
+        rep->reason = MO_CR_MAXITER;
+        snprintf(rep->message, sizeof rep->message, "the level-set loop reached levelset_max = %d",
+                 L->par.levelset_max);
+        break;
+      }
+      nhist++;
+      memcpy(L->su, L->nsu, (size_t)nc);
+      memcpy(L->sv, L->nsv, (size_t)nc);
+      memcpy(L->sf, L->nsf, (size_t)nc);
+    }
+    if (rep->reason < 0 || !dt) break;
+    /* the threshold: lambda^g <- lambda (BDZ04 Fig. 1, loop 3) */
+    {
+      double change = 0, pmax = 0;
+      for (j = 0; j < nc; j++) {
+        double pn = L->sv[j] && L->ph[j] > 0 ? L->ph[j] : 0;
+        if (fabs(pn - L->pg[j]) > change) change = fabs(pn - L->pg[j]);
+        if (pn > pmax) pmax = pn;
+        L->pg[j] = pn;
+      }
+      if (change <= L->par.threshold_tol * pmax) break;
+      if (thr + 1 >= L->par.threshold_max) {
+        rep->reason = MO_CR_MAXITER;
+        snprintf(rep->message, sizeof rep->message, "the friction-threshold loop reached "
+                 "threshold_max = %d (last change %.3e of %.3e)", L->par.threshold_max, change, pmax);
+        break;
+      }
+    }
+  }
+  rep->loops[1] = thr + 1;
+
+  /* outputs in the core's conventions (T13): impulses (forces for quasi-static steps) r_n >= 0
+     compressive and r_t = -mu r_n Lam, U' = W r + q, statuses */
+  memcpy(x->r, L->r, (size_t)m * sizeof(double));
+  memcpy(x->U, L->U, (size_t)m * sizeof(double));
+  for (j = 0; j < nc; j++) {
+    int closed = L->su[j] && L->sv[j];
+    if (!closed) x->status[j] = MO_CS_OPEN;
+    else if (dt && P->mu[j] > 0) x->status[j] = L->sf[j] ? MO_CS_STICK : MO_CS_SLIDE;
+    else x->status[j] = d == 1 ? MO_CS_STICK : MO_CS_SLIDE;
+    L->ph_prev[j] = closed ? L->ph[j] : 0;
+    for (t = 0; t < dt; t++) L->lam_prev[j * 2 + t] = closed ? L->lam[j * 2 + t] : 0;
+  }
+  L->have_prev = 1;
+  if (kkt) {
+    memcpy(x->dx, L->dv, (size_t)P->nfree * sizeof(double));
+    x->dx_set = 1;
+  }
+  goto done;
+finish_zero:
+  memset(x->r, 0, (size_t)m * sizeof(double));
+  memcpy(x->U, P->b, (size_t)m * sizeof(double));
+  for (j = 0; j < nc; j++) x->status[j] = MO_CS_OPEN;
+  L->have_prev = 0;
+done:
+  rep->loops[2] = nls;
+  rep->loops[3] = nnewt;
+  rep->iterations = nnewt;
+  if (rep->loops[1] == 0) rep->loops[1] = 1;
+  mo_log(ctx, 3, "levelset step %ld: loops geometry %d, threshold %d, level-set %d, Newton %d (%s)\n",
+         P->step, rep->loops[0], rep->loops[1], rep->loops[2], rep->loops[3],
+         mo_contact_reason_name(rep->reason));
+  return MO_OK;
+}
+
+const mo_contact_solver_type mo_contact_solver_levelset = {
+  "levelset",
+  "Ben Dhia-Zammali Level-Set stabilized Lagrangian (BDZ07): sign fields, Newton, Schur or KKT",
+  sizeof(ls_state),
+  sizeof(ls_params),
+  MO_NEEDS_DELASSUS | MO_NEEDS_GLOBAL,
+  (1u << MO_SCHEME_THETA) | (1u << MO_SCHEME_QUASISTATIC),
+  ls_options,
+  (int)MO_COUNT(ls_options),
+  ls_defaults,
+  ls_init,
+  ls_solve,
+  ls_free,
+  NULL /* the case's time scheme */
+};

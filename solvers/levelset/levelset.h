@@ -1,0 +1,112 @@
+/* levelset.h: private header of the levelset back end (Ben Dhia-Zammali's Level-Set stabilized
+   Lagrangian, doc/theory.md §6): parameters, state, the frozen-status system and its two
+   linear-algebra paths. Nothing here is exported from libmoreau. */
+#ifndef MOREAU_LEVELSET_H
+#define MOREAU_LEVELSET_H
+
+#include <moreau/contact.h>
+
+/* --- parameters (contact.levelset.*) ---------------------------------------------------------- */
+
+enum { LS_MULT_AUTO = 0, LS_MULT_P1, LS_MULT_P0 };
+enum { LS_STAB_PROJECTED = 0, LS_STAB_UNPROJECTED };
+enum { LS_SU_INDEX_SET = 0, LS_SU_END_GAP };
+enum { LS_PATH_AUTO = 0, LS_PATH_SCHUR, LS_PATH_KKT };
+
+typedef struct {
+  int multipliers;        /* LS_MULT_*: the multiplier space H_h of BDZ07 (65) */
+  double h_n, rho_n, k_n; /* BDZ07 (27)-(29), (37); 0 = automatic for h_n, rho_n (T16) */
+  int stabilization;      /* LS_STAB_*: k_n projected on H_h (Remark 4) or not */
+  double rho_t, h1_t, h2_t, k_t; /* BDZ07 (41), (44), (49); 0 = automatic except k_t */
+  int su;                 /* LS_SU_*: how S_u is evaluated in a theta step (T14) */
+  int path;               /* LS_PATH_* */
+  int threshold_max, levelset_max, newton_max;
+  double threshold_tol, newton_tol, status_tol;
+} ls_params;
+
+/* --- the multiplier space -----------------------------------------------------------------------
+   lambda_h(p_j) = sum_k A_jk lambda_k (BDZ07 (65) at the collocation points): row j of A holds
+   the multipliers whose basis function is non-zero at candidate j, column k the candidates in
+   the support of multiplier k (both lists built once by ls_space_build). */
+typedef struct {
+  int nc, nm;
+  int *rp, *ri;     /* rows: candidate j -> entries rp[j] .. rp[j+1]-1 (multiplier ri, value rx) */
+  double *rx;
+  int *cp, *ci;     /* columns: multiplier k -> candidates ci[cp[k] .. cp[k+1]-1], values cx */
+  double *cx;
+  int *pair;        /* nm: the pair of each multiplier */
+  int *kind;        /* npair: LS_MULT_P1 or LS_MULT_P0 as chosen for the pair */
+} ls_space;
+
+int ls_space_build(ls_space *A, const mo_contact *C, int mode, mo_ctx *ctx);
+void ls_space_free(ls_space *A);
+
+/* --- the frozen-status system (doc/theory.md (T17)-(T20)) ----------------------------------------
+   With the sign fields S_u, S_v, S_f and the friction threshold frozen, the unknowns of one step
+   are the impulses r_j of the candidates with S_u = 1 (Cset: the normal impulse vanishes where
+   S_v = 0, the friction impulse acts wherever the threshold does, as in BDZ07 (42)), the
+   pressures p_k and the friction semi-multipliers Lam_k of the multipliers these candidates
+   touch (Mset); U' = W r + q is eliminated through W (Schur path) or kept with the velocity
+   correction (KKT path). */
+typedef struct {
+  /* sizes and layout of y = (r over Cset [nr per candidate], p over Mset, Lam over Mset) */
+  int d, dt, nr;          /* local dimension, tangents (d - 1 with friction, else 0), nr = 1 + dt */
+  int nC, nM, ny;
+  int *cset, *mset;       /* the candidates of Cset, the multipliers of Mset */
+  int *cpos, *mpos;       /* nc -> position in Cset or -1; nm -> position in Mset or -1 */
+  /* frozen data, per candidate j (full size nc) */
+  const unsigned char *su, *sv, *sf;
+  const double *pg;       /* friction threshold p^g (pressure) */
+  const double *w, *mu;
+  double c;               /* r = c x force: h (theta) or 1 (quasistatic) */
+  double h_n, k_n, k_t, h1_t, h2_t;
+  int projected;
+  /* the projection Z on the multiplier space restricted to Cset (nC x nC), NULL = identity */
+  double *Z;
+  /* the residual F (ny), the Jacobians dF/dy (ny x ny) and dF/dU' (ny x nC nr), row-major,
+     and the per-equation magnitude used by the convergence test */
+  double *F, *Jy, *JU, *Fmag;
+} ls_system;
+
+/* Set up Cset, Mset and the projection for the frozen statuses (allocating what the sizes
+   need); y's layout follows. */
+int ls_system_setup(ls_system *S, const ls_space *A, int nc, mo_ctx *ctx);
+void ls_system_free(ls_system *S);
+/* F(y, U') and its Jacobians at y with local velocities U' (nC * nr, Cset order) of magnitudes
+   Umag (the size of the terms U' was summed from, for the convergence test). */
+void ls_system_eval(ls_system *S, const ls_space *A, const double *y, const double *U,
+                    const double *Umag);
+/* 1 when every |F_e| <= tol * Fmag_e. */
+int ls_system_converged(const ls_system *S, double tol);
+/* The pressure lambda_h and friction semi-multiplier Lam_h at candidate j from y. */
+double ls_p_at(const ls_system *S, const ls_space *A, const double *y, int j);
+void ls_lam_at(const ls_system *S, const ls_space *A, const double *y, int j, double *lam);
+
+/* --- linear algebra paths (levelset_linalg.c) ------------------------------------------------- */
+
+/* Dense LU solve of the n x n row-major system J x = b (J overwritten). MO_ESINGULAR when LAPACK
+   reports a zero pivot. */
+int ls_dense_solve(int n, double *J, double *b, int *ipiv, mo_ctx *ctx);
+
+/* Schur path: the local velocities U' = W_CC r + q over Cset and their magnitudes. */
+void ls_schur_velocity(const ls_system *S, const double *WCC, const double *q, const double *y,
+                       double *U, double *Umag);
+/* W restricted to Cset (nC nr x nC nr, row-major; normal and tangent components as in y). */
+int ls_schur_wcc(const ls_system *S, const mo_delassus *W, double *WCC);
+
+/* KKT path: the saddle-point system [What, -H_C; dF/dU' H_C^T, dF/dy] assembled over the free
+   dofs and y, solved by UMFPACK. */
+typedef struct {
+  mo_linsolver *ls;
+  double *rhs, *sol;
+  int cap;
+} ls_kkt;
+
+int ls_kkt_step(ls_kkt *K, const ls_system *S, const mo_contact_problem *P, const double *dv,
+                const double *y, double *ddv, double *dy, mo_ctx *ctx);
+void ls_kkt_free(ls_kkt *K);
+/* U' = q + H_C^T dv over Cset (and magnitudes). */
+void ls_kkt_velocity(const ls_system *S, const mo_contact_problem *P, const double *dv,
+                     double *U, double *Umag);
+
+#endif

@@ -1,0 +1,174 @@
+/* levelset_linalg.c: the two linear-algebra paths of the levelset back end (doc/theory.md §6.4):
+   the Schur complement on the contact set with the shared factorization (through W), and the
+   saddle-point system over the free dofs solved by UMFPACK. */
+#include "config.h"
+#include "levelset.h"
+
+#include <math.h>
+#include <string.h>
+
+extern void dgesv_(const int *n, const int *nrhs, double *a, const int *lda, int *ipiv,
+                   double *b, const int *ldb, int *info);
+
+int ls_dense_solve(int n, double *J, double *b, int *ipiv, mo_ctx *ctx)
+{
+  int nrhs = 1, info = 0, i, j;
+  if (n == 0) return MO_OK;
+  /* LAPACK is column-major: transpose in place (J is square) */
+  for (i = 0; i < n; i++)
+    for (j = i + 1; j < n; j++) {
+      double t = J[(size_t)i * n + j];
+      J[(size_t)i * n + j] = J[(size_t)j * n + i];
+      J[(size_t)j * n + i] = t;
+    }
+  dgesv_(&n, &nrhs, J, &n, ipiv, b, &n, &info);
+  if (info > 0)
+    return mo_error(ctx, MO_ESINGULAR, "levelset: the frozen-status system is singular (zero pivot %d "
+                    "of %d in LAPACK dgesv)", info, n);
+  if (info < 0) return mo_error(ctx, MO_EINTERNAL, "levelset: dgesv argument %d", -info);
+  for (i = 0; i < n; i++)
+    if (!isfinite(b[i]))
+      return mo_error(ctx, MO_ENAN, "levelset: the frozen-status system gave a non-finite value "
+                      "(unknown %d of %d)", i, n);
+  return MO_OK;
+}
+
+/* --- Schur path ----------------------------------------------------------------------------------- */
+
+int ls_schur_wcc(const ls_system *S, const mo_delassus *W, double *WCC)
+{
+  int nr = S->nr, d = S->d, nu = S->nC * nr, jc, p, i, k;
+  memset(WCC, 0, (size_t)nu * (size_t)nu * sizeof(double));
+  for (jc = 0; jc < S->nC; jc++) {
+    const int *beta;
+    const double *blk;
+    int n = mo_delassus_row(W, S->cset[jc], &beta, &blk);
+    for (p = 0; p < n; p++) {
+      int kc = S->cpos[beta[p]];
+      if (kc < 0) continue;
+      for (i = 0; i < nr; i++)
+        for (k = 0; k < nr; k++)
+          WCC[(size_t)(jc * nr + i) * nu + (size_t)(kc * nr + k)] = blk[(size_t)p * d * d + (size_t)(i * d + k)];
+    }
+  }
+  return MO_OK;
+}
+
+void ls_schur_velocity(const ls_system *S, const double *WCC, const double *q, const double *y,
+                       double *U, double *Umag)
+{
+  int nr = S->nr, d = S->d, nu = S->nC * nr, e, k;
+  for (e = 0; e < nu; e++) {
+    int j = S->cset[e / nr], i = e % nr;
+    double s = q[j * d + i], m = fabs(s);
+    const double *row = WCC + (size_t)e * nu;
+    for (k = 0; k < nu; k++) {
+      s += row[k] * y[k];
+      m += fabs(row[k] * y[k]);
+    }
+    U[e] = s;
+    Umag[e] = m;
+  }
+}
+
+/* --- KKT path ------------------------------------------------------------------------------------- */
+
+void ls_kkt_free(ls_kkt *K)
+{
+  if (!K) return;
+  mo_linsolver_free(K->ls);
+  mo_free(K->rhs);
+  mo_free(K->sol);
+  memset(K, 0, sizeof *K);
+}
+
+void ls_kkt_velocity(const ls_system *S, const mo_contact_problem *P, const double *dv, double *U,
+                     double *Umag)
+{
+  const mo_csc *H = P->H;
+  int nr = S->nr, d = S->d, jc, i, p;
+  for (jc = 0; jc < S->nC; jc++)
+    for (i = 0; i < nr; i++) {
+      int col = S->cset[jc] * d + i;
+      double s = P->b[col], m = fabs(s);
+      for (p = H->p[col]; p < H->p[col + 1]; p++) {
+        s += H->x[p] * dv[H->i[p]];
+        m += fabs(H->x[p] * dv[H->i[p]]);
+      }
+      U[jc * nr + i] = s;
+      Umag[jc * nr + i] = m;
+    }
+}
+
+/* One Newton step on the saddle-point system (T21):
+     [ What           -H_C ] [ddv]     [ What dv - H_C r ]
+     [ dF/dU' H_C^T   dF/dy ] [dy ] = - [ F(y, q + H_C^T dv) ]
+   assembled as triplets over (free dofs, y) and solved by UMFPACK (the pattern is analysed again
+   only when the contact set changes it). */
+int ls_kkt_step(ls_kkt *K, const ls_system *S, const mo_contact_problem *P, const double *dv,
+                const double *y, double *ddv, double *dy, mo_ctx *ctx)
+{
+  const mo_csc *Wh = P->What, *H = P->H;
+  int nf = P->nfree, ny = S->ny, n = nf + ny, nr = S->nr, d = S->d, nu = S->nC * nr;
+  int st, j, p, e, k;
+  mo_triplet T;
+  mo_csc *A = NULL;
+  size_t hint = (size_t)mo_csc_nnz(Wh) + (size_t)ny * (size_t)ny + 16 * (size_t)nu + 1;
+  if ((st = mo_triplet_init(&T, n, n, hint, ctx))) return st;
+  /* What and -H_C, and the first residual block What dv - H_C r */
+  if (K->cap < n) {
+    double *a = mo_realloc(ctx, K->rhs, ((size_t)n + 1) * sizeof(double));
+    double *b;
+    if (!a) { st = MO_ENOMEM; goto done; }
+    K->rhs = a;
+    b = mo_realloc(ctx, K->sol, ((size_t)n + 1) * sizeof(double));
+    if (!b) { st = MO_ENOMEM; goto done; }
+    K->sol = b;
+    K->cap = n;
+  }
+  memset(K->rhs, 0, (size_t)n * sizeof(double));
+  for (j = 0; j < nf; j++)
+    for (p = Wh->p[j]; p < Wh->p[j + 1]; p++) {
+      if ((st = mo_triplet_add(&T, Wh->i[p], j, Wh->x[p], ctx))) goto done;
+      K->rhs[Wh->i[p]] -= Wh->x[p] * dv[j];
+    }
+  for (e = 0; e < nu; e++) {
+    int col = S->cset[e / nr] * d + e % nr;
+    for (p = H->p[col]; p < H->p[col + 1]; p++) {
+      if ((st = mo_triplet_add(&T, H->i[p], nf + e, -H->x[p], ctx))) goto done;
+      K->rhs[H->i[p]] += H->x[p] * y[e];
+    }
+  }
+  /* the local rows: dF/dU' H_C^T and dF/dy */
+  for (e = 0; e < ny; e++) {
+    const double *ju = S->JU + (size_t)e * (size_t)nu, *jy = S->Jy + (size_t)e * (size_t)ny;
+    for (k = 0; k < nu; k++) {
+      int col;
+      if (ju[k] == 0) continue;
+      col = S->cset[k / nr] * d + k % nr;
+      for (p = H->p[col]; p < H->p[col + 1]; p++)
+        if ((st = mo_triplet_add(&T, nf + e, H->i[p], ju[k] * H->x[p], ctx))) goto done;
+    }
+    for (k = 0; k < ny; k++)
+      if (jy[k] != 0 && (st = mo_triplet_add(&T, nf + e, nf + k, jy[k], ctx))) goto done;
+    K->rhs[nf + e] = -S->F[e];
+  }
+  if ((st = mo_triplet_to_csc(&T, 0, &A, ctx))) goto done;
+  if (!K->ls && (st = mo_linsolver_create(&mo_linsolver_umfpack, &K->ls, ctx))) goto done;
+  if ((st = mo_linsolver_factor(K->ls, A, ctx))) {
+    mo_error_prefix(ctx, "levelset saddle-point system (%d free dofs, %d contact unknowns)", nf, ny);
+    goto done;
+  }
+  if ((st = mo_linsolver_solve(K->ls, K->rhs, K->sol, ctx))) goto done;
+  for (j = 0; j < n; j++)
+    if (!isfinite(K->sol[j])) {
+      st = mo_error(ctx, MO_ENAN, "levelset: the saddle-point solve gave a non-finite value (unknown %d of %d)", j, n);
+      goto done;
+    }
+  memcpy(ddv, K->sol, (size_t)nf * sizeof(double));
+  memcpy(dy, K->sol + nf, (size_t)ny * sizeof(double));
+done:
+  mo_csc_free(A);
+  mo_triplet_release(&T);
+  return st;
+}
