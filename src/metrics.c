@@ -155,24 +155,27 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
     mo_csc_gatxpy(mo_contact_H_full(C), 1, s->v, 0, M->Un);
     for (a = 0; a < M->nc; a++) {
       double un = M->Un[a * d] + U0[a * d];
-      /* in contact: a compressive reaction, or a closed gap */
-      int inc = s->step > 0 && ((r && r[a * d] > 0) || g[a] <= M->gtol);
+      /* bearing: a compressive reaction. The jump of the normal velocity and its variation
+         are measured between two bearing steps (the landing step is the impact itself); a
+         release is the first step with no reaction and an open gap after bearing. */
+      int inc = s->step > 0 && r && r[a * d] > 0;
       if (-g[a] > M->max_pen) M->max_pen = -g[a];
       if (fabs(un) > M->vscale) M->vscale = fabs(un);
       if (inc) {
         closed++;
-        /* the jump of a persisting contact (the impact step itself is the impact) */
         if (M->incontact[a]) {
           if (fabs(un) > M->max_vn_closed) M->max_vn_closed = fabs(un);
           M->tv[a] += fabs(un - M->Unprev[a]);
         }
-      } else if (M->incontact[a] && isnan(M->first_release))
+      } else if (M->incontact[a] && g[a] > M->gtol && isnan(M->first_release))
         M->first_release = s->t;
       if (s->step > 0 && st) {
         if (st[a] != M->prevstatus[a]) M->flips++;
         M->prevstatus[a] = st[a];
       }
-      M->incontact[a] = (unsigned char)inc;
+      /* a bearing contact stays "in contact" through steps that close the gap without
+         reaction (grazing), so that chatter at a closed gap is not a release */
+      M->incontact[a] = (unsigned char)(inc || (M->incontact[a] && g[a] <= M->gtol));
       M->Unprev[a] = un;
       if (r && s->step > 0)
         M->impulse += r[a * d] * (sc->time.scheme == MO_SCHEME_THETA ? 1 : h);

@@ -427,7 +427,8 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
     for (q = 0; q < sc->probe[p].nq; q++) {
       double dummy;
       const mo_probe *P = &sc->probe[p];
-      nexact += mo_reference_eval(&sc->ref, P->q[q], sc->body[P->body].mesh->x[P->node[0] * sc->dim], 0, &dummy);
+      nexact += (sc->ref.body < 0 || P->body == sc->ref.body) &&
+                mo_reference_eval(&sc->ref, P->q[q], sc->body[P->body].mesh->x[P->node[0] * sc->dim], 0, &dummy);
     }
   }
   ncol = 1 + nprobecol + nexact + (sc->out.energy ? 7 : 0) + (C ? 8 : 0);
@@ -447,7 +448,9 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
       cols[k].probe = p;
       cols[k].q = (int)P->q[q];
       cols[k].x = sc->body[P->body].mesh->x[P->node[0] * sc->dim];
-      cols[k].has_ref = mo_reference_eval(&sc->ref, P->q[q], cols[k].x, 0, &dummy);
+      /* a closed form describes one body: compare the probes on it only */
+      cols[k].has_ref = (sc->ref.body < 0 || P->body == sc->ref.body) &&
+                        mo_reference_eval(&sc->ref, P->q[q], cols[k].x, 0, &dummy);
       snprintf(names[1 + k], 80, "%s.%s", P->name, mo_quantity_name(P->q[q]));
       if (P->q[q] >= MO_Q_CX && P->q[q] <= MO_Q_GN && !C) {
         st = mo_error(ctx, MO_EINPUT, "%s: probe '%s' asks for '%s', but the case has no contact",
