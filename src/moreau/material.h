@@ -1,4 +1,5 @@
-/* moreau/material.h: finite-strain J2 plasticity at a material point. doc/theory.md §6. */
+/* moreau/material.h: finite-strain J2 plasticity (material point) and finite-strain element
+   kernels (internal forces, consistent tangents, energies, output fields). doc/theory.md §6. */
 #ifndef MOREAU_MATERIAL_H
 #define MOREAU_MATERIAL_H
 
@@ -64,6 +65,53 @@ void mo_j2_state_init(mo_hypothesis h, double *state, int npoint);
    Returns MO_ENAN (message in ctx) when det F <= 0 or a value is not finite. */
 int mo_j2_update(const mo_material *mat, const double *F, const double *sn, double *s,
                  double *tau, double *A, mo_ctx *ctx);
+
+/* ---- Finite-strain elements --------------------------------------------------------------
+
+   Total Lagrangian: displacements and integrals refer to the reference (mesh) configuration;
+   the mass matrix is the small-strain one (mo_elem_mass). Isochoric plastic flow does not lock
+   Q4 and H8: F-bar with the element's mean dilatation, F-bar = (theta / det F)^(1/d) F with
+   theta = v_e / V_e the element's volume ratio (Nagtegaal, Parks and Rice 1974; Simo, Taylor
+   and Pister 1985), in variational form: the forces are the gradient of the stored energy, the
+   tangent is symmetric, and a homogeneous stress passes the patch test on distorted elements
+   (T22)-(T25). Quadrature: Q4 2x2, H8 2x2x2 Gauss; T3 one point in plane strain (constant
+   strain: it locks under isochoric flow unless the diagonals alternate, use Q4), three points
+   in axisymmetry with the mean dilatation. */
+
+/* Option bits of mo_elem_nl_force. */
+enum {
+  MO_NL_STANDARD = 1 /* without the mean dilatation: the standard displacement element, which
+                        locks under isochoric flow (for comparisons) */
+};
+
+/* Quadrature points of the finite-strain kernels for this element type and hypothesis
+   (0 when unsupported): the number of state blocks per element. */
+int mo_elem_nl_npoint(mo_eltype t, mo_hypothesis h);
+
+/* Internal forces and consistent tangent of element e at total displacements ue (nen*dim,
+   node-major as in fe.h), from the committed states sn of its points (npoint blocks of
+   MO_J2_NSTATE). Writes the trial states s (same shape; not aliasing sn), the internal force
+   vector fe (nen*dim; equilibrium is f_int = f_ext) and, when Ke is not NULL, the tangent
+   Ke = d fe / d ue (row-major, (nen*dim)^2; symmetric). Returns MO_ENAN when the deformation
+   is not admissible (det F <= 0 at a point: the caller may cut its step),
+   MO_EINPUT for a reference element with a non-positive Jacobian, MO_EUNSUPPORTED for bar
+   elements and 1D or plane-stress hypotheses. No allocation. */
+int mo_elem_nl_force(const mo_mesh *msh, int e, const mo_material *mat, unsigned opts,
+                     const double *ue, const double *sn, double *s, double *fe, double *Ke,
+                     mo_ctx *ctx);
+
+/* Energies of element e in state s (its npoint blocks): elastic stored energy *psi and plastic
+   work *wp accumulated since the virgin state (J; integrals over the reference volume, the
+   full ring in axisymmetry, times the thickness in plane strain). The plastic dissipation of
+   a step is the difference of *wp between the trial and the committed states. */
+int mo_elem_nl_energy(const mo_mesh *msh, int e, const mo_material *mat, const double *s,
+                      double *psi, double *wp);
+
+/* Output fields of element e in state s, averaged over its points with reference-volume
+   weights: Cauchy stress sig (mo_hyp_ncomp values, fe.h order; may be NULL), von Mises stress
+   *vm (the mean of the points' values) and equivalent plastic strain *epsp. */
+int mo_elem_nl_fields(const mo_mesh *msh, int e, const mo_material *mat, const double *s,
+                      double *sig, double *vm, double *epsp);
 
 #ifdef __cplusplus
 }
