@@ -640,9 +640,9 @@ static void test_energy(const variant *V)
 
 /* Plane strain quarter tube a <= r <= b (or an axisymmetric tube with u_z = 0, the same plane
    strain state), perfectly plastic, the bore pushed out by ua. Once the wall is fully plastic,
-   p = (2/sqrt 3) sigma_y ln(b'/a') in the current radii (Hill, The mathematical theory of
-   plasticity, §V.3), with b'^2 - a'^2 = b^2 - a^2 (isochoric flow, elastic volume change
-   neglected). Returns p computed from the reactions of the bore over its closed form. */
+   p = (2/sqrt 3) sigma_y ln(b'/a') in the current radii (radial equilibrium
+   d sigma_r/dr = (sigma_t - sigma_r)/r with sigma_t - sigma_r = 2 sigma_y/sqrt 3 across the
+   wall), with b'^2 - a'^2 = b^2 - a^2 (isochoric flow, elastic volume change neglected). Returns p computed from the reactions of the bore over its closed form. */
 static double tube(mo_eltype type, mo_diag diag_, mo_hypothesis hyp, unsigned opts, int nr, int nt,
                    double ua, int nstep, int *iters, mo_ctx *ctx)
 {
