@@ -105,20 +105,22 @@ int mo_elem_nl_force(const mo_mesh *msh, int e, const mo_material *mat, unsigned
                      const double *ue, const double *sn, double *s, double *fe, double *Ke,
                      mo_ctx *ctx)
 {
-  /* reduced index sets: the symmetric stress components (rows) and the velocity-gradient
-     components (columns) that plane problems need, as indices 3i+j into 3x3 tensors */
-  static const int rows2[4] = {0, 4, 1, 8}, cols2[5] = {0, 1, 3, 4, 8};
-  static const int rows3[6] = {0, 4, 8, 5, 2, 1}, cols3[9] = {0, 1, 2, 3, 4, 5, 6, 7, 8};
+  /* the symmetric stress components a problem needs, as indices 3i+j into 3x3 tensors */
+  static const int rows2[4] = {0, 4, 1, 8};
+  static const int rows3[6] = {0, 4, 8, 5, 2, 1};
+  /* symrow[3D][i][j]: the row of component (i j) in rows2 / rows3 */
+  static const int symrow[2][3][3] = {{{0, 2, 0}, {2, 1, 0}, {0, 0, 3}},
+                                      {{0, 5, 4}, {5, 1, 3}, {4, 3, 2}}};
   const mo_hypothesis hyp = mat->hyp;
   const int D = msh->dim, nen = msh->nen, nd = nen * D;
   const int ax = hyp == MO_HYP_AXISYMMETRIC, ps = hyp == MO_HYP_PLANE_STRAIN;
-  const int nsym = D == 3 ? 6 : 4, ncol = D == 3 ? 9 : 5;
-  const int *rows = D == 3 ? rows3 : rows2, *cols = D == 3 ? cols3 : cols2;
+  const int nsym = D == 3 ? 6 : 4;
+  const int *rows = D == 3 ? rows3 : rows2;
   const double dd = ps ? 2 : 3; /* directions the mean dilatation scales (T22) */
   /* per point: weight, F, J, spatial gradients, hoop terms, divergence operator */
   double w[8], F[8][9], J[8], g[8][24], h[8][8], dv[8][24];
-  double N[8], dNX[24], X[3], Fi[9], Fb[9], tau[9], A[81], As[6 * 9], tg[24];
-  double m[24] = {0}, Bs[6 * 24], Bf[9 * 24], DB[6 * 24];
+  double N[8], dNX[24], X[3], Fi[9], Fb[9], tau[9], A[81], tg[24];
+  double m[24] = {0}, dT[6 * 24], cq[8];
   double v = 0, V0 = 0, theta = 1, P = 0;
   nl_rule R;
   int md, q, a, b, i, k, r, c, st;
@@ -156,7 +158,7 @@ int mo_elem_nl_force(const mo_mesh *msh, int e, const mo_material *mat, unsigned
     double pb, cp;
     memcpy(Fb, F[q], sizeof Fb);
     if (md) { /* F-bar = (theta / J)^(1/d) F on the scaled directions (T22) */
-      double phi = pow(theta / J[q], 1 / dd);
+      double phi = ps ? sqrt(theta / J[q]) : cbrt(theta / J[q]);
       if (ps) { Fb[0] *= phi; Fb[1] *= phi; Fb[3] *= phi; Fb[4] *= phi; }
       else for (i = 0; i < 9; i++) Fb[i] *= phi;
     }
@@ -180,70 +182,97 @@ int mo_elem_nl_force(const mo_mesh *msh, int e, const mo_material *mat, unsigned
       }
     if (!Ke) continue;
 
-    /* material part: Bs^T A Bf with the rows and columns of d l-bar / d u (T24) */
-    for (c = 0; c < nd; c++) {
-      double L[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0}, cb;
-      a = c / D;
-      i = c % D;
-      for (k = 0; k < D; k++) L[3 * i + k] = gq[a * D + k];
-      if (ax && i == 0) L[8] = hq[a];
-      cb = md ? (m[c] - dq[c]) / dd : 0;
-      L[0] += cb;
-      L[4] += cb;
-      if (!ps) L[8] += cb;
-      for (r = 0; r < ncol; r++) Bf[r * nd + c] = L[cols[r]];
+    /* K is symmetric (T24)-(T25): every part below fills the upper triangle only, and the
+       lower one is mirrored at the end. The virtual velocity gradient of dof (a, i) has the
+       structure dl-bar = e_i (x) g_a + delta_ir h_a e_3 (x) e_3 + cb I_d, cb = (m - dv)/d:
+       products with it cost D + 2 terms, not 9. */
+    cq[q] = cp;
+    /* material part dl-bar : A : Dl-bar (T24): first dT[c] = w A : Dl-bar for every column
+       dof c (the symmetric components of d tau-bar), then the row dofs' contractions */
+    {
+      double sd[6];
       for (r = 0; r < nsym; r++) {
-        int t = rows[r], ti = t / 3, tj = t % 3;
-        Bs[r * nd + c] = ti == tj ? L[t] : L[t] + L[3 * tj + ti];
+        const double *Ar = A + rows[r] * 9;
+        sd[r] = Ar[0] + Ar[4] + (ps ? 0 : Ar[8]); /* A : I_d */
       }
+      for (b = 0; b < nen; b++)
+        for (k = 0; k < D; k++) {
+          int cc = b * D + k;
+          double cb = md ? (m[cc] - dq[cc]) / dd : 0;
+          for (r = 0; r < nsym; r++) {
+            const double *Ar = A + rows[r] * 9 + 3 * k;
+            double t = cb * sd[r];
+            int j;
+            for (j = 0; j < D; j++) t += Ar[j] * gq[b * D + j];
+            if (ax && k == 0) t += Ar[8 - 3 * k] * hq[b];
+            dT[r * nd + cc] = w[q] * t;
+          }
+        }
     }
-    for (r = 0; r < nsym; r++)
-      for (k = 0; k < ncol; k++) As[r * ncol + k] = A[rows[r] * 9 + cols[k]];
-    for (r = 0; r < nsym; r++)
-      for (c = 0; c < nd; c++) {
-        double t = 0;
-        for (k = 0; k < ncol; k++) t += As[r * ncol + k] * Bf[k * nd + c];
-        DB[r * nd + c] = w[q] * t;
+    for (a = 0; a < nen; a++)
+      for (i = 0; i < D; i++) {
+        int ra = a * D + i;
+        double *Kr = Ke + (size_t)ra * nd;
+        double cb = md ? (m[ra] - dq[ra]) / dd : 0, ga[3] = {0, 0, 0}, hoop = 0;
+        const double *d0 = dT, *d1 = dT + nd, *d2 = dT + 2 * nd, *dd33 = dT + 3 * nd;
+        const double *di[3];
+        int j;
+        for (j = 0; j < D; j++) {
+          ga[j] = gq[a * D + j];
+          di[j] = dT + symrow[D == 3][i][j] * nd; /* d tau-bar_(i j) */
+        }
+        if (ax && i == 0) hoop = hq[a];
+        if (D == 3) {
+          for (c = ra; c < nd; c++)
+            Kr[c] += ga[0] * di[0][c] + ga[1] * di[1][c] + ga[2] * di[2][c] +
+                     cb * (d0[c] + d1[c] + d2[c]);
+        } else {
+          for (c = ra; c < nd; c++)
+            Kr[c] += ga[0] * di[0][c] + ga[1] * di[1][c] + hoop * dd33[c] +
+                     cb * (d0[c] + d1[c] + (ps ? 0 : dd33[c]));
+        }
       }
-    for (a = 0; a < nd; a++) {
-      double *Kr = Ke + (size_t)a * nd;
-      for (r = 0; r < nsym; r++) {
-        double bs = Bs[r * nd + a];
-        const double *dbr = DB + r * nd;
-        if (bs == 0) continue;
-        for (c = 0; c < nd; c++) Kr[c] += bs * dbr[c];
-      }
-    }
-    /* geometric part at the point: - tau : (dl Dl) + (p / d) tr(dl Dl) (T24) */
+    /* geometric part at the point: - tau : (dl Dl) (T24); its (p/d) tr(dl Dl) joins (T25) */
     for (a = 0; a < nen; a++)
       for (i = 0; i < D; i++) {
         double *Kr = Ke + (size_t)(a * D + i) * nd;
-        for (b = 0; b < nen; b++)
-          for (k = 0; k < D; k++) {
-            double t = (cp * gq[b * D + i] - tg[b * D + i]) * gq[a * D + k];
-            if (ax && i == 0 && k == 0) t += (cp - tau[8]) * hq[a] * hq[b];
-            Kr[b * D + k] += w[q] * t;
-          }
+        for (b = a; b < nen; b++) {
+          double tgi = w[q] * tg[b * D + i];
+          for (k = b == a ? i : 0; k < D; k++) Kr[b * D + k] -= tgi * gq[a * D + k];
+          if (ax && i == 0) Kr[b * D] -= w[q] * tau[8] * hq[a] * hq[b];
+        }
       }
   }
 
-  /* the mean dilatation's second variation, P/d [<J (dv dv^T - tr(dl Dl))> / <J> - m m^T],
-     with P the integral of tr_d tau-bar (T25) */
-  if (Ke && md) {
-    for (a = 0; a < nd; a++) {
-      double *Kr = Ke + (size_t)a * nd;
-      int ia = a % D, na = a / D;
-      for (c = 0; c < nd; c++) {
-        int ic = c % D, nc = c / D;
-        double t = 0;
-        for (q = 0; q < R.n; q++) {
-          double tr = g[q][na * D + ic] * g[q][nc * D + ia];
-          if (ax && ia == 0 && ic == 0) tr += h[q][na] * h[q][nc];
-          t += w[q] * J[q] * (dv[q][a] * dv[q][c] - tr);
-        }
-        Kr[c] += P * (t / v - m[a] * m[c]);
+  if (Ke) {
+    /* with the mean dilatation: sum_q w_q (p_q/d) tr(dl Dl) from (T24), and the second
+       variation of ln theta, P [<J (div du div Du - tr(dl Dl))> / <J> - (m.du)(m.Du)], with
+       P = int p/d dV0 and <.> = int . dV0 (T25), in one pass over the points */
+    if (md) {
+      double ctr[8], cdv[8];
+      for (q = 0; q < R.n; q++) {
+        cdv[q] = P * w[q] * J[q] / v;
+        ctr[q] = w[q] * cq[q] - cdv[q];
       }
+      for (a = 0; a < nen; a++)
+        for (i = 0; i < D; i++) {
+          int ra = a * D + i;
+          double *Kr = Ke + (size_t)ra * nd;
+          for (b = a; b < nen; b++)
+            for (k = b == a ? i : 0; k < D; k++) {
+              int cc = b * D + k;
+              double t = -P * m[ra] * m[cc];
+              for (q = 0; q < R.n; q++) {
+                double tr = g[q][a * D + k] * g[q][b * D + i];
+                if (ax && i == 0 && k == 0) tr += h[q][a] * h[q][b];
+                t += ctr[q] * tr + cdv[q] * dv[q][ra] * dv[q][cc];
+              }
+              Kr[cc] += t;
+            }
+        }
     }
+    for (a = 0; a < nd; a++)
+      for (c = a + 1; c < nd; c++) Ke[(size_t)c * nd + a] = Ke[(size_t)a * nd + c];
   }
   return MO_OK;
 }

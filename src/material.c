@@ -48,14 +48,19 @@ void mo_j2_state_init(mo_hypothesis h, double *state, int npoint)
 
 /* Eigen-decomposition be = Q diag(x) Q^T of a symmetric tensor whose 3rd axis is principal
    (plane strain, axisymmetry): closed form in the (1, 2) plane. Columns of Q are the
-   eigenvectors. Exactly repeated eigenvalues give Q = I. */
+   eigenvectors; the first, of x0 = m + r, is (d + r, b12) or (b12, r - d), whichever has no
+   cancellation. Exactly repeated eigenvalues give Q = I. */
 static void eig_block2(const double *b, double *x, double *Q)
 {
-  double m = 0.5 * (b[0] + b[4]), d = 0.5 * (b[0] - b[4]), r = hypot(d, b[1]);
-  double phi = 0.5 * atan2(b[1], d), c = cos(phi), s = sin(phi);
+  double m = 0.5 * (b[0] + b[4]), d = 0.5 * (b[0] - b[4]), r = hypot(d, b[1]), c = 1, s = 0;
   x[0] = m + r;
   x[1] = m - r;
   x[2] = b[8];
+  if (r > 0) {
+    double v0 = d >= 0 ? d + r : b[1], v1 = d >= 0 ? b[1] : r - d, n = hypot(v0, v1);
+    c = v0 / n;
+    s = v1 / n;
+  }
   Q[0] = c; Q[1] = -s; Q[2] = 0;
   Q[3] = s; Q[4] = c;  Q[5] = 0;
   Q[6] = 0; Q[7] = 0;  Q[8] = 1;
