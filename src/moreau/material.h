@@ -38,8 +38,9 @@ int mo_j2_check(const mo_material *mat, mo_ctx *ctx);
    - MO_J2_EPSP: equivalent plastic strain;
    - MO_J2_WP: plastic work per unit reference volume, accumulated (J/m^3) (T19);
    - MO_J2_PSI: elastic stored energy per unit reference volume (J/m^3) (T15);
-   - MO_J2_SIG: Cauchy stress (Pa);
-   - MO_J2_DETF: det F (current over reference volume).
+   - MO_J2_SIG: Cauchy stress (Pa), tau / det F;
+   - MO_J2_DETF: det F, the volume ratio (in the elements: of the F-bar the material sees, the
+     element's mean dilatation theta, (T22)).
    The first three are the history (what the step starts from); the others are results kept for
    energies and output. The caller stores one block per point, points of an element
    consecutive, elements consecutive: a committed array and a trial array of the same shape. */
@@ -89,11 +90,12 @@ enum {
 int mo_elem_nl_npoint(mo_eltype t, mo_hypothesis h);
 
 /* Internal forces and consistent tangent of element e at total displacements ue (nen*dim,
-   node-major as in fe.h), from the committed states sn of its points (npoint blocks of
-   MO_J2_NSTATE). Writes the trial states s (same shape; not aliasing sn), the internal force
-   vector fe (nen*dim; equilibrium is f_int = f_ext) and, when Ke is not NULL, the tangent
-   Ke = d fe / d ue (row-major, (nen*dim)^2; symmetric). Returns MO_ENAN when the deformation
-   is not admissible (det F <= 0 at a point: the caller may cut its step),
+   node-major as in fe.h), for a material the caller has checked once with mo_j2_check. Reads
+   the committed states sn of the element's points (npoint blocks of MO_J2_NSTATE); writes the
+   trial states s (same shape, not aliasing sn), the internal force vector fe (nen*dim;
+   equilibrium is f_int = f_ext) and, when Ke is not NULL, the tangent Ke = d fe / d ue
+   (row-major, (nen*dim)^2, symmetric). opts: 0 or MO_NL_STANDARD. Returns MO_ENAN when the
+   deformation is not admissible (det F <= 0 at a point: the caller may cut its step),
    MO_EINPUT for a reference element with a non-positive Jacobian, MO_EUNSUPPORTED for bar
    elements and 1D or plane-stress hypotheses. No allocation. */
 int mo_elem_nl_force(const mo_mesh *msh, int e, const mo_material *mat, unsigned opts,
