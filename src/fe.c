@@ -178,10 +178,8 @@ void mo_elastic_D(const mo_material *m, double *D)
   }
 }
 
-/* Geometry at a reference point: shape functions, Cartesian derivatives dNx[a*dim+i],
-   Jacobian determinant, physical coordinates. Returns detJ. */
-static double geom(const mo_mesh *msh, int e, const double *xi, double *N, double *dNx,
-                   double *xq)
+double mo_elem_geometry(const mo_mesh *msh, int e, const double *xi, double *N, double *dNx,
+                        double *xq)
 {
   const mo_eltype_info *T = mo_eltype_get(msh->type);
   const int *c = &msh->conn[(size_t)e * (size_t)msh->nen];
@@ -226,8 +224,7 @@ static double geom(const mo_mesh *msh, int e, const double *xi, double *N, doubl
   return det;
 }
 
-/* Integration factor: cross-section, thickness or 2 pi r. */
-static double factor(const mo_material *mat, const double *xq)
+double mo_measure_factor(const mo_material *mat, const double *xq)
 {
   switch (mat->hyp) {
   case MO_HYP_BAR: return mat->area;
@@ -282,10 +279,10 @@ int mo_elem_stiffness(const mo_mesh *msh, int e, const mo_material *mat, double 
   mo_elastic_D(mat, Dm);
   memset(Ke, 0, (size_t)nd * (size_t)nd * sizeof *Ke);
   for (q = 0; q < Q.n; q++) {
-    double det = geom(msh, e, Q.xi[q], N, dNx, xq), wq;
+    double det = mo_elem_geometry(msh, e, Q.xi[q], N, dNx, xq), wq;
     if (!(det > 0))
       return mo_error(ctx, MO_EINPUT, "element %d has a non-positive Jacobian (%g)", e, det);
-    wq = det * Q.w[q] * factor(mat, xq);
+    wq = det * Q.w[q] * mo_measure_factor(mat, xq);
     bmatrix(mat, nen, D, N, dNx, xq, B);
     for (i = 0; i < nc; i++)
       for (j = 0; j < nd; j++) {
@@ -314,8 +311,8 @@ int mo_elem_mass(const mo_mesh *msh, int e, const mo_material *mat, int lumped, 
   if ((st = mo_quad_element(msh->type, 2, &Q, ctx))) return st;
   memset(Ms, 0, sizeof Ms);
   for (q = 0; q < Q.n; q++) {
-    double det = geom(msh, e, Q.xi[q], N, dNx, xq);
-    double wq = det * Q.w[q] * factor(mat, xq) * mat->rho;
+    double det = mo_elem_geometry(msh, e, Q.xi[q], N, dNx, xq);
+    double wq = det * Q.w[q] * mo_measure_factor(mat, xq) * mat->rho;
     if (!(det > 0))
       return mo_error(ctx, MO_EINPUT, "element %d has a non-positive Jacobian (%g)", e, det);
     for (a = 0; a < nen; a++)
@@ -341,7 +338,7 @@ int mo_elem_stress(const mo_mesh *msh, int e, const mo_material *mat, const doub
   int D = msh->dim, nen = T->nen, nd = nen * D, nc = mo_hyp_ncomp(mat->hyp), i, j;
   double N[8], dNx[24], xq[3], B[6 * 24], Dm[36], c[3] = {0, 0, 0};
   if (msh->type == MO_EL_T3) c[0] = c[1] = 1.0 / 3;
-  geom(msh, e, c, N, dNx, xq);
+  mo_elem_geometry(msh, e, c, N, dNx, xq);
   bmatrix(mat, nen, D, N, dNx, xq, B);
   mo_elastic_D(mat, Dm);
   for (i = 0; i < nc; i++) {
@@ -371,8 +368,8 @@ double mo_elem_measure(const mo_mesh *msh, int e, const mo_material *mat)
   mo_ctx_init(&c);
   if (mo_quad_element(msh->type, 2, &Q, &c)) return NAN;
   for (q = 0; q < Q.n; q++) {
-    double det = geom(msh, e, Q.xi[q], N, dNx, xq);
-    s += det * Q.w[q] * factor(mat, xq);
+    double det = mo_elem_geometry(msh, e, Q.xi[q], N, dNx, xq);
+    s += det * Q.w[q] * mo_measure_factor(mat, xq);
   }
   return s;
 }
@@ -422,7 +419,7 @@ int mo_facet_load(const mo_mesh *msh, const mo_facetset *fs, int f, const mo_mat
   memset(fe, 0, (size_t)nfn * (size_t)D * sizeof *fe);
   for (q = 0; q < Q.n; q++) {
     double jac = facet_geom(msh, fn, nfn, fs->lface[f], Q.xi[q], N, xq, n);
-    double w = jac * Q.w[q] * factor(mat, xq);
+    double w = jac * Q.w[q] * mo_measure_factor(mat, xq);
     if (D == 3) w = jac * Q.w[q];
     traction(xq, n, data, t);
     for (a = 0; a < nfn; a++)

@@ -52,6 +52,15 @@ typedef struct {
 int mo_quad_element(mo_eltype t, int order, mo_quad *q, mo_ctx *ctx);
 int mo_quad_facet(int fdim, int order, mo_quad *q, mo_ctx *ctx);
 
+/* Geometry of element e at reference point xi: shape functions N[nen], Cartesian derivatives
+   dNx[a*dim+i] = dN_a/dx_i (mesh coordinates), point coordinates xq[dim]. Returns the Jacobian
+   determinant (<= 0 for an inverted element). */
+double mo_elem_geometry(const mo_mesh *msh, int e, const double *xi, double *N, double *dNx,
+                        double *xq);
+/* Integration factor at point xq: bar cross-section, plane thickness, 2 pi r (axisymmetric:
+   integrals over the full ring), 1 in 3D. */
+double mo_measure_factor(const mo_material *mat, const double *xq);
+
 /* Elasticity matrix D (ncomp x ncomp, row-major) in the stored component order. For plane
    strain the zz row is used only to recover sigma_zz; for plane stress sigma_zz = 0. */
 void mo_elastic_D(const mo_material *m, double *D);

@@ -8,6 +8,7 @@
 #include <moreau/expr.h>
 #include <moreau/mesh.h>
 #include <moreau/fe.h>
+#include <moreau/material.h>
 #include <moreau/sparse.h>
 #include <moreau/case.h>
 #include <moreau/scene.h>
