@@ -6,7 +6,10 @@
 
 #include <string.h>
 
+extern const mo_contact_solver_type mo_contact_solver_nscd;
+
 static const mo_contact_solver_type *const registry[] = {
+  &mo_contact_solver_nscd,
   NULL /* end */
 };
 

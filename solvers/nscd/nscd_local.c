@@ -1,0 +1,334 @@
+/* nscd_local.c: the one-contact problems of the nonlinear Gauss-Seidel (doc/theory.md §6.2):
+   exact in 1D and 2D (J88 §3.3: open, stick, slide forward, slide backward), Alart-Curnier
+   nonsmooth Newton with a projection fallback in 3D. */
+#include "config.h"
+#include "nscd.h"
+
+#include <math.h>
+#include <string.h>
+
+/* A d x d block is taken as singular below this relative determinant: |det W| against the
+   product of its diagonal (Hadamard: det <= prod diag for SPD blocks). */
+#define NSCD_SINGULAR 1e-13
+
+void nscd_local_prepare(int d, const double *W, double mu, double *aux)
+{
+  memset(aux, 0, NSCD_AUX * sizeof *aux);
+  if (d == 1) {
+    aux[0] = W[0] > 0 ? 1 / W[0] : 0;
+  } else if (d == 2) {
+    double a = W[0], b = W[1], c = W[2], e = W[3], det = a * e - b * c;
+    if (fabs(det) > NSCD_SINGULAR * fabs(a * e) && a * e != 0) {
+      aux[0] = e / det;
+      aux[1] = -b / det;
+      aux[2] = -c / det;
+      aux[3] = a / det;
+      aux[6] = 1;
+    }
+    /* sliding: U_n = (W_nn -+ mu W_nt) r_n + q_n = 0  (T14) */
+    aux[4] = a - mu * b > 0 ? 1 / (a - mu * b) : 0;
+    aux[5] = a + mu * b > 0 ? 1 / (a + mu * b) : 0;
+  } else {
+    double c00 = W[4] * W[8] - W[5] * W[7], c01 = W[5] * W[6] - W[3] * W[8], c02 = W[3] * W[7] - W[4] * W[6];
+    double det = W[0] * c00 + W[1] * c01 + W[2] * c02, pd = W[0] * W[4] * W[8];
+    if (pd != 0 && fabs(det) > NSCD_SINGULAR * fabs(pd)) {
+      /* adjugate / det */
+      aux[0] = c00 / det;
+      aux[1] = (W[2] * W[7] - W[1] * W[8]) / det;
+      aux[2] = (W[1] * W[5] - W[2] * W[4]) / det;
+      aux[3] = c01 / det;
+      aux[4] = (W[0] * W[8] - W[2] * W[6]) / det;
+      aux[5] = (W[2] * W[3] - W[0] * W[5]) / det;
+      aux[6] = c02 / det;
+      aux[7] = (W[1] * W[6] - W[0] * W[7]) / det;
+      aux[8] = (W[0] * W[4] - W[1] * W[3]) / det;
+      aux[9] = 1;
+    }
+    /* Alart-Curnier parameters: the inverse diagonal stiffnesses of the contact */
+    aux[10] = W[0] > 0 ? 1 / W[0] : 0;
+    aux[11] = W[4] + W[8] > 0 ? 2 / (W[4] + W[8]) : aux[10];
+  }
+}
+
+int nscd_local_1d(const double *W, const double *q, double *r)
+{
+  if (q[0] >= 0) {
+    r[0] = 0;
+    return MO_CS_OPEN;
+  }
+  if (!(W[0] > 0)) return -1;
+  r[0] = -q[0] / W[0];               /* U_n = W r_n + q_n = 0 */
+  return MO_CS_STICK;
+}
+
+/* Residual of one 2D candidate solution (tie-breaks at the boundaries between cases). */
+static double res2(const double *W, const double *q, double mu, double rn, double rt)
+{
+  double r[2] = {rn, rt}, U[2];
+  U[0] = W[0] * rn + W[1] * rt + q[0];
+  U[1] = W[2] * rn + W[3] * rt + q[1];
+  return mo_fc_natural_map_unit(2, mu, r, U);
+}
+
+int nscd_local_2d(const double *W, const double *aux, const double *q, double mu, double *r)
+{
+  double qn = q[0], qt = q[1], rn, rt, ut, e, best = HUGE_VAL, br[2] = {0, 0};
+  int bs = -1;
+  /* open: r = 0 leaves U = q with U_n >= 0 (J88 (2.1)_1) */
+  if (qn >= 0) {
+    r[0] = r[1] = 0;
+    return MO_CS_OPEN;
+  }
+  if (!(W[0] > 0)) return -1;
+  /* stick: U = 0, r = -W^-1 q inside the cone */
+  if (aux[6] != 0) {
+    rn = -(aux[0] * qn + aux[1] * qt);
+    rt = -(aux[2] * qn + aux[3] * qt);
+    if (rn > 0 && fabs(rt) <= mu * rn) {
+      r[0] = rn;
+      r[1] = rt;
+      return MO_CS_STICK;
+    }
+    if ((e = res2(W, q, mu, rn, rt)) < best) { best = e; br[0] = rn; br[1] = rt; bs = MO_CS_STICK; }
+  }
+  /* slide forward: U_t > 0, r_t = -mu r_n, U_n = 0 */
+  if (aux[4] > 0) {
+    rn = -qn * aux[4];
+    ut = (W[2] - mu * W[3]) * rn + qt;
+    if (ut > 0) {
+      r[0] = rn;
+      r[1] = -mu * rn;
+      return MO_CS_SLIDE;
+    }
+    if ((e = res2(W, q, mu, rn, -mu * rn)) < best) { best = e; br[0] = rn; br[1] = -mu * rn; bs = MO_CS_SLIDE; }
+  }
+  /* slide backward: U_t < 0, r_t = +mu r_n, U_n = 0 */
+  if (aux[5] > 0) {
+    rn = -qn * aux[5];
+    ut = (W[2] + mu * W[3]) * rn + qt;
+    if (ut < 0) {
+      r[0] = rn;
+      r[1] = mu * rn;
+      return MO_CS_SLIDE;
+    }
+    if ((e = res2(W, q, mu, rn, mu * rn)) < best) { best = e; br[0] = rn; br[1] = mu * rn; bs = MO_CS_SLIDE; }
+  }
+  /* no case holds strictly: round-off at a boundary between two cases (U_t = 0 on the cone's
+     edge), or a block for which the one-contact problem has no solution (W_nn <= mu |W_nt|):
+     the candidate closest to the law */
+  if (bs < 0 || !isfinite(br[0]) || !isfinite(br[1])) return -1;
+  r[0] = br[0];
+  r[1] = br[1];
+  return bs;
+}
+
+/* --- 3D: Alart-Curnier ------------------------------------------------------------------------
+
+   phi(r) = [ r_n - P_R+(z_n) ; r_t - P_D(mu P_R+(z_n))(z_t) ],  z = r - diag(rho_n, rho_t, rho_t) U,
+   U = W r + q (T16). phi(r) = 0 is the law (T12). A generalized Jacobian J and the Newton step
+   J dr = -phi, with a backtracking line search on |phi|^2 / 2. */
+
+static void ac_eval(const double *W, const double *q, double mu, double rho_n, double rho_t,
+                    const double *r, double *phi, double *J)
+{
+  double U[3], zn, zt[2], nzt, R;
+  int i;
+  for (i = 0; i < 3; i++) U[i] = W[3 * i] * r[0] + W[3 * i + 1] * r[1] + W[3 * i + 2] * r[2] + q[i];
+  zn = r[0] - rho_n * U[0];
+  zt[0] = r[1] - rho_t * U[1];
+  zt[1] = r[2] - rho_t * U[2];
+  if (zn > 0) {
+    phi[0] = rho_n * U[0];
+    if (J) for (i = 0; i < 3; i++) J[i] = rho_n * W[i];
+  } else {
+    phi[0] = r[0];
+    if (J) { J[0] = 1; J[1] = J[2] = 0; }
+  }
+  R = zn > 0 ? mu * zn : 0;
+  nzt = hypot(zt[0], zt[1]);
+  if (nzt <= R) {
+    /* inside the disk: phi_t = rho_t U_t */
+    phi[1] = rho_t * U[1];
+    phi[2] = rho_t * U[2];
+    if (J) for (i = 0; i < 3; i++) { J[3 + i] = rho_t * W[3 + i]; J[6 + i] = rho_t * W[6 + i]; }
+  } else {
+    double z0 = zt[0] / nzt, z1 = zt[1] / nzt, s = R / nzt;
+    phi[1] = r[1] - R * z0;
+    phi[2] = r[2] - R * z1;
+    if (J) {
+      /* d phi_t = [0 I] - zeta dR - (R / |z_t|) (I - zeta zeta^T) dz_t,
+         dR = mu (e_n - rho_n W_n) when z_n > 0, dz_t = [0 I] - rho_t W_t */
+      double dR[3] = {0, 0, 0}, dz[2][3], Pm[2][2];
+      int k;
+      if (zn > 0) for (i = 0; i < 3; i++) dR[i] = mu * ((i == 0) - rho_n * W[i]);
+      for (i = 0; i < 3; i++) {
+        dz[0][i] = (i == 1) - rho_t * W[3 + i];
+        dz[1][i] = (i == 2) - rho_t * W[6 + i];
+      }
+      Pm[0][0] = 1 - z0 * z0;
+      Pm[0][1] = Pm[1][0] = -z0 * z1;
+      Pm[1][1] = 1 - z1 * z1;
+      for (k = 0; k < 2; k++)
+        for (i = 0; i < 3; i++)
+          J[3 * (k + 1) + i] = (i == k + 1) - (k ? z1 : z0) * dR[i] - s * (Pm[k][0] * dz[0][i] + Pm[k][1] * dz[1][i]);
+    }
+  }
+}
+
+/* Solve the 3 x 3 system A x = b by Gaussian elimination with partial pivoting (A destroyed).
+   Returns 0, or 1 when a pivot vanishes. */
+static int solve3(double *A, double *b, double *x)
+{
+  int p[3] = {0, 1, 2}, k, i, j;
+  double amax = 0;
+  for (i = 0; i < 9; i++) if (fabs(A[i]) > amax) amax = fabs(A[i]);
+  if (!(amax > 0)) return 1;
+  for (k = 0; k < 3; k++) {
+    int piv = k;
+    for (i = k + 1; i < 3; i++) if (fabs(A[3 * p[i] + k]) > fabs(A[3 * p[piv] + k])) piv = i;
+    if (piv != k) { int t = p[k]; p[k] = p[piv]; p[piv] = t; }
+    if (!(fabs(A[3 * p[k] + k]) > 1e-15 * amax)) return 1;
+    for (i = k + 1; i < 3; i++) {
+      double f = A[3 * p[i] + k] / A[3 * p[k] + k];
+      for (j = k; j < 3; j++) A[3 * p[i] + j] -= f * A[3 * p[k] + j];
+      b[p[i]] -= f * b[p[k]];
+    }
+  }
+  for (k = 2; k >= 0; k--) {
+    double s = b[p[k]];
+    for (j = k + 1; j < 3; j++) s -= A[3 * p[k] + j] * x[j];
+    x[k] = s / A[3 * p[k] + k];
+  }
+  return 0;
+}
+
+int nscd_ac_newton(const double *W, const double *q, double mu, double rho_n, double rho_t,
+                   double *r, double tol, int maxit, long *iters)
+{
+  double phi[3], J[9], x[3], ph1[3], J1[9], dx[3], f0, f1, scale;
+  int it, ls;
+  ac_eval(W, q, mu, rho_n, rho_t, r, phi, J);
+  scale = fabs(rho_n * q[0]);
+  for (it = 0; it < maxit; it++) {
+    double nr = sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]), b[3], alpha = 1;
+    f0 = phi[0] * phi[0] + phi[1] * phi[1] + phi[2] * phi[2];
+    if (sqrt(f0) <= tol * (nr + scale)) return 0;
+    b[0] = -phi[0];
+    b[1] = -phi[1];
+    b[2] = -phi[2];
+    if (solve3(J, b, dx)) return 1;
+    if (iters) (*iters)++;
+    /* backtracking (Armijo on |phi|^2 / 2 along the Newton direction) */
+    for (ls = 0; ls < 30; ls++) {
+      x[0] = r[0] + alpha * dx[0];
+      x[1] = r[1] + alpha * dx[1];
+      x[2] = r[2] + alpha * dx[2];
+      ac_eval(W, q, mu, rho_n, rho_t, x, ph1, J1);
+      f1 = ph1[0] * ph1[0] + ph1[1] * ph1[1] + ph1[2] * ph1[2];
+      if (f1 <= (1 - 1e-4 * alpha) * f0) break;
+      alpha *= 0.5;
+    }
+    if (ls == 30) {
+      /* no decrease: converged to round-off, or a kink the generalized Jacobian misses */
+      return sqrt(f0) <= 1e3 * tol * (nr + scale) ? 0 : 1;
+    }
+    memcpy(r, x, sizeof x);
+    memcpy(phi, ph1, sizeof ph1);
+    memcpy(J, J1, sizeof J1);
+  }
+  f0 = phi[0] * phi[0] + phi[1] * phi[1] + phi[2] * phi[2];
+  return sqrt(f0) <= tol * (sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]) + scale) ? 0 : 1;
+}
+
+/* De Saxce's fixed point r <- P_K(r - rho (U + mu |U_t| e_n)) (T17), with rho halved whenever
+   the natural-map residual grows: slow but it needs no derivative. */
+int nscd_projection(const double *W, const double *q, double mu, double *r, double tol, int maxit)
+{
+  double rho, lam = 0, z[3], U[3], e0, e1, scale = 0;
+  int i, it;
+  for (i = 0; i < 3; i++) {
+    double s = fabs(W[3 * i]) + fabs(W[3 * i + 1]) + fabs(W[3 * i + 2]);
+    if (s > lam) lam = s;                         /* >= the spectral radius */
+    scale += q[i] * q[i];
+  }
+  if (!(lam > 0)) return 1;
+  rho = 1 / lam;
+  scale = sqrt(scale) * rho;
+  for (i = 0; i < 3; i++) U[i] = W[3 * i] * r[0] + W[3 * i + 1] * r[1] + W[3 * i + 2] * r[2] + q[i];
+  e0 = mo_fc_natural_map_unit(3, mu, r, U);
+  for (it = 0; it < maxit; it++) {
+    double ut = hypot(U[1], U[2]), dr = 0, nr;
+    z[0] = r[0] - rho * (U[0] + mu * ut);
+    z[1] = r[1] - rho * U[1];
+    z[2] = r[2] - rho * U[2];
+    mo_fc_project_cone(3, mu, z);
+    for (i = 0; i < 3; i++) U[i] = W[3 * i] * z[0] + W[3 * i + 1] * z[1] + W[3 * i + 2] * z[2] + q[i];
+    e1 = mo_fc_natural_map_unit(3, mu, z, U);
+    if (e1 > e0 && rho > 1e-12 / lam) {
+      rho *= 0.5;
+      for (i = 0; i < 3; i++) U[i] = W[3 * i] * r[0] + W[3 * i + 1] * r[1] + W[3 * i + 2] * r[2] + q[i];
+      continue;
+    }
+    for (i = 0; i < 3; i++) dr += (z[i] - r[i]) * (z[i] - r[i]);
+    memcpy(r, z, sizeof z);
+    e0 = e1;
+    nr = sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
+    if (sqrt(e1) <= tol * (nr + scale) || sqrt(dr) <= 1e-16 * nr) return sqrt(e1) <= 1e3 * tol * (nr + scale) ? 0 : 1;
+  }
+  return 1;
+}
+
+int nscd_local_3d(const double *W, const double *aux, const double *q, double mu, double *r,
+                  const nscd_params *p, nscd_local_stats *st)
+{
+  double x[3], rs[3] = {0, 0, 0};
+  int have_rs = 0, i;
+  if (q[0] >= 0) {
+    r[0] = r[1] = r[2] = 0;
+    return MO_CS_OPEN;
+  }
+  if (!(W[0] > 0)) return -1;
+  if (aux[9] != 0) {
+    /* stick: U = 0 */
+    for (i = 0; i < 3; i++) rs[i] = -(aux[3 * i] * q[0] + aux[3 * i + 1] * q[1] + aux[3 * i + 2] * q[2]);
+    if (rs[0] > 0 && hypot(rs[1], rs[2]) <= mu * rs[0]) {
+      memcpy(r, rs, sizeof rs);
+      return MO_CS_STICK;
+    }
+    have_rs = 1;
+  }
+  if (mu == 0) {
+    /* frictionless: r_t = 0, U_n = 0 */
+    r[0] = -q[0] * aux[10];
+    r[1] = r[2] = 0;
+    return MO_CS_SLIDE;
+  }
+  /* sliding: Newton from the previous iterate when it was closed, else from the stick trial
+     projected on the cone */
+  memcpy(x, r, sizeof x);
+  if (!(x[0] > 0)) {
+    if (have_rs) {
+      memcpy(x, rs, sizeof x);
+      mo_fc_project_cone(3, mu, x);
+    }
+    if (!(x[0] > 0)) { x[0] = -q[0] * aux[10]; x[1] = x[2] = 0; }
+  }
+  if (nscd_ac_newton(W, q, mu, aux[10], aux[11], x, p->local_tol, p->local_iter, st ? &st->newton : NULL)) {
+    if (st) st->fallbacks++;
+    if (!(x[0] >= 0) || !isfinite(x[0] + x[1] + x[2])) { x[0] = -q[0] * aux[10]; x[1] = x[2] = 0; }
+    mo_fc_project_cone(3, mu, x);
+    if (nscd_projection(W, q, mu, x, p->local_tol, 2000) && st) st->failures++;
+  }
+  if (!isfinite(x[0] + x[1] + x[2])) return -1;
+  memcpy(r, x, sizeof x);
+  if (!(r[0] > 0)) return MO_CS_OPEN;
+  return hypot(r[1], r[2]) < mu * r[0] * (1 - 1e-12) ? MO_CS_STICK : MO_CS_SLIDE;
+}
+
+int nscd_local_solve(int d, const double *W, const double *aux, const double *q, double mu,
+                     double *r, const nscd_params *p, nscd_local_stats *st)
+{
+  if (d == 2) return nscd_local_2d(W, aux, q, mu, r);
+  if (d == 3) return nscd_local_3d(W, aux, q, mu, r, p, st);
+  return nscd_local_1d(W, q, r);
+}
