@@ -15,6 +15,7 @@
 #include <moreau/output.h>
 #include <moreau/run.h>
 #include <moreau/contact.h>
+#include <moreau/bench.h>
 
 #ifdef __cplusplus
 extern "C" {
