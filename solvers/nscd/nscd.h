@@ -41,8 +41,10 @@ void nscd_params_default(nscd_params *p);
 
 typedef struct {
   long newton;         /* 3D Newton iterations */
-  long fallbacks;      /* 3D solves finished by the projection fallback */
-  long failures;       /* 3D solves that met neither tolerance (best iterate kept) */
+  long fallbacks;      /* 3D solves the Newton did not finish (a local minimum of its merit) */
+  long angle;          /* ... finished by the search on the slip angle */
+  long projection;     /* ... finished by the projection */
+  long failures;       /* 3D solves that met no tolerance (the best candidate is kept) */
 } nscd_local_stats;
 
 void nscd_local_prepare(int d, const double *W, double mu, double *aux);
@@ -54,10 +56,11 @@ int nscd_local_1d(const double *W, const double *q, double *r);
 int nscd_local_2d(const double *W, const double *aux, const double *q, double mu, double *r);
 int nscd_local_3d(const double *W, const double *aux, const double *q, double mu, double *r,
                   const nscd_params *p, nscd_local_stats *st);
-/* The 3D Alart-Curnier Newton and the projection fallback alone (tests). Return 0 when they met
-   their tolerance. */
+/* The 3D Alart-Curnier Newton, the search on the slip angle and the projection alone (tests).
+   Return 0 when they met their tolerance. */
 int nscd_ac_newton(const double *W, const double *q, double mu, double rho_n, double rho_t,
                    double *r, double tol, int maxit, long *iters);
+int nscd_slide_angle(const double *W, const double *q, double mu, double *r, double tol);
 int nscd_projection(const double *W, const double *q, double mu, double *r, double tol,
                     int maxit);
 

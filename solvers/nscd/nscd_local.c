@@ -240,6 +240,70 @@ int nscd_ac_newton(const double *W, const double *q, double mu, double rho_n, do
   return sqrt(f0) <= tol * (sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]) + scale) ? 0 : 1;
 }
 
+/* Relative residual of one 3D contact: the natural map of U / W_nn (T13), over |r| + |q| / W_nn. */
+static double res3(const double *W, const double *q, double mu, const double *r)
+{
+  double U[3], s = 1 / W[0];
+  int i;
+  for (i = 0; i < 3; i++) U[i] = s * (W[3 * i] * r[0] + W[3 * i + 1] * r[1] + W[3 * i + 2] * r[2] + q[i]);
+  return sqrt(mo_fc_natural_map_unit(3, mu, r, U)) /
+         (sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]) + s * sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2]) + 1e-300);
+}
+
+/* The sliding solution by its slip angle (T18): with r_t = mu r_n e, e = (cos a, sin a),
+   U_n = 0 gives r_n(a) = -q_n / (W_nn + mu W_nt.e), and Coulomb asks U_t(a) = -lambda e,
+   lambda > 0: a root of g(a) = e x U_t(a) with e.U_t(a) < 0. The roots are bracketed on a grid
+   of the circle and refined by bisection to round-off; the one closest to the law is kept. */
+typedef struct { int valid; double g, dot, rn, e0, e1; } slide_eval;
+
+static slide_eval slide_at(const double *W, const double *q, double mu, double a)
+{
+  slide_eval v;
+  double D, u1, u2;
+  v.e0 = cos(a);
+  v.e1 = sin(a);
+  D = W[0] + mu * (W[1] * v.e0 + W[2] * v.e1);
+  v.valid = D > 0;
+  v.rn = v.valid ? -q[0] / D : 0;
+  u1 = v.rn * (W[3] + mu * (W[4] * v.e0 + W[5] * v.e1)) + q[1];
+  u2 = v.rn * (W[6] + mu * (W[7] * v.e0 + W[8] * v.e1)) + q[2];
+  v.g = v.e0 * u2 - v.e1 * u1;
+  v.dot = v.e0 * u1 + v.e1 * u2;
+  return v;
+}
+
+int nscd_slide_angle(const double *W, const double *q, double mu, double *r, double tol)
+{
+  enum { N = 128 };
+  double best = HUGE_VAL, br[3] = {0, 0, 0}, h = 2 * M_PI / N;
+  slide_eval v0 = slide_at(W, q, mu, 0), v1;
+  int k, it;
+  if (!(W[0] > 0) || !(q[0] < 0) || !(mu > 0)) return 1;
+  for (k = 1; k <= N; k++, v0 = v1) {
+    double lo = (k - 1) * h, hi = k * h, glo = v0.g, x[3], e;
+    v1 = slide_at(W, q, mu, hi);
+    if (!v0.valid || !v1.valid || (v0.g > 0) == (v1.g > 0)) continue;
+    for (it = 0; it < 100; it++) {
+      double mid = 0.5 * (lo + hi);
+      slide_eval vm;
+      if (mid <= lo || mid >= hi) break;
+      vm = slide_at(W, q, mu, mid);
+      if ((vm.g > 0) == (glo > 0)) { lo = mid; glo = vm.g; }
+      else hi = mid;
+    }
+    v0 = slide_at(W, q, mu, 0.5 * (lo + hi));
+    if (!v0.valid || !(v0.dot < 0)) { v0 = slide_at(W, q, mu, (k - 1) * h); continue; }
+    x[0] = v0.rn;
+    x[1] = mu * v0.rn * v0.e0;
+    x[2] = mu * v0.rn * v0.e1;
+    if ((e = res3(W, q, mu, x)) < best) { best = e; memcpy(br, x, sizeof br); }
+    v0 = slide_at(W, q, mu, (k - 1) * h);
+  }
+  if (!(best <= tol)) return 1;
+  memcpy(r, br, sizeof br);
+  return 0;
+}
+
 /* De Saxce's fixed point r <- P_K(r - rho (U + mu |U_t| e_n)) (T17), with rho halved whenever
    the natural-map residual grows: slow but it needs no derivative. */
 int nscd_projection(const double *W, const double *q, double mu, double *r, double tol, int maxit)
@@ -314,10 +378,24 @@ int nscd_local_3d(const double *W, const double *aux, const double *q, double mu
     if (!(x[0] > 0)) { x[0] = -q[0] * aux[10]; x[1] = x[2] = 0; }
   }
   if (nscd_ac_newton(W, q, mu, aux[10], aux[11], x, p->local_tol, p->local_iter, st ? &st->newton : NULL)) {
+    /* a local minimum of |phi|: the slip-angle search, then the projection from the best point */
+    double y[3], ey, ex = isfinite(x[0] + x[1] + x[2]) ? res3(W, q, mu, x) : HUGE_VAL;
     if (st) st->fallbacks++;
-    if (!(x[0] >= 0) || !isfinite(x[0] + x[1] + x[2])) { x[0] = -q[0] * aux[10]; x[1] = x[2] = 0; }
-    mo_fc_project_cone(3, mu, x);
-    if (nscd_projection(W, q, mu, x, p->local_tol, 2000) && st) st->failures++;
+    if (!nscd_slide_angle(W, q, mu, y, 1e3 * p->local_tol)) {
+      memcpy(x, y, sizeof y);
+      if (st) st->angle++;
+    } else {
+      if (!(ex < HUGE_VAL) || !(x[0] >= 0)) { x[0] = -q[0] * aux[10]; x[1] = x[2] = 0; }
+      memcpy(y, x, sizeof y);
+      mo_fc_project_cone(3, mu, y);
+      if (!nscd_projection(W, q, mu, y, p->local_tol, 2000)) {
+        memcpy(x, y, sizeof y);
+        if (st) st->projection++;
+      } else {
+        if ((ey = res3(W, q, mu, y)) < ex) memcpy(x, y, sizeof y);
+        if (st) st->failures++;
+      }
+    }
   }
   if (!isfinite(x[0] + x[1] + x[2])) return -1;
   memcpy(r, x, sizeof x);
