@@ -16,13 +16,13 @@ static const mo_option_spec nscd_options[] = {
   {"tol", MO_OPT_DOUBLE, offsetof(nscd_params, tol), NULL, 0, 1, "1e-8",
    "Tolerance of the stopping rule."},
   {"stop", MO_OPT_ENUM, offsetof(nscd_params, stop), "scaled|natural|quad|maxm|sweeps", NAN, NAN, "\"scaled\"",
-   "Stopping rule: the natural-map residual of the problem scaled contact by contact (T13), the natural-map "
+   "Stopping rule: the natural-map residual of the problem scaled contact by contact (T19), the natural-map "
    "residual as the core measures it (T10, Siconos' definition, which depends on the units), Jean's norms "
    "of the change over a sweep (T11), or exactly max_sweeps sweeps (to replay a published run)."},
   {"max_sweeps", MO_OPT_INT, offsetof(nscd_params, max_sweeps), NULL, 1, 1e9, "1000",
    "Sweep limit; reaching it is a non-converged solve (contact.on_failure decides)."},
   {"relax", MO_OPT_DOUBLE, offsetof(nscd_params, relax), NULL, 0.01, 2, "1",
-   "Relaxation omega: each contact takes omega r_local + (1 - omega) r (T15)."},
+   "Relaxation omega: each contact takes omega r_local + (1 - omega) r (T14)."},
   {"order", MO_OPT_ENUM, offsetof(nscd_params, order), "natural|reverse|shuffled", NAN, NAN, "\"natural\"",
    "Order in which a sweep visits the contacts (shuffled: a GSL random permutation seeded by the run)."},
   {"reshuffle", MO_OPT_BOOL, offsetof(nscd_params, reshuffle), NULL, NAN, NAN, "false",
@@ -32,7 +32,7 @@ static const mo_option_spec nscd_options[] = {
   {"local_tol", MO_OPT_DOUBLE, offsetof(nscd_params, local_tol), NULL, 1e-16, 1e-2, "1e-13",
    "3D local solver: Newton stops when |phi| <= local_tol (|r| + |q_n| / W_nn) (T16)."},
   {"local_iter", MO_OPT_INT, offsetof(nscd_params, local_iter), NULL, 1, 1000, "20",
-   "3D local solver: Newton iterations before the projection fallback (T17)."},
+   "3D local solver: Newton iterations before the fallbacks (T17), (T18)."},
 };
 
 void nscd_params_default(nscd_params *p)
@@ -69,7 +69,7 @@ typedef struct {
   long hver, fver;              /* version of W the cached data were built for (-1: none) */
   int *act, nact, *order;
   double *U;                    /* U = W r + q kept up to date by the column updates */
-  double *scale;                /* nc: 1 / W_aa,nn, the scaling of (T13) (0 when W_nn = 0) */
+  double *scale;                /* nc: 1 / W_aa,nn, the scaling of (T19) (0 when W_nn = 0) */
   double qn2, qs2;              /* |q|^2 and |S q|^2 over the active contacts */
   /* a GSL generator on our own memory (gsl_rng_alloc aborts on failure) */
   gsl_rng rng;
@@ -222,7 +222,7 @@ static void exact_U(nscd_state *S, const mo_contact_problem *P, const double *r)
 }
 
 /* The natural-map residual over the active candidates: as the core computes it (T10), or of the
-   problem whose local velocities are scaled contact by contact by 1 / W_aa,nn (T13). */
+   problem whose local velocities are scaled contact by contact by 1 / W_aa,nn (T19). */
 static double residual(const nscd_state *S, const mo_contact_problem *P, const double *r, int scaled)
 {
   int d = S->d, k, i;
@@ -247,7 +247,7 @@ static double residual(const nscd_state *S, const mo_contact_problem *P, const d
 }
 
 /* One sweep over the active contacts in S->order (J88 (3.3)_5-6 solved contact by contact,
-   doc/theory.md (T13)-(T15)). U is kept equal to W r + q by adding column a of W times the
+   doc/theory.md (T13)-(T14)). U is kept equal to W r + q by adding column a of W times the
    change of r_a, so that the next contact reads its local free term from U, and a contact whose
    reaction does not change (open and staying open) costs only its local test. Returns the
    contact that broke down, or -1; fills Jean's norms (T11) of the change. */
@@ -274,7 +274,7 @@ static inline int sweep(nscd_state *S, const mo_contact_problem *P, double *r, i
     if (s < 0) return a;
     status[a] = s;
     for (i = 0; i < d; i++) {
-      if (omega != 1) rl[i] = omega * rl[i] + (1 - omega) * ra[i];     /* (T15) */
+      if (omega != 1) rl[i] = omega * rl[i] + (1 - omega) * ra[i];     /* (T14) */
       dr[i] = rl[i] - ra[i];
       nz |= dr[i] != 0;
     }

@@ -14,11 +14,11 @@ typedef enum { NSCD_ORDER_NATURAL = 0, NSCD_ORDER_REVERSE, NSCD_ORDER_SHUFFLED }
 
 typedef struct {
   double tol;          /* tolerance of the stopping rule */
-  int stop;            /* nscd_stop: natural map of the scaled problem (T13) or as the core
+  int stop;            /* nscd_stop: natural map of the scaled problem (T19) or as the core
                           measures it (T10), Jean's Quad or Maxm (T11), or
                           exactly max_sweeps sweeps */
   int max_sweeps;      /* sweep limit */
-  double relax;        /* relaxation omega: r <- omega r_local + (1 - omega) r (T15) */
+  double relax;        /* relaxation omega: r <- omega r_local + (1 - omega) r (T14) */
   int order;           /* nscd_order */
   int reshuffle;       /* shuffled order: a new permutation at every sweep */
   int warm_start;      /* start from the previous step's reactions */

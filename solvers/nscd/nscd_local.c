@@ -25,7 +25,7 @@ void nscd_local_prepare(int d, const double *W, double mu, double *aux)
       aux[3] = a / det;
       aux[6] = 1;
     }
-    /* sliding: U_n = (W_nn -+ mu W_nt) r_n + q_n = 0  (T14) */
+    /* sliding: U_n = (W_nn -+ mu W_nt) r_n + q_n = 0  (T15) */
     aux[4] = a - mu * b > 0 ? 1 / (a - mu * b) : 0;
     aux[5] = a + mu * b > 0 ? 1 / (a + mu * b) : 0;
   } else {
@@ -240,7 +240,7 @@ int nscd_ac_newton(const double *W, const double *q, double mu, double rho_n, do
   return sqrt(f0) <= tol * (sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]) + scale) ? 0 : 1;
 }
 
-/* Relative residual of one 3D contact: the natural map of U / W_nn (T13), over |r| + |q| / W_nn. */
+/* Relative residual of one 3D contact: the natural map of U / W_nn (T19), over |r| + |q| / W_nn. */
 static double res3(const double *W, const double *q, double mu, const double *r)
 {
   double U[3], s = 1 / W[0];
@@ -250,7 +250,7 @@ static double res3(const double *W, const double *q, double mu, const double *r)
          (sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]) + s * sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2]) + 1e-300);
 }
 
-/* The sliding solution by its slip angle (T18): with r_t = mu r_n e, e = (cos a, sin a),
+/* The sliding solution by its slip angle (T17): with r_t = mu r_n e, e = (cos a, sin a),
    U_n = 0 gives r_n(a) = -q_n / (W_nn + mu W_nt.e), and Coulomb asks U_t(a) = -lambda e,
    lambda > 0: a root of g(a) = e x U_t(a) with e.U_t(a) < 0. The roots are bracketed on a grid
    of the circle and refined by bisection to round-off; the one closest to the law is kept. */
@@ -304,7 +304,7 @@ int nscd_slide_angle(const double *W, const double *q, double mu, double *r, dou
   return 0;
 }
 
-/* De Saxce's fixed point r <- P_K(r - rho (U + mu |U_t| e_n)) (T17), with rho halved whenever
+/* De Saxce's fixed point r <- P_K(r - rho (U + mu |U_t| e_n)) (T18), with rho halved whenever
    the natural-map residual grows: slow but it needs no derivative. */
 int nscd_projection(const double *W, const double *q, double mu, double *r, double tol, int maxit)
 {
