@@ -502,7 +502,7 @@ int mo_contact_step(mo_contact_driver *D, mo_state *s, mo_ctx *ctx)
   /* contact work: impulse . mean local velocity (theta), force . increment (others) */
   {
     double w = 0, *Ukin = D->b;
-    if (D->W) { mo_delassus_mult(D->W, D->r, 0, Ukin); for (i = 0; i < m; i++) Ukin[i] += D->b[i]; }
+    if (D->W) mo_delassus_mult(D->W, D->r, 1, Ukin);      /* U+ = W r + b, in place over b */
     else for (i = 0; i < m; i++) Ukin[i] = D->U[i];
     for (i = 0; i < m; i++)
       w += D->r[i] * (scheme == MO_SCHEME_THETA ? 0.5 * (Ukin[i] + D->Uprev[i]) : Ukin[i]);
