@@ -128,91 +128,92 @@ int nscd_local_2d(const double *W, const double *aux, const double *q, double mu
    U = W r + q (T16). phi(r) = 0 is the law (T12). A generalized Jacobian J and the Newton step
    J dr = -phi, with a backtracking line search on |phi|^2 / 2. */
 
-static void ac_eval(const double *W, const double *q, double mu, double rho_n, double rho_t,
-                    const double *r, double *phi, double *J)
-{
+/* phi at r, with what its Jacobian needs. */
+typedef struct {
   double U[3], zn, zt[2], nzt, R;
+} ac_point;
+
+static void ac_phi(const double *W, const double *q, double mu, double rho_n, double rho_t,
+                   const double *r, double *phi, ac_point *pt)
+{
+  double *U = pt->U;
   int i;
   for (i = 0; i < 3; i++) U[i] = W[3 * i] * r[0] + W[3 * i + 1] * r[1] + W[3 * i + 2] * r[2] + q[i];
-  zn = r[0] - rho_n * U[0];
-  zt[0] = r[1] - rho_t * U[1];
-  zt[1] = r[2] - rho_t * U[2];
-  if (zn > 0) {
-    phi[0] = rho_n * U[0];
-    if (J) for (i = 0; i < 3; i++) J[i] = rho_n * W[i];
-  } else {
-    phi[0] = r[0];
-    if (J) { J[0] = 1; J[1] = J[2] = 0; }
-  }
-  R = zn > 0 ? mu * zn : 0;
-  nzt = hypot(zt[0], zt[1]);
-  if (nzt <= R) {
+  pt->zn = r[0] - rho_n * U[0];
+  pt->zt[0] = r[1] - rho_t * U[1];
+  pt->zt[1] = r[2] - rho_t * U[2];
+  phi[0] = pt->zn > 0 ? rho_n * U[0] : r[0];
+  pt->R = pt->zn > 0 ? mu * pt->zn : 0;
+  pt->nzt = sqrt(pt->zt[0] * pt->zt[0] + pt->zt[1] * pt->zt[1]);
+  if (pt->nzt <= pt->R) {
     /* inside the disk: phi_t = rho_t U_t */
     phi[1] = rho_t * U[1];
     phi[2] = rho_t * U[2];
-    if (J) for (i = 0; i < 3; i++) { J[3 + i] = rho_t * W[3 + i]; J[6 + i] = rho_t * W[6 + i]; }
   } else {
-    double z0 = zt[0] / nzt, z1 = zt[1] / nzt, s = R / nzt;
-    phi[1] = r[1] - R * z0;
-    phi[2] = r[2] - R * z1;
-    if (J) {
-      /* d phi_t = [0 I] - zeta dR - (R / |z_t|) (I - zeta zeta^T) dz_t,
-         dR = mu (e_n - rho_n W_n) when z_n > 0, dz_t = [0 I] - rho_t W_t */
-      double dR[3] = {0, 0, 0}, dz[2][3], Pm[2][2];
-      int k;
-      if (zn > 0) for (i = 0; i < 3; i++) dR[i] = mu * ((i == 0) - rho_n * W[i]);
-      for (i = 0; i < 3; i++) {
-        dz[0][i] = (i == 1) - rho_t * W[3 + i];
-        dz[1][i] = (i == 2) - rho_t * W[6 + i];
-      }
-      Pm[0][0] = 1 - z0 * z0;
-      Pm[0][1] = Pm[1][0] = -z0 * z1;
-      Pm[1][1] = 1 - z1 * z1;
-      for (k = 0; k < 2; k++)
-        for (i = 0; i < 3; i++)
-          J[3 * (k + 1) + i] = (i == k + 1) - (k ? z1 : z0) * dR[i] - s * (Pm[k][0] * dz[0][i] + Pm[k][1] * dz[1][i]);
-    }
+    double s = pt->R / pt->nzt;
+    phi[1] = r[1] - s * pt->zt[0];
+    phi[2] = r[2] - s * pt->zt[1];
   }
 }
 
-/* Solve the 3 x 3 system A x = b by Gaussian elimination with partial pivoting (A destroyed).
-   Returns 0, or 1 when a pivot vanishes. */
-static int solve3(double *A, double *b, double *x)
+/* A generalized Jacobian of phi at the point pt describes. */
+static void ac_jac(const double *W, double mu, double rho_n, double rho_t, const ac_point *pt, double *J)
 {
-  int p[3] = {0, 1, 2}, k, i, j;
-  double amax = 0;
-  for (i = 0; i < 9; i++) if (fabs(A[i]) > amax) amax = fabs(A[i]);
-  if (!(amax > 0)) return 1;
-  for (k = 0; k < 3; k++) {
-    int piv = k;
-    for (i = k + 1; i < 3; i++) if (fabs(A[3 * p[i] + k]) > fabs(A[3 * p[piv] + k])) piv = i;
-    if (piv != k) { int t = p[k]; p[k] = p[piv]; p[piv] = t; }
-    if (!(fabs(A[3 * p[k] + k]) > 1e-15 * amax)) return 1;
-    for (i = k + 1; i < 3; i++) {
-      double f = A[3 * p[i] + k] / A[3 * p[k] + k];
-      for (j = k; j < 3; j++) A[3 * p[i] + j] -= f * A[3 * p[k] + j];
-      b[p[i]] -= f * b[p[k]];
+  int i, k;
+  if (pt->zn > 0) for (i = 0; i < 3; i++) J[i] = rho_n * W[i];
+  else { J[0] = 1; J[1] = J[2] = 0; }
+  if (pt->nzt <= pt->R) {
+    for (i = 0; i < 3; i++) { J[3 + i] = rho_t * W[3 + i]; J[6 + i] = rho_t * W[6 + i]; }
+  } else {
+    /* d phi_t = [0 I] - zeta dR - (R / |z_t|) (I - zeta zeta^T) dz_t,
+       dR = mu (e_n - rho_n W_n) when z_n > 0, dz_t = [0 I] - rho_t W_t */
+    double z0 = pt->zt[0] / pt->nzt, z1 = pt->zt[1] / pt->nzt, s = pt->R / pt->nzt;
+    double dR[3] = {0, 0, 0}, dz[2][3], Pm[2][2];
+    if (pt->zn > 0) for (i = 0; i < 3; i++) dR[i] = mu * ((i == 0) - rho_n * W[i]);
+    for (i = 0; i < 3; i++) {
+      dz[0][i] = (i == 1) - rho_t * W[3 + i];
+      dz[1][i] = (i == 2) - rho_t * W[6 + i];
     }
+    Pm[0][0] = 1 - z0 * z0;
+    Pm[0][1] = Pm[1][0] = -z0 * z1;
+    Pm[1][1] = 1 - z1 * z1;
+    for (k = 0; k < 2; k++)
+      for (i = 0; i < 3; i++)
+        J[3 * (k + 1) + i] = (i == k + 1) - (k ? z1 : z0) * dR[i] - s * (Pm[k][0] * dz[0][i] + Pm[k][1] * dz[1][i]);
   }
-  for (k = 2; k >= 0; k--) {
-    double s = b[p[k]];
-    for (j = k + 1; j < 3; j++) s -= A[3 * p[k] + j] * x[j];
-    x[k] = s / A[3 * p[k] + k];
-  }
+}
+
+/* x = A^-1 b for a 3 x 3 A by its adjugate; 1 when A is singular to working precision (its
+   determinant against the product of its rows' norms). */
+static int solve3(const double *A, const double *b, double *x)
+{
+  double c0 = A[4] * A[8] - A[5] * A[7], c1 = A[5] * A[6] - A[3] * A[8], c2 = A[3] * A[7] - A[4] * A[6];
+  double det = A[0] * c0 + A[1] * c1 + A[2] * c2, n0, n1, n2;
+  n0 = A[0] * A[0] + A[1] * A[1] + A[2] * A[2];
+  n1 = A[3] * A[3] + A[4] * A[4] + A[5] * A[5];
+  n2 = A[6] * A[6] + A[7] * A[7] + A[8] * A[8];
+  if (!(fabs(det) > 1e-14 * sqrt(n0 * n1 * n2))) return 1;
+  det = 1 / det;
+  x[0] = det * (c0 * b[0] + (A[2] * A[7] - A[1] * A[8]) * b[1] + (A[1] * A[5] - A[2] * A[4]) * b[2]);
+  x[1] = det * (c1 * b[0] + (A[0] * A[8] - A[2] * A[6]) * b[1] + (A[2] * A[3] - A[0] * A[5]) * b[2]);
+  x[2] = det * (c2 * b[0] + (A[1] * A[6] - A[0] * A[7]) * b[1] + (A[0] * A[4] - A[1] * A[3]) * b[2]);
   return 0;
 }
 
 int nscd_ac_newton(const double *W, const double *q, double mu, double rho_n, double rho_t,
                    double *r, double tol, int maxit, long *iters)
 {
-  double phi[3], J[9], x[3], ph1[3], J1[9], dx[3], f0, f1, scale;
+  double phi[3], J[9], x[3], ph1[3], dx[3], b[3], f0, f1, scale = fabs(rho_n * q[0]), nr;
+  ac_point pt, pt1;
   int it, ls;
-  ac_eval(W, q, mu, rho_n, rho_t, r, phi, J);
-  scale = fabs(rho_n * q[0]);
-  for (it = 0; it < maxit; it++) {
-    double nr = sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]), b[3], alpha = 1;
-    f0 = phi[0] * phi[0] + phi[1] * phi[1] + phi[2] * phi[2];
+  ac_phi(W, q, mu, rho_n, rho_t, r, phi, &pt);
+  f0 = phi[0] * phi[0] + phi[1] * phi[1] + phi[2] * phi[2];
+  for (it = 0;; it++) {
+    double alpha = 1;
+    nr = sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
     if (sqrt(f0) <= tol * (nr + scale)) return 0;
+    if (it == maxit) return 1;
+    ac_jac(W, mu, rho_n, rho_t, &pt, J);
     b[0] = -phi[0];
     b[1] = -phi[1];
     b[2] = -phi[2];
@@ -223,21 +224,18 @@ int nscd_ac_newton(const double *W, const double *q, double mu, double rho_n, do
       x[0] = r[0] + alpha * dx[0];
       x[1] = r[1] + alpha * dx[1];
       x[2] = r[2] + alpha * dx[2];
-      ac_eval(W, q, mu, rho_n, rho_t, x, ph1, J1);
+      ac_phi(W, q, mu, rho_n, rho_t, x, ph1, &pt1);
       f1 = ph1[0] * ph1[0] + ph1[1] * ph1[1] + ph1[2] * ph1[2];
       if (f1 <= (1 - 1e-4 * alpha) * f0) break;
       alpha *= 0.5;
     }
-    if (ls == 30) {
-      /* no decrease: converged to round-off, or a kink the generalized Jacobian misses */
-      return sqrt(f0) <= 1e3 * tol * (nr + scale) ? 0 : 1;
-    }
+    /* no decrease: converged to round-off, or a local minimum of |phi|^2 */
+    if (ls == 30) return sqrt(f0) <= 1e3 * tol * (nr + scale) ? 0 : 1;
     memcpy(r, x, sizeof x);
     memcpy(phi, ph1, sizeof ph1);
-    memcpy(J, J1, sizeof J1);
+    pt = pt1;
+    f0 = f1;
   }
-  f0 = phi[0] * phi[0] + phi[1] * phi[1] + phi[2] * phi[2];
-  return sqrt(f0) <= tol * (sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]) + scale) ? 0 : 1;
 }
 
 /* Relative residual of one 3D contact: the natural map of U / W_nn (T19), over |r| + |q| / W_nn. */
@@ -321,7 +319,7 @@ int nscd_projection(const double *W, const double *q, double mu, double *r, doub
   for (i = 0; i < 3; i++) U[i] = W[3 * i] * r[0] + W[3 * i + 1] * r[1] + W[3 * i + 2] * r[2] + q[i];
   e0 = mo_fc_natural_map_unit(3, mu, r, U);
   for (it = 0; it < maxit; it++) {
-    double ut = hypot(U[1], U[2]), dr = 0, nr;
+    double ut = sqrt(U[1] * U[1] + U[2] * U[2]), dr = 0, nr;
     z[0] = r[0] - rho * (U[0] + mu * ut);
     z[1] = r[1] - rho * U[1];
     z[2] = r[2] - rho * U[2];
@@ -355,7 +353,7 @@ int nscd_local_3d(const double *W, const double *aux, const double *q, double mu
   if (aux[9] != 0) {
     /* stick: U = 0 */
     for (i = 0; i < 3; i++) rs[i] = -(aux[3 * i] * q[0] + aux[3 * i + 1] * q[1] + aux[3 * i + 2] * q[2]);
-    if (rs[0] > 0 && hypot(rs[1], rs[2]) <= mu * rs[0]) {
+    if (rs[0] > 0 && rs[1] * rs[1] + rs[2] * rs[2] <= mu * mu * rs[0] * rs[0]) {
       memcpy(r, rs, sizeof rs);
       return MO_CS_STICK;
     }
@@ -400,7 +398,7 @@ int nscd_local_3d(const double *W, const double *aux, const double *q, double mu
   if (!isfinite(x[0] + x[1] + x[2])) return -1;
   memcpy(r, x, sizeof x);
   if (!(r[0] > 0)) return MO_CS_OPEN;
-  return hypot(r[1], r[2]) < mu * r[0] * (1 - 1e-12) ? MO_CS_STICK : MO_CS_SLIDE;
+  return sqrt(r[1] * r[1] + r[2] * r[2]) < mu * r[0] * (1 - 1e-12) ? MO_CS_STICK : MO_CS_SLIDE;
 }
 
 int nscd_local_solve(int d, const double *W, const double *aux, const double *q, double mu,
