@@ -440,7 +440,8 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
   }
   /* a fixed number of sweeps was asked for: done unless interrupted */
   if (p->stop == NSCD_STOP_SWEEPS && broke < 0 && sweeps == p->max_sweeps) conv = 1;
-  exact_U(S, P, r);
+  /* U is exact already when a residual rule has just confirmed convergence */
+  if (!(conv && (scaled || p->stop == NSCD_STOP_NATURAL))) exact_U(S, P, r);
   memcpy(x->U, S->U, (size_t)m * sizeof *x->U);
   rep->iterations = sweeps;
   rep->quad = quad;
