@@ -202,6 +202,10 @@ static void test_greco(void)
     return;
   }
   snprintf(path, sizeof path, "%s/data/greco/jean-1988-tables.csv", shared);
+  if (access(path, R_OK)) {
+    ok(1, "# SKIP no shared data (%s)", path);
+    return;
+  }
   if (table_read(path, &J)) {
     ok(0, "read %s", path);
     return;
