@@ -69,6 +69,7 @@ typedef struct {
   long hver, fver;              /* version of W the cached data were built for (-1: none) */
   int *act, nact, *order;
   double *U;                    /* U = W r + q kept up to date by the column updates */
+  double *rold;                 /* m: the reactions at the start of the sweep (Jean's norms) */
   double *scale;                /* nc: 1 / W_aa,nn, the scaling of (T19) (0 when W_nn = 0) */
   double qn2, qs2;              /* |q|^2 and |S q|^2 over the active contacts */
   /* a GSL generator on our own memory (gsl_rng_alloc aborts on failure) */
@@ -93,6 +94,7 @@ static void nscd_free(void *state)
   mo_free(S->act);
   mo_free(S->order);
   mo_free(S->U);
+  mo_free(S->rold);
   mo_free(S->scale);
   mo_free(S->rng_state);
   memset(S, 0, sizeof *S);
@@ -117,9 +119,10 @@ static int nscd_init(void *state, const void *params, const mo_contact_problem *
   S->act = mo_malloc(ctx, nc * sizeof *S->act);
   S->order = mo_malloc(ctx, nc * sizeof *S->order);
   S->U = mo_malloc(ctx, ((size_t)P->m + 1) * sizeof *S->U);
+  S->rold = mo_malloc(ctx, ((size_t)P->m + 1) * sizeof *S->rold);
   S->scale = mo_malloc(ctx, nc * sizeof *S->scale);
   S->rng_state = mo_calloc(ctx, 1, gsl_rng_mt19937->size + 1);
-  if (!S->rcnt || !S->rcol || !S->rval || !S->diag || !S->aux || !S->act || !S->order || !S->U ||
+  if (!S->rcnt || !S->rcol || !S->rval || !S->diag || !S->aux || !S->act || !S->order || !S->U || !S->rold ||
       !S->scale || !S->rng_state) {
     nscd_free(S);
     return MO_ENOMEM;
@@ -251,18 +254,17 @@ static double residual(const nscd_state *S, const mo_contact_problem *P, const d
    doc/theory.md (T13)-(T14)). U is kept equal to W r + q by adding column a of W times the
    change of r_a, so that the next contact reads its local free term from U, and a contact whose
    reaction does not change (open and staying open) costs only its local test. Returns the
-   contact that broke down, or -1; fills Jean's norms (T11) of the change. */
+   contact that broke down, or -1. */
 static inline int sweep(nscd_state *S, const mo_contact_problem *P, double *r, int *status,
-                        double *quad, double *maxm, const int d)
+                        const int d)
 {
   const int dd = d * d, sym = S->sym;
   const double omega = S->p.relax, *mu = P->mu;
-  double sdd = 0, swrr = 0, mx = 0;
-  int k, i, j, nact = 0;
+  int k, i, j;
   for (k = 0; k < S->nact; k++) {
     const int a = S->order[k];
     const double *Waa = S->diag[a];
-    double *ra = r + a * d, *Ua = S->U + a * d, ql[3], rl[3], dr[3], dU2 = 0, rr = 0, wrr = 0;
+    double *ra = r + a * d, *Ua = S->U + a * d, ql[3], rl[3], dr[3];
     int s, nz = 0;
     /* local free term: q_a + sum_{b != a} W_ab r_b = U_a - W_aa r_a */
     for (i = 0; i < d; i++) {
@@ -314,11 +316,28 @@ static inline int sweep(nscd_state *S, const mo_contact_problem *P, double *r, i
       }
       for (i = 0; i < d; i++) ra[i] = rl[i];
     }
-    /* Jean's norms (T11): dU_a = W_aa dr_a, weighted by |r_a| */
+  }
+  return -1;
+}
+
+static int sweep1(nscd_state *S, const mo_contact_problem *P, double *r, int *st) { return sweep(S, P, r, st, 1); }
+static int sweep2(nscd_state *S, const mo_contact_problem *P, double *r, int *st) { return sweep(S, P, r, st, 2); }
+static int sweep3(nscd_state *S, const mo_contact_problem *P, double *r, int *st) { return sweep(S, P, r, st, 3); }
+
+/* Jean's norms (T11) of the change of a sweep, from the reactions before and after it:
+   dU_a = W_aa (r_a - rold_a), weighted by |r_a|, over the active contacts. */
+static void jean_norms(const nscd_state *S, const double *rold, const double *r, double *quad, double *maxm)
+{
+  int d = S->d, k, i, j, nact = 0;
+  double sdd = 0, swrr = 0, mx = 0;
+  for (k = 0; k < S->nact; k++) {
+    int a = S->act[k];
+    const double *Waa = S->diag[a], *ra = r + a * d, *ro = rold + a * d;
+    double dU2 = 0, rr = 0, wrr = 0;
     for (i = 0; i < d; i++) {
       double wi = 0, di = 0;
       for (j = 0; j < d; j++) {
-        di += Waa[i * d + j] * dr[j];
+        di += Waa[i * d + j] * (ra[j] - ro[j]);
         wi += Waa[i * d + j] * ra[j];
       }
       dU2 += di * di;
@@ -332,12 +351,7 @@ static inline int sweep(nscd_state *S, const mo_contact_problem *P, double *r, i
   }
   *quad = swrr > 0 ? sqrt(sdd) / swrr : 0;
   *maxm = swrr > 0 && nact ? mx / (swrr / nact) : 0;
-  return -1;
 }
-
-static int sweep1(nscd_state *S, const mo_contact_problem *P, double *r, int *st, double *q, double *m) { return sweep(S, P, r, st, q, m, 1); }
-static int sweep2(nscd_state *S, const mo_contact_problem *P, double *r, int *st, double *q, double *m) { return sweep(S, P, r, st, q, m, 2); }
-static int sweep3(nscd_state *S, const mo_contact_problem *P, double *r, int *st, double *q, double *m) { return sweep(S, P, r, st, q, m, 3); }
 
 /* "candidate 12 (node 13)" */
 static int name_candidate(const mo_contact_problem *P, int a, char *buf, size_t n)
@@ -381,7 +395,7 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
   int d = S->d, m = S->m, a, k, i, st, sweeps = 0, broke = -1, conv = 0;
   double *r = x->r, quad = 0, maxm = 0, res = HUGE_VAL;
   const int scaled = p->stop == NSCD_STOP_SCALED;
-  int (*do_sweep)(nscd_state *, const mo_contact_problem *, double *, int *, double *, double *) =
+  int (*do_sweep)(nscd_state *, const mo_contact_problem *, double *, int *) =
       d == 3 ? sweep3 : d == 2 ? sweep2 : sweep1;
   if (P->nc != S->nc || P->dim != S->d || !P->W)
     return mo_error(ctx, MO_EINTERNAL, "nscd: the problem changed size (%d x %d, was %d x %d)", P->nc, P->dim, S->nc, S->d);
@@ -419,7 +433,8 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
     /* the 3D Newton solves to 1e-2 of the last residual (never looser than 1e-4, never tighter
        than local_tol): early sweeps need no exact local solve, the last ones get it */
     if (res < HUGE_VAL) S->lp.local_tol = fmax(p->local_tol, fmin(1e-4, 1e-2 * res));
-    broke = do_sweep(S, P, r, x->status, &quad, &maxm);
+    memcpy(S->rold, r, (size_t)m * sizeof *r);
+    broke = do_sweep(S, P, r, x->status);
     sweeps++;
     if (broke >= 0) break;
     if (p->stop == NSCD_STOP_NATURAL || scaled) {
@@ -432,6 +447,7 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
         if (!isfinite(res)) break;
       }
     } else if (p->stop == NSCD_STOP_QUAD || p->stop == NSCD_STOP_MAXM) {
+      jean_norms(S, S->rold, r, &quad, &maxm);
       if ((p->stop == NSCD_STOP_QUAD ? quad : maxm) <= p->tol) {
         conv = 1;
         break;
@@ -443,6 +459,8 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
   /* U is exact already when a residual rule has just confirmed convergence */
   if (!(conv && (scaled || p->stop == NSCD_STOP_NATURAL))) exact_U(S, P, r);
   memcpy(x->U, S->U, (size_t)m * sizeof *x->U);
+  /* Jean's norms of the last sweep (the quad and maxm rules have them already) */
+  if (sweeps && p->stop != NSCD_STOP_QUAD && p->stop != NSCD_STOP_MAXM) jean_norms(S, S->rold, r, &quad, &maxm);
   rep->iterations = sweeps;
   rep->quad = quad;
   rep->maxm = maxm;
