@@ -423,6 +423,66 @@ static void test_fclib_vs_siconos(void)
   }
 }
 
+/* 1D (normal only): the problem is an LCP with a symmetric positive definite W, whose unique
+   solution is found here by trying every active set. */
+static void test_1d_lcp(void)
+{
+  unsigned long long s = 1111;
+  int t, good = 0, ntest = 30;
+  for (t = 0; t < ntest; t++) {
+    enum { N = 8 };
+    problem P;
+    mo_ctx ctx;
+    mo_csc *Wc;
+    mo_contact_report rep;
+    double r[N] = {0}, U[N], ref[N], *mu = calloc(N, sizeof *mu);
+    int set, found = 0, st;
+    const char *opts[] = {"stop=natural", "tol=1e-14", "max_sweeps=100000", NULL};
+    mo_ctx_init(&ctx);
+    random_problem(1, N, 0, &s, &P);
+    for (set = 0; set < (1 << N) && !found; set++) {
+      /* r_A = -W_AA^-1 q_A by Gaussian elimination on the active rows */
+      double A[N][N + 1], x[N] = {0};
+      int idx[N], n = 0, i, j, k, okset = 1;
+      for (i = 0; i < N; i++) if (set >> i & 1) idx[n++] = i;
+      for (i = 0; i < n; i++) {
+        for (j = 0; j < n; j++) A[i][j] = P.W[idx[i] * N + idx[j]];
+        A[i][n] = -P.q[idx[i]];
+      }
+      for (k = 0; k < n; k++)
+        for (i = k + 1; i < n; i++) {
+          double f = A[i][k] / A[k][k];
+          for (j = k; j <= n; j++) A[i][j] -= f * A[k][j];
+        }
+      for (k = n - 1; k >= 0; k--) {
+        double acc = A[k][n];
+        for (j = k + 1; j < n; j++) acc -= A[k][j] * x[idx[j]];
+        x[idx[k]] = acc / A[k][k];
+        if (x[idx[k]] < 0) okset = 0;
+      }
+      for (i = 0; i < N && okset; i++) {
+        double u = P.q[i];
+        for (j = 0; j < N; j++) u += P.W[i * N + j] * x[j];
+        if (!(set >> i & 1) && u < -1e-12) okset = 0;
+      }
+      if (okset) { memcpy(ref, x, sizeof ref); found = 1; }
+    }
+    Wc = dense_to_csc(N, P.W, &ctx);
+    st = solve_nscd(1, Wc, P.q, mu, r, U, NULL, &rep, opts, &ctx);
+    if (!st && found && rep.reason == MO_CR_CONVERGED) {
+      double e = 0;
+      int i;
+      for (i = 0; i < N; i++) e = fmax(e, fabs(r[i] - ref[i]));
+      if (e <= 1e-10 * fmax(norm(N, ref), 1e-300) || (norm(N, ref) == 0 && e == 0)) good++;
+    }
+    mo_csc_free(Wc);
+    free(mu);
+    problem_free(&P);
+  }
+  ok(good == ntest, "1D: the reactions of %d random LCPs (8 contacts) are those of the active set that solves them (%d)",
+     ntest, good);
+}
+
 /* Jean's norms of the last sweep (T11), accumulated during the sweep, equal the core's
    mo_fc_jean_norms on the iterates before and after it. */
 static void test_jean_norms(void)
@@ -644,6 +704,7 @@ int main(void)
   test_random_vs_siconos(2);
   test_random_vs_siconos(3);
   test_fclib_vs_siconos();
+  test_1d_lcp();
   test_jean_norms();
   test_options();
   test_breakdown();
