@@ -1,5 +1,5 @@
 /* compare.c: `moreau compare`: the same scene by several back ends, time steps and parameter
-   grids; compare.csv, stability.csv, report.md and gnuplot figures (doc/theory.md §7). */
+   grids; compare.csv, stability.csv, report.md and gnuplot figures (doc/theory.md §10). */
 #include "config.h"
 #include <moreau/compare.h>
 #include <moreau/output.h>

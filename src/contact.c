@@ -22,7 +22,8 @@ void mo_fc_project_cone(int d, double mu, double *z)
   }
   for (i = 1; i < d; i++) zt2 += z[i] * z[i];
   zt = sqrt(zt2);
-  if (zt <= mu * z[0]) return;                     /* inside the cone */
+  /* inside the cone (z_n >= 0 first: with mu = 0 and z_t = 0, 0 <= mu z_n holds for z_n < 0) */
+  if (z[0] >= 0 && zt <= mu * z[0]) return;
   if (mu * zt <= -z[0]) {                          /* inside the polar cone */
     for (i = 0; i < d; i++) z[i] = 0;
     return;

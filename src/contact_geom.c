@@ -743,7 +743,9 @@ int mo_contact_build(const mo_scene *sc, mo_contact **out, mo_ctx *ctx)
         goto fail;
       }
     P->mu = mo_cfg_float(pg, "mu", 0);
-    P->reactions = !strcmp(mo_cfg_string(pg, "reactions", "concentrated"), "weighted") ? MO_REACT_WEIGHTED : MO_REACT_CONCENTRATED;
+    /* contact.reactions, when given, applies to every pair */
+    s = mo_cfg_string(cg, "reactions", NULL);
+    P->reactions = !strcmp(s ? s : mo_cfg_string(pg, "reactions", "concentrated"), "weighted") ? MO_REACT_WEIGHTED : MO_REACT_CONCENTRATED;
     P->colloc = !strcmp(mo_cfg_string(pg, "collocation", "nodes"), "gauss") ? MO_COLLOC_GAUSS : MO_COLLOC_NODES;
     P->gauss = mo_cfg_int(pg, "gauss", 2);
     s = mo_cfg_string(pg, "ends", "dual");

@@ -4,6 +4,7 @@
 #include <moreau/contact.h>
 
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 /* Columns What^-1 H are kept when they hold at most this many doubles (128 MB). */
@@ -225,4 +226,76 @@ int mo_delassus_apply_Cinv(mo_delassus *D, const mo_csc *H, mo_linsolver *ls, co
     if (r[j] != 0)
       for (p = H->p[j]; p < H->p[j + 1]; p++) D->work[H->i[p]] += H->x[p] * r[j];
   return mo_linsolver_solve(ls, D->work, dx, ctx);
+}
+
+static int cmp_int(const void *a, const void *b)
+{
+  int x = *(const int *)a, y = *(const int *)b;
+  return (x > y) - (x < y);
+}
+
+int mo_delassus_set_matrix(mo_delassus *D, const mo_csc *W, int dim, mo_ctx *ctx)
+{
+  int m = W->nrow, d = dim, nb, a, i, p, k, st = MO_OK, *mark = NULL, *list = NULL;
+  mo_csc *T = NULL;
+  if (W->ncol != m || d < 1 || d > 3 || m % d)
+    return mo_error(ctx, MO_EINPUT, "a Delassus operator is square with a size that is a multiple of its "
+                    "local dimension (got %d x %d, dimension %d)", W->nrow, W->ncol, dim);
+  clear(D);
+  nb = m / d;
+  /* rows of W are the columns of W^T */
+  if ((st = mo_csc_transpose(W, &T, ctx))) return st;
+  mark = mo_malloc(ctx, ((size_t)nb + 1) * sizeof *mark);
+  list = mo_malloc(ctx, ((size_t)nb + 1) * sizeof *list);
+  D->rowp = mo_malloc(ctx, ((size_t)nb + 1) * sizeof *D->rowp);
+  if (!mark || !list || !D->rowp) { st = MO_ENOMEM; goto done; }
+  for (a = 0; a < nb; a++) mark[a] = -1;
+  /* count the block columns of each block row */
+  D->rowp[0] = 0;
+  for (a = 0; a < nb; a++) {
+    int n = 0;
+    for (i = a * d; i < a * d + d; i++)
+      for (p = T->p[i]; p < T->p[i + 1]; p++) {
+        int b = T->i[p] / d;
+        if (T->x[p] != 0 && mark[b] != a) { mark[b] = a; n++; }
+      }
+    D->rowp[a + 1] = D->rowp[a] + n;
+  }
+  D->nblocks = D->rowp[nb];
+  D->colb = mo_malloc(ctx, ((size_t)D->nblocks + 1) * sizeof *D->colb);
+  D->val = mo_calloc(ctx, (size_t)D->nblocks * (size_t)(d * d) + 1, sizeof *D->val);
+  if (!D->colb || !D->val) { st = MO_ENOMEM; goto done; }
+  for (a = 0; a < nb; a++) mark[a] = -1;
+  for (a = 0; a < nb; a++) {
+    int n = 0, r0 = D->rowp[a];
+    for (i = a * d; i < a * d + d; i++)
+      for (p = T->p[i]; p < T->p[i + 1]; p++) {
+        int b = T->i[p] / d;
+        if (T->x[p] != 0 && mark[b] != a) { mark[b] = a; list[n++] = b; }
+      }
+    qsort(list, (size_t)n, sizeof *list, cmp_int);
+    for (k = 0; k < n; k++) {
+      D->colb[r0 + k] = list[k];
+      mark[list[k]] = -2 - (r0 + k);           /* position of block column list[k] in row a */
+    }
+    for (i = a * d; i < a * d + d; i++)
+      for (p = T->p[i]; p < T->p[i + 1]; p++) {
+        int j = T->i[p], b = j / d;
+        if (T->x[p] != 0) D->val[(size_t)(-2 - mark[b]) * (size_t)(d * d) + (size_t)((i - a * d) * d + j % d)] = T->x[p];
+      }
+    for (k = 0; k < n; k++) mark[list[k]] = a;
+  }
+  D->m = m;
+  D->d = d;
+  D->nb = nb;
+  D->nfree = 0;
+  D->c = 1;
+  D->hversion = D->fversion = -1;
+  D->built = 1;
+done:
+  if (st) clear(D);
+  mo_csc_free(T);
+  mo_free(mark);
+  mo_free(list);
+  return st;
 }

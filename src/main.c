@@ -30,6 +30,10 @@ static void usage(FILE *f)
           "            compare.csv, stability.csv, report.md, plots/ (default out/compare-<case>)\n"
           "  check CASE [--solver S] [--set KEY=VALUE]...\n"
           "            validate a case and build its scene without running it\n"
+          "  bench-local FILE.hdf5... [--tol T] [--vs-siconos] [--max-sweeps N] [--min-time S]\n"
+          "            [--siconos-dense]\n"
+          "            the nscd solver on FCLIB local problems: sweeps, residual, time to 1e-4\n"
+          "            and 1e-8, cost per contact update (with Siconos' NSGS side by side)\n"
           "  list-solvers   the registered contact back ends\n"
           "  keys           every case-file key with its type, range and default\n"
           "  --version, --help\n"
@@ -191,6 +195,65 @@ static int cmd_compare(int argc, char **argv, mo_ctx *ctx)
   return 0;
 }
 
+/* moreau bench-local FILE... [options] */
+static int bench_local(int argc, char **argv, mo_ctx *ctx)
+{
+  mo_bench_options o;
+  const char **files = calloc((size_t)argc, sizeof *files);
+  int i, n = 0, st;
+  if (!files) return 2;
+  mo_bench_options_default(&o);
+  for (i = 2; i < argc; i++) {
+    const char *a = argv[i];
+    char *end;
+    if (!strcmp(a, "--tol") || !strcmp(a, "--max-sweeps") || !strcmp(a, "--min-time")) {
+      if (++i >= argc) { fprintf(stderr, "moreau: %s needs a value\n", a); free(files); return 2; }
+      if (!strcmp(a, "--max-sweeps")) {
+        long v = strtol(argv[i], &end, 10);
+        if (*end || v < 1 || v > 1000000000L) { fprintf(stderr, "moreau: --max-sweeps takes a positive integer, not '%s'\n", argv[i]); free(files); return 2; }
+        o.max_sweeps = (int)v;
+      } else {
+        double v = strtod(argv[i], &end);
+        if (*end || !(v > 0) || !(v < 1e6)) { fprintf(stderr, "moreau: %s takes a positive number, not '%s'\n", a, argv[i]); free(files); return 2; }
+        if (!strcmp(a, "--tol")) o.tol = v;
+        else o.min_time = v;
+      }
+    } else if (!strcmp(a, "--vs-siconos")) {
+      o.vs_siconos = 1;
+    } else if (!strcmp(a, "--siconos-dense")) {
+      o.vs_siconos = 1;
+      o.siconos_dense = 1;
+    } else if (a[0] == '-' && a[1]) {
+      fprintf(stderr, "moreau: unknown option '%s'\n", a);
+      free(files);
+      return 2;
+    } else
+      files[n++] = a;
+  }
+  if (!n) {
+    fprintf(stderr, "moreau: bench-local needs FCLIB files (.hdf5)\n");
+    free(files);
+    return 2;
+  }
+  if (o.vs_siconos && !mo_bench_have_siconos()) {
+    fprintf(stderr, "moreau: --vs-siconos: this build has no Siconos numerics (install libsiconos-numerics-dev and configure again)\n");
+    free(files);
+    return 2;
+  }
+  if (!mo_fclib_available()) {
+    fprintf(stderr, "moreau: this build reads no FCLIB files (install libfclib-dev libhdf5-dev and configure again)\n");
+    free(files);
+    return 2;
+  }
+  st = mo_bench_local(files, n, &o, stdout, ctx);
+  free(files);
+  if (st) {
+    fprintf(stderr, "moreau: %s\n", ctx->errmsg);
+    return st == MO_EINPUT || st == MO_EIO ? 2 : 1;
+  }
+  return 0;
+}
+
 static int exit_code(int st)
 {
   return st == MO_EINPUT || st == MO_EIO ? 2 : 1;
@@ -238,6 +301,7 @@ int main(int argc, char **argv)
     ctx.interrupt = &interrupted;
     return cmd_compare(argc, argv, &ctx);
   }
+  if (!strcmp(cmd, "bench-local")) return bench_local(argc, argv, &ctx);
   if (!strcmp(cmd, "list-solvers")) {
     return mo_cli_list_solvers(stdout);
   }

@@ -1,6 +1,6 @@
 /* metrics.c: space-time errors against the closed forms, and the contact measures every back
    end is compared on: penetration, normal velocity jump in contact, oscillation index, status
-   flips, release time, impulse, energy after each impact (doc/theory.md §7). */
+   flips, release time, impulse, energy after each impact (doc/theory.md §10). */
 #include "config.h"
 #include "metrics.h"
 

@@ -1,5 +1,5 @@
 /* metrics.h: measures of a run against its reference and of its contact behaviour
-   (doc/theory.md §7), computed by the core for every back end. Private to the core. */
+   (doc/theory.md §10), computed by the core for every back end. Private to the core. */
 #ifndef MOREAU_METRICS_H
 #define MOREAU_METRICS_H
 
@@ -14,7 +14,7 @@ typedef struct mo_metrics mo_metrics;
 int mo_metrics_create(const mo_scene *sc, const mo_contact *C, mo_metrics **out, mo_ctx *ctx);
 /* Record the state after a step (and at t = 0, with D = NULL before the first step). */
 void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *D);
-/* Energy ratio E(t) / E0 (doc/theory.md §7): kinetic + elastic - external and support work,
+/* Energy ratio E(t) / E0 (doc/theory.md §10): kinetic + elastic - external and support work,
    shifted by the reference's exact energy when it gives one. */
 double mo_metrics_energy_ratio(const mo_metrics *M, const mo_state *s);
 json_t *mo_metrics_json(const mo_metrics *M);

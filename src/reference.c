@@ -79,7 +79,7 @@ static double tri(double s, double L, double *slope)
   return p - 4 * L;
 }
 
-/* Rod of length L moving at v0 toward an obstacle a distance `gap` away (T13), in rod
+/* Rod of length L moving at v0 toward an obstacle a distance `gap` away (T43), in rod
    coordinates: xi is the distance from the contact end, u along the motion. */
 static void rods(const mo_reference *R, double xi, double t, double *u, double *v, double *eps)
 {
@@ -91,7 +91,7 @@ static void rods(const mo_reference *R, double xi, double t, double *u, double *
   *eps = t > arrive && t < leave ? -v0 / c : 0;
 }
 
-/* Doyen-Ern-Piperno's benchmark in reduced variables (T14): x, t in units of L, L/c; the
+/* Doyen-Ern-Piperno's benchmark in reduced variables (T44): x, t in units of L, L/c; the
    solution for amplitude 1/2, period 3. */
 static void obstacle(double x, double t, double *u, double *v, double *eps)
 {

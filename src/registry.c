@@ -6,10 +6,12 @@
 
 #include <string.h>
 
+extern const mo_contact_solver_type mo_contact_solver_nscd;
 extern const mo_contact_solver_type mo_contact_solver_levelset;
 extern const mo_contact_solver_type mo_contact_solver_newmark;
 
 static const mo_contact_solver_type *const registry[] = {
+  &mo_contact_solver_nscd,
   &mo_contact_solver_levelset,
   &mo_contact_solver_newmark,
   NULL /* end */

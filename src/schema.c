@@ -92,6 +92,7 @@ static const mo_key core_keys[] = {
   {"contact.solver", K_STRING, NULL, NONE, 0, "\"nscd\"", "Contact back end (moreau list-solvers); --solver S overrides it.", NULL},
   {"contact.signorini", K_ENUM, "position|velocity", NONE, 0, "\"position\"", "What the unilateral condition controls for back ends on the local problem: the end-of-step gap (J88 (3.2)_1) or the normal velocity of candidates predicted closed.", NULL},
   {"contact.geometry", K_ENUM, "reference|step", NONE, 0, "\"reference\"", "Pairing: once in the reference configuration (small strains, small sliding) or again at the start of every step.", NULL},
+  {"contact.reactions", K_ENUM, "concentrated|weighted", NONE, 0, NULL, "Short form setting the reactions of every pair (it overrides contact.pairs.[].reactions).", NULL},
   {"contact.on_failure", K_ENUM, "stop|continue", NONE, 0, "\"stop\"", "A contact solve that does not converge stops the run with a diagnosis, or is counted and the run goes on.", NULL},
   {"contact.pairs", K_LIST, NULL, A(U, U, 0, 0, 1, 0), 1, NULL, "Contact pairs: a slave surface against a master (a plane or a facet set).", NULL},
   {"contact.pairs.[].name", K_STRING, NULL, NONE, 0, "pairK", "Pair name (reports, contact.csv).", NULL},

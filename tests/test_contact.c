@@ -387,6 +387,15 @@ static void test_natural_map(void)
     (void)mu;
   }
   {
+    /* frictionless and separating with no tangential velocity at all: the cone degenerates to
+       the half-line r_t = 0, r_n >= 0, and z = (-U_n, 0) projects to its apex */
+    double r[3] = {0, 0, 0}, U[3] = {2.5e4, 0, 0}, z[2] = {-3.0, 0};
+    is_close(mo_fc_natural_map_unit(2, 0.0, r, U), 0, 1e-30, "natural map: frictionless open contact, U_t = 0, exact");
+    is_close(mo_fc_natural_map_unit(3, 0.0, r, U), 0, 1e-30, "natural map: 3D frictionless open contact, U_t = 0, exact");
+    mo_fc_project_cone(2, 0.0, z);
+    ok(z[0] == 0 && z[1] == 0, "cone projection: mu = 0, z_n < 0, z_t = 0 goes to the apex");
+  }
+  {
     double z[2] = {1.0, 2.0};
     mo_fc_project_cone(2, 0.5, z);
     is_close(z[0], (1.0 + 0.5 * 2.0) / 1.25, 1e-15, "cone projection onto the surface (normal)");

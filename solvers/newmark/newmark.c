@@ -1,6 +1,6 @@
 /* newmark.c: the classical baseline of the seeds: Newmark (beta, gamma) on displacements with
    Lagrange multipliers enforcing the end-of-step Signorini condition and Coulomb's law on the
-   slip increment, solved by Alart and Curnier's generalized Newton method (doc/theory.md §6). */
+   slip increment, solved by Alart and Curnier's generalized Newton method (doc/theory.md §9). */
 #include "config.h"
 #include <moreau/contact.h>
 

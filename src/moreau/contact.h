@@ -133,7 +133,7 @@ int mo_delassus_m(const mo_delassus *D);
 int mo_delassus_dim(const mo_delassus *D);
 /* Block (alpha, beta), d x d row-major, or NULL when structurally zero. */
 const double *mo_delassus_block(const mo_delassus *D, int alpha, int beta);
-/* Row alpha: its nonzero blocks (columns beta[k], values blocks + k*d*d). */
+/* Row alpha: its nonzero blocks (columns beta[k] in increasing order, values blocks + k*d*d). */
 int mo_delassus_row(const mo_delassus *D, int alpha, const int **beta, const double **blocks);
 /* y = W x (+ beta y). */
 void mo_delassus_mult(const mo_delassus *D, const double *x, double beta, double *y);
@@ -142,6 +142,10 @@ int mo_delassus_dense(const mo_delassus *D, double **W, mo_ctx *ctx);
 /* dx = What^-1 H r over free dofs: from the stored columns, or by one solve. */
 int mo_delassus_apply_Cinv(mo_delassus *D, const mo_csc *H, mo_linsolver *ls, const double *r,
                            double *dx, mo_ctx *ctx);
+/* Set W to a given matrix (m x m column-compressed, m = dim nc): FCLIB local problems, tests,
+   benchmarks. Blocks that are entirely zero are not stored; no columns What^-1 H are kept (the
+   operator has no H), so mo_delassus_apply_Cinv does not apply to it. */
+int mo_delassus_set_matrix(mo_delassus *D, const mo_csc *W, int dim, mo_ctx *ctx);
 /* Number of stored blocks, and whether the columns What^-1 H are kept. */
 long mo_delassus_nblocks(const mo_delassus *D);
 int mo_delassus_has_columns(const mo_delassus *D);
@@ -284,6 +288,24 @@ const mo_contact_solver_type *mo_contact_solver_at(int i);
 /* Set one option of a parameter struct from its string value ("--set contact.nscd.tol=1e-8"). */
 int mo_option_set(const mo_option_spec *opts, int nopt, void *params, const char *key,
                   const char *val, mo_ctx *ctx);
+
+/* --- a back end on a given local problem (FCLIB files, benchmarks, tests) --------------------- */
+
+typedef struct mo_local_solver mo_local_solver;
+
+/* A back end that needs only the Delassus operator (MO_NEEDS_DELASSUS, not MO_NEEDS_GLOBAL), set
+   up on U = W r + q, mu (d, nc; W from mo_delassus_set_matrix). W, q and mu are borrowed: they
+   must outlive the solver. Every candidate is active. */
+int mo_local_solver_create(const mo_contact_solver_type *T, const mo_delassus *W, const double *q,
+                           const double *mu, mo_local_solver **out, mo_ctx *ctx);
+/* Set one of the back end's options (as contact.<name>.<key> would). */
+int mo_local_solver_set(mo_local_solver *L, const char *key, const char *val, mo_ctx *ctx);
+/* Solve from the reactions in r (m values; the back end's warm start), writing r, U = W r + q and
+   the statuses (nc, may be NULL). rep receives the back end's report with the natural-map
+   residual (T10) computed here as the core computes it. */
+int mo_local_solver_solve(mo_local_solver *L, double *r, double *U, int *status,
+                          mo_contact_report *rep, mo_ctx *ctx);
+void mo_local_solver_free(mo_local_solver *L);
 
 /* --- the contact step ---------------------------------------------------------------------- */
 

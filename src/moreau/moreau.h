@@ -17,6 +17,7 @@
 #include <moreau/run.h>
 #include <moreau/contact.h>
 #include <moreau/compare.h>
+#include <moreau/bench.h>
 
 #ifdef __cplusplus
 extern "C" {

@@ -89,8 +89,8 @@ typedef enum {
   MO_REF_NONE = 0,
   MO_REF_BAR_RELEASE,        /* clamped-free bar released from a uniform strain (T5) */
   MO_REF_BAR_STEP_VELOCITY,  /* clamped bar, far end given a constant velocity (T6) */
-  MO_REF_RODS_IMPACT,        /* a rod against a rigid wall, or half of two identical rods (T13) */
-  MO_REF_BAR_OBSTACLE,       /* Doyen-Ern-Piperno's bar released against an obstacle (T14) */
+  MO_REF_RODS_IMPACT,        /* a rod against a rigid wall, or half of two identical rods (T43) */
+  MO_REF_BAR_OBSTACLE,       /* Doyen-Ern-Piperno's bar released against an obstacle (T44) */
   MO_REF_ENERGY              /* only the exact total energy (potential of the loads included) */
 } mo_reference_type;
 

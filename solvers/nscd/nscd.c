@@ -1,0 +1,508 @@
+/* nscd.c: the nscd back end: Jean's nonlinear Gauss-Seidel over contacts on U = W r + q
+   (J88 §3.3, (3.3)_5-6; doc/theory.md §8), its options, and its type object. */
+#include "config.h"
+#include "nscd.h"
+
+#include <gsl/gsl_randist.h>
+#include <gsl/gsl_rng.h>
+#include <math.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <string.h>
+
+/* --- options ----------------------------------------------------------------------------------- */
+
+static const mo_option_spec nscd_options[] = {
+  {"tol", MO_OPT_DOUBLE, offsetof(nscd_params, tol), NULL, 0, 1, "1e-8",
+   "Tolerance of the stopping rule."},
+  {"stop", MO_OPT_ENUM, offsetof(nscd_params, stop), "scaled|natural|quad|maxm|sweeps", NAN, NAN, "\"scaled\"",
+   "Stopping rule: the natural-map residual of the problem scaled contact by contact (T42), the natural-map "
+   "residual as the core measures it (T10, Siconos' definition, which depends on the units), Jean's norms "
+   "of the change over a sweep (T11), or exactly max_sweeps sweeps (to replay a published run)."},
+  {"max_sweeps", MO_OPT_INT, offsetof(nscd_params, max_sweeps), NULL, 1, 1e9, "1000",
+   "Sweep limit; reaching it is a non-converged solve (contact.on_failure decides)."},
+  {"relax", MO_OPT_DOUBLE, offsetof(nscd_params, relax), NULL, 0.01, 2, "1",
+   "Relaxation omega: each contact takes omega r_local + (1 - omega) r (T37)."},
+  {"order", MO_OPT_ENUM, offsetof(nscd_params, order), "natural|reverse|shuffled", NAN, NAN, "\"natural\"",
+   "Order in which a sweep visits the contacts (shuffled: a GSL random permutation seeded by the run)."},
+  {"reshuffle", MO_OPT_BOOL, offsetof(nscd_params, reshuffle), NULL, NAN, NAN, "false",
+   "With order = \"shuffled\": a new permutation at every sweep."},
+  {"warm_start", MO_OPT_BOOL, offsetof(nscd_params, warm_start), NULL, NAN, NAN, "true",
+   "Start from the previous step's reactions (false: from zero)."},
+  {"local_tol", MO_OPT_DOUBLE, offsetof(nscd_params, local_tol), NULL, 1e-16, 1e-2, "1e-13",
+   "3D local solver: Newton stops when |phi| <= local_tol (|r| + |q_n| / W_nn) (T39)."},
+  {"local_iter", MO_OPT_INT, offsetof(nscd_params, local_iter), NULL, 1, 1000, "20",
+   "3D local solver: Newton iterations before the fallbacks (T40), (T41)."},
+};
+
+void nscd_params_default(nscd_params *p)
+{
+  p->tol = 1e-8;
+  p->stop = NSCD_STOP_SCALED;
+  p->max_sweeps = 1000;
+  p->relax = 1;
+  p->order = NSCD_ORDER_NATURAL;
+  p->reshuffle = 0;
+  p->warm_start = 1;
+  p->local_tol = 1e-13;
+  p->local_iter = 20;
+}
+
+static void nscd_defaults(void *params) { nscd_params_default(params); }
+
+/* --- state --------------------------------------------------------------------------------------- */
+
+typedef struct {
+  nscd_params p;
+  int nc, d, m;
+  /* rows of W (pointers into the core's Delassus operator, refreshed at every solve) */
+  int *rcnt;
+  const int **rcol;
+  const double **rval;
+  const double **diag;          /* W_aa */
+  /* columns: the rows transposed (sym) or a transposed copy (W not symmetric) */
+  int sym;
+  int *cp, *cb;
+  double *cv;
+  size_t ccap;
+  double *aux;                  /* nc * NSCD_AUX: per-contact data of the local solvers */
+  long hver, fver;              /* version of W the cached data were built for (-1: none) */
+  int *act, nact, *order;
+  double *U;                    /* U = W r + q kept up to date by the column updates */
+  double *rold;                 /* m: the reactions at the start of the sweep (Jean's norms) */
+  double *scale;                /* nc: 1 / W_aa,nn, the scaling of (T42) (0 when W_nn = 0) */
+  double qn2, qs2;              /* |q|^2 and |S q|^2 over the active contacts */
+  /* a GSL generator on our own memory (gsl_rng_alloc aborts on failure) */
+  gsl_rng rng;
+  void *rng_state;
+  nscd_local_stats lst;
+  nscd_params lp;               /* the parameters the local solvers see in this sweep */
+} nscd_state;
+
+static void nscd_free(void *state)
+{
+  nscd_state *S = state;
+  if (!S) return;
+  mo_free(S->rcnt);
+  mo_free(S->rcol);
+  mo_free(S->rval);
+  mo_free(S->diag);
+  mo_free(S->cp);
+  mo_free(S->cb);
+  mo_free(S->cv);
+  mo_free(S->aux);
+  mo_free(S->act);
+  mo_free(S->order);
+  mo_free(S->U);
+  mo_free(S->rold);
+  mo_free(S->scale);
+  mo_free(S->rng_state);
+  memset(S, 0, sizeof *S);
+}
+
+static int nscd_init(void *state, const void *params, const mo_contact_problem *P, mo_ctx *ctx)
+{
+  nscd_state *S = state;
+  size_t nc = (size_t)P->nc + 1;
+  memset(S, 0, sizeof *S);
+  S->p = *(const nscd_params *)params;
+  S->nc = P->nc;
+  S->d = P->dim;
+  S->m = P->m;
+  S->hver = S->fver = -1;
+  if (!P->W) return mo_error(ctx, MO_EINTERNAL, "nscd: the core gave no Delassus operator");
+  S->rcnt = mo_malloc(ctx, nc * sizeof *S->rcnt);
+  S->rcol = mo_malloc(ctx, nc * sizeof *S->rcol);
+  S->rval = mo_malloc(ctx, nc * sizeof *S->rval);
+  S->diag = mo_malloc(ctx, nc * sizeof *S->diag);
+  S->aux = mo_malloc(ctx, nc * NSCD_AUX * sizeof *S->aux);
+  S->act = mo_malloc(ctx, nc * sizeof *S->act);
+  S->order = mo_malloc(ctx, nc * sizeof *S->order);
+  S->U = mo_malloc(ctx, ((size_t)P->m + 1) * sizeof *S->U);
+  S->rold = mo_malloc(ctx, ((size_t)P->m + 1) * sizeof *S->rold);
+  S->scale = mo_malloc(ctx, nc * sizeof *S->scale);
+  S->rng_state = mo_calloc(ctx, 1, gsl_rng_mt19937->size + 1);
+  if (!S->rcnt || !S->rcol || !S->rval || !S->diag || !S->aux || !S->act || !S->order || !S->U || !S->rold ||
+      !S->scale || !S->rng_state) {
+    nscd_free(S);
+    return MO_ENOMEM;
+  }
+  S->rng.type = gsl_rng_mt19937;
+  S->rng.state = S->rng_state;
+  gsl_rng_mt19937->set(S->rng_state, ctx->seed);
+  return MO_OK;
+}
+
+/* Rows of W, and what depends on W only when it changed: its columns and the local data. */
+static int prepare_matrix(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
+{
+  const mo_delassus *W = P->W;
+  static const double zero[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+  int nb = S->nc, d = S->d, dd = d * d, a, k, sorted = 1;
+  long hver = -1, fver = -1;
+  for (a = 0; a < nb; a++) {
+    S->rcnt[a] = mo_delassus_row(W, a, &S->rcol[a], &S->rval[a]);
+    /* a candidate W does not couple to anything (no free dof moves it): it can only stay open */
+    S->diag[a] = zero;
+    for (k = 0; k < S->rcnt[a]; k++) {
+      if (S->rcol[a][k] == a) S->diag[a] = S->rval[a] + (size_t)k * (size_t)dd;
+      if (k && S->rcol[a][k] <= S->rcol[a][k - 1]) sorted = 0;
+    }
+  }
+  /* W is rebuilt by the core only when H or the factorization changed */
+  if (P->contact && P->ls) {
+    mo_linsolver_stats(P->ls, &fver, NULL, NULL);
+    hver = mo_contact_h_version(P->contact);
+    if (hver == S->hver && fver == S->fver) return MO_OK;
+  }
+  S->hver = hver;
+  S->fver = fver;
+  for (a = 0; a < nb; a++) {
+    nscd_local_prepare(d, S->diag[a], P->mu ? P->mu[a] : 0, S->aux + (size_t)a * NSCD_AUX);
+    S->scale[a] = S->diag[a][0] > 0 ? 1 / S->diag[a][0] : 0;
+  }
+  /* Symmetric W (the Delassus operator of a symmetric What): column a is row a transposed.
+     Rows are sorted by block column, so one cursor per row finds W_ba in O(nnz). */
+  S->sym = sorted;
+  if (sorted) {
+    int *cur = S->act; /* scratch */
+    double wmax = 0, asym = 0;
+    for (a = 0; a < nb; a++) cur[a] = 0;
+    for (a = 0; a < nb && S->sym; a++)
+      for (k = 0; k < S->rcnt[a]; k++) {
+        int b = S->rcol[a][k], i, j;
+        const double *B = S->rval[a] + (size_t)k * (size_t)dd, *T;
+        for (i = 0; i < dd; i++) if (fabs(B[i]) > wmax) wmax = fabs(B[i]);
+        if (b < a) continue;
+        while (cur[b] < S->rcnt[b] && S->rcol[b][cur[b]] < a) cur[b]++;
+        if (cur[b] >= S->rcnt[b] || S->rcol[b][cur[b]] != a) { S->sym = 0; break; }
+        T = S->rval[b] + (size_t)cur[b] * (size_t)dd;
+        for (i = 0; i < d; i++)
+          for (j = 0; j < d; j++)
+            if (fabs(B[i * d + j] - T[j * d + i]) > asym) asym = fabs(B[i * d + j] - T[j * d + i]);
+      }
+    if (S->sym && asym > 1e-14 * wmax) S->sym = 0;
+  }
+  if (!S->sym) {
+    /* the transposed block structure: for each block column a, its blocks W_ba */
+    size_t nnz = 0, need;
+    int *cnt;
+    for (a = 0; a < nb; a++) nnz += (size_t)S->rcnt[a];
+    need = nnz + 1;
+    if (!S->cp && !(S->cp = mo_malloc(ctx, ((size_t)nb + 1) * sizeof *S->cp))) return MO_ENOMEM;
+    if (need > S->ccap) {
+      int *cb = mo_realloc(ctx, S->cb, need * sizeof *cb);
+      double *cv;
+      if (!cb) return MO_ENOMEM;
+      S->cb = cb;
+      cv = mo_realloc(ctx, S->cv, need * (size_t)dd * sizeof *cv);
+      if (!cv) return MO_ENOMEM;
+      S->cv = cv;
+      S->ccap = need;
+    }
+    cnt = S->act; /* scratch */
+    for (a = 0; a <= nb; a++) S->cp[a] = 0;
+    for (a = 0; a < nb; a++)
+      for (k = 0; k < S->rcnt[a]; k++) S->cp[S->rcol[a][k] + 1]++;
+    for (a = 0; a < nb; a++) S->cp[a + 1] += S->cp[a];
+    for (a = 0; a < nb; a++) cnt[a] = S->cp[a];
+    for (a = 0; a < nb; a++)
+      for (k = 0; k < S->rcnt[a]; k++) {
+        int b = S->rcol[a][k], pos = cnt[b]++;
+        S->cb[pos] = a;
+        memcpy(S->cv + (size_t)pos * (size_t)dd, S->rval[a] + (size_t)k * (size_t)dd, (size_t)dd * sizeof(double));
+      }
+    mo_log(ctx, 3, "nscd: W is not symmetric; columns copied (%zu blocks)\n", nnz);
+  }
+  return MO_OK;
+}
+
+/* U = W r + q over every candidate (exact; also resets the drift of the column updates). */
+static void exact_U(nscd_state *S, const mo_contact_problem *P, const double *r)
+{
+  int i;
+  mo_delassus_mult(P->W, r, 0, S->U);
+  for (i = 0; i < S->m; i++) S->U[i] += P->b[i];
+}
+
+/* The natural-map residual over the active candidates: as the core computes it (T10), or of the
+   problem whose local velocities are scaled contact by contact by 1 / W_aa,nn (T42). */
+static double residual(const nscd_state *S, const mo_contact_problem *P, const double *r, int scaled)
+{
+  int d = S->d, k, i;
+  double e = 0, rn = 0, un = 0, den = sqrt(scaled ? S->qs2 : S->qn2);
+  for (k = 0; k < S->nact; k++) {
+    int a = S->act[k];
+    const double *ra = r + a * d, *Ua = S->U + a * d, s = scaled ? S->scale[a] : 1;
+    double Us[3];
+    if (scaled) {
+      for (i = 0; i < d; i++) Us[i] = s * Ua[i];
+      Ua = Us;
+    }
+    e += mo_fc_natural_map_unit(d, P->mu ? P->mu[a] : 0, ra, Ua);
+    for (i = 0; i < d; i++) {
+      rn += ra[i] * ra[i];
+      un += Ua[i] * Ua[i];
+    }
+  }
+  if (sqrt(rn) > den) den = sqrt(rn);
+  if (sqrt(un) > den) den = sqrt(un);
+  return den > 1e-300 ? sqrt(e) / den : sqrt(e);
+}
+
+/* One sweep over the active contacts in S->order (J88 (3.3)_5-6 solved contact by contact,
+   doc/theory.md (T36)-(T37)). U is kept equal to W r + q by adding column a of W times the
+   change of r_a, so that the next contact reads its local free term from U, and a contact whose
+   reaction does not change (open and staying open) costs only its local test. Returns the
+   contact that broke down, or -1. */
+static inline int sweep(nscd_state *S, const mo_contact_problem *P, double *r, int *status,
+                        const int d)
+{
+  const int dd = d * d, sym = S->sym;
+  const double omega = S->p.relax, *mu = P->mu;
+  int k, i, j;
+  for (k = 0; k < S->nact; k++) {
+    const int a = S->order[k];
+    const double *Waa = S->diag[a];
+    double *ra = r + a * d, *Ua = S->U + a * d, ql[3], rl[3], dr[3];
+    int s, nz = 0;
+    /* local free term: q_a + sum_{b != a} W_ab r_b = U_a - W_aa r_a */
+    for (i = 0; i < d; i++) {
+      double acc = Ua[i];
+      for (j = 0; j < d; j++) acc -= Waa[i * d + j] * ra[j];
+      ql[i] = acc;
+      rl[i] = ra[i];
+    }
+    s = nscd_local_solve(d, Waa, S->aux + (size_t)a * NSCD_AUX, ql, mu ? mu[a] : 0, rl, &S->lp, &S->lst);
+    if (s < 0) return a;
+    status[a] = s;
+    for (i = 0; i < d; i++) {
+      if (omega != 1) rl[i] = omega * rl[i] + (1 - omega) * ra[i];     /* (T37) */
+      dr[i] = rl[i] - ra[i];
+      nz |= dr[i] != 0;
+    }
+    if (nz) {
+      /* U += (column a of W) dr */
+      if (sym) {
+        const int n = S->rcnt[a], *cb = S->rcol[a];
+        const double *B = S->rval[a];
+        for (j = 0; j < n; j++, B += dd) {
+          double *Ub = S->U + cb[j] * d;
+          if (d == 3) {
+            Ub[0] += B[0] * dr[0] + B[3] * dr[1] + B[6] * dr[2];
+            Ub[1] += B[1] * dr[0] + B[4] * dr[1] + B[7] * dr[2];
+            Ub[2] += B[2] * dr[0] + B[5] * dr[1] + B[8] * dr[2];
+          } else if (d == 2) {
+            Ub[0] += B[0] * dr[0] + B[2] * dr[1];
+            Ub[1] += B[1] * dr[0] + B[3] * dr[1];
+          } else
+            Ub[0] += B[0] * dr[0];
+        }
+      } else {
+        const int p0 = S->cp[a], p1 = S->cp[a + 1], *cb = S->cb;
+        const double *B = S->cv + (size_t)p0 * (size_t)dd;
+        for (j = p0; j < p1; j++, B += dd) {
+          double *Ub = S->U + cb[j] * d;
+          if (d == 3) {
+            Ub[0] += B[0] * dr[0] + B[1] * dr[1] + B[2] * dr[2];
+            Ub[1] += B[3] * dr[0] + B[4] * dr[1] + B[5] * dr[2];
+            Ub[2] += B[6] * dr[0] + B[7] * dr[1] + B[8] * dr[2];
+          } else if (d == 2) {
+            Ub[0] += B[0] * dr[0] + B[1] * dr[1];
+            Ub[1] += B[2] * dr[0] + B[3] * dr[1];
+          } else
+            Ub[0] += B[0] * dr[0];
+        }
+      }
+      for (i = 0; i < d; i++) ra[i] = rl[i];
+    }
+  }
+  return -1;
+}
+
+static int sweep1(nscd_state *S, const mo_contact_problem *P, double *r, int *st) { return sweep(S, P, r, st, 1); }
+static int sweep2(nscd_state *S, const mo_contact_problem *P, double *r, int *st) { return sweep(S, P, r, st, 2); }
+static int sweep3(nscd_state *S, const mo_contact_problem *P, double *r, int *st) { return sweep(S, P, r, st, 3); }
+
+/* Jean's norms (T11) of the change of a sweep, from the reactions before and after it:
+   dU_a = W_aa (r_a - rold_a), weighted by |r_a|, over the active contacts. */
+static void jean_norms(const nscd_state *S, const double *rold, const double *r, double *quad, double *maxm)
+{
+  int d = S->d, k, i, j, nact = 0;
+  double sdd = 0, swrr = 0, mx = 0;
+  for (k = 0; k < S->nact; k++) {
+    int a = S->act[k];
+    const double *Waa = S->diag[a], *ra = r + a * d, *ro = rold + a * d;
+    double dU2 = 0, rr = 0, wrr = 0;
+    for (i = 0; i < d; i++) {
+      double wi = 0, di = 0;
+      for (j = 0; j < d; j++) {
+        di += Waa[i * d + j] * (ra[j] - ro[j]);
+        wi += Waa[i * d + j] * ra[j];
+      }
+      dU2 += di * di;
+      rr += ra[i] * ra[i];
+      wrr += wi * ra[i];
+    }
+    if (rr > 0) nact++;
+    sdd += dU2 * rr;
+    swrr += wrr;
+    if (sqrt(dU2 * rr) > mx) mx = sqrt(dU2 * rr);
+  }
+  *quad = swrr > 0 ? sqrt(sdd) / swrr : 0;
+  *maxm = swrr > 0 && nact ? mx / (swrr / nact) : 0;
+}
+
+/* "candidate 12 (node 13)" */
+static int name_candidate(const mo_contact_problem *P, int a, char *buf, size_t n)
+{
+  const mo_candidate *c = P->contact ? mo_contact_candidate(P->contact, a) : NULL;
+  if (c && c->node >= 0) return snprintf(buf, n, "candidate %d (node %d)", a, c->node);
+  return snprintf(buf, n, "candidate %d", a);
+}
+
+/* The message of a non-converged solve: the three candidates farthest from the law. */
+static void worst_candidates(const nscd_state *S, const mo_contact_problem *P, const double *r,
+                             mo_contact_report *rep)
+{
+  int worst[3] = {-1, -1, -1}, k, i, len;
+  double we[3] = {-1, -1, -1};
+  for (k = 0; k < S->nact; k++) {
+    int a = S->act[k];
+    double e = sqrt(mo_fc_natural_map_unit(S->d, P->mu ? P->mu[a] : 0, r + a * S->d, S->U + a * S->d));
+    for (i = 0; i < 3; i++)
+      if (e > we[i]) {
+        int j;
+        for (j = 2; j > i; j--) { we[j] = we[j - 1]; worst[j] = worst[j - 1]; }
+        we[i] = e;
+        worst[i] = a;
+        break;
+      }
+  }
+  len = snprintf(rep->message, sizeof rep->message, "largest local residuals at");
+  for (i = 0; i < 3 && worst[i] >= 0 && len < (int)sizeof rep->message - 1; i++) {
+    char nm[64];
+    name_candidate(P, worst[i], nm, sizeof nm);
+    len += snprintf(rep->message + len, sizeof rep->message - (size_t)len, "%s %s (%.2e)", i ? "," : "", nm, we[i]);
+  }
+}
+
+static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x,
+                      mo_contact_report *rep, mo_ctx *ctx)
+{
+  nscd_state *S = state;
+  const nscd_params *p = &S->p;
+  int d = S->d, m = S->m, a, k, i, st, sweeps = 0, broke = -1, conv = 0;
+  double *r = x->r, quad = 0, maxm = 0, res = HUGE_VAL;
+  const int scaled = p->stop == NSCD_STOP_SCALED;
+  int (*do_sweep)(nscd_state *, const mo_contact_problem *, double *, int *) =
+      d == 3 ? sweep3 : d == 2 ? sweep2 : sweep1;
+  if (P->nc != S->nc || P->dim != S->d || !P->W)
+    return mo_error(ctx, MO_EINTERNAL, "nscd: the problem changed size (%d x %d, was %d x %d)", P->nc, P->dim, S->nc, S->d);
+  if ((st = prepare_matrix(S, P, ctx))) return st;
+  /* the active contacts, in the chosen order */
+  S->nact = 0;
+  for (a = 0; a < S->nc; a++) {
+    if (P->active && !P->active[a]) {
+      for (i = 0; i < d; i++) r[a * d + i] = 0;
+      x->status[a] = MO_CS_OPEN;
+      continue;
+    }
+    S->act[S->nact++] = a;
+  }
+  S->qn2 = S->qs2 = 0;
+  for (k = 0; k < S->nact; k++) {
+    double q2 = 0;
+    a = S->act[k];
+    for (i = 0; i < d; i++) q2 += P->b[a * d + i] * P->b[a * d + i];
+    S->qn2 += q2;
+    S->qs2 += S->scale[a] * S->scale[a] * q2;
+  }
+  for (k = 0; k < S->nact; k++) S->order[k] = S->act[p->order == NSCD_ORDER_REVERSE ? S->nact - 1 - k : k];
+  if (p->order == NSCD_ORDER_SHUFFLED) gsl_ran_shuffle(&S->rng, S->order, (size_t)S->nact, sizeof(int));
+  if (!p->warm_start) memset(r, 0, (size_t)m * sizeof *r);
+  for (i = 0; i < m; i++)
+    if (!isfinite(r[i])) { memset(r, 0, (size_t)m * sizeof *r); break; }
+  exact_U(S, P, r);
+  memset(&S->lst, 0, sizeof S->lst);
+  S->lp = *p;
+  while (sweeps < p->max_sweeps) {
+    if (ctx->interrupt && *ctx->interrupt) break;
+    if (sweeps && p->order == NSCD_ORDER_SHUFFLED && p->reshuffle)
+      gsl_ran_shuffle(&S->rng, S->order, (size_t)S->nact, sizeof(int));
+    /* the 3D Newton solves to 1e-2 of the last residual (never looser than 1e-4, never tighter
+       than local_tol): early sweeps need no exact local solve, the last ones get it */
+    if (res < HUGE_VAL) S->lp.local_tol = fmax(p->local_tol, fmin(1e-4, 1e-2 * res));
+    memcpy(S->rold, r, (size_t)m * sizeof *r);
+    broke = do_sweep(S, P, r, x->status);
+    sweeps++;
+    if (broke >= 0) break;
+    if (p->stop == NSCD_STOP_NATURAL || scaled) {
+      res = residual(S, P, r, scaled);
+      if (res <= p->tol || !isfinite(res)) {
+        /* confirm on the exact U (the column updates drift by round-off) */
+        exact_U(S, P, r);
+        res = residual(S, P, r, scaled);
+        if (res <= p->tol) { conv = 1; break; }
+        if (!isfinite(res)) break;
+      }
+    } else if (p->stop == NSCD_STOP_QUAD || p->stop == NSCD_STOP_MAXM) {
+      jean_norms(S, S->rold, r, &quad, &maxm);
+      if ((p->stop == NSCD_STOP_QUAD ? quad : maxm) <= p->tol) {
+        conv = 1;
+        break;
+      }
+    }
+  }
+  /* a fixed number of sweeps was asked for: done unless interrupted */
+  if (p->stop == NSCD_STOP_SWEEPS && broke < 0 && sweeps == p->max_sweeps) conv = 1;
+  /* U is exact already when a residual rule has just confirmed convergence */
+  if (!(conv && (scaled || p->stop == NSCD_STOP_NATURAL))) exact_U(S, P, r);
+  memcpy(x->U, S->U, (size_t)m * sizeof *x->U);
+  /* Jean's norms of the last sweep (the quad and maxm rules have them already) */
+  if (sweeps && p->stop != NSCD_STOP_QUAD && p->stop != NSCD_STOP_MAXM) jean_norms(S, S->rold, r, &quad, &maxm);
+  rep->iterations = sweeps;
+  rep->quad = quad;
+  rep->maxm = maxm;
+  if (broke >= 0) {
+    const double *Waa = S->diag[broke];
+    char nm[64];
+    name_candidate(P, broke, nm, sizeof nm);
+    rep->reason = MO_CR_BREAKDOWN;
+    snprintf(rep->message, sizeof rep->message,
+             "the local problem of %s has no solution or broke down (W_nn = %.3e, friction %.3g): "
+             "a candidate the scene cannot push back", nm, Waa[0], P->mu ? P->mu[broke] : 0.0);
+  } else if (conv) {
+    rep->reason = MO_CR_CONVERGED;
+  } else {
+    res = residual(S, P, r, scaled);
+    rep->reason = isfinite(res) ? MO_CR_MAXITER : MO_CR_NAN;
+    if (ctx->interrupt && *ctx->interrupt) snprintf(rep->message, sizeof rep->message, "interrupted");
+    else worst_candidates(S, P, r, rep);
+  }
+  mo_log(ctx, 3, "nscd: %d sweeps of %d contacts, %ld Newton steps, %ld stalls (%ld slip-angle, %ld projection, "
+         "%ld unsolved)\n", sweeps, S->nact, S->lst.newton, S->lst.fallbacks, S->lst.angle, S->lst.projection,
+         S->lst.failures);
+  if (S->lst.failures)
+    mo_log(ctx, 2, "nscd: %ld 3D local solves met no tolerance (the candidate closest to the law was kept)\n",
+           S->lst.failures);
+  return MO_OK;
+}
+
+/* --- the type -------------------------------------------------------------------------------------- */
+
+const mo_contact_solver_type mo_contact_solver_nscd = {
+  "nscd",
+  "Jean's nonsmooth contact dynamics: nonlinear Gauss-Seidel over contacts on the Delassus operator",
+  sizeof(nscd_state),
+  sizeof(nscd_params),
+  MO_NEEDS_DELASSUS,
+  (1u << MO_SCHEME_THETA) | (1u << MO_SCHEME_NEWMARK) | (1u << MO_SCHEME_QUASISTATIC),
+  nscd_options,
+  (int)MO_COUNT(nscd_options),
+  nscd_defaults,
+  nscd_init,
+  nscd_solve,
+  nscd_free,
+  NULL /* the case's time scheme */
+};
