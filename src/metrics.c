@@ -29,8 +29,8 @@ struct mo_metrics {
   int closed_prev;           /* number of candidates in contact at the previous step */
   unsigned char *incontact;  /* per candidate, at the previous step */
   double gtol;               /* a gap above this is open (1e-9 of the smallest element) */
-  int nimpact;
-  double impact_energy[MAX_IMPACTS], impact_time[MAX_IMPACTS];
+  int nimpact, nimpact_total;    /* the first MAX_IMPACTS are listed, all are counted */
+  double impact_energy[MAX_IMPACTS], impact_time[MAX_IMPACTS], last_impact_energy, last_impact_time;
   int started;
 };
 
@@ -181,9 +181,14 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
         M->impulse += r[a * d] * (sc->time.scheme == MO_SCHEME_THETA ? 1 : h);
     }
     /* the end of an impact: every candidate open again after some were closed */
-    if (M->closed_prev > 0 && closed == 0 && M->nimpact < MAX_IMPACTS) {
-      M->impact_energy[M->nimpact] = mo_metrics_energy_ratio(M, s);
-      M->impact_time[M->nimpact++] = s->t;
+    if (M->closed_prev > 0 && closed == 0) {
+      M->last_impact_energy = mo_metrics_energy_ratio(M, s);
+      M->last_impact_time = s->t;
+      M->nimpact_total++;
+      if (M->nimpact < MAX_IMPACTS) {
+        M->impact_energy[M->nimpact] = M->last_impact_energy;
+        M->impact_time[M->nimpact++] = s->t;
+      }
     }
     M->closed_prev = closed;
   }
@@ -231,6 +236,12 @@ json_t *mo_metrics_json(const mo_metrics *M)
     }
     json_object_set_new(c, "energy_after_impacts", imp);
     json_object_set_new(c, "impact_end_times", impt);
+    /* a chattering contact ends many impacts: the lists hold the first MAX_IMPACTS */
+    json_object_set_new(c, "impacts", json_integer(M->nimpact_total));
+    if (M->nimpact_total) {
+      json_object_set_new(c, "energy_after_last_impact", json_real(M->last_impact_energy));
+      json_object_set_new(c, "last_impact_end_time", json_real(M->last_impact_time));
+    }
     json_object_set_new(j, "contact", c);
   }
   return j;

@@ -187,13 +187,33 @@ static const char *scheme_name(mo_scheme s)
 
 static json_t *contact_json(const mo_contact *C, const mo_contact_driver *D);
 
+/* Linear momentum of every body, p_b = sum over its dofs of (M v) per direction, into
+   p[3 b + i] (zero for rigid planes and quasi-static scenes). work: ndof. The balance
+   p(T) - p(0) = external impulse + contact impulse + support reactions is the check of a
+   scene without a closed form (CASES.md §4). */
+static void body_momenta(const mo_scene *sc, const double *v, double *work, double *p)
+{
+  int b, a, i;
+  for (i = 0; i < 3 * sc->nbody; i++) p[i] = 0;
+  if (!sc->M || !v) return;
+  mo_csc_gaxpy(sc->M, 1, v, 0, work);
+  for (b = 0; b < sc->nbody; b++) {
+    const mo_body *B = &sc->body[b];
+    if (B->kind != MO_BODY_DEFORMABLE) continue;
+    for (a = 0; a < B->mesh->nnode; a++)
+      for (i = 0; i < sc->dim; i++) p[3 * b + i] += work[B->dof0 + a * sc->dim + i];
+  }
+}
+
 static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
                          const mo_stepper *S, const mo_state *s, const mo_contact *C,
                          const mo_contact_driver *drv, const mo_metrics *met, const column *cols, int ncol,
                          const char *const *names, double e0, double e1, double drift,
                          double balance, double growth, int complete, const char *reason,
-                         double wall, mo_ctx *ctx)
+                         double wall, const double *p0, mo_ctx *ctx)
 {
+  double *pw = NULL, *p1 = NULL;
+  int pw_fail = 0;
   json_t *root = json_object(), *scene = json_object(), *bodies = json_array(), *time = json_object();
   json_t *energy = json_object(), *metrics = json_object(), *skipped = json_array(), *ls = json_object();
   char path[4200], *text;
@@ -230,6 +250,22 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
         json_object_set_new(jb, "elements", json_integer(B->mesh->nelem));
         json_object_set_new(jb, "hypothesis", json_string(mo_hyp_name(B->mat.hyp)));
         json_object_set_new(jb, "mass", json_real(B->mass));
+        if (p0 && s && sc->M) {
+          json_t *ji = json_array(), *jf = json_array();
+          int i;
+          if (!pw) {
+            pw = mo_malloc(ctx, ((size_t)sc->ndof + 1) * sizeof *pw);
+            p1 = mo_malloc(ctx, (3 * (size_t)sc->nbody + 1) * sizeof *p1);
+            if (pw && p1) body_momenta(sc, s->v, pw, p1);
+            else pw_fail = 1;
+          }
+          for (i = 0; i < sc->dim && pw && p1; i++) {
+            json_array_append_new(ji, json_real(p0[3 * b + i]));
+            json_array_append_new(jf, json_real(p1[3 * b + i]));
+          }
+          json_object_set_new(jb, "momentum_initial", ji);
+          json_object_set_new(jb, "momentum_final", jf);
+        }
       }
       json_array_append_new(bodies, jb);
     }
@@ -304,7 +340,9 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
     if (getrusage(RUSAGE_SELF, &ru) == 0)
       json_object_set_new(root, "peak_rss_bytes", json_integer((json_int_t)ru.ru_maxrss * 1024));
   }
-  text = json_dumps(root, JSON_INDENT(2) | JSON_PRESERVE_ORDER | JSON_REAL_PRECISION(12));
+  mo_free(pw);
+  mo_free(p1);
+  text = pw_fail ? NULL : json_dumps(root, JSON_INDENT(2) | JSON_PRESERVE_ORDER | JSON_REAL_PRECISION(12));
   json_decref(root);
   if (!text) return mo_error(ctx, MO_ENOMEM, "cannot format summary.json");
   snprintf(path, sizeof path, "%s/summary.json", dir);
@@ -391,7 +429,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   column *cols = NULL;
   contact_view cv;
   char **names = NULL, *namebuf = NULL, outdir[4096], path[4200];
-  double *row = NULL, *work = NULL, start = mo_clock(), e0 = 0, e1 = 0, drift = 0, balance = 0;
+  double *row = NULL, *work = NULL, *p0 = NULL, start = mo_clock(), e0 = 0, e1 = 0, drift = 0, balance = 0;
   double emax_growth = 0;
   int st, ncol = 0, nprobecol = 0, nexact = 0, k, p, complete = 0, ecol0 = 0, ccol0 = 0, table = 0, x0col;
   char reason[MO_ERRMSG_MAX] = "";
@@ -504,6 +542,11 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   prog.start = prog.last = mo_clock();
   mo_metrics_step(met, &s, NULL);
   e0 = mo_energy_kinetic(sc, s.v, work) + mo_energy_elastic(sc, s.u, work);
+  if (!(p0 = mo_malloc(ctx, (3 * (size_t)sc->nbody + 1) * sizeof *p0))) {
+    st = MO_ENOMEM;
+    goto done;
+  }
+  body_momenta(sc, s.v, work, p0);
 
   for (;;) {
     int last = s.step == sc->time.steps, write_row = s.step % sc->out.every == 0 || last;
@@ -603,7 +646,7 @@ done:
     mo_ctx_clear_error(ctx);
     st2 = write_summary(outdir, cs, sc, S, s.u ? &s : NULL, C, drv, met, cols, nprobecol,
                         (const char *const *)names, e0, e1, drift, balance, emax_growth, complete, reason,
-                        res->wall, ctx);
+                        res->wall, p0, ctx);
     if (!st2 && drv && s.u && s.step > 0) {
       snprintf(path, sizeof path, "%s/contact.csv", outdir);
       st2 = mo_contact_write_csv(path, sc, C, drv, &s, ctx);
@@ -623,6 +666,7 @@ done:
   mo_free(namebuf);
   mo_free(row);
   mo_free(work);
+  mo_free(p0);
   mo_free(cv.Rfull);
   mo_state_release(&s);
   mo_contact_driver_free(drv);
