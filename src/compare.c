@@ -78,6 +78,9 @@ static void read_summary(run_row *r, colset *C)
   snprintf(path, sizeof path, "%s/summary.json", r->outdir);
   root = json_load_file(path, 0, &err);
   if (!root) return;
+  /* the step the run took, when the grid sets it (--vary time.dt=...) rather than --dt */
+  if (isnan(r->dt) && (m = json_object_get(root, "time")) && json_is_number(json_object_get(m, "dt")))
+    r->dt = json_number_value(json_object_get(m, "dt"));
   if ((m = json_object_get(root, "metrics"))) flatten(m, "", C, r);
   if ((m = json_object_get(root, "energy"))) flatten(m, "energy", C, r);
   if ((m = json_object_get(root, "contact"))) flatten(m, "contact", C, r);
@@ -182,6 +185,50 @@ static void sb_printf(sbuf *b, const char *fmt, ...)
       b->cap = cap;
     }
   }
+}
+
+/* Axes of a stability map. A numeric parameter spanning two decades or more (positive) gets a
+   log axis; a parameter with a non-numeric value (a scheme name, say) is plotted at the index
+   of its value, labelled. */
+static int vary_numeric(const mo_compare_vary *V, double *lo, double *hi)
+{
+  int k;
+  *lo = HUGE_VAL;
+  *hi = -HUGE_VAL;
+  for (k = 0; k < V->nval; k++) {
+    char *end;
+    double x = strtod(V->val[k], &end);
+    if (end == V->val[k] || *end || !isfinite(x)) return 0;
+    if (x < *lo) *lo = x;
+    if (x > *hi) *hi = x;
+  }
+  return V->nval > 0;
+}
+
+static void axis_coord(const mo_compare_vary *V, const char *val, char *out, size_t n)
+{
+  double lo, hi;
+  int k;
+  if (vary_numeric(V, &lo, &hi)) {
+    snprintf(out, n, "%s", val);
+    return;
+  }
+  for (k = 0; k < V->nval; k++)
+    if (!strcmp(V->val[k], val)) break;
+  snprintf(out, n, "%d", k);
+}
+
+static void axis_setup(sbuf *gp, const mo_compare_vary *V, char axis)
+{
+  double lo, hi;
+  int k;
+  if (vary_numeric(V, &lo, &hi)) {
+    if (lo > 0 && hi >= 100 * lo) sb_printf(gp, "set logscale %c\nset format %c '%%.0e'\n", axis, axis);
+    return;
+  }
+  sb_printf(gp, "set %ctics (", axis);
+  for (k = 0; k < V->nval; k++) sb_printf(gp, "%s'%s' %d", k ? ", " : "", V->val[k], k);
+  sb_printf(gp, ")\n");
 }
 
 /* Column number (1-based, gnuplot) of `name` in a CSV header, 0 when absent. */
@@ -388,8 +435,8 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
       }
       for (i = 0; i < 2; i++) {
         int s2;
-        sb_printf(&gp, "%s", i == 0 ? "set terminal pngcairo size 900,600\nset output 'work-precision.png'\nplot "
-                                     : "set terminal svg size 900,600\nset output 'work-precision.svg'\nreplot\n");
+        sb_printf(&gp, "%s", i == 0 ? "set terminal pngcairo noenhanced size 900,600\nset output 'work-precision.png'\nplot "
+                                     : "set terminal svg noenhanced size 900,600\nset output 'work-precision.svg'\nreplot\n");
         if (i == 0)
           for (s2 = 0; s2 < nsol; s2++) {
             char nm[128];
@@ -446,8 +493,8 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
                     "set datafile separator ','\nset key autotitle columnhead outside right\nset grid\n"
                     "set xlabel 't (s)'\nset ylabel '%s'\nset title '%s'\n", probe, probe, probe);
           for (t2 = 0; t2 < 2; t2++) {
-            sb_printf(&gp, t2 == 0 ? "set terminal pngcairo size 900,600\nset output 'history-%s.png'\nplot " :
-                                     "set terminal svg size 900,600\nset output 'history-%s.svg'\nreplot\n", nm);
+            sb_printf(&gp, t2 == 0 ? "set terminal pngcairo noenhanced size 900,600\nset output 'history-%s.png'\nplot " :
+                                     "set terminal svg noenhanced size 900,600\nset output 'history-%s.svg'\nreplot\n", nm);
             if (t2) continue;
             for (i = 0; i < nsol; i++) {
               /* the run of this solver with the smallest dt at the first grid point */
@@ -492,8 +539,8 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
                   "set datafile separator ','\nset key outside right\nset grid\nset xlabel 't (s)'\n"
                   "set ylabel 'E(t) / E0'\nset title 'energy'\n");
         for (t2 = 0; t2 < 2; t2++) {
-          sb_printf(&gp, "%s", t2 == 0 ? "set terminal pngcairo size 900,600\nset output 'energy.png'\nplot "
-                                       : "set terminal svg size 900,600\nset output 'energy.svg'\nreplot\n");
+          sb_printf(&gp, "%s", t2 == 0 ? "set terminal pngcairo noenhanced size 900,600\nset output 'energy.png'\nplot "
+                                       : "set terminal svg noenhanced size 900,600\nset output 'energy.svg'\nreplot\n");
           if (t2) continue;
           for (i = 0; i < nsol; i++) {
             int rb = -1, ce;
@@ -531,9 +578,13 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
         int two = opt->nvary >= 2, cls;
         slug(rows[i * ndt * ngrid].solver, nm, sizeof nm);
         for (r = 0; r < nrun; r++) {
+          char xs[32], ys[32];
           if (strcmp(rows[r].solver, rows[i * ndt * ngrid].solver)) continue;
           cls = !strcmp(rows[r].cls, "stable") ? 0 : !strcmp(rows[r].cls, "unstable") ? 1 : 2;
-          sb_printf(&dat, "%s,%s,%d,%.6g\n", rows[r].vary[0], two ? rows[r].vary[1] : "0", cls, rows[r].dt);
+          axis_coord(&opt->vary[0], rows[r].vary[0], xs, sizeof xs);
+          if (two) axis_coord(&opt->vary[1], rows[r].vary[1], ys, sizeof ys);
+          else snprintf(ys, sizeof ys, "0");
+          sb_printf(&dat, "%s,%s,%d,%.6g\n", xs, ys, cls, rows[r].dt);
         }
         snprintf(path, sizeof path, "%s/plots/stability-%s.csv", dir, nm);
         if (dat.s) write_text(path, dat.s, ctx);
@@ -542,10 +593,13 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
                   "set datafile separator ','\nset grid\nset xlabel '%s'\nset ylabel '%s'\n"
                   "set title 'stability: %s'\nset key outside right\n",
                   rows[i * ndt * ngrid].solver, opt->vary[0].key, two ? opt->vary[1].key : "", rows[i * ndt * ngrid].solver);
-        sb_printf(&gp, "# switch to log axes for parameters spanning decades: set logscale x\n");
+        axis_setup(&gp, &opt->vary[0], 'x');
+        if (two) axis_setup(&gp, &opt->vary[1], 'y');
+        else sb_printf(&gp, "unset ytics\n");
+        sb_printf(&gp, "set offsets graph 0.05, graph 0.05, graph 0.08, graph 0.08\n");
         for (j = 0; j < 2; j++) {
-          sb_printf(&gp, j == 0 ? "set terminal pngcairo size 900,600\nset output 'stability-%s.png'\n"
-                                : "set terminal svg size 900,600\nset output 'stability-%s.svg'\n", nm);
+          sb_printf(&gp, j == 0 ? "set terminal pngcairo noenhanced size 900,600\nset output 'stability-%s.png'\n"
+                                : "set terminal svg noenhanced size 900,600\nset output 'stability-%s.svg'\n", nm);
           sb_printf(&gp, "plot 'stability-%s.csv' using 1:($3==0?$2:1/0) with points pt 7 ps 2 lc rgb '#2a9d2a' title 'stable', "
                     "'' using 1:($3==1?$2:1/0) with points pt 7 ps 2 lc rgb '#e69500' title 'unstable', "
                     "'' using 1:($3==2?$2:1/0) with points pt 7 ps 2 lc rgb '#d62728' title 'failure'\n", nm);
@@ -569,15 +623,42 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
   sb_printf(&b, "%d runs: %d stable, %d unstable, %d failed. Every run's outputs are under `runs/`; "
             "all metrics are in `compare.csv`%s; figures in `plots/` (gnuplot scripts kept).\n\n",
             nrun, res->nstable, res->nunstable, res->nfailed, opt->nvary ? ", the classification in `stability.csv`" : "");
-  sb_printf(&b, "| run | solver | dt | wall (s) | steps | class |%s%s\n", metric_col >= 0 ? " " : "",
-            metric_col >= 0 ? C->name[metric_col] : "");
-  sb_printf(&b, "| --- | --- | --- | --- | --- | --- |%s\n", metric_col >= 0 ? " --- |" : "");
-  for (r = 0; r < nrun; r++) {
-    run_row *R = &rows[r];
-    sb_printf(&b, "| %s | %s | %g | %.3f | %ld | %s%s%s |", R->label, R->solver, R->dt, R->wall, R->steps, R->cls,
-              R->why[0] ? ": " : "", R->why);
-    if (metric_col >= 0) sb_printf(&b, " %.4g |", R->val[metric_col]);
+  {
+    /* the chosen error, then the measures the seeds' comparisons turn on (doc/theory.md §10),
+       those the runs have */
+    static const char *key[] = {"contact.oscillation_index", "contact.max_vn_in_contact",
+                                "contact.impulse_error", "contact.release_time_error",
+                                "energy.ratio_mechanical", "contact.iterations_mean"};
+    static const char *head[] = {"osc. index", "max vn in contact", "impulse err.", "release err.",
+                                 "E(T)/E_ref", "iter./step"};
+    int show[8], ns = 0, kk, jj;
+    if (metric_col >= 0) show[ns++] = metric_col;
+    for (kk = 0; kk < (int)(sizeof key / sizeof key[0]); kk++) {
+      int c = col_index(C, key[kk]), any = 0;
+      if (c < 0 || c == metric_col) continue;
+      for (r = 0; r < nrun; r++) any |= !isnan(rows[r].val[c]);
+      if (any) show[ns++] = c;
+    }
+    sb_printf(&b, "| run | solver | dt | wall (s) | steps | class |");
+    for (jj = 0; jj < ns; jj++) {
+      const char *h = C->name[show[jj]];
+      for (kk = 0; kk < (int)(sizeof key / sizeof key[0]); kk++)
+        if (!strcmp(h, key[kk])) h = head[kk];
+      sb_printf(&b, " %s |", h);
+    }
+    sb_printf(&b, "\n| --- | --- | --- | --- | --- | --- |");
+    for (jj = 0; jj < ns; jj++) sb_printf(&b, " --- |");
     sb_printf(&b, "\n");
+    for (r = 0; r < nrun; r++) {
+      run_row *R = &rows[r];
+      sb_printf(&b, "| %s | %s | %g | %.3f | %ld | %s%s%s |", R->label, R->solver, R->dt, R->wall, R->steps, R->cls,
+                R->why[0] ? ": " : "", R->why);
+      for (jj = 0; jj < ns; jj++) {
+        if (isnan(R->val[show[jj]])) sb_printf(&b, " |");
+        else sb_printf(&b, " %.4g |", R->val[show[jj]]);
+      }
+      sb_printf(&b, "\n");
+    }
   }
   sb_printf(&b, "\n");
   for (r = 0; r < nrun; r++)

@@ -10,6 +10,13 @@ extern "C" {
 
 #define MO_COMPARE_MAX_VARY 4
 
+/* One --vary KEY=v1,v2,... */
+typedef struct {
+  const char *key;
+  int nval;
+  const char *const *val;
+} mo_compare_vary;
+
 typedef struct {
   const char *case_path;
   int nsolver;
@@ -17,11 +24,7 @@ typedef struct {
   int ndt;
   const double *dt;            /* time steps (none: the case's) */
   int nvary;                   /* --vary KEY=v1,v2,...: a grid over every key */
-  struct {
-    const char *key;
-    int nval;
-    const char *const *val;
-  } vary[MO_COMPARE_MAX_VARY];
+  mo_compare_vary vary[MO_COMPARE_MAX_VARY];
   int nset;
   const char *const *sets;     /* --set KEY=VALUE for every run */
   const char *outdir;
