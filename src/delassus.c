@@ -17,6 +17,7 @@ struct mo_delassus {
   long hversion, fversion;
   double c;
   int built;
+  long version;     /* counts the builds: back ends key their caches on (D, version) */
   int *rowp;        /* nb + 1 */
   int *colb;        /* block columns */
   double *val;      /* d*d per block, row-major */
@@ -146,6 +147,7 @@ int mo_delassus_update(mo_delassus *D, const mo_csc *H, long hversion, mo_linsol
   D->hversion = hversion;
   D->fversion = fversion;
   D->built = 1;
+  D->version++;
   if (rebuilt) *rebuilt = 1;
 done:
   for (a = 0; a < nb; a++) { /* either list may be the allocation that failed */
@@ -292,10 +294,16 @@ int mo_delassus_set_matrix(mo_delassus *D, const mo_csc *W, int dim, mo_ctx *ctx
   D->c = 1;
   D->hversion = D->fversion = -1;
   D->built = 1;
+  D->version++;
 done:
   if (st) clear(D);
   mo_csc_free(T);
   mo_free(mark);
   mo_free(list);
   return st;
+}
+
+long mo_delassus_version(const mo_delassus *D)
+{
+  return D->version;
 }

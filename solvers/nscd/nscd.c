@@ -66,7 +66,8 @@ typedef struct {
   double *cv;
   size_t ccap;
   double *aux;                  /* nc * NSCD_AUX: per-contact data of the local solvers */
-  long hver, fver;              /* version of W the cached data were built for (-1: none) */
+  const mo_delassus *wsrc;      /* the W the cached data were built for, and its version */
+  long wver;
   int *act, nact, *order;
   double *U;                    /* U = W r + q kept up to date by the column updates */
   double *rold;                 /* m: the reactions at the start of the sweep (Jean's norms) */
@@ -109,7 +110,8 @@ static int nscd_init(void *state, const void *params, const mo_contact_problem *
   S->nc = P->nc;
   S->d = P->dim;
   S->m = P->m;
-  S->hver = S->fver = -1;
+  S->wsrc = NULL;
+  S->wver = -1;
   if (!P->W) return mo_error(ctx, MO_EINTERNAL, "nscd: the core gave no Delassus operator");
   S->rcnt = mo_malloc(ctx, nc * sizeof *S->rcnt);
   S->rcol = mo_malloc(ctx, nc * sizeof *S->rcol);
@@ -139,7 +141,7 @@ static int prepare_matrix(nscd_state *S, const mo_contact_problem *P, mo_ctx *ct
   const mo_delassus *W = P->W;
   static const double zero[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
   int nb = S->nc, d = S->d, dd = d * d, a, k, sorted = 1;
-  long hver = -1, fver = -1;
+  long ver = mo_delassus_version(P->W);
   for (a = 0; a < nb; a++) {
     S->rcnt[a] = mo_delassus_row(W, a, &S->rcol[a], &S->rval[a]);
     /* a candidate W does not couple to anything (no free dof moves it): it can only stay open */
@@ -149,14 +151,11 @@ static int prepare_matrix(nscd_state *S, const mo_contact_problem *P, mo_ctx *ct
       if (k && S->rcol[a][k] <= S->rcol[a][k - 1]) sorted = 0;
     }
   }
-  /* W is rebuilt by the core only when H or the factorization changed */
-  if (P->contact && P->ls) {
-    mo_linsolver_stats(P->ls, &fver, NULL, NULL);
-    hver = mo_contact_h_version(P->contact);
-    if (hver == S->hver && fver == S->fver) return MO_OK;
-  }
-  S->hver = hver;
-  S->fver = fver;
+  /* what follows depends on W's blocks and mu (fixed per scene) only: W keeps its version until it is rebuilt (the core
+     rebuilds it when H, the factorization or the scale changed) */
+  if (P->W == S->wsrc && ver == S->wver) return MO_OK;
+  S->wsrc = P->W;
+  S->wver = ver;
   for (a = 0; a < nb; a++) {
     nscd_local_prepare(d, S->diag[a], P->mu ? P->mu[a] : 0, S->aux + (size_t)a * NSCD_AUX);
     S->scale[a] = S->diag[a][0] > 0 ? 1 / S->diag[a][0] : 0;
@@ -220,7 +219,12 @@ static int prepare_matrix(nscd_state *S, const mo_contact_problem *P, mo_ctx *ct
 /* U = W r + q over every candidate (exact; also resets the drift of the column updates). */
 static void exact_U(nscd_state *S, const mo_contact_problem *P, const double *r)
 {
-  int i;
+  int i, zero = 1;
+  for (i = 0; i < S->m && zero; i++) zero = r[i] == 0;
+  if (zero) { /* a cold start: U = q */
+    memcpy(S->U, P->b, (size_t)S->m * sizeof *S->U);
+    return;
+  }
   mo_delassus_mult(P->W, r, 0, S->U);
   for (i = 0; i < S->m; i++) S->U[i] += P->b[i];
 }

@@ -148,6 +148,9 @@ int mo_delassus_apply_Cinv(mo_delassus *D, const mo_csc *H, mo_linsolver *ls, co
 int mo_delassus_set_matrix(mo_delassus *D, const mo_csc *W, int dim, mo_ctx *ctx);
 /* Number of stored blocks, and whether the columns What^-1 H are kept. */
 long mo_delassus_nblocks(const mo_delassus *D);
+/* The number of times W was built (mo_delassus_update that rebuilt, mo_delassus_set_matrix):
+   unchanged means the blocks are the same, so a back end may keep what it derived from them. */
+long mo_delassus_version(const mo_delassus *D);
 int mo_delassus_has_columns(const mo_delassus *D);
 
 /* --- accuracy measures common to every back end ---------------------------------------------- */
@@ -305,6 +308,10 @@ int mo_local_solver_set(mo_local_solver *L, const char *key, const char *val, mo
    residual (T10) computed here as the core computes it. */
 int mo_local_solver_solve(mo_local_solver *L, double *r, double *U, int *status,
                           mo_contact_report *rep, mo_ctx *ctx);
+/* Whether mo_local_solver_solve recomputes U = W r + q and the residual (T10) after the back end
+   (default 1). Benchmarks timing the back end alone turn it off, then verify one solve; with it
+   off, U and rep->residual are what the back end reported (residual NaN if it reports none). */
+void mo_local_solver_verify(mo_local_solver *L, int on);
 void mo_local_solver_free(mo_local_solver *L);
 
 /* --- the contact step ---------------------------------------------------------------------- */
