@@ -84,6 +84,18 @@ static void read_summary(run_row *r, colset *C)
   if ((m = json_object_get(root, "metrics"))) flatten(m, "", C, r);
   if ((m = json_object_get(root, "energy"))) flatten(m, "energy", C, r);
   if ((m = json_object_get(root, "contact"))) flatten(m, "contact", C, r);
+  /* wall time per phase (the call counts stay in summary.json) */
+  if ((m = json_object_get(root, "timings"))) {
+    const char *key;
+    json_t *v;
+    json_object_foreach(m, key, v) {
+      char name[96];
+      int kk;
+      if (!json_is_number(v)) continue;
+      snprintf(name, sizeof name, "time.%s_s", key);
+      if ((kk = col_index(C, name)) >= 0) r->val[kk] = json_number_value(v);
+    }
+  }
   if ((m = json_object_get(root, "scene")) && json_object_get(m, "hmin")) {
     int kk = col_index(C, "scene.hmin");
     if (kk >= 0) r->val[kk] = json_number_value(json_object_get(m, "hmin"));

@@ -25,7 +25,7 @@ static void usage(FILE *f)
           "            run a case (a folder holding case.cfg, or a file); outputs in DIR\n"
           "            (default out/<case>): history.csv, summary.json, fields.pvd\n"
           "  compare CASE [--solvers a,b,...] [--dt h1,h2,...] [--vary KEY=v1,v2,...]...\n"
-          "          [--set KEY=VALUE]... [--out DIR] [--metric NAME]\n"
+          "          [--set KEY=VALUE]... [--out DIR] [--metric NAME] [--penetration-tol F]\n"
           "            the same scene by several back ends and time steps (and parameter grids):\n"
           "            compare.csv, stability.csv, report.md, plots/ (default out/compare-<case>)\n"
           "  check CASE [--solver S] [--set KEY=VALUE]...\n"
