@@ -168,7 +168,7 @@ void mo_contact_print_table(FILE *f, const mo_scene *sc, const mo_contact *C,
     if (!oth) return;
     have_other = other_representation(C, k, r, oth, ctx) == MO_OK;
     mo_ctx_clear_error(ctx);
-    fprintf(f, "\npair %s (%s reactions)   t = %.6g   sweeps = %d   residual = %.3e\n", P->name,
+    fprintf(f, "\npair %s (%s reactions)   t = %.6g   iterations = %d   residual = %.3e\n", P->name,
             weighted ? "weighted" : "concentrated", s->t, rep->iterations, rep->residual);
     fprintf(f, "%5s %13s %13s %13s %13s  %-6s| %13s %13s\n", "node", "D1", "D2", "RT", "RN", "status",
             "RT", "RN");

@@ -10,7 +10,7 @@ contains "$t" "pair base (concentrated reactions)" "the table names the represen
 contains "$t" "node            D1            D2            RT            RN  status" "Jean's columns: node, D1, D2, RT, RN, status"
 contains "$t" "equiv. weighted (P^-1 r)" "with the other representation's columns"
 contains "$t" "(Rx, Ry: sum of the concentrated reactions)" "and the resultants"
-contains "$t" "sweeps = " "and the sweeps"
+contains "$t" "iterations = " "and the iterations (nscd: sweeps)"
 row=$(echo "$t" | awk '$1 == "13" { print $6 }'); is "$row" "stick" "node 13 sticks"
 row=$(echo "$t" | awk '$1 == "6" { print $6 }'); is "$row" "slide" "node 6 slides"
 h=$(head -1 "$OUT/g1/contact.csv")
