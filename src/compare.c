@@ -78,6 +78,9 @@ static void read_summary(run_row *r, colset *C)
   snprintf(path, sizeof path, "%s/summary.json", r->outdir);
   root = json_load_file(path, 0, &err);
   if (!root) return;
+  /* without --dt the run keeps the case's time step: report it, not NaN */
+  if (isnan(r->dt) && (m = json_object_get(root, "time")) && json_is_number(json_object_get(m, "dt")))
+    r->dt = json_number_value(json_object_get(m, "dt"));
   if ((m = json_object_get(root, "metrics"))) flatten(m, "", C, r);
   if ((m = json_object_get(root, "energy"))) flatten(m, "energy", C, r);
   if ((m = json_object_get(root, "contact"))) flatten(m, "contact", C, r);
