@@ -102,13 +102,24 @@ static double colval(const run_row *r, const colset *C, const char *name)
 static void classify(run_row *r, const colset *C, double pen_rel)
 {
   if (r->status != MO_OK) {
-    snprintf(r->cls, sizeof r->cls, "failure");
-    if (strstr(r->reason, "cycling")) snprintf(r->why, sizeof r->why, "status cycling");
-    else if (r->status == MO_ENOCONV) snprintf(r->why, sizeof r->why, "non-convergence");
-    else if (r->status == MO_ESINGULAR) snprintf(r->why, sizeof r->why, "singular matrix");
-    else if (r->status == MO_ENAN) snprintf(r->why, sizeof r->why, "NaN");
-    else if (r->status == MO_EINPUT) snprintf(r->why, sizeof r->why, "input rejected");
-    else snprintf(r->why, sizeof r->why, "%s", mo_strerror(r->status));
+    /* the contact driver's message says on what a solve stopped (mo_contact_reason_name) */
+    char why[64];
+    double growth = colval(r, C, "energy.max_growth");
+    if (strstr(r->reason, "cycling")) snprintf(why, sizeof why, "status cycling");
+    else if (strstr(r->reason, "stopped on NaN") || r->status == MO_ENAN) snprintf(why, sizeof why, "NaN");
+    else if (strstr(r->reason, "stopped on breakdown")) snprintf(why, sizeof why, "breakdown");
+    else if (r->status == MO_ENOCONV) snprintf(why, sizeof why, "non-convergence");
+    else if (r->status == MO_ESINGULAR) snprintf(why, sizeof why, "singular matrix");
+    else if (r->status == MO_EINPUT) snprintf(why, sizeof why, "input rejected");
+    else snprintf(why, sizeof why, "%s", mo_strerror(r->status));
+    if (growth > 0.01) {
+      /* a run that blew up before it stopped is unstable: the failure is the consequence */
+      snprintf(r->cls, sizeof r->cls, "unstable");
+      snprintf(r->why, sizeof r->why, "energy growth %.2g %%, then the run stopped: %s", 100 * growth, why);
+    } else {
+      snprintf(r->cls, sizeof r->cls, "failure");
+      snprintf(r->why, sizeof r->why, "%s", why);
+    }
     return;
   }
   {
