@@ -2,8 +2,8 @@
 # test_compare.sh: `moreau compare` at small size (issue 6): compare.csv against the runs'
 # summaries, report.md and the figures (rendered when gnuplot is present); a stability grid
 # on cylinder-wall with settings that must fail (one nscd sweep) and must be unstable (Newmark
-# beta = 0.1 far beyond its stability limit); a run that blows up until a NaN stops it. The
-# checks are in tests/compare_check.py.
+# beta = 0.1 far beyond its stability limit); runs left with unconverged reactions, which
+# sink; a run that blows up until a NaN stops it. The checks are in tests/compare_check.py.
 . "$MOREAU_SRCDIR/tests/tap.sh"
 C="$MOREAU_SRCDIR/cases"
 ran() { # ran STATUS ERRFILE DESCRIPTION: the command's standard error only when it failed
@@ -47,7 +47,16 @@ contains "$(cat "$OUT/grid.out")" "12 runs (8 stable, 2 unstable, 2 failed)" "th
 check grid "$OUT/grid"
 check finite "$OUT/grid"
 
-# 3. Newmark beta = 0.1 on cylinder-wall for 200 us: the energy grows by 1e296 and the contact
+# 3. penetration: nscd limited to one sweep and told to go on (unconverged reactions let the
+#    cylinder sink), theta = 1 and 1/2 at velocity level, against converged runs
+"$MOREAU" compare "$C/cylinder-wall" --solvers nscd --set time.end=4e-5 --set output.vtk.every=100000 \
+  --set contact.on_failure=continue --vary contact.nscd.max_sweeps=1,1000 --vary time.theta=1,0.5 \
+  --out "$OUT/pen" > "$OUT/pen.out" 2> "$OUT/pen.err"
+ran $? "$OUT/pen.err" "compare cylinder-wall with unconverged solves kept: exit 0"
+check penetration "$OUT/pen"
+check finite "$OUT/pen"
+
+# 4. Newmark beta = 0.1 on cylinder-wall for 200 us: the energy grows by 1e296 and the contact
 #    Newton meets a NaN at step 170
 "$MOREAU" compare "$C/cylinder-wall" --solvers newmark --set contact.newmark.beta=0.1 \
   --set time.end=2e-4 --set output.vtk.every=100000 --dt 1e-6 --out "$OUT/blow" > "$OUT/blow.out" 2> "$OUT/blow.err"
