@@ -81,6 +81,16 @@ static void read_summary(run_row *r, colset *C)
   snprintf(path, sizeof path, "%s/summary.json", r->outdir);
   root = json_load_file(path, 0, &err);
   if (!root) return;
+  /* the step the run took, when the grid sets it (--vary time.dt=...) rather than --dt */
+  if (isnan(r->dt) && (m = json_object_get(root, "time")) && json_is_number(json_object_get(m, "dt")))
+    r->dt = json_number_value(json_object_get(m, "dt"));
+  if ((m = json_object_get(root, "metrics"))) flatten(m, "", C, r);
+  if ((m = json_object_get(root, "energy"))) flatten(m, "energy", C, r);
+  if ((m = json_object_get(root, "contact"))) flatten(m, "contact", C, r);
+  if ((m = json_object_get(root, "scene")) && json_object_get(m, "hmin")) {
+    int kk = col_index(C, "scene.hmin");
+    if (kk >= 0) r->val[kk] = json_number_value(json_object_get(m, "hmin"));
+  }
   {
     /* velocity-level Signorini never corrects a position: a theta-scheme landing step ends at
        g_k + h (1 - theta) U-_n with U+_n = 0, a penetration of order h that refinement removes,
@@ -93,16 +103,6 @@ static void read_summary(run_row *r, colset *C)
         json_is_number(vs))
       r->pen_landing = (1 - json_number_value(json_object_get(tm, "theta"))) *
                        json_number_value(json_object_get(tm, "dt")) * json_number_value(vs);
-  }
-  /* without --dt the run keeps the case's time step: report it, not NaN */
-  if (isnan(r->dt) && (m = json_object_get(root, "time")) && json_is_number(json_object_get(m, "dt")))
-    r->dt = json_number_value(json_object_get(m, "dt"));
-  if ((m = json_object_get(root, "metrics"))) flatten(m, "", C, r);
-  if ((m = json_object_get(root, "energy"))) flatten(m, "energy", C, r);
-  if ((m = json_object_get(root, "contact"))) flatten(m, "contact", C, r);
-  if ((m = json_object_get(root, "scene")) && json_object_get(m, "hmin")) {
-    int kk = col_index(C, "scene.hmin");
-    if (kk >= 0) r->val[kk] = json_number_value(json_object_get(m, "hmin"));
   }
   json_decref(root);
 }

@@ -56,10 +56,23 @@ def flatten(obj, prefix, out):
 
 
 def summary_columns(summary):
+    """The columns compare.csv must have for this run: metrics, energy, contact."""
     out = {}
     flatten(summary.get("metrics", {}), "", out)
     flatten(summary.get("energy", {}), "energy", out)
     flatten(summary.get("contact", {}), "contact", out)
+    return out
+
+
+def optional_columns(summary):
+    """Columns compare.csv may add from elsewhere in the summary: scene.hmin, and the wall time
+    of each phase as time.<phase>_s."""
+    out = {}
+    if isinstance(summary.get("scene", {}).get("hmin"), (int, float)):
+        out["scene.hmin"] = float(summary["scene"]["hmin"])
+    for key, val in summary.get("timings", {}).items():
+        if isinstance(val, (int, float)) and not isinstance(val, bool):
+            out["time.%s_s" % key] = float(val)
     return out
 
 
@@ -101,7 +114,10 @@ def check_table(d, solvers, dts):
         with open(os.path.join(d, "runs", run_label(solver, dt), "summary.json")) as f:
             summary = json.load(f)
         cols = summary_columns(summary)
-        for name, val in cols.items():
+        known = dict(cols, **optional_columns(summary))
+        for name, val in known.items():
+            if name not in cols and name not in idx:
+                continue
             if name not in idx:
                 missing.append("%s %g: %s" % (solver, dt, name))
             else:
@@ -109,9 +125,9 @@ def check_table(d, solvers, dts):
                 if cell is None or abs(cell - val) > 1e-9 * max(abs(val), 1e-300):
                     wrong.append("%s %g: %s = %s, summary %.10g" % (solver, dt, name, r[idx[name]], val))
         for name, cell in zip(metric_cols, r[7:]):
-            if cell == "" and name in cols:
-                empty_bad.append("%s %g: %s empty, summary %.10g" % (solver, dt, name, cols[name]))
-            if cell != "" and name not in cols and name != "scene.hmin":
+            if cell == "" and name in known:
+                empty_bad.append("%s %g: %s empty, summary %.10g" % (solver, dt, name, known[name]))
+            if cell != "" and name not in known:
                 empty_bad.append("%s %g: %s = %s, absent from the summary" % (solver, dt, name, cell))
         if int(float(r[idx["steps"]])) != summary["time"]["steps_done"]:
             steps_bad.append("%s %g: %s steps, summary %d" % (solver, dt, r[idx["steps"]], summary["time"]["steps_done"]))
