@@ -1,6 +1,7 @@
-/* test_reference.c: the closed forms of src/reference.c (doc/theory.md §3) at points worked out
-   by hand from the physics (CASES.md §1-§3), their energy and their internal consistency
-   (v = du/dt, eps = du/dx), and the reference block of the shipped cases. */
+/* test_reference.c: the closed forms of src/reference.c (doc/theory.md §3: (T5), (T6), (T43),
+   (T44)) at points worked out by hand from the physics (CASES.md §1-§3), their energy and
+   their internal consistency (v = du/dt, eps = du/dx), and the reference block of the shipped
+   cases. */
 #include "config.h"
 #include <moreau/moreau.h>
 #include "tap.h"
