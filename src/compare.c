@@ -27,6 +27,8 @@ typedef struct {
   double wall;
   long steps;
   double val[MAX_COLS];      /* flattened metrics, NaN when absent */
+  double pen_landing;        /* penetration a landing may leave: (1 - theta) h max |U_n| at
+                                velocity level (doc/theory.md §5), 0 otherwise */
   char outdir[1024];
   int ok;
 } run_row;
@@ -75,6 +77,7 @@ static void read_summary(run_row *r, colset *C)
   json_error_t err;
   int k;
   for (k = 0; k < MAX_COLS; k++) r->val[k] = NAN;
+  r->pen_landing = 0;
   snprintf(path, sizeof path, "%s/summary.json", r->outdir);
   root = json_load_file(path, 0, &err);
   if (!root) return;
@@ -100,6 +103,19 @@ static void read_summary(run_row *r, colset *C)
     int kk = col_index(C, "scene.hmin");
     if (kk >= 0) r->val[kk] = json_number_value(json_object_get(m, "hmin"));
   }
+  {
+    /* velocity-level Signorini never corrects a position: a theta-scheme landing step ends at
+       g_k + h (1 - theta) U-_n with U+_n = 0, a penetration of order h that refinement removes,
+       not an instability */
+    json_t *tm = json_object_get(root, "time");
+    json_t *sig = json_object_get(json_object_get(json_object_get(root, "settings"), "contact"), "signorini");
+    json_t *vs = json_object_get(json_object_get(json_object_get(root, "metrics"), "contact"), "velocity_scale");
+    const char *scheme = json_string_value(json_object_get(tm, "scheme"));
+    if (scheme && !strcmp(scheme, "theta") && json_is_string(sig) && !strcmp(json_string_value(sig), "velocity") &&
+        json_is_number(vs))
+      r->pen_landing = (1 - json_number_value(json_object_get(tm, "theta"))) *
+                       json_number_value(json_object_get(tm, "dt")) * json_number_value(vs);
+  }
   json_decref(root);
 }
 
@@ -114,13 +130,24 @@ static double colval(const run_row *r, const colset *C, const char *name)
 static void classify(run_row *r, const colset *C, double pen_rel)
 {
   if (r->status != MO_OK) {
-    snprintf(r->cls, sizeof r->cls, "failure");
-    if (strstr(r->reason, "cycling")) snprintf(r->why, sizeof r->why, "status cycling");
-    else if (r->status == MO_ENOCONV) snprintf(r->why, sizeof r->why, "non-convergence");
-    else if (r->status == MO_ESINGULAR) snprintf(r->why, sizeof r->why, "singular matrix");
-    else if (r->status == MO_ENAN) snprintf(r->why, sizeof r->why, "NaN");
-    else if (r->status == MO_EINPUT) snprintf(r->why, sizeof r->why, "input rejected");
-    else snprintf(r->why, sizeof r->why, "%s", mo_strerror(r->status));
+    /* the contact driver's message says on what a solve stopped (mo_contact_reason_name) */
+    char why[64];
+    double growth = colval(r, C, "energy.max_growth");
+    if (strstr(r->reason, "cycling")) snprintf(why, sizeof why, "status cycling");
+    else if (strstr(r->reason, "stopped on NaN") || r->status == MO_ENAN) snprintf(why, sizeof why, "NaN");
+    else if (strstr(r->reason, "stopped on breakdown")) snprintf(why, sizeof why, "breakdown");
+    else if (r->status == MO_ENOCONV) snprintf(why, sizeof why, "non-convergence");
+    else if (r->status == MO_ESINGULAR) snprintf(why, sizeof why, "singular matrix");
+    else if (r->status == MO_EINPUT) snprintf(why, sizeof why, "input rejected");
+    else snprintf(why, sizeof why, "%s", mo_strerror(r->status));
+    if (growth > 0.01) {
+      /* a run that blew up before it stopped is unstable: the failure is the consequence */
+      snprintf(r->cls, sizeof r->cls, "unstable");
+      snprintf(r->why, sizeof r->why, "energy growth %.2g %%, then the run stopped: %s", 100 * growth, why);
+    } else {
+      snprintf(r->cls, sizeof r->cls, "failure");
+      snprintf(r->why, sizeof r->why, "%s", why);
+    }
     return;
   }
   {
@@ -132,9 +159,13 @@ static void classify(run_row *r, const colset *C, double pen_rel)
     } else if (growth > 0.01) {
       snprintf(r->cls, sizeof r->cls, "unstable");
       snprintf(r->why, sizeof r->why, "energy growth %.2g %%", 100 * growth);
-    } else if (!isnan(pen) && !isnan(hmin) && pen > pen_rel * hmin) {
+    } else if (!isnan(pen) && !isnan(hmin) && pen > pen_rel * hmin + r->pen_landing) {
       snprintf(r->cls, sizeof r->cls, "unstable");
-      snprintf(r->why, sizeof r->why, "penetration %.3g (%.2g of the smallest element)", pen, pen / hmin);
+      if (r->pen_landing > 0)
+        snprintf(r->why, sizeof r->why, "penetration %.3g (%.2g of the smallest element, beyond the %.3g a landing leaves)",
+                 pen, pen / hmin, r->pen_landing);
+      else
+        snprintf(r->why, sizeof r->why, "penetration %.3g (%.2g of the smallest element)", pen, pen / hmin);
     } else {
       snprintf(r->cls, sizeof r->cls, "stable");
       r->why[0] = '\0';

@@ -97,6 +97,14 @@ double mo_metrics_energy_ratio(const mo_metrics *M, const mo_state *s)
   return e0 != 0 ? e / e0 : NAN;
 }
 
+void mo_metrics_energies(const mo_metrics *M, const mo_state *s, double *ek, double *ee, double *ratio)
+{
+  double e0 = M->e0 + M->eshift;
+  *ek = mo_energy_kinetic(M->sc, s->v, M->work);
+  *ee = mo_energy_elastic(M->sc, s->u, M->work);
+  *ratio = e0 != 0 ? (*ek + *ee - s->wext - s->wsupport + M->eshift) / e0 : NAN;
+}
+
 /* Squared L2 norms over the reference body (2-point Gauss per bar element) of u_h - u, u,
    v_h - v, v, and of the strain difference (H1 seminorm). */
 static void field_step(mo_metrics *M, const mo_state *s)

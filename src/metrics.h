@@ -17,6 +17,9 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
 /* Energy ratio E(t) / E0 (doc/theory.md §10): kinetic + elastic - external and support work,
    shifted by the reference's exact energy when it gives one. */
 double mo_metrics_energy_ratio(const mo_metrics *M, const mo_state *s);
+/* The kinetic and elastic energies of s and the ratio above, from one product by M and one by
+   K (the run measures them at every step). */
+void mo_metrics_energies(const mo_metrics *M, const mo_state *s, double *ek, double *ee, double *ratio);
 json_t *mo_metrics_json(const mo_metrics *M);
 void mo_metrics_free(mo_metrics *M);
 
