@@ -374,6 +374,7 @@ static void worst_candidates(const nscd_state *S, const mo_contact_problem *P, c
   for (k = 0; k < S->nact; k++) {
     int a = S->act[k];
     double e = sqrt(mo_fc_natural_map_unit(S->d, P->mu ? P->mu[a] : 0, r + a * S->d, S->U + a * S->d));
+    if (!(e > 0)) continue; /* on the law: not among the culprits */
     for (i = 0; i < 3; i++)
       if (e > we[i]) {
         int j;
