@@ -230,6 +230,20 @@ static void sb_printf(sbuf *b, const char *fmt, ...)
   }
 }
 
+/* ",value", quoted as RFC 4180 asks when the value holds a comma or a quote (a vector such as
+   [0.0,-1.0], a string). */
+static void csv_field(sbuf *b, const char *v)
+{
+  const char *p;
+  if (!strpbrk(v, ",\"\n")) {
+    sb_printf(b, ",%s", v);
+    return;
+  }
+  sb_printf(b, ",\"");
+  for (p = v; *p; p++) sb_printf(b, *p == '"' ? "\"\"" : "%c", *p);
+  sb_printf(b, "\"");
+}
+
 /* Axes of a stability map. A numeric parameter spanning two decades or more (positive) gets a
    log axis; a parameter with a non-numeric value (a scheme name, say) is plotted at the index
    of its value, labelled. */
@@ -422,7 +436,7 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
     snprintf(why, sizeof why, "%s%s%s", R->why, R->status && R->why[0] ? ": " : "", R->status ? R->reason : "");
     for (q = 0; why[q]; q++) if (why[q] == ',' || why[q] == '\n' || why[q] == '"') why[q] = ';';
     sb_printf(&b, "%s,%.10g", R->solver, R->dt);
-    for (k = 0; k < opt->nvary; k++) sb_printf(&b, ",%s", R->vary[k]);
+    for (k = 0; k < opt->nvary; k++) csv_field(&b, R->vary[k]);
     sb_printf(&b, ",%.6g,%ld,%s,%s,%s", R->wall, R->steps, R->status ? "failed" : "complete", R->cls, why);
     for (k = 0; k < C->n; k++) {
       if (isnan(R->val[k])) sb_printf(&b, ",");
@@ -446,7 +460,7 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
       snprintf(why, sizeof why, "%s", R->why);
       for (q = 0; why[q]; q++) if (why[q] == ',' || why[q] == '\n') why[q] = ';';
       sb_printf(&b, "%s,%.10g", R->solver, R->dt);
-      for (k = 0; k < opt->nvary; k++) sb_printf(&b, ",%s", R->vary[k]);
+      for (k = 0; k < opt->nvary; k++) csv_field(&b, R->vary[k]);
       sb_printf(&b, ",%s,%s,%.6g,%.6g,%.6g\n", R->cls, why, colval(R, C, "energy.max_growth"),
                 colval(R, C, "contact.max_penetration"), R->wall);
     }

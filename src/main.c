@@ -95,11 +95,30 @@ static int parse_run_args(int argc, char **argv, int i, cli *c)
 static int exit_code(int st);
 
 /* Split "a,b,c" in place into items (at most max). */
+/* Split a comma-separated list in place. Commas inside brackets, parentheses or quotes belong
+   to the item (a --vary value may be a vector: velocity=[0.0,-1.0],[0.0,-10.0]). Returns the
+   number of items, or -1 when there are more than max or the brackets do not match. */
 static int split_list(char *s, char **items, int max)
 {
-  int n = 0;
-  char *save = NULL, *tok;
-  for (tok = strtok_r(s, ",", &save); tok && n < max; tok = strtok_r(NULL, ",", &save)) items[n++] = tok;
+  int n = 0, depth = 0, quote = 0;
+  char *start = s, *p;
+  for (p = s;; p++) {
+    if (*p == '"') quote = !quote;
+    else if (!quote && (*p == '[' || *p == '(')) depth++;
+    else if (!quote && (*p == ']' || *p == ')')) {
+      if (--depth < 0) return -1;
+    } else if (*p == '\0' || (*p == ',' && !depth && !quote)) {
+      int end = *p == '\0';
+      if (end && (depth || quote)) return -1;
+      *p = '\0';
+      if (*start) {
+        if (n == max) return -1;
+        items[n++] = start;
+      }
+      if (end) break;
+      start = p + 1;
+    }
+  }
   return n;
 }
 
@@ -119,9 +138,19 @@ static int cmd_compare(int argc, char **argv, mo_ctx *ctx)
     if (!strcmp(a, "--solvers") && i + 1 < argc) {
       o.nsolver = split_list(argv[++i], solvers, 16);
       o.solvers = (const char *const *)solvers;
+      if (o.nsolver <= 0) {
+        fprintf(stderr, "moreau compare: --solvers a,b,...: at most 16 back ends\n");
+        free(sets);
+        return 2;
+      }
     } else if (!strcmp(a, "--dt") && i + 1 < argc) {
       char *items[64], *end;
       int n = split_list(argv[++i], items, 64);
+      if (n <= 0) {
+        fprintf(stderr, "moreau compare: --dt h1,h2,...: 1 to 64 time steps\n");
+        free(sets);
+        return 2;
+      }
       for (k = 0; k < n; k++) {
         dts[k] = strtod(items[k], &end);
         if (*end || !(dts[k] > 0)) {
@@ -143,6 +172,12 @@ static int cmd_compare(int argc, char **argv, mo_ctx *ctx)
       o.vary[o.nvary].key = argv[i];
       o.vary[o.nvary].nval = split_list(eq + 1, vals[o.nvary], 64);
       o.vary[o.nvary].val = (const char *const *)vals[o.nvary];
+      if (o.vary[o.nvary].nval <= 0) {
+        fprintf(stderr, "moreau compare: --vary %s=...: 1 to 64 values, brackets matched (a vector value "
+                "keeps its commas inside [ ])\n", argv[i]);
+        free(sets);
+        return 2;
+      }
       o.nvary++;
     } else if ((!strcmp(a, "--set") || !strcmp(a, "-s")) && i + 1 < argc) {
       sets[o.nset++] = argv[++i];
