@@ -25,9 +25,11 @@ static void usage(FILE *f)
           "            run a case (a folder holding case.cfg, or a file); outputs in DIR\n"
           "            (default out/<case>): history.csv, summary.json, fields.pvd\n"
           "  compare CASE [--solvers a,b,...] [--dt h1,h2,...] [--vary KEY=v1,v2,...]...\n"
-          "          [--set KEY=VALUE]... [--out DIR] [--metric NAME]\n"
+          "          [--set KEY=VALUE]... [--out DIR] [--metric NAME] [--peer FILE.csv]...\n"
           "            the same scene by several back ends and time steps (and parameter grids):\n"
-          "            compare.csv, stability.csv, report.md, plots/ (default out/compare-<case>)\n"
+          "            compare.csv, stability.csv, report.md, plots/ (default out/compare-<case>);\n"
+          "            --peer adds another program's rows (compare.csv's columns) to the figure\n"
+          "            and the report\n"
           "  check CASE [--solver S] [--set KEY=VALUE]...\n"
           "            validate a case and build its scene without running it\n"
           "  bench-local FILE.hdf5... [--tol T] [--vs-siconos] [--max-sweeps N] [--min-time S]\n"
@@ -109,11 +111,16 @@ static int cmd_compare(int argc, char **argv, mo_ctx *ctx)
   mo_compare_result res;
   char *solvers[16], *vals[MO_COMPARE_MAX_VARY][64], outbuf[4200];
   double dts[64];
-  const char **sets = calloc((size_t)argc, sizeof *sets);
+  const char **sets = calloc((size_t)argc, sizeof *sets), **peers = calloc((size_t)argc, sizeof *peers);
   int i, k, st;
   memset(&o, 0, sizeof o);
-  if (!sets) return 2;
+  if (!sets || !peers) {
+    free(sets);
+    free(peers);
+    return 2;
+  }
   o.sets = sets;
+  o.peers = peers;
   for (i = 2; i < argc; i++) {
     const char *a = argv[i];
     if (!strcmp(a, "--solvers") && i + 1 < argc) {
@@ -127,6 +134,7 @@ static int cmd_compare(int argc, char **argv, mo_ctx *ctx)
         if (*end || !(dts[k] > 0)) {
           fprintf(stderr, "moreau compare: --dt: '%s' is not a positive time step\n", items[k]);
           free(sets);
+          free(peers);
           return 2;
         }
       }
@@ -137,6 +145,7 @@ static int cmd_compare(int argc, char **argv, mo_ctx *ctx)
       if (!eq || o.nvary == MO_COMPARE_MAX_VARY) {
         fprintf(stderr, "moreau compare: --vary KEY=v1,v2,... (at most %d keys)\n", MO_COMPARE_MAX_VARY);
         free(sets);
+        free(peers);
         return 2;
       }
       *eq = '\0';
@@ -150,6 +159,8 @@ static int cmd_compare(int argc, char **argv, mo_ctx *ctx)
       o.outdir = argv[++i];
     } else if (!strcmp(a, "--metric") && i + 1 < argc) {
       o.metric = argv[++i];
+    } else if (!strcmp(a, "--peer") && i + 1 < argc) {
+      peers[o.npeer++] = argv[++i];
     } else if (!strcmp(a, "--penetration-tol") && i + 1 < argc) {
       o.penetration_tol = atof(argv[++i]);
     } else if (!strcmp(a, "--quiet") || !strcmp(a, "-q")) {
@@ -157,18 +168,21 @@ static int cmd_compare(int argc, char **argv, mo_ctx *ctx)
     } else if (a[0] == '-' && a[1]) {
       fprintf(stderr, "moreau compare: unknown or incomplete option '%s'\n", a);
       free(sets);
+      free(peers);
       return 2;
     } else if (!o.case_path) {
       o.case_path = a;
     } else {
       fprintf(stderr, "moreau compare: one case at a time\n");
       free(sets);
+      free(peers);
       return 2;
     }
   }
   if (!o.case_path) {
     fprintf(stderr, "moreau compare: which case?\n");
     free(sets);
+    free(peers);
     return 2;
   }
   if (!o.outdir) {
@@ -183,6 +197,7 @@ static int cmd_compare(int argc, char **argv, mo_ctx *ctx)
   }
   st = mo_compare(&o, &res, ctx);
   free(sets);
+  free(peers);
   if (st) {
     fprintf(stderr, "moreau compare: %s\n", ctx->errmsg);
     return exit_code(st);
@@ -191,6 +206,7 @@ static int cmd_compare(int argc, char **argv, mo_ctx *ctx)
     printf("%s: %d runs (%d stable, %d unstable, %d failed)\n", o.case_path, res.nrun, res.nstable, res.nunstable, res.nfailed);
     printf("  outputs: %s/compare.csv, %s/report.md, %s/plots/ (%d figures, %d rendered)\n", o.outdir, o.outdir, o.outdir,
            res.nfigures, res.rendered);
+    if (res.npeer) printf("  with %d external rows from the --peer files (report.md, work-precision figure)\n", res.npeer);
   }
   return 0;
 }
