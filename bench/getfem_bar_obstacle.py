@@ -21,6 +21,7 @@
 """The bar-obstacle benchmark solved by GetFEM, rows for `moreau compare --peer`."""
 
 import argparse
+import csv
 import math
 import os
 import subprocess
@@ -492,21 +493,23 @@ def fmt(v):
     if v is None:
         return ""
     if isinstance(v, str):
-        return v.replace(",", ";").replace("\n", " ").replace('"', "'")
-    if isinstance(v, (int,)) and not isinstance(v, bool):
+        return v.replace("\n", " ")
+    if isinstance(v, int) and not isinstance(v, bool):
         return str(v)
     v = float(v)
     return "" if math.isnan(v) else "%.10g" % v
 
 
 def write_csv(path, rows):
+    """compare.csv's layout, one row per run, quoted as RFC 4180 asks; written whole, then
+    renamed, so that a reader never sees half a file."""
     cols = list(LEAD_COLUMNS) + METRIC_COLUMNS + list(EXTRA_COLUMNS)
-    lines = [",".join(cols)]
-    for r in rows:
-        lines.append(",".join(fmt(r.get(c)) for c in cols))
     tmp = path + ".tmp"
-    with open(tmp, "w") as f:
-        f.write("\n".join(lines) + "\n")
+    with open(tmp, "w", newline="") as f:
+        w = csv.writer(f, lineterminator="\n")
+        w.writerow(cols)
+        for r in rows:
+            w.writerow([fmt(r.get(c)) for c in cols])
     os.replace(tmp, path)
 
 

@@ -246,19 +246,37 @@ static void peers_free(peer_set *P)
   memset(P, 0, sizeof *P);
 }
 
-/* Split a CSV line in place at its commas (peer files quote nothing); -1 beyond max cells. */
+/* Split a CSV line in place into its cells (RFC 4180: a quoted cell may hold commas, and ""
+   stands for a quote in it); -1 beyond max cells, -2 for a quote out of place. */
 static int csv_split(char *line, char **cell, int max)
 {
   int n = 0;
-  char *p = line;
+  char *r = line, *w;
   line[strcspn(line, "\r\n")] = '\0';
   for (;;) {
-    char *c = strchr(p, ',');
     if (n == max) return -1;
-    cell[n++] = p;
-    if (!c) return n;
-    *c = '\0';
-    p = c + 1;
+    cell[n++] = w = r;
+    if (*r == '"') {
+      for (r++;; r++) {
+        if (!*r) return -2;                  /* no closing quote */
+        if (*r == '"' && r[1] != '"') break; /* the closing quote */
+        if (*r == '"') r++;                  /* "" stands for " */
+        *w++ = *r;
+      }
+      r++;
+      if (*r && *r != ',') return -2;
+    } else {
+      for (; *r && *r != ','; r++) {
+        if (*r == '"') return -2;
+        *w++ = *r;
+      }
+    }
+    if (!*r) {
+      *w = '\0';
+      return n;
+    }
+    *w = '\0';
+    r++;
   }
 }
 
@@ -300,7 +318,8 @@ static int peers_read(const mo_compare_options *opt, peer_set *P, mo_ctx *ctx)
       goto done;
     }
     if ((nc = csv_split(line, cell, MAX_COLS)) < 0) {
-      st = mo_error(ctx, MO_ELIMIT, "peer %s: more than %d columns", path, MAX_COLS);
+      if (nc == -1) st = mo_error(ctx, MO_ELIMIT, "peer %s: more than %d columns", path, MAX_COLS);
+      else st = mo_error(ctx, MO_EINPUT, "peer %s: a quote out of place in the header", path);
       goto done;
     }
     for (k = 0; k < nc; k++) {
@@ -325,11 +344,11 @@ static int peers_read(const mo_compare_options *opt, peer_set *P, mo_ctx *ctx)
       int s;
       lineno++;
       if (line[strspn(line, " \t\r\n")] == '\0') continue;
-      if (strchr(line, '"')) {
-        st = mo_error(ctx, MO_EINPUT, "peer %s:%d: quoted fields are not read (no commas in values)", path, lineno);
+      if ((nc = csv_split(line, cell, MAX_COLS)) == -2) {
+        st = mo_error(ctx, MO_EINPUT, "peer %s:%d: a quote out of place (RFC 4180 quoting, one row per line)", path, lineno);
         goto done;
       }
-      if ((nc = csv_split(line, cell, MAX_COLS)) != H->n) {
+      if (nc != H->n) {
         st = mo_error(ctx, MO_EINPUT, "peer %s:%d: %d fields, the header has %d", path, lineno, nc < 0 ? MAX_COLS : nc, H->n);
         goto done;
       }

@@ -20,14 +20,14 @@ cat > "$OUT/peer.csv" <<'EOF'
 solver,dt,wall_s,steps,status,reason,field.u_l2l2_rel,energy.final,energy.max_growth,contact.max_penetration,scene.hmin,cpu_s,peer
 other-code,0.05,0.5,60,complete,,0.125,0.12,0,0,0.05,0.45,other 1.0
 other-code,0.025,1.5,120,complete,,0.0625,0.12,0,0,0.05,1.4,other 1.0
-other-code,0.0125,,,failed,diverged at step 7,,,,,,,other 1.0
+"other-code",0.0125,,,failed,"diverged, at ""step"" 7",,,,,,,other 1.0
 EOF
 "$MOREAU" compare "$CASE" --solvers nscd --dt 0.05,0.025 $SMALL --peer "$OUT/peer.csv" --out "$OUT/c1" -q
 ok $? "compare --peer runs"
 r=$(cat "$OUT/c1/report.md")
 contains "$r" "| other-code-dt0.05 (external) | other-code | 0.05 | 0.500 | 60 | stable | 0.125 |" "report.md: a peer row, marked external, with its metric"
 contains "$r" "| other-code-dt0.025 (external) | other-code | 0.025 | 1.500 | 120 | stable | 0.0625 |" "report.md: the second peer row"
-contains "$r" "other-code-dt0.0125 (external)\` failed: diverged at step 7" "report.md: a failed peer row with its reason"
+contains "$r" "other-code-dt0.0125 (external)\` failed: diverged, at \"step\" 7" "report.md: a failed peer row with its reason (RFC 4180 quotes read)"
 contains "$r" "2 runs: " "report.md counts moreau's own runs only"
 contains "$r" "Rows marked (external) are 3 rows of \`$OUT/peer.csv\`" "report.md says where the external rows come from"
 is "$(cat "$OUT/c1/plots/work-precision-peer-other-code.csv")" "$(printf '0.5,0.125,0.05\n1.5,0.0625,0.025')" \
@@ -49,6 +49,9 @@ contains "$e" "peer $OUT/bad2.csv:2: solver 'nscd' is a back end of this compari
 printf 'solver,dt,wall_s\nx,0.1\n' > "$OUT/bad3.csv"
 e=$("$MOREAU" compare "$CASE" --solvers nscd --dt 0.05 $SMALL --peer "$OUT/bad3.csv" --out "$OUT/c4" -q 2>&1)
 contains "$e" "peer $OUT/bad3.csv:2: 2 fields, the header has 3" "a short row: file, line and counts"
+printf 'solver,dt,wall_s\n"x,0.1,1\n' > "$OUT/bad4.csv"
+e=$("$MOREAU" compare "$CASE" --solvers nscd --dt 0.05 $SMALL --peer "$OUT/bad4.csv" --out "$OUT/c4" -q 2>&1)
+contains "$e" "peer $OUT/bad4.csv:2: a quote out of place" "an unterminated quote: file and line"
 e=$("$MOREAU" compare "$CASE" --solvers nscd --dt 0.05 $SMALL --peer "$OUT/none.csv" --out "$OUT/c5" -q 2>&1)
 contains "$e" "peer $OUT/none.csv: No such file or directory" "a missing peer file is named"
 
