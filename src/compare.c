@@ -328,23 +328,269 @@ static void slug(const char *in, char *out, size_t n)
   out[k] = '\0';
 }
 
+/* --- peers: rows another program measured (--peer FILE.csv) ---------------------------------- */
+
+/* The peer files' rows: read before the runs (a bad file stops the comparison before any work),
+   merged after compare.csv is written (they never enter it). */
+typedef struct {
+  int nfile;
+  colset *head;   /* one header per file */
+  int n, cap;
+  run_row *row;   /* val[k] holds the k-th column of its file until peers_merge */
+  int *file;      /* the file of each row */
+} peer_set;
+
+#define MAX_PEER_ROWS 100000
+
+static void peers_free(peer_set *P)
+{
+  mo_free(P->head);
+  mo_free(P->row);
+  mo_free(P->file);
+  memset(P, 0, sizeof *P);
+}
+
+/* Split a CSV line in place into its cells (RFC 4180: a quoted cell may hold commas, and ""
+   stands for a quote in it); -1 beyond max cells, -2 for a quote out of place. */
+static int csv_split(char *line, char **cell, int max)
+{
+  int n = 0;
+  char *r = line, *w;
+  line[strcspn(line, "\r\n")] = '\0';
+  for (;;) {
+    if (n == max) return -1;
+    cell[n++] = w = r;
+    if (*r == '"') {
+      for (r++;; r++) {
+        if (!*r) return -2;                  /* no closing quote */
+        if (*r == '"' && r[1] != '"') break; /* the closing quote */
+        if (*r == '"') r++;                  /* "" stands for " */
+        *w++ = *r;
+      }
+      r++;
+      if (*r && *r != ',') return -2;
+    } else {
+      for (; *r && *r != ','; r++) {
+        if (*r == '"') return -2;
+        *w++ = *r;
+      }
+    }
+    if (!*r) {
+      *w = '\0';
+      return n;
+    }
+    *w = '\0';
+    r++;
+  }
+}
+
+/* The columns a row holds as text or as its own fields, not as metrics. */
+static int peer_field_column(const char *name)
+{
+  static const char *field[] = {"solver", "dt", "wall_s", "steps", "status", "class", "reason"};
+  size_t k;
+  for (k = 0; k < sizeof field / sizeof field[0]; k++)
+    if (!strcmp(name, field[k])) return 1;
+  return 0;
+}
+
+static int peers_read(const mo_compare_options *opt, peer_set *P, mo_ctx *ctx)
+{
+  int f, st = MO_OK;
+  char *line = NULL, **cell = NULL;
+  size_t cap = 0;
+  FILE *in = NULL;
+  memset(P, 0, sizeof *P);
+  if (opt->npeer <= 0) return MO_OK;
+  P->nfile = opt->npeer;
+  P->head = mo_calloc(ctx, (size_t)opt->npeer, sizeof *P->head);
+  cell = mo_calloc(ctx, MAX_COLS, sizeof *cell);
+  if (!P->head || !cell) {
+    st = MO_ENOMEM;
+    goto done;
+  }
+  for (f = 0; f < opt->npeer; f++) {
+    const char *path = opt->peers[f];
+    colset *H = &P->head[f];
+    int c_solver = -1, c_dt = -1, c_wall = -1, c_steps = -1, c_status = -1, c_reason = -1, k, nc, lineno = 1;
+    if (!(in = fopen(path, "r"))) {
+      st = mo_error(ctx, MO_EIO, "peer %s: %s", path, strerror(errno));
+      goto done;
+    }
+    if (getline(&line, &cap, in) < 0) {
+      st = mo_error(ctx, MO_EINPUT, "peer %s: empty (a header row is expected)", path);
+      goto done;
+    }
+    if ((nc = csv_split(line, cell, MAX_COLS)) < 0) {
+      if (nc == -1) st = mo_error(ctx, MO_ELIMIT, "peer %s: more than %d columns", path, MAX_COLS);
+      else st = mo_error(ctx, MO_EINPUT, "peer %s: a quote out of place in the header", path);
+      goto done;
+    }
+    for (k = 0; k < nc; k++) {
+      snprintf(H->name[k], sizeof H->name[k], "%s", cell[k]);
+      if (!strcmp(cell[k], "solver")) c_solver = k;
+      else if (!strcmp(cell[k], "dt")) c_dt = k;
+      else if (!strcmp(cell[k], "wall_s")) c_wall = k;
+      else if (!strcmp(cell[k], "steps")) c_steps = k;
+      else if (!strcmp(cell[k], "status")) c_status = k;
+      else if (!strcmp(cell[k], "reason")) c_reason = k;
+    }
+    H->n = nc;
+    if (c_solver < 0 || c_dt < 0 || c_wall < 0) {
+      st = mo_error(ctx, MO_EINPUT, "peer %s: no column '%s' in the header (a peer file has compare.csv's "
+                    "columns: solver, dt, wall_s, then steps, status, reason and metrics by name)",
+                    path, c_solver < 0 ? "solver" : c_dt < 0 ? "dt" : "wall_s");
+      goto done;
+    }
+    while (getline(&line, &cap, in) >= 0) {
+      run_row *R;
+      char *end;
+      int s;
+      lineno++;
+      if (line[strspn(line, " \t\r\n")] == '\0') continue;
+      if ((nc = csv_split(line, cell, MAX_COLS)) == -2) {
+        st = mo_error(ctx, MO_EINPUT, "peer %s:%d: a quote out of place (RFC 4180 quoting, one row per line)", path, lineno);
+        goto done;
+      }
+      if (nc != H->n) {
+        st = mo_error(ctx, MO_EINPUT, "peer %s:%d: %d fields, the header has %d", path, lineno, nc < 0 ? MAX_COLS : nc, H->n);
+        goto done;
+      }
+      if (P->n == P->cap) {
+        int ncap = P->cap ? 2 * P->cap : 16;
+        run_row *nr;
+        int *nf;
+        if (P->n >= MAX_PEER_ROWS) {
+          st = mo_error(ctx, MO_ELIMIT, "peer %s: more than %d rows in the peer files", path, MAX_PEER_ROWS);
+          goto done;
+        }
+        if (!(nr = mo_realloc(ctx, P->row, (size_t)ncap * sizeof *nr))) {
+          st = MO_ENOMEM;
+          goto done;
+        }
+        P->row = nr;
+        if (!(nf = mo_realloc(ctx, P->file, (size_t)ncap * sizeof *nf))) {
+          st = MO_ENOMEM;
+          goto done;
+        }
+        P->file = nf;
+        P->cap = ncap;
+      }
+      R = &P->row[P->n];
+      memset(R, 0, sizeof *R);
+      if (!cell[c_solver][0]) {
+        st = mo_error(ctx, MO_EINPUT, "peer %s:%d: no solver name", path, lineno);
+        goto done;
+      }
+      snprintf(R->solver, sizeof R->solver, "%s", cell[c_solver]);
+      for (s = 0; s < opt->nsolver; s++)
+        if (!strcmp(R->solver, opt->solvers[s])) {
+          st = mo_error(ctx, MO_EINPUT, "peer %s:%d: solver '%s' is a back end of this comparison: a peer "
+                        "row names its own solver", path, lineno, R->solver);
+          goto done;
+        }
+      R->dt = strtod(cell[c_dt], &end);
+      if (end == cell[c_dt] || *end || !(R->dt > 0)) {
+        st = mo_error(ctx, MO_EINPUT, "peer %s:%d: dt '%s' is not a positive number", path, lineno, cell[c_dt]);
+        goto done;
+      }
+      R->wall = strtod(cell[c_wall], &end);
+      if (end == cell[c_wall] || *end) R->wall = NAN;
+      R->steps = c_steps >= 0 ? strtol(cell[c_steps], NULL, 10) : 0;
+      /* a failed peer run: status other than "complete" (the reason column says why) */
+      R->status = c_status >= 0 && cell[c_status][0] && strcmp(cell[c_status], "complete") ? -1 : MO_OK;
+      if (c_reason >= 0) snprintf(R->reason, sizeof R->reason, "%s", cell[c_reason]);
+      for (k = 0; k < H->n; k++) {
+        double v = strtod(cell[k], &end);
+        R->val[k] = peer_field_column(H->name[k]) || end == cell[k] || *end ? NAN : v;
+      }
+      P->file[P->n++] = f;
+    }
+    if (ferror(in)) {
+      st = mo_error(ctx, MO_EIO, "peer %s: read error", path);
+      goto done;
+    }
+    fclose(in);
+    in = NULL;
+  }
+done:
+  if (in) fclose(in);
+  free(line);
+  mo_free(cell);
+  if (st) peers_free(P);
+  return st;
+}
+
+/* The peer rows into dst, their metrics in the comparison's columns; classified as moreau's
+   runs are when they carry the energy columns. Returns the number of rows. */
+static int peers_merge(const peer_set *P, colset *C, run_row *dst, double pen_rel)
+{
+  int r, k;
+  for (r = 0; r < P->n; r++) {
+    run_row *R = &dst[r];
+    const colset *H = &P->head[P->file[r]];
+    *R = P->row[r];
+    for (k = 0; k < MAX_COLS; k++) R->val[k] = NAN;
+    for (k = 0; k < H->n; k++) {
+      int c;
+      if (isnan(P->row[r].val[k]) || (c = col_index(C, H->name[k])) < 0) continue;
+      R->val[c] = P->row[r].val[k];
+    }
+    snprintf(R->label, sizeof R->label, "%s-dt%g (external)", R->solver, R->dt);
+    R->outdir[0] = '\0';
+    if (R->status) {
+      snprintf(R->cls, sizeof R->cls, "failure");
+      snprintf(R->why, sizeof R->why, "%s", R->reason[0] ? R->reason : "failed (the peer gives no reason)");
+    } else if (isnan(colval(R, C, "energy.final")) && isnan(colval(R, C, "energy.max_growth"))) {
+      snprintf(R->cls, sizeof R->cls, "unclassified");
+      R->why[0] = '\0';
+    } else
+      classify(R, C, pen_rel);
+  }
+  return P->n;
+}
+
+/* The peers' lines of the work-precision figure: a data file and a dashed line per solver. */
+static void peers_plot(sbuf *gp, const run_row *rows, int n, int metric_col, const char *dir, mo_ctx *ctx)
+{
+  int i, r;
+  for (i = 0; i < n; i++) {
+    char nm[128], f[1400];
+    sbuf dat = {NULL, 0, 0, 0};
+    for (r = 0; r < i && strcmp(rows[r].solver, rows[i].solver); r++) continue;
+    if (r < i) continue; /* a solver already drawn */
+    for (r = i; r < n; r++)
+      if (!strcmp(rows[r].solver, rows[i].solver) && !rows[r].status && rows[r].val[metric_col] > 0 && rows[r].wall > 0)
+        sb_printf(&dat, "%.6g,%.6g,%.6g\n", rows[r].wall, rows[r].val[metric_col], rows[r].dt);
+    if (!dat.s) continue;
+    slug(rows[i].solver, nm, sizeof nm);
+    snprintf(f, sizeof f, "%s/plots/work-precision-peer-%s.csv", dir, nm);
+    write_text(f, dat.s, ctx);
+    free(dat.s);
+    sb_printf(gp, ", 'work-precision-peer-%s.csv' using 1:2 with linespoints lw 2 dt 2 pt 6 title '%s (peer)'", nm,
+              rows[i].solver);
+  }
+}
+
 int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ctx)
 {
   int nsol = opt->nsolver ? opt->nsolver : 1, ndt = opt->ndt ? opt->ndt : 1, ngrid = 1, i, j, k, st = MO_OK;
-  int nrun, r, metric_col;
+  int nrun, r, metric_col, nown;
   run_row *rows = NULL;
   colset *C = NULL;
+  peer_set P;
   char dir[1024], path[1400];
   sbuf b = {NULL, 0, 0, 0};
   for (k = 0; k < opt->nvary; k++) ngrid *= opt->vary[k].nval;
   nrun = nsol * ndt * ngrid;
   memset(res, 0, sizeof *res);
   if (nrun > 10000) return mo_error(ctx, MO_ELIMIT, "compare: %d runs (more than 10000): a smaller grid, please", nrun);
+  if ((st = peers_read(opt, &P, ctx))) return st;
   snprintf(dir, sizeof dir, "%s", opt->outdir);
-  if ((st = mo_mkdir_p(dir, ctx))) return st;
+  if ((st = mo_mkdir_p(dir, ctx))) goto done;
   snprintf(path, sizeof path, "%s/plots", dir);
-  if ((st = mo_mkdir_p(path, ctx))) return st;
-  rows = mo_calloc(ctx, (size_t)nrun, sizeof *rows);
+  if ((st = mo_mkdir_p(path, ctx))) goto done;
+  rows = mo_calloc(ctx, (size_t)nrun + (size_t)P.n, sizeof *rows);
   C = mo_calloc(ctx, 1, sizeof *C);
   if (!rows || !C) { st = MO_ENOMEM; goto done; }
 
@@ -467,6 +713,12 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
     if ((st = write_text(path, b.s, ctx))) goto done;
   }
 
+  /* the peers' rows follow the runs' (every loop below takes them; the figures' per-solver
+     loops draw the runs' back ends, peers_plot the peers) */
+  nown = nrun;
+  res->npeer = peers_merge(&P, C, rows + nrun, opt->penetration_tol > 0 ? opt->penetration_tol : 0.01);
+  nrun += res->npeer;
+
   /* figures: data files and gnuplot scripts (kept so that users restyle them) */
   metric_col = pick_metric(C, opt->metric);
   {
@@ -475,7 +727,7 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
     if (metric_col >= 0) {
       sbuf gp = {NULL, 0, 0, 0};
       sb_printf(&gp, "# work-precision: %s against wall time, one line per back end\n"
-                "set datafile separator ','\nset logscale xy\nset grid\nset key outside right\n"
+                "set datafile separator ','\nset logscale xy\nset grid\nset key below\n"
                 "set xlabel 'wall time (s)'\nset ylabel '%s'\nset title 'error against run time'\n",
                 C->name[metric_col], C->name[metric_col]);
       for (i = 0; i < nsol; i++) {
@@ -501,6 +753,7 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
             sb_printf(&gp, "%s'work-precision-%s.csv' using 1:2 with linespoints lw 2 title '%s'", s2 ? ", " : "", nm,
                       rows[s2 * ndt * ngrid].solver);
           }
+        if (i == 0) peers_plot(&gp, rows + nown, nrun - nown, metric_col, dir, ctx);
         if (i == 0) sb_printf(&gp, "\n");
       }
       snprintf(path, sizeof path, "%s/plots/work-precision.gp", dir);
@@ -679,7 +932,7 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
   sb_printf(&b, "# moreau compare: %s\n\n", opt->case_path);
   sb_printf(&b, "%d runs: %d stable, %d unstable, %d failed. Every run's outputs are under `runs/`; "
             "all metrics are in `compare.csv`%s; figures in `plots/` (gnuplot scripts kept).\n\n",
-            nrun, res->nstable, res->nunstable, res->nfailed, opt->nvary ? ", the classification in `stability.csv`" : "");
+            res->nrun, res->nstable, res->nunstable, res->nfailed, opt->nvary ? ", the classification in `stability.csv`" : "");
   {
     /* the chosen error, then the measures the seeds' comparisons turn on (doc/theory.md §10),
        those the runs have */
@@ -720,6 +973,12 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
   sb_printf(&b, "\n");
   for (r = 0; r < nrun; r++)
     if (rows[r].status) sb_printf(&b, "- `%s` failed: %s\n", rows[r].label, rows[r].reason);
+  if (nrun > nown) {
+    sb_printf(&b, "\nRows marked (external) are %d rows of", nrun - nown);
+    for (k = 0; k < opt->npeer; k++) sb_printf(&b, "%s `%s`", k ? (k == opt->npeer - 1 ? " and" : ",") : "", opt->peers[k]);
+    sb_printf(&b, " (--peer): measured by another program with its own clock, not run here and not in "
+              "`compare.csv`; dashed lines in the work-precision figure.\n");
+  }
   sb_printf(&b, "\n## Figures\n\n");
   if (metric_col >= 0) sb_printf(&b, "![work-precision](plots/work-precision.png)\n\n");
   sb_printf(&b, "Histories against the exact solution: `plots/history-*.png`; energy: `plots/energy.png`%s.\n",
@@ -730,5 +989,6 @@ done:
   free(b.s);
   mo_free(rows);
   mo_free(C);
+  peers_free(&P);
   return st;
 }

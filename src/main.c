@@ -28,6 +28,8 @@ static void usage(FILE *f)
           "          [--set KEY=VALUE]... [--out DIR] [--metric NAME] [--penetration-tol F]\n"
           "            the same scene by several back ends and time steps (and parameter grids):\n"
           "            compare.csv, stability.csv, report.md, plots/ (default out/compare-<case>)\n"
+          "          [--peer FILE.csv]...: another program's rows (compare.csv's columns) join the\n"
+          "            work-precision figure and report.md\n"
           "  check CASE [--solver S] [--set KEY=VALUE]...\n"
           "            validate a case and build its scene without running it\n"
           "  bench-local FILE.hdf5... [--tol T] [--vs-siconos] [--max-sweeps N] [--min-time S]\n"
@@ -128,11 +130,16 @@ static int cmd_compare(int argc, char **argv, mo_ctx *ctx)
   mo_compare_result res;
   char *solvers[16], *vals[MO_COMPARE_MAX_VARY][64], outbuf[4200];
   double dts[64];
-  const char **sets = calloc((size_t)argc, sizeof *sets);
+  const char **sets = calloc((size_t)argc, sizeof *sets), **peers = calloc((size_t)argc, sizeof *peers);
   int i, k, st;
   memset(&o, 0, sizeof o);
-  if (!sets) return 2;
+  if (!sets || !peers) {
+    free(sets);
+    free(peers);
+    return 2;
+  }
   o.sets = sets;
+  o.peers = peers;
   for (i = 2; i < argc; i++) {
     const char *a = argv[i];
     if (!strcmp(a, "--solvers") && i + 1 < argc) {
@@ -156,6 +163,7 @@ static int cmd_compare(int argc, char **argv, mo_ctx *ctx)
         if (*end || !(dts[k] > 0)) {
           fprintf(stderr, "moreau compare: --dt: '%s' is not a positive time step\n", items[k]);
           free(sets);
+          free(peers);
           return 2;
         }
       }
@@ -166,6 +174,7 @@ static int cmd_compare(int argc, char **argv, mo_ctx *ctx)
       if (!eq || o.nvary == MO_COMPARE_MAX_VARY) {
         fprintf(stderr, "moreau compare: --vary KEY=v1,v2,... (at most %d keys)\n", MO_COMPARE_MAX_VARY);
         free(sets);
+        free(peers);
         return 2;
       }
       *eq = '\0';
@@ -185,6 +194,8 @@ static int cmd_compare(int argc, char **argv, mo_ctx *ctx)
       o.outdir = argv[++i];
     } else if (!strcmp(a, "--metric") && i + 1 < argc) {
       o.metric = argv[++i];
+    } else if (!strcmp(a, "--peer") && i + 1 < argc) {
+      peers[o.npeer++] = argv[++i];
     } else if (!strcmp(a, "--penetration-tol") && i + 1 < argc) {
       o.penetration_tol = atof(argv[++i]);
     } else if (!strcmp(a, "--quiet") || !strcmp(a, "-q")) {
@@ -192,18 +203,21 @@ static int cmd_compare(int argc, char **argv, mo_ctx *ctx)
     } else if (a[0] == '-' && a[1]) {
       fprintf(stderr, "moreau compare: unknown or incomplete option '%s'\n", a);
       free(sets);
+      free(peers);
       return 2;
     } else if (!o.case_path) {
       o.case_path = a;
     } else {
       fprintf(stderr, "moreau compare: one case at a time\n");
       free(sets);
+      free(peers);
       return 2;
     }
   }
   if (!o.case_path) {
     fprintf(stderr, "moreau compare: which case?\n");
     free(sets);
+    free(peers);
     return 2;
   }
   if (!o.outdir) {
@@ -218,6 +232,7 @@ static int cmd_compare(int argc, char **argv, mo_ctx *ctx)
   }
   st = mo_compare(&o, &res, ctx);
   free(sets);
+  free(peers);
   if (st) {
     fprintf(stderr, "moreau compare: %s\n", ctx->errmsg);
     return exit_code(st);
@@ -226,6 +241,7 @@ static int cmd_compare(int argc, char **argv, mo_ctx *ctx)
     printf("%s: %d runs (%d stable, %d unstable, %d failed)\n", o.case_path, res.nrun, res.nstable, res.nunstable, res.nfailed);
     printf("  outputs: %s/compare.csv, %s/report.md, %s/plots/ (%d figures, %d rendered)\n", o.outdir, o.outdir, o.outdir,
            res.nfigures, res.rendered);
+    if (res.npeer) printf("  with %d external rows from the --peer files (report.md, work-precision figure)\n", res.npeer);
   }
   return 0;
 }

@@ -30,18 +30,24 @@ typedef struct {
   const char *outdir;
   const char *metric;          /* the error of the work-precision figure (a compare.csv column) */
   double penetration_tol;      /* unstable above this fraction of the smallest element (0.01) */
+  int npeer;
+  const char *const *peers;    /* --peer FILE.csv: rows measured by another program, in
+                                  compare.csv's columns (at least solver, dt, wall_s) */
 } mo_compare_options;
 
 typedef struct {
   int nrun, nstable, nunstable, nfailed;
   int nfigures, rendered;      /* figures scripted, and rendered by gnuplot */
+  int npeer;                   /* rows read from the peer files */
 } mo_compare_result;
 
 /* Run every (back end, time step, grid point); write compare.csv (solver, dt, the varied keys,
    wall_s, steps, status, class, reason, then every metric of summary.json flattened as
    name.sub), stability.csv when keys vary, report.md, and plots/ (gnuplot scripts and their
    PNG and SVG renderings when gnuplot is present). A failing run is recorded, not fatal; a
-   case that does not load stops the comparison. */
+   case that does not load stops the comparison. Rows of the peer files join the
+   work-precision figure (one dashed line per peer solver) and report.md's table, marked
+   external; they are not written to compare.csv. */
 int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ctx);
 
 #ifdef __cplusplus
