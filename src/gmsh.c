@@ -896,6 +896,142 @@ static double dist(const double *X, int nd, int i, int j)
   return sqrt(s);
 }
 
+/* Orientation and shape of the body elements (doc/case-format.md, "Gmsh files"): an element
+   with a negative Jacobian at its centre is mirrored (*nreor counts them); coincident nodes, flat
+   elements and corners of sine at most MSH_MIN_SINE are refused. fileof[n] is the file index of
+   mesh node n (for the tags in messages). */
+static int check_shapes(msh *R, mo_mesh *m, const int *body, const int *fileof, int gb, int *nreor)
+{
+  static const double refmeasure[G_NTYPES] = {0, 1, 0.5, 4, 8}; /* |reference element| x J */
+  const int D = m->dim;
+  const int(*E)[2];
+  int ne = element_edges(gb, &E), k, a;
+  size_t i, nedge = 0;
+  double hmean = 0;
+  *nreor = 0;
+  for (i = 0; i < (size_t)m->nelem; i++)
+    for (k = 0; k < ne; k++) {
+      const int *c = &m->conn[i * (size_t)m->nen];
+      hmean += dist(m->x, D, c[E[k][0]], c[E[k][1]]);
+      nedge++;
+    }
+  hmean /= (double)(nedge ? nedge : 1);
+  for (i = 0; i < (size_t)m->nelem; i++) {
+    int *c = &m->conn[i * (size_t)m->nen];
+    size_t fe = (size_t)body[i];
+    double J, hmax = 0, smin = HUGE_VAL, rel;
+    int kmin = 0;
+    for (k = 0; k < ne; k++) {
+      double l = dist(m->x, D, c[E[k][0]], c[E[k][1]]);
+      if (!(l > MSH_COINCIDE * hmean))
+        return msh_error(R, MO_EINPUT, R->eline[fe], "%s %lld is degenerate: its nodes %lld and %lld "
+                         "coincide (distance %.3g; the mesh's mean edge is %.3g)", gtype[gb].name,
+                         R->etag[fe], R->ntag[fileof[c[E[k][0]]]], R->ntag[fileof[c[E[k][1]]]], l,
+                         hmean);
+      if (l > hmax) hmax = l;
+    }
+    J = centre_jacobian(m->x, D, c, gb);
+    if (J < 0) { /* written clockwise (left-handed): mirror the reference element */
+      int t;
+      switch (gb) {
+      case G_LINE: t = c[0]; c[0] = c[1]; c[1] = t; break;
+      case G_TRI: t = c[1]; c[1] = c[2]; c[2] = t; break;
+      case G_QUAD: t = c[1]; c[1] = c[3]; c[3] = t; break;
+      default:
+        for (a = 0; a < 4; a++) { t = c[a]; c[a] = c[a + 4]; c[a + 4] = t; }
+      }
+      J = -J; /* the centre is fixed by the mirror */
+      (*nreor)++;
+    }
+    rel = refmeasure[gb] * J / pow(hmax, D);
+    if (!(rel > MSH_MIN_SINE))
+      return msh_error(R, MO_EINPUT, R->eline[fe], "%s %lld is degenerate (flat): its %s is %.3g times "
+                       "the %s of its longest edge, a valid element needs more than %g", gtype[gb].name,
+                       R->etag[fe], D == 3 ? "volume" : "area", rel, D == 3 ? "cube" : "square",
+                       MSH_MIN_SINE);
+    for (k = 0; gb != G_LINE && k < m->nen; k++) {
+      double s = corner_sine(m->x, D, c, gb, k);
+      if (s < smin) {
+        smin = s;
+        kmin = k;
+      }
+    }
+    if (gb != G_LINE && smin <= -MSH_MIN_SINE)
+      return msh_error(R, MO_EINPUT, R->eline[fe], "%s %lld is inverted at its corner node %lld (the "
+                       "corner's sine is %.3g): a non-convex or self-intersecting element",
+                       gtype[gb].name, R->etag[fe], R->ntag[fileof[c[kmin]]], smin);
+    if (gb != G_LINE && smin <= MSH_MIN_SINE)
+      return msh_error(R, MO_EINPUT, R->eline[fe], "%s %lld is degenerate at its corner node %lld: the "
+                       "corner's sine is %.3g (an angle of 0 or 180 degrees), a valid element needs "
+                       "more than %g", gtype[gb].name, R->etag[fe], R->ntag[fileof[c[kmin]]], smin,
+                       MSH_MIN_SINE);
+  }
+  return MO_OK;
+}
+
+/* A side (facet) of an element: sorted nodes, element, and the sense in which the element runs
+   through it; two elements that share a side run through it in opposite senses unless the mesh
+   folds over itself there. */
+typedef struct {
+  int key[4];
+  int el, sense;
+} msh_side;
+
+static int cmp_side(const void *a, const void *b)
+{
+  const msh_side *p = a, *q = b;
+  int i;
+  for (i = 0; i < 4; i++)
+    if (p->key[i] != q->key[i]) return (p->key[i] > q->key[i]) - (p->key[i] < q->key[i]);
+  return (p->el > q->el) - (p->el < q->el);
+}
+
+static int check_folds(msh *R, const mo_mesh *m, const int *body, const int *fileof, int gb)
+{
+  static const char *side_word[4] = {"", "end", "edge", "face"};
+  const mo_eltype_info *T = mo_eltype_get(m->type);
+  size_t n = (size_t)m->nelem * (size_t)T->nfacet, i, j;
+  msh_side *S = mo_malloc(R->ctx, (n ? n : 1) * sizeof *S);
+  int e, f, a, st = MO_OK;
+  if (!S) return MO_ENOMEM;
+  for (e = 0, i = 0; e < m->nelem; e++)
+    for (f = 0; f < T->nfacet; f++, i++) {
+      int v[4], lo = 0;
+      for (a = 0; a < 4; a++) {
+        v[a] = a < T->nfn ? m->conn[(size_t)e * (size_t)m->nen + (size_t)T->facet[f][a]] : -1;
+        S[i].key[a] = v[a];
+        if (a < T->nfn && v[a] < v[lo]) lo = a;
+      }
+      qsort(S[i].key, (size_t)T->nfn, sizeof(int), cmp_int1);
+      S[i].el = e;
+      S[i].sense = T->nfn == 1 ? f : T->nfn == 2 ? v[0] < v[1] : v[(lo + 1) % 4] < v[(lo + 3) % 4];
+    }
+  qsort(S, n, sizeof *S, cmp_side);
+  for (i = 0; i < n && !st; i = j) {
+    for (j = i + 1; j < n && !memcmp(S[i].key, S[j].key, sizeof S[i].key); j++) {}
+    if (j - i == 1 || (j - i == 2 && S[i].sense != S[i + 1].sense)) continue;
+    {
+      size_t p = (size_t)body[S[i].el], q = (size_t)body[S[i + 1].el];
+      char nodes[160];
+      int k = 0;
+      for (a = 0; a < T->nfn; a++)
+        k += snprintf(nodes + k, sizeof nodes - (size_t)k, "%s%lld", a ? ", " : "",
+                      R->ntag[fileof[S[i].key[a]]]);
+      if (j - i > 2)
+        st = msh_error(R, MO_EINPUT, R->eline[q], "%zu elements share the %s of nodes %s (%s %lld at this "
+                       "line, %s %lld at line %ld): the mesh overlaps itself there", j - i,
+                       side_word[T->dim], nodes, gtype[gb].name, R->etag[q], gtype[gb].name, R->etag[p],
+                       R->eline[p]);
+      else
+        st = msh_error(R, MO_EINPUT, R->eline[q], "%s %lld and %s %lld (line %ld) lie on the same side of "
+                       "their common %s (nodes %s): the mesh folds over itself there", gtype[gb].name,
+                       R->etag[q], gtype[gb].name, R->etag[p], R->eline[p], side_word[T->dim], nodes);
+    }
+  }
+  mo_free(S);
+  return st;
+}
+
 /* Per physical name: its nodes and its facets (file elements of dimension D - 1). */
 typedef struct {
   char *name;
@@ -927,9 +1063,10 @@ static int build(msh *R, const mo_gmsh_options *opt, mo_mesh **out, mo_gmsh_repo
   unsigned char *drop = NULL;
   mo_mesh *m = NULL;
   size_t e, i, ngrp = 0, nset = 0, nbody = 0, nkeep = 0, capgrp = 0;
-  int D = -1, gb = -1, st = MO_OK, nused = 0, a, d, k;
+  int *fileof = NULL;
+  int D = -1, gb = -1, st = MO_OK, nused = 0, nreor = 0, a, d, k;
   long first_body = 0;
-  double scale = opt ? opt->scale : 1, hmean = 0, ext = 0;
+  double scale = opt ? opt->scale : 1, ext = 0;
   *out = NULL;
 
   if (!(scale > 0) || !isfinite(scale))
@@ -1121,67 +1258,16 @@ static int build(msh *R, const mo_gmsh_options *opt, mo_mesh **out, mo_gmsh_repo
   }
   m->nelem = (int)nkeep;
 
-  /* orientation and shape: clockwise elements are reoriented, degenerate and inverted ones refused */
-  {
-    size_t nedge = 0;
-    const int(*E)[2];
-    int ne = element_edges(gb, &E);
-    for (i = 0; i < nkeep; i++)
-      for (k = 0; k < ne; k++) {
-        const int *c = &m->conn[i * (size_t)m->nen];
-        hmean += dist(m->x, D, c[E[k][0]], c[E[k][1]]);
-        nedge++;
-      }
-    hmean /= (double)(nedge ? nedge : 1);
-    for (i = 0; i < nkeep; i++) {
-      int *c = &m->conn[i * (size_t)m->nen];
-      size_t fe_ = (size_t)body[i];
-      double J, smin = HUGE_VAL;
-      int kmin = 0;
-      for (k = 0; k < ne; k++) {
-        double l = dist(m->x, D, c[E[k][0]], c[E[k][1]]);
-        if (!(l > MSH_COINCIDE * hmean)) {
-          st = msh_error(R, MO_EINPUT, R->eline[fe_], "%s %lld is degenerate: its nodes %lld and %lld "
-                         "coincide (distance %.3g; the mesh's mean edge is %.3g)", gtype[gb].name,
-                         R->etag[fe_], R->ntag[R->enode[R->eoff[fe_] + (size_t)E[k][0]]],
-                         R->ntag[R->enode[R->eoff[fe_] + (size_t)E[k][1]]], l, hmean);
-          goto done;
-        }
-      }
-      J = centre_jacobian(m->x, D, c, gb);
-      if (J < 0) { /* written clockwise (left-handed): mirror the reference element */
-        int t;
-        switch (gb) {
-        case G_LINE: t = c[0]; c[0] = c[1]; c[1] = t; break;
-        case G_TRI: t = c[1]; c[1] = c[2]; c[2] = t; break;
-        case G_QUAD: t = c[1]; c[1] = c[3]; c[3] = t; break;
-        default:
-          for (a = 0; a < 4; a++) { t = c[a]; c[a] = c[a + 4]; c[a + 4] = t; }
-        }
-        if (rep) rep->nreoriented++;
-      }
-      for (k = 0; k < (gb == G_LINE ? 1 : m->nen); k++) {
-        double s = corner_sine(m->x, D, c, gb, k);
-        if (s < smin) { smin = s; kmin = k; }
-      }
-      if (!(smin > MSH_MIN_SINE)) {
-        const char *what = smin > -MSH_MIN_SINE || J == 0 ? "degenerate (flat)" : "inverted";
-        int node = c[kmin];
-        size_t fi;
-        long long ntg = -1;
-        for (fi = 0; fi < R->nnode; fi++)
-          if (newid[fi] == node) { ntg = R->ntag[fi]; break; }
-        st = msh_error(R, MO_EINPUT, R->eline[fe_], "%s %lld is %s at its corner node %lld: the corner's "
-                       "sine is %.3g, a valid element needs more than %g%s", gtype[gb].name,
-                       R->etag[fe_], what, ntg, smin, MSH_MIN_SINE,
-                       smin <= -MSH_MIN_SINE ? " (a non-convex or self-intersecting element)" : "");
-        goto done;
-      }
-    }
-    if (rep && rep->nreoriented)
-      mo_log(ctx, 1, "%s: note: %d of %d %ss were written clockwise (negative Jacobian) and were "
-             "reoriented\n", R->file, rep->nreoriented, m->nelem, gtype[gb].name);
-  }
+  /* orientation and shape */
+  fileof = mo_malloc(ctx, (size_t)(nused ? nused : 1) * sizeof *fileof);
+  if (!fileof) { st = MO_ENOMEM; goto done; }
+  for (i = 0; i < R->nnode; i++)
+    if (newid[i] >= 0) fileof[newid[i]] = (int)i;
+  if ((st = check_shapes(R, m, body, fileof, gb, &nreor))) goto done;
+  if ((st = check_folds(R, m, body, fileof, gb))) goto done;
+  if (nreor)
+    mo_log(ctx, 1, "%s: note: %d of %d %ss were written clockwise (negative Jacobian) and were "
+           "reoriented\n", R->file, nreor, m->nelem, gtype[gb].name);
 
   /* physical groups: (dim, tag) pairs, each with a set name (groups sharing a name merge) */
   for (e = 0; e < R->nel; e++) {
@@ -1326,6 +1412,7 @@ static int build(msh *R, const mo_gmsh_options *opt, mo_mesh **out, mo_gmsh_repo
     if (st) goto done;
   }
   if (rep) {
+    rep->nreoriented = nreor;
     rep->version = R->version;
     rep->nunused = (int)R->nnode - nused;
     rep->nduplicate = (int)(nbody - nkeep);
@@ -1348,6 +1435,7 @@ done:
   mo_free(fl);
   mo_free(order);
   mo_free(newid);
+  mo_free(fileof);
   mo_mesh_free(m);
   return st;
 }
