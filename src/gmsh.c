@@ -82,6 +82,7 @@ typedef struct {
   FILE *f;
   const char *file;
   long line, at;         /* line of the current token; line the stream is on */
+  int nl_last;           /* the last byte read was a newline */
   char tok[MSH_TOKEN_MAX];
   char shown[64];        /* the token as printed in messages */
   mo_ctx *ctx;
@@ -199,13 +200,14 @@ static int msh_next(msh *R)
   for (;;) {
     c = getc(R->f);
     if (c == EOF) {
-      R->line = R->at;
+      R->line = R->at > 1 && R->nl_last ? R->at - 1 : R->at; /* the last line, not the one after */
       if (ferror(R->f)) {
         msh_error(R, MO_EIO, R->at, "read error (%s)", strerror(errno));
         return -1;
       }
       return 0;
     }
+    R->nl_last = c == '\n';
     if (c == '\n') R->at++;
     else if (!is_blank(c)) break;
   }
@@ -241,6 +243,7 @@ static int msh_next(msh *R)
       R->tok[n++] = (char)c;
       c = getc(R->f);
     } while (c != EOF && !is_blank(c));
+    R->nl_last = c == '\n';
     if (c == '\n') R->at++;
   }
   R->tok[n] = '\0';
@@ -1113,14 +1116,14 @@ static int build(msh *R, const mo_gmsh_options *opt, mo_mesh **out, mo_gmsh_repo
     }
 
   /* entities and physical names: sorted, unique */
-  qsort(R->ent, R->nent, sizeof *R->ent, cmp_entity);
+  if (R->nent) qsort(R->ent, R->nent, sizeof *R->ent, cmp_entity);
   for (i = 1; i < R->nent; i++)
     if (R->ent[i].dim == R->ent[i - 1].dim && R->ent[i].tag == R->ent[i - 1].tag) {
       st = msh_error(R, MO_EINPUT, R->ent[i].line, "%s %d is defined twice (first at line %ld)",
                      dim_word(R->ent[i].dim), R->ent[i].tag, R->ent[i - 1].line);
       goto done;
     }
-  qsort(R->pn, R->npn, sizeof *R->pn, cmp_pname);
+  if (R->npn) qsort(R->pn, R->npn, sizeof *R->pn, cmp_pname);
   for (i = 1; i < R->npn; i++)
     if (R->pn[i].dim == R->pn[i - 1].dim && R->pn[i].tag == R->pn[i - 1].tag) {
       st = msh_error(R, MO_EINPUT, R->pn[i].line, "physical %s %d is named twice (first at line %ld)",
@@ -1149,19 +1152,14 @@ static int build(msh *R, const mo_gmsh_options *opt, mo_mesh **out, mo_gmsh_repo
           goto done;
         }
     for (a = 0; a < nen; a++) {
-      msh_tagidx key, *hit;
-      key.tag = t[a];
-      key.idx = 0;
-      hit = R->nnode ? bsearch(&key, order, R->nnode, sizeof *order, cmp_tagidx) : NULL;
-      if (!hit) { /* idx 0 may not be the first of its tag: search by tag alone */
-        size_t lo = 0, hi = R->nnode;
-        while (lo < hi) {
-          size_t mid = lo + (hi - lo) / 2;
-          if (order[mid].tag < key.tag) lo = mid + 1;
-          else hi = mid;
-        }
-        if (lo < R->nnode && order[lo].tag == key.tag) hit = &order[lo];
+      msh_tagidx *hit = NULL;
+      size_t lo = 0, hi = R->nnode;
+      while (lo < hi) { /* the node of tag t[a] among the sorted tags */
+        size_t mid = lo + (hi - lo) / 2;
+        if (order[mid].tag < t[a]) lo = mid + 1;
+        else hi = mid;
       }
+      if (lo < R->nnode && order[lo].tag == t[a]) hit = &order[lo];
       if (!hit) {
         st = msh_error(R, MO_EINPUT, R->eline[e], "%s %lld refers to node %lld, which $Nodes (line %ld) "
                        "does not define", gtype[g].name, R->etag[e], t[a], R->sec_line[S_NODES]);
@@ -1290,7 +1288,7 @@ static int build(msh *R, const mo_gmsh_options *opt, mo_mesh **out, mo_gmsh_repo
     grp[ngrp].set = -1;
     ngrp++;
   }
-  qsort(grp, ngrp, sizeof *grp, cmp_group);
+  if (ngrp) qsort(grp, ngrp, sizeof *grp, cmp_group);
   {
     size_t u = 0;
     for (i = 0; i < ngrp; i++)

@@ -105,7 +105,7 @@ int mo_mesh_add_nodeset(mo_mesh *m, const char *name, const int *ids, int n, mo_
     mo_free(ns->node);
     return MO_ENOMEM;
   }
-  memcpy(ns->node, ids, (size_t)n * sizeof(int));
+  if (n > 0) memcpy(ns->node, ids, (size_t)n * sizeof(int)); /* ids may be NULL when n = 0 */
   qsort(ns->node, (size_t)n, sizeof(int), cmp_int);
   for (i = 0, k = 0; i < n; i++)
     if (k == 0 || ns->node[k - 1] != ns->node[i]) ns->node[k++] = ns->node[i];
