@@ -198,7 +198,7 @@ static int msh_next(msh *R)
 {
   int c, n = 0;
   for (;;) {
-    c = getc(R->f);
+    c = getc_unlocked(R->f);
     if (c == EOF) {
       R->line = R->at > 1 && R->nl_last ? R->at - 1 : R->at; /* the last line, not the one after */
       if (ferror(R->f)) {
@@ -215,7 +215,7 @@ static int msh_next(msh *R)
   if (c == '"') {
     R->tok[n++] = '"';
     do {
-      c = getc(R->f);
+      c = getc_unlocked(R->f);
       if (c == EOF || c == '\n' || c == '\0') {
         R->tok[n] = '\0';
         msh_bad(R, "a quoted name is not closed on its line");
@@ -241,7 +241,7 @@ static int msh_next(msh *R)
         return -1;
       }
       R->tok[n++] = (char)c;
-      c = getc(R->f);
+      c = getc_unlocked(R->f);
     } while (c != EOF && !is_blank(c));
     R->nl_last = c == '\n';
     if (c == '\n') R->at++;
@@ -1005,7 +1005,11 @@ static int check_folds(msh *R, const mo_mesh *m, const int *body, const int *fil
         S[i].key[a] = v[a];
         if (a < T->nfn && v[a] < v[lo]) lo = a;
       }
-      qsort(S[i].key, (size_t)T->nfn, sizeof(int), cmp_int1);
+      for (a = 1; a < T->nfn; a++) { /* insertion sort of the n <= 4 nodes */
+        int v0 = S[i].key[a], b = a;
+        for (; b > 0 && S[i].key[b - 1] > v0; b--) S[i].key[b] = S[i].key[b - 1];
+        S[i].key[b] = v0;
+      }
       S[i].el = e;
       S[i].sense = T->nfn == 1 ? f : T->nfn == 2 ? v[0] < v[1] : v[(lo + 1) % 4] < v[(lo + 3) % 4];
     }
@@ -1352,52 +1356,62 @@ static int build(msh *R, const mo_gmsh_options *opt, mo_mesh **out, mo_gmsh_repo
       }
     }
   }
-  /* facet sets: the group's facets all on the boundary, or all inside (node set only) */
-  for (i = 0; i < nset; i++) {
-    msh_set *S = &set[i];
+  /* facet sets: the group's facets all on the boundary, or all inside (node set only); located
+     in one pass for all groups */
+  {
     const mo_eltype_info *T = mo_eltype_get(m->type);
-    size_t f, nb = 0, nin = 0, first_in = 0, first_b = 0;
-    if (!S->nfacet) continue;
-    fn = mo_malloc(ctx, S->nfacet * (size_t)T->nfn * sizeof(int));
-    fe = mo_malloc(ctx, S->nfacet * sizeof(int));
-    fl = mo_malloc(ctx, S->nfacet * sizeof(int));
+    size_t f, nft = 0, off;
+    for (i = 0; i < nset; i++) nft += set[i].nfacet;
+    fn = mo_malloc(ctx, (nft ? nft : 1) * (size_t)T->nfn * sizeof(int));
+    fe = mo_malloc(ctx, (nft ? nft : 1) * sizeof(int));
+    fl = mo_malloc(ctx, (nft ? nft : 1) * sizeof(int));
     if (!fn || !fe || !fl) { st = MO_ENOMEM; goto done; }
-    for (f = 0; f < S->nfacet; f++) {
-      size_t el = (size_t)S->facet[f];
-      int g = R->etype[el];
-      if (gtype[g].nen != T->nfn) {
-        st = msh_error(R, MO_EINPUT, R->eline[el], "%s %lld (physical group '%s') cannot be a side of a %s",
-                       gtype[g].name, R->etag[el], S->name, gtype[gb].name);
+    for (i = 0, off = 0; i < nset; i++)
+      for (f = 0; f < set[i].nfacet; f++, off++) {
+        size_t el = (size_t)set[i].facet[f];
+        int g = R->etype[el];
+        if (gtype[g].nen != T->nfn) {
+          st = msh_error(R, MO_EINPUT, R->eline[el], "%s %lld (physical group '%s') cannot be a side of a %s",
+                         gtype[g].name, R->etag[el], set[i].name, gtype[gb].name);
+          goto done;
+        }
+        for (a = 0; a < T->nfn; a++)
+          fn[off * (size_t)T->nfn + (size_t)a] = newid[R->enode[R->eoff[el] + (size_t)a]];
+      }
+    if (nft && (st = mo_mesh_locate_facets(m, fn, (int)nft, fe, fl, ctx))) goto done;
+    for (i = 0, off = 0; i < nset; off += set[i].nfacet, i++) {
+      msh_set *S = &set[i];
+      int *se = fe + off, *sl = fl + off;
+      size_t nb = 0, nin = 0, first_in = 0, first_b = 0;
+      for (f = 0; f < S->nfacet; f++) {
+        size_t el = (size_t)S->facet[f];
+        if (se[f] == -1) {
+          st = msh_error(R, MO_EINPUT, R->eline[el], "%s %lld (physical group '%s') is not a side of any %s "
+                         "(is the mesh conforming?)", gtype[R->etype[el]].name, R->etag[el], S->name,
+                         gtype[gb].name);
+          goto done;
+        }
+        if (se[f] == -2) {
+          if (!nin++) first_in = el;
+        } else {
+          if (!nb++) first_b = el;
+          se[nb - 1] = se[f];
+          sl[nb - 1] = sl[f];
+        }
+      }
+      if (nb && nin) {
+        st = msh_error(R, MO_EINPUT, R->eline[first_in], "physical group '%s' has %s %lld inside the body and "
+                       "%s %lld (line %ld) on its boundary: a group of %ss lies on the boundary (a facet "
+                       "set for loads and contact) or inside (a node set)", S->name,
+                       gtype[R->etype[first_in]].name, R->etag[first_in], gtype[R->etype[first_b]].name,
+                       R->etag[first_b], R->eline[first_b], gtype[R->etype[first_b]].name);
         goto done;
       }
-      for (a = 0; a < T->nfn; a++) fn[f * (size_t)T->nfn + (size_t)a] = newid[R->enode[R->eoff[el] + (size_t)a]];
+      if (nb && (st = mo_mesh_add_facetset(m, S->name, se, sl, (int)nb, ctx))) goto done;
+      if (nin)
+        mo_log(ctx, 2, "%s: physical group '%s' lies inside the body: a node set, no facet set\n", R->file,
+               S->name);
     }
-    if ((st = mo_mesh_locate_facets(m, fn, (int)S->nfacet, fe, fl, ctx))) goto done;
-    for (f = 0; f < S->nfacet; f++) {
-      size_t el = (size_t)S->facet[f];
-      if (fe[f] == -1) {
-        st = msh_error(R, MO_EINPUT, R->eline[el], "%s %lld (physical group '%s') is not a side of any %s "
-                       "(is the mesh conforming?)", gtype[R->etype[el]].name, R->etag[el], S->name,
-                       gtype[gb].name);
-        goto done;
-      }
-      if (fe[f] == -2) { if (!nin++) first_in = el; }
-      else { if (!nb++) first_b = el; fe[nb - 1] = fe[f]; fl[nb - 1] = fl[f]; }
-    }
-    if (nb && nin) {
-      st = msh_error(R, MO_EINPUT, R->eline[first_in], "physical group '%s' has %s %lld inside the body and "
-                     "%s %lld (line %ld) on its boundary: a group of %ss lies on the boundary (a facet "
-                     "set for loads and contact) or inside (a node set)", S->name,
-                     gtype[R->etype[first_in]].name, R->etag[first_in], gtype[R->etype[first_b]].name,
-                     R->etag[first_b], R->eline[first_b], gtype[R->etype[first_b]].name);
-      goto done;
-    }
-    if (nb && (st = mo_mesh_add_facetset(m, S->name, fe, fl, (int)nb, ctx))) goto done;
-    if (nin)
-      mo_log(ctx, 2, "%s: physical group '%s' lies inside the body: a node set, no facet set\n", R->file,
-             S->name);
-    mo_free(fn); mo_free(fe); mo_free(fl);
-    fn = fe = fl = NULL;
   }
   for (i = 0; i < nset; i++)
     if ((st = mo_mesh_add_nodeset(m, set[i].name, set[i].node, (int)set[i].nnode, ctx))) goto done;

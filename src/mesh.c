@@ -128,6 +128,17 @@ static int cmp_facet(const void *a, const void *b)
   return 0;
 }
 
+/* Sort the n <= 4 nodes of a facet key (insertion: qsort's call costs more than the sort). */
+static void sort_key(int *k, int n)
+{
+  int i, j;
+  for (i = 1; i < n; i++) {
+    int v = k[i];
+    for (j = i; j > 0 && k[j - 1] > v; j--) k[j] = k[j - 1];
+    k[j] = v;
+  }
+}
+
 /* Every facet of every element, its sorted nodes as key, sorted by key (shared facets are
    adjacent). */
 static int all_facets(const mo_mesh *m, facet_key **out, size_t *nout, mo_ctx *ctx)
@@ -144,7 +155,7 @@ static int all_facets(const mo_mesh *m, facet_key **out, size_t *nout, mo_ctx *c
       for (a = 0; a < 4; a++)
         F[i].key[a] = a < T->nfn ? m->conn[(size_t)e * (size_t)m->nen + (size_t)T->facet[f][a]]
                                  : -1;
-      qsort(F[i].key, (size_t)T->nfn, sizeof(int), cmp_int);
+      sort_key(F[i].key, T->nfn);
       F[i].elem = e;
       F[i].lface = f;
     }
@@ -187,7 +198,7 @@ int mo_mesh_locate_facets(const mo_mesh *m, const int *fnodes, int nf, int *elem
   for (f = 0; f < nf; f++) {
     const facet_key *hit;
     for (a = 0; a < 4; a++) q.key[a] = a < nfn ? fnodes[(size_t)f * (size_t)nfn + (size_t)a] : -1;
-    qsort(q.key, (size_t)nfn, sizeof(int), cmp_int);
+    sort_key(q.key, nfn);
     hit = bsearch(&q, F, n, sizeof *F, cmp_facet);
     elem[f] = -1;
     lface[f] = -1;
