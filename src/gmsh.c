@@ -16,10 +16,11 @@
 /* Bounds on the small tables: physical names, entities, physical tags per entity and in all. */
 #define MSH_MAX_TABLE 1000000
 #define MSH_MAX_PHYS_PER_ENTITY 1024
-/* An element is degenerate when the sine of its sharpest corner (2D: cross product of the two
-   edges at the corner over their lengths; 3D: triple product of the three edges over their
-   lengths) is at most this, or when two of its nodes are closer than MSH_COINCIDE times the
-   mesh's mean edge (doc/case-format.md, "Gmsh files"). */
+/* An element is degenerate when its measure over its longest edge to the power dim, or the sine
+   of its sharpest corner (2D: cross product of the two edges at the corner over their lengths;
+   3D: triple product of the three edges over their lengths), is at most MSH_MIN_SINE, or when two
+   of its nodes are closer than MSH_COINCIDE times the mesh's mean edge; inverted when a corner's
+   sine is below -MSH_MIN_SINE (doc/case-format.md, "Gmsh files"). */
 #define MSH_MIN_SINE 1e-6
 #define MSH_COINCIDE 1e-10
 
@@ -325,19 +326,18 @@ static int msh_end(msh *R, const char *mark, long line)
   return MO_OK;
 }
 
-/* Make room for `need` items of `size` bytes in *p (capacity *cap): the arrays grow with what
-   the file actually holds, never with what it announces. */
-static int msh_grow(mo_ctx *ctx, void **p, size_t *cap, size_t need, size_t size)
+/* The block p (capacity *cap items of `size` bytes) with room for `need` items: p itself when it
+   has room, else p grown by doubling; NULL when the allocation fails (p stays valid and owned by
+   the caller). The arrays grow with what the file holds, never with what it announces. */
+static void *msh_grow(mo_ctx *ctx, void *p, size_t *cap, size_t need, size_t size)
 {
   size_t c = *cap ? *cap : 64;
   void *q;
-  if (need <= *cap) return MO_OK;
+  if (p && need <= *cap) return p;
   while (c < need) c *= 2;
-  q = mo_realloc(ctx, *p, c * size);
-  if (!q) return MO_ENOMEM;
-  *p = q;
+  if (!(q = mo_realloc(ctx, p, c * size))) return NULL;
   *cap = c;
-  return MO_OK;
+  return q;
 }
 
 /* --- sections ------------------------------------------------------------------------------- */
@@ -366,6 +366,7 @@ static int read_format(msh *R)
 static int read_names(msh *R)
 {
   long long n, i;
+  void *gp;
   int st;
   if ((st = msh_count(R, "the number of physical names", MSH_MAX_TABLE, "", &n))) return st;
   for (i = 0; i < n; i++) {
@@ -390,7 +391,8 @@ static int read_names(msh *R)
     for (len = 0; s[len]; len++)
       if ((unsigned char)s[len] < 32)
         return msh_bad(R, "the name of physical %s %d holds a control character", dim_word(dim), tag);
-    if ((st = msh_grow(R->ctx, (void **)&R->pn, &R->cappn, R->npn + 1, sizeof *R->pn))) return st;
+    if (!(gp = msh_grow(R->ctx, R->pn, &R->cappn, R->npn + 1, sizeof *R->pn))) return MO_ENOMEM;
+    R->pn = gp;
     P = &R->pn[R->npn];
     P->dim = dim;
     P->tag = tag;
@@ -406,6 +408,7 @@ static int read_entities(msh *R)
   static const char *what_count[4] = {"the number of point entities", "the number of curve entities",
                                       "the number of surface entities", "the number of volume entities"};
   long long cnt[4], k, j, nb;
+  void *gp;
   int d, st, c;
   double x;
   for (d = 0; d < 4; d++)
@@ -414,7 +417,8 @@ static int read_entities(msh *R)
     for (k = 0; k < cnt[d]; k++) {
       msh_entity *E;
       long long np;
-      if ((st = msh_grow(R->ctx, (void **)&R->ent, &R->capent, R->nent + 1, sizeof *R->ent))) return st;
+      if (!(gp = msh_grow(R->ctx, R->ent, &R->capent, R->nent + 1, sizeof *R->ent))) return MO_ENOMEM;
+      R->ent = gp;
       E = &R->ent[R->nent];
       E->dim = d;
       if ((st = msh_int32(R, "an entity tag", 1, INT_MAX, &E->tag))) return st;
@@ -425,8 +429,9 @@ static int read_entities(msh *R)
         return st;
       if (R->nptag + (size_t)np > MSH_MAX_TABLE)
         return msh_error(R, MO_ELIMIT, R->line, "more than %d physical tags on entities", MSH_MAX_TABLE);
-      if ((st = msh_grow(R->ctx, (void **)&R->ptag, &R->capptag, R->nptag + (size_t)np, sizeof *R->ptag)))
-        return st;
+      if (!(gp = msh_grow(R->ctx, R->ptag, &R->capptag, R->nptag + (size_t)np, sizeof *R->ptag)))
+        return MO_ENOMEM;
+      R->ptag = gp;
       E->phys0 = (int)R->nptag;
       E->nphys = (int)np;
       for (j = 0; j < np; j++) {
@@ -448,19 +453,16 @@ static int read_entities(msh *R)
 
 static int push_node(msh *R, long long tag, long line)
 {
-  int st;
-  if ((st = msh_grow(R->ctx, (void **)&R->ntag, &R->capnode, R->nnode + 1, sizeof *R->ntag)))
-    return st;
-  /* the three arrays share one capacity */
-  {
-    size_t cap = R->capnode;
-    double *x = mo_realloc(R->ctx, R->nx, cap * 3 * sizeof *x);
-    long *l;
-    if (!x) return MO_ENOMEM;
-    R->nx = x;
-    l = mo_realloc(R->ctx, R->nline, cap * sizeof *l);
-    if (!l) return MO_ENOMEM;
-    R->nline = l;
+  size_t cap = R->capnode;
+  void *gp;
+  if (!(gp = msh_grow(R->ctx, R->ntag, &cap, R->nnode + 1, sizeof *R->ntag))) return MO_ENOMEM;
+  R->ntag = gp;
+  if (cap != R->capnode) { /* the three arrays share one capacity */
+    if (!(gp = mo_realloc(R->ctx, R->nx, cap * 3 * sizeof *R->nx))) return MO_ENOMEM;
+    R->nx = gp;
+    if (!(gp = mo_realloc(R->ctx, R->nline, cap * sizeof *R->nline))) return MO_ENOMEM;
+    R->nline = gp;
+    R->capnode = cap;
   }
   R->ntag[R->nnode] = tag;
   R->nline[R->nnode] = line;
@@ -560,8 +562,8 @@ static int type_of(msh *R, long long t, int *g)
 static int push_element(msh *R, int g, int grp, long long tag, long line)
 {
   size_t cap = R->capel;
-  int st;
-  if (R->nel + 1 > cap) {
+  void *gp;
+  if (R->nel + 1 > cap) { /* the five arrays share one capacity */
     void *p;
     cap = cap ? 2 * cap : 64;
     if (!(p = mo_realloc(R->ctx, R->etype, cap * sizeof *R->etype))) return MO_ENOMEM;
@@ -576,9 +578,9 @@ static int push_element(msh *R, int g, int grp, long long tag, long line)
     R->eoff = p;
     R->capel = cap;
   }
-  if ((st = msh_grow(R->ctx, (void **)&R->enode, &R->capenode, R->nenode + (size_t)gtype[g].nen,
-                     sizeof *R->enode)))
-    return st;
+  if (!(gp = msh_grow(R->ctx, R->enode, &R->capenode, R->nenode + (size_t)gtype[g].nen, sizeof *R->enode)))
+    return MO_ENOMEM;
+  R->enode = gp;
   R->etype[R->nel] = (unsigned char)g;
   R->egrp[R->nel] = grp;
   R->etag[R->nel] = tag;
@@ -1069,6 +1071,7 @@ static int build(msh *R, const mo_gmsh_options *opt, mo_mesh **out, mo_gmsh_repo
   msh_set *set = NULL;
   unsigned char *drop = NULL;
   mo_mesh *m = NULL;
+  void *gp;
   size_t e, i, ngrp = 0, nset = 0, nbody = 0, nkeep = 0, capgrp = 0;
   int *fileof = NULL;
   int D = -1, gb = -1, st = MO_OK, nused = 0, nreor = 0, a, d, k;
@@ -1278,7 +1281,8 @@ static int build(msh *R, const mo_gmsh_options *opt, mo_mesh **out, mo_gmsh_repo
     if ((st = element_physicals(R, e, &ph, &nph))) goto done;
     for (j = 0; j < nph; j++) {
       if (ngrp && grp[ngrp - 1].dim == gtype[R->etype[e]].dim && grp[ngrp - 1].tag == ph[j]) continue;
-      if ((st = msh_grow(ctx, (void **)&grp, &capgrp, ngrp + 1, sizeof *grp))) goto done;
+      if (!(gp = msh_grow(ctx, grp, &capgrp, ngrp + 1, sizeof *grp))) { st = MO_ENOMEM; goto done; }
+      grp = gp;
       grp[ngrp].dim = gtype[R->etype[e]].dim;
       grp[ngrp].tag = ph[j];
       grp[ngrp].set = -1;
@@ -1286,7 +1290,8 @@ static int build(msh *R, const mo_gmsh_options *opt, mo_mesh **out, mo_gmsh_repo
     }
   }
   for (i = 0; i < R->npn; i++) { /* named groups without elements give empty node sets */
-    if ((st = msh_grow(ctx, (void **)&grp, &capgrp, ngrp + 1, sizeof *grp))) goto done;
+    if (!(gp = msh_grow(ctx, grp, &capgrp, ngrp + 1, sizeof *grp))) { st = MO_ENOMEM; goto done; }
+    grp = gp;
     grp[ngrp].dim = R->pn[i].dim;
     grp[ngrp].tag = R->pn[i].tag;
     grp[ngrp].set = -1;
@@ -1339,8 +1344,11 @@ static int build(msh *R, const mo_gmsh_options *opt, mo_mesh **out, mo_gmsh_repo
       G = bsearch(&key, grp, ngrp, sizeof *grp, cmp_group);
       if (!G) { st = mo_error(ctx, MO_EINTERNAL, "gmsh: a physical group went missing"); goto done; }
       S = &set[G->set];
-      if ((st = msh_grow(ctx, (void **)&S->node, &S->capnode, S->nnode + (size_t)gtype[g].nen, sizeof(int))))
+      if (!(gp = msh_grow(ctx, S->node, &S->capnode, S->nnode + (size_t)gtype[g].nen, sizeof(int)))) {
+        st = MO_ENOMEM;
         goto done;
+      }
+      S->node = gp;
       for (a = 0; a < gtype[g].nen; a++) {
         size_t fi = (size_t)R->enode[R->eoff[e] + (size_t)a];
         if (newid[fi] < 0) {
@@ -1351,7 +1359,11 @@ static int build(msh *R, const mo_gmsh_options *opt, mo_mesh **out, mo_gmsh_repo
         S->node[S->nnode++] = newid[fi];
       }
       if (dim == D - 1) {
-        if ((st = msh_grow(ctx, (void **)&S->facet, &S->capfacet, S->nfacet + 1, sizeof(int)))) goto done;
+        if (!(gp = msh_grow(ctx, S->facet, &S->capfacet, S->nfacet + 1, sizeof(int)))) {
+          st = MO_ENOMEM;
+          goto done;
+        }
+        S->facet = gp;
         S->facet[S->nfacet++] = (int)e;
       }
     }
