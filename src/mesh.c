@@ -105,7 +105,7 @@ int mo_mesh_add_nodeset(mo_mesh *m, const char *name, const int *ids, int n, mo_
     mo_free(ns->node);
     return MO_ENOMEM;
   }
-  memcpy(ns->node, ids, (size_t)n * sizeof(int));
+  if (n > 0) memcpy(ns->node, ids, (size_t)n * sizeof(int)); /* ids may be NULL when n = 0 */
   qsort(ns->node, (size_t)n, sizeof(int), cmp_int);
   for (i = 0, k = 0; i < n; i++)
     if (k == 0 || ns->node[k - 1] != ns->node[i]) ns->node[k++] = ns->node[i];
@@ -114,7 +114,6 @@ int mo_mesh_add_nodeset(mo_mesh *m, const char *name, const int *ids, int n, mo_
   return MO_OK;
 }
 
-/* Boundary facets: element facets that no other element shares. */
 typedef struct {
   int key[4];
   int elem, lface;
@@ -129,24 +128,52 @@ static int cmp_facet(const void *a, const void *b)
   return 0;
 }
 
-static int boundary_facets(const mo_mesh *m, facet_key **out, int *nout, mo_ctx *ctx)
+/* Sort the n <= 4 nodes of a facet key (insertion: qsort's call costs more than the sort). */
+static void sort_key(int *k, int n)
+{
+  int i, j;
+  for (i = 1; i < n; i++) {
+    int v = k[i];
+    for (j = i; j > 0 && k[j - 1] > v; j--) k[j] = k[j - 1];
+    k[j] = v;
+  }
+}
+
+/* Every facet of every element, its sorted nodes as key, sorted by key (shared facets are
+   adjacent). */
+static int all_facets(const mo_mesh *m, facet_key **out, size_t *nout, mo_ctx *ctx)
 {
   const mo_eltype_info *T = &eltypes[m->type];
-  size_t nf = (size_t)m->nelem * (size_t)T->nfacet;
+  size_t nf = (size_t)m->nelem * (size_t)T->nfacet, i;
   facet_key *F = mo_malloc(ctx, (nf ? nf : 1) * sizeof *F);
-  size_t i, j, nb = 0;
   int e, f, a;
+  *out = NULL;
+  *nout = 0;
   if (!F) return MO_ENOMEM;
   for (e = 0, i = 0; e < m->nelem; e++)
     for (f = 0; f < T->nfacet; f++, i++) {
       for (a = 0; a < 4; a++)
         F[i].key[a] = a < T->nfn ? m->conn[(size_t)e * (size_t)m->nen + (size_t)T->facet[f][a]]
                                  : -1;
-      qsort(F[i].key, (size_t)T->nfn, sizeof(int), cmp_int);
+      sort_key(F[i].key, T->nfn);
       F[i].elem = e;
       F[i].lface = f;
     }
   qsort(F, nf, sizeof *F, cmp_facet);
+  *out = F;
+  *nout = nf;
+  return MO_OK;
+}
+
+/* Boundary facets: element facets that no other element shares. */
+static int boundary_facets(const mo_mesh *m, facet_key **out, int *nout, mo_ctx *ctx)
+{
+  facet_key *F;
+  size_t nf, i, j, nb = 0;
+  int st = all_facets(m, &F, &nf, ctx);
+  *out = NULL;
+  *nout = 0;
+  if (st) return st;
   for (i = 0; i < nf; i = j) {
     for (j = i + 1; j < nf && !cmp_facet(&F[i], &F[j]); j++) {}
     if (j == i + 1) F[nb++] = F[i];
@@ -156,33 +183,78 @@ static int boundary_facets(const mo_mesh *m, facet_key **out, int *nout, mo_ctx 
   return MO_OK;
 }
 
-int mo_mesh_add_facetset_from_nodes(mo_mesh *m, const char *name, const int *nodes, int n,
-                                    mo_ctx *ctx)
+int mo_mesh_locate_facets(const mo_mesh *m, const int *fnodes, int nf, int *elem, int *lface,
+                          mo_ctx *ctx)
+{
+  const int nfn = eltypes[m->type].nfn;
+  facet_key *F, q;
+  size_t n;
+  int f, a, st;
+  for (f = 0; f < nf * nfn; f++)
+    if (fnodes[f] < 0 || fnodes[f] >= m->nnode)
+      return mo_error(ctx, MO_EINPUT, "facet %d refers to node %d, which does not exist (0..%d)",
+                      f / nfn, fnodes[f], m->nnode - 1);
+  if ((st = all_facets(m, &F, &n, ctx))) return st;
+  for (f = 0; f < nf; f++) {
+    const facet_key *hit;
+    for (a = 0; a < 4; a++) q.key[a] = a < nfn ? fnodes[(size_t)f * (size_t)nfn + (size_t)a] : -1;
+    sort_key(q.key, nfn);
+    hit = bsearch(&q, F, n, sizeof *F, cmp_facet);
+    elem[f] = -1;
+    lface[f] = -1;
+    if (!hit) continue;
+    if ((hit > F && !cmp_facet(hit - 1, &q)) || (hit + 1 < F + n && !cmp_facet(hit + 1, &q))) {
+      elem[f] = -2; /* two elements share it: inside the mesh */
+      continue;
+    }
+    elem[f] = hit->elem;
+    lface[f] = hit->lface;
+  }
+  mo_free(F);
+  return MO_OK;
+}
+
+static int cmp_elem_lface(const void *a, const void *b)
+{
+  const int *p = a, *q = b;
+  if (p[0] != q[0]) return (p[0] > q[0]) - (p[0] < q[0]);
+  return (p[1] > q[1]) - (p[1] < q[1]);
+}
+
+int mo_mesh_add_facetset(mo_mesh *m, const char *name, const int *elem, const int *lface, int n,
+                         mo_ctx *ctx)
 {
   const mo_eltype_info *T = &eltypes[m->type];
-  facet_key *F = NULL;
-  unsigned char *in = NULL;
   mo_facetset *fs;
-  int nb, i, a, cnt = 0, st;
+  int *P, i, a, cnt = 0;
   if (mo_mesh_find_facetset(m, name))
     return mo_error(ctx, MO_EINPUT, "facet set '%s' is defined twice", name);
-  if ((st = boundary_facets(m, &F, &nb, ctx))) return st;
+  for (i = 0; i < n; i++)
+    if (elem[i] < 0 || elem[i] >= m->nelem || lface[i] < 0 || lface[i] >= T->nfacet)
+      return mo_error(ctx, MO_EINPUT, "facet set '%s': facet %d of element %d does not exist",
+                      name, lface[i], elem[i]);
+  /* a reproducible order: by element, then local facet; each facet once */
+  P = mo_malloc(ctx, (size_t)(n ? n : 1) * 2 * sizeof(int));
+  if (!P) return MO_ENOMEM;
+  for (i = 0; i < n; i++) {
+    P[2 * i] = elem[i];
+    P[2 * i + 1] = lface[i];
+  }
+  qsort(P, (size_t)n, 2 * sizeof(int), cmp_elem_lface);
+  for (i = 0; i < n; i++)
+    if (cnt == 0 || cmp_elem_lface(&P[2 * (cnt - 1)], &P[2 * i])) {
+      P[2 * cnt] = P[2 * i];
+      P[2 * cnt + 1] = P[2 * i + 1];
+      cnt++;
+    }
   fs = mo_realloc(ctx, m->facetset, (size_t)(m->nfacetset + 1) * sizeof *fs);
-  if (fs) m->facetset = fs; /* realloc freed the old block: keep the new one at once */
-  in = mo_calloc(ctx, (size_t)m->nnode, 1);
-  if (!in || !fs) {
-    mo_free(F);
-    mo_free(in);
+  if (!fs) {
+    mo_free(P);
     return MO_ENOMEM;
   }
+  m->facetset = fs; /* realloc freed the old block: keep the new one at once */
   fs = &m->facetset[m->nfacetset];
   memset(fs, 0, sizeof *fs);
-  for (i = 0; i < n; i++) in[nodes[i]] = 1;
-  for (i = 0; i < nb; i++) {
-    int all = 1;
-    for (a = 0; a < T->nfn; a++) all &= in[F[i].key[a]];
-    if (all) F[cnt++] = F[i];
-  }
   fs->name = mo_strdup(ctx, name);
   fs->nfn = T->nfn;
   fs->n = cnt;
@@ -191,29 +263,55 @@ int mo_mesh_add_facetset_from_nodes(mo_mesh *m, const char *name, const int *nod
   fs->lface = mo_malloc(ctx, (size_t)(cnt ? cnt : 1) * sizeof(int));
   if (!fs->name || !fs->node || !fs->elem || !fs->lface) {
     mo_free(fs->name); mo_free(fs->node); mo_free(fs->elem); mo_free(fs->lface);
-    mo_free(F);
-    mo_free(in);
+    mo_free(P);
     return MO_ENOMEM;
   }
-  /* keep the facets in a reproducible order: by element, then local facet */
   for (i = 0; i < cnt; i++) {
-    int b = i;
-    while (b > 0 && (F[b - 1].elem > F[b].elem ||
-                     (F[b - 1].elem == F[b].elem && F[b - 1].lface > F[b].lface))) {
-      facet_key t = F[b]; F[b] = F[b - 1]; F[b - 1] = t; b--;
-    }
-  }
-  for (i = 0; i < cnt; i++) {
-    fs->elem[i] = F[i].elem;
-    fs->lface[i] = F[i].lface;
+    fs->elem[i] = P[2 * i];
+    fs->lface[i] = P[2 * i + 1];
     for (a = 0; a < T->nfn; a++)
       fs->node[i * T->nfn + a] =
-          m->conn[(size_t)F[i].elem * (size_t)m->nen + (size_t)T->facet[F[i].lface][a]];
+          m->conn[(size_t)P[2 * i] * (size_t)m->nen + (size_t)T->facet[P[2 * i + 1]][a]];
   }
   m->nfacetset++;
+  mo_free(P);
+  return MO_OK;
+}
+
+int mo_mesh_add_facetset_from_nodes(mo_mesh *m, const char *name, const int *nodes, int n,
+                                    mo_ctx *ctx)
+{
+  const mo_eltype_info *T = &eltypes[m->type];
+  facet_key *F = NULL;
+  unsigned char *in = NULL;
+  int *el = NULL, *lf = NULL;
+  int nb, i, a, cnt = 0, st;
+  if (mo_mesh_find_facetset(m, name))
+    return mo_error(ctx, MO_EINPUT, "facet set '%s' is defined twice", name);
+  if ((st = boundary_facets(m, &F, &nb, ctx))) return st;
+  in = mo_calloc(ctx, (size_t)m->nnode, 1);
+  el = mo_malloc(ctx, (size_t)(nb ? nb : 1) * sizeof(int));
+  lf = mo_malloc(ctx, (size_t)(nb ? nb : 1) * sizeof(int));
+  if (!in || !el || !lf) {
+    st = MO_ENOMEM;
+    goto done;
+  }
+  for (i = 0; i < n; i++) in[nodes[i]] = 1;
+  for (i = 0; i < nb; i++) {
+    int all = 1;
+    for (a = 0; a < T->nfn; a++) all &= in[F[i].key[a]];
+    if (all) {
+      el[cnt] = F[i].elem;
+      lf[cnt++] = F[i].lface;
+    }
+  }
+  st = mo_mesh_add_facetset(m, name, el, lf, cnt, ctx);
+done:
   mo_free(F);
   mo_free(in);
-  return MO_OK;
+  mo_free(el);
+  mo_free(lf);
+  return st;
 }
 
 int mo_mesh_add_box_set(mo_mesh *m, const char *name, const double *lo, const double *hi,

@@ -108,14 +108,58 @@ static int relocate(const mo_case *cs, const config_setting_t *s, mo_ctx *ctx)
   return code;
 }
 
+/* A Gmsh file (path relative to the case file), scaled and translated. */
+static int read_mesh_file(const mo_case *cs, const config_setting_t *mg, mo_mesh **out, mo_ctx *ctx)
+{
+  static const char *gen_keys[] = {"length", "origin", "size", "elements", "element", "diagonal",
+                                   "center", "radius", "core", "rings"};
+  const config_setting_t *fs = mo_cfg_member(mg, "file");
+  const char *file = mo_cfg_string(mg, "file", "");
+  char path[4096];
+  mo_gmsh_options o;
+  size_t k;
+  int n, st;
+  *out = NULL;
+  for (k = 0; k < MO_COUNT(gen_keys); k++)
+    if (mo_cfg_member(mg, gen_keys[k]))
+      return mo_case_error(cs, mo_cfg_member(mg, gen_keys[k]), ctx,
+                           "belongs to the generators: a mesh file brings its own geometry (place it "
+                           "with 'scale' and 'translate')");
+  if (!file[0]) return mo_case_error(cs, fs, ctx, "the file name is empty");
+  n = file[0] == '/' ? snprintf(path, sizeof path, "%s", file)
+                     : snprintf(path, sizeof path, "%s/%s", mo_case_dir(cs), file);
+  if (n < 0 || (size_t)n >= sizeof path) return mo_case_error(cs, fs, ctx, "the path is too long");
+  memset(&o, 0, sizeof o);
+  o.scale = mo_cfg_float(mg, "scale", 1);
+  n = mo_cfg_count(mg, "translate");
+  for (k = 0; k < (size_t)n && k < 3; k++) o.translate[k] = mo_cfg_num_at(mg, "translate", (int)k);
+  if ((st = mo_mesh_read_gmsh(path, &o, out, NULL, ctx))) return relocate(cs, fs, ctx);
+  if (n && n != (*out)->dim) {
+    int dim = (*out)->dim;
+    mo_mesh_free(*out);
+    *out = NULL;
+    return mo_case_error(cs, mo_cfg_member(mg, "translate"), ctx, "needs %d values for this %dD mesh",
+                         dim, dim);
+  }
+  return MO_OK;
+}
+
 static int build_mesh(const mo_case *cs, const config_setting_t *mg, mo_mesh **out, mo_ctx *ctx)
 {
   const char *gen = mo_cfg_string(mg, "generator", "");
-  const config_setting_t *sets;
+  const config_setting_t *sets, *ms;
   mo_mesh *m = NULL;
   int st, i, k;
   *out = NULL;
-  if (!strcmp(gen, "bar")) {
+  if (mo_cfg_member(mg, "generator") && mo_cfg_member(mg, "file"))
+    return mo_case_error(cs, mo_cfg_member(mg, "file"), ctx, "a mesh has a 'generator' or a 'file', not both");
+  if (mo_cfg_member(mg, "file")) {
+    if ((st = read_mesh_file(cs, mg, &m, ctx))) return st;
+  } else if (!mo_cfg_member(mg, "generator")) {
+    return mo_case_error(cs, mg, ctx, "a mesh needs a 'generator' or a 'file'");
+  } else if ((ms = mo_cfg_member(mg, "scale")) || (ms = mo_cfg_member(mg, "translate"))) {
+    return mo_case_error(cs, ms, ctx, "applies to mesh files only (move the generator's 'origin')");
+  } else if (!strcmp(gen, "bar")) {
     if ((st = need(cs, mg, "length", "a bar mesh", ctx)) ||
         (st = need_len(cs, mg, "elements", 1, "a bar mesh", ctx)))
       return st;

@@ -28,7 +28,10 @@ static const mo_key core_keys[] = {
   {"bodies.[].velocity", K_FARRAY, NULL, A(U, U, 0, 0, 1, 3), 0, "zero", "Plane: prescribed translation velocity (m/s).", NULL},
 
   {"bodies.[].mesh", K_GROUP, NULL, NONE, 0, NULL, "Deformable body: its mesh.", NULL},
-  {"bodies.[].mesh.generator", K_ENUM, "bar|rectangle|box|disk", NONE, 1, NULL, "Structured generator: bar (1D, bar2), rectangle (2D, Q4 or T3), box (3D, H8), disk (2D, Q4 O-grid).", NULL},
+  {"bodies.[].mesh.generator", K_ENUM, "bar|rectangle|box|disk", NONE, 0, NULL, "Structured generator: bar (1D, bar2), rectangle (2D, Q4 or T3), box (3D, H8), disk (2D, Q4 O-grid); or give `file`.", NULL},
+  {"bodies.[].mesh.file", K_STRING, NULL, NONE, 0, NULL, "A Gmsh MSH file (ASCII 4.1 or 2.2), relative to the case file; its physical groups name the sets.", NULL},
+  {"bodies.[].mesh.scale", K_FLOAT, NULL, POS, 0, "1", "file: factor on the file's coordinates (1e-3 for millimetres).", "a scale is a positive factor"},
+  {"bodies.[].mesh.translate", K_FARRAY, NULL, A(U, U, 0, 0, 1, 3), 0, "zero", "file: translation added after scaling (dim values).", NULL},
   {"bodies.[].mesh.length", K_FLOAT, NULL, POS, 0, NULL, "bar: length (m).", NULL},
   {"bodies.[].mesh.origin", K_NUMS, NULL, A(U, U, 0, 0, 1, 3), 0, "zero", "bar: x of the first node; rectangle, box: lower corner.", NULL},
   {"bodies.[].mesh.size", K_FARRAY, NULL, A(0, U, 1, 0, 2, 3), 0, NULL, "rectangle: [Lx, Ly]; box: [Lx, Ly, Lz] (m).", NULL},

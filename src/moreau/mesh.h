@@ -99,6 +99,48 @@ int mo_mesh_add_nodeset(mo_mesh *m, const char *name, const int *ids, int n, mo_
 int mo_mesh_add_facetset_from_nodes(mo_mesh *m, const char *name, const int *nodes, int n,
                                     mo_ctx *ctx);
 
+/* Locate facets given by their nodes (nfn nodes per facet, in any order): elem[f] and lface[f]
+   are the element and local facet that have facet f on the boundary; elem[f] = -1 when no
+   element has such a facet, -2 when two or more elements share it (it lies inside the mesh). */
+int mo_mesh_locate_facets(const mo_mesh *m, const int *fnodes, int nf, int *elem, int *lface,
+                          mo_ctx *ctx);
+/* Add a facet set from (element, local facet) pairs, e.g. from mo_mesh_locate_facets: each facet
+   once, ordered by element and local facet, nodes in the element's outward order. */
+int mo_mesh_add_facetset(mo_mesh *m, const char *name, const int *elem, const int *lface, int n,
+                         mo_ctx *ctx);
+
+/* Gmsh MSH files, ASCII 4.1 (Gmsh's default) and 2.2 (doc/case-format.md, "Gmsh files").
+   The body is made of the elements of the highest dimension in the file, all of one type (2-node
+   lines, 3-node triangles, 4-node quadrangles or 8-node hexahedra); nodes no such element uses
+   are dropped and the others numbered 0, 1, ... in increasing tag order. Every physical group
+   gives a node set under its name (unnamed groups: "point7", "curve3", "surface1", "volume2";
+   groups that share a name are merged); a group of facets (points in 1D, lines in 2D,
+   quadrangles in 3D) on the boundary also gives a facet set; "all" holds every node unless the
+   file names a group so. Elements written clockwise (negative Jacobian at the centre) are
+   reoriented with a note; degenerate and inverted elements, repeated or missing nodes,
+   unsupported element types and malformed sections are errors "FILE:LINE: ..." (MO_EINPUT),
+   counts past ctx->max_dofs are refused before allocating (MO_ELIMIT), an unreadable file is
+   MO_EIO. Coordinates become scale * x + translate. */
+typedef struct {
+  double scale;         /* > 0 */
+  double translate[3];
+} mo_gmsh_options;
+
+typedef struct {
+  int version;          /* 41 or 22 */
+  int nreoriented;      /* elements written clockwise, reoriented */
+  int nunused;          /* nodes of the file that no body element uses (dropped) */
+  int nduplicate;       /* MSH 2.2: body elements repeated once per physical group (dropped) */
+} mo_gmsh_report;
+
+/* Read the file at `path`; opt and rep may be NULL (scale 1, no translation). */
+int mo_mesh_read_gmsh(const char *path, const mo_gmsh_options *opt, mo_mesh **out,
+                      mo_gmsh_report *rep, mo_ctx *ctx);
+/* The same from len bytes in memory (tests, fuzzing); `name` stands for the file in messages. */
+int mo_mesh_read_gmsh_buffer(const char *buf, size_t len, const char *name,
+                             const mo_gmsh_options *opt, mo_mesh **out, mo_gmsh_report *rep,
+                             mo_ctx *ctx);
+
 /* Node nearest to point p (dim coordinates); distance in *dist when non-NULL. */
 int mo_mesh_nearest_node(const mo_mesh *m, const double *p, double *dist);
 
