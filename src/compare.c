@@ -68,7 +68,19 @@ static void flatten(json_t *j, const char *prefix, colset *C, run_row *r)
   }
 }
 
-static void read_summary(run_row *r, colset *C)
+/* The case's headline metrics (summary.json "report", from output.report), read from the
+   first summary that has them. */
+static void read_report(json_t *root, colset *H)
+{
+  json_t *a = json_object_get(root, "report");
+  size_t k;
+  if (H->n || !json_is_array(a)) return;
+  for (k = 0; k < json_array_size(a) && H->n < MAX_COLS; k++)
+    if (json_is_string(json_array_get(a, k)))
+      snprintf(H->name[H->n++], sizeof H->name[0], "%s", json_string_value(json_array_get(a, k)));
+}
+
+static void read_summary(run_row *r, colset *C, colset *H)
 {
   char path[1200];
   json_t *root, *m;
@@ -81,6 +93,8 @@ static void read_summary(run_row *r, colset *C)
   if ((m = json_object_get(root, "metrics"))) flatten(m, "", C, r);
   if ((m = json_object_get(root, "energy"))) flatten(m, "energy", C, r);
   if ((m = json_object_get(root, "contact"))) flatten(m, "contact", C, r);
+  if ((m = json_object_get(root, "newton"))) flatten(m, "newton", C, r);
+  read_report(root, H);
   if ((m = json_object_get(root, "scene")) && json_object_get(m, "hmin")) {
     int kk = col_index(C, "scene.hmin");
     if (kk >= 0) r->val[kk] = json_number_value(json_object_get(m, "hmin"));
@@ -229,7 +243,7 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
   int nsol = opt->nsolver ? opt->nsolver : 1, ndt = opt->ndt ? opt->ndt : 1, ngrid = 1, i, j, k, st = MO_OK;
   int nrun, r, metric_col;
   run_row *rows = NULL;
-  colset *C = NULL;
+  colset *C = NULL, *H = NULL;
   char dir[1024], path[1400];
   sbuf b = {NULL, 0, 0, 0};
   for (k = 0; k < opt->nvary; k++) ngrid *= opt->vary[k].nval;
@@ -242,7 +256,8 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
   if ((st = mo_mkdir_p(path, ctx))) return st;
   rows = mo_calloc(ctx, (size_t)nrun, sizeof *rows);
   C = mo_calloc(ctx, 1, sizeof *C);
-  if (!rows || !C) { st = MO_ENOMEM; goto done; }
+  H = mo_calloc(ctx, 1, sizeof *H);
+  if (!rows || !C || !H) { st = MO_ENOMEM; goto done; }
 
   /* run every (solver, dt, grid point) */
   for (r = 0; r < nrun; r++) {
@@ -295,7 +310,7 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
     R->steps = rr.steps;
     if (R->status && snprintf(R->reason, sizeof R->reason, "%s", rc.errmsg) >= (int)sizeof R->reason)
       R->reason[sizeof R->reason - 1] = '\0';
-    read_summary(R, C);
+    read_summary(R, C, H);
     classify(R, C, opt->penetration_tol > 0 ? opt->penetration_tol : 0.01);
     if (ctx->verbosity >= 1)
       fprintf(stderr, "[%d/%d] %-40s %8.3f s  %s%s%s\n", r + 1, nrun, R->label, R->wall, R->cls,
@@ -569,14 +584,18 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
   sb_printf(&b, "%d runs: %d stable, %d unstable, %d failed. Every run's outputs are under `runs/`; "
             "all metrics are in `compare.csv`%s; figures in `plots/` (gnuplot scripts kept).\n\n",
             nrun, res->nstable, res->nunstable, res->nfailed, opt->nvary ? ", the classification in `stability.csv`" : "");
-  sb_printf(&b, "| run | solver | dt | wall (s) | steps | class |%s%s\n", metric_col >= 0 ? " " : "",
-            metric_col >= 0 ? C->name[metric_col] : "");
-  sb_printf(&b, "| --- | --- | --- | --- | --- | --- |%s\n", metric_col >= 0 ? " --- |" : "");
+  sb_printf(&b, "| run | solver | dt | wall (s) | steps | class |%s%s%s", metric_col >= 0 ? " " : "",
+            metric_col >= 0 ? C->name[metric_col] : "", metric_col >= 0 ? " |" : "");
+  for (k = 0; k < H->n; k++) sb_printf(&b, " %s |", H->name[k]);
+  sb_printf(&b, "\n| --- | --- | --- | --- | --- | --- |%s", metric_col >= 0 ? " --- |" : "");
+  for (k = 0; k < H->n; k++) sb_printf(&b, " --- |");
+  sb_printf(&b, "\n");
   for (r = 0; r < nrun; r++) {
     run_row *R = &rows[r];
     sb_printf(&b, "| %s | %s | %g | %.3f | %ld | %s%s%s |", R->label, R->solver, R->dt, R->wall, R->steps, R->cls,
               R->why[0] ? ": " : "", R->why);
     if (metric_col >= 0) sb_printf(&b, " %.4g |", R->val[metric_col]);
+    for (k = 0; k < H->n; k++) sb_printf(&b, " %.6g |", colval(R, C, H->name[k]));
     sb_printf(&b, "\n");
   }
   sb_printf(&b, "\n");
@@ -592,5 +611,6 @@ done:
   free(b.s);
   mo_free(rows);
   mo_free(C);
+  mo_free(H);
   return st;
 }

@@ -88,7 +88,10 @@ int mo_metrics_create(const mo_scene *sc, const mo_contact *C, mo_metrics **out,
 static double mech_energy(const mo_metrics *M, const mo_state *s)
 {
   const mo_scene *sc = M->sc;
-  return mo_energy_kinetic(sc, s->v, M->work) + mo_energy_elastic(sc, s->u, M->work) - s->wext - s->wsupport;
+  double e = mo_energy_kinetic(sc, s->v, M->work) + mo_energy_elastic(sc, s->u, M->work);
+  /* finite-strain bodies: their stored energy and the plastic work they took (T65) */
+  if (sc->nonlinear) e += s->psi + s->wplastic;
+  return e - s->wext - s->wsupport;
 }
 
 double mo_metrics_energy_ratio(const mo_metrics *M, const mo_state *s)
