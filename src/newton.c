@@ -246,9 +246,17 @@ void mo_stepper_guess(mo_stepper *S, const mo_state *s, double *x)
 {
   const mo_scene *sc = S->sc;
   int n = sc->ndof;
-  /* the unknown at the start of the step: v, a or u */
-  memcpy(x, S->scheme == MO_SCHEME_THETA ? s->v : S->scheme == MO_SCHEME_NEWMARK ? s->a : s->u,
-         (size_t)n * sizeof *x);
+  int i;
+  /* constant velocity: u+ = u + h v, the kinematics of a free flight (theta: v+ = v; Newmark:
+     the a+ that cancels the h^2 terms, not a+ = a, which extrapolates an impact's acceleration
+     over the next step; quasi-static: u+ = u) */
+  switch (S->scheme) {
+  case MO_SCHEME_THETA: memcpy(x, s->v, (size_t)n * sizeof *x); break;
+  case MO_SCHEME_NEWMARK:
+    for (i = 0; i < n; i++) x[i] = -(0.5 - S->beta) / S->beta * s->a[i];
+    break;
+  case MO_SCHEME_QUASISTATIC: memcpy(x, s->u, (size_t)n * sizeof *x); break;
+  }
   mo_stepper_presc_unknown(S, s->t + S->h, x);
 }
 
@@ -273,6 +281,20 @@ static void history(const mo_newton_report *R, char *buf, size_t n)
   }
 }
 
+/* Consecutive halvings of an update whose end is not admissible (inverted elements) or not
+   definite (the tangent), before the step fails. */
+#define MAX_HALVINGS 8
+
+/* Halve the last update: x and its constraint term back toward the last linearization point. */
+static void halve(mo_stepper *S, double *x, double *g)
+{
+  int i, n = S->sc->ndof;
+  for (i = 0; i < n; i++) {
+    x[i] = S->xk[i] + 0.5 * (x[i] - S->xk[i]);
+    g[i] = S->gk[i] + 0.5 * (g[i] - S->gk[i]);
+  }
+}
+
 int mo_stepper_solve(mo_stepper *S, const mo_state *s, double *x, mo_constraint_fn fn, void *data,
                      mo_ctx *ctx)
 {
@@ -281,7 +303,8 @@ int mo_stepper_solve(mo_stepper *S, const mo_state *s, double *x, mo_constraint_
   int n = sc->ndof, nf = sc->nfree, i, it, st;
   double h = S->h, tn = s->t + h, tf = S->theta_f, cf, tol = sc->time.newton_tol;
   double *fext = S->w1, *u = S->w2, *mx = S->w3, *R = S->R, *g = S->g, prev = HUGE_VAL;
-  int damped = 0;
+  int damped = 0, nhalf = 0, ninv = 0;
+  char inverted[MO_ERRMSG_MAX] = "";
   char hist[400];
   if (!S->nl) return mo_error(ctx, MO_EINTERNAL, "mo_stepper_solve: the scene is linear");
   mo_scene_fext(sc, tn, fext);
@@ -296,15 +319,27 @@ int mo_stepper_solve(mo_stepper *S, const mo_state *s, double *x, mo_constraint_
     double res, scale, a1 = 0, a2 = 0, a3 = 0;
     kinematics(S, s, x, u);
     st = mo_newton_forces(S, u, s->q, S->fint, 1, ctx);
+    if (st == MO_ENAN && it > 0 && nhalf < MAX_HALVINGS) {
+      /* an iterate that inverts elements: back toward the last linearization point */
+      snprintf(inverted, sizeof inverted, "%s", ctx->errmsg);
+      ninv++;
+      mo_ctx_clear_error(ctx);
+      halve(S, x, g);
+      damped = 1;
+      nhalf++;
+      rep->damped++;
+      continue;
+    }
     if (st == MO_ENAN) {
       char msg[MO_ERRMSG_MAX];
       snprintf(msg, sizeof msg, "%s", ctx->errmsg);
       mo_ctx_clear_error(ctx);
       history(rep, hist, sizeof hist);
-      return mo_error(ctx, MO_ENOCONV, "step %ld (t = %.6g): Newton iterate %d is not admissible: %s. "
+      return mo_error(ctx, MO_ENOCONV, "step %ld (t = %.6g): Newton iterate %d is not admissible%s: %s. "
                       "Relative residuals of the step: %s. The step deforms the mesh beyond what its "
                       "elements can follow: a smaller time step (time.dt), a finer mesh where elements "
-                      "are crushed, or a slower loading", s->step + 1, tn, it, msg, hist[0] ? hist : "none yet");
+                      "are crushed, or a slower loading", s->step + 1, tn, it,
+                      nhalf ? " (nor its update halved 8 times)" : "", msg, hist[0] ? hist : "none yet");
     }
     if (st) return mo_error_prefix(ctx, "step %ld (t = %.6g), Newton iterate %d", s->step + 1, tn, it);
     /* R over full dofs (the prescribed rows are the support reactions, not tested) */
@@ -346,29 +381,49 @@ int mo_stepper_solve(mo_stepper *S, const mo_state *s, double *x, mo_constraint_
     if (it >= 2 && !damped && !(res < prev)) {
       /* no decrease: a point of the material or a contact switching between two states from
          one linearization to the next (a 2-cycle); halve the update (T63) */
-      for (i = 0; i < n; i++) {
-        x[i] = S->xk[i] + 0.5 * (x[i] - S->xk[i]);
-        g[i] = S->gk[i] + 0.5 * (g[i] - S->gk[i]);
-      }
+      halve(S, x, g);
       damped = 1;
       rep->damped++;
       continue;
     }
     damped = 0;
+    nhalf = 0;
     prev = res;
     if (it >= sc->time.newton_max) {
+      char why[600] = "";
       history(rep, hist, sizeof hist);
+      if (ninv) snprintf(why, sizeof why, "; %d iterates were not admissible, the last: %.400s", ninv, inverted);
       return mo_error(ctx, MO_ENOCONV, "step %ld (t = %.6g): Newton did not converge in %d iterations "
-                      "(time.newton.max_iter = %d, %d of them halved): relative residuals %s, tolerance %g "
-                      "(time.newton.tol). Remedies: a smaller time step (time.dt), more numerical damping "
+                      "(time.newton.max_iter = %d, %d updates halved): relative residuals %s, tolerance %g "
+                      "(time.newton.tol)%s. Remedies: a smaller time step (time.dt), more numerical damping "
                       "(time.theta above 1/2), more iterations, or a looser tolerance",
-                      s->step + 1, tn, rep->iterations, sc->time.newton_max, it - rep->iterations, hist, tol);
+                      s->step + 1, tn, rep->iterations, sc->time.newton_max, it - rep->iterations, hist, tol, why);
     }
     /* (T63): factor What_k, x_free = x_k - What_k^-1 R(x_k) */
     {
       double t0 = mo_clock();
       st = mo_linsolver_factor(S->ls, S->W, ctx);
       mo_phase_add(ctx, MO_PH_FACTOR, t0);
+      if (st == MO_ESINGULAR && it > 0 && nhalf < MAX_HALVINGS) {
+        /* the tangent is not definite here (crushed elements whose compressive geometric
+           stiffness outweighs their mass): back toward the last linearization point */
+        mo_ctx_clear_error(ctx);
+        halve(S, x, g);
+        damped = 1;
+        nhalf++;
+        rep->damped++;
+        continue;
+      }
+      if (st == MO_ESINGULAR) {
+        mo_ctx_clear_error(ctx);
+        history(rep, hist, sizeof hist);
+        return mo_error(ctx, MO_ESINGULAR, "step %ld (t = %.6g), Newton iterate %d: the tangent iteration "
+                        "matrix %s is not positive definite%s: the tangent stiffness of crushed elements "
+                        "outweighs their mass. Relative residuals of the step: %s. Remedies: a smaller time "
+                        "step (time.dt), more numerical damping, a finer mesh where elements are crushed",
+                        s->step + 1, tn, it, S->cm != 0 ? "M + c K_t" : "K_t",
+                        nhalf ? " (nor after halving the update 8 times)" : "", hist);
+      }
       if (st)
         return mo_error_prefix(ctx, "step %ld (t = %.6g), Newton iterate %d: the tangent iteration matrix",
                                s->step + 1, tn, it);
