@@ -27,6 +27,8 @@ void mo_newton_release(mo_stepper *S)
   mo_free(S->xs);
   mo_free(S->xk);
   mo_free(S->gk);
+  mo_free(S->dxp);
+  mo_free(S->cfp);
   mo_free(S->work);
 }
 
@@ -79,8 +81,10 @@ int mo_newton_setup(mo_stepper *S, mo_ctx *ctx)
   S->xs = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof *S->xs);
   S->xk = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof *S->xk);
   S->gk = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof *S->gk);
+  S->dxp = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof *S->dxp);
+  S->cfp = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof *S->cfp);
   S->work = mo_malloc(ctx, (3 * ND_MAX + ND_MAX * ND_MAX) * sizeof *S->work);
-  if (!S->emap || !S->emap0 || !S->qt || !S->fint || !S->fint0 || !S->R || !S->g || !S->xfr || !S->xs || !S->xk || !S->gk || !S->work)
+  if (!S->emap || !S->emap0 || !S->qt || !S->fint || !S->fint0 || !S->R || !S->g || !S->xfr || !S->xs || !S->xk || !S->gk || !S->dxp || !S->cfp || !S->work)
     return MO_ENOMEM;
   /* the finite-strain bodies' structure, with ones (the values are not used) */
   if ((st = mo_triplet_init(&T, sc->ndof, sc->ndof, hint + 1, ctx))) return st;
@@ -139,7 +143,7 @@ done:
 }
 
 int mo_newton_forces(mo_stepper *S, const double *u, const double *q, double *f, int tangent,
-                     mo_ctx *ctx)
+                     const double *dxp, double *cfp, mo_ctx *ctx)
 {
   const mo_scene *sc = S->sc;
   const int D = sc->dim;
@@ -184,6 +188,19 @@ int mo_newton_forces(mo_stepper *S, const double *u, const double *q, double *f,
         double ck = S->ck;
         for (i = 0; i < nd * nd; i++)
           if (map[i] >= 0) Wx[map[i]] += ck * Ke[i];
+        if (dxp) {
+          /* ck K_t,e dx_p: the coupling of a prescribed increment into the free rows */
+          double de[ND_MAX];
+          int any = 0, j;
+          for (a = 0; a < nen; a++)
+            for (c = 0; c < D; c++) any |= (de[a * D + c] = dxp[B->dof0 + cn[a] * D + c]) != 0;
+          if (any)
+            for (i = 0; i < nd; i++) {
+              double acc = 0;
+              for (j = 0; j < nd; j++) acc += Ke[i * nd + j] * de[j];
+              cfp[B->dof0 + cn[i / D] * D + i % D] += ck * acc;
+            }
+        }
       }
     }
   }
@@ -219,7 +236,7 @@ const mo_newton_report *mo_stepper_newton_report(const mo_stepper *S) { return &
 
 /* The displacement at t+ of the iterate x: (T2), Newmark's u+, or x itself; prescribed dofs on
    their path. */
-static void kinematics(const mo_stepper *S, const mo_state *s, const double *x, double *u)
+static void kinematics(const mo_stepper *S, const mo_state *s, const double *x, int path, double *u)
 {
   const mo_scene *sc = S->sc;
   int n = sc->ndof, i, k;
@@ -235,7 +252,7 @@ static void kinematics(const mo_stepper *S, const mo_state *s, const double *x, 
     memcpy(u, x, (size_t)n * sizeof *u);
     break;
   }
-  for (k = 0; k < sc->npresc; k++) {
+  for (k = 0; path && k < sc->npresc; k++) {
     double pu, pv;
     mo_scene_presc_eval(sc, k, s->t + h, &pu, &pv);
     u[sc->presc[k].dof] = pu;
@@ -257,7 +274,6 @@ void mo_stepper_guess(mo_stepper *S, const mo_state *s, double *x)
     break;
   case MO_SCHEME_QUASISTATIC: memcpy(x, s->u, (size_t)n * sizeof *x); break;
   }
-  mo_stepper_presc_unknown(S, s->t + S->h, x);
 }
 
 static double norm_free(const mo_scene *sc, const double *v)
@@ -265,6 +281,17 @@ static double norm_free(const mo_scene *sc, const double *v)
   double s = 0;
   int i;
   for (i = 0; i < sc->nfree; i++) s += v[sc->full_of[i]] * v[sc->full_of[i]];
+  return sqrt(s);
+}
+
+/* The terms' scale is taken over every dof: a body held by its supports balances its internal
+   forces there (a quasi-static column), and the free rows alone would make the scale the
+   residual itself. */
+static double norm_all(int n, const double *v)
+{
+  double s = 0;
+  int i;
+  for (i = 0; i < n; i++) s += v[i] * v[i];
   return sqrt(s);
 }
 
@@ -303,12 +330,23 @@ int mo_stepper_solve(mo_stepper *S, const mo_state *s, double *x, mo_constraint_
   int n = sc->ndof, nf = sc->nfree, i, it, st;
   double h = S->h, tn = s->t + h, tf = S->theta_f, cf, tol = sc->time.newton_tol;
   double *fext = S->w1, *u = S->w2, *mx = S->w3, *R = S->R, *g = S->g, prev = HUGE_VAL;
-  int damped = 0, nhalf = 0, ninv = 0;
+  int damped = 0, nhalf = 0, ninv = 0, any_dxp = 0;
   char inverted[MO_ERRMSG_MAX] = "";
   char hist[400];
   if (!S->nl) return mo_error(ctx, MO_EINTERNAL, "mo_stepper_solve: the scene is linear");
   mo_scene_fext(sc, tn, fext);
-  mo_stepper_presc_unknown(S, tn, x);
+  /* the prescribed dofs: x holds their continuation (the guess); dxp their increment to t+,
+     which the first linearization carries into the free rows through the tangent's coupling
+     (a Dirichlet predictor: iterate 0 is the start configuration moving on, never a
+     configuration with the supports already displaced and the rest not) */
+  memcpy(S->xk, x, (size_t)n * sizeof *x);
+  mo_stepper_presc_unknown(S, tn, S->xk);
+  memset(S->dxp, 0, (size_t)n * sizeof *S->dxp);
+  for (i = 0; i < sc->npresc; i++) {
+    int d = sc->presc[i].dof;
+    S->dxp[d] = S->xk[d] - x[d];
+    any_dxp |= S->dxp[d] != 0;
+  }
   memset(g, 0, (size_t)n * sizeof *g);
   rep->iterations = rep->nres = 0;
   /* the balance: cm M (x - xm) + cf [theta_f (f_int - f_ext+) + (1 - theta_f) (f_int0 - f_ext)]
@@ -317,8 +355,9 @@ int mo_stepper_solve(mo_stepper *S, const mo_state *s, double *x, mo_constraint_
   cf = S->scheme == MO_SCHEME_THETA ? h : 1;
   for (it = 0;; it++) {
     double res, scale, a1 = 0, a2 = 0, a3 = 0;
-    kinematics(S, s, x, u);
-    st = mo_newton_forces(S, u, s->q, S->fint, 1, ctx);
+    kinematics(S, s, x, it > 0, u);
+    if (it == 0 && any_dxp) memset(S->cfp, 0, (size_t)n * sizeof *S->cfp);
+    st = mo_newton_forces(S, u, s->q, S->fint, 1, it == 0 && any_dxp ? S->dxp : NULL, S->cfp, ctx);
     if (st == MO_ENAN && it > 0 && nhalf < MAX_HALVINGS) {
       /* an iterate that inverts elements: back toward the last linearization point */
       snprintf(inverted, sizeof inverted, "%s", ctx->errmsg);
@@ -349,21 +388,21 @@ int mo_stepper_solve(mo_stepper *S, const mo_state *s, double *x, mo_constraint_
       else
         memcpy(R, x, (size_t)n * sizeof *R);
       mo_csc_gaxpy(sc->M, 1, R, 0, mx);
-      a1 = norm_free(sc, mx);
+      a1 = norm_all(n, mx);
     } else
       memset(mx, 0, (size_t)n * sizeof *mx);
-    /* the terms' magnitudes over free dofs, and R - g (u, no longer needed, holds them) */
+    /* the terms' magnitudes, and R - g over free dofs (u, no longer needed, holds them) */
     for (i = 0; i < n; i++) u[i] = cf * (tf * S->fint[i] + (1 - tf) * S->fint0[i]);
-    a2 = norm_free(sc, u);
+    a2 = norm_all(n, u);
     for (i = 0; i < n; i++) R[i] = u[i] + mx[i];
     for (i = 0; i < n; i++) u[i] = cf * (tf * fext[i] + (1 - tf) * s->f[i]);
-    a3 = norm_free(sc, u);
+    a3 = norm_all(n, u);
     for (i = 0; i < n; i++) {
       R[i] -= u[i];
       u[i] = R[i] - g[i];
     }
     res = norm_free(sc, u);
-    scale = fmax(fmax(a1, a2), fmax(a3, norm_free(sc, g)));
+    scale = fmax(fmax(a1, a2), fmax(a3, norm_all(n, g)));
     rep->scale = scale;
     if (rep->nres < MO_NEWTON_HISTORY) rep->res[rep->nres++] = scale > 0 ? res / scale : res;
     else {
@@ -428,13 +467,22 @@ int mo_stepper_solve(mo_stepper *S, const mo_state *s, double *x, mo_constraint_
         return mo_error_prefix(ctx, "step %ld (t = %.6g), Newton iterate %d: the tangent iteration matrix",
                                s->step + 1, tn, it);
       t0 = mo_clock();
-      mo_stepper_gather(S, R, S->rhs);
+      if (it == 0 && any_dxp) {
+        /* R + What_fp dx_p: cm M dx_p, ck K dx_p of the linear bodies, the elements' part */
+        memcpy(u, S->cfp, (size_t)n * sizeof *u);
+        if (S->cm != 0) mo_csc_gaxpy(sc->M, S->cm, S->dxp, 1, u);
+        mo_csc_gaxpy(sc->K, S->ck, S->dxp, 1, u);
+        for (i = 0; i < n; i++) u[i] += R[i];
+        mo_stepper_gather(S, u, S->rhs);
+      } else
+        mo_stepper_gather(S, R, S->rhs);
       st = mo_linsolver_solve(S->ls, S->rhs, S->xf, ctx);
       mo_phase_add(ctx, MO_PH_SOLVE, t0);
       if (st) return st;
     }
     memcpy(S->xfr, x, (size_t)n * sizeof *x);
     for (i = 0; i < nf; i++) S->xfr[sc->full_of[i]] -= S->xf[i];
+    if (it == 0) mo_stepper_presc_unknown(S, tn, S->xfr);
     memcpy(S->xk, x, (size_t)n * sizeof *x);
     memcpy(S->gk, g, (size_t)n * sizeof *g);
     rep->iterations++;

@@ -124,7 +124,7 @@ static int create_nonlinear(mo_stepper *S, mo_ctx *ctx)
   if (st) return st;
   if (!(q = mo_malloc(ctx, (sc->nq + 1) * sizeof *q))) return MO_ENOMEM;
   init_material(sc, q);
-  st = mo_newton_forces(S, sc->u0, q, S->fint0, 1, ctx);
+  st = mo_newton_forces(S, sc->u0, q, S->fint0, 1, NULL, NULL, ctx);
   mo_free(q);
   if (st) return mo_error_prefix(ctx, "the initial configuration");
   t0 = mo_clock();
@@ -285,7 +285,7 @@ int mo_stepper_init_state(mo_stepper *S, mo_state *s, mo_ctx *ctx)
   if (S->nl) {
     /* the material at u0: one update from the virgin state, committed (T65) */
     init_material(sc, s->q);
-    if ((st = mo_newton_forces(S, s->u, s->q, S->fint0, 0, ctx)))
+    if ((st = mo_newton_forces(S, s->u, s->q, S->fint0, 0, NULL, NULL, ctx)))
       return mo_error_prefix(ctx, "the initial configuration");
     memcpy(s->q, S->qt, sc->nq * sizeof *s->q);
     mo_newton_energies(S, s->q, &s->psi, &s->wplastic);

@@ -28,6 +28,7 @@ struct mo_stepper {
   double *R, *g, *xfr;  /* full-size Newton work: residual, constraint term, x_free */
   double *xs;           /* the solution of mo_stepper_step */
   double *xk, *gk;      /* the last linearization point and its constraint term (damping) */
+  double *dxp, *cfp;    /* a step's prescribed increment of the unknown, and ck K_t dxp */
   double *work;         /* element work: ue, fe, Ke */
   mo_newton_report rep;
 };
@@ -39,9 +40,10 @@ void mo_stepper_presc_unknown(const mo_stepper *S, double t, double *x);
 int mo_newton_setup(mo_stepper *S, mo_ctx *ctx);
 void mo_newton_release(mo_stepper *S);
 /* Internal forces at u (full) from the committed states q: f_int into f (full), trial states
-   into S->qt, and with tangent != 0, What = cm M + ck K_t into S->W's values. */
+   into S->qt, and with tangent != 0, What = cm M + ck K_t into S->W's values; with dxp (full,
+   non-zero on prescribed dofs only) the elements' coupling ck K_t dxp is added to cfp. */
 int mo_newton_forces(mo_stepper *S, const double *u, const double *q, double *f, int tangent,
-                     mo_ctx *ctx);
+                     const double *dxp, double *cfp, mo_ctx *ctx);
 /* Stored energy and plastic work of the finite-strain bodies in states q. */
 void mo_newton_energies(const mo_stepper *S, const double *q, double *psi, double *wp);
 

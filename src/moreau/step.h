@@ -106,8 +106,9 @@ typedef struct {
    step, the time, the residual history and the inverted elements. */
 int mo_stepper_solve(mo_stepper *S, const mo_state *s, double *x, mo_constraint_fn fn, void *data,
                      mo_ctx *ctx);
-/* The initial iterate of a step (the unknown at the start of the step: v, a or u, with the
-   prescribed values of t+ in place). */
+/* The initial iterate of a step: the constant-velocity prediction u+ = u + h v (theta: v;
+   Newmark: -(1/2 - beta) a / beta; quasi-static: u), prescribed dofs included (mo_stepper_solve
+   moves them to t+ with the first linearization). */
 void mo_stepper_guess(mo_stepper *S, const mo_state *s, double *x);
 const mo_newton_report *mo_stepper_newton_report(const mo_stepper *S);
 
