@@ -312,14 +312,17 @@ static void history(const mo_newton_report *R, char *buf, size_t n)
    definite (the tangent), before the step fails. */
 #define MAX_HALVINGS 8
 
-/* Halve the last update: x and its constraint term back toward the last linearization point. */
-static void halve(mo_stepper *S, double *x, double *g)
+/* Halve the last update: x and its constraint term back toward the last linearization point;
+   the prescribed dofs stay at their values of t+ (the first linearization point has them at
+   the prediction's). */
+static void halve(mo_stepper *S, double *x, double *g, double tn)
 {
   int i, n = S->sc->ndof;
   for (i = 0; i < n; i++) {
     x[i] = S->xk[i] + 0.5 * (x[i] - S->xk[i]);
     g[i] = S->gk[i] + 0.5 * (g[i] - S->gk[i]);
   }
+  mo_stepper_presc_unknown(S, tn, x);
 }
 
 int mo_stepper_solve(mo_stepper *S, const mo_state *s, double *x, mo_constraint_fn fn, void *data,
@@ -363,7 +366,7 @@ int mo_stepper_solve(mo_stepper *S, const mo_state *s, double *x, mo_constraint_
       snprintf(inverted, sizeof inverted, "%s", ctx->errmsg);
       ninv++;
       mo_ctx_clear_error(ctx);
-      halve(S, x, g);
+      halve(S, x, g, tn);
       damped = 1;
       nhalf++;
       rep->damped++;
@@ -420,7 +423,7 @@ int mo_stepper_solve(mo_stepper *S, const mo_state *s, double *x, mo_constraint_
     if (it >= 2 && !damped && !(res < prev)) {
       /* no decrease: a point of the material or a contact switching between two states from
          one linearization to the next (a 2-cycle); halve the update (T63) */
-      halve(S, x, g);
+      halve(S, x, g, tn);
       damped = 1;
       rep->damped++;
       continue;
@@ -447,7 +450,7 @@ int mo_stepper_solve(mo_stepper *S, const mo_state *s, double *x, mo_constraint_
         /* the tangent is not definite here (crushed elements whose compressive geometric
            stiffness outweighs their mass): back toward the last linearization point */
         mo_ctx_clear_error(ctx);
-        halve(S, x, g);
+        halve(S, x, g, tn);
         damped = 1;
         nhalf++;
         rep->damped++;

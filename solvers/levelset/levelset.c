@@ -566,6 +566,9 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
   memcpy(x->U, L->U, (size_t)m * sizeof(double));
   for (j = 0; j < nc; j++) {
     int closed = L->su[j] && L->sv[j];
+    /* an open candidate's impulse is zero (its equation is r = 0; Newton through the Schur
+       complement leaves round-off, 1e-35, which would count as a bearing contact) */
+    if (!closed) for (t = 0; t < d; t++) x->r[j * d + t] = 0;
     if (!closed) x->status[j] = MO_CS_OPEN;
     else if (dt && L->mu[j] > 0) x->status[j] = L->sf[j] ? MO_CS_STICK : MO_CS_SLIDE;
     else x->status[j] = d == 1 ? MO_CS_STICK : MO_CS_SLIDE;
