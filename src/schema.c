@@ -130,7 +130,7 @@ static const mo_key core_keys[] = {
   {"output.extents.[].name", K_STRING, NULL, NONE, 1, NULL, "Name of the extent (metrics.extents.NAME.xmin ...).", NULL},
   {"output.extents.[].body", K_STRING, NULL, NONE, 0, "the first body", "Body measured.", NULL},
   {"output.extents.[].set", K_STRING, NULL, NONE, 0, "\"all\"", "Node set measured.", NULL},
-  {"output.report", K_SARRAY, NULL, A(U, U, 0, 0, 1, 16), 0, NULL, "Headline metrics: compare.csv columns (e.g. metrics.extents.bar.ymax) that moreau compare lists in report.md for this case.", NULL},
+  {"output.report", K_SARRAY, NULL, A(U, U, 0, 0, 1, 16), 0, NULL, "Headline metrics: compare.csv columns (e.g. extents.bar.ymax, energy.balance_relative) that moreau compare lists in report.md for this case.", NULL},
   {"output.contact_table", K_BOOL, NULL, NONE, 0, "false", "Print the candidates' table in Jean's layout at the end of the run (node, D1, D2, RT, RN and the other representation's columns).", NULL},
   {"output.vtk", K_GROUP, NULL, NONE, 0, NULL, "VTK XML field series (fields.pvd + .vtu), written when present.", NULL},
   {"output.vtk.every", K_INT, NULL, R(1, U, 0, 0), 0, "10", "Write fields every N steps (and at the last step).", NULL},
