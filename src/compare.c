@@ -70,7 +70,19 @@ static void flatten(json_t *j, const char *prefix, colset *C, run_row *r)
   }
 }
 
-static void read_summary(run_row *r, colset *C)
+/* The case's headline metrics (summary.json "report", from output.report), read from the
+   first summary that has them. */
+static void read_report(json_t *root, colset *H)
+{
+  json_t *a = json_object_get(root, "report");
+  size_t k;
+  if (H->n || !json_is_array(a)) return;
+  for (k = 0; k < json_array_size(a) && H->n < MAX_COLS; k++)
+    if (json_is_string(json_array_get(a, k)))
+      snprintf(H->name[H->n++], sizeof H->name[0], "%s", json_string_value(json_array_get(a, k)));
+}
+
+static void read_summary(run_row *r, colset *C, colset *H)
 {
   char path[1200];
   json_t *root, *m;
@@ -99,6 +111,8 @@ static void read_summary(run_row *r, colset *C)
       if ((kk = col_index(C, name)) >= 0) r->val[kk] = json_number_value(v);
     }
   }
+  if ((m = json_object_get(root, "newton"))) flatten(m, "newton", C, r);
+  read_report(root, H);
   if ((m = json_object_get(root, "scene")) && json_object_get(m, "hmin")) {
     int kk = col_index(C, "scene.hmin");
     if (kk >= 0) r->val[kk] = json_number_value(json_object_get(m, "hmin"));
@@ -577,7 +591,7 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
   int nsol = opt->nsolver ? opt->nsolver : 1, ndt = opt->ndt ? opt->ndt : 1, ngrid = 1, i, j, k, st = MO_OK;
   int nrun, r, metric_col, nown;
   run_row *rows = NULL;
-  colset *C = NULL;
+  colset *C = NULL, *H = NULL;
   peer_set P;
   char dir[1024], path[1400];
   sbuf b = {NULL, 0, 0, 0};
@@ -592,7 +606,8 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
   if ((st = mo_mkdir_p(path, ctx))) goto done;
   rows = mo_calloc(ctx, (size_t)nrun + (size_t)P.n, sizeof *rows);
   C = mo_calloc(ctx, 1, sizeof *C);
-  if (!rows || !C) { st = MO_ENOMEM; goto done; }
+  H = mo_calloc(ctx, 1, sizeof *H);
+  if (!rows || !C || !H) { st = MO_ENOMEM; goto done; }
 
   /* run every (solver, dt, grid point) */
   for (r = 0; r < nrun; r++) {
@@ -645,7 +660,7 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
     R->steps = rr.steps;
     if (R->status && snprintf(R->reason, sizeof R->reason, "%s", rc.errmsg) >= (int)sizeof R->reason)
       R->reason[sizeof R->reason - 1] = '\0';
-    read_summary(R, C);
+    read_summary(R, C, H);
     classify(R, C, opt->penetration_tol > 0 ? opt->penetration_tol : 0.01);
     if (ctx->verbosity >= 1)
       fprintf(stderr, "[%d/%d] %-40s %8.3f s  %s%s%s\n", r + 1, nrun, R->label, R->wall, R->cls,
@@ -941,13 +956,19 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
                                 "energy.ratio_mechanical", "contact.iterations_mean"};
     static const char *head[] = {"osc. index", "max vn in contact", "impulse err.", "release err.",
                                  "E(T)/E_ref", "iter./step"};
-    int show[8], ns = 0, kk, jj;
+    int show[8 + MAX_COLS], ns = 0, kk, jj;
     if (metric_col >= 0) show[ns++] = metric_col;
     for (kk = 0; kk < (int)(sizeof key / sizeof key[0]); kk++) {
       int c = col_index(C, key[kk]), any = 0;
       if (c < 0 || c == metric_col) continue;
       for (r = 0; r < nrun; r++) any |= !isnan(rows[r].val[c]);
       if (any) show[ns++] = c;
+    }
+    /* then the columns the case asks for (output.report), those not shown already */
+    for (kk = 0; kk < H->n; kk++) {
+      int c = col_index(C, H->name[kk]), seen = 0;
+      for (jj = 0; jj < ns; jj++) seen |= show[jj] == c;
+      if (c >= 0 && !seen) show[ns++] = c;
     }
     sb_printf(&b, "| run | solver | dt | wall (s) | steps | class |");
     for (jj = 0; jj < ns; jj++) {
@@ -990,5 +1011,6 @@ done:
   mo_free(rows);
   mo_free(C);
   peers_free(&P);
+  mo_free(H);
   return st;
 }

@@ -235,6 +235,8 @@ struct mo_contact_driver {
   int nc, m, d;
   double *b, *q, *U, *Uprev, *r, *rprev, *xfull, *xf, *dx, *dxfull, *mu, *gk, *w;
   double *ukin;              /* local kinematics without the Signorini offsets */
+  double *xnl;               /* nonlinear steps: Newton's iterate (full) */
+  int any_step, it_step, loops_step[4]; /* nonlinear steps: totals over the Newton iterations */
   unsigned char *active;
   int *status;
   long steps, iterations, max_iterations, wbuilds, failures;
@@ -267,7 +269,7 @@ void mo_contact_driver_free(mo_contact_driver *D)
   mo_free(D->params);
   mo_delassus_free(D->W);
   mo_free(D->b); mo_free(D->q); mo_free(D->U); mo_free(D->Uprev); mo_free(D->r); mo_free(D->rprev);
-  mo_free(D->xfull); mo_free(D->xf); mo_free(D->dx); mo_free(D->dxfull); mo_free(D->mu); mo_free(D->gk); mo_free(D->w); mo_free(D->ukin);
+  mo_free(D->xfull); mo_free(D->xf); mo_free(D->dx); mo_free(D->dxfull); mo_free(D->mu); mo_free(D->gk); mo_free(D->w); mo_free(D->ukin); mo_free(D->xnl);
   mo_free(D->active);
   mo_free(D->status);
   mo_free(D);
@@ -327,8 +329,9 @@ int mo_contact_driver_create(const mo_scene *sc, mo_contact *C, mo_stepper *S,
   D->dxfull = mo_calloc(ctx, (size_t)n + 1, sizeof(double));
   D->xf = mo_calloc(ctx, (size_t)nf + 1, sizeof(double));
   D->dx = mo_calloc(ctx, (size_t)nf + 1, sizeof(double));
+  D->xnl = mo_calloc(ctx, (size_t)n + 1, sizeof(double));
   if (!D->params || !D->state || !D->b || !D->q || !D->U || !D->Uprev || !D->r || !D->rprev || !D->mu ||
-      !D->gk || !D->w || !D->ukin || !D->active || !D->status || !D->xfull || !D->dxfull || !D->xf || !D->dx) {
+      !D->gk || !D->w || !D->ukin || !D->active || !D->status || !D->xfull || !D->dxfull || !D->xf || !D->dx || !D->xnl) {
     mo_contact_driver_free(D);
     return MO_ENOMEM;
   }
@@ -387,7 +390,13 @@ static void worst_candidates(const mo_contact_driver *D, char *buf, size_t n)
   if (!len) snprintf(buf, n, "none active");
 }
 
-int mo_contact_step(mo_contact_driver *D, mo_state *s, mo_ctx *ctx)
+/* Steps 2-7 of a step (doc/theory.md §5): from the unconstrained iterate D->xfull (full; D->xf
+   its free part) and the gaps at the start of the step, the local problem, the back end's
+   solve, the core's measure, and the correction dx (free dofs) added to D->xfull. rstep: the
+   reactions of the previous step (the velocity-level index set). newton: the Newton iterate of a
+   nonlinear step (-1 for a linear one), for diagnoses. *any: some candidate was active. */
+static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *rstep, int newton,
+                         int *any_out, mo_ctx *ctx)
 {
   const mo_scene *sc = D->sc;
   mo_contact *C = D->C;
@@ -399,9 +408,6 @@ int mo_contact_step(mo_contact_driver *D, mo_state *s, mo_ctx *ctx)
   const double *g;
   mo_scheme scheme = sc->time.scheme;
 
-  /* 1. the unconstrained step */
-  if ((st = mo_stepper_predict(S, s, D->xfull, ctx))) return st;
-  mo_stepper_gather(S, D->xfull, D->xf);
   /* 2. geometry at the start of the step: computed at the end of the previous step (or by
      mo_contact_build at t = 0), so that reported gaps are end-of-step values */
   g = mo_contact_gaps(C);
@@ -439,13 +445,14 @@ int mo_contact_step(mo_contact_driver *D, mo_state *s, mo_ctx *ctx)
          and those that carried a compressive impulse in the previous step (doc/theory.md §5):
          a theta = 1 landing step leaves the gap it started with, and the contact must stay
          in the set until the back end releases it (r = 0), not drop out on that gap */
-      if (g[a] + h * (theta * D->b[a * d] + (1 - theta) * D->Uprev[a * d]) > 0 && !(D->r[a * d] > 0))
+      if (g[a] + h * (theta * D->b[a * d] + (1 - theta) * D->Uprev[a * d]) > 0 && !(rstep[a * d] > 0))
         act = 0;
     } else
       D->q[a * d] += g[a];
     D->active[a] = (unsigned char)act;
     any |= act;
   }
+  *any_out = any;
   if (D->W) {
     long fv = 0;
     mo_linsolver_stats(mo_stepper_solver(S), &fv, NULL, NULL);
@@ -484,7 +491,6 @@ int mo_contact_step(mo_contact_driver *D, mo_state *s, mo_ctx *ctx)
   P->step = s->step + 1;
   P->t = s->t;
   P->w = D->w;
-  memcpy(D->rprev, D->r, (size_t)m * sizeof(double));
   memset(rep, 0, sizeof *rep);
   D->x.r = D->r;
   D->x.U = D->U;
@@ -504,6 +510,9 @@ int mo_contact_step(mo_contact_driver *D, mo_state *s, mo_ctx *ctx)
     rep->reason = MO_CR_NOCONTACT;
   } else if ((st = D->T->solve(D->state, P, &D->x, rep, ctx))) {
     mo_phase_add(ctx, MO_PH_CONTACT, t0);
+    if (newton >= 0)
+      return mo_error_prefix(ctx, "step %ld (t = %.6g), Newton iterate %d: contact back end %s", P->step,
+                             s->t + h, newton, D->T->name);
     return mo_error_prefix(ctx, "step %ld (t = %.6g): contact back end %s", P->step, s->t + h, D->T->name);
   }
   mo_phase_add(ctx, MO_PH_CONTACT, t0);
@@ -540,27 +549,30 @@ int mo_contact_step(mo_contact_driver *D, mo_state *s, mo_ctx *ctx)
     rep->nslide += D->status[a] == MO_CS_SLIDE;
   }
   if (any) {
-    D->steps++;
-    D->iterations += rep->iterations;
-    if (rep->iterations > D->max_iterations) D->max_iterations = rep->iterations;
+    if (newton < 0) { /* a nonlinear step counts its Newton iterations' solves as one */
+      D->steps++;
+      D->iterations += rep->iterations;
+      if (rep->iterations > D->max_iterations) D->max_iterations = rep->iterations;
+    }
     if (rep->residual > D->max_residual) D->max_residual = rep->residual;
   }
   if (rep->reason < 0) {
     D->failures++;
     if (!C->on_failure_continue) {
-      char worst[400];
+      char worst[400], it[48] = "";
       worst_candidates(D, worst, sizeof worst);
+      if (newton >= 0) snprintf(it, sizeof it, ", Newton iterate %d", newton);
       return mo_error(ctx, MO_ENOCONV,
-                      "step %ld (t = %.6g): the %s contact solve stopped on %s after %d iterations "
+                      "step %ld (t = %.6g%s): the %s contact solve stopped on %s after %d iterations "
                       "(residual %.3e; %d closed of %d candidates)%s%s. Candidates furthest from the "
                       "contact law: %s. Remedies: a smaller time step, a larger iteration limit "
                       "(contact.%s options), or contact.on_failure = \"continue\"",
-                      P->step, s->t + h, D->T->name, mo_contact_reason_name(rep->reason), rep->iterations,
+                      P->step, s->t + h, it, D->T->name, mo_contact_reason_name(rep->reason), rep->iterations,
                       rep->residual, nc - rep->nopen, nc, rep->message[0] ? ": " : "", rep->message, worst,
                       D->T->name);
     }
   }
-  /* 7. correction and update */
+  /* 7. correction */
   if (!D->x.dx_set) {
     if (D->W) {
       if ((st = mo_delassus_apply_Cinv(D->W, C->H, mo_stepper_solver(S), D->r, D->dx, ctx))) return st;
@@ -573,18 +585,75 @@ int mo_contact_step(mo_contact_driver *D, mo_state *s, mo_ctx *ctx)
     }
   }
   for (i = 0; i < sc->nfree; i++) D->xfull[sc->full_of[i]] += D->dx[i];
-  /* contact work: impulse . mean local velocity (theta), force . increment (others) */
-  {
-    double w = 0, *Ukin = D->ukin;
-    if (D->W) { mo_delassus_mult(D->W, D->r, 0, Ukin); for (i = 0; i < m; i++) Ukin[i] += D->b[i]; }
-    else for (i = 0; i < m; i++) Ukin[i] = D->U[i];
-    for (i = 0; i < m; i++)
-      w += D->r[i] * (scheme == MO_SCHEME_THETA ? 0.5 * (Ukin[i] + D->Uprev[i]) : Ukin[i]);
-    s->wcontact += w;
-    if (scheme == MO_SCHEME_THETA) memcpy(D->Uprev, Ukin, (size_t)m * sizeof(double));
+  return MO_OK;
+}
+
+/* The end of a step: the work of the contact impulses, impulse . mean local velocity (theta),
+   force . increment (others), the local velocities U- of the next step, then the stepper's
+   finish at x and the geometry of the end of the step. */
+static int contact_finish(mo_contact_driver *D, mo_state *s, const double *x, mo_ctx *ctx)
+{
+  int m = D->m, i, st;
+  mo_scheme scheme = D->sc->time.scheme;
+  double w = 0, *Ukin = D->ukin;
+  if (D->W) { mo_delassus_mult(D->W, D->r, 0, Ukin); for (i = 0; i < m; i++) Ukin[i] += D->b[i]; }
+  else for (i = 0; i < m; i++) Ukin[i] = D->U[i];
+  for (i = 0; i < m; i++)
+    w += D->r[i] * (scheme == MO_SCHEME_THETA ? 0.5 * (Ukin[i] + D->Uprev[i]) : Ukin[i]);
+  s->wcontact += w;
+  if (scheme == MO_SCHEME_THETA) memcpy(D->Uprev, Ukin, (size_t)m * sizeof(double));
+  if ((st = mo_stepper_finish(D->S, s, x, ctx))) return st;
+  return mo_contact_geometry(D->C, s->u, s->t, D->C->repair, ctx);
+}
+
+/* The contact layer inside a Newton iteration of a nonlinear step (mo_constraint_fn): the same
+   local problem as a linear step's, on What_k and x_free of the iterate (doc/theory.md (T63)). */
+static int newton_constraint(void *data, const mo_state *s, const double *x_free, double *x, double *g,
+                             int iter, mo_ctx *ctx)
+{
+  mo_contact_driver *D = data;
+  const mo_scene *sc = D->sc;
+  int st, any, k, n = sc->ndof;
+  memcpy(D->xfull, x_free, (size_t)n * sizeof *x);
+  mo_stepper_gather(D->S, D->xfull, D->xf);
+  if ((st = contact_solve(D, s, D->rprev, iter, &any, ctx))) return st;
+  memcpy(x, D->xfull, (size_t)n * sizeof *x);
+  /* g = What (x - x_free) = H r over free dofs (the KKT path's dv solves What dv = H_C r) */
+  mo_csc_gaxpy(D->C->Hfull, 1, D->r, 0, g);
+  for (k = 0; k < sc->npresc; k++) g[sc->presc[k].dof] = 0;
+  D->any_step |= any;
+  D->it_step += D->rep.iterations;
+  for (k = 0; k < 4; k++) D->loops_step[k] += D->rep.loops[k];
+  return MO_OK;
+}
+
+int mo_contact_step(mo_contact_driver *D, mo_state *s, mo_ctx *ctx)
+{
+  mo_stepper *S = D->S;
+  int st, any, k;
+
+  if (mo_stepper_nonlinear(S)) {
+    /* Newton on the smooth part, the contact problem solved at every iteration on the
+       linearized step; the reactions of the previous step set the index set and warm start */
+    memcpy(D->rprev, D->r, (size_t)D->m * sizeof(double));
+    D->any_step = D->it_step = 0;
+    memset(D->loops_step, 0, sizeof D->loops_step);
+    mo_stepper_guess(S, s, D->xnl);
+    if ((st = mo_stepper_solve(S, s, D->xnl, newton_constraint, D, ctx))) return st;
+    D->rep.iterations = D->it_step;
+    for (k = 0; k < 4; k++) D->rep.loops[k] = D->loops_step[k];
+    if (D->any_step) {
+      D->steps++;
+      D->iterations += D->it_step;
+      if (D->it_step > D->max_iterations) D->max_iterations = D->it_step;
+    }
+    return contact_finish(D, s, D->xnl, ctx);
   }
-  if ((st = mo_stepper_finish(S, s, D->xfull, ctx))) return st;
-  return mo_contact_geometry(C, s->u, s->t, C->repair, ctx);
+  /* 1. the unconstrained step */
+  if ((st = mo_stepper_predict(S, s, D->xfull, ctx))) return st;
+  mo_stepper_gather(S, D->xfull, D->xf);
+  if ((st = contact_solve(D, s, D->r, -1, &any, ctx))) return st;
+  return contact_finish(D, s, D->xfull, ctx);
 }
 
 int mo_contact_driver_local_problem(const mo_contact_driver *D, double **W, double **q, double **mu,

@@ -813,7 +813,7 @@ int mo_contact_build(const mo_scene *sc, mo_contact **out, mo_ctx *ctx)
     if (fr) mo_note_skip(ctx, "friction (mu = 0 on every pair)");
     fr = 1;
     for (k = 0; k < C->npair; k++) fr &= C->pair[k].master == MO_MASTER_PLANE;
-    if (fr && !C->repair) mo_note_skip(ctx, "geometric loop and H rebuilds (plane masters, small strains)");
+    if (fr && !C->repair) mo_note_skip(ctx, "geometric loop and H rebuilds (plane masters: the pairing and the frames do not change)");
   }
   if ((st = mo_contact_geometry(C, sc->u0, 0, 1, ctx))) goto fail;
   *out = C;

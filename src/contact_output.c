@@ -120,7 +120,7 @@ int mo_contact_write_csv(const char *path, const mo_scene *sc, const mo_contact 
   for (i = d - 1; i >= 0; i--) APPEND(",R%s", ln[i]);
   APPEND(",status,measure,representation");
   for (i = d - 1; i >= 0; i--) APPEND(",R%s_other", ln[i]);
-  APPEND("\n");
+  APPEND(",lambda\n");
   for (a = 0; a < C->nc; a++) {
     const mo_candidate *c = &C->cand[a];
     const mo_cpoint *p = &C->pt[c->point];
@@ -138,7 +138,13 @@ int mo_contact_write_csv(const char *path, const mo_scene *sc, const mo_contact 
       if (has_other[a]) APPEND(",%.10g", other[a * d + i] * fs);
       else APPEND(",");
     }
-    APPEND("\n");
+    {
+      /* the friction semi-multiplier |Lambda| = |r_t| / (mu r_n) (T66): 0 open or frictionless */
+      double rt = 0, lam = 0;
+      for (i = 1; i < d; i++) rt += r[a * d + i] * r[a * d + i];
+      if (d > 1 && c->mu > 0 && r[a * d] > 0) lam = sqrt(rt) / (c->mu * r[a * d]);
+      APPEND(",%.10g\n", lam);
+    }
   }
 #undef APPEND
   st = mo_write_file_atomic(path, buf, len, ctx);

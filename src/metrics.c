@@ -88,7 +88,10 @@ int mo_metrics_create(const mo_scene *sc, const mo_contact *C, mo_metrics **out,
 static double mech_energy(const mo_metrics *M, const mo_state *s)
 {
   const mo_scene *sc = M->sc;
-  return mo_energy_kinetic(sc, s->v, M->work) + mo_energy_elastic(sc, s->u, M->work) - s->wext - s->wsupport;
+  double e = mo_energy_kinetic(sc, s->v, M->work) + mo_energy_elastic(sc, s->u, M->work);
+  /* finite-strain bodies: their stored energy and the plastic work they took (T65) */
+  if (sc->nonlinear) e += s->psi + s->wplastic;
+  return e - s->wext - s->wsupport;
 }
 
 double mo_metrics_energy_ratio(const mo_metrics *M, const mo_state *s)
@@ -101,8 +104,9 @@ void mo_metrics_energies(const mo_metrics *M, const mo_state *s, double *ek, dou
 {
   double e0 = M->e0 + M->eshift;
   *ek = mo_energy_kinetic(M->sc, s->v, M->work);
-  *ee = mo_energy_elastic(M->sc, s->u, M->work);
-  *ratio = e0 != 0 ? (*ek + *ee - s->wext - s->wsupport + M->eshift) / e0 : NAN;
+  *ee = mo_energy_stored(M->sc, s, M->work);   /* elastic, and finite-strain bodies' stored */
+  /* the plastic work is energy the bodies took (T65), as in mech_energy */
+  *ratio = e0 != 0 ? (*ek + *ee + (M->sc->nonlinear ? s->wplastic : 0) - s->wext - s->wsupport + M->eshift) / e0 : NAN;
 }
 
 /* Squared L2 norms over the reference body (2-point Gauss per bar element) of u_h - u, u,

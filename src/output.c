@@ -1,5 +1,6 @@
 /* output.c: CSV histories, VTK XML field series, atomic file replacement. */
 #include "config.h"
+#include <moreau/material.h>
 #include <moreau/output.h>
 
 #include <errno.h>
@@ -153,6 +154,36 @@ static int vtk_cell_type(mo_eltype t)
   }
 }
 
+/* Green-Lagrange strain E = (F^T F - I) / 2 at the centroid of element e of a finite-strain
+   body, in the hypothesis' component order (fe.h). */
+static void green_lagrange(const mo_mesh *m, int e, const mo_material *mat, const double *ue,
+                           double *E)
+{
+  static const double ctr[MO_EL_NTYPES][3] = {{0, 0, 0}, {1.0 / 3, 1.0 / 3, 0}, {0, 0, 0}, {0, 0, 0}};
+  double N[8], dN[24], xq[3], F[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1}, C[9];
+  int D = m->dim, a, i, j, k;
+  mo_elem_geometry(m, e, ctr[m->type], N, dN, xq);
+  for (a = 0; a < m->nen; a++)
+    for (i = 0; i < D; i++)
+      for (j = 0; j < D; j++) F[3 * i + j] += ue[a * D + i] * dN[a * D + j];
+  if (mat->hyp == MO_HYP_AXISYMMETRIC && xq[0] > 0) {
+    double ur = 0;
+    for (a = 0; a < m->nen; a++) ur += N[a] * ue[a * D];
+    F[8] = 1 + ur / xq[0];
+  }
+  for (i = 0; i < 3; i++)
+    for (j = 0; j < 3; j++) {
+      C[3 * i + j] = -(i == j);
+      for (k = 0; k < 3; k++) C[3 * i + j] += F[3 * k + i] * F[3 * k + j];
+      C[3 * i + j] *= 0.5;
+    }
+  if (D == 3) {
+    E[0] = C[0]; E[1] = C[4]; E[2] = C[8]; E[3] = C[5]; E[4] = C[2]; E[5] = C[1];
+  } else {
+    E[0] = C[0]; E[1] = C[4]; E[2] = C[1]; E[3] = C[8];
+  }
+}
+
 static int write_vtu(const char *path, const mo_scene *sc, const mo_body *B, const mo_state *s,
                      unsigned fields, mo_ctx *ctx)
 {
@@ -198,14 +229,15 @@ static int write_vtu(const char *path, const mo_scene *sc, const mo_body *B, con
     }
   }
   fprintf(f, "</PointData>\n<CellData>\n");
-  if (fields & (MO_VTK_STRESS | MO_VTK_STRAIN | MO_VTK_VON_MISES)) {
+  if (fields & (MO_VTK_STRESS | MO_VTK_STRAIN | MO_VTK_VON_MISES | MO_VTK_EPS_P)) {
     /* ParaView reads 6-component arrays as symmetric tensors XX YY ZZ XY YZ XZ */
     int w;
     double *eps = mo_malloc(ctx, (size_t)m->nelem * 6 * sizeof(double));
     double *sig = mo_malloc(ctx, (size_t)m->nelem * 6 * sizeof(double));
     double *vm = mo_malloc(ctx, (size_t)(m->nelem ? m->nelem : 1) * sizeof(double));
-    if (!eps || !sig || !vm) {
-      mo_free(eps); mo_free(sig); mo_free(vm);
+    double *ep = mo_calloc(ctx, (size_t)(m->nelem ? m->nelem : 1), sizeof(double));
+    if (!eps || !sig || !vm || !ep) {
+      mo_free(eps); mo_free(sig); mo_free(vm); mo_free(ep);
       fclose(f);
       remove(tmp);
       return MO_ENOMEM;
@@ -214,8 +246,16 @@ static int write_vtu(const char *path, const mo_scene *sc, const mo_body *B, con
       double ue[24], ee[6], se[6];
       for (a = 0; a < m->nen; a++)
         for (c = 0; c < D; c++) ue[a * D + c] = s->u[B->dof0 + m->conn[e * m->nen + a] * D + c];
-      mo_elem_stress(m, e, &B->mat, ue, ee, se);
-      vm[e] = mo_von_mises(B->mat.hyp, se);
+      if (B->nl) {
+        /* finite strains: the material state's Cauchy stress, von Mises and epsp (element
+           means over the points), the Green-Lagrange strain at the centroid */
+        const double *q = s->q + B->q0 + (size_t)e * (size_t)B->npoint * MO_J2_NSTATE;
+        mo_elem_nl_fields(m, e, &B->mat, q, se, &vm[e], &ep[e]);
+        green_lagrange(m, e, &B->mat, ue, ee);
+      } else {
+        mo_elem_stress(m, e, &B->mat, ue, ee, se);
+        vm[e] = mo_von_mises(B->mat.hyp, se);
+      }
       for (w = 0; w < 2; w++) {
         const double *in = w ? se : ee;
         double *o = (w ? sig : eps) + 6 * e;
@@ -240,7 +280,12 @@ static int write_vtu(const char *path, const mo_scene *sc, const mo_body *B, con
       for (e = 0; e < m->nelem; e++) fprintf(f, "%.8g\n", vm[e]);
       fprintf(f, "</DataArray>\n");
     }
-    mo_free(eps); mo_free(sig); mo_free(vm);
+    if ((fields & MO_VTK_EPS_P) && B->nl) {
+      fprintf(f, "<DataArray type=\"Float64\" Name=\"eps_p\" format=\"ascii\">\n");
+      for (e = 0; e < m->nelem; e++) fprintf(f, "%.8g\n", ep[e]);
+      fprintf(f, "</DataArray>\n");
+    }
+    mo_free(eps); mo_free(sig); mo_free(vm); mo_free(ep);
   }
   fprintf(f, "</CellData>\n</Piece>\n</UnstructuredGrid>\n</VTKFile>\n");
   if (ferror(f) || fclose(f) != 0) {

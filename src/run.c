@@ -4,6 +4,7 @@
 #include <moreau/run.h>
 #include <moreau/case.h>
 #include <moreau/contact.h>
+#include <moreau/material.h>
 #include <moreau/output.h>
 #include <moreau/scene.h>
 #include <moreau/step.h>
@@ -108,13 +109,24 @@ typedef struct {
   int need_R;
 } contact_view;
 
+/* The friction semi-multiplier |Lambda| = |r_t| / (mu r_n) of a candidate's reaction (BDZ07
+   Fig. 10, doc/theory.md (T66)): below 1 sticking, 1 sliding; 0 when open or frictionless. */
+static double friction_ratio(int d, double mu, const double *r)
+{
+  double rt = 0;
+  int i;
+  if (d < 2 || !(mu > 0) || !(r[0] > 0)) return 0;
+  for (i = 1; i < d; i++) rt += r[i] * r[i];
+  return sqrt(rt) / (mu * r[0]);
+}
+
 static double probe_value(const mo_scene *sc, const mo_probe *P, mo_quantity q, const mo_state *s,
                           const contact_view *cv)
 {
   const mo_body *B = &sc->body[P->body];
   int comp = (int)q % 3, kind = (int)q / 3, k, D = sc->dim;
   double acc = 0;
-  if (q == MO_Q_PN || q == MO_Q_GN) {
+  if (q == MO_Q_PN || q == MO_Q_GN || q == MO_Q_LAM) {
     /* candidates whose representative node is one of the probe's nodes */
     int a, n = 0, d;
     const double *r, *g;
@@ -128,7 +140,9 @@ static double probe_value(const mo_scene *sc, const mo_probe *P, mo_quantity q, 
       for (k = 0; k < P->nnode; k++)
         if (P->node[k] == c->node) {
           double f = r[a * d] / (sc->time.scheme == MO_SCHEME_THETA ? sc->time.dt : 1);
-          acc += q == MO_Q_PN ? (c->w > 0 ? f / c->w : f) : g[a];
+          if (q == MO_Q_PN) acc += c->w > 0 ? f / c->w : f;
+          else if (q == MO_Q_GN) acc += g[a];
+          else acc += friction_ratio(d, c->mu, r + a * d);
           n++;
         }
     }
@@ -186,6 +200,64 @@ static const char *scheme_name(mo_scheme s)
 }
 
 static json_t *contact_json(const mo_contact *C, const mo_contact_driver *D);
+
+/* metrics.extents: the bounding box of each output.extents node set in the current
+   configuration x = X + u. */
+static json_t *extents_json(const mo_scene *sc, const double *u)
+{
+  static const char *lo[3] = {"xmin", "ymin", "zmin"}, *hi[3] = {"xmax", "ymax", "zmax"};
+  json_t *j = json_object();
+  int k, a, i, D = sc->dim;
+  for (k = 0; k < sc->out.nextent; k++) {
+    const mo_extent *X = &sc->out.extent[k];
+    const mo_body *B = &sc->body[X->body];
+    double mn[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, mx[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+    json_t *e = json_object();
+    for (a = 0; a < X->nnode; a++)
+      for (i = 0; i < D; i++) {
+        double x = B->mesh->x[X->node[a] * D + i] + u[B->dof0 + X->node[a] * D + i];
+        if (x < mn[i]) mn[i] = x;
+        if (x > mx[i]) mx[i] = x;
+      }
+    for (i = 0; i < D; i++) {
+      json_object_set_new(e, lo[i], json_real(mn[i]));
+      json_object_set_new(e, hi[i], json_real(mx[i]));
+    }
+    json_object_set_new(j, X->name, e);
+  }
+  return j;
+}
+
+/* metrics.plasticity: per finite-strain body, the largest equivalent plastic strain (of the
+   element means, as the VTK field shows it), the plastic work and the stored energy. */
+static json_t *plasticity_json(const mo_scene *sc, const mo_state *s)
+{
+  json_t *j = json_object();
+  int b, e;
+  for (b = 0; b < sc->nbody; b++) {
+    const mo_body *B = &sc->body[b];
+    double epmax = 0, psi = 0, wp = 0;
+    json_t *o;
+    size_t ns;
+    if (!B->nl) continue;
+    ns = (size_t)B->npoint * MO_J2_NSTATE;
+    for (e = 0; e < B->mesh->nelem; e++) {
+      const double *q = s->q + B->q0 + (size_t)e * ns;
+      double vm, ep, p, w;
+      if (mo_elem_nl_fields(B->mesh, e, &B->mat, q, NULL, &vm, &ep) == MO_OK && ep > epmax) epmax = ep;
+      if (mo_elem_nl_energy(B->mesh, e, &B->mat, q, &p, &w) == MO_OK) {
+        psi += p;
+        wp += w;
+      }
+    }
+    o = json_object();
+    json_object_set_new(o, "max_eps_p", json_real(epmax));
+    json_object_set_new(o, "plastic_work", json_real(wp));
+    json_object_set_new(o, "stored_energy", json_real(psi));
+    json_object_set_new(j, B->name, o);
+  }
+  return j;
+}
 
 /* Linear momentum of every body, p_b = sum over its dofs of (M v) per direction, into
    p[3 b + i] (zero for rigid planes and quasi-static scenes). work: ndof. The balance
@@ -295,11 +367,16 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
   json_object_set_new(energy, "ratio", json_real(e0 != 0 ? e1 / e0 : NAN));
   json_object_set_new(energy, "max_relative_drift", json_real(drift));
   json_object_set_new(energy, "balance_error", json_real(balance));
+  json_object_set_new(energy, "balance_relative", json_real(e0 != 0 ? balance / e0 : NAN));
   json_object_set_new(energy, "max_growth", json_real(growth));
   if (s) {
     json_object_set_new(energy, "external_work", json_real(s->wext));
     json_object_set_new(energy, "support_work", json_real(s->wsupport));
     json_object_set_new(energy, "contact_work", json_real(s->wcontact));
+    if (sc && sc->nonlinear) {
+      json_object_set_new(energy, "plastic", json_real(s->wplastic));
+      json_object_set_new(energy, "stored", json_real(s->psi));
+    }
   }
   json_object_set_new(root, "energy", energy);
   if (C && drv) json_object_set_new(root, "contact", contact_json(C, drv));
@@ -320,7 +397,33 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
     json_decref(mj);
     if (s) json_object_set_new(energy, "ratio_mechanical", json_real(mo_metrics_energy_ratio(met, s)));
   }
+  if (sc && s && sc->out.nextent) json_object_set_new(metrics, "extents", extents_json(sc, s->u));
+  if (sc && s && sc->nonlinear) json_object_set_new(metrics, "plasticity", plasticity_json(sc, s));
   json_object_set_new(root, "metrics", metrics);
+  {
+    const config_setting_t *rl = config_lookup(&cs->cfg, "output.report");
+    if (rl) {
+      json_t *r = json_array();
+      int n = config_setting_type(rl) == CONFIG_TYPE_STRING ? 1 : config_setting_length(rl);
+      for (k = 0; k < n; k++)
+        json_array_append_new(r, json_string(config_setting_type(rl) == CONFIG_TYPE_STRING
+                                                 ? config_setting_get_string(rl)
+                                                 : config_setting_get_string_elem(rl, (unsigned)k)));
+      json_object_set_new(root, "report", r);
+    }
+  }
+  if (S && sc && sc->nonlinear) {
+    const mo_newton_report *nr = mo_stepper_newton_report(S);
+    json_t *nj = json_object();
+    json_object_set_new(nj, "tol", json_real(sc->time.newton_tol));
+    json_object_set_new(nj, "max_iter", json_integer(sc->time.newton_max));
+    json_object_set_new(nj, "steps", json_integer(nr->steps));
+    json_object_set_new(nj, "iterations_total", json_integer(nr->total));
+    json_object_set_new(nj, "iterations_max", json_integer(nr->max));
+    json_object_set_new(nj, "iterations_mean", json_real(nr->steps ? (double)nr->total / (double)nr->steps : 0));
+    json_object_set_new(nj, "damped", json_integer(nr->damped));
+    json_object_set_new(root, "newton", nj);
+  }
   if (S) {
     mo_linsolver_stats(mo_stepper_solver((mo_stepper *)S), &nf, &nsym, &nsol);
     json_object_set_new(ls, "name", json_string(mo_linsolver_name(mo_stepper_solver((mo_stepper *)S))));
@@ -432,6 +535,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   double *row = NULL, *work = NULL, *p0 = NULL, start = mo_clock(), e0 = 0, e1 = 0, drift = 0, balance = 0;
   double emax_growth = 0;
   int st, ncol = 0, nprobecol = 0, nexact = 0, k, p, complete = 0, ecol0 = 0, ccol0 = 0, table = 0, x0col;
+  int nl = 0, necol = 0, ncol0 = 0;
   char reason[MO_ERRMSG_MAX] = "";
   progress prog;
   memset(&s, 0, sizeof s);
@@ -469,7 +573,10 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
                 mo_reference_eval(&sc->ref, P->q[q], sc->body[P->body].mesh->x[P->node[0] * sc->dim], 0, &dummy);
     }
   }
-  ncol = 1 + nprobecol + nexact + (sc->out.energy ? 7 : 0) + (C ? 8 : 0);
+  /* finite-strain scenes add energy.plastic and the Newton columns */
+  nl = sc->nonlinear;
+  necol = sc->out.energy ? 7 + nl : 0;
+  ncol = 1 + nprobecol + nexact + necol + (C ? 8 : 0) + (nl ? 2 : 0);
   cols = mo_calloc(ctx, (size_t)(nprobecol ? nprobecol : 1), sizeof *cols);
   names = mo_calloc(ctx, (size_t)ncol, sizeof *names);
   namebuf = mo_calloc(ctx, (size_t)ncol, 80);
@@ -490,7 +597,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
       cols[k].has_ref = (sc->ref.body < 0 || P->body == sc->ref.body) &&
                         mo_reference_eval(&sc->ref, P->q[q], cols[k].x, 0, &dummy);
       snprintf(names[1 + k], 80, "%s.%s", P->name, mo_quantity_name(P->q[q]));
-      if (P->q[q] >= MO_Q_CX && P->q[q] <= MO_Q_GN && !C) {
+      if (P->q[q] >= MO_Q_CX && P->q[q] <= MO_Q_LAM && !C) {
         st = mo_error(ctx, MO_EINPUT, "%s: probe '%s' asks for '%s', but the case has no contact",
                       mo_case_file(cs), P->name, mo_quantity_name(P->q[q]));
         goto done;
@@ -515,9 +622,10 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
     snprintf(names[ecol0 + 4], 80, "energy.support_work");
     snprintf(names[ecol0 + 5], 80, "energy.contact_work");
     snprintf(names[ecol0 + 6], 80, "energy.ratio");
+    if (nl) snprintf(names[ecol0 + 7], 80, "energy.plastic");
   }
   if (C) {
-    ccol0 = 1 + nprobecol + nexact + (sc->out.energy ? 7 : 0);
+    ccol0 = 1 + nprobecol + nexact + necol;
     snprintf(names[ccol0], 80, "contact.closed");
     snprintf(names[ccol0 + 1], 80, "contact.iterations");
     snprintf(names[ccol0 + 2], 80, "contact.residual");
@@ -529,6 +637,12 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
     snprintf(names[ccol0 + 6], 80, "contact.loops_levelset");
     snprintf(names[ccol0 + 7], 80, "contact.loops_newton");
   }
+  if (nl) {
+    ncol0 = 1 + nprobecol + nexact + necol + (C ? 8 : 0);
+    snprintf(names[ncol0], 80, "newton.iterations");
+    snprintf(names[ncol0 + 1], 80, "newton.residual");
+  } else
+    mo_note_skip(ctx, "energy.plastic and newton.* columns (no finite-strain body)");
   snprintf(path, sizeof path, "%s/history.csv", outdir);
   if ((st = mo_csv_open(path, (const char *const *)names, ncol, sc->out.precision, &csv, ctx))) goto done;
   if (sc->out.vtk) {
@@ -541,7 +655,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   prog.on = opt->progress && isatty(2) && ctx->verbosity >= 1;
   prog.start = prog.last = mo_clock();
   mo_metrics_step(met, &s, NULL);
-  e0 = mo_energy_kinetic(sc, s.v, work) + mo_energy_elastic(sc, s.u, work);
+  e0 = mo_energy_kinetic(sc, s.v, work) + mo_energy_stored(sc, &s, work) + s.wplastic;
   if (!(p0 = mo_malloc(ctx, (3 * (size_t)sc->nbody + 1) * sizeof *p0))) {
     st = MO_ENOMEM;
     goto done;
@@ -554,7 +668,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
     /* energies at every step, not only on the rows written: the growth and drift the summary
        reports (and `moreau compare` classifies runs on) must not depend on output.every */
     mo_metrics_energies(met, &s, &ek, &ee, &eratio);
-    e1 = ek + ee;
+    e1 = ek + ee + s.wplastic; /* (T65): the plastic work is energy the body took */
     if (e0 > 0 && fabs(e1 - e0) / e0 > drift) drift = fabs(e1 - e0) / e0;
     if (eratio - 1 > emax_growth) emax_growth = eratio - 1;
     balance = e1 - e0 - s.wext - s.wsupport - s.wcontact;
@@ -582,11 +696,17 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
       if (sc->out.energy) {
         row[ecol0] = ek;
         row[ecol0 + 1] = ee;
-        row[ecol0 + 2] = ek + ee;
+        row[ecol0 + 2] = ek + ee + s.wplastic;
         row[ecol0 + 3] = s.wext;
         row[ecol0 + 4] = s.wsupport;
         row[ecol0 + 5] = s.wcontact;
         row[ecol0 + 6] = eratio;
+        if (nl) row[ecol0 + 7] = s.wplastic;
+      }
+      if (nl) {
+        const mo_newton_report *nr = mo_stepper_newton_report(S);
+        row[ncol0] = s.step ? nr->iterations : 0;
+        row[ncol0 + 1] = s.step && nr->nres ? nr->res[nr->nres - 1] : 0;
       }
       if (C) {
         const mo_contact_report *rep = drv ? mo_contact_last_report(drv) : NULL;

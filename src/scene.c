@@ -1,6 +1,7 @@
 /* scene.c: building a scene from a validated case (meshes, dofs, assembly, loads, settings). */
 #include "config.h"
 #include <moreau/scene.h>
+#include <moreau/material.h>
 #include "case_internal.h"
 
 #include <math.h>
@@ -14,7 +15,7 @@ static const char *const t_var[] = {"t"};
 const char *mo_quantity_name(mo_quantity q)
 {
   static const char *n[MO_Q_N] = {"ux", "uy", "uz", "vx", "vy", "vz", "fx", "fy", "fz",
-                                  "cx", "cy", "cz", "pn", "gn"};
+                                  "cx", "cy", "cz", "pn", "gn", "lam"};
   return (unsigned)q < MO_Q_N ? n[q] : "?";
 }
 
@@ -48,6 +49,11 @@ void mo_scene_free(mo_scene *sc)
     mo_free(sc->probe[i].node);
   }
   mo_free(sc->probe);
+  for (i = 0; i < sc->out.nextent; i++) {
+    mo_free(sc->out.extent[i].name);
+    mo_free(sc->out.extent[i].node);
+  }
+  mo_free(sc->out.extent);
   mo_free(sc->free_of);
   mo_free(sc->full_of);
   mo_csc_free(sc->K);
@@ -267,15 +273,19 @@ static int build_mesh(const mo_case *cs, const config_setting_t *mg, mo_mesh **o
   return MO_OK;
 }
 
-static int build_material(const mo_case *cs, const config_setting_t *g, int dim, mo_material *mat,
-                          mo_ctx *ctx)
+static int build_material(const mo_case *cs, const config_setting_t *g, const mo_mesh *msh,
+                          mo_material *mat, mo_ctx *ctx)
 {
-  const config_setting_t *h = mo_cfg_member(g, "hypothesis");
+  const config_setting_t *h = mo_cfg_member(g, "hypothesis"), *mk = mo_cfg_member(g, "model");
+  const char *model = mo_cfg_string(g, "model", "elastic");
+  int dim = msh->dim, st;
   memset(mat, 0, sizeof *mat);
-  mat->model = MO_MAT_ELASTIC;
+  mat->model = !strcmp(model, "j2") ? MO_MAT_J2 : MO_MAT_ELASTIC;
   mat->E = mo_cfg_float(g, "E", 0);
   mat->nu = mo_cfg_float(g, "nu", 0);
   mat->rho = mo_cfg_float(g, "rho", 0);
+  mat->sigma_y = mo_cfg_float(g, "sigma_y", 0);
+  mat->Et = mo_cfg_float(g, "Et", 0);
   mat->area = mo_cfg_float(g, "area", 1);
   mat->thickness = mo_cfg_float(g, "thickness", 1);
   if (dim == 1) {
@@ -294,6 +304,30 @@ static int build_material(const mo_case *cs, const config_setting_t *g, int dim,
   if ((dim != 2 || mat->hyp == MO_HYP_AXISYMMETRIC) && mo_cfg_member(g, "thickness"))
     return mo_case_error(cs, mo_cfg_member(g, "thickness"), ctx,
                          "only plane strain and plane stress bodies take a thickness");
+  if (!strcmp(model, "elastic")) {
+    const config_setting_t *s = mo_cfg_member(g, "sigma_y") ? mo_cfg_member(g, "sigma_y") : mo_cfg_member(g, "Et");
+    if (s) return mo_case_error(cs, s, ctx, "only material model 'j2' takes '%s'", config_setting_name(s));
+    return MO_OK;
+  }
+  /* finite strains: hencky (hyperelastic) or j2 (doc/theory.md §7) */
+  if (mat->model == MO_MAT_ELASTIC && mo_cfg_member(g, "sigma_y"))
+    return mo_case_error(cs, mo_cfg_member(g, "sigma_y"), ctx, "only material model 'j2' takes 'sigma_y'");
+  if (mat->model == MO_MAT_ELASTIC && mo_cfg_member(g, "Et"))
+    return mo_case_error(cs, mo_cfg_member(g, "Et"), ctx, "only material model 'j2' takes 'Et'");
+  if (mat->hyp == MO_HYP_BAR || mat->hyp == MO_HYP_PLANE_STRESS)
+    return mo_case_error(cs, mat->hyp == MO_HYP_BAR || !h ? mk : h, ctx,
+                         "material model '%s' (finite strains) needs plane strain, axisymmetry or 3D, "
+                         "not %s", model, mat->hyp == MO_HYP_BAR ? "a 1D bar" : "plane stress");
+  if (mo_elem_nl_npoint(msh->type, mat->hyp) <= 0)
+    return mo_case_error(cs, mk, ctx, "material model '%s' (finite strains) has no %s element in %s",
+                         model, mo_eltype_get(msh->type)->name, mo_hyp_name(mat->hyp));
+  if (mat->model == MO_MAT_J2 && !mo_cfg_member(g, "sigma_y"))
+    return mo_case_error(cs, g, ctx, "material model 'j2' needs the yield stress 'sigma_y'");
+  if (mat->model == MO_MAT_J2 && !(mat->Et < mat->E))
+    return mo_case_error(cs, mo_cfg_member(g, "Et"), ctx,
+                         "the tangent modulus Et = %g must be below E = %g (Et >= E would be a "
+                         "softening or infinite hardening modulus H = E Et / (E - Et))", mat->Et, mat->E);
+  if ((st = mo_j2_check(mat, ctx))) return relocate(cs, mk ? mk : g, ctx);
   return MO_OK;
 }
 
@@ -661,8 +695,12 @@ static int assemble(mo_scene *sc, int with_mass, mo_ctx *ctx)
     for (e = 0; e < m->nelem && !st; e++) {
       for (a = 0; a < m->nen; a++)
         for (c = 0; c < D; c++) dofs[a * D + c] = B->dof0 + m->conn[e * m->nen + a] * D + c;
-      if ((st = mo_elem_stiffness(m, e, &B->mat, Ke, ctx))) break;
-      if ((st = mo_triplet_add_block(&TK, dofs, nd, dofs, nd, Ke, ctx))) break;
+      /* finite-strain bodies have no constant stiffness: their forces and tangents are
+         computed by the stepper at every Newton iterate (doc/theory.md §11) */
+      if (!B->nl) {
+        if ((st = mo_elem_stiffness(m, e, &B->mat, Ke, ctx))) break;
+        if ((st = mo_triplet_add_block(&TK, dofs, nd, dofs, nd, Ke, ctx))) break;
+      }
       if (with_mass) {
         if ((st = mo_elem_mass(m, e, &B->mat, B->lumped, Me, ctx))) break;
         if ((st = mo_triplet_add_block(&TM, dofs, nd, dofs, nd, Me, ctx))) break;
@@ -693,6 +731,8 @@ static int build_time(mo_scene *sc, const mo_case *cs, mo_ctx *ctx)
   T->theta_f = mo_cfg_float(tg, "theta_f", T->theta);
   T->beta = mo_cfg_float(tg, "beta", 0.25);
   T->gamma = mo_cfg_float(tg, "gamma", 0.5);
+  T->newton_tol = mo_cfg_float(mo_cfg_member(tg, "newton"), "tol", 1e-8);
+  T->newton_max = mo_cfg_int(mo_cfg_member(tg, "newton"), "max_iter", 25);
   /* keys that the chosen scheme ignores are almost always a mistake */
   if (T->scheme != MO_SCHEME_THETA && ((s = mo_cfg_member(tg, "theta")) || (s = mo_cfg_member(tg, "theta_f"))))
     return mo_case_error(cs, s, ctx, "is not used by scheme '%s' (only by 'theta')", scheme);
@@ -728,6 +768,42 @@ static int build_time(mo_scene *sc, const mo_case *cs, mo_ctx *ctx)
   return MO_OK;
 }
 
+/* output.extents: node sets whose bounding box in the current configuration the summary
+   reports (e.g. the length and footprint of a Taylor bar). */
+static int build_extents(mo_scene *sc, const mo_case *cs, const config_setting_t *el, mo_ctx *ctx)
+{
+  int i, k, n = el ? config_setting_length(el) : 0;
+  if (!n) return MO_OK;
+  sc->out.extent = mo_calloc(ctx, (size_t)n, sizeof *sc->out.extent);
+  if (!sc->out.extent) return MO_ENOMEM;
+  for (i = 0; i < n; i++) {
+    const config_setting_t *g = config_setting_get_elem(el, (unsigned)i);
+    mo_extent *X = &sc->out.extent[sc->out.nextent];
+    const char *bname = mo_cfg_string(g, "body", NULL), *set = mo_cfg_string(g, "set", "all");
+    int b = 0;
+    X->name = mo_strdup(ctx, mo_cfg_string(g, "name", "extent"));
+    if (!X->name) return MO_ENOMEM;
+    sc->out.nextent++;
+    for (k = 0; k < i; k++)
+      if (!strcmp(sc->out.extent[k].name, X->name))
+        return mo_case_error(cs, mo_cfg_member(g, "name"), ctx, "extent name '%s' is used twice", X->name);
+    if (strchr(X->name, '.') || strchr(X->name, ',') || strchr(X->name, '"'))
+      return mo_case_error(cs, mo_cfg_member(g, "name"), ctx, "an extent name must not contain '.', ',' or '\"'");
+    if (bname) {
+      b = mo_scene_body_index(sc, bname);
+      if (b < 0) return mo_case_error(cs, mo_cfg_member(g, "body"), ctx, "no body named '%s'", bname);
+    } else
+      for (b = 0; b < sc->nbody && sc->body[b].kind != MO_BODY_DEFORMABLE; b++) {}
+    if (b >= sc->nbody || sc->body[b].kind != MO_BODY_DEFORMABLE)
+      return mo_case_error(cs, g, ctx, "an extent measures a deformable body");
+    X->body = b;
+    if (mo_mesh_nodeset_resolve(sc->body[b].mesh, set, &X->node, &X->nnode, ctx))
+      return relocate(cs, mo_cfg_member(g, "set") ? mo_cfg_member(g, "set") : g, ctx);
+    if (X->nnode == 0) return mo_case_error(cs, mo_cfg_member(g, "set"), ctx, "the set selects no node");
+  }
+  return MO_OK;
+}
+
 static int build_output(mo_scene *sc, const mo_case *cs, mo_ctx *ctx)
 {
   const config_setting_t *og = config_lookup(&cs->cfg, "output"), *pl, *vg;
@@ -740,15 +816,17 @@ static int build_output(mo_scene *sc, const mo_case *cs, mo_ctx *ctx)
     int nf = mo_cfg_count(vg, "fields");
     sc->out.vtk = 1;
     sc->out.vtk_every = mo_cfg_int(vg, "every", 10);
-    sc->out.vtk_fields = nf ? 0 : 0x1f;
+    sc->out.vtk_fields = nf ? 0 : 0x3f;
     for (k = 0; k < nf; k++) {
       const char *f = mo_cfg_string_at(vg, "fields", k);
       sc->out.vtk_fields |= !strcmp(f, "displacement") ? MO_VTK_DISPLACEMENT
                             : !strcmp(f, "velocity") ? MO_VTK_VELOCITY
                             : !strcmp(f, "stress") ? MO_VTK_STRESS
-                            : !strcmp(f, "strain") ? MO_VTK_STRAIN : MO_VTK_VON_MISES;
+                            : !strcmp(f, "strain") ? MO_VTK_STRAIN
+                            : !strcmp(f, "eps_p") ? MO_VTK_EPS_P : MO_VTK_VON_MISES;
     }
   }
+  if ((st = build_extents(sc, cs, mo_cfg_member(og, "extents"), ctx))) return st;
   pl = mo_cfg_member(og, "probes");
   if (!pl) return MO_OK;
   sc->probe = mo_calloc(ctx, (size_t)config_setting_length(pl) + 1, sizeof *sc->probe);
@@ -875,7 +953,14 @@ int mo_scene_build(const mo_case *cs, mo_scene **out, mo_ctx *ctx)
       goto fail;
     }
     dim = B->mesh->dim;
-    if ((st = build_material(cs, mo_cfg_member(bg, "material"), dim, &B->mat, ctx))) goto fail;
+    if ((st = build_material(cs, mo_cfg_member(bg, "material"), B->mesh, &B->mat, ctx))) goto fail;
+    if (strcmp(mo_cfg_string(mo_cfg_member(bg, "material"), "model", "elastic"), "elastic")) {
+      B->nl = 1;
+      B->npoint = mo_elem_nl_npoint(B->mesh->type, B->mat.hyp);
+      B->q0 = sc->nq;
+      sc->nq += (size_t)B->mesh->nelem * (size_t)B->npoint * MO_J2_NSTATE;
+      sc->nonlinear = 1;
+    }
     B->lumped = !strcmp(mo_cfg_string(bg, "mass", "consistent"), "lumped");
     B->dof0 = sc->ndof;
     B->ndof = B->mesh->nnode * dim;

@@ -48,10 +48,12 @@ static const mo_key core_keys[] = {
   {"bodies.[].mesh.sets.[].nodes", K_IARRAY, NULL, A(0, U, 0, 0, 1, 0), 0, NULL, "Explicit node numbers (0-based).", NULL},
 
   {"bodies.[].material", K_GROUP, NULL, NONE, 0, NULL, "Deformable body: its material.", NULL},
-  {"bodies.[].material.model", K_ENUM, "elastic", NONE, 0, "\"elastic\"", "Constitutive model: linear isotropic elasticity.", NULL},
+  {"bodies.[].material.model", K_ENUM, "elastic|hencky|j2", NONE, 0, "\"elastic\"", "Constitutive model: elastic (linear, small strains), hencky (finite-strain hyperelasticity, Hencky's logarithmic energy), j2 (finite-strain von Mises plasticity with linear isotropic hardening).", NULL},
   {"bodies.[].material.E", K_FLOAT, NULL, POS, 1, NULL, "Young's modulus (Pa).", "Young's modulus must be positive"},
   {"bodies.[].material.nu", K_FLOAT, NULL, R(-1, 0.5, 1, 1), 0, "0", "Poisson's ratio.", "Poisson's ratio of an isotropic solid lies in (-1, 0.5); 0.5 (incompressible) is not supported by displacement elements"},
   {"bodies.[].material.rho", K_FLOAT, NULL, POS, 1, NULL, "Mass density (kg/m^3).", "density must be positive"},
+  {"bodies.[].material.sigma_y", K_FLOAT, NULL, POS, 0, NULL, "j2: initial yield stress (Pa).", "a yield stress must be positive"},
+  {"bodies.[].material.Et", K_FLOAT, NULL, NONNEG, 0, "0", "j2: tangent modulus of the uniaxial curve past yield (Pa), 0 <= Et < E (0: perfect plasticity).", "a tangent modulus is not negative"},
   {"bodies.[].material.hypothesis", K_ENUM, "plane_strain|plane_stress|axisymmetric", NONE, 0, "\"plane_strain\"", "2D bodies: modelling hypothesis (axisymmetric: x is the radius, y the axis).", NULL},
   {"bodies.[].material.area", K_FLOAT, NULL, POS, 0, "1", "1D bodies: cross-section area (m^2).", NULL},
   {"bodies.[].material.thickness", K_FLOAT, NULL, POS, 0, "1", "Plane strain / plane stress: thickness (m).", NULL},
@@ -89,6 +91,9 @@ static const mo_key core_keys[] = {
   {"time.theta_f", K_FLOAT, NULL, R(0.5, 1, 0, 0), 0, "theta", "Weight of f(t+) in the momentum balance: theta (Moreau-Jean) or 1 (Ben Dhia-Zammali).", "theta_f must lie in [0.5, 1]"},
   {"time.beta", K_FLOAT, NULL, R(0, 0.5, 1, 0), 0, "0.25", "Newmark beta.", "Newmark beta must lie in (0, 0.5]"},
   {"time.gamma", K_FLOAT, NULL, R(0.5, 1, 0, 0), 0, "0.5", "Newmark gamma.", "Newmark gamma must lie in [0.5, 1] (below 1/2 the scheme is unstable)"},
+  {"time.newton", K_GROUP, NULL, NONE, 0, NULL, "Newton iterations of the steps of nonlinear scenes (finite-strain materials).", NULL},
+  {"time.newton.tol", K_FLOAT, NULL, R(0, 1e-2, 1, 0), 0, "1e-8", "A step ends when the residual of its momentum balance is at most tol times the balance's scale (doc/theory.md (T64)).", "a Newton tolerance lies in (0, 0.01]"},
+  {"time.newton.max_iter", K_INT, NULL, R(1, 1000, 0, 0), 0, "25", "Newton iterations per step before the run stops with a diagnosis.", NULL},
 
   /* --- contact ----------------------------------------------------------------------------- */
   {"contact", K_GROUP, NULL, NONE, 0, NULL, "Contact pairs and the back end that solves them.", NULL},
@@ -123,11 +128,16 @@ static const mo_key core_keys[] = {
   {"output.probes.[].set", K_STRING, NULL, NONE, 0, NULL, "Node set: values are averaged over its nodes (forces summed).", NULL},
   {"output.probes.[].point", K_FARRAY, NULL, A(U, U, 0, 0, 1, 3), 0, NULL, "The node nearest to this point.", NULL},
   {"output.probes.[].node", K_INT, NULL, R(0, U, 0, 0), 0, NULL, "A node number (0-based).", NULL},
-  {"output.probes.[].quantities", K_SARRAY, "ux|uy|uz|vx|vy|vz|fx|fy|fz|cx|cy|cz|pn|gn", A(U, U, 0, 0, 1, 14), 1, NULL, "u: displacement, v: velocity, f: support reaction, c: contact force (summed over the set), pn: contact pressure, gn: gap (candidates at the set's nodes, averaged).", NULL},
+  {"output.probes.[].quantities", K_SARRAY, "ux|uy|uz|vx|vy|vz|fx|fy|fz|cx|cy|cz|pn|gn|lam", A(U, U, 0, 0, 1, 15), 1, NULL, "u: displacement, v: velocity, f: support reaction, c: contact force (summed over the set), pn: contact pressure, gn: gap, lam: friction semi-multiplier |r_t| / (mu r_n) (candidates at the set's nodes, averaged).", NULL},
+  {"output.extents", K_LIST, NULL, NONE, 0, NULL, "Node sets whose bounding box in the current configuration summary.json reports at the end (metrics.extents).", NULL},
+  {"output.extents.[].name", K_STRING, NULL, NONE, 1, NULL, "Name of the extent (metrics.extents.NAME.xmin ...).", NULL},
+  {"output.extents.[].body", K_STRING, NULL, NONE, 0, "the first body", "Body measured.", NULL},
+  {"output.extents.[].set", K_STRING, NULL, NONE, 0, "\"all\"", "Node set measured.", NULL},
+  {"output.report", K_SARRAY, NULL, A(U, U, 0, 0, 1, 16), 0, NULL, "Headline metrics: compare.csv columns (e.g. extents.bar.ymax, energy.balance_relative) that moreau compare lists in report.md for this case.", NULL},
   {"output.contact_table", K_BOOL, NULL, NONE, 0, "false", "Print the candidates' table in Jean's layout at the end of the run (node, D1, D2, RT, RN and the other representation's columns).", NULL},
   {"output.vtk", K_GROUP, NULL, NONE, 0, NULL, "VTK XML field series (fields.pvd + .vtu), written when present.", NULL},
   {"output.vtk.every", K_INT, NULL, R(1, U, 0, 0), 0, "10", "Write fields every N steps (and at the last step).", NULL},
-  {"output.vtk.fields", K_SARRAY, "displacement|velocity|stress|strain|von_mises", A(U, U, 0, 0, 1, 5), 0, "all", "Fields written.", NULL},
+  {"output.vtk.fields", K_SARRAY, "displacement|velocity|stress|strain|von_mises|eps_p", A(U, U, 0, 0, 1, 6), 0, "all", "Fields written (eps_p: equivalent plastic strain of j2 bodies).", NULL},
 
   /* --- reference solution ------------------------------------------------------------------ */
   {"reference", K_GROUP, NULL, NONE, 0, NULL, "A closed-form solution the core compares the probes with (errors in summary.json).", NULL},

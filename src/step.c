@@ -1,23 +1,13 @@
 /* step.c: the theta-scheme, Newmark and quasi-static steps on free dofs with a factored
-   iteration matrix. */
+   iteration matrix (nonlinear steps: newton.c). */
 #include "config.h"
+#include <moreau/material.h>
 #include <moreau/step.h>
+#include "step_internal.h"
 
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
-
-struct mo_stepper {
-  const mo_scene *sc;
-  mo_scheme scheme;
-  double h, theta, theta_f, beta, gamma;
-  mo_csc *Wfull;    /* M + c K over full dofs (for prescribed couplings); NULL when not needed */
-  mo_csc *W;        /* free-free restriction */
-  mo_linsolver *ls; /* its factorization */
-  double *rhs, *xf; /* free-size work */
-  double *w1, *w2, *w3; /* full-size work */
-  double *uprev, *vprev, *fprev; /* previous state for reactions */
-};
 
 int mo_state_alloc(const mo_scene *sc, mo_state *s, mo_ctx *ctx)
 {
@@ -28,7 +18,9 @@ int mo_state_alloc(const mo_scene *sc, mo_state *s, mo_ctx *ctx)
   s->f = mo_calloc(ctx, n, sizeof(double));
   s->reac = mo_calloc(ctx, n, sizeof(double));
   if (sc->time.scheme == MO_SCHEME_NEWMARK) s->a = mo_calloc(ctx, n, sizeof(double));
-  if (!s->u || !s->v || !s->f || !s->reac || (sc->time.scheme == MO_SCHEME_NEWMARK && !s->a)) {
+  if (sc->nq) s->q = mo_calloc(ctx, sc->nq, sizeof(double));
+  if (!s->u || !s->v || !s->f || !s->reac || (sc->time.scheme == MO_SCHEME_NEWMARK && !s->a) ||
+      (sc->nq && !s->q)) {
     mo_state_release(s);
     return MO_ENOMEM;
   }
@@ -42,17 +34,21 @@ void mo_state_release(mo_state *s)
   mo_free(s->a);
   mo_free(s->f);
   mo_free(s->reac);
+  mo_free(s->q);
   memset(s, 0, sizeof *s);
 }
 
-int mo_state_copy(const mo_state *src, mo_state *dst, int ndof)
+int mo_state_copy(const mo_scene *sc, const mo_state *src, mo_state *dst)
 {
-  size_t n = (size_t)ndof * sizeof(double);
+  size_t n = (size_t)sc->ndof * sizeof(double);
   dst->t = src->t;
   dst->step = src->step;
   dst->wext = src->wext;
   dst->wsupport = src->wsupport;
   dst->wcontact = src->wcontact;
+  dst->psi = src->psi;
+  dst->wplastic = src->wplastic;
+  if (sc->nq && src->q && dst->q) memcpy(dst->q, src->q, sc->nq * sizeof(double));
   memcpy(dst->u, src->u, n);
   memcpy(dst->v, src->v, n);
   memcpy(dst->f, src->f, n);
@@ -82,6 +78,11 @@ double mo_energy_elastic(const mo_scene *sc, const double *u, double *work)
   return 0.5 * dot(u, work, sc->ndof);
 }
 
+double mo_energy_stored(const mo_scene *sc, const mo_state *s, double *work)
+{
+  return mo_energy_elastic(sc, s->u, work) + (sc->nonlinear ? s->psi : 0);
+}
+
 void mo_stepper_free(mo_stepper *S)
 {
   if (!S) return;
@@ -96,7 +97,44 @@ void mo_stepper_free(mo_stepper *S)
   mo_free(S->uprev);
   mo_free(S->vprev);
   mo_free(S->fprev);
+  mo_newton_release(S);
   mo_free(S);
+}
+
+/* Virgin states of every finite-strain body. */
+static void init_material(const mo_scene *sc, double *q)
+{
+  int b;
+  for (b = 0; b < sc->nbody; b++)
+    if (sc->body[b].nl)
+      mo_j2_state_init(sc->body[b].mat.hyp, q + sc->body[b].q0, sc->body[b].mesh->nelem * sc->body[b].npoint);
+}
+
+/* A nonlinear scene: the tangent pattern, then What at the initial state (u0, a virgin
+   material), factored so that the solver is usable before the first step; Newton refactors it
+   at every iterate (same pattern: numeric factorizations only). */
+static int create_nonlinear(mo_stepper *S, mo_ctx *ctx)
+{
+  const mo_scene *sc = S->sc;
+  double *q = NULL, t0;
+  int st;
+  t0 = mo_clock();
+  st = mo_newton_setup(S, ctx);
+  mo_phase_add(ctx, MO_PH_ASSEMBLY, t0);
+  if (st) return st;
+  if (!(q = mo_malloc(ctx, (sc->nq + 1) * sizeof *q))) return MO_ENOMEM;
+  init_material(sc, q);
+  st = mo_newton_forces(S, sc->u0, q, S->fint0, 1, NULL, NULL, ctx);
+  mo_free(q);
+  if (st) return mo_error_prefix(ctx, "the initial configuration");
+  t0 = mo_clock();
+  st = mo_linsolver_create(&mo_linsolver_cholmod, &S->ls, ctx);
+  if (!st) st = mo_linsolver_factor(S->ls, S->W, ctx);
+  mo_phase_add(ctx, MO_PH_FACTOR, t0);
+  if (st)
+    return mo_error_prefix(ctx, "tangent iteration matrix (%s) at the initial state",
+                           S->scheme == MO_SCHEME_QUASISTATIC ? "K_t" : "M + c K_t");
+  return MO_OK;
 }
 
 int mo_stepper_create(const mo_scene *sc, mo_stepper **out, mo_ctx *ctx)
@@ -127,6 +165,15 @@ int mo_stepper_create(const mo_scene *sc, mo_stepper **out, mo_ctx *ctx)
     mo_stepper_free(S);
     return MO_ENOMEM;
   }
+  if (sc->nonlinear) {
+    if ((st = create_nonlinear(S, ctx))) {
+      mo_stepper_free(S);
+      return st;
+    }
+    *out = S;
+    return MO_OK;
+  }
+  mo_note_skip(ctx, "Newton iterations and refactorizations (every material is linear)");
   t0 = mo_clock();
   switch (S->scheme) {
   case MO_SCHEME_THETA: c = S->h * S->h * S->theta * S->theta_f; break;
@@ -213,6 +260,15 @@ static void presc_values(const mo_stepper *S, double t, double *u, double *v, do
   }
 }
 
+void mo_stepper_presc_unknown(const mo_stepper *S, double t, double *x)
+{
+  switch (S->scheme) {
+  case MO_SCHEME_THETA: presc_values(S, t, NULL, x, NULL); break;
+  case MO_SCHEME_NEWMARK: presc_values(S, t, NULL, NULL, x); break;
+  case MO_SCHEME_QUASISTATIC: presc_values(S, t, x, NULL, NULL); break;
+  }
+}
+
 int mo_stepper_init_state(mo_stepper *S, mo_state *s, mo_ctx *ctx)
 {
   const mo_scene *sc = S->sc;
@@ -225,6 +281,15 @@ int mo_stepper_init_state(mo_stepper *S, mo_state *s, mo_ctx *ctx)
   presc_values(S, 0, s->u, s->v, NULL);
   mo_scene_fext(sc, 0, s->f);
   memset(s->reac, 0, (size_t)n * sizeof(double));
+  s->psi = s->wplastic = 0;
+  if (S->nl) {
+    /* the material at u0: one update from the virgin state, committed (T65) */
+    init_material(sc, s->q);
+    if ((st = mo_newton_forces(S, s->u, s->q, S->fint0, 0, NULL, NULL, ctx)))
+      return mo_error_prefix(ctx, "the initial configuration");
+    memcpy(s->q, S->qt, sc->nq * sizeof *s->q);
+    mo_newton_energies(S, s->q, &s->psi, &s->wplastic);
+  }
   if (S->scheme == MO_SCHEME_NEWMARK) {
     /* M_ff a0 = [f0 - K u0 - M z0]_f, z0 the prescribed accelerations */
     mo_linsolver *Ml = NULL;
@@ -232,7 +297,11 @@ int mo_stepper_init_state(mo_stepper *S, mo_state *s, mo_ctx *ctx)
     memset(s->a, 0, (size_t)n * sizeof(double));
     presc_values(S, 0, NULL, NULL, s->a);
     memcpy(S->w1, s->f, (size_t)n * sizeof(double));
-    mo_csc_gaxpy(sc->K, -1, s->u, 1, S->w1);
+    if (S->nl) { /* f_int(u0), K u0 of the linear bodies included */
+      int i;
+      for (i = 0; i < n; i++) S->w1[i] -= S->fint0[i];
+    } else
+      mo_csc_gaxpy(sc->K, -1, s->u, 1, S->w1);
     mo_csc_gaxpy(sc->M, -1, s->a, 1, S->w1);
     mo_stepper_gather(S, S->w1, S->rhs);
     st = mo_csc_extract(sc->M, sc->free_of, sc->nfree, sc->free_of, sc->nfree, &Mff, ctx);
@@ -253,6 +322,9 @@ int mo_stepper_predict(mo_stepper *S, const mo_state *s, double *x, mo_ctx *ctx)
   int n = sc->ndof, i, st;
   double h = S->h, tn = s->t + h, t0 = mo_clock();
   double *f1 = S->w1, *w = S->w2, *z = S->w3;
+  if (S->nl)
+    return mo_error(ctx, MO_EUNSUPPORTED, "mo_stepper_predict: a nonlinear scene's step is "
+                    "mo_stepper_solve (Newton)");
   mo_scene_fext(sc, tn, f1);
   switch (S->scheme) {
   case MO_SCHEME_THETA: {
@@ -326,6 +398,25 @@ static void reactions(const mo_stepper *S, mo_state *s)
   for (k = 0; k < sc->npresc; k++) {
     int d = sc->presc[k].dof;
     double r = 0;
+    if (S->nl) {
+      /* the internal forces at the two ends of the step (K u of linear bodies included) */
+      switch (S->scheme) {
+      case MO_SCHEME_THETA:
+        r = tf * S->fint[d] + (1 - tf) * S->fint0[d];
+        for (p = M->p[d]; p < M->p[d + 1]; p++) r += M->x[p] * (s->v[M->i[p]] - S->vprev[M->i[p]]) / h;
+        r -= tf * s->f[d] + (1 - tf) * S->fprev[d];
+        break;
+      case MO_SCHEME_NEWMARK:
+        r = S->fint[d] - s->f[d];
+        for (p = M->p[d]; p < M->p[d + 1]; p++) r += M->x[p] * s->a[M->i[p]];
+        break;
+      case MO_SCHEME_QUASISTATIC:
+        r = S->fint[d] - s->f[d];
+        break;
+      }
+      s->reac[d] = r;
+      continue;
+    }
     switch (S->scheme) {
     case MO_SCHEME_THETA:
       for (p = K->p[d]; p < K->p[d + 1]; p++)
@@ -434,6 +525,12 @@ int mo_stepper_finish(mo_stepper *S, mo_state *s, const double *x, mo_ctx *ctx)
       s->wsupport += ws;
     }
   }
+  if (S->nl) {
+    /* commit: the trial states of the solution, its internal forces, its energies */
+    memcpy(s->q, S->qt, sc->nq * sizeof *s->q);
+    memcpy(S->fint0, S->fint, (size_t)n * sizeof *S->fint0);
+    mo_newton_energies(S, s->q, &s->psi, &s->wplastic);
+  }
   mo_phase_add(ctx, MO_PH_SOLVE, t0);
   return MO_OK;
 }
@@ -441,7 +538,14 @@ int mo_stepper_finish(mo_stepper *S, mo_state *s, const double *x, mo_ctx *ctx)
 int mo_stepper_step(mo_stepper *S, mo_state *s, mo_ctx *ctx)
 {
   double *x = S->w3;
-  int st = mo_stepper_predict(S, s, x, ctx);
+  int st;
+  if (S->nl) {
+    x = S->xs; /* w1..w3 are Newton's work */
+    mo_stepper_guess(S, s, x);
+    if ((st = mo_stepper_solve(S, s, x, NULL, NULL, ctx))) return st;
+    return mo_stepper_finish(S, s, x, ctx);
+  }
+  st = mo_stepper_predict(S, s, x, ctx);
   if (st) return st;
   return mo_stepper_finish(S, s, x, ctx);
 }

@@ -52,6 +52,27 @@ contains "$e" "contact solve stopped on iteration limit" "non-convergence: the d
 contains "$e" "Remedies:" "non-convergence: and suggests remedies"
 is "$(json "$OUT/nc/summary.json" "d['status']")" "incomplete" "non-convergence: summary.json says incomplete"
 
+# a nonlinear step that inverts elements: the Taylor bar at 30 km/s on a coarse mesh
+T="$MOREAU_SRCDIR/cases/taylor-axisymmetric"
+e=$("$MOREAU" run "$T" --out "$OUT/inv" --quiet --set 'bodies.bar.mesh.elements=[2, 20]' \
+  --set 'bodies.bar.initial.velocity=[0.0, -3.0e4]' --set output.vtk.every=1000 2>&1)
+is "$?" "1" "inverted element: exit status 1"
+contains "$e" "step 1 (t = 2e-07): Newton did not converge" "inverted element: the diagnosis names the step and the time"
+contains "$e" "were not admissible, the last: 2 elements inverted (det F <= 0): 'bar' element 0, 'bar' element 1" "inverted element: and the elements"
+contains "$e" "relative residuals " "inverted element: and the residual history"
+is "$(json "$OUT/inv/summary.json" "d['status']")" "incomplete" "inverted element: summary.json says incomplete"
+ok $(csv_complete "$OUT/inv/history.csv"; echo $?) "inverted element: history.csv rows complete"
+
+# a Newton iteration limit: one iteration is not enough once the bar deforms plastically
+e=$("$MOREAU" run "$T" --out "$OUT/newton" --quiet --set 'bodies.bar.mesh.elements=[2, 20]' \
+  --set time.newton.max_iter=1 --set output.vtk.every=1000 2>&1)
+is "$?" "1" "Newton limit: exit status 1"
+contains "$e" "Newton did not converge in 1 iterations (time.newton.max_iter = 1" "Newton limit: the diagnosis says why"
+contains "$e" "relative residuals 9.99e-01, 4.13e-02, tolerance 1e-08 (time.newton.tol)" "Newton limit: with the residual history and the tolerance"
+is "$(json "$OUT/newton/summary.json" "d['status']")" "incomplete" "Newton limit: summary.json says incomplete"
+is "$(json "$OUT/newton/summary.json" "'%g' % d['time']['t_reached']")" "$(tail -1 "$OUT/newton/history.csv" | cut -d, -f1)" \
+  "Newton limit: history.csv ends at the last good step"
+
 # a result file is never replaced by a partial one: write-protect the output folder
 mkdir -p "$OUT/ro"
 "$MOREAU" run "$W" --out "$OUT/ro" --quiet --set time.end=0.1 > /dev/null

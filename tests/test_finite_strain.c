@@ -7,6 +7,7 @@
 #include <moreau/material.h>
 #include <moreau/mesh.h>
 #include "tap.h"
+#include "taylor_explicit.h"
 
 extern void dgesv_(const int *n, const int *nrhs, double *a, const int *lda, int *ipiv,
                    double *b, const int *ldb, int *info);
@@ -762,91 +763,8 @@ static void test_locking(void)
 
 /* ---- I. the Taylor bar by explicit central differences (opt-in: MOREAU_LONG_TESTS=1) -------
 
-   A check of the kernels in their target regime, not the Taylor scene (which steps implicitly
-   with contact in the core): the axisymmetric copper bar of CASES.md §5 (radius 3.2 mm, length
-   32.4 mm, 227 m/s) on a rigid frictionless wall, 80 us, lumped mass, central differences with
-   a step from the current smallest element height, the wall as a velocity projection. The
-   centre of the impact face reaches epsp ~ 3 and its element is crushed ~20 times, so the step
-   falls to ~5e-9 s: 10^4 steps, several seconds, hence opt-in. */
-static void taylor_explicit(unsigned opts, int nr, int nz, double *len, double *rad,
-                            double *epmax, double *gap, double *wall)
-{
-  const double R0 = 3.2e-3, L0 = 32.4e-3, V0 = 227, T = 80e-6, cfl = 1.0;
-  mo_material mat = copper(MO_HYP_AXISYMMETRIC);
-  double o[2] = {0, 0}, sz[2] = {R0, L0}, c;
-  int ne[2] = {nr, nz}, n, nq = 4, ns, e, a, i;
-  double *u, *v, *f, *fo, *M, *sn, *s, t = 0, hprev = 0, K0 = 0, Kin = 0, W = 0, psi = 0, wp = 0;
-  mo_mesh *m = NULL;
-  mo_ctx ctx;
-  mo_ctx_init(&ctx);
-  mo_mesh_rectangle(o, sz, ne, MO_EL_Q4, MO_DIAG_RIGHT, &m, &ctx);
-  n = 2 * m->nnode;
-  ns = m->nelem * nq * MO_J2_NSTATE;
-  u = calloc((size_t)n, sizeof *u); v = calloc((size_t)n, sizeof *v);
-  f = calloc((size_t)n, sizeof *f); fo = calloc((size_t)n, sizeof *fo);
-  M = calloc((size_t)n, sizeof *M);
-  sn = malloc((size_t)ns * sizeof *sn); s = malloc((size_t)ns * sizeof *s);
-  mo_j2_state_init(mat.hyp, sn, m->nelem * nq);
-  c = sqrt(mat.E * (1 - mat.nu) / ((1 + mat.nu) * (1 - 2 * mat.nu)) / mat.rho); /* P wave */
-  for (e = 0; e < m->nelem; e++) {
-    double Me[64];
-    mo_elem_mass(m, e, &mat, 1, Me, &ctx);
-    for (a = 0; a < 8; a++) M[2 * m->conn[e * 4 + a / 2] + a % 2] += Me[a * 8 + a];
-  }
-  for (a = 0; a < m->nnode; a++) v[2 * a + 1] = -V0;
-  for (i = 0; i < n; i++) K0 += 0.5 * M[i] * v[i] * v[i];
-  *len = *rad = *epmax = NAN;
-  while (t < T) {
-    double lmin = INFINITY, h;
-    for (e = 0; e < m->nelem; e++) { /* current height: area / longest diagonal */
-      const int *cn = &m->conn[e * 4];
-      double X[4][2], A2, d1, d2;
-      int k;
-      for (k = 0; k < 4; k++) {
-        X[k][0] = m->x[2 * cn[k]] + u[2 * cn[k]];
-        X[k][1] = m->x[2 * cn[k] + 1] + u[2 * cn[k] + 1];
-      }
-      A2 = (X[2][0] - X[0][0]) * (X[3][1] - X[1][1]) - (X[2][1] - X[0][1]) * (X[3][0] - X[1][0]);
-      d1 = hypot(X[2][0] - X[0][0], X[2][1] - X[0][1]);
-      d2 = hypot(X[3][0] - X[1][0], X[3][1] - X[1][1]);
-      lmin = fmin(lmin, 0.5 * A2 / fmax(d1, d2));
-    }
-    h = fmin(cfl * lmin / c, T - t);
-    for (i = 0; i < n; i++) v[i] -= 0.5 * (hprev + h) * f[i] / M[i];
-    for (a = 0; a < m->nnode; a++) {
-      double z = m->x[2 * a + 1] + u[2 * a + 1];
-      if (m->x[2 * a] == 0) v[2 * a] = 0;                      /* the axis */
-      if (z + h * v[2 * a + 1] < 0) v[2 * a + 1] = -z / h;     /* the wall z = 0 */
-    }
-    for (i = 0; i < n; i++) u[i] += h * v[i];
-    memcpy(fo, f, (size_t)n * sizeof *f);
-    if (assemble(m, &mat, opts, u, sn, s, f, NULL, &ctx)) goto done;
-    for (i = 0; i < n; i++) W += 0.5 * (fo[i] + f[i]) * h * v[i];
-    memcpy(sn, s, (size_t)ns * sizeof *sn);
-    hprev = h;
-    t += h;
-  }
-  *len = *rad = *epmax = 0;
-  for (a = 0; a < m->nnode; a++) {
-    *len = fmax(*len, m->x[2 * a + 1] + u[2 * a + 1]);
-    if (m->x[2 * a + 1] == 0) *rad = fmax(*rad, m->x[2 * a] + u[2 * a]);
-  }
-  for (i = 0; i < n; i++) Kin += 0.5 * M[i] * v[i] * v[i];
-  for (e = 0; e < m->nelem; e++) {
-    double p, w, vm, ep;
-    mo_elem_nl_energy(m, e, &mat, sn + (size_t)e * nq * MO_J2_NSTATE, &p, &w);
-    mo_elem_nl_fields(m, e, &mat, sn + (size_t)e * nq * MO_J2_NSTATE, NULL, &vm, &ep);
-    psi += p;
-    wp += w;
-    *epmax = fmax(*epmax, ep);
-  }
-  *gap = fabs(W - psi - wp) / W; /* the kernels' energies against the work of their forces */
-  *wall = (K0 - Kin - W) / K0;   /* what the wall took (inelastic node impacts) */
-done:
-  mo_mesh_free(m);
-  free(u); free(v); free(f); free(fo); free(M); free(sn); free(s);
-}
-
+   A check of the kernels in their target regime (tests/taylor_explicit.c); the Taylor scenes
+   themselves step implicitly with contact in the core (tests/test_taylor). */
 static void test_taylor_explicit(void)
 {
   double L, r, ep, gap, wall, Ls, rs, eps_, gaps, walls, t0;

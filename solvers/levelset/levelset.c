@@ -24,6 +24,10 @@ typedef struct {
   /* per multiplier: current values (y's p and Lam are gathered from and scattered to these) */
   double *pm, *lm;
   double *gdir;              /* sliding directions at the previous Newton iterate (nc x 2) */
+  double *mu;                /* nc: friction coefficients of the step, 0 where no free dof moves
+                                the candidate tangentially (W_tt = 0: a candidate on a symmetry
+                                axis); its friction impulse would act on nothing, and its
+                                sticking equation U'_t = 0 would be an empty row */
   unsigned char *rev;        /* nc: the sliding direction reversed in the last Newton loop */
   double *viol;              /* nc: how far the new solution is beyond a sign's boundary */
   /* work sized by the contact set (grown on demand) */
@@ -106,7 +110,7 @@ static void ls_free(void *state)
   mo_free(L->pg); mo_free(L->ph); mo_free(L->lam); mo_free(L->U); mo_free(L->Umag); mo_free(L->r);
   mo_free(L->ph_prev); mo_free(L->lam_prev); mo_free(L->pm); mo_free(L->lm);
   mo_free(L->y); mo_free(L->dy); mo_free(L->WCC); mo_free(L->J); mo_free(L->Uc); mo_free(L->Umc);
-  mo_free(L->ipiv); mo_free(L->dv); mo_free(L->ddv); mo_free(L->hist); mo_free(L->gdir); mo_free(L->rev); mo_free(L->viol);
+  mo_free(L->ipiv); mo_free(L->dv); mo_free(L->ddv); mo_free(L->hist); mo_free(L->gdir); mo_free(L->mu); mo_free(L->rev); mo_free(L->viol);
   memset(L, 0, sizeof *L);
 }
 
@@ -138,12 +142,13 @@ static int ls_init(void *state, const void *params, const mo_contact_problem *P,
   L->pm = mo_calloc(ctx, nm1, sizeof(double));
   L->lm = mo_calloc(ctx, 2 * nm1, sizeof(double));
   L->gdir = mo_calloc(ctx, 2 * n1, sizeof(double));
+  L->mu = mo_calloc(ctx, n1, sizeof(double));
   L->rev = mo_calloc(ctx, n1, 1);
   L->viol = mo_calloc(ctx, n1, sizeof(double));
   L->dv = mo_calloc(ctx, (size_t)P->nfree + 1, sizeof(double));
   L->ddv = mo_calloc(ctx, (size_t)P->nfree + 1, sizeof(double));
   if (!L->su || !L->sv || !L->sf || !L->nsu || !L->nsv || !L->nsf || !L->pg || !L->ph || !L->lam ||
-      !L->ph_prev || !L->lam_prev || !L->U || !L->Umag || !L->r || !L->pm || !L->lm || !L->dv || !L->ddv || !L->gdir || !L->rev || !L->viol)
+      !L->ph_prev || !L->lam_prev || !L->U || !L->Umag || !L->r || !L->pm || !L->lm || !L->dv || !L->ddv || !L->gdir || !L->mu || !L->rev || !L->viol)
     return MO_ENOMEM;
   return MO_OK;
 }
@@ -334,9 +339,16 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
   double kn = 0, kt = 0, h_n, rho_n, rho_t = 0, h2_t = 0, h1_t = 0;
   int nkn = 0, nkt = 0;
   if (!P->W) return mo_error(ctx, MO_EINTERNAL, "levelset: the core did not build W");
-  /* scales (T16): the contact stiffness 1 / (c w W_jj) in pressure per unit of U' */
+  /* scales (T16): the contact stiffness 1 / (c w W_jj) in pressure per unit of U'; the step's
+     friction coefficients, 0 for a candidate that no free dof moves tangentially */
   for (j = 0; j < nc; j++) {
     const double *Wjj = mo_delassus_block(P->W, j, j);
+    L->mu[j] = P->mu[j];
+    if (dt && Wjj) {
+      double wtt = 0;
+      for (t = 1; t < d; t++) wtt += Wjj[t * d + t];
+      if (!(wtt > 1e-12 * Wjj[0])) L->mu[j] = 0;
+    }
     if (!P->active[j] || !Wjj) continue;
     kn += safe_inv(c * P->w[j] * Wjj[0]);
     nkn++;
@@ -360,7 +372,7 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
   S->sf = L->sf;
   S->pg = L->pg;
   S->w = P->w;
-  S->mu = P->mu;
+  S->mu = L->mu;
   S->c = c;
   S->h_n = h_n;
   S->k_n = L->par.k_n;
@@ -407,7 +419,7 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
       double ps = 0, ms = 0;
       int np = 0;
       for (j = 0; j < nc; j++)
-        if (L->pg[j] > 0 && P->mu[j] > 0) { ps += L->pg[j]; ms += P->mu[j]; np++; }
+        if (L->pg[j] > 0 && L->mu[j] > 0) { ps += L->pg[j]; ms += L->mu[j]; np++; }
       rho_t = L->par.rho_t > 0 ? L->par.rho_t : np ? kt * np / (ms / np * ps) : 0;
       h2_t = L->par.h2_t > 0 ? L->par.h2_t : rho_t;
       h1_t = L->par.h1_t > 0 ? L->par.h1_t : rho_t;
@@ -481,7 +493,7 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
             g += v * v;
           }
           /* a slip that reversed in the frozen solve went through zero: try sticking */
-          if (P->mu[j] > 0) L->nsf[j] = L->rev[j] || sqrt(g) <= 1 + L->par.status_tol;
+          if (L->mu[j] > 0) L->nsf[j] = L->rev[j] || sqrt(g) <= 1 + L->par.status_tol;
           if (L->nsf[j] != L->sf[j]) L->viol[j] = fmax(L->viol[j], L->rev[j] ? 1 : fabs(sqrt(g) - 1));
         }
       }
@@ -554,8 +566,11 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
   memcpy(x->U, L->U, (size_t)m * sizeof(double));
   for (j = 0; j < nc; j++) {
     int closed = L->su[j] && L->sv[j];
+    /* an open candidate's impulse is zero (its equation is r = 0; Newton through the Schur
+       complement leaves round-off, 1e-35, which would count as a bearing contact) */
+    if (!closed) for (t = 0; t < d; t++) x->r[j * d + t] = 0;
     if (!closed) x->status[j] = MO_CS_OPEN;
-    else if (dt && P->mu[j] > 0) x->status[j] = L->sf[j] ? MO_CS_STICK : MO_CS_SLIDE;
+    else if (dt && L->mu[j] > 0) x->status[j] = L->sf[j] ? MO_CS_STICK : MO_CS_SLIDE;
     else x->status[j] = d == 1 ? MO_CS_STICK : MO_CS_SLIDE;
     L->ph_prev[j] = closed ? L->ph[j] : 0;
     for (t = 0; t < dt; t++) L->lam_prev[j * 2 + t] = closed ? L->lam[j * 2 + t] : 0;

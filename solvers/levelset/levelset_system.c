@@ -415,8 +415,22 @@ void ls_system_eval(ls_system *S, const ls_space *A, const double *y, const doub
 
 int ls_system_converged(const ls_system *S, double tol)
 {
-  int e;
-  for (e = 0; e < S->ny; e++)
-    if (!(fabs(S->F[e]) <= tol * S->Fmag[e])) return 0;
+  /* the equations of y's three blocks (impulses, pressures, semi-multipliers) have their own
+     units; an equation whose terms are all at round-off of its block's largest (an open
+     candidate's r_n = 0, reached to 1e-35 rather than 0 through the Schur complement) passes:
+     a relative test alone would never pass it */
+  int nu = S->nC * S->nr, lo[4], b, e;
+  lo[0] = 0;
+  lo[1] = nu;
+  lo[2] = nu + S->nM;
+  lo[3] = S->ny;
+  for (b = 0; b < 3; b++) {
+    double fmax = 0, floor;
+    for (e = lo[b]; e < lo[b + 1]; e++)
+      if (S->Fmag[e] > fmax) fmax = S->Fmag[e];
+    floor = 1e-14 * fmax;
+    for (e = lo[b]; e < lo[b + 1]; e++)
+      if (!(fabs(S->F[e]) <= tol * S->Fmag[e] || fabs(S->F[e]) <= floor)) return 0;
+  }
   return 1;
 }

@@ -46,6 +46,9 @@ static const mo_option_spec newmark_options[] = {
 typedef struct {
   int m;
   double *J, *Phi, *dr, *rtry, *U, *Utry, *rho;
+  double *mu;  /* nc: the step's friction coefficients, 0 where no free dof moves the candidate
+                  tangentially (W_tt = 0, e.g. on a symmetry axis: its friction impulse acts on
+                  nothing, and its sticking row rho U_t would be zero) */
   int *ipiv;
   newmark_params par;
 } newmark_state;
@@ -70,6 +73,7 @@ static void newmark_free(void *state)
   mo_free(s->U);
   mo_free(s->Utry);
   mo_free(s->rho);
+  mo_free(s->mu);
   mo_free(s->ipiv);
 }
 
@@ -86,8 +90,9 @@ static int newmark_init(void *state, const void *params, const mo_contact_proble
   s->U = mo_malloc(ctx, (size_t)m * sizeof(double) + 1);
   s->Utry = mo_malloc(ctx, (size_t)m * sizeof(double) + 1);
   s->rho = mo_malloc(ctx, (size_t)P->nc * sizeof(double) + 1);
+  s->mu = mo_malloc(ctx, (size_t)P->nc * sizeof(double) + 1);
   s->ipiv = mo_malloc(ctx, (size_t)m * sizeof(int) + 1);
-  if (!s->J || !s->Phi || !s->dr || !s->rtry || !s->U || !s->Utry || !s->rho || !s->ipiv) return MO_ENOMEM;
+  if (!s->J || !s->Phi || !s->dr || !s->rtry || !s->U || !s->Utry || !s->rho || !s->mu || !s->ipiv) return MO_ENOMEM;
   return MO_OK;
 }
 
@@ -159,7 +164,8 @@ static int ac_contact(int d, double mu, double rho, const double *r, const doubl
 
 /* Phi and J for all contacts; returns |Phi|^2. */
 static double ac_system(const mo_contact_problem *P, const double *Wd, const double *r,
-                        const double *U, const double *rho, double *Phi, double *J, int *status)
+                        const double *U, const double *rho, const double *mu, double *Phi, double *J,
+                        int *status)
 {
   int d = P->dim, m = P->m, a, i;
   double s = 0;
@@ -175,7 +181,7 @@ static double ac_system(const mo_contact_problem *P, const double *Wd, const dou
       }
       if (status) status[a] = MO_CS_OPEN;
     } else {
-      st = ac_contact(d, P->mu[a], rho[a], &r[a * d], &U[a * d], &Wd[(size_t)(a * d) * m], m, a,
+      st = ac_contact(d, mu[a], rho[a], &r[a * d], &U[a * d], &Wd[(size_t)(a * d) * m], m, a,
                       &Phi[a * d], J ? &J[(size_t)(a * d) * m] : NULL);
       if (status) status[a] = st;
     }
@@ -195,13 +201,15 @@ static int newmark_solve(void *state, const mo_contact_problem *P, mo_contact_va
                                 "limit of 8192 (its Newton matrix is dense)", m);
   if ((st = mo_delassus_dense(P->W, &Wd, ctx))) return st;
   for (a = 0; a < nc; a++) {
-    double waa = Wd[(size_t)(a * d) * m + a * d];
+    double waa = Wd[(size_t)(a * d) * m + a * d], wtt = 0;
     s->rho[a] = par->rho / (waa > 0 ? waa : 1);
+    for (i = 1; i < d; i++) wtt += Wd[(size_t)(a * d + i) * m + a * d + i];
+    s->mu[a] = d > 1 && !(wtt > 1e-12 * waa) ? 0 : P->mu[a];
   }
   /* warm start from the previous step, projected onto the cone */
   for (a = 0; a < nc; a++) {
     if (!P->active[a]) for (i = 0; i < d; i++) x->r[a * d + i] = 0;
-    mo_fc_project_cone(d, P->mu[a], &x->r[a * d]);
+    mo_fc_project_cone(d, s->mu[a], &x->r[a * d]);
   }
   /* scale of Phi (force units): |r| or |rho q| */
   {
@@ -217,7 +225,7 @@ static int newmark_solve(void *state, const mo_contact_problem *P, mo_contact_va
     /* Alart-Curnier's Phi is zero exactly at a solution and has force units: stop on
        |Phi| / max(|r|, |rho q|) (the natural map (T10) mixes units when r and U differ by
        orders of magnitude) */
-    f0 = ac_system(P, Wd, x->r, s->U, s->rho, s->Phi, s->J, NULL);
+    f0 = ac_system(P, Wd, x->r, s->U, s->rho, s->mu, s->Phi, s->J, NULL);
     res = sqrt(f0) / (sqrt(rn) > qn ? sqrt(rn) : (qn > 0 ? qn : 1));
     if (!isfinite(res)) {
       rep->reason = MO_CR_NAN;
@@ -257,7 +265,7 @@ static int newmark_solve(void *state, const mo_contact_problem *P, mo_contact_va
       for (i = 0; i < m; i++) s->rtry[i] = x->r[i] + step * s->dr[i];
       mo_delassus_mult(P->W, s->rtry, 0, s->Utry);
       for (i = 0; i < m; i++) s->Utry[i] += P->b[i];
-      f = ac_system(P, Wd, s->rtry, s->Utry, s->rho, s->Phi, NULL, NULL);
+      f = ac_system(P, Wd, s->rtry, s->Utry, s->rho, s->mu, s->Phi, NULL, NULL);
       if (f <= (1 - 1e-4 * step) * f0 || step < 1e-8) break;
       step *= 0.5;
     }
@@ -267,7 +275,7 @@ static int newmark_solve(void *state, const mo_contact_problem *P, mo_contact_va
   /* final statuses and local kinematics */
   mo_delassus_mult(P->W, x->r, 0, x->U);
   for (i = 0; i < m; i++) x->U[i] += P->b[i];
-  ac_system(P, Wd, x->r, x->U, s->rho, s->Phi, NULL, x->status);
+  ac_system(P, Wd, x->r, x->U, s->rho, s->mu, s->Phi, NULL, x->status);
   for (a = 0; a < nc; a++)
     if (x->r[a * d] <= 0 && x->status[a] != MO_CS_OPEN) x->status[a] = MO_CS_OPEN;
   mo_free(Wd);

@@ -72,6 +72,9 @@ typedef struct {
   double *U;                    /* U = W r + q kept up to date by the column updates */
   double *rold;                 /* m: the reactions at the start of the sweep (Jean's norms) */
   double *scale;                /* nc: 1 / W_aa,nn, the scaling of (T42) (0 when W_nn = 0) */
+  double *mu;                   /* nc: friction coefficients, 0 where no free dof moves the
+                                   contact tangentially (W_tt = 0, e.g. on a symmetry axis: its
+                                   friction impulse acts on nothing, any r_t in the cone would do) */
   double qn2, qs2;              /* |q|^2 and |S q|^2 over the active contacts */
   /* a GSL generator on our own memory (gsl_rng_alloc aborts on failure) */
   gsl_rng rng;
@@ -97,6 +100,7 @@ static void nscd_free(void *state)
   mo_free(S->U);
   mo_free(S->rold);
   mo_free(S->scale);
+  mo_free(S->mu);
   mo_free(S->rng_state);
   memset(S, 0, sizeof *S);
 }
@@ -123,9 +127,10 @@ static int nscd_init(void *state, const void *params, const mo_contact_problem *
   S->U = mo_malloc(ctx, ((size_t)P->m + 1) * sizeof *S->U);
   S->rold = mo_malloc(ctx, ((size_t)P->m + 1) * sizeof *S->rold);
   S->scale = mo_malloc(ctx, nc * sizeof *S->scale);
+  S->mu = mo_malloc(ctx, nc * sizeof *S->mu);
   S->rng_state = mo_calloc(ctx, 1, gsl_rng_mt19937->size + 1);
   if (!S->rcnt || !S->rcol || !S->rval || !S->diag || !S->aux || !S->act || !S->order || !S->U || !S->rold ||
-      !S->scale || !S->rng_state) {
+      !S->scale || !S->mu || !S->rng_state) {
     nscd_free(S);
     return MO_ENOMEM;
   }
@@ -157,7 +162,11 @@ static int prepare_matrix(nscd_state *S, const mo_contact_problem *P, mo_ctx *ct
   S->wsrc = P->W;
   S->wver = ver;
   for (a = 0; a < nb; a++) {
-    nscd_local_prepare(d, S->diag[a], P->mu ? P->mu[a] : 0, S->aux + (size_t)a * NSCD_AUX);
+    double wtt = 0;
+    int t;
+    for (t = 1; t < d; t++) wtt += S->diag[a][t * d + t];
+    S->mu[a] = P->mu && !(d > 1 && !(wtt > 1e-12 * S->diag[a][0])) ? P->mu[a] : 0;
+    nscd_local_prepare(d, S->diag[a], S->mu[a], S->aux + (size_t)a * NSCD_AUX);
     S->scale[a] = S->diag[a][0] > 0 ? 1 / S->diag[a][0] : 0;
   }
   /* Symmetric W (the Delassus operator of a symmetric What): column a is row a transposed.
@@ -243,7 +252,7 @@ static double residual(const nscd_state *S, const mo_contact_problem *P, const d
       for (i = 0; i < d; i++) Us[i] = s * Ua[i];
       Ua = Us;
     }
-    e += mo_fc_natural_map_unit(d, P->mu ? P->mu[a] : 0, ra, Ua);
+    e += mo_fc_natural_map_unit(d, S->mu[a], ra, Ua);
     for (i = 0; i < d; i++) {
       rn += ra[i] * ra[i];
       un += Ua[i] * Ua[i];
@@ -263,7 +272,7 @@ static inline int sweep(nscd_state *S, const mo_contact_problem *P, double *r, i
                         const int d)
 {
   const int dd = d * d, sym = S->sym;
-  const double omega = S->p.relax, *mu = P->mu;
+  const double omega = S->p.relax, *mu = S->mu;
   int k, i, j;
   for (k = 0; k < S->nact; k++) {
     const int a = S->order[k];
@@ -373,7 +382,7 @@ static void worst_candidates(const nscd_state *S, const mo_contact_problem *P, c
   double we[3] = {-1, -1, -1};
   for (k = 0; k < S->nact; k++) {
     int a = S->act[k];
-    double e = sqrt(mo_fc_natural_map_unit(S->d, P->mu ? P->mu[a] : 0, r + a * S->d, S->U + a * S->d));
+    double e = sqrt(mo_fc_natural_map_unit(S->d, S->mu[a], r + a * S->d, S->U + a * S->d));
     if (!(e > 0)) continue; /* on the law: not among the culprits */
     for (i = 0; i < 3; i++)
       if (e > we[i]) {
@@ -476,7 +485,7 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
     rep->reason = MO_CR_BREAKDOWN;
     snprintf(rep->message, sizeof rep->message,
              "the local problem of %s has no solution or broke down (W_nn = %.3e, friction %.3g): "
-             "a candidate the scene cannot push back", nm, Waa[0], P->mu ? P->mu[broke] : 0.0);
+             "a candidate the scene cannot push back", nm, Waa[0], S->mu[broke]);
   } else if (conv) {
     rep->reason = MO_CR_CONVERGED;
   } else {

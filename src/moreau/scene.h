@@ -22,6 +22,11 @@ typedef struct mo_body {
   mo_mesh *mesh;        /* deformable bodies */
   mo_material mat;
   int lumped;           /* lumped mass */
+  /* finite-strain bodies (material models hencky and j2, moreau/material.h): their internal
+     forces and tangents come from the kernels of fe_nonlinear.c, not from the scene's K */
+  int nl;
+  int npoint;           /* quadrature points per element (state blocks per element) */
+  size_t q0;            /* offset of its first state block in mo_state.q (doubles) */
   int dof0, ndof;       /* global dofs dof0 .. dof0+ndof-1; node a, component i: dof0+a*dim+i */
   double mass;          /* total mass (kg, or kg per unit thickness as the hypothesis says) */
   double point[3], normal[3], velocity[3]; /* plane obstacles (unit normal) */
@@ -47,10 +52,13 @@ typedef struct {
 } mo_load;
 
 /* Probe quantities: displacement, velocity, support reaction, contact force (vectors, by
-   component), contact pressure and gap (at the candidates of the probe's nodes). */
+   component), contact pressure, gap and friction semi-multiplier (at the candidates of the
+   probe's nodes). */
 typedef enum {
   MO_Q_UX = 0, MO_Q_UY, MO_Q_UZ, MO_Q_VX, MO_Q_VY, MO_Q_VZ, MO_Q_FX, MO_Q_FY, MO_Q_FZ,
-  MO_Q_CX, MO_Q_CY, MO_Q_CZ, MO_Q_PN, MO_Q_GN, MO_Q_N
+  MO_Q_CX, MO_Q_CY, MO_Q_CZ, MO_Q_PN, MO_Q_GN,
+  MO_Q_LAM,  /* friction semi-multiplier |Lambda| = |r_t| / (mu r_n) (BDZ07 Fig. 10; 0 when open) */
+  MO_Q_N
 } mo_quantity;
 const char *mo_quantity_name(mo_quantity q);
 
@@ -71,7 +79,19 @@ typedef struct {
   long steps;
   double theta, theta_f;  /* theta scheme */
   double beta, gamma;     /* Newmark */
+  /* Newton iterations of nonlinear scenes (doc/theory.md §11): the step ends when the
+     residual of the momentum balance is at most newton_tol times its scale (T64) */
+  double newton_tol;
+  int newton_max;         /* iterations before the run stops with a diagnosis */
 } mo_time_settings;
+
+/* A node set whose extent (bounding box in the current configuration) summary.json reports. */
+typedef struct {
+  char *name;
+  int body;
+  int nnode;
+  int *node;      /* body-local node numbers */
+} mo_extent;
 
 typedef struct {
   int every;
@@ -80,10 +100,12 @@ typedef struct {
   int vtk;              /* write VTK series */
   int vtk_every;
   unsigned vtk_fields;  /* bit set of MO_VTK_* */
+  int nextent;
+  mo_extent *extent;    /* output.extents */
 } mo_output_settings;
 
 enum { MO_VTK_DISPLACEMENT = 1, MO_VTK_VELOCITY = 2, MO_VTK_STRESS = 4, MO_VTK_STRAIN = 8,
-       MO_VTK_VON_MISES = 16 };
+       MO_VTK_VON_MISES = 16, MO_VTK_EPS_P = 32 };
 
 typedef enum {
   MO_REF_NONE = 0,
@@ -134,10 +156,13 @@ typedef struct mo_scene {
   mo_presc *presc;
   int nload;
   mo_load *load;
-  mo_csc *K, *M;  /* full ndof x ndof (M is NULL for quasi-static scenes) */
+  mo_csc *K, *M;  /* full ndof x ndof (M is NULL for quasi-static scenes); K holds the linear
+                     bodies only (finite-strain bodies have no constant stiffness) */
   double *u0, *v0;
   double mass_total;
   int has_moving_presc; /* some prescribed dof moves: coupling terms needed */
+  int nonlinear;        /* some body has a finite-strain material: Newton steps (§11) */
+  size_t nq;            /* doubles of material state over the finite-strain bodies */
   mo_time_settings time;
   mo_output_settings out;
   int nprobe;

@@ -21,15 +21,24 @@ typedef struct mo_state {
   double wext;        /* work of external forces since t = 0 (trapezoidal rule) */
   double wsupport;    /* work of the support reactions (moving supports) */
   double wcontact;    /* work of contact impulses (filled by the contact layer) */
+  /* finite-strain bodies (moreau/material.h): the committed state of their quadrature points
+     (mo_scene.nq doubles, NULL for linear scenes), their stored elastic energy and the plastic
+     work accumulated since t = 0 (J), both from q */
+  double *q;
+  double psi, wplastic;
 } mo_state;
 
 int mo_state_alloc(const mo_scene *sc, mo_state *s, mo_ctx *ctx);
 void mo_state_release(mo_state *s);
-int mo_state_copy(const mo_state *src, mo_state *dst, int ndof);
+/* Copy a state of the scene sc (both allocated by mo_state_alloc for it). */
+int mo_state_copy(const mo_scene *sc, const mo_state *src, mo_state *dst);
 
-/* Kinetic energy 1/2 v.Mv and elastic energy 1/2 u.Ku (both over full dofs). */
+/* Kinetic energy 1/2 v.Mv and elastic energy 1/2 u.Ku of the linear bodies (both over full
+   dofs; finite-strain bodies have no K: their stored energy is mo_state.psi). */
 double mo_energy_kinetic(const mo_scene *sc, const double *v, double *work);
 double mo_energy_elastic(const mo_scene *sc, const double *u, double *work);
+/* Stored elastic energy of every body: 1/2 u.Ku + psi. */
+double mo_energy_stored(const mo_scene *sc, const mo_state *s, double *work);
 
 typedef struct mo_stepper mo_stepper;
 
@@ -37,14 +46,18 @@ typedef struct mo_stepper mo_stepper;
      theta:       What = M + h^2 theta theta_f K         (velocities v+ are the unknowns)
      newmark:     What = M + beta h^2 K                  (accelerations a+)
      quasistatic: What = K                               (displacements u+)
-   restricted to free dofs; factored once (the matrix does not change for linear scenes). */
+   restricted to free dofs; factored once (the matrix does not change for linear scenes). For
+   nonlinear scenes K is the tangent stiffness K_t(u) of every Newton iterate (doc/theory.md
+   §11): the pattern is analysed once, and What is factored here at the initial state (u0, a
+   virgin material), then at every iterate. */
 int mo_stepper_create(const mo_scene *sc, mo_stepper **out, mo_ctx *ctx);
 void mo_stepper_free(mo_stepper *S);
 
 /* Initial state: t = 0, u0, v0, prescribed values; Newmark also a0 from M a0 = f0 - K u0. */
 int mo_stepper_init_state(mo_stepper *S, mo_state *s, mo_ctx *ctx);
 
-/* One step split in three, so that a contact layer can act between them:
+/* One step split in three, so that a contact layer can act between them (linear scenes; a
+   nonlinear scene's step is mo_stepper_solve, which returns MO_EUNSUPPORTED from predict):
    1. predict: x_free = What^-1 rhs (the unconstrained step), written as the full vector of the
       scheme's unknown (v+, a+ or u+) with prescribed values in place. */
 int mo_stepper_predict(mo_stepper *S, const mo_state *s, double *x_full, mo_ctx *ctx);
@@ -52,10 +65,52 @@ int mo_stepper_predict(mo_stepper *S, const mo_state *s, double *x_full, mo_ctx 
       dx = What^-1 imp on free dofs (0 on prescribed dofs). */
 int mo_stepper_correct(mo_stepper *S, const double *imp_full, double *dx_full, mo_ctx *ctx);
 /* 3. finish: from the scheme's unknown at t+ (full), update u, v, a, t, f, the works and the
-      reactions. Refuses a non-finite unknown (MO_ENAN naming the dof). */
+      reactions. Refuses a non-finite unknown (MO_ENAN naming the dof). For a nonlinear scene x
+      must be the solution mo_stepper_solve returned: its material states are committed. */
 int mo_stepper_finish(mo_stepper *S, mo_state *s, const double *x_full, mo_ctx *ctx);
-/* predict + finish: one step without contact. */
+/* One step without contact: predict + finish (linear scenes), solve + finish (nonlinear). */
 int mo_stepper_step(mo_stepper *S, mo_state *s, mo_ctx *ctx);
+
+/* --- nonlinear steps: Newton on the smooth part (doc/theory.md §11) ---------------------- */
+
+/* 1 when a body has a finite-strain material (mo_body.nl): steps solve (T60)-(T62) by Newton. */
+int mo_stepper_nonlinear(const mo_stepper *S);
+
+/* The constraint solve inside a Newton iteration (the contact layer). On entry the stepper has
+   linearized the step at iterate `iter` (0-based): What_k = M + c K_t(u_k) is factored (the
+   solver's version changed: mo_linsolver_stats) and x_free = x_k - What_k^-1 R(x_k) is the
+   unconstrained Newton update (full vector of the scheme's unknown, prescribed values in
+   place), (T63). The callback writes the next iterate x (full) and the constraint term it
+   carries, g = What_k (x - x_free) over full dofs (H r: an impulse for the theta-scheme, a
+   force otherwise; 0 on prescribed dofs), so that the residual the stepper tests next is that
+   of the momentum balance with the contact term (T64). A non-zero return stops the step with
+   that status (the message in ctx). */
+typedef int (*mo_constraint_fn)(void *data, const mo_state *s, const double *x_free, double *x,
+                                double *g, int iter, mo_ctx *ctx);
+
+#define MO_NEWTON_HISTORY 64
+/* Newton's record of the last step, and totals over the run. */
+typedef struct {
+  int iterations;                       /* linearizations (factorizations) of the last step */
+  int nres;                             /* residuals recorded (iterations + 1 when converged) */
+  double res[MO_NEWTON_HISTORY];        /* relative residuals |R - g| / scale of each iterate */
+  double scale;                         /* the last iterate's scale (T64) */
+  long steps, total, max;               /* steps solved, iterations over the run, most in a step */
+  long damped;                          /* halved updates over the run (T63) */
+} mo_newton_report;
+
+/* Solve a step of a nonlinear scene: Newton from x (on entry the initial iterate, full, e.g.
+   from mo_stepper_guess) to the solution, returned in x with the trial material states that go
+   with it. fn (NULL: no constraint) is called once per iteration. Non-convergence within time.newton.max_iter
+   iterations, or an iterate that inverts elements (det F <= 0), returns MO_ENOCONV with the
+   step, the time, the residual history and the inverted elements. */
+int mo_stepper_solve(mo_stepper *S, const mo_state *s, double *x, mo_constraint_fn fn, void *data,
+                     mo_ctx *ctx);
+/* The initial iterate of a step: the constant-velocity prediction u+ = u + h v (theta: v;
+   Newmark: -(1/2 - beta) a / beta; quasi-static: u), prescribed dofs included (mo_stepper_solve
+   moves them to t+ with the first linearization). */
+void mo_stepper_guess(mo_stepper *S, const mo_state *s, double *x);
+const mo_newton_report *mo_stepper_newton_report(const mo_stepper *S);
 
 /* The factored iteration matrix and its free-dof restriction (for the Delassus operator). */
 mo_linsolver *mo_stepper_solver(mo_stepper *S);

@@ -1,0 +1,503 @@
+/* newton.c: nonlinear steps of the theta-scheme, Newmark and quasi-static load steps: the
+   tangent iteration matrix of the finite-strain bodies, their internal forces, and Newton on
+   the momentum balance with the contact layer's constraint solve inside every iteration
+   (doc/theory.md §11, (T60)-(T64)). */
+#include "config.h"
+#include <moreau/material.h>
+#include "step_internal.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+/* The largest element: nen dim dofs (H8: 24). */
+#define ND_MAX 24
+
+void mo_newton_release(mo_stepper *S)
+{
+  mo_free(S->Wlin);
+  mo_free(S->emap);
+  mo_free(S->emap0);
+  mo_free(S->qt);
+  mo_free(S->fint);
+  mo_free(S->fint0);
+  mo_free(S->R);
+  mo_free(S->g);
+  mo_free(S->xfr);
+  mo_free(S->xs);
+  mo_free(S->xk);
+  mo_free(S->gk);
+  mo_free(S->dxp);
+  mo_free(S->cfp);
+  mo_free(S->work);
+}
+
+/* Position of entry (row, col) in the column-compressed W (sorted rows), or -1. */
+static int csc_find(const mo_csc *W, int row, int col)
+{
+  int lo = W->p[col], hi = W->p[col + 1] - 1;
+  while (lo <= hi) {
+    int mid = (lo + hi) / 2;
+    if (W->i[mid] == row) return mid;
+    if (W->i[mid] < row) lo = mid + 1;
+    else hi = mid - 1;
+  }
+  return -1;
+}
+
+/* The pattern of What = cm M + ck K_t over free dofs: the linear part's pattern and every
+   element block of the finite-strain bodies, analysed once; the element maps that scatter an
+   element tangent into its values (no triplets, no search at run time). */
+int mo_newton_setup(mo_stepper *S, mo_ctx *ctx)
+{
+  const mo_scene *sc = S->sc;
+  mo_triplet T;
+  mo_csc *P = NULL, *L = NULL, *Wf = NULL;
+  size_t nmap = 0, hint = 0, k;
+  int b, e, a, c, i, j, st, D = sc->dim;
+  double one[ND_MAX * ND_MAX];
+  memset(&T, 0, sizeof T);
+  S->nl = 1;
+  switch (S->scheme) {
+  case MO_SCHEME_THETA: S->cm = 1; S->ck = S->h * S->h * S->theta * S->theta_f; break;
+  case MO_SCHEME_NEWMARK: S->cm = 1; S->ck = S->beta * S->h * S->h; break;
+  case MO_SCHEME_QUASISTATIC: S->cm = 0; S->ck = 1; break;
+  }
+  for (b = 0; b < sc->nbody; b++)
+    if (sc->body[b].nl) {
+      size_t nd = (size_t)sc->body[b].mesh->nen * (size_t)D;
+      nmap += (size_t)sc->body[b].mesh->nelem * nd * nd;
+    }
+  hint = nmap;
+  for (k = 0; k < ND_MAX * ND_MAX; k++) one[k] = 1;
+  S->emap = mo_malloc(ctx, (nmap + 1) * sizeof *S->emap);
+  S->emap0 = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *S->emap0);
+  S->qt = mo_calloc(ctx, sc->nq + 1, sizeof *S->qt);
+  S->fint = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof *S->fint);
+  S->fint0 = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof *S->fint0);
+  S->R = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof *S->R);
+  S->g = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof *S->g);
+  S->xfr = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof *S->xfr);
+  S->xs = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof *S->xs);
+  S->xk = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof *S->xk);
+  S->gk = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof *S->gk);
+  S->dxp = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof *S->dxp);
+  S->cfp = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof *S->cfp);
+  S->work = mo_malloc(ctx, (3 * ND_MAX + ND_MAX * ND_MAX) * sizeof *S->work);
+  if (!S->emap || !S->emap0 || !S->qt || !S->fint || !S->fint0 || !S->R || !S->g || !S->xfr || !S->xs || !S->xk || !S->gk || !S->dxp || !S->cfp || !S->work)
+    return MO_ENOMEM;
+  /* the finite-strain bodies' structure, with ones (the values are not used) */
+  if ((st = mo_triplet_init(&T, sc->ndof, sc->ndof, hint + 1, ctx))) return st;
+  for (b = 0; b < sc->nbody; b++) {
+    const mo_body *B = &sc->body[b];
+    int dofs[ND_MAX], nd;
+    if (!B->nl) continue;
+    nd = B->mesh->nen * D;
+    for (e = 0; e < B->mesh->nelem; e++) {
+      for (a = 0; a < B->mesh->nen; a++)
+        for (c = 0; c < D; c++) dofs[a * D + c] = B->dof0 + B->mesh->conn[e * B->mesh->nen + a] * D + c;
+      if ((st = mo_triplet_add_block(&T, dofs, nd, dofs, nd, one, ctx))) goto done;
+    }
+  }
+  if ((st = mo_triplet_to_csc(&T, 1, &P, ctx))) goto done;
+  /* the linear part cm M + ck K (K holds the linear bodies only) */
+  if (S->scheme == MO_SCHEME_QUASISTATIC) st = mo_csc_copy(sc->K, &L, ctx);
+  else st = mo_csc_add(sc->M, sc->K, S->cm, S->ck, &L, ctx);
+  if (!st) st = mo_csc_add(L, P, 1, 0, &Wf, ctx); /* the union of the patterns, P's values x 0 */
+  if (!st) st = mo_csc_extract(Wf, sc->free_of, sc->nfree, sc->free_of, sc->nfree, &S->W, ctx);
+  if (st) goto done;
+  S->Wlin = mo_malloc(ctx, ((size_t)mo_csc_nnz(S->W) + 1) * sizeof *S->Wlin);
+  if (!S->Wlin) { st = MO_ENOMEM; goto done; }
+  memcpy(S->Wlin, S->W->x, (size_t)mo_csc_nnz(S->W) * sizeof *S->Wlin);
+  /* element maps */
+  k = 0;
+  for (b = 0; b < sc->nbody; b++) {
+    const mo_body *B = &sc->body[b];
+    int nd;
+    S->emap0[b] = k;
+    if (!B->nl) continue;
+    nd = B->mesh->nen * D;
+    for (e = 0; e < B->mesh->nelem; e++) {
+      int fr[ND_MAX];
+      for (a = 0; a < B->mesh->nen; a++)
+        for (c = 0; c < D; c++) fr[a * D + c] = sc->free_of[B->dof0 + B->mesh->conn[e * B->mesh->nen + a] * D + c];
+      for (i = 0; i < nd; i++)
+        for (j = 0; j < nd; j++) {
+          int p = fr[i] >= 0 && fr[j] >= 0 ? csc_find(S->W, fr[i], fr[j]) : -1;
+          if (fr[i] >= 0 && fr[j] >= 0 && p < 0) {
+            st = mo_error(ctx, MO_EINTERNAL, "tangent pattern: entry (%d, %d) of body '%s' element %d missing",
+                          fr[i], fr[j], B->name, e);
+            goto done;
+          }
+          S->emap[k++] = p;
+        }
+    }
+  }
+  S->emap0[sc->nbody] = k;
+done:
+  mo_triplet_release(&T);
+  mo_csc_free(P);
+  mo_csc_free(L);
+  mo_csc_free(Wf);
+  return st;
+}
+
+int mo_newton_forces(mo_stepper *S, const double *u, const double *q, double *f, int tangent,
+                     const double *dxp, double *cfp, mo_ctx *ctx)
+{
+  const mo_scene *sc = S->sc;
+  const int D = sc->dim;
+  double *ue = S->work, *fe = ue + ND_MAX, *Ke = fe + ND_MAX, *Wx = S->W->x, t0 = mo_clock();
+  int b, e, a, c, i, nbad = 0, st = MO_OK, list = 0;
+  char first[MO_ERRMSG_MAX] = "", where[400] = "";
+  size_t len = 0;
+  mo_csc_gaxpy(sc->K, 1, u, 0, f);
+  if (tangent) memcpy(Wx, S->Wlin, (size_t)mo_csc_nnz(S->W) * sizeof *Wx);
+  for (b = 0; b < sc->nbody; b++) {
+    const mo_body *B = &sc->body[b];
+    const mo_mesh *m = B->mesh;
+    int nen, nd, ns;
+    if (!B->nl) continue;
+    nen = m->nen;
+    nd = nen * D;
+    ns = B->npoint * MO_J2_NSTATE;
+    for (e = 0; e < m->nelem; e++) {
+      const int *cn = &m->conn[e * nen];
+      size_t off = B->q0 + (size_t)e * (size_t)ns;
+      for (a = 0; a < nen; a++)
+        for (c = 0; c < D; c++) ue[a * D + c] = u[B->dof0 + cn[a] * D + c];
+      st = mo_elem_nl_force(m, e, &B->mat, 0, ue, q + off, S->qt + off, fe, tangent ? Ke : NULL, ctx);
+      if (st == MO_ENAN) {
+        /* an inverted element: collect them all for the diagnosis, then stop */
+        if (!nbad++) snprintf(first, sizeof first, "%s", ctx->errmsg);
+        if (list < 12) {
+          int w = snprintf(where + len, sizeof where - len, "%s'%s' element %d", list ? ", " : "",
+                           B->name, e);
+          if (w > 0 && (size_t)w < sizeof where - len) len += (size_t)w;
+          list++;
+        }
+        mo_ctx_clear_error(ctx);
+        st = MO_OK;
+        continue;
+      }
+      if (st) return st;
+      for (a = 0; a < nen; a++)
+        for (c = 0; c < D; c++) f[B->dof0 + cn[a] * D + c] += fe[a * D + c];
+      if (tangent) {
+        const int *map = S->emap + S->emap0[b] + (size_t)e * (size_t)nd * (size_t)nd;
+        double ck = S->ck;
+        for (i = 0; i < nd * nd; i++)
+          if (map[i] >= 0) Wx[map[i]] += ck * Ke[i];
+        if (dxp) {
+          /* ck K_t,e dx_p: the coupling of a prescribed increment into the free rows */
+          double de[ND_MAX];
+          int any = 0, j;
+          for (a = 0; a < nen; a++)
+            for (c = 0; c < D; c++) any |= (de[a * D + c] = dxp[B->dof0 + cn[a] * D + c]) != 0;
+          if (any)
+            for (i = 0; i < nd; i++) {
+              double acc = 0;
+              for (j = 0; j < nd; j++) acc += Ke[i * nd + j] * de[j];
+              cfp[B->dof0 + cn[i / D] * D + i % D] += ck * acc;
+            }
+        }
+      }
+    }
+  }
+  mo_phase_add(ctx, MO_PH_ASSEMBLY, t0);
+  if (nbad)
+    return mo_error(ctx, MO_ENAN, "%d element%s inverted (det F <= 0): %s%s; the first: %s", nbad,
+                    nbad > 1 ? "s" : "", where, nbad > list ? ", ..." : "", first);
+  return MO_OK;
+}
+
+void mo_newton_energies(const mo_stepper *S, const double *q, double *psi, double *wp)
+{
+  const mo_scene *sc = S->sc;
+  int b, e;
+  *psi = *wp = 0;
+  for (b = 0; b < sc->nbody; b++) {
+    const mo_body *B = &sc->body[b];
+    size_t ns;
+    if (!B->nl) continue;
+    ns = (size_t)B->npoint * MO_J2_NSTATE;
+    for (e = 0; e < B->mesh->nelem; e++) {
+      double p, w;
+      if (mo_elem_nl_energy(B->mesh, e, &B->mat, q + B->q0 + (size_t)e * ns, &p, &w) == MO_OK) {
+        *psi += p;
+        *wp += w;
+      }
+    }
+  }
+}
+
+int mo_stepper_nonlinear(const mo_stepper *S) { return S->nl; }
+const mo_newton_report *mo_stepper_newton_report(const mo_stepper *S) { return &S->rep; }
+
+/* The displacement at t+ of the iterate x: (T2), Newmark's u+, or x itself; prescribed dofs on
+   their path. */
+static void kinematics(const mo_stepper *S, const mo_state *s, const double *x, int path, double *u)
+{
+  const mo_scene *sc = S->sc;
+  int n = sc->ndof, i, k;
+  double h = S->h, th = S->theta, b = S->beta;
+  switch (S->scheme) {
+  case MO_SCHEME_THETA:
+    for (i = 0; i < n; i++) u[i] = s->u[i] + h * (th * x[i] + (1 - th) * s->v[i]);
+    break;
+  case MO_SCHEME_NEWMARK:
+    for (i = 0; i < n; i++) u[i] = s->u[i] + h * s->v[i] + h * h * ((0.5 - b) * s->a[i] + b * x[i]);
+    break;
+  case MO_SCHEME_QUASISTATIC:
+    memcpy(u, x, (size_t)n * sizeof *u);
+    break;
+  }
+  for (k = 0; path && k < sc->npresc; k++) {
+    double pu, pv;
+    mo_scene_presc_eval(sc, k, s->t + h, &pu, &pv);
+    u[sc->presc[k].dof] = pu;
+  }
+}
+
+void mo_stepper_guess(mo_stepper *S, const mo_state *s, double *x)
+{
+  const mo_scene *sc = S->sc;
+  int n = sc->ndof;
+  int i;
+  /* constant velocity: u+ = u + h v, the kinematics of a free flight (theta: v+ = v; Newmark:
+     the a+ that cancels the h^2 terms, not a+ = a, which extrapolates an impact's acceleration
+     over the next step; quasi-static: u+ = u) */
+  switch (S->scheme) {
+  case MO_SCHEME_THETA: memcpy(x, s->v, (size_t)n * sizeof *x); break;
+  case MO_SCHEME_NEWMARK:
+    for (i = 0; i < n; i++) x[i] = -(0.5 - S->beta) / S->beta * s->a[i];
+    break;
+  case MO_SCHEME_QUASISTATIC: memcpy(x, s->u, (size_t)n * sizeof *x); break;
+  }
+}
+
+static double norm_free(const mo_scene *sc, const double *v)
+{
+  double s = 0;
+  int i;
+  for (i = 0; i < sc->nfree; i++) s += v[sc->full_of[i]] * v[sc->full_of[i]];
+  return sqrt(s);
+}
+
+/* The terms' scale is taken over every dof: a body held by its supports balances its internal
+   forces there (a quasi-static column), and the free rows alone would make the scale the
+   residual itself. */
+static double norm_all(int n, const double *v)
+{
+  double s = 0;
+  int i;
+  for (i = 0; i < n; i++) s += v[i] * v[i];
+  return sqrt(s);
+}
+
+/* The relative residuals of the step so far, "r0, r1, ..." (at most the last 12). */
+static void history(const mo_newton_report *R, char *buf, size_t n)
+{
+  size_t len = 0;
+  int k, k0 = R->nres > 12 ? R->nres - 12 : 0;
+  buf[0] = '\0';
+  for (k = k0; k < R->nres; k++) {
+    int w = snprintf(buf + len, n - len, "%s%.2e", k > k0 ? ", " : k0 ? "..., " : "", R->res[k]);
+    if (w < 0 || (size_t)w >= n - len) break;
+    len += (size_t)w;
+  }
+}
+
+/* Consecutive halvings of an update whose end is not admissible (inverted elements) or not
+   definite (the tangent), before the step fails. */
+#define MAX_HALVINGS 8
+
+/* Halve the last update: x and its constraint term back toward the last linearization point;
+   the prescribed dofs stay at their values of t+ (the first linearization point has them at
+   the prediction's). */
+static void halve(mo_stepper *S, double *x, double *g, double tn)
+{
+  int i, n = S->sc->ndof;
+  for (i = 0; i < n; i++) {
+    x[i] = S->xk[i] + 0.5 * (x[i] - S->xk[i]);
+    g[i] = S->gk[i] + 0.5 * (g[i] - S->gk[i]);
+  }
+  mo_stepper_presc_unknown(S, tn, x);
+}
+
+int mo_stepper_solve(mo_stepper *S, const mo_state *s, double *x, mo_constraint_fn fn, void *data,
+                     mo_ctx *ctx)
+{
+  const mo_scene *sc = S->sc;
+  mo_newton_report *rep = &S->rep;
+  int n = sc->ndof, nf = sc->nfree, i, it, st;
+  double h = S->h, tn = s->t + h, tf = S->theta_f, cf, tol = sc->time.newton_tol;
+  double *fext = S->w1, *u = S->w2, *mx = S->w3, *R = S->R, *g = S->g, prev = HUGE_VAL;
+  int damped = 0, nhalf = 0, ninv = 0, any_dxp = 0;
+  char inverted[MO_ERRMSG_MAX] = "";
+  char hist[400];
+  if (!S->nl) return mo_error(ctx, MO_EINTERNAL, "mo_stepper_solve: the scene is linear");
+  mo_scene_fext(sc, tn, fext);
+  /* the prescribed dofs: x holds their continuation (the guess); dxp their increment to t+,
+     which the first linearization carries into the free rows through the tangent's coupling
+     (a Dirichlet predictor: iterate 0 is the start configuration moving on, never a
+     configuration with the supports already displaced and the rest not) */
+  memcpy(S->xk, x, (size_t)n * sizeof *x);
+  mo_stepper_presc_unknown(S, tn, S->xk);
+  memset(S->dxp, 0, (size_t)n * sizeof *S->dxp);
+  for (i = 0; i < sc->npresc; i++) {
+    int d = sc->presc[i].dof;
+    S->dxp[d] = S->xk[d] - x[d];
+    any_dxp |= S->dxp[d] != 0;
+  }
+  memset(g, 0, (size_t)n * sizeof *g);
+  rep->iterations = rep->nres = 0;
+  /* the balance: cm M (x - xm) + cf [theta_f (f_int - f_ext+) + (1 - theta_f) (f_int0 - f_ext)]
+     (T60)-(T62) */
+  if (S->scheme != MO_SCHEME_THETA) tf = 1;
+  cf = S->scheme == MO_SCHEME_THETA ? h : 1;
+  for (it = 0;; it++) {
+    double res, scale, a1 = 0, a2 = 0, a3 = 0;
+    kinematics(S, s, x, it > 0, u);
+    if (it == 0 && any_dxp) memset(S->cfp, 0, (size_t)n * sizeof *S->cfp);
+    st = mo_newton_forces(S, u, s->q, S->fint, 1, it == 0 && any_dxp ? S->dxp : NULL, S->cfp, ctx);
+    if (st == MO_ENAN && it > 0 && nhalf < MAX_HALVINGS) {
+      /* an iterate that inverts elements: back toward the last linearization point */
+      snprintf(inverted, sizeof inverted, "%s", ctx->errmsg);
+      ninv++;
+      mo_ctx_clear_error(ctx);
+      halve(S, x, g, tn);
+      damped = 1;
+      nhalf++;
+      rep->damped++;
+      continue;
+    }
+    if (st == MO_ENAN) {
+      char msg[MO_ERRMSG_MAX];
+      snprintf(msg, sizeof msg, "%s", ctx->errmsg);
+      mo_ctx_clear_error(ctx);
+      history(rep, hist, sizeof hist);
+      return mo_error(ctx, MO_ENOCONV, "step %ld (t = %.6g): Newton iterate %d is not admissible%s: %s. "
+                      "Relative residuals of the step: %s. The step deforms the mesh beyond what its "
+                      "elements can follow: a smaller time step (time.dt), a finer mesh where elements "
+                      "are crushed, or a slower loading", s->step + 1, tn, it,
+                      nhalf ? " (nor its update halved 8 times)" : "", msg, hist[0] ? hist : "none yet");
+    }
+    if (st) return mo_error_prefix(ctx, "step %ld (t = %.6g), Newton iterate %d", s->step + 1, tn, it);
+    /* R over full dofs (the prescribed rows are the support reactions, not tested) */
+    if (S->cm != 0) {
+      if (S->scheme == MO_SCHEME_THETA)
+        for (i = 0; i < n; i++) R[i] = x[i] - s->v[i];
+      else
+        memcpy(R, x, (size_t)n * sizeof *R);
+      mo_csc_gaxpy(sc->M, 1, R, 0, mx);
+      a1 = norm_all(n, mx);
+    } else
+      memset(mx, 0, (size_t)n * sizeof *mx);
+    /* the terms' magnitudes, and R - g over free dofs (u, no longer needed, holds them) */
+    for (i = 0; i < n; i++) u[i] = cf * (tf * S->fint[i] + (1 - tf) * S->fint0[i]);
+    a2 = norm_all(n, u);
+    for (i = 0; i < n; i++) R[i] = u[i] + mx[i];
+    for (i = 0; i < n; i++) u[i] = cf * (tf * fext[i] + (1 - tf) * s->f[i]);
+    a3 = norm_all(n, u);
+    for (i = 0; i < n; i++) {
+      R[i] -= u[i];
+      u[i] = R[i] - g[i];
+    }
+    res = norm_free(sc, u);
+    scale = fmax(fmax(a1, a2), fmax(a3, norm_all(n, g)));
+    rep->scale = scale;
+    if (rep->nres < MO_NEWTON_HISTORY) rep->res[rep->nres++] = scale > 0 ? res / scale : res;
+    else {
+      memmove(rep->res, rep->res + 1, (MO_NEWTON_HISTORY - 1) * sizeof *rep->res);
+      rep->res[MO_NEWTON_HISTORY - 1] = scale > 0 ? res / scale : res;
+    }
+    if (!isfinite(res)) {
+      history(rep, hist, sizeof hist);
+      return mo_error(ctx, MO_ENOCONV, "step %ld (t = %.6g): Newton iterate %d has a non-finite residual "
+                      "(relative residuals: %s)", s->step + 1, tn, it, hist);
+    }
+    /* (T64): at least one linearization, so that the constraint layer sees every step; a
+       damped iterate is only a new linearization point, its contact term is not a solution */
+    if (it > 0 && !damped && res <= tol * scale) break;
+    if (it >= 2 && !damped && !(res < prev)) {
+      /* no decrease: a point of the material or a contact switching between two states from
+         one linearization to the next (a 2-cycle); halve the update (T63) */
+      halve(S, x, g, tn);
+      damped = 1;
+      rep->damped++;
+      continue;
+    }
+    damped = 0;
+    nhalf = 0;
+    prev = res;
+    if (it >= sc->time.newton_max) {
+      char why[600] = "";
+      history(rep, hist, sizeof hist);
+      if (ninv) snprintf(why, sizeof why, "; %d iterates were not admissible, the last: %.400s", ninv, inverted);
+      return mo_error(ctx, MO_ENOCONV, "step %ld (t = %.6g): Newton did not converge in %d iterations "
+                      "(time.newton.max_iter = %d, %d updates halved): relative residuals %s, tolerance %g "
+                      "(time.newton.tol)%s. Remedies: a smaller time step (time.dt), more numerical damping "
+                      "(time.theta above 1/2), more iterations, or a looser tolerance",
+                      s->step + 1, tn, rep->iterations, sc->time.newton_max, it - rep->iterations, hist, tol, why);
+    }
+    /* (T63): factor What_k, x_free = x_k - What_k^-1 R(x_k) */
+    {
+      double t0 = mo_clock();
+      st = mo_linsolver_factor(S->ls, S->W, ctx);
+      mo_phase_add(ctx, MO_PH_FACTOR, t0);
+      if (st == MO_ESINGULAR && it > 0 && nhalf < MAX_HALVINGS) {
+        /* the tangent is not definite here (crushed elements whose compressive geometric
+           stiffness outweighs their mass): back toward the last linearization point */
+        mo_ctx_clear_error(ctx);
+        halve(S, x, g, tn);
+        damped = 1;
+        nhalf++;
+        rep->damped++;
+        continue;
+      }
+      if (st == MO_ESINGULAR) {
+        mo_ctx_clear_error(ctx);
+        history(rep, hist, sizeof hist);
+        return mo_error(ctx, MO_ESINGULAR, "step %ld (t = %.6g), Newton iterate %d: the tangent iteration "
+                        "matrix %s is not positive definite%s: the tangent stiffness of crushed elements "
+                        "outweighs their mass. Relative residuals of the step: %s. Remedies: a smaller time "
+                        "step (time.dt), more numerical damping, a finer mesh where elements are crushed",
+                        s->step + 1, tn, it, S->cm != 0 ? "M + c K_t" : "K_t",
+                        nhalf ? " (nor after halving the update 8 times)" : "", hist);
+      }
+      if (st)
+        return mo_error_prefix(ctx, "step %ld (t = %.6g), Newton iterate %d: the tangent iteration matrix",
+                               s->step + 1, tn, it);
+      t0 = mo_clock();
+      if (it == 0 && any_dxp) {
+        /* R + What_fp dx_p: cm M dx_p, ck K dx_p of the linear bodies, the elements' part */
+        memcpy(u, S->cfp, (size_t)n * sizeof *u);
+        if (S->cm != 0) mo_csc_gaxpy(sc->M, S->cm, S->dxp, 1, u);
+        mo_csc_gaxpy(sc->K, S->ck, S->dxp, 1, u);
+        for (i = 0; i < n; i++) u[i] += R[i];
+        mo_stepper_gather(S, u, S->rhs);
+      } else
+        mo_stepper_gather(S, R, S->rhs);
+      st = mo_linsolver_solve(S->ls, S->rhs, S->xf, ctx);
+      mo_phase_add(ctx, MO_PH_SOLVE, t0);
+      if (st) return st;
+    }
+    memcpy(S->xfr, x, (size_t)n * sizeof *x);
+    for (i = 0; i < nf; i++) S->xfr[sc->full_of[i]] -= S->xf[i];
+    if (it == 0) mo_stepper_presc_unknown(S, tn, S->xfr);
+    memcpy(S->xk, x, (size_t)n * sizeof *x);
+    memcpy(S->gk, g, (size_t)n * sizeof *g);
+    rep->iterations++;
+    if (fn) {
+      if ((st = fn(data, s, S->xfr, x, g, it, ctx))) return st;
+    } else {
+      memcpy(x, S->xfr, (size_t)n * sizeof *x);
+      memset(g, 0, (size_t)n * sizeof *g);
+    }
+  }
+  rep->steps++;
+  rep->total += rep->iterations;
+  if (rep->iterations > rep->max) rep->max = rep->iterations;
+  return MO_OK;
+}

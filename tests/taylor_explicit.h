@@ -1,0 +1,16 @@
+/* taylor_explicit.h: the axisymmetric Taylor bar by explicit central differences, the
+   independent reference the implicit scenes are checked against (tests). */
+#ifndef MOREAU_TAYLOR_EXPLICIT_H
+#define MOREAU_TAYLOR_EXPLICIT_H
+
+/* The copper bar of CASES.md §5 (radius 3.2 mm, length 32.4 mm, 227 m/s) on a rigid
+   frictionless wall to 80 us, nr x nz Q4 (axisymmetric, J2, opts as mo_elem_nl_force), lumped
+   mass, central differences with a step from the current smallest element height, the wall as a
+   velocity projection. Writes the final length, the footprint radius (the impact face's largest
+   radius), the largest element mean of epsp, the relative gap between the work of the internal
+   forces and stored + plastic energy, and the fraction of the kinetic energy the wall took (the
+   inelastic node impacts). NaN on failure. */
+void taylor_explicit(unsigned opts, int nr, int nz, double *len, double *rad, double *epmax,
+                     double *gap, double *wall);
+
+#endif
