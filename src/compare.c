@@ -147,7 +147,8 @@ static void classify(run_row *r, const colset *C, double pen_rel)
     /* the contact driver's message says on what a solve stopped (mo_contact_reason_name) */
     char why[64];
     double growth = colval(r, C, "energy.max_growth");
-    if (strstr(r->reason, "cycling")) snprintf(why, sizeof why, "status cycling");
+    if (strstr(r->reason, "(time.max_cuts)")) snprintf(why, sizeof why, "step cut limit");
+    else if (strstr(r->reason, "cycling")) snprintf(why, sizeof why, "status cycling");
     else if (strstr(r->reason, "stopped on NaN") || r->status == MO_ENAN) snprintf(why, sizeof why, "NaN");
     else if (strstr(r->reason, "stopped on breakdown")) snprintf(why, sizeof why, "breakdown");
     else if (r->status == MO_ENOCONV) snprintf(why, sizeof why, "non-convergence");

@@ -245,6 +245,68 @@ struct mo_contact_driver {
 };
 
 const mo_contact_report *mo_contact_last_report(const mo_contact_driver *D) { return &D->rep; }
+double mo_contact_driver_dt(const mo_contact_driver *D) { return mo_stepper_dt(D->S); }
+
+/* --- snapshots for step cutting ------------------------------------------------------------
+   What a step changes in the driver and needs back to be taken again: the reactions (warm
+   start, and the index set's "carried a compressive impulse"), the previous local velocities,
+   the statuses; the geometry is recomputed from the restored displacements. */
+struct mo_contact_snapshot {
+  double *r, *rprev, *Uprev, *U;
+  int *status;
+};
+
+int mo_contact_snapshot_create(const mo_contact_driver *D, mo_contact_snapshot **out, mo_ctx *ctx)
+{
+  mo_contact_snapshot *X = mo_calloc(ctx, 1, sizeof *X);
+  size_t m = (size_t)D->m + 1;
+  *out = NULL;
+  if (!X) return MO_ENOMEM;
+  X->r = mo_malloc(ctx, m * sizeof(double));
+  X->rprev = mo_malloc(ctx, m * sizeof(double));
+  X->Uprev = mo_malloc(ctx, m * sizeof(double));
+  X->U = mo_malloc(ctx, m * sizeof(double));
+  X->status = mo_malloc(ctx, ((size_t)D->nc + 1) * sizeof(int));
+  if (!X->r || !X->rprev || !X->Uprev || !X->U || !X->status) {
+    mo_contact_snapshot_free(X);
+    return MO_ENOMEM;
+  }
+  *out = X;
+  return MO_OK;
+}
+
+void mo_contact_snapshot_free(mo_contact_snapshot *X)
+{
+  if (!X) return;
+  mo_free(X->r);
+  mo_free(X->rprev);
+  mo_free(X->Uprev);
+  mo_free(X->U);
+  mo_free(X->status);
+  mo_free(X);
+}
+
+void mo_contact_snapshot_save(const mo_contact_driver *D, mo_contact_snapshot *X)
+{
+  size_t m = (size_t)D->m * sizeof(double);
+  memcpy(X->r, D->r, m);
+  memcpy(X->rprev, D->rprev, m);
+  memcpy(X->Uprev, D->Uprev, m);
+  memcpy(X->U, D->U, m);
+  memcpy(X->status, D->status, (size_t)D->nc * sizeof(int));
+}
+
+int mo_contact_snapshot_restore(mo_contact_driver *D, const mo_contact_snapshot *X, const mo_state *s,
+                                mo_ctx *ctx)
+{
+  size_t m = (size_t)D->m * sizeof(double);
+  memcpy(D->r, X->r, m);
+  memcpy(D->rprev, X->rprev, m);
+  memcpy(D->Uprev, X->Uprev, m);
+  memcpy(D->U, X->U, m);
+  memcpy(D->status, X->status, (size_t)D->nc * sizeof(int));
+  return mo_contact_geometry(D->C, s->u, s->t, D->C->repair, ctx);
+}
 const double *mo_contact_reactions(const mo_contact_driver *D) { return D->r; }
 const double *mo_contact_local_velocity(const mo_contact_driver *D) { return D->U; }
 const int *mo_contact_statuses(const mo_contact_driver *D) { return D->status; }
@@ -404,7 +466,7 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
   mo_contact_problem *P = &D->P;
   mo_contact_report *rep = &D->rep;
   int d = D->d, m = D->m, nc = D->nc, n = sc->ndof, st, a, i, any = 0, rebuilt = 0;
-  double h = sc->time.dt, theta = sc->time.theta, t0, c, dtpos;
+  double h = mo_stepper_dt(S), theta = sc->time.theta, t0, c, dtpos;
   const double *g;
   mo_scheme scheme = sc->time.scheme;
 
@@ -565,7 +627,7 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
       return mo_error(ctx, MO_ENOCONV,
                       "step %ld (t = %.6g%s): the %s contact solve stopped on %s after %d iterations "
                       "(residual %.3e; %d closed of %d candidates)%s%s. Candidates furthest from the "
-                      "contact law: %s. Remedies: a smaller time step, a larger iteration limit "
+                      "contact law: %s. Remedies: a smaller time step (time.dt, or time.max_cuts), a larger iteration limit "
                       "(contact.%s options), or contact.on_failure = \"continue\"",
                       P->step, s->t + h, it, D->T->name, mo_contact_reason_name(rep->reason), rep->iterations,
                       rep->residual, nc - rep->nopen, nc, rep->message[0] ? ": " : "", rep->message, worst,

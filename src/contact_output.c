@@ -10,10 +10,10 @@
 #include <stdio.h>
 #include <string.h>
 
-/* Reactions as forces (impulses over the step divided by h for the theta-scheme). */
-static double force_scale(const mo_scene *sc)
+/* Reactions as forces (impulses over the step divided by its h for the theta-scheme). */
+static double force_scale(const mo_scene *sc, const mo_contact_driver *Dr)
 {
-  return sc->time.scheme == MO_SCHEME_THETA ? 1 / sc->time.dt : 1;
+  return sc->time.scheme == MO_SCHEME_THETA ? 1 / mo_contact_driver_dt(Dr) : 1;
 }
 
 /* The other representation of the reactions of pair k (d components per candidate), in the
@@ -76,7 +76,7 @@ int mo_contact_write_csv(const char *path, const mo_scene *sc, const mo_contact 
   int d = C->dim, D = sc->dim, a, i, k, st = MO_OK;
   const double *r = mo_contact_reactions(Dr), *U = mo_contact_local_velocity(Dr), *g = mo_contact_gaps(C);
   const int *status = mo_contact_statuses(Dr);
-  double fs = force_scale(sc), *other = NULL;
+  double fs = force_scale(sc, Dr), *other = NULL;
   int *has_other = NULL;
   char *buf = NULL;
   size_t cap = 1 << 16, len = 0;
@@ -162,7 +162,7 @@ void mo_contact_print_table(FILE *f, const mo_scene *sc, const mo_contact *C,
   const double *r = mo_contact_reactions(Dr);
   const int *status = mo_contact_statuses(Dr);
   const mo_contact_report *rep = mo_contact_last_report(Dr);
-  double fs = force_scale(sc);
+  double fs = force_scale(sc, Dr);
   for (k = 0; k < C->npair; k++) {
     const mo_contact_pair *P = &C->pair[k];
     const double *Pm;

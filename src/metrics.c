@@ -162,7 +162,7 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
     const int *st = D ? mo_contact_statuses(D) : NULL;
     const double *r = D ? mo_contact_reactions(D) : NULL;
     int d = M->d;
-    double h = sc->time.dt;
+    double h = D ? mo_contact_driver_dt(D) : sc->time.dt;
     /* U = H^T v + U0: the relative velocity at the end of the step, whatever the scheme */
     mo_csc_gatxpy(mo_contact_H_full(C), 1, s->v, 0, M->Un);
     for (a = 0; a < M->nc; a++) {

@@ -45,6 +45,43 @@ static int csc_find(const mo_csc *W, int row, int col)
   return -1;
 }
 
+/* What = cm M + ck K_t for the scheme and the current step h. */
+static void coefficients(mo_stepper *S)
+{
+  switch (S->scheme) {
+  case MO_SCHEME_THETA: S->cm = 1; S->ck = S->h * S->h * S->theta * S->theta_f; break;
+  case MO_SCHEME_NEWMARK: S->cm = 1; S->ck = S->beta * S->h * S->h; break;
+  case MO_SCHEME_QUASISTATIC: S->cm = 0; S->ck = 1; break;
+  }
+}
+
+int mo_newton_set_dt(mo_stepper *S, mo_ctx *ctx)
+{
+  const mo_scene *sc = S->sc;
+  mo_csc *L = NULL;
+  int j, p, st;
+  coefficients(S);
+  if (S->scheme == MO_SCHEME_QUASISTATIC) return MO_OK;
+  /* Wlin = cm M + ck K (the linear bodies) scattered onto W's pattern, which holds it */
+  if ((st = mo_csc_add(sc->M, sc->K, S->cm, S->ck, &L, ctx))) return st;
+  memset(S->Wlin, 0, (size_t)mo_csc_nnz(S->W) * sizeof *S->Wlin);
+  for (j = 0; j < L->ncol; j++) {
+    int fj = sc->free_of[j];
+    if (fj < 0) continue;
+    for (p = L->p[j]; p < L->p[j + 1]; p++) {
+      int fi = sc->free_of[L->i[p]], q;
+      if (fi < 0) continue;
+      if ((q = csc_find(S->W, fi, fj)) < 0) {
+        mo_csc_free(L);
+        return mo_error(ctx, MO_EINTERNAL, "step change: entry (%d, %d) of M + c K is not in the tangent's pattern", fi, fj);
+      }
+      S->Wlin[q] += L->x[p];
+    }
+  }
+  mo_csc_free(L);
+  return MO_OK;
+}
+
 /* The pattern of What = cm M + ck K_t over free dofs: the linear part's pattern and every
    element block of the finite-strain bodies, analysed once; the element maps that scatter an
    element tangent into its values (no triplets, no search at run time). */
@@ -58,11 +95,7 @@ int mo_newton_setup(mo_stepper *S, mo_ctx *ctx)
   double one[ND_MAX * ND_MAX];
   memset(&T, 0, sizeof T);
   S->nl = 1;
-  switch (S->scheme) {
-  case MO_SCHEME_THETA: S->cm = 1; S->ck = S->h * S->h * S->theta * S->theta_f; break;
-  case MO_SCHEME_NEWMARK: S->cm = 1; S->ck = S->beta * S->h * S->h; break;
-  case MO_SCHEME_QUASISTATIC: S->cm = 0; S->ck = 1; break;
-  }
+  coefficients(S);
   for (b = 0; b < sc->nbody; b++)
     if (sc->body[b].nl) {
       size_t nd = (size_t)sc->body[b].mesh->nen * (size_t)D;
@@ -437,7 +470,7 @@ int mo_stepper_solve(mo_stepper *S, const mo_state *s, double *x, mo_constraint_
       if (ninv) snprintf(why, sizeof why, "; %d iterates were not admissible, the last: %.400s", ninv, inverted);
       return mo_error(ctx, MO_ENOCONV, "step %ld (t = %.6g): Newton did not converge in %d iterations "
                       "(time.newton.max_iter = %d, %d updates halved): relative residuals %s, tolerance %g "
-                      "(time.newton.tol)%s. Remedies: a smaller time step (time.dt), more numerical damping "
+                      "(time.newton.tol)%s. Remedies: a smaller time step (time.dt, or time.max_cuts), more numerical damping "
                       "(time.theta above 1/2), more iterations, or a looser tolerance",
                       s->step + 1, tn, rep->iterations, sc->time.newton_max, it - rep->iterations, hist, tol, why);
     }

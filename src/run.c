@@ -139,7 +139,7 @@ static double probe_value(const mo_scene *sc, const mo_probe *P, mo_quantity q, 
       if (c->node < 0 || mo_contact_pair_get(cv->C, c->pair)->sbody != P->body) continue;
       for (k = 0; k < P->nnode; k++)
         if (P->node[k] == c->node) {
-          double f = r[a * d] / (sc->time.scheme == MO_SCHEME_THETA ? sc->time.dt : 1);
+          double f = r[a * d] / (sc->time.scheme == MO_SCHEME_THETA ? mo_contact_driver_dt(cv->D) : 1);
           if (q == MO_Q_PN) acc += c->w > 0 ? f / c->w : f;
           else if (q == MO_Q_GN) acc += g[a];
           else acc += friction_ratio(d, c->mu, r + a * d);
@@ -282,7 +282,7 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
                          const mo_contact_driver *drv, const mo_metrics *met, const column *cols, int ncol,
                          const char *const *names, double e0, double e1, double drift,
                          double balance, double growth, int complete, const char *reason,
-                         double wall, const double *p0, mo_ctx *ctx)
+                         double wall, const double *p0, long cuts, double dtmin, mo_ctx *ctx)
 {
   double *pw = NULL, *p1 = NULL;
   int pw_fail = 0;
@@ -355,6 +355,11 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
       json_object_set_new(time, "gamma", json_real(sc->time.gamma));
     }
     json_object_set_new(time, "steps_done", json_integer(s ? s->step : 0));
+    if (sc->time.max_cuts > 0) {
+      /* step cutting: how many steps were taken again in halves, and the smallest step */
+      json_object_set_new(time, "cuts", json_integer(cuts));
+      json_object_set_new(time, "smallest_dt", json_real(dtmin));
+    }
     json_object_set_new(time, "t_reached", json_real(s ? s->t : 0));
     json_object_set_new(root, "time", time);
   } else {
@@ -518,6 +523,100 @@ static json_t *contact_json(const mo_contact *C, const mo_contact_driver *D)
   return j;
 }
 
+/* --- one step of the run, cut on failure (time.max_cuts, doc/theory.md §1.5) -------------- */
+
+typedef struct {
+  const mo_scene *sc;
+  mo_stepper *S;
+  mo_contact_driver *drv;
+  mo_metrics *met;
+  const char *dump;             /* --dump-fclib folder, or NULL */
+  int max_cuts;
+  mo_state save[MO_MAX_CUTS];   /* the state each level started from (allocated on first use) */
+  mo_contact_snapshot *csave[MO_MAX_CUTS];
+  long cuts;                    /* steps taken again as two halves */
+  double hmin;                  /* the smallest step taken */
+} stepping;
+
+static void stepping_free(stepping *T)
+{
+  int k;
+  for (k = 0; k < MO_MAX_CUTS; k++) {
+    mo_state_release(&T->save[k]);
+    mo_contact_snapshot_free(T->csave[k]);
+  }
+}
+
+/* Failures a smaller step may cure: a contact solve or Newton that did not converge (status
+   cycling included), a NaN, an inverted element, an indefinite iteration matrix. */
+static int curable(int st)
+{
+  return st == MO_ENOCONV || st == MO_ENAN || st == MO_ESINGULAR;
+}
+
+static int one_step(stepping *T, mo_state *s, int cut, mo_ctx *ctx)
+{
+  int st;
+  if (T->drv) {
+    if ((st = mo_contact_step(T->drv, s, ctx))) return st;
+    /* a cut step's substeps share their step number: their problems are not dumped */
+    if (T->dump && !cut && (st = dump_fclib(T->dump, T->drv, s->step, ctx))) return st;
+  } else if ((st = mo_stepper_step(T->S, s, ctx)))
+    return st;
+  mo_metrics_step(T->met, s, T->drv);
+  return MO_OK;
+}
+
+/* The step from s over h at cut level `level` (h = the case's step / 2^level). */
+static int advance(stepping *T, mo_state *s, int level, double h, mo_ctx *ctx)
+{
+  int st, k;
+  if ((st = mo_stepper_set_dt(T->S, h, ctx))) return st;
+  if (h < T->hmin) T->hmin = h;
+  if (level < T->max_cuts) {
+    if (!T->save[level].u && (st = mo_state_alloc(T->sc, &T->save[level], ctx))) return st;
+    if (T->drv && !T->csave[level] && (st = mo_contact_snapshot_create(T->drv, &T->csave[level], ctx))) return st;
+    mo_state_copy(T->sc, s, &T->save[level]);
+    if (T->drv) mo_contact_snapshot_save(T->drv, T->csave[level]);
+  }
+  st = one_step(T, s, level > 0, ctx);
+  /* the substeps of a cut step keep its number (take_step sets it when they are done) */
+  if (!st && level > 0) s->step--;
+  if (!st || !curable(st)) return st;
+  if (level >= T->max_cuts) {
+    if (T->max_cuts > 0) {
+      char msg[MO_ERRMSG_MAX];
+      snprintf(msg, sizeof msg, "%s", ctx->errmsg);
+      mo_ctx_clear_error(ctx);
+      return mo_error(ctx, st, "%s; step cutting stopped at its limit: h = %.6g after %d halvings "
+                      "(time.max_cuts)", msg, h, level);
+    }
+    return st;
+  }
+  mo_log(ctx, 1, "%s; taken again as two steps of h = %.6g\n", ctx->errmsg, h / 2);
+  mo_ctx_clear_error(ctx);
+  mo_state_copy(T->sc, &T->save[level], s);
+  if ((st = mo_stepper_restart(T->S, s, ctx))) return st;
+  if (T->drv && (st = mo_contact_snapshot_restore(T->drv, T->csave[level], s, ctx))) return st;
+  T->cuts++;
+  for (k = 0; k < 2; k++)
+    if ((st = advance(T, s, level + 1, h / 2, ctx))) return st;
+  return MO_OK;
+}
+
+/* One step of the case's h; cut steps count as one (their time is set exactly). */
+static int take_step(stepping *T, mo_state *s, mo_ctx *ctx)
+{
+  long n = s->step;
+  double t = s->t, h = T->sc->time.dt;
+  int st = advance(T, s, 0, h, ctx);
+  if (!st && s->step != n + 1) {
+    s->step = n + 1;
+    s->t = t + h;
+  }
+  return st;
+}
+
 int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
 {
   mo_case *cs = NULL;
@@ -538,7 +637,9 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   int nl = 0, necol = 0, ncol0 = 0;
   char reason[MO_ERRMSG_MAX] = "";
   progress prog;
+  stepping stepper;
   memset(&s, 0, sizeof s);
+  memset(&stepper, 0, sizeof stepper);
   memset(res, 0, sizeof *res);
   memset(&prog, 0, sizeof prog);
   memset(&cv, 0, sizeof cv);
@@ -559,6 +660,13 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   if ((st = mo_stepper_init_state(S, &s, ctx))) goto done;
   table = mo_case_lookup_bool(cs, "output.contact_table");
   if ((st = mo_metrics_create(sc, C, &met, ctx))) goto done;
+  stepper.sc = sc;
+  stepper.S = S;
+  stepper.drv = drv;
+  stepper.met = met;
+  stepper.dump = opt->dump_fclib;
+  stepper.max_cuts = sc->time.max_cuts;
+  stepper.hmin = sc->time.dt;
   cv.C = C;
   cv.D = drv;
 
@@ -673,7 +781,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
     if (eratio - 1 > emax_growth) emax_growth = eratio - 1;
     balance = e1 - e0 - s.wext - s.wsupport - s.wcontact;
     if (cv.need_R && drv) {
-      double sc_f = sc->time.scheme == MO_SCHEME_THETA ? 1 / sc->time.dt : 1;
+      double sc_f = sc->time.scheme == MO_SCHEME_THETA ? 1 / mo_contact_driver_dt(drv) : 1;
       mo_csc_gaxpy(mo_contact_H_full(C), sc_f, mo_contact_reactions(drv), 0, cv.Rfull);
     }
     /* probes and errors at every step; energies when a row is written */
@@ -711,7 +819,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
       if (C) {
         const mo_contact_report *rep = drv ? mo_contact_last_report(drv) : NULL;
         const double *r = drv ? mo_contact_reactions(drv) : NULL;
-        double fsum = 0, fs = sc->time.scheme == MO_SCHEME_THETA ? 1 / sc->time.dt : 1;
+        double fsum = 0, fs = sc->time.scheme == MO_SCHEME_THETA && drv ? 1 / mo_contact_driver_dt(drv) : 1;
         int a, d = mo_contact_dim(C);
         for (a = 0; r && a < mo_contact_ncandidates(C); a++) fsum += r[a * d] * fs;
         row[ccol0] = rep && s.step ? mo_contact_ncandidates(C) - rep->nopen : 0;
@@ -731,11 +839,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
       st = mo_error(ctx, MO_EINTERRUPT, "interrupted at step %ld (t = %.6g)", s.step, s.t);
       goto done;
     }
-    if (drv) {
-      if ((st = mo_contact_step(drv, &s, ctx))) goto done;
-      if (opt->dump_fclib && (st = dump_fclib(opt->dump_fclib, drv, s.step, ctx))) goto done;
-    } else if ((st = mo_stepper_step(S, &s, ctx))) goto done;
-    mo_metrics_step(met, &s, drv);
+    if ((st = take_step(&stepper, &s, ctx))) goto done;
   }
   complete = 1;
 
@@ -765,7 +869,7 @@ done:
     mo_ctx_clear_error(ctx);
     st2 = write_summary(outdir, cs, sc, S, s.u ? &s : NULL, C, drv, met, cols, nprobecol,
                         (const char *const *)names, e0, e1, drift, balance, emax_growth, complete, reason,
-                        res->wall, p0, ctx);
+                        res->wall, p0, stepper.cuts, stepper.hmin, ctx);
     if (!st2 && drv && s.u && s.step > 0) {
       snprintf(path, sizeof path, "%s/contact.csv", outdir);
       st2 = mo_contact_write_csv(path, sc, C, drv, &s, ctx);
@@ -779,6 +883,7 @@ done:
   }
   if (opt->log && sc) print_log(ctx, res->wall);
   mo_vtk_close(vtk);
+  stepping_free(&stepper);
   mo_metrics_free(met);
   mo_free(cols);
   mo_free(names);

@@ -733,6 +733,7 @@ static int build_time(mo_scene *sc, const mo_case *cs, mo_ctx *ctx)
   T->gamma = mo_cfg_float(tg, "gamma", 0.5);
   T->newton_tol = mo_cfg_float(mo_cfg_member(tg, "newton"), "tol", 1e-8);
   T->newton_max = mo_cfg_int(mo_cfg_member(tg, "newton"), "max_iter", 25);
+  T->max_cuts = mo_cfg_int(tg, "max_cuts", 0);
   /* keys that the chosen scheme ignores are almost always a mistake */
   if (T->scheme != MO_SCHEME_THETA && ((s = mo_cfg_member(tg, "theta")) || (s = mo_cfg_member(tg, "theta_f"))))
     return mo_case_error(cs, s, ctx, "is not used by scheme '%s' (only by 'theta')", scheme);

@@ -91,6 +91,7 @@ static const mo_key core_keys[] = {
   {"time.theta_f", K_FLOAT, NULL, R(0.5, 1, 0, 0), 0, "theta", "Weight of f(t+) in the momentum balance: theta (Moreau-Jean) or 1 (Ben Dhia-Zammali).", "theta_f must lie in [0.5, 1]"},
   {"time.beta", K_FLOAT, NULL, R(0, 0.5, 1, 0), 0, "0.25", "Newmark beta.", "Newmark beta must lie in (0, 0.5]"},
   {"time.gamma", K_FLOAT, NULL, R(0.5, 1, 0, 0), 0, "0.5", "Newmark gamma.", "Newmark gamma must lie in [0.5, 1] (below 1/2 the scheme is unstable)"},
+  {"time.max_cuts", K_INT, NULL, R(0, 12, 0, 0), 0, "0", "Step cutting: a step whose contact solve or Newton iterations do not converge, or that meets a NaN, an inverted element or an indefinite matrix, is taken again as two steps of h/2, and so on down to h / 2^max_cuts; 0 stops the run at the first failure (doc/theory.md §1.5).", "time.max_cuts lies in 0 .. 12 (at most 4096 substeps per step)"},
   {"time.newton", K_GROUP, NULL, NONE, 0, NULL, "Newton iterations of the steps of nonlinear scenes (finite-strain materials).", NULL},
   {"time.newton.tol", K_FLOAT, NULL, R(0, 1e-2, 1, 0), 0, "1e-8", "A step ends when the residual of its momentum balance is at most tol times the balance's scale (doc/theory.md (T64)).", "a Newton tolerance lies in (0, 0.01]"},
   {"time.newton.max_iter", K_INT, NULL, R(1, 1000, 0, 0), 0, "25", "Newton iterations per step before the run stops with a diagnosis.", NULL},

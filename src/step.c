@@ -227,6 +227,53 @@ mo_linsolver *mo_stepper_solver(mo_stepper *S) { return S->ls; }
 const mo_csc *mo_stepper_matrix(const mo_stepper *S) { return S->W; }
 const mo_scene *mo_stepper_scene(const mo_stepper *S) { return S->sc; }
 
+double mo_stepper_dt(const mo_stepper *S) { return S->h; }
+
+int mo_stepper_restart(mo_stepper *S, const mo_state *s, mo_ctx *ctx)
+{
+  int st;
+  if (!S->nl) return MO_OK;
+  /* the internal forces at the start of the step, from the state's committed material */
+  if ((st = mo_newton_forces(S, s->u, s->q, S->fint0, 0, NULL, NULL, ctx)))
+    return mo_error_prefix(ctx, "restarting step %ld", s->step + 1);
+  return MO_OK;
+}
+
+int mo_stepper_set_dt(mo_stepper *S, double h, mo_ctx *ctx)
+{
+  const mo_scene *sc = S->sc;
+  mo_csc *Wf = NULL, *W = NULL;
+  double c, t0;
+  int st;
+  if (h == S->h) return MO_OK;
+  if (!(h > 0) || !isfinite(h)) return mo_error(ctx, MO_EINTERNAL, "step change to h = %g", h);
+  S->h = h;
+  if (S->nl) return mo_newton_set_dt(S, ctx);
+  if (S->scheme == MO_SCHEME_QUASISTATIC) return MO_OK; /* K does not depend on the load step */
+  /* What = M + c K for the new h, on the same pattern: the factorization keeps its analysis */
+  t0 = mo_clock();
+  c = S->scheme == MO_SCHEME_THETA ? h * h * S->theta * S->theta_f : S->beta * h * h;
+  st = mo_csc_add(sc->M, sc->K, 1, c, &Wf, ctx);
+  if (!st) st = mo_csc_extract(Wf, sc->free_of, sc->nfree, sc->free_of, sc->nfree, &W, ctx);
+  mo_phase_add(ctx, MO_PH_ASSEMBLY, t0);
+  if (st) {
+    mo_csc_free(Wf);
+    return st;
+  }
+  mo_csc_free(S->W);
+  S->W = W;
+  if (S->Wfull) {
+    mo_csc_free(S->Wfull);
+    S->Wfull = Wf;
+  } else
+    mo_csc_free(Wf);
+  t0 = mo_clock();
+  st = mo_linsolver_factor(S->ls, S->W, ctx);
+  mo_phase_add(ctx, MO_PH_FACTOR, t0);
+  if (st) return mo_error_prefix(ctx, "iteration matrix (M + c K) for h = %g", h);
+  return MO_OK;
+}
+
 double mo_stepper_du_dx(const mo_stepper *S)
 {
   switch (S->scheme) {

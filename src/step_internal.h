@@ -38,6 +38,8 @@ void mo_stepper_presc_unknown(const mo_stepper *S, double t, double *x);
 
 /* newton.c */
 int mo_newton_setup(mo_stepper *S, mo_ctx *ctx);
+/* A new step h (S->h already set): cm, ck and the linear part Wlin of the tangent. */
+int mo_newton_set_dt(mo_stepper *S, mo_ctx *ctx);
 void mo_newton_release(mo_stepper *S);
 /* Internal forces at u (full) from the committed states q: f_int into f (full), trial states
    into S->qt, and with tangent != 0, What = cm M + ck K_t into S->W's values; with dxp (full,

@@ -331,6 +331,17 @@ void mo_contact_driver_free(mo_contact_driver *D);
    unless contact.on_failure = "continue". */
 int mo_contact_step(mo_contact_driver *D, mo_state *s, mo_ctx *ctx);
 const mo_contact_report *mo_contact_last_report(const mo_contact_driver *D);
+/* The step of the last solve (impulses are over it): the case's h, or a cut step's. */
+double mo_contact_driver_dt(const mo_contact_driver *D);
+/* Snapshots of the driver's state between steps, for step cutting: save before a step, restore
+   (with the state the step started from: the geometry is recomputed at its displacements) to
+   take it again. */
+typedef struct mo_contact_snapshot mo_contact_snapshot;
+int mo_contact_snapshot_create(const mo_contact_driver *D, mo_contact_snapshot **out, mo_ctx *ctx);
+void mo_contact_snapshot_free(mo_contact_snapshot *X);
+void mo_contact_snapshot_save(const mo_contact_driver *D, mo_contact_snapshot *X);
+int mo_contact_snapshot_restore(mo_contact_driver *D, const mo_contact_snapshot *X, const mo_state *s,
+                                mo_ctx *ctx);
 const double *mo_contact_reactions(const mo_contact_driver *D);  /* m, last step */
 const double *mo_contact_local_velocity(const mo_contact_driver *D);
 const int *mo_contact_statuses(const mo_contact_driver *D);

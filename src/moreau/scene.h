@@ -83,7 +83,12 @@ typedef struct {
      residual of the momentum balance is at most newton_tol times its scale (T64) */
   double newton_tol;
   int newton_max;         /* iterations before the run stops with a diagnosis */
+  /* bounded step cutting: a step that fails to converge (or meets a NaN, an inverted element,
+     an indefinite matrix) is taken again as two steps of h/2, down to h / 2^max_cuts */
+  int max_cuts;
 } mo_time_settings;
+
+#define MO_MAX_CUTS 12   /* the largest time.max_cuts */
 
 /* A node set whose extent (bounding box in the current configuration) summary.json reports. */
 typedef struct {

@@ -118,6 +118,15 @@ const mo_csc *mo_stepper_matrix(const mo_stepper *S);
 /* Scale linking the scheme's unknown x to the displacement increment over the step,
    du = du_fixed + c dx: h theta (theta), beta h^2 (newmark), 1 (quasistatic). */
 double mo_stepper_du_dx(const mo_stepper *S);
+/* The step the stepper takes now, and a change of it (step cutting, doc/theory.md §1.5): the
+   iteration matrix is rebuilt for the new h and refactored (the symbolic analysis is kept);
+   quasi-static steps only change their load increment. Nonlinear scenes rescale the linear part
+   of their tangent; the elements' part is rebuilt at every iteration anyway. */
+double mo_stepper_dt(const mo_stepper *S);
+int mo_stepper_set_dt(mo_stepper *S, double h, mo_ctx *ctx);
+/* Take a step again from s (a state saved before it): what the stepper keeps between steps
+   (a nonlinear scene's internal forces at the start of the step) is rebuilt from s. */
+int mo_stepper_restart(mo_stepper *S, const mo_state *s, mo_ctx *ctx);
 const mo_scene *mo_stepper_scene(const mo_stepper *S);
 /* Free-dof restriction (gather) and extension (scatter, prescribed left untouched). */
 void mo_stepper_gather(const mo_stepper *S, const double *full, double *freev);
