@@ -634,7 +634,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   double *row = NULL, *work = NULL, *p0 = NULL, start = mo_clock(), e0 = 0, e1 = 0, drift = 0, balance = 0;
   double emax_growth = 0;
   int st, ncol = 0, nprobecol = 0, nexact = 0, k, p, complete = 0, ecol0 = 0, ccol0 = 0, table = 0, x0col;
-  int nl = 0, necol = 0, ncol0 = 0;
+  int nl = 0, necol = 0, ncol0 = 0, cutcol = 0;
   char reason[MO_ERRMSG_MAX] = "";
   progress prog;
   stepping stepper;
@@ -685,6 +685,8 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   nl = sc->nonlinear;
   necol = sc->out.energy ? 7 + nl : 0;
   ncol = 1 + nprobecol + nexact + necol + (C ? 8 : 0) + (nl ? 2 : 0);
+  /* with step cutting, the steps cut so far (cumulative, so that output.every loses none) */
+  if (sc->time.max_cuts > 0) cutcol = ncol++;
   cols = mo_calloc(ctx, (size_t)(nprobecol ? nprobecol : 1), sizeof *cols);
   names = mo_calloc(ctx, (size_t)ncol, sizeof *names);
   namebuf = mo_calloc(ctx, (size_t)ncol, 80);
@@ -751,6 +753,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
     snprintf(names[ncol0 + 1], 80, "newton.residual");
   } else
     mo_note_skip(ctx, "energy.plastic and newton.* columns (no finite-strain body)");
+  if (cutcol) snprintf(names[cutcol], 80, "time.cuts");
   snprintf(path, sizeof path, "%s/history.csv", outdir);
   if ((st = mo_csv_open(path, (const char *const *)names, ncol, sc->out.precision, &csv, ctx))) goto done;
   if (sc->out.vtk) {
@@ -828,6 +831,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
         row[ccol0 + 3] = fsum;
         for (k = 0; k < 4; k++) row[ccol0 + 4 + k] = rep && s.step ? rep->loops[k] : 0;
       }
+      if (cutcol) row[cutcol] = (double)stepper.cuts;
       if ((st = mo_csv_row(csv, row, ctx))) goto done;
     }
     if (vtk && (s.step % sc->out.vtk_every == 0 || last))
