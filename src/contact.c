@@ -250,9 +250,10 @@ double mo_contact_driver_dt(const mo_contact_driver *D) { return mo_stepper_dt(D
 /* --- snapshots for step cutting ------------------------------------------------------------
    What a step changes in the driver and needs back to be taken again: the reactions (warm
    start, and the index set's "carried a compressive impulse"), the previous local velocities,
-   the statuses; the geometry is recomputed from the restored displacements. */
+   the statuses; the geometry is recomputed from the restored displacements. D->rprev is not
+   saved: a nonlinear step sets it from D->r before reading it. */
 struct mo_contact_snapshot {
-  double *r, *rprev, *Uprev, *U;
+  double *r, *Uprev, *U;
   int *status;
 };
 
@@ -263,11 +264,10 @@ int mo_contact_snapshot_create(const mo_contact_driver *D, mo_contact_snapshot *
   *out = NULL;
   if (!X) return MO_ENOMEM;
   X->r = mo_malloc(ctx, m * sizeof(double));
-  X->rprev = mo_malloc(ctx, m * sizeof(double));
   X->Uprev = mo_malloc(ctx, m * sizeof(double));
   X->U = mo_malloc(ctx, m * sizeof(double));
   X->status = mo_malloc(ctx, ((size_t)D->nc + 1) * sizeof(int));
-  if (!X->r || !X->rprev || !X->Uprev || !X->U || !X->status) {
+  if (!X->r || !X->Uprev || !X->U || !X->status) {
     mo_contact_snapshot_free(X);
     return MO_ENOMEM;
   }
@@ -279,7 +279,6 @@ void mo_contact_snapshot_free(mo_contact_snapshot *X)
 {
   if (!X) return;
   mo_free(X->r);
-  mo_free(X->rprev);
   mo_free(X->Uprev);
   mo_free(X->U);
   mo_free(X->status);
@@ -290,7 +289,6 @@ void mo_contact_snapshot_save(const mo_contact_driver *D, mo_contact_snapshot *X
 {
   size_t m = (size_t)D->m * sizeof(double);
   memcpy(X->r, D->r, m);
-  memcpy(X->rprev, D->rprev, m);
   memcpy(X->Uprev, D->Uprev, m);
   memcpy(X->U, D->U, m);
   memcpy(X->status, D->status, (size_t)D->nc * sizeof(int));
@@ -301,7 +299,6 @@ int mo_contact_snapshot_restore(mo_contact_driver *D, const mo_contact_snapshot 
 {
   size_t m = (size_t)D->m * sizeof(double);
   memcpy(D->r, X->r, m);
-  memcpy(D->rprev, X->rprev, m);
   memcpy(D->Uprev, X->Uprev, m);
   memcpy(D->U, X->U, m);
   memcpy(D->status, X->status, (size_t)D->nc * sizeof(int));
