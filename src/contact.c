@@ -234,7 +234,8 @@ struct mo_contact_driver {
   mo_contact_report rep;
   int nc, m, d;
   double *b, *q, *U, *Uprev, *r, *rprev, *xfull, *xf, *dx, *dxfull, *mu, *gk, *w;
-  double *ukin;              /* local kinematics without the Signorini offsets */
+  double *ukin;              /* W r of the last solve (with W), then U without the Signorini
+                                offsets: W r + b (contact_finish) */
   double *xnl;               /* nonlinear steps: Newton's iterate (full) */
   int any_step, it_step, loops_step[4]; /* nonlinear steps: totals over the Newton iterations */
   unsigned char *active;
@@ -579,10 +580,11 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
     if (!isfinite(D->r[i]))
       return mo_error(ctx, MO_ENAN, "step %ld (t = %.6g): contact back end %s returned a non-finite "
                       "reaction at candidate %d", P->step, s->t + h, D->T->name, i / d);
-  /* 6. the core's measure: U' = W r + q when W is known, else the back end's U */
+  /* 6. the core's measure: U' = W r + q when W is known, else the back end's U; W r is kept
+     for contact_finish */
   if (D->W) {
-    mo_delassus_mult(D->W, D->r, 0, D->U);
-    for (i = 0; i < m; i++) D->U[i] += D->q[i];
+    mo_delassus_mult(D->W, D->r, 0, D->ukin);
+    for (i = 0; i < m; i++) D->U[i] = D->ukin[i] + D->q[i];
   }
   {
     /* over the active candidates only (the others are out of the problem this step) */
@@ -649,13 +651,14 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
 
 /* The end of a step: the work of the contact impulses, impulse . mean local velocity (theta),
    force . increment (others), the local velocities U- of the next step, then the stepper's
-   finish at x and the geometry of the end of the step. */
+   finish at x and the geometry of the end of the step. With W, D->ukin holds W r of the step's
+   last contact_solve (r, b and W are those of that solve). */
 static int contact_finish(mo_contact_driver *D, mo_state *s, const double *x, mo_ctx *ctx)
 {
   int m = D->m, i, st;
   mo_scheme scheme = D->sc->time.scheme;
   double w = 0, *Ukin = D->ukin;
-  if (D->W) { mo_delassus_mult(D->W, D->r, 0, Ukin); for (i = 0; i < m; i++) Ukin[i] += D->b[i]; }
+  if (D->W) for (i = 0; i < m; i++) Ukin[i] += D->b[i];
   else for (i = 0; i < m; i++) Ukin[i] = D->U[i];
   for (i = 0; i < m; i++)
     w += D->r[i] * (scheme == MO_SCHEME_THETA ? 0.5 * (Ukin[i] + D->Uprev[i]) : Ukin[i]);
