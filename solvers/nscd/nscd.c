@@ -60,7 +60,8 @@ typedef struct {
   const int **rcol;
   const double **rval;
   const double **diag;          /* W_aa */
-  /* columns: the rows transposed (sym) or a transposed copy (W not symmetric) */
+  /* columns: the rows transposed (sym) or a transposed copy (W not symmetric), whose blocks
+     are stored transposed (W_ba^T) like the rows' blocks W_ab = W_ba^T of a symmetric W */
   int sym;
   int *cp, *cb;
   double *cv;
@@ -192,7 +193,8 @@ static int prepare_matrix(nscd_state *S, const mo_contact_problem *P, mo_ctx *ct
     if (S->sym && asym > 1e-14 * wmax) S->sym = 0;
   }
   if (!S->sym) {
-    /* the transposed block structure: for each block column a, its blocks W_ba */
+    /* the transposed block structure: for each block column a, its blocks W_ba (stored
+       transposed, as sweep reads them) */
     size_t nnz = 0, need;
     int *cnt;
     for (a = 0; a < nb; a++) nnz += (size_t)S->rcnt[a];
@@ -216,9 +218,12 @@ static int prepare_matrix(nscd_state *S, const mo_contact_problem *P, mo_ctx *ct
     for (a = 0; a < nb; a++) cnt[a] = S->cp[a];
     for (a = 0; a < nb; a++)
       for (k = 0; k < S->rcnt[a]; k++) {
-        int b = S->rcol[a][k], pos = cnt[b]++;
+        int b = S->rcol[a][k], pos = cnt[b]++, i, j;
+        const double *B = S->rval[a] + (size_t)k * (size_t)dd;
+        double *T = S->cv + (size_t)pos * (size_t)dd;
         S->cb[pos] = a;
-        memcpy(S->cv + (size_t)pos * (size_t)dd, S->rval[a] + (size_t)k * (size_t)dd, (size_t)dd * sizeof(double));
+        for (i = 0; i < d; i++)
+          for (j = 0; j < d; j++) T[j * d + i] = B[i * d + j];
       }
     mo_log(ctx, 3, "nscd: W is not symmetric; columns copied (%zu blocks)\n", nnz);
   }
@@ -295,37 +300,22 @@ static inline int sweep(nscd_state *S, const mo_contact_problem *P, double *r, i
       nz |= dr[i] != 0;
     }
     if (nz) {
-      /* U += (column a of W) dr */
-      if (sym) {
-        const int n = S->rcnt[a], *cb = S->rcol[a];
-        const double *B = S->rval[a];
-        for (j = 0; j < n; j++, B += dd) {
-          double *Ub = S->U + cb[j] * d;
-          if (d == 3) {
-            Ub[0] += B[0] * dr[0] + B[3] * dr[1] + B[6] * dr[2];
-            Ub[1] += B[1] * dr[0] + B[4] * dr[1] + B[7] * dr[2];
-            Ub[2] += B[2] * dr[0] + B[5] * dr[1] + B[8] * dr[2];
-          } else if (d == 2) {
-            Ub[0] += B[0] * dr[0] + B[2] * dr[1];
-            Ub[1] += B[1] * dr[0] + B[3] * dr[1];
-          } else
-            Ub[0] += B[0] * dr[0];
-        }
-      } else {
-        const int p0 = S->cp[a], p1 = S->cp[a + 1], *cb = S->cb;
-        const double *B = S->cv + (size_t)p0 * (size_t)dd;
-        for (j = p0; j < p1; j++, B += dd) {
-          double *Ub = S->U + cb[j] * d;
-          if (d == 3) {
-            Ub[0] += B[0] * dr[0] + B[1] * dr[1] + B[2] * dr[2];
-            Ub[1] += B[3] * dr[0] + B[4] * dr[1] + B[5] * dr[2];
-            Ub[2] += B[6] * dr[0] + B[7] * dr[1] + B[8] * dr[2];
-          } else if (d == 2) {
-            Ub[0] += B[0] * dr[0] + B[1] * dr[1];
-            Ub[1] += B[2] * dr[0] + B[3] * dr[1];
-          } else
-            Ub[0] += B[0] * dr[0];
-        }
+      /* U += (column a of W) dr, U_b += (W_ba^T)^T dr with W_ba^T = W_ab from row a (symmetric
+         W) or from the transposed copy */
+      const int n = sym ? S->rcnt[a] : S->cp[a + 1] - S->cp[a];
+      const int *cb = sym ? S->rcol[a] : S->cb + S->cp[a];
+      const double *B = sym ? S->rval[a] : S->cv + (size_t)S->cp[a] * (size_t)dd;
+      for (j = 0; j < n; j++, B += dd) {
+        double *Ub = S->U + cb[j] * d;
+        if (d == 3) {
+          Ub[0] += B[0] * dr[0] + B[3] * dr[1] + B[6] * dr[2];
+          Ub[1] += B[1] * dr[0] + B[4] * dr[1] + B[7] * dr[2];
+          Ub[2] += B[2] * dr[0] + B[5] * dr[1] + B[8] * dr[2];
+        } else if (d == 2) {
+          Ub[0] += B[0] * dr[0] + B[2] * dr[1];
+          Ub[1] += B[1] * dr[0] + B[3] * dr[1];
+        } else
+          Ub[0] += B[0] * dr[0];
       }
       for (i = 0; i < d; i++) ra[i] = rl[i];
     }
