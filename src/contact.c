@@ -46,21 +46,36 @@ double mo_fc_natural_map_unit(int d, double mu, const double *r, const double *U
   return e;
 }
 
-double mo_fc_natural_map(int d, int nc, const double *mu, const double *r, const double *U,
-                         double qnorm)
+double mo_fc_natural_map_subset(int d, int n, const int *idx, const double *mu, const double *scale,
+                                const double *r, const double *U, double qnorm)
 {
   double e = 0, rn = 0, un = 0, den;
-  int a, i;
-  for (a = 0; a < nc; a++) e += mo_fc_natural_map_unit(d, mu ? mu[a] : 0, r + a * d, U + a * d);
-  for (i = 0; i < d * nc; i++) {
-    rn += r[i] * r[i];
-    un += U[i] * U[i];
+  int k, i;
+  for (k = 0; k < n; k++) {
+    int a = idx ? idx[k] : k;
+    const double *ra = r + a * d, *Ua = U + a * d;
+    double Us[3];
+    if (scale) {
+      for (i = 0; i < d; i++) Us[i] = scale[a] * Ua[i];
+      Ua = Us;
+    }
+    e += mo_fc_natural_map_unit(d, mu ? mu[a] : 0, ra, Ua);
+    for (i = 0; i < d; i++) {
+      rn += ra[i] * ra[i];
+      un += Ua[i] * Ua[i];
+    }
   }
   /* relative to the largest of |q|, |r|, |U|: what Debian's Siconos 4.4 does */
   den = qnorm;
   if (sqrt(rn) > den) den = sqrt(rn);
   if (sqrt(un) > den) den = sqrt(un);
   return den > 1e-300 ? sqrt(e) / den : sqrt(e);
+}
+
+double mo_fc_natural_map(int d, int nc, const double *mu, const double *r, const double *U,
+                         double qnorm)
+{
+  return mo_fc_natural_map_subset(d, nc, NULL, mu, NULL, r, U, qnorm);
 }
 
 void mo_fc_jean_norms(const mo_delassus *W, int nc, const double *r0, const double *r1,
@@ -239,6 +254,7 @@ struct mo_contact_driver {
   double *xnl;               /* nonlinear steps: Newton's iterate (full) */
   int any_step, it_step, loops_step[4]; /* nonlinear steps: totals over the Newton iterations */
   unsigned char *active;
+  int *act, nact;            /* the active candidates of the last solve, in increasing order */
   int *status;
   long steps, iterations, max_iterations, wbuilds, failures;
   double max_residual;
@@ -331,6 +347,7 @@ void mo_contact_driver_free(mo_contact_driver *D)
   mo_free(D->b); mo_free(D->q); mo_free(D->U); mo_free(D->Uprev); mo_free(D->r); mo_free(D->rprev);
   mo_free(D->xfull); mo_free(D->xf); mo_free(D->dx); mo_free(D->dxfull); mo_free(D->mu); mo_free(D->gk); mo_free(D->w); mo_free(D->ukin); mo_free(D->xnl);
   mo_free(D->active);
+  mo_free(D->act);
   mo_free(D->status);
   mo_free(D);
 }
@@ -384,6 +401,7 @@ int mo_contact_driver_create(const mo_scene *sc, mo_contact *C, mo_stepper *S,
   D->w = mo_calloc(ctx, (size_t)D->nc, sizeof(double));
   D->ukin = mo_calloc(ctx, (size_t)D->m, sizeof(double));
   D->active = mo_calloc(ctx, (size_t)D->nc, 1);
+  D->act = mo_calloc(ctx, (size_t)D->nc + 1, sizeof(int));
   D->status = mo_calloc(ctx, (size_t)D->nc, sizeof(int));
   D->xfull = mo_calloc(ctx, (size_t)n + 1, sizeof(double));
   D->dxfull = mo_calloc(ctx, (size_t)n + 1, sizeof(double));
@@ -391,7 +409,7 @@ int mo_contact_driver_create(const mo_scene *sc, mo_contact *C, mo_stepper *S,
   D->dx = mo_calloc(ctx, (size_t)nf + 1, sizeof(double));
   D->xnl = mo_calloc(ctx, (size_t)n + 1, sizeof(double));
   if (!D->params || !D->state || !D->b || !D->q || !D->U || !D->Uprev || !D->r || !D->rprev || !D->mu ||
-      !D->gk || !D->w || !D->ukin || !D->active || !D->status || !D->xfull || !D->dxfull || !D->xf || !D->dx || !D->xnl) {
+      !D->gk || !D->w || !D->ukin || !D->active || !D->act || !D->status || !D->xfull || !D->dxfull || !D->xf || !D->dx || !D->xnl) {
     mo_contact_driver_free(D);
     return MO_ENOMEM;
   }
@@ -494,6 +512,7 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
   }
   /* 4. the complementarity problem U' = W r + q, with the Signorini offsets in q */
   memcpy(D->q, D->b, (size_t)m * sizeof(double));
+  D->nact = 0;
   for (a = 0; a < nc; a++) {
     int act = C->active[a];
     if (scheme == MO_SCHEME_THETA && C->signorini == MO_SIGNORINI_POSITION)
@@ -510,6 +529,7 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
     } else
       D->q[a * d] += g[a];
     D->active[a] = (unsigned char)act;
+    if (act) D->act[D->nact++] = a;
     any |= act;
   }
   *any_out = any;
@@ -588,20 +608,11 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
   }
   {
     /* over the active candidates only (the others are out of the problem this step) */
-    double e = 0, qn = 0, rn = 0, un = 0, den;
-    for (a = 0; a < nc; a++) {
-      if (!D->active[a]) continue;
-      e += mo_fc_natural_map_unit(d, D->mu[a], D->r + a * d, D->U + a * d);
-      for (i = 0; i < d; i++) {
-        qn += D->q[a * d + i] * D->q[a * d + i];
-        rn += D->r[a * d + i] * D->r[a * d + i];
-        un += D->U[a * d + i] * D->U[a * d + i];
-      }
-    }
-    den = sqrt(qn);
-    if (sqrt(rn) > den) den = sqrt(rn);
-    if (sqrt(un) > den) den = sqrt(un);
-    rep->residual = den > 1e-300 ? sqrt(e) / den : sqrt(e);
+    double qn = 0;
+    int k;
+    for (k = 0; k < D->nact; k++)
+      for (i = 0; i < d; i++) qn += D->q[D->act[k] * d + i] * D->q[D->act[k] * d + i];
+    rep->residual = mo_fc_natural_map_subset(d, D->nact, D->act, D->mu, NULL, D->r, D->U, sqrt(qn));
   }
   for (a = 0; a < nc; a++) {
     if (!D->active[a]) D->status[a] = MO_CS_OPEN;

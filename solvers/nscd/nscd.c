@@ -245,27 +245,10 @@ static void exact_U(nscd_state *S, const mo_contact_problem *P, const double *r)
 
 /* The natural-map residual over the active candidates: as the core computes it (T10), or of the
    problem whose local velocities are scaled contact by contact by 1 / W_aa,nn (T42). */
-static double residual(const nscd_state *S, const mo_contact_problem *P, const double *r, int scaled)
+static double residual(const nscd_state *S, const double *r, int scaled)
 {
-  int d = S->d, k, i;
-  double e = 0, rn = 0, un = 0, den = sqrt(scaled ? S->qs2 : S->qn2);
-  for (k = 0; k < S->nact; k++) {
-    int a = S->act[k];
-    const double *ra = r + a * d, *Ua = S->U + a * d, s = scaled ? S->scale[a] : 1;
-    double Us[3];
-    if (scaled) {
-      for (i = 0; i < d; i++) Us[i] = s * Ua[i];
-      Ua = Us;
-    }
-    e += mo_fc_natural_map_unit(d, S->mu[a], ra, Ua);
-    for (i = 0; i < d; i++) {
-      rn += ra[i] * ra[i];
-      un += Ua[i] * Ua[i];
-    }
-  }
-  if (sqrt(rn) > den) den = sqrt(rn);
-  if (sqrt(un) > den) den = sqrt(un);
-  return den > 1e-300 ? sqrt(e) / den : sqrt(e);
+  return mo_fc_natural_map_subset(S->d, S->nact, S->act, S->mu, scaled ? S->scale : NULL, r, S->U,
+                                  sqrt(scaled ? S->qs2 : S->qn2));
 }
 
 /* One sweep over the active contacts in S->order (J88 (3.3)_5-6 solved contact by contact,
@@ -442,11 +425,11 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
     sweeps++;
     if (broke >= 0) break;
     if (p->stop == NSCD_STOP_NATURAL || scaled) {
-      res = residual(S, P, r, scaled);
+      res = residual(S, r, scaled);
       if (res <= p->tol || !isfinite(res)) {
         /* confirm on the exact U (the column updates drift by round-off) */
         exact_U(S, P, r);
-        res = residual(S, P, r, scaled);
+        res = residual(S, r, scaled);
         if (res <= p->tol) { conv = 1; break; }
         if (!isfinite(res)) break;
       }
@@ -479,7 +462,7 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
   } else if (conv) {
     rep->reason = MO_CR_CONVERGED;
   } else {
-    res = residual(S, P, r, scaled);
+    res = residual(S, r, scaled);
     rep->reason = isfinite(res) ? MO_CR_MAXITER : MO_CR_NAN;
     if (ctx->interrupt && *ctx->interrupt) snprintf(rep->message, sizeof rep->message, "interrupted");
     else worst_candidates(S, P, r, rep);
