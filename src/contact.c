@@ -668,9 +668,9 @@ static int contact_finish(mo_contact_driver *D, mo_state *s, const double *x, mo
 {
   int m = D->m, i, st;
   mo_scheme scheme = D->sc->time.scheme;
-  double w = 0, *Ukin = D->ukin;
-  if (D->W) for (i = 0; i < m; i++) Ukin[i] += D->b[i];
-  else for (i = 0; i < m; i++) Ukin[i] = D->U[i];
+  double w = 0;
+  const double *Ukin = D->W ? D->ukin : D->U; /* without W: the back end's U, read in place */
+  if (D->W) for (i = 0; i < m; i++) D->ukin[i] += D->b[i];
   for (i = 0; i < m; i++)
     w += D->r[i] * (scheme == MO_SCHEME_THETA ? 0.5 * (Ukin[i] + D->Uprev[i]) : Ukin[i]);
   s->wcontact += w;
