@@ -46,21 +46,36 @@ double mo_fc_natural_map_unit(int d, double mu, const double *r, const double *U
   return e;
 }
 
-double mo_fc_natural_map(int d, int nc, const double *mu, const double *r, const double *U,
-                         double qnorm)
+double mo_fc_natural_map_subset(int d, int n, const int *idx, const double *mu, const double *scale,
+                                const double *r, const double *U, double qnorm)
 {
   double e = 0, rn = 0, un = 0, den;
-  int a, i;
-  for (a = 0; a < nc; a++) e += mo_fc_natural_map_unit(d, mu ? mu[a] : 0, r + a * d, U + a * d);
-  for (i = 0; i < d * nc; i++) {
-    rn += r[i] * r[i];
-    un += U[i] * U[i];
+  int k, i;
+  for (k = 0; k < n; k++) {
+    int a = idx ? idx[k] : k;
+    const double *ra = r + a * d, *Ua = U + a * d;
+    double Us[3];
+    if (scale) {
+      for (i = 0; i < d; i++) Us[i] = scale[a] * Ua[i];
+      Ua = Us;
+    }
+    e += mo_fc_natural_map_unit(d, mu ? mu[a] : 0, ra, Ua);
+    for (i = 0; i < d; i++) {
+      rn += ra[i] * ra[i];
+      un += Ua[i] * Ua[i];
+    }
   }
   /* relative to the largest of |q|, |r|, |U|: what Debian's Siconos 4.4 does */
   den = qnorm;
   if (sqrt(rn) > den) den = sqrt(rn);
   if (sqrt(un) > den) den = sqrt(un);
   return den > 1e-300 ? sqrt(e) / den : sqrt(e);
+}
+
+double mo_fc_natural_map(int d, int nc, const double *mu, const double *r, const double *U,
+                         double qnorm)
+{
+  return mo_fc_natural_map_subset(d, nc, NULL, mu, NULL, r, U, qnorm);
 }
 
 void mo_fc_jean_norms(const mo_delassus *W, int nc, const double *r0, const double *r1,
@@ -234,10 +249,12 @@ struct mo_contact_driver {
   mo_contact_report rep;
   int nc, m, d;
   double *b, *q, *U, *Uprev, *r, *rprev, *xfull, *xf, *dx, *dxfull, *mu, *gk, *w;
-  double *ukin;              /* local kinematics without the Signorini offsets */
+  double *ukin;              /* W r of the last solve (with W), then U without the Signorini
+                                offsets: W r + b (contact_finish) */
   double *xnl;               /* nonlinear steps: Newton's iterate (full) */
   int any_step, it_step, loops_step[4]; /* nonlinear steps: totals over the Newton iterations */
   unsigned char *active;
+  int *act, nact;            /* the active candidates of the last solve, in increasing order */
   int *status;
   long steps, iterations, max_iterations, wbuilds, failures;
   double max_residual;
@@ -250,9 +267,10 @@ double mo_contact_driver_dt(const mo_contact_driver *D) { return mo_stepper_dt(D
 /* --- snapshots for step cutting ------------------------------------------------------------
    What a step changes in the driver and needs back to be taken again: the reactions (warm
    start, and the index set's "carried a compressive impulse"), the previous local velocities,
-   the statuses; the geometry is recomputed from the restored displacements. */
+   the statuses; the geometry is recomputed from the restored displacements. D->rprev is not
+   saved: a nonlinear step sets it from D->r before reading it. */
 struct mo_contact_snapshot {
-  double *r, *rprev, *Uprev, *U;
+  double *r, *Uprev, *U;
   int *status;
 };
 
@@ -263,11 +281,10 @@ int mo_contact_snapshot_create(const mo_contact_driver *D, mo_contact_snapshot *
   *out = NULL;
   if (!X) return MO_ENOMEM;
   X->r = mo_malloc(ctx, m * sizeof(double));
-  X->rprev = mo_malloc(ctx, m * sizeof(double));
   X->Uprev = mo_malloc(ctx, m * sizeof(double));
   X->U = mo_malloc(ctx, m * sizeof(double));
   X->status = mo_malloc(ctx, ((size_t)D->nc + 1) * sizeof(int));
-  if (!X->r || !X->rprev || !X->Uprev || !X->U || !X->status) {
+  if (!X->r || !X->Uprev || !X->U || !X->status) {
     mo_contact_snapshot_free(X);
     return MO_ENOMEM;
   }
@@ -279,7 +296,6 @@ void mo_contact_snapshot_free(mo_contact_snapshot *X)
 {
   if (!X) return;
   mo_free(X->r);
-  mo_free(X->rprev);
   mo_free(X->Uprev);
   mo_free(X->U);
   mo_free(X->status);
@@ -290,7 +306,6 @@ void mo_contact_snapshot_save(const mo_contact_driver *D, mo_contact_snapshot *X
 {
   size_t m = (size_t)D->m * sizeof(double);
   memcpy(X->r, D->r, m);
-  memcpy(X->rprev, D->rprev, m);
   memcpy(X->Uprev, D->Uprev, m);
   memcpy(X->U, D->U, m);
   memcpy(X->status, D->status, (size_t)D->nc * sizeof(int));
@@ -301,7 +316,6 @@ int mo_contact_snapshot_restore(mo_contact_driver *D, const mo_contact_snapshot 
 {
   size_t m = (size_t)D->m * sizeof(double);
   memcpy(D->r, X->r, m);
-  memcpy(D->rprev, X->rprev, m);
   memcpy(D->Uprev, X->Uprev, m);
   memcpy(D->U, X->U, m);
   memcpy(D->status, X->status, (size_t)D->nc * sizeof(int));
@@ -333,6 +347,7 @@ void mo_contact_driver_free(mo_contact_driver *D)
   mo_free(D->b); mo_free(D->q); mo_free(D->U); mo_free(D->Uprev); mo_free(D->r); mo_free(D->rprev);
   mo_free(D->xfull); mo_free(D->xf); mo_free(D->dx); mo_free(D->dxfull); mo_free(D->mu); mo_free(D->gk); mo_free(D->w); mo_free(D->ukin); mo_free(D->xnl);
   mo_free(D->active);
+  mo_free(D->act);
   mo_free(D->status);
   mo_free(D);
 }
@@ -386,6 +401,7 @@ int mo_contact_driver_create(const mo_scene *sc, mo_contact *C, mo_stepper *S,
   D->w = mo_calloc(ctx, (size_t)D->nc, sizeof(double));
   D->ukin = mo_calloc(ctx, (size_t)D->m, sizeof(double));
   D->active = mo_calloc(ctx, (size_t)D->nc, 1);
+  D->act = mo_calloc(ctx, (size_t)D->nc + 1, sizeof(int));
   D->status = mo_calloc(ctx, (size_t)D->nc, sizeof(int));
   D->xfull = mo_calloc(ctx, (size_t)n + 1, sizeof(double));
   D->dxfull = mo_calloc(ctx, (size_t)n + 1, sizeof(double));
@@ -393,7 +409,7 @@ int mo_contact_driver_create(const mo_scene *sc, mo_contact *C, mo_stepper *S,
   D->dx = mo_calloc(ctx, (size_t)nf + 1, sizeof(double));
   D->xnl = mo_calloc(ctx, (size_t)n + 1, sizeof(double));
   if (!D->params || !D->state || !D->b || !D->q || !D->U || !D->Uprev || !D->r || !D->rprev || !D->mu ||
-      !D->gk || !D->w || !D->ukin || !D->active || !D->status || !D->xfull || !D->dxfull || !D->xf || !D->dx || !D->xnl) {
+      !D->gk || !D->w || !D->ukin || !D->active || !D->act || !D->status || !D->xfull || !D->dxfull || !D->xf || !D->dx || !D->xnl) {
     mo_contact_driver_free(D);
     return MO_ENOMEM;
   }
@@ -496,6 +512,7 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
   }
   /* 4. the complementarity problem U' = W r + q, with the Signorini offsets in q */
   memcpy(D->q, D->b, (size_t)m * sizeof(double));
+  D->nact = 0;
   for (a = 0; a < nc; a++) {
     int act = C->active[a];
     if (scheme == MO_SCHEME_THETA && C->signorini == MO_SIGNORINI_POSITION)
@@ -512,6 +529,7 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
     } else
       D->q[a * d] += g[a];
     D->active[a] = (unsigned char)act;
+    if (act) D->act[D->nact++] = a;
     any |= act;
   }
   *any_out = any;
@@ -582,27 +600,19 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
     if (!isfinite(D->r[i]))
       return mo_error(ctx, MO_ENAN, "step %ld (t = %.6g): contact back end %s returned a non-finite "
                       "reaction at candidate %d", P->step, s->t + h, D->T->name, i / d);
-  /* 6. the core's measure: U' = W r + q when W is known, else the back end's U */
+  /* 6. the core's measure: U' = W r + q when W is known, else the back end's U; W r is kept
+     for contact_finish */
   if (D->W) {
-    mo_delassus_mult(D->W, D->r, 0, D->U);
-    for (i = 0; i < m; i++) D->U[i] += D->q[i];
+    mo_delassus_mult(D->W, D->r, 0, D->ukin);
+    for (i = 0; i < m; i++) D->U[i] = D->ukin[i] + D->q[i];
   }
   {
     /* over the active candidates only (the others are out of the problem this step) */
-    double e = 0, qn = 0, rn = 0, un = 0, den;
-    for (a = 0; a < nc; a++) {
-      if (!D->active[a]) continue;
-      e += mo_fc_natural_map_unit(d, D->mu[a], D->r + a * d, D->U + a * d);
-      for (i = 0; i < d; i++) {
-        qn += D->q[a * d + i] * D->q[a * d + i];
-        rn += D->r[a * d + i] * D->r[a * d + i];
-        un += D->U[a * d + i] * D->U[a * d + i];
-      }
-    }
-    den = sqrt(qn);
-    if (sqrt(rn) > den) den = sqrt(rn);
-    if (sqrt(un) > den) den = sqrt(un);
-    rep->residual = den > 1e-300 ? sqrt(e) / den : sqrt(e);
+    double qn = 0;
+    int k;
+    for (k = 0; k < D->nact; k++)
+      for (i = 0; i < d; i++) qn += D->q[D->act[k] * d + i] * D->q[D->act[k] * d + i];
+    rep->residual = mo_fc_natural_map_subset(d, D->nact, D->act, D->mu, NULL, D->r, D->U, sqrt(qn));
   }
   for (a = 0; a < nc; a++) {
     if (!D->active[a]) D->status[a] = MO_CS_OPEN;
@@ -652,14 +662,15 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
 
 /* The end of a step: the work of the contact impulses, impulse . mean local velocity (theta),
    force . increment (others), the local velocities U- of the next step, then the stepper's
-   finish at x and the geometry of the end of the step. */
+   finish at x and the geometry of the end of the step. With W, D->ukin holds W r of the step's
+   last contact_solve (r, b and W are those of that solve). */
 static int contact_finish(mo_contact_driver *D, mo_state *s, const double *x, mo_ctx *ctx)
 {
   int m = D->m, i, st;
   mo_scheme scheme = D->sc->time.scheme;
-  double w = 0, *Ukin = D->ukin;
-  if (D->W) { mo_delassus_mult(D->W, D->r, 0, Ukin); for (i = 0; i < m; i++) Ukin[i] += D->b[i]; }
-  else for (i = 0; i < m; i++) Ukin[i] = D->U[i];
+  double w = 0;
+  const double *Ukin = D->W ? D->ukin : D->U; /* without W: the back end's U, read in place */
+  if (D->W) for (i = 0; i < m; i++) D->ukin[i] += D->b[i];
   for (i = 0; i < m; i++)
     w += D->r[i] * (scheme == MO_SCHEME_THETA ? 0.5 * (Ukin[i] + D->Uprev[i]) : Ukin[i]);
   s->wcontact += w;

@@ -60,7 +60,8 @@ typedef struct {
   const int **rcol;
   const double **rval;
   const double **diag;          /* W_aa */
-  /* columns: the rows transposed (sym) or a transposed copy (W not symmetric) */
+  /* columns: the rows transposed (sym) or a transposed copy (W not symmetric), whose blocks
+     are stored transposed (W_ba^T) like the rows' blocks W_ab = W_ba^T of a symmetric W */
   int sym;
   int *cp, *cb;
   double *cv;
@@ -192,7 +193,8 @@ static int prepare_matrix(nscd_state *S, const mo_contact_problem *P, mo_ctx *ct
     if (S->sym && asym > 1e-14 * wmax) S->sym = 0;
   }
   if (!S->sym) {
-    /* the transposed block structure: for each block column a, its blocks W_ba */
+    /* the transposed block structure: for each block column a, its blocks W_ba (stored
+       transposed, as sweep reads them) */
     size_t nnz = 0, need;
     int *cnt;
     for (a = 0; a < nb; a++) nnz += (size_t)S->rcnt[a];
@@ -216,9 +218,12 @@ static int prepare_matrix(nscd_state *S, const mo_contact_problem *P, mo_ctx *ct
     for (a = 0; a < nb; a++) cnt[a] = S->cp[a];
     for (a = 0; a < nb; a++)
       for (k = 0; k < S->rcnt[a]; k++) {
-        int b = S->rcol[a][k], pos = cnt[b]++;
+        int b = S->rcol[a][k], pos = cnt[b]++, i, j;
+        const double *B = S->rval[a] + (size_t)k * (size_t)dd;
+        double *T = S->cv + (size_t)pos * (size_t)dd;
         S->cb[pos] = a;
-        memcpy(S->cv + (size_t)pos * (size_t)dd, S->rval[a] + (size_t)k * (size_t)dd, (size_t)dd * sizeof(double));
+        for (i = 0; i < d; i++)
+          for (j = 0; j < d; j++) T[j * d + i] = B[i * d + j];
       }
     mo_log(ctx, 3, "nscd: W is not symmetric; columns copied (%zu blocks)\n", nnz);
   }
@@ -240,27 +245,10 @@ static void exact_U(nscd_state *S, const mo_contact_problem *P, const double *r)
 
 /* The natural-map residual over the active candidates: as the core computes it (T10), or of the
    problem whose local velocities are scaled contact by contact by 1 / W_aa,nn (T42). */
-static double residual(const nscd_state *S, const mo_contact_problem *P, const double *r, int scaled)
+static double residual(const nscd_state *S, const double *r, int scaled)
 {
-  int d = S->d, k, i;
-  double e = 0, rn = 0, un = 0, den = sqrt(scaled ? S->qs2 : S->qn2);
-  for (k = 0; k < S->nact; k++) {
-    int a = S->act[k];
-    const double *ra = r + a * d, *Ua = S->U + a * d, s = scaled ? S->scale[a] : 1;
-    double Us[3];
-    if (scaled) {
-      for (i = 0; i < d; i++) Us[i] = s * Ua[i];
-      Ua = Us;
-    }
-    e += mo_fc_natural_map_unit(d, S->mu[a], ra, Ua);
-    for (i = 0; i < d; i++) {
-      rn += ra[i] * ra[i];
-      un += Ua[i] * Ua[i];
-    }
-  }
-  if (sqrt(rn) > den) den = sqrt(rn);
-  if (sqrt(un) > den) den = sqrt(un);
-  return den > 1e-300 ? sqrt(e) / den : sqrt(e);
+  return mo_fc_natural_map_subset(S->d, S->nact, S->act, S->mu, scaled ? S->scale : NULL, r, S->U,
+                                  sqrt(scaled ? S->qs2 : S->qn2));
 }
 
 /* One sweep over the active contacts in S->order (J88 (3.3)_5-6 solved contact by contact,
@@ -295,37 +283,22 @@ static inline int sweep(nscd_state *S, const mo_contact_problem *P, double *r, i
       nz |= dr[i] != 0;
     }
     if (nz) {
-      /* U += (column a of W) dr */
-      if (sym) {
-        const int n = S->rcnt[a], *cb = S->rcol[a];
-        const double *B = S->rval[a];
-        for (j = 0; j < n; j++, B += dd) {
-          double *Ub = S->U + cb[j] * d;
-          if (d == 3) {
-            Ub[0] += B[0] * dr[0] + B[3] * dr[1] + B[6] * dr[2];
-            Ub[1] += B[1] * dr[0] + B[4] * dr[1] + B[7] * dr[2];
-            Ub[2] += B[2] * dr[0] + B[5] * dr[1] + B[8] * dr[2];
-          } else if (d == 2) {
-            Ub[0] += B[0] * dr[0] + B[2] * dr[1];
-            Ub[1] += B[1] * dr[0] + B[3] * dr[1];
-          } else
-            Ub[0] += B[0] * dr[0];
-        }
-      } else {
-        const int p0 = S->cp[a], p1 = S->cp[a + 1], *cb = S->cb;
-        const double *B = S->cv + (size_t)p0 * (size_t)dd;
-        for (j = p0; j < p1; j++, B += dd) {
-          double *Ub = S->U + cb[j] * d;
-          if (d == 3) {
-            Ub[0] += B[0] * dr[0] + B[1] * dr[1] + B[2] * dr[2];
-            Ub[1] += B[3] * dr[0] + B[4] * dr[1] + B[5] * dr[2];
-            Ub[2] += B[6] * dr[0] + B[7] * dr[1] + B[8] * dr[2];
-          } else if (d == 2) {
-            Ub[0] += B[0] * dr[0] + B[1] * dr[1];
-            Ub[1] += B[2] * dr[0] + B[3] * dr[1];
-          } else
-            Ub[0] += B[0] * dr[0];
-        }
+      /* U += (column a of W) dr, U_b += (W_ba^T)^T dr with W_ba^T = W_ab from row a (symmetric
+         W) or from the transposed copy */
+      const int n = sym ? S->rcnt[a] : S->cp[a + 1] - S->cp[a];
+      const int *cb = sym ? S->rcol[a] : S->cb + S->cp[a];
+      const double *B = sym ? S->rval[a] : S->cv + (size_t)S->cp[a] * (size_t)dd;
+      for (j = 0; j < n; j++, B += dd) {
+        double *Ub = S->U + cb[j] * d;
+        if (d == 3) {
+          Ub[0] += B[0] * dr[0] + B[3] * dr[1] + B[6] * dr[2];
+          Ub[1] += B[1] * dr[0] + B[4] * dr[1] + B[7] * dr[2];
+          Ub[2] += B[2] * dr[0] + B[5] * dr[1] + B[8] * dr[2];
+        } else if (d == 2) {
+          Ub[0] += B[0] * dr[0] + B[2] * dr[1];
+          Ub[1] += B[1] * dr[0] + B[3] * dr[1];
+        } else
+          Ub[0] += B[0] * dr[0];
       }
       for (i = 0; i < d; i++) ra[i] = rl[i];
     }
@@ -452,11 +425,11 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
     sweeps++;
     if (broke >= 0) break;
     if (p->stop == NSCD_STOP_NATURAL || scaled) {
-      res = residual(S, P, r, scaled);
+      res = residual(S, r, scaled);
       if (res <= p->tol || !isfinite(res)) {
         /* confirm on the exact U (the column updates drift by round-off) */
         exact_U(S, P, r);
-        res = residual(S, P, r, scaled);
+        res = residual(S, r, scaled);
         if (res <= p->tol) { conv = 1; break; }
         if (!isfinite(res)) break;
       }
@@ -489,7 +462,7 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
   } else if (conv) {
     rep->reason = MO_CR_CONVERGED;
   } else {
-    res = residual(S, P, r, scaled);
+    res = residual(S, r, scaled);
     rep->reason = isfinite(res) ? MO_CR_MAXITER : MO_CR_NAN;
     if (ctx->interrupt && *ctx->interrupt) snprintf(rep->message, sizeof rep->message, "interrupted");
     else worst_candidates(S, P, r, rep);

@@ -161,6 +161,11 @@ int mo_delassus_has_columns(const mo_delassus *D);
    normal only), 2 or 3. */
 double mo_fc_natural_map(int d, int nc, const double *mu, const double *r, const double *U,
                          double qnorm);
+/* The same over the n candidates idx[0..n-1] (idx NULL: 0..n-1), with the local velocity of
+   candidate a scaled by scale[a] when scale is not NULL (nscd's (T42)); qnorm is |q| over them
+   (scaled likewise). Back ends that stop on the core's measure call this one. */
+double mo_fc_natural_map_subset(int d, int n, const int *idx, const double *mu, const double *scale,
+                                const double *r, const double *U, double qnorm);
 /* The unit (one contact) term of the residual: |r - P_K(r - (U + mu |U_t| e_n))|^2. */
 double mo_fc_natural_map_unit(int d, double mu, const double *r, const double *U);
 /* Projection onto the Coulomb cone |r_t| <= mu r_n (in place, dimension d). */
