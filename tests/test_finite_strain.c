@@ -6,7 +6,7 @@
 #include "config.h"
 #include <moreau/material.h>
 #include <moreau/mesh.h>
-#include "tap.h"
+#include "testlib.h"
 #include "taylor_explicit.h"
 
 extern void dgesv_(const int *n, const int *nrhs, double *a, const int *lda, int *ipiv,
@@ -31,33 +31,6 @@ static mo_material copper(mo_hypothesis h)
 {
   mo_material m = {MO_MAT_J2, 1.17e11, 0.35, 8930, 4e8, 1e8, h, 1, 1e-2};
   return m;
-}
-
-static double maxabs(const double *a, int n)
-{
-  double m = 0;
-  int i;
-  for (i = 0; i < n; i++)
-    if (fabs(a[i]) > m) m = fabs(a[i]);
-  return m;
-}
-
-static void mul3(const double *A, const double *B, double *C)
-{
-  int i, j, k;
-  for (i = 0; i < 3; i++)
-    for (j = 0; j < 3; j++) {
-      C[3 * i + j] = 0;
-      for (k = 0; k < 3; k++) C[3 * i + j] += A[3 * i + k] * B[3 * k + j];
-    }
-}
-
-static void rotation(const double *n, double t, double *R)
-{
-  double c = cos(t), s = sin(t), C = 1 - c;
-  R[0] = c + n[0] * n[0] * C;        R[1] = n[0] * n[1] * C - n[2] * s; R[2] = n[0] * n[2] * C + n[1] * s;
-  R[3] = n[1] * n[0] * C + n[2] * s; R[4] = c + n[1] * n[1] * C;        R[5] = n[1] * n[2] * C - n[0] * s;
-  R[6] = n[2] * n[0] * C - n[1] * s; R[7] = n[2] * n[1] * C + n[0] * s; R[8] = c + n[2] * n[2] * C;
 }
 
 /* ---- meshes, assembly, Newton ------------------------------------------------------------ */

@@ -1,6 +1,6 @@
-/* testlib.h: what the C tests that run whole cases share (header-only, like tap.h): the source
-   tree, a small scene built from a case text, a run through mo_run, its summary.json and CSV
-   files read back, its folder removed. */
+/* testlib.h: what several C tests share (header-only, like tap.h): the source tree, a small
+   scene built from a case text, a run through mo_run, its summary.json and CSV files read back,
+   its folder removed; a few dense helpers. */
 #ifndef MOREAU_TESTLIB_H
 #define MOREAU_TESTLIB_H
 
@@ -223,6 +223,41 @@ static double tl_num(const tl_table *T, int i, int j) TL_UNUSED;
 static double tl_num(const tl_table *T, int i, int j)
 {
   return j < 0 || !T->cell[i][j][0] ? NAN : atof(T->cell[i][j]);
+}
+
+/* --- dense helpers (row-major 3 x 3) ----------------------------------------------------- */
+
+/* max |a_i| */
+static double maxabs(const double *a, int n) TL_UNUSED;
+static double maxabs(const double *a, int n)
+{
+  double m = 0;
+  int i;
+  for (i = 0; i < n; i++)
+    if (fabs(a[i]) > m) m = fabs(a[i]);
+  return m;
+}
+
+/* C = A B */
+static void mul3(const double *A, const double *B, double *C) TL_UNUSED;
+static void mul3(const double *A, const double *B, double *C)
+{
+  int i, j, k;
+  for (i = 0; i < 3; i++)
+    for (j = 0; j < 3; j++) {
+      C[3 * i + j] = 0;
+      for (k = 0; k < 3; k++) C[3 * i + j] += A[3 * i + k] * B[3 * k + j];
+    }
+}
+
+/* Rotation by angle t about the unit axis n (Rodrigues). */
+static void rotation(const double *n, double t, double *R) TL_UNUSED;
+static void rotation(const double *n, double t, double *R)
+{
+  double c = cos(t), s = sin(t), C = 1 - c;
+  R[0] = c + n[0] * n[0] * C;        R[1] = n[0] * n[1] * C - n[2] * s; R[2] = n[0] * n[2] * C + n[1] * s;
+  R[3] = n[1] * n[0] * C + n[2] * s; R[4] = c + n[1] * n[1] * C;        R[5] = n[1] * n[2] * C - n[0] * s;
+  R[6] = n[2] * n[0] * C - n[1] * s; R[7] = n[2] * n[1] * C + n[0] * s; R[8] = c + n[2] * n[2] * C;
 }
 
 #endif
