@@ -13,20 +13,26 @@
 
 #include "taylor_explicit.h"
 
-/* Internal forces of every element at u (trial states s from the committed sn). */
-static int assemble(const mo_mesh *m, const mo_material *mat, unsigned opts, const double *u,
-                    const double *sn, double *s, double *f, mo_ctx *ctx)
+int nl_assemble(const mo_mesh *m, const mo_material *mat, unsigned opts, const double *u,
+                const double *sn, double *s, double *f, double *K, mo_ctx *ctx)
 {
   int D = m->dim, nen = m->nen, nd = nen * D, n = m->nnode * D;
-  int nq = mo_elem_nl_npoint(m->type, mat->hyp), e, a, st;
-  double ue[24], fe[24];
+  int nq = mo_elem_nl_npoint(m->type, mat->hyp), e, a, b, st;
+  double ue[24], fe[24], Ke[576];
   memset(f, 0, (size_t)n * sizeof *f);
+  if (K) memset(K, 0, (size_t)n * n * sizeof *K);
   for (e = 0; e < m->nelem; e++) {
     const int *c = &m->conn[e * nen];
     size_t off = (size_t)e * nq * MO_J2_NSTATE;
     for (a = 0; a < nd; a++) ue[a] = u[c[a / D] * D + a % D];
-    if ((st = mo_elem_nl_force(m, e, mat, opts, ue, sn + off, s + off, fe, NULL, ctx))) return st;
-    for (a = 0; a < nd; a++) f[c[a / D] * D + a % D] += fe[a];
+    if ((st = mo_elem_nl_force(m, e, mat, opts, ue, sn + off, s + off, fe, K ? Ke : NULL, ctx)))
+      return st;
+    for (a = 0; a < nd; a++) {
+      int ga = c[a / D] * D + a % D;
+      f[ga] += fe[a];
+      if (K)
+        for (b = 0; b < nd; b++) K[(size_t)ga * n + c[b / D] * D + b % D] += Ke[a * nd + b];
+    }
   }
   return MO_OK;
 }
@@ -83,7 +89,7 @@ void taylor_explicit(unsigned opts, int nr, int nz, double *len, double *rad,
     }
     for (i = 0; i < n; i++) u[i] += h * v[i];
     memcpy(fo, f, (size_t)n * sizeof *f);
-    if (assemble(m, &mat, opts, u, sn, s, f, &ctx)) goto done;
+    if (nl_assemble(m, &mat, opts, u, sn, s, f, NULL, &ctx)) goto done;
     for (i = 0; i < n; i++) W += 0.5 * (fo[i] + f[i]) * h * v[i];
     memcpy(sn, s, (size_t)ns * sizeof *sn);
     hprev = h;

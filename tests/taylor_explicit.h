@@ -1,7 +1,16 @@
 /* taylor_explicit.h: the axisymmetric Taylor bar by explicit central differences, the
-   independent reference the implicit scenes are checked against (tests). */
+   independent reference the implicit scenes are checked against (tests), and its whole-mesh
+   nonlinear assembly, which test_finite_strain's Newton uses too. */
 #ifndef MOREAU_TAYLOR_EXPLICIT_H
 #define MOREAU_TAYLOR_EXPLICIT_H
+
+#include <moreau/material.h>
+#include <moreau/mesh.h>
+
+/* Internal forces f of a whole mesh by mo_elem_nl_force at u, the trial states s from the
+   committed sn (and the dense tangent K, n x n row-major, when K is not NULL). */
+int nl_assemble(const mo_mesh *m, const mo_material *mat, unsigned opts, const double *u, const double *sn,
+                double *s, double *f, double *K, mo_ctx *ctx);
 
 /* The copper bar of CASES.md §5 (radius 3.2 mm, length 32.4 mm, 227 m/s) on a rigid
    frictionless wall to 80 us, nr x nz Q4 (axisymmetric, J2, opts as mo_elem_nl_force), lumped

@@ -3,7 +3,7 @@
    against a dense reference, the natural-map residual, and the FCLIB round trip. */
 #include "config.h"
 #include <moreau/moreau.h>
-#include "tap.h"
+#include "testlib.h"
 
 #include <unistd.h>
 
@@ -24,9 +24,7 @@ static const char *greco_fmt =
 
 static int build(const char *text, mo_case **cs, mo_scene **sc, mo_contact **C, mo_ctx *ctx)
 {
-  int st = mo_case_load_string(text, "test.cfg", cs, ctx);
-  if (!st) st = mo_case_validate(*cs, ctx);
-  if (!st) st = mo_scene_build(*cs, sc, ctx);
+  int st = tl_scene(text, "test.cfg", cs, sc, ctx);
   if (!st) st = mo_contact_build(*sc, C, ctx);
   if (st) diag("%s", ctx->errmsg);
   return st;

@@ -6,7 +6,7 @@
 #include "config.h"
 #include <moreau/material.h>
 #include <moreau/mesh.h>
-#include "tap.h"
+#include "testlib.h"
 #include "taylor_explicit.h"
 
 extern void dgesv_(const int *n, const int *nrhs, double *a, const int *lda, int *ipiv,
@@ -31,33 +31,6 @@ static mo_material copper(mo_hypothesis h)
 {
   mo_material m = {MO_MAT_J2, 1.17e11, 0.35, 8930, 4e8, 1e8, h, 1, 1e-2};
   return m;
-}
-
-static double maxabs(const double *a, int n)
-{
-  double m = 0;
-  int i;
-  for (i = 0; i < n; i++)
-    if (fabs(a[i]) > m) m = fabs(a[i]);
-  return m;
-}
-
-static void mul3(const double *A, const double *B, double *C)
-{
-  int i, j, k;
-  for (i = 0; i < 3; i++)
-    for (j = 0; j < 3; j++) {
-      C[3 * i + j] = 0;
-      for (k = 0; k < 3; k++) C[3 * i + j] += A[3 * i + k] * B[3 * k + j];
-    }
-}
-
-static void rotation(const double *n, double t, double *R)
-{
-  double c = cos(t), s = sin(t), C = 1 - c;
-  R[0] = c + n[0] * n[0] * C;        R[1] = n[0] * n[1] * C - n[2] * s; R[2] = n[0] * n[2] * C + n[1] * s;
-  R[3] = n[1] * n[0] * C + n[2] * s; R[4] = c + n[1] * n[1] * C;        R[5] = n[1] * n[2] * C - n[0] * s;
-  R[6] = n[2] * n[0] * C - n[1] * s; R[7] = n[2] * n[1] * C + n[0] * s; R[8] = c + n[2] * n[2] * C;
 }
 
 /* ---- meshes, assembly, Newton ------------------------------------------------------------ */
@@ -99,31 +72,6 @@ static mo_mesh *patch(const variant *V, int distort, mo_ctx *ctx)
   return m;
 }
 
-/* Internal forces f (and dense tangent K, n x n row-major, when not NULL) of the whole mesh. */
-static int assemble(const mo_mesh *m, const mo_material *mat, unsigned opts, const double *u,
-                    const double *sn, double *s, double *f, double *K, mo_ctx *ctx)
-{
-  int D = m->dim, nen = m->nen, nd = nen * D, n = m->nnode * D;
-  int nq = mo_elem_nl_npoint(m->type, mat->hyp), e, a, b, st;
-  double ue[24], fe[24], Ke[576];
-  memset(f, 0, (size_t)n * sizeof *f);
-  if (K) memset(K, 0, (size_t)n * n * sizeof *K);
-  for (e = 0; e < m->nelem; e++) {
-    const int *c = &m->conn[e * nen];
-    size_t off = (size_t)e * nq * MO_J2_NSTATE;
-    for (a = 0; a < nd; a++) ue[a] = u[c[a / D] * D + a % D];
-    if ((st = mo_elem_nl_force(m, e, mat, opts, ue, sn + off, s + off, fe, K ? Ke : NULL, ctx)))
-      return st;
-    for (a = 0; a < nd; a++) {
-      int ga = c[a / D] * D + a % D;
-      f[ga] += fe[a];
-      if (K)
-        for (b = 0; b < nd; b++) K[(size_t)ga * n + c[b / D] * D + b % D] += Ke[a * nd + b];
-    }
-  }
-  return MO_OK;
-}
-
 /* Newton on the free dofs (fixed[i] != 0: u[i] prescribed) with the consistent tangent, until
    |f_free| <= tol |f|. Writes the residual history res[0..it]; returns the iteration count,
    or -1 without convergence in maxit iterations. */
@@ -138,7 +86,7 @@ static int newton(const mo_mesh *m, const mo_material *mat, unsigned opts, doubl
   for (i = 0; i < n; i++) map[i] = fixed[i] ? -1 : nf++;
   for (it = 0; it <= maxit; it++) {
     double rn = 0, fn = 0;
-    if (assemble(m, mat, opts, u, sn, s, f, K, ctx)) break;
+    if (nl_assemble(m, mat, opts, u, sn, s, f, K, ctx)) break;
     for (i = 0; i < n; i++) {
       fn += f[i] * f[i];
       if (map[i] >= 0) rn += f[i] * f[i];
@@ -253,7 +201,7 @@ static void test_homogeneous(const variant *V)
   iso_setup(V, d, R);
   homogeneous(m, d, R, -0.15, F, u);
   closed_isochoric(&mat, -0.15, d, R, tref, &ep);
-  st = assemble(m, &mat, 0, u, sn, s, f, NULL, &ctx);
+  st = nl_assemble(m, &mat, 0, u, sn, s, f, NULL, &ctx);
   for (e = 0; e < m->nelem * nq; e++) {
     double S[9];
     point_sigma(V->hyp, s + (size_t)e * MO_J2_NSTATE, S);
@@ -293,7 +241,7 @@ static void test_homogeneous(const variant *V)
     sig = tau_ax / J;
     for (a = 0; a < m->nnode; a++)
       for (i = 0; i < D; i++) u[a * D + i] = (lam[i] - 1) * m->x[a * D + i];
-    st = assemble(m, &mat, 0, u, sn, s, f, NULL, &ctx);
+    st = nl_assemble(m, &mat, 0, u, sn, s, f, NULL, &ctx);
     err = 0;
     for (e = 0; e < m->nelem * nq; e++) {
       double S[9];
@@ -334,7 +282,7 @@ static void test_homogeneous(const variant *V)
         for (j = 0; j < D; j++) v += Rz[3 * i + j] * m->x[a * D + j];
         u[a * D + i] = v;
       }
-    st = assemble(m, &mat, 0, u, sn, s, f, NULL, &ctx);
+    st = nl_assemble(m, &mat, 0, u, sn, s, f, NULL, &ctx);
     fmax_ = maxabs(f, n);
     for (e = 0; e < m->nelem * nq; e++)
       smax = fmax(smax, maxabs(s + (size_t)e * MO_J2_NSTATE + MO_J2_SIG, 6));
@@ -704,7 +652,7 @@ static double tube(mo_eltype type, mo_diag diag_, mo_hypothesis hyp, unsigned op
     *iters += it;
     memcpy(sn, s, (size_t)ns * sizeof *sn);
   }
-  assemble(m, &mat, opts, u, sn, s, f, NULL, ctx);
+  nl_assemble(m, &mat, opts, u, sn, s, f, NULL, ctx);
   a1 = a0 + ua;
   /* the bore's reactions along e_r are work-conjugate to its radial motion: their sum is p
      times the rate of the enclosed area (quarter polygon of nt chords: nt a' sin(pi/2/nt) per

@@ -3,10 +3,7 @@
    from the generators, patch tests, hostile inputs, and a contact scene on a Gmsh mesh. */
 #include "config.h"
 #include <moreau/moreau.h>
-#include "tap.h"
-
-#include <jansson.h>
-#include <unistd.h>
+#include "testlib.h"
 
 /* LAPACK: generalized symmetric-definite eigenproblem and SPD solve */
 extern void dsygv_(const int *itype, const char *jobz, const char *uplo, const int *n, double *a,
@@ -15,15 +12,9 @@ extern void dsygv_(const int *itype, const char *jobz, const char *uplo, const i
 extern void dposv_(const char *uplo, const int *n, const int *nrhs, double *a, const int *lda,
                    double *b, const int *ldb, int *info);
 
-static const char *srcdir(void)
-{
-  const char *s = getenv("MOREAU_SRCDIR");
-  return s ? s : MOREAU_TOP_SRCDIR;
-}
-
 static void src_path(char *buf, size_t n, const char *rel)
 {
-  snprintf(buf, n, "%s/%s", srcdir(), rel);
+  snprintf(buf, n, "%s/%s", tl_srcdir(), rel);
 }
 
 static int read_mesh(const char *rel, const mo_gmsh_options *o, mo_mesh **m, mo_gmsh_report *r,
@@ -618,35 +609,14 @@ typedef struct {
 
 static int run_drop(const char *mesh, const char *tag, drop_result *D)
 {
-  char text[4096], cfg[256], out[256], p[512], line[4096];
-  mo_ctx ctx;
-  mo_run_options o;
-  mo_run_result res;
+  char text[4096], out[256], p[512];
   json_t *j;
-  json_error_t je;
-  FILE *f;
-  int st, step = 0, col = -1;
-  mo_ctx_init(&ctx);
-  ctx.verbosity = 0;
-  mo_mkdir_p("tests/out", &ctx);
+  tl_table H;
+  int st, i, col;
   snprintf(text, sizeof text, drop_case, mesh);
-  snprintf(cfg, sizeof cfg, "tests/out/gmsh-drop-%s-%ld.cfg", tag, (long)getpid());
   snprintf(out, sizeof out, "tests/out/gmsh-drop-%s-%ld", tag, (long)getpid());
-  if (!(f = fopen(cfg, "w"))) return -1;
-  fputs(text, f);
-  fclose(f);
-  memset(&o, 0, sizeof o);
-  o.case_path = cfg;
-  o.outdir = out;
-  st = mo_run(&o, &res, &ctx);
-  unlink(cfg);
-  if (st) {
-    diag("%s: %s", tag, ctx.errmsg);
-    return st;
-  }
-  snprintf(p, sizeof p, "%s/summary.json", out);
-  j = json_load_file(p, 0, &je);
-  unlink(p);
+  if ((st = tl_run_text(text, out, tag, NULL))) return st;
+  j = tl_summary(out);
   if (!j) return -1;
   {
     json_t *b = json_array_get(json_object_get(json_object_get(j, "scene"), "bodies"), 0);
@@ -659,22 +629,11 @@ static int run_drop(const char *mesh, const char *tag, drop_result *D)
   /* the first step with a contact force */
   D->first_contact_step = -1;
   snprintf(p, sizeof p, "%s/history.csv", out);
-  if ((f = fopen(p, "r"))) {
-    while (fgets(line, sizeof line, f)) {
-      char *tok, *save = NULL;
-      int c = 0;
-      for (tok = strtok_r(line, ",\n", &save); tok; tok = strtok_r(NULL, ",\n", &save), c++) {
-        if (step == 0 && !strcmp(tok, "contact.force_n")) col = c;
-        if (step > 0 && c == col && atof(tok) != 0 && D->first_contact_step < 0) D->first_contact_step = step - 1;
-      }
-      step++;
-    }
-    fclose(f);
-  }
-  unlink(p);
-  snprintf(p, sizeof p, "%s/contact.csv", out);
-  unlink(p);
-  rmdir(out);
+  if (!tl_table_read(p, &H) && (col = tl_col(&H, "contact.force_n")) >= 0)
+    for (i = 0; i < H.nrow && D->first_contact_step < 0; i++)
+      if (tl_num(&H, i, col) != 0) D->first_contact_step = i;
+  tl_table_free(&H);
+  tl_remove_dir(out);
   return 0;
 }
 
@@ -685,7 +644,7 @@ static void test_drop(void)
   const double m_exact = 7800 * 16 * sin(M_PI / 16) * 0.03 * 0.03;
   int st;
   snprintf(mesh, sizeof mesh, "file = \"%s/tests/meshes/cylinder-q4.msh\"; scale = 1.0e-3; translate = [0.0, 0.04];",
-           srcdir());
+           tl_srcdir());
   st = run_drop(mesh, "gmsh", &G);
   ok(st == 0, "a contact scene runs on a Gmsh mesh (the cylinder of cylinder-wall on a rigid plane, nscd)");
   st |= run_drop("generator = \"disk\"; center = [0.0, 0.04]; radius = 0.03; core = 8; rings = 6;", "generator", &R);

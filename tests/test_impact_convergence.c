@@ -29,11 +29,7 @@
      (1 - theta) h |U-_n| of penetration (none for theta = 1); that bound is asserted. */
 #include "config.h"
 #include <moreau/moreau.h>
-#include "tap.h"
-
-#include <jansson.h>
-#include <stdarg.h>
-#include <unistd.h>
+#include "testlib.h"
 
 #define NLEV 4
 
@@ -112,16 +108,8 @@ static const char *solvers[] = {"nscd", "levelset"};
    root instead); NaN when absent. */
 static double summary_value(json_t *root, const char *const path[3])
 {
-  json_t *j = root;
-  int k;
-  for (k = 0; k < 3 && path[k] && j; k++) {
-    if (k == 0 && path[0][0] == '@') j = json_object_get(j, path[0] + 1);
-    else {
-      if (k == 0) j = json_object_get(j, "metrics");
-      j = j ? json_object_get(j, path[k]) : NULL;
-    }
-  }
-  return j && json_is_number(j) ? json_number_value(j) : NAN;
+  if (path[0][0] == '@') return tl_jnum(root, path[0] + 1, path[1], path[2], NULL);
+  return tl_jnum(root, "metrics", path[0], path[1], path[2], NULL);
 }
 
 static double metric_value(json_t *root, const metric *m)
@@ -130,54 +118,26 @@ static double metric_value(json_t *root, const metric *m)
   return m->how == ABS ? fabs(v) : m->how == ONE_MINUS ? 1 - v : v;
 }
 
-static void remove_run(const char *dir)
-{
-  char p[4300];
-  const char *files[] = {"history.csv", "summary.json", "contact.csv"};
-  size_t k;
-  for (k = 0; k < MO_COUNT(files); k++) {
-    snprintf(p, sizeof p, "%s/%s", dir, files[k]);
-    unlink(p);
-  }
-  rmdir(dir);
-}
-
 /* Run one level of a chain; the summary comes back parsed (NULL on failure). */
 static json_t *run_level(const chain *ch, const char *solver, int level, double *wall)
 {
-  char path[4096], out[512], sets[4][128];
+  char path[4096], out[512], sets[4][128], who[256];
   const char *setp[4];
-  const char *src = getenv("MOREAU_SRCDIR");
-  mo_ctx ctx;
-  mo_run_options o;
   mo_run_result res;
   json_t *root = NULL;
-  json_error_t err;
   int nset = 0, b, st;
   double dt = ch->dt0 / (1 << level);
-  mo_ctx_init(&ctx);
-  ctx.verbosity = 0;
-  snprintf(path, sizeof path, "%s/cases/%s", src ? src : "..", ch->case_name);
+  tl_case_path(path, sizeof path, ch->case_name);
   snprintf(out, sizeof out, "tests/out/conv-%s-%s-%d-%ld", ch->case_name, solver, level, (long)getpid());
   snprintf(sets[nset++], sizeof sets[0], "time.dt=%.17g", dt);
   for (b = 0; b < 2 && ch->body[b]; b++)
     snprintf(sets[nset++], sizeof sets[0], "bodies.%s.mesh.elements=%d", ch->body[b], ch->n0 << level);
   for (b = 0; b < nset; b++) setp[b] = sets[b];
-  memset(&o, 0, sizeof o);
-  o.case_path = path;
-  o.solver = solver;
-  o.sets = setp;
-  o.nset = nset;
-  o.outdir = out;
-  st = mo_run(&o, &res, &ctx);
+  snprintf(who, sizeof who, "%s, %s, h = %g", ch->label, solver, dt);
+  st = tl_run(path, solver, setp, nset, out, who, &res);
   *wall = res.wall;
-  if (st) diag("%s, %s, h = %g: %s", ch->label, solver, dt, ctx.errmsg);
-  else {
-    snprintf(path, sizeof path, "%s/summary.json", out);
-    root = json_load_file(path, 0, &err);
-    if (!root) diag("%s: %s", path, err.text);
-  }
-  remove_run(out);
+  if (!st) root = tl_summary(out);
+  tl_remove_dir(out);
   return root;
 }
 

@@ -10,113 +10,32 @@
    4. energy.max_growth does not depend on how often history rows are written. */
 #include "config.h"
 #include <moreau/moreau.h>
-#include "tap.h"
-
-#include <dirent.h>
-#include <jansson.h>
-#include <unistd.h>
+#include "testlib.h"
 
 static const char *backends[] = {"nscd", "levelset", "newmark"};
 
 /* --- runs, summaries, histories ---------------------------------------------------------------- */
 
 typedef struct {
-  int ncol, nrow;
-  char **name;
-  double *x; /* nrow x ncol */
-} table;
-
-static void table_free(table *T)
-{
-  int j;
-  for (j = 0; j < T->ncol; j++) free(T->name[j]);
-  free(T->name);
-  free(T->x);
-  memset(T, 0, sizeof *T);
-}
-
-/* A numeric CSV with a header (history.csv). */
-static int table_read(const char *path, table *T)
-{
-  FILE *f = fopen(path, "r");
-  char *line = NULL, *tok, *save;
-  size_t cap = 0, rows = 0;
-  int j;
-  memset(T, 0, sizeof *T);
-  if (!f) return -1;
-  if (getline(&line, &cap, f) < 0) goto fail;
-  line[strcspn(line, "\r\n")] = '\0';
-  for (tok = strtok_r(line, ",", &save); tok; tok = strtok_r(NULL, ",", &save)) {
-    T->name = realloc(T->name, (size_t)(T->ncol + 1) * sizeof *T->name);
-    T->name[T->ncol++] = strdup(tok);
-  }
-  while (getline(&line, &cap, f) > 0) {
-    char *p = line, *end;
-    if (T->nrow == (int)rows) {
-      rows = rows ? 2 * rows : 1024;
-      T->x = realloc(T->x, rows * (size_t)T->ncol * sizeof *T->x);
-    }
-    for (j = 0; j < T->ncol; j++) {
-      T->x[(size_t)T->nrow * (size_t)T->ncol + (size_t)j] = strtod(p, &end);
-      p = *end == ',' ? end + 1 : end;
-    }
-    T->nrow++;
-  }
-  free(line);
-  fclose(f);
-  return 0;
-fail:
-  free(line);
-  fclose(f);
-  return -1;
-}
-
-static int column(const table *T, const char *name)
-{
-  int j;
-  for (j = 0; j < T->ncol; j++)
-    if (!strcmp(T->name[j], name)) return j;
-  return -1;
-}
-
-static double cell(const table *T, int i, int j) { return j < 0 ? NAN : T->x[(size_t)i * (size_t)T->ncol + (size_t)j]; }
-
-/* A number in a JSON object by a path of keys (keys may contain dots: "cend.ux"). */
-static double jnum(json_t *j, const char *k1, const char *k2, const char *k3)
-{
-  const char *k[3] = {k1, k2, k3};
-  int i;
-  for (i = 0; i < 3 && k[i] && j; i++) j = json_object_get(j, k[i]);
-  return j && json_is_number(j) ? json_number_value(j) : NAN;
-}
-
-typedef struct {
   json_t *summary;
-  table hist;
+  tl_table hist;
 } run;
 
 static void run_free(run *R)
 {
   json_decref(R->summary);
-  table_free(&R->hist);
+  tl_table_free(&R->hist);
 }
 
 /* Run cases/<name> with a back end, the lines of its ci.set when ci is set, then the overrides;
    the summary and the history come back (0 on success). */
 static int run_case(const char *name, const char *solver, int ci, const char *const *over, int nover, run *R)
 {
-  char path[4096], out[512], cibuf[16][256], file[4400];
+  char path[4096], out[512], cibuf[16][256], file[4400], who[600];
   const char *sets[32];
-  const char *src = getenv("MOREAU_SRCDIR");
-  mo_ctx ctx;
-  mo_run_options o;
-  mo_run_result res;
-  json_error_t err;
   int nset = 0, k, st;
   memset(R, 0, sizeof *R);
-  mo_ctx_init(&ctx);
-  ctx.verbosity = 0;
-  snprintf(path, sizeof path, "%s/cases/%s", src ? src : "..", name);
+  tl_case_path(path, sizeof path, name);
   if (ci) {
     FILE *f;
     snprintf(file, sizeof file, "%s/ci.set", path);
@@ -133,44 +52,27 @@ static int run_case(const char *name, const char *solver, int ci, const char *co
   }
   for (k = 0; k < nover && nset < 32; k++) sets[nset++] = over[k];
   snprintf(out, sizeof out, "tests/out/scenes-%s-%s-%ld", name, solver, (long)getpid());
-  memset(&o, 0, sizeof o);
-  o.case_path = path;
-  o.solver = solver;
-  o.sets = sets;
-  o.nset = nset;
-  o.outdir = out;
-  st = mo_run(&o, &res, &ctx);
-  if (st) diag("%s with %s: %s", name, solver, ctx.errmsg);
-  snprintf(file, sizeof file, "%s/summary.json", out);
-  if (!st && !(R->summary = json_load_file(file, 0, &err))) st = -1;
+  snprintf(who, sizeof who, "%s with %s", name, solver);
+  st = tl_run(path, solver, sets, nset, out, who, NULL);
+  if (!st && !(R->summary = tl_summary(out))) st = -1;
   snprintf(file, sizeof file, "%s/history.csv", out);
-  if (!st && table_read(file, &R->hist)) st = -1;
-  {
-    /* the run's folder: history, summary, contact table and VTK frames */
-    DIR *d = opendir(out);
-    struct dirent *e;
-    while (d && (e = readdir(d)))
-      if (e->d_name[0] != '.') {
-        snprintf(file, sizeof file, "%s/%s", out, e->d_name);
-        unlink(file);
-      }
-    if (d) closedir(d);
-    rmdir(out);
-  }
+  if (!st && tl_table_read(file, &R->hist)) st = -1;
+  /* the run's folder: history, summary, contact table and VTK frames */
+  tl_remove_dir(out);
   return st;
 }
 
 /* The largest rise of energy.ratio (E(t)/E0, external work included) from one history row to
    the next, and the largest E(t)/E0 - 1. */
-static void energy_rises(const table *T, double *step_rise, double *growth)
+static void energy_rises(const tl_table *T, double *step_rise, double *growth)
 {
-  int c = column(T, "energy.ratio"), i;
+  int c = tl_col(T, "energy.ratio"), i;
   *step_rise = -INFINITY;
   *growth = -INFINITY;
   for (i = 0; i < T->nrow; i++) {
-    double r = cell(T, i, c);
+    double r = tl_num(T, i, c);
     if (r - 1 > *growth || isnan(r)) *growth = r - 1;
-    if (i && (r - cell(T, i - 1, c) > *step_rise || isnan(r))) *step_rise = r - cell(T, i - 1, c);
+    if (i && (r - tl_num(T, i - 1, c) > *step_rise || isnan(r))) *step_rise = r - tl_num(T, i - 1, c);
   }
 }
 
@@ -200,21 +102,21 @@ static void test_theta1_energy(void)
         continue;
       }
       energy_rises(&R.hist, &rise, &growth);
-      sgrowth = jnum(R.summary, "energy", "max_growth", NULL);
+      sgrowth = tl_jnum(R.summary, "energy", "max_growth", NULL);
       if (!newmark)
         /* theta = 1 dissipates the elastic energy (T3) and a velocity-level contact impulse does
            no positive work (r_n >= 0, U+_n = 0 or r_n = 0): E_k+1 <= E_k to round-off */
         ok(rise <= 1e-12 && sgrowth <= 1e-12 && fabs(sgrowth - growth) <= 1e-12,
            "%s, %s, theta = 1: the energy never rises from one step to the next (largest rise %.2e E0 over %d "
            "steps; summary max_growth %.2e, E(T)/E0 %.4f)",
-           scenes[s].name, backends[b], rise, R.hist.nrow - 1, sgrowth, jnum(R.summary, "energy", "ratio", NULL));
+           scenes[s].name, backends[b], rise, R.hist.nrow - 1, sgrowth, tl_jnum(R.summary, "energy", "ratio", NULL));
       else {
         /* Newmark (beta, gamma) with gamma > 1/2: no theorem with contact (the multipliers act on
            displacements and a release may give energy back: bar-obstacle on 25 elements with
            h = 0.02 gains 4.3 %); on these three scenes at these sizes it stays below E0 */
         ok(sgrowth <= 1e-12 && growth <= 1e-12,
            "%s, newmark: E(t) <= E0 at every step (summary max_growth %.2e, E(T)/E0 %.4f)", scenes[s].name, sgrowth,
-           jnum(R.summary, "energy", "ratio", NULL));
+           tl_jnum(R.summary, "energy", "ratio", NULL));
         diag("%s, newmark: largest rise from one step to the next %.2e E0", scenes[s].name, rise);
       }
       run_free(&R);
@@ -242,16 +144,16 @@ static void test_rods_oscillation(void)
       continue;
     }
     good[b] = 1;
-    osc[b] = jnum(R.summary, "metrics", "contact", "oscillation_index");
-    vn[b] = jnum(R.summary, "metrics", "contact", "max_vn_in_contact");
-    vscale[b] = jnum(R.summary, "metrics", "contact", "velocity_scale");
+    osc[b] = tl_jnum(R.summary, "metrics", "contact", "oscillation_index", NULL);
+    vn[b] = tl_jnum(R.summary, "metrics", "contact", "max_vn_in_contact", NULL);
+    vscale[b] = tl_jnum(R.summary, "metrics", "contact", "velocity_scale", NULL);
     /* independently of the metrics: the contact-end velocity in the history, from the step
        after the landing to 5 us before the exact release (the theta = 1 unloading wave
        arrives early, smeared), counting its sign changes above 1e-3 v0 */
-    cv = column(&R.hist, "cend.vx");
+    cv = tl_col(&R.hist, "cend.vx");
     signs[b] = 0;
     for (i = 0; i < R.hist.nrow; i++) {
-      double t = cell(&R.hist, i, 0), v = cell(&R.hist, i, cv);
+      double t = tl_num(&R.hist, i, 0), v = tl_num(&R.hist, i, cv);
       if (t < t0 + 3e-6 || t > t1 - 5e-6) continue;
       if (fabs(v) > vmax) vmax = fabs(v);
       if (fabs(v) > 1e-3 * v0) {
@@ -304,8 +206,8 @@ static void test_bouncing_bar(void)
       continue;
     }
     /* relative to the exact energy m g h = 1000 (the reference block) */
-    E[b] = jnum(R.summary, "energy", "ratio_mechanical", NULL);
-    growth[b] = jnum(R.summary, "energy", "max_growth", NULL);
+    E[b] = tl_jnum(R.summary, "energy", "ratio_mechanical", NULL);
+    growth[b] = tl_jnum(R.summary, "energy", "max_growth", NULL);
     a = json_object_get(json_object_get(json_object_get(R.summary, "metrics"), "contact"), "energy_after_impacts");
     first[b] = json_is_array(a) && json_array_size(a) ? json_number_value(json_array_get(a, 0)) : NAN;
     impacts[b] = json_integer_value(json_object_get(json_object_get(json_object_get(R.summary, "metrics"), "contact"),
@@ -344,8 +246,8 @@ static void test_growth_every_step(void)
   if (st) {
     ok(0, "bouncing-bar with newmark runs (one period)");
   } else {
-    g10 = jnum(A.summary, "energy", "max_growth", NULL);
-    g1 = jnum(B.summary, "energy", "max_growth", NULL);
+    g10 = tl_jnum(A.summary, "energy", "max_growth", NULL);
+    g1 = tl_jnum(B.summary, "energy", "max_growth", NULL);
     energy_rises(&B.hist, &rise, &hist);
     ok(g10 == g1 && fabs(g1 - hist) <= 1e-8 && g1 > 1e-6, /* the history holds 10 digits */
        "energy.max_growth measured at every step: %.6e with rows every 10 steps, %.6e every step, %.6e from the full "

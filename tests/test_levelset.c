@@ -5,7 +5,7 @@
    step of 2D and 3D frictional runs, status cycling, and allocation failures. */
 #include "config.h"
 #include <moreau/moreau.h>
-#include "tap.h"
+#include "testlib.h"
 
 /* --- running a scene step by step ---------------------------------------------------------------- */
 
@@ -297,20 +297,12 @@ static void greco_result_free(greco_result *G)
   G->W = G->q = G->mu = NULL;
 }
 
-static double max_abs(const double *x, int n)
-{
-  double m = 0;
-  int i;
-  for (i = 0; i < n; i++) if (fabs(x[i]) > m) m = fabs(x[i]);
-  return m;
-}
-
 /* Coulomb and Signorini of a quasi-static solution (U' = end gap, slip increment). */
 static void greco_laws(const char *who, const greco_result *G, double mu)
 {
   int a, lam_ok = 1, slide_ok = 1, stick_ok = 1, sig_ok = 1, nslide = 0, nstick = 0;
   /* U' scale: the free motion |q| (U' itself vanishes where everything sticks) */
-  double rmax = max_abs(G->r, 2 * G->nc), umax = max_abs(G->q, 2 * G->nc);
+  double rmax = maxabs(G->r, 2 * G->nc), umax = maxabs(G->q, 2 * G->nc);
   for (a = 0; a < G->nc; a++) {
     const double *r = G->r + 2 * a, *U = G->U + 2 * a;
     if (r[0] < 0 || U[0] < -1e-12 * umax || fabs(r[0] * U[0]) > 1e-12 * rmax * umax) sig_ok = 0;
@@ -382,15 +374,15 @@ static void test_greco(void)
       for (a = 0; a < nc; a++) same &= X.status[a] == ref.status[a];
       for (i = 0; i < m; i++) if (fabs(X.r[i] - ref.r[i]) > e) e = fabs(X.r[i] - ref.r[i]);
       ok(same, "%s: %s gives the reference's statuses", greco_name[ex], T->name);
-      ok(e <= 1e-6 * max_abs(ref.r, m), "%s: %s reactions agree with the reference to %.1e relative (<= 1e-6)",
-         greco_name[ex], T->name, e / max_abs(ref.r, m));
+      ok(e <= 1e-6 * maxabs(ref.r, m), "%s: %s reactions agree with the reference to %.1e relative (<= 1e-6)",
+         greco_name[ex], T->name, e / maxabs(ref.r, m));
       if (strcmp(T->name, "levelset")) {
         double e2 = 0;
         int same2 = 1;
         for (a = 0; a < nc; a++) same2 &= X.status[a] == L.status[a];
         for (i = 0; i < m; i++) if (fabs(X.r[i] - L.r[i]) > e2) e2 = fabs(X.r[i] - L.r[i]);
-        ok(same2 && e2 <= 1e-6 * max_abs(L.r, m), "%s: %s and levelset: same statuses, reactions to %.1e relative",
-           greco_name[ex], T->name, e2 / max_abs(L.r, m));
+        ok(same2 && e2 <= 1e-6 * maxabs(L.r, m), "%s: %s and levelset: same statuses, reactions to %.1e relative",
+           greco_name[ex], T->name, e2 / maxabs(L.r, m));
       }
       greco_result_free(&X);
     }
@@ -400,8 +392,8 @@ static void test_greco(void)
       int same = 1;
       for (a = 0; a < nc; a++) same &= K.status[a] == L.status[a];
       for (i = 0; i < m; i++) if (fabs(K.r[i] - L.r[i]) > e) e = fabs(K.r[i] - L.r[i]);
-      ok(same && e <= 1e-9 * max_abs(L.r, m), "%s: KKT path (UMFPACK) = Schur path (%.1e relative)", greco_name[ex],
-         e / max_abs(L.r, m));
+      ok(same && e <= 1e-9 * maxabs(L.r, m), "%s: KKT path (UMFPACK) = Schur path (%.1e relative)", greco_name[ex],
+         e / maxabs(L.r, m));
       greco_result_free(&K);
     } else ok(0, "%s: KKT path run", greco_name[ex]);
     /* Jean's published table (1e-3 of each column's largest magnitude, CASES.md §7) */

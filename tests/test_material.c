@@ -3,26 +3,7 @@
    the consistent tangent against finite differences, objectivity, parameter checks. */
 #include "config.h"
 #include <moreau/material.h>
-#include "tap.h"
-
-/* Rotation by angle t about the unit axis n (Rodrigues), row-major. */
-static void rotation(const double *n, double t, double *R)
-{
-  double c = cos(t), s = sin(t), C = 1 - c;
-  R[0] = c + n[0] * n[0] * C;        R[1] = n[0] * n[1] * C - n[2] * s; R[2] = n[0] * n[2] * C + n[1] * s;
-  R[3] = n[1] * n[0] * C + n[2] * s; R[4] = c + n[1] * n[1] * C;        R[5] = n[1] * n[2] * C - n[0] * s;
-  R[6] = n[2] * n[0] * C - n[1] * s; R[7] = n[2] * n[1] * C + n[0] * s; R[8] = c + n[2] * n[2] * C;
-}
-
-static void mul(const double *A, const double *B, double *C)
-{
-  int i, j, k;
-  for (i = 0; i < 3; i++)
-    for (j = 0; j < 3; j++) {
-      C[3 * i + j] = 0;
-      for (k = 0; k < 3; k++) C[3 * i + j] += A[3 * i + k] * B[3 * k + j];
-    }
-}
+#include "testlib.h"
 
 static void transpose(const double *A, double *B)
 {
@@ -35,18 +16,9 @@ static void transpose(const double *A, double *B)
 static void rotated_diag(const double *R, const double *d, double *A)
 {
   double D[9] = {d[0], 0, 0, 0, d[1], 0, 0, 0, d[2]}, T[9], Rt[9];
-  mul(R, D, T);
+  mul3(R, D, T);
   transpose(R, Rt);
-  mul(T, Rt, A);
-}
-
-static double maxabs(const double *a, int n)
-{
-  double m = 0;
-  int i;
-  for (i = 0; i < n; i++)
-    if (fabs(a[i]) > m) m = fabs(a[i]);
-  return m;
+  mul3(T, Rt, A);
 }
 
 /* ---- closed form of the uniaxial Kirchhoff stress - logarithmic strain response ---------- */
@@ -100,8 +72,8 @@ static void test_uniaxial(mo_hypothesis hyp, const char *name)
       st |= mo_j2_update(&mat, F, sn, s, tau, NULL, &ctx);
       /* back to the loading axes: R^T tau R should be diag(tau, 0, 0) */
       transpose(R, Rt);
-      mul(Rt, tau, T);
-      mul(T, R, taur);
+      mul3(Rt, tau, T);
+      mul3(T, R, taur);
       J = exp(eps + 2 * lat);
       err_tau = fmax(err_tau, fabs(taur[4 * ax_i] - u.tau));
       taur[4 * ax_i] = 0;
@@ -320,11 +292,11 @@ static void test_objectivity(void)
   /* superposed rotation on a plastic step: tau(R F) = R tau(F) R^T, same internal variables */
   mo_j2_update(&mat, F, sn, s, tau, NULL, &ctx);
   rotation(ax2, 2.3, R);
-  mul(R, F, RF);
+  mul3(R, F, RF);
   mo_j2_update(&mat, RF, sn, s2, tau2, NULL, &ctx);
   transpose(R, Rt);
-  mul(R, tau, T);
-  mul(T, Rt, ref);
+  mul3(R, tau, T);
+  mul3(T, Rt, ref);
   for (i = 0; i < 9; i++) ref[i] -= tau2[i];
   ok(s[MO_J2_EPSP] > 0.01 && maxabs(ref, 9) < 1e-12 * maxabs(tau, 9) * 10,
      "superposed rotation on a plastic step: tau(RF) = R tau(F) R^T (error %.2e of %.2e Pa)",

@@ -240,20 +240,18 @@ done:
 }
 
 #ifdef HAVE_SICONOS
-/* Siconos' NSGS (fc2d or fc3d) on a dense copy; returns info, fills r, the iterations. */
-static int solve_siconos(int d, int nc, const double *Wrow, const double *q, const double *mu, double tol,
-                         int maxit, double *r, int *iters)
+/* Siconos' NSGS (fc2d or fc3d) on W (the problem takes it over, with copies of q and mu);
+   returns info, fills r, the iterations. */
+static int siconos_nsgs(int d, int nc, NumericsMatrix *W, const double *q, const double *mu, double tol, int maxit,
+                        double *r, int *iters)
 {
-  int m = d * nc, i, j, info;
-  double *A = malloc((size_t)m * m * sizeof *A), *qc = malloc((size_t)m * sizeof *qc), *muc = malloc((size_t)nc * sizeof *muc);
-  double *v = calloc((size_t)m, sizeof *v);
+  int m = d * nc, info;
+  double *qc = malloc((size_t)m * sizeof *qc), *muc = malloc((size_t)nc * sizeof *muc), *v = calloc((size_t)m, sizeof *v);
   FrictionContactProblem *pb;
   SolverOptions *o;
-  for (i = 0; i < m; i++)
-    for (j = 0; j < m; j++) A[(size_t)j * m + i] = Wrow[(size_t)i * m + j];   /* column-major */
   memcpy(qc, q, (size_t)m * sizeof *qc);
   memcpy(muc, mu, (size_t)nc * sizeof *muc);
-  pb = frictionContactProblem_new_with_data(d, nc, NM_create_from_data(NM_DENSE, m, m, A), qc, muc);
+  pb = frictionContactProblem_new_with_data(d, nc, W, qc, muc);
   o = solver_options_create(d == 2 ? SICONOS_FRICTION_2D_NSGS : SICONOS_FRICTION_3D_NSGS);
   o->iparam[SICONOS_IPARAM_MAX_ITER] = maxit;
   o->dparam[SICONOS_DPARAM_TOL] = tol;
@@ -266,17 +264,25 @@ static int solve_siconos(int d, int nc, const double *Wrow, const double *q, con
   return info;
 }
 
+/* NSGS on a dense copy of the row-major W. */
+static int solve_siconos(int d, int nc, const double *Wrow, const double *q, const double *mu, double tol,
+                         int maxit, double *r, int *iters)
+{
+  int m = d * nc, i, j;
+  double *A = malloc((size_t)m * m * sizeof *A);
+  for (i = 0; i < m; i++)
+    for (j = 0; j < m; j++) A[(size_t)j * m + i] = Wrow[(size_t)i * m + j];   /* column-major */
+  return siconos_nsgs(d, nc, NM_create_from_data(NM_DENSE, m, m, A), q, mu, tol, maxit, r, iters);
+}
+
 /* The same on Siconos' sparse-block storage, from a compressed-column W. */
 static int solve_siconos_csc(int d, int nc, const mo_csc *W, const double *q, const double *mu, double tol,
                              int maxit, double *r, int *iters)
 {
-  int m = d * nc, j, info, nnz = W->p[m];
-  double *qc = malloc((size_t)m * sizeof *qc), *muc = malloc((size_t)nc * sizeof *muc), *v = calloc((size_t)m, sizeof *v);
+  int m = d * nc, j, nnz = W->p[m];
   long *Ap = malloc(((size_t)m + 1) * sizeof *Ap), *Ai = malloc(((size_t)nnz + 1) * sizeof *Ai);
   cs_dl A;
   SparseBlockStructuredMatrix *S = SBM_new();
-  FrictionContactProblem *pb;
-  SolverOptions *o;
   for (j = 0; j <= m; j++) Ap[j] = W->p[j];
   for (j = 0; j < nnz; j++) Ai[j] = W->i[j];
   A.nzmax = nnz;
@@ -288,19 +294,7 @@ static int solve_siconos_csc(int d, int nc, const mo_csc *W, const double *q, co
   SBM_from_csparse(d, (const CSparseMatrix *)&A, S);
   free(Ap);
   free(Ai);
-  memcpy(qc, q, (size_t)m * sizeof *qc);
-  memcpy(muc, mu, (size_t)nc * sizeof *muc);
-  pb = frictionContactProblem_new_with_data(d, nc, NM_create_from_data(NM_SPARSE_BLOCK, m, m, S), qc, muc);
-  o = solver_options_create(d == 2 ? SICONOS_FRICTION_2D_NSGS : SICONOS_FRICTION_3D_NSGS);
-  o->iparam[SICONOS_IPARAM_MAX_ITER] = maxit;
-  o->dparam[SICONOS_DPARAM_TOL] = tol;
-  memset(r, 0, (size_t)m * sizeof *r);
-  info = d == 2 ? fc2d_driver(pb, r, v, o) : fc3d_driver(pb, r, v, o);
-  *iters = o->iparam[SICONOS_IPARAM_ITER_DONE];
-  solver_options_delete(o);
-  frictionContactProblem_free(pb);
-  free(v);
-  return info;
+  return siconos_nsgs(d, nc, NM_create_from_data(NM_SPARSE_BLOCK, m, m, S), q, mu, tol, maxit, r, iters);
 }
 #endif
 

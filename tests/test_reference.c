@@ -4,7 +4,7 @@
    cases. */
 #include "config.h"
 #include <moreau/moreau.h>
-#include "tap.h"
+#include "testlib.h"
 
 /* The closed form at (x, t): one call per value, so that no ok(...) both calls and prints. */
 static double ref_u(const mo_reference *R, double x, double t)
@@ -77,9 +77,8 @@ static int case_reference(const char *name, mo_reference *R)
   mo_case *cs = NULL;
   mo_scene *sc = NULL;
   int st;
-  const char *src = getenv("MOREAU_SRCDIR");
   mo_ctx_init(&ctx);
-  snprintf(path, sizeof path, "%s/cases/%s", src ? src : "..", name);
+  tl_case_path(path, sizeof path, name);
   st = mo_case_load(path, &cs, &ctx);
   if (!st) st = mo_case_validate(cs, &ctx);
   if (!st) st = mo_scene_build(cs, &sc, &ctx);
@@ -104,9 +103,7 @@ static int build_reference(const char *block, mo_reference *R, char *msg, size_t
            "  material = { E = 1.0; rho = 1.0; area = 1.0; }; fix = ( { set = \"left\"; } ); } );\n"
            "time = { scheme = \"theta\"; dt = 0.1; end = 1.0; };\n%s\n",
            block);
-  st = mo_case_load_string(text, "ref.cfg", &cs, &ctx);
-  if (!st) st = mo_case_validate(cs, &ctx);
-  if (!st) st = mo_scene_build(cs, &sc, &ctx);
+  st = tl_scene(text, "ref.cfg", &cs, &sc, &ctx);
   if (!st) *R = sc->ref;
   snprintf(msg, n, "%s", st ? ctx.errmsg : "");
   mo_scene_free(sc);

@@ -5,50 +5,25 @@
    factorization). */
 #include "config.h"
 #include <moreau/moreau.h>
-#include <jansson.h>
 #include <sys/stat.h>
 #include <unistd.h>
-#include "tap.h"
+#include "testlib.h"
 #include "taylor_explicit.h"
-
-static char srcdir[2048];
 
 /* Run cases/<name> with the given overrides into tests/out/taylor-<tag>; the summary in *sum
    (NULL when the run did not write it). Returns the run's status. */
 static int run_case(const char *name, const char *tag, const char *const *sets, int nset, json_t **sum,
                     double *wall)
 {
-  char path[2300], outdir[512], spath[600];
-  mo_run_options o;
+  char path[2300], outdir[512];
   mo_run_result res;
-  mo_ctx ctx;
-  json_error_t err;
   int st;
-  mo_ctx_init(&ctx);
-  ctx.verbosity = 0;
-  snprintf(path, sizeof path, "%s/cases/%s", srcdir, name);
+  tl_case_path(path, sizeof path, name);
   snprintf(outdir, sizeof outdir, "tests/out/taylor-%s-%ld", tag, (long)getpid());
-  memset(&o, 0, sizeof o);
-  o.case_path = path;
-  o.sets = sets;
-  o.nset = nset;
-  o.outdir = outdir;
-  st = mo_run(&o, &res, &ctx);
-  if (st) diag("%s: %s", tag, ctx.errmsg);
+  st = tl_run(path, NULL, sets, nset, outdir, tag, &res);
   if (wall) *wall = res.wall;
-  snprintf(spath, sizeof spath, "%s/summary.json", outdir);
-  *sum = json_load_file(spath, 0, &err);
+  *sum = tl_summary(outdir);
   return st;
-}
-
-/* A number of the summary by path "a.b.c" (NaN when absent). */
-static double jnum(json_t *root, const char *path)
-{
-  char buf[256], *tok, *save = NULL;
-  json_t *j = root;
-  snprintf(buf, sizeof buf, "%s", path);
-  for (tok = strtok_r(buf, ".", &save); tok && j; tok = strtok_r(NULL, ".", &save)) j = json_object_get(j, tok);
-  return j && json_is_number(j) ? json_number_value(j) : NAN;
 }
 
 static const char *jstr(json_t *root, const char *key)
@@ -80,15 +55,15 @@ static void test_axisymmetric(void)
     s2[0] = sets[0]; s2[1] = sets[1]; s2[2] = sets[2]; s2[3] = solver;
     st = run_case("taylor-axisymmetric", solvers[k], s2, 4, &sum, &w);
     ok(st == 0 && !strcmp(jstr(sum, "status"), "complete"), "axisymmetric Taylor bar, %s: 400 steps in %.1f s "
-       "(%.2f Newton iterations per step, %.0f halved)", solvers[k], w, jnum(sum, "newton.iterations_mean"),
-       jnum(sum, "newton.damped"));
-    L[k] = jnum(sum, "metrics.extents.bar.ymax");
-    R[k] = jnum(sum, "metrics.extents.face.xmax");
-    ep = jnum(sum, "metrics.plasticity.bar.max_eps_p");
-    bal = jnum(sum, "energy.balance_relative");
-    wp = jnum(sum, "energy.plastic");
-    wc = jnum(sum, "energy.contact_work");
-    e0 = jnum(sum, "energy.initial");
+       "(%.2f Newton iterations per step, %.0f halved)", solvers[k], w,
+       tl_jnum(sum, "newton", "iterations_mean", NULL), tl_jnum(sum, "newton", "damped", NULL));
+    L[k] = tl_jnum(sum, "metrics", "extents", "bar", "ymax", NULL);
+    R[k] = tl_jnum(sum, "metrics", "extents", "face", "xmax", NULL);
+    ep = tl_jnum(sum, "metrics", "plasticity", "bar", "max_eps_p", NULL);
+    bal = tl_jnum(sum, "energy", "balance_relative", NULL);
+    wp = tl_jnum(sum, "energy", "plastic", NULL);
+    wc = tl_jnum(sum, "energy", "contact_work", NULL);
+    e0 = tl_jnum(sum, "energy", "initial", NULL);
     ok(fabs(L[k] - 21.45e-3) <= 0.02 * 21.45e-3, "%s: final length %.4f mm within 2%% of 21.45 mm", solvers[k], 1e3 * L[k]);
     ok(fabs(R[k] - 7.15e-3) <= 0.03 * 7.15e-3, "%s: footprint radius %.4f mm within 3%% of 7.15 mm", solvers[k], 1e3 * R[k]);
     if (k == 2) {
@@ -126,9 +101,9 @@ static void test_plane_strain_convergence(void)
     json_t *sum = NULL;
     snprintf(tag, sizeof tag, "ps%d", k);
     good &= run_case("taylor-plane-strain", tag, sets, 4, &sum, &w[k]) == 0;
-    L[k] = jnum(sum, "metrics.extents.rod.ymax");
-    R[k] = jnum(sum, "metrics.extents.face.xmax");
-    E[k] = jnum(sum, "metrics.plasticity.rod.max_eps_p");
+    L[k] = tl_jnum(sum, "metrics", "extents", "rod", "ymax", NULL);
+    R[k] = tl_jnum(sum, "metrics", "extents", "face", "xmax", NULL);
+    E[k] = tl_jnum(sum, "metrics", "plasticity", "rod", "max_eps_p", NULL);
     total += w[k];
     json_decref(sum);
   }
@@ -171,9 +146,7 @@ static void test_newton_quadratic(void)
   size_t len = 0;
   mo_ctx_init(&ctx);
   memset(&s, 0, sizeof s);
-  st = mo_case_load_string(smooth, "smooth.cfg", &cs, &ctx);
-  if (!st) st = mo_case_validate(cs, &ctx);
-  if (!st) st = mo_scene_build(cs, &sc, &ctx);
+  st = tl_scene(smooth, "smooth.cfg", &cs, &sc, &ctx);
   if (!st) st = mo_stepper_create(sc, &S, &ctx);
   if (!st) st = mo_state_alloc(sc, &s, &ctx);
   if (!st) st = mo_stepper_init_state(S, &s, &ctx);
@@ -224,9 +197,7 @@ static void test_quasistatic(void)
   double err = 0, F = 0, Fx = 0, its = 0;
   mo_ctx_init(&ctx);
   memset(&s, 0, sizeof s);
-  st = mo_case_load_string(column, "column.cfg", &cs, &ctx);
-  if (!st) st = mo_case_validate(cs, &ctx);
-  if (!st) st = mo_scene_build(cs, &sc, &ctx);
+  st = tl_scene(column, "column.cfg", &cs, &sc, &ctx);
   if (!st) st = mo_stepper_create(sc, &S, &ctx);
   if (!st) st = mo_state_alloc(sc, &s, &ctx);
   if (!st) st = mo_stepper_init_state(S, &s, &ctx);
@@ -290,19 +261,18 @@ static void test_linear_unchanged(void)
   json_t *sum = NULL;
   long at = 0;
   int st = run_case("rods-1d", "rods", sets, 2, &sum, NULL);
-  snprintf(ref, sizeof ref, "%s/tests/ref/rods-1d-history.csv", srcdir);
+  snprintf(ref, sizeof ref, "%s/tests/ref/rods-1d-history.csv", tl_srcdir());
   snprintf(out, sizeof out, "tests/out/taylor-rods-%ld/history.csv", (long)getpid());
   ok(st == 0 && file_equal(ref, out, &at), "rods-1d (linear): history.csv at 17 digits is the one of the "
      "linear stepper before Newton (first difference at byte %ld)", at);
-  ok(jnum(sum, "linear_solver.factorizations") == 1 && !json_object_get(sum, "newton"),
-     "rods-1d: one factorization for the run, no Newton (%g factorizations)", jnum(sum, "linear_solver.factorizations"));
+  ok(tl_jnum(sum, "linear_solver", "factorizations", NULL) == 1 && !json_object_get(sum, "newton"),
+     "rods-1d: one factorization for the run, no Newton (%g factorizations)",
+     tl_jnum(sum, "linear_solver", "factorizations", NULL));
   json_decref(sum);
 }
 
 int main(void)
 {
-  const char *src = getenv("MOREAU_SRCDIR");
-  snprintf(srcdir, sizeof srcdir, "%s", src ? src : "..");
   mkdir("tests/out", 0777);
   test_newton_quadratic();
   test_quasistatic();
