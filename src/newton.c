@@ -45,22 +45,11 @@ static int csc_find(const mo_csc *W, int row, int col)
   return -1;
 }
 
-/* What = cm M + ck K_t for the scheme and the current step h. */
-static void coefficients(mo_stepper *S)
-{
-  switch (S->scheme) {
-  case MO_SCHEME_THETA: S->cm = 1; S->ck = S->h * S->h * S->theta * S->theta_f; break;
-  case MO_SCHEME_NEWMARK: S->cm = 1; S->ck = S->beta * S->h * S->h; break;
-  case MO_SCHEME_QUASISTATIC: S->cm = 0; S->ck = 1; break;
-  }
-}
-
 int mo_newton_set_dt(mo_stepper *S, mo_ctx *ctx)
 {
   const mo_scene *sc = S->sc;
   mo_csc *L = NULL;
   int j, p, st;
-  coefficients(S);
   if (S->scheme == MO_SCHEME_QUASISTATIC) return MO_OK;
   /* Wlin = cm M + ck K (the linear bodies) scattered onto W's pattern, which holds it */
   if ((st = mo_csc_add(sc->M, sc->K, S->cm, S->ck, &L, ctx))) return st;
@@ -95,7 +84,6 @@ int mo_newton_setup(mo_stepper *S, mo_ctx *ctx)
   double one[ND_MAX * ND_MAX];
   memset(&T, 0, sizeof T);
   S->nl = 1;
-  coefficients(S);
   for (b = 0; b < sc->nbody; b++)
     if (sc->body[b].nl) {
       size_t nd = (size_t)sc->body[b].mesh->nen * (size_t)D;

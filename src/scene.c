@@ -304,16 +304,12 @@ static int build_material(const mo_case *cs, const config_setting_t *g, const mo
   if ((dim != 2 || mat->hyp == MO_HYP_AXISYMMETRIC) && mo_cfg_member(g, "thickness"))
     return mo_case_error(cs, mo_cfg_member(g, "thickness"), ctx,
                          "only plane strain and plane stress bodies take a thickness");
-  if (!strcmp(model, "elastic")) {
+  if (mat->model == MO_MAT_ELASTIC) { /* elastic or hencky */
     const config_setting_t *s = mo_cfg_member(g, "sigma_y") ? mo_cfg_member(g, "sigma_y") : mo_cfg_member(g, "Et");
     if (s) return mo_case_error(cs, s, ctx, "only material model 'j2' takes '%s'", config_setting_name(s));
-    return MO_OK;
   }
+  if (!strcmp(model, "elastic")) return MO_OK;
   /* finite strains: hencky (hyperelastic) or j2 (doc/theory.md §7) */
-  if (mat->model == MO_MAT_ELASTIC && mo_cfg_member(g, "sigma_y"))
-    return mo_case_error(cs, mo_cfg_member(g, "sigma_y"), ctx, "only material model 'j2' takes 'sigma_y'");
-  if (mat->model == MO_MAT_ELASTIC && mo_cfg_member(g, "Et"))
-    return mo_case_error(cs, mo_cfg_member(g, "Et"), ctx, "only material model 'j2' takes 'Et'");
   if (mat->hyp == MO_HYP_BAR || mat->hyp == MO_HYP_PLANE_STRESS)
     return mo_case_error(cs, mat->hyp == MO_HYP_BAR || !h ? mk : h, ctx,
                          "material model '%s' (finite strains) needs plane strain, axisymmetry or 3D, "
@@ -769,18 +765,35 @@ static int build_time(mo_scene *sc, const mo_case *cs, mo_ctx *ctx)
   return MO_OK;
 }
 
+/* The deformable body an output item (extent, probe) observes: its 'body', or the first
+   deformable body; `what` is the error for a body of another kind. */
+static int observed_body(const mo_scene *sc, const mo_case *cs, const config_setting_t *g,
+                         const char *what, int *out, mo_ctx *ctx)
+{
+  const char *bname = mo_cfg_string(g, "body", NULL);
+  int b;
+  if (bname) {
+    b = mo_scene_body_index(sc, bname);
+    if (b < 0) return mo_case_error(cs, mo_cfg_member(g, "body"), ctx, "no body named '%s'", bname);
+  } else
+    for (b = 0; b < sc->nbody && sc->body[b].kind != MO_BODY_DEFORMABLE; b++) {}
+  if (b >= sc->nbody || sc->body[b].kind != MO_BODY_DEFORMABLE) return mo_case_error(cs, g, ctx, "%s", what);
+  *out = b;
+  return MO_OK;
+}
+
 /* output.extents: node sets whose bounding box in the current configuration the summary
    reports (e.g. the length and footprint of a Taylor bar). */
 static int build_extents(mo_scene *sc, const mo_case *cs, const config_setting_t *el, mo_ctx *ctx)
 {
-  int i, k, n = el ? config_setting_length(el) : 0;
+  int i, k, st, n = el ? config_setting_length(el) : 0;
   if (!n) return MO_OK;
   sc->out.extent = mo_calloc(ctx, (size_t)n, sizeof *sc->out.extent);
   if (!sc->out.extent) return MO_ENOMEM;
   for (i = 0; i < n; i++) {
     const config_setting_t *g = config_setting_get_elem(el, (unsigned)i);
     mo_extent *X = &sc->out.extent[sc->out.nextent];
-    const char *bname = mo_cfg_string(g, "body", NULL), *set = mo_cfg_string(g, "set", "all");
+    const char *set = mo_cfg_string(g, "set", "all");
     int b = 0;
     X->name = mo_strdup(ctx, mo_cfg_string(g, "name", "extent"));
     if (!X->name) return MO_ENOMEM;
@@ -790,13 +803,7 @@ static int build_extents(mo_scene *sc, const mo_case *cs, const config_setting_t
         return mo_case_error(cs, mo_cfg_member(g, "name"), ctx, "extent name '%s' is used twice", X->name);
     if (strchr(X->name, '.') || strchr(X->name, ',') || strchr(X->name, '"'))
       return mo_case_error(cs, mo_cfg_member(g, "name"), ctx, "an extent name must not contain '.', ',' or '\"'");
-    if (bname) {
-      b = mo_scene_body_index(sc, bname);
-      if (b < 0) return mo_case_error(cs, mo_cfg_member(g, "body"), ctx, "no body named '%s'", bname);
-    } else
-      for (b = 0; b < sc->nbody && sc->body[b].kind != MO_BODY_DEFORMABLE; b++) {}
-    if (b >= sc->nbody || sc->body[b].kind != MO_BODY_DEFORMABLE)
-      return mo_case_error(cs, g, ctx, "an extent measures a deformable body");
+    if ((st = observed_body(sc, cs, g, "an extent measures a deformable body", &b, ctx))) return st;
     X->body = b;
     if (mo_mesh_nodeset_resolve(sc->body[b].mesh, set, &X->node, &X->nnode, ctx))
       return relocate(cs, mo_cfg_member(g, "set") ? mo_cfg_member(g, "set") : g, ctx);
@@ -835,7 +842,6 @@ static int build_output(mo_scene *sc, const mo_case *cs, mo_ctx *ctx)
   for (i = 0; i < config_setting_length(pl); i++) {
     const config_setting_t *pg = config_setting_get_elem(pl, (unsigned)i);
     mo_probe *P = &sc->probe[sc->nprobe];
-    const char *bname = mo_cfg_string(pg, "body", NULL);
     int b = 0, nsel = (mo_cfg_member(pg, "set") != NULL) + (mo_cfg_member(pg, "point") != NULL) +
                       (mo_cfg_member(pg, "node") != NULL);
     mo_mesh *m;
@@ -847,13 +853,7 @@ static int build_output(mo_scene *sc, const mo_case *cs, mo_ctx *ctx)
         return mo_case_error(cs, mo_cfg_member(pg, "name"), ctx, "probe name '%s' is used twice", P->name);
     if (strchr(P->name, '.') || strchr(P->name, ',') || strchr(P->name, '"'))
       return mo_case_error(cs, mo_cfg_member(pg, "name"), ctx, "a probe name must not contain '.', ',' or '\"'");
-    if (bname) {
-      b = mo_scene_body_index(sc, bname);
-      if (b < 0) return mo_case_error(cs, mo_cfg_member(pg, "body"), ctx, "no body named '%s'", bname);
-    } else
-      for (b = 0; b < sc->nbody && sc->body[b].kind != MO_BODY_DEFORMABLE; b++) {}
-    if (b >= sc->nbody || sc->body[b].kind != MO_BODY_DEFORMABLE)
-      return mo_case_error(cs, pg, ctx, "a probe observes a deformable body");
+    if ((st = observed_body(sc, cs, pg, "a probe observes a deformable body", &b, ctx))) return st;
     P->body = b;
     m = sc->body[b].mesh;
     if (nsel != 1) return mo_case_error(cs, pg, ctx, "give exactly one of 'set', 'point' or 'node'");

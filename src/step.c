@@ -137,12 +137,41 @@ static int create_nonlinear(mo_stepper *S, mo_ctx *ctx)
   return MO_OK;
 }
 
+/* What = cm M + ck K (K_t for nonlinear scenes) for the scheme and the current step h. */
+static void coefficients(mo_stepper *S)
+{
+  switch (S->scheme) {
+  case MO_SCHEME_THETA: S->cm = 1; S->ck = S->h * S->h * S->theta * S->theta_f; break;
+  case MO_SCHEME_NEWMARK: S->cm = 1; S->ck = S->beta * S->h * S->h; break;
+  case MO_SCHEME_QUASISTATIC: S->cm = 0; S->ck = 1; break;
+  }
+}
+
+/* A linear scene's iteration matrix for the current h: M + c K (K when quasi-static) over full
+   dofs, and its free-free restriction. */
+static int linear_matrix(const mo_stepper *S, mo_csc **Wf, mo_csc **W, mo_ctx *ctx)
+{
+  const mo_scene *sc = S->sc;
+  double t0 = mo_clock();
+  int st;
+  *Wf = *W = NULL;
+  if (S->scheme == MO_SCHEME_QUASISTATIC) st = mo_csc_copy(sc->K, Wf, ctx);
+  else st = mo_csc_add(sc->M, sc->K, S->cm, S->ck, Wf, ctx);
+  if (!st) st = mo_csc_extract(*Wf, sc->free_of, sc->nfree, sc->free_of, sc->nfree, W, ctx);
+  mo_phase_add(ctx, MO_PH_ASSEMBLY, t0);
+  if (st) {
+    mo_csc_free(*Wf);
+    *Wf = NULL;
+  }
+  return st;
+}
+
 int mo_stepper_create(const mo_scene *sc, mo_stepper **out, mo_ctx *ctx)
 {
   mo_stepper *S;
   mo_csc *Wf = NULL;
   int st, n = sc->ndof;
-  double c = 0, t0;
+  double t0;
   *out = NULL;
   S = mo_calloc(ctx, 1, sizeof *S);
   if (!S) return MO_ENOMEM;
@@ -153,6 +182,7 @@ int mo_stepper_create(const mo_scene *sc, mo_stepper **out, mo_ctx *ctx)
   S->theta_f = sc->time.theta_f;
   S->beta = sc->time.beta;
   S->gamma = sc->time.gamma;
+  coefficients(S);
   S->rhs = mo_calloc(ctx, (size_t)(sc->nfree ? sc->nfree : 1), sizeof(double));
   S->xf = mo_calloc(ctx, (size_t)(sc->nfree ? sc->nfree : 1), sizeof(double));
   S->w1 = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
@@ -174,19 +204,7 @@ int mo_stepper_create(const mo_scene *sc, mo_stepper **out, mo_ctx *ctx)
     return MO_OK;
   }
   mo_note_skip(ctx, "Newton iterations and refactorizations (every material is linear)");
-  t0 = mo_clock();
-  switch (S->scheme) {
-  case MO_SCHEME_THETA: c = S->h * S->h * S->theta * S->theta_f; break;
-  case MO_SCHEME_NEWMARK: c = S->beta * S->h * S->h; break;
-  case MO_SCHEME_QUASISTATIC: c = 1; break;
-  }
-  if (S->scheme == MO_SCHEME_QUASISTATIC) st = mo_csc_copy(sc->K, &Wf, ctx);
-  else st = mo_csc_add(sc->M, sc->K, 1, c, &Wf, ctx);
-  if (!st)
-    st = mo_csc_extract(Wf, sc->free_of, sc->nfree, sc->free_of, sc->nfree, &S->W, ctx);
-  mo_phase_add(ctx, MO_PH_ASSEMBLY, t0);
-  if (st) {
-    mo_csc_free(Wf);
+  if ((st = linear_matrix(S, &Wf, &S->W, ctx))) {
     mo_stepper_free(S);
     return st;
   }
@@ -241,25 +259,17 @@ int mo_stepper_restart(mo_stepper *S, const mo_state *s, mo_ctx *ctx)
 
 int mo_stepper_set_dt(mo_stepper *S, double h, mo_ctx *ctx)
 {
-  const mo_scene *sc = S->sc;
   mo_csc *Wf = NULL, *W = NULL;
-  double c, t0;
+  double t0;
   int st;
   if (h == S->h) return MO_OK;
   if (!(h > 0) || !isfinite(h)) return mo_error(ctx, MO_EINTERNAL, "step change to h = %g", h);
   S->h = h;
+  coefficients(S);
   if (S->nl) return mo_newton_set_dt(S, ctx);
   if (S->scheme == MO_SCHEME_QUASISTATIC) return MO_OK; /* K does not depend on the load step */
   /* What = M + c K for the new h, on the same pattern: the factorization keeps its analysis */
-  t0 = mo_clock();
-  c = S->scheme == MO_SCHEME_THETA ? h * h * S->theta * S->theta_f : S->beta * h * h;
-  st = mo_csc_add(sc->M, sc->K, 1, c, &Wf, ctx);
-  if (!st) st = mo_csc_extract(Wf, sc->free_of, sc->nfree, sc->free_of, sc->nfree, &W, ctx);
-  mo_phase_add(ctx, MO_PH_ASSEMBLY, t0);
-  if (st) {
-    mo_csc_free(Wf);
-    return st;
-  }
+  if ((st = linear_matrix(S, &Wf, &W, ctx))) return st;
   mo_csc_free(S->W);
   S->W = W;
   if (S->Wfull) {

@@ -9,6 +9,7 @@ struct mo_stepper {
   const mo_scene *sc;
   mo_scheme scheme;
   double h, theta, theta_f, beta, gamma;
+  double cm, ck;        /* What = cm M + ck K (K_t for nonlinear scenes) for the current h */
   mo_csc *Wfull;    /* M + c K over full dofs (for prescribed couplings); NULL when not needed */
   mo_csc *W;        /* free-free restriction */
   mo_linsolver *ls; /* its factorization */
@@ -17,7 +18,6 @@ struct mo_stepper {
   double *uprev, *vprev, *fprev; /* previous state for reactions */
   /* nonlinear scenes (newton.c); all NULL for linear ones */
   int nl;
-  double cm, ck;        /* What = cm M + ck K_t */
   double *Wlin;         /* values of cm M + ck K on the pattern of W (the linear bodies' part) */
   int *emap;            /* per element of the finite-strain bodies, (nen dim)^2 positions in W->x
                            (row-major element matrix; -1 where a row or column is prescribed) */
@@ -38,7 +38,7 @@ void mo_stepper_presc_unknown(const mo_stepper *S, double t, double *x);
 
 /* newton.c */
 int mo_newton_setup(mo_stepper *S, mo_ctx *ctx);
-/* A new step h (S->h already set): cm, ck and the linear part Wlin of the tangent. */
+/* A new step h (S->h, S->cm and S->ck already set): the linear part Wlin of the tangent. */
 int mo_newton_set_dt(mo_stepper *S, mo_ctx *ctx);
 void mo_newton_release(mo_stepper *S);
 /* Internal forces at u (full) from the committed states q: f_int into f (full), trial states
