@@ -2,6 +2,7 @@
    validated like a case file: every error names the file, the line and what was expected. */
 #include "config.h"
 #include <moreau/mesh.h>
+#include "mesh_internal.h"
 
 #include <errno.h>
 #include <limits.h>
@@ -974,53 +975,34 @@ static int check_shapes(msh *R, mo_mesh *m, const int *body, const int *fileof, 
   return MO_OK;
 }
 
-/* A side (facet) of an element: sorted nodes, element, and the sense in which the element runs
-   through it; two elements that share a side run through it in opposite senses unless the mesh
-   folds over itself there. */
-typedef struct {
-  int key[4];
-  int el, sense;
-} msh_side;
-
-static int cmp_side(const void *a, const void *b)
+/* The sense in which element e runs through its local facet f (1 node: the facet's number; 2:
+   the edge's direction; 4: the turn from the lowest node). Two elements that share a facet run
+   through it in opposite senses unless the mesh folds over itself there. */
+static int facet_sense(const mo_mesh *m, const mo_eltype_info *T, int e, int f)
 {
-  const msh_side *p = a, *q = b;
-  int i;
-  for (i = 0; i < 4; i++)
-    if (p->key[i] != q->key[i]) return (p->key[i] > q->key[i]) - (p->key[i] < q->key[i]);
-  return (p->el > q->el) - (p->el < q->el);
+  int v[4], a, lo = 0;
+  for (a = 0; a < T->nfn; a++) {
+    v[a] = m->conn[(size_t)e * (size_t)m->nen + (size_t)T->facet[f][a]];
+    if (v[a] < v[lo]) lo = a;
+  }
+  return T->nfn == 1 ? f : T->nfn == 2 ? v[0] < v[1] : v[(lo + 1) % 4] < v[(lo + 3) % 4];
 }
 
 static int check_folds(msh *R, const mo_mesh *m, const int *body, const int *fileof, int gb)
 {
   static const char *side_word[4] = {"", "end", "edge", "face"};
   const mo_eltype_info *T = mo_eltype_get(m->type);
-  size_t n = (size_t)m->nelem * (size_t)T->nfacet, i, j;
-  msh_side *S = mo_malloc(R->ctx, (n ? n : 1) * sizeof *S);
-  int e, f, a, st = MO_OK;
-  if (!S) return MO_ENOMEM;
-  for (e = 0, i = 0; e < m->nelem; e++)
-    for (f = 0; f < T->nfacet; f++, i++) {
-      int v[4], lo = 0;
-      for (a = 0; a < 4; a++) {
-        v[a] = a < T->nfn ? m->conn[(size_t)e * (size_t)m->nen + (size_t)T->facet[f][a]] : -1;
-        S[i].key[a] = v[a];
-        if (a < T->nfn && v[a] < v[lo]) lo = a;
-      }
-      for (a = 1; a < T->nfn; a++) { /* insertion sort of the n <= 4 nodes */
-        int v0 = S[i].key[a], b = a;
-        for (; b > 0 && S[i].key[b - 1] > v0; b--) S[i].key[b] = S[i].key[b - 1];
-        S[i].key[b] = v0;
-      }
-      S[i].el = e;
-      S[i].sense = T->nfn == 1 ? f : T->nfn == 2 ? v[0] < v[1] : v[(lo + 1) % 4] < v[(lo + 3) % 4];
-    }
-  qsort(S, n, sizeof *S, cmp_side);
+  mo_facet *S;
+  size_t n, i, j;
+  int a, st = mo_mesh_all_facets(m, &S, &n, R->ctx);
+  if (st) return st;
   for (i = 0; i < n && !st; i = j) {
-    for (j = i + 1; j < n && !memcmp(S[i].key, S[j].key, sizeof S[i].key); j++) {}
-    if (j - i == 1 || (j - i == 2 && S[i].sense != S[i + 1].sense)) continue;
+    for (j = i + 1; j < n && !mo_facet_cmp_key(&S[i], &S[j]); j++) {}
+    if (j - i == 1 ||
+        (j - i == 2 && facet_sense(m, T, S[i].elem, S[i].lface) != facet_sense(m, T, S[i + 1].elem, S[i + 1].lface)))
+      continue;
     {
-      size_t p = (size_t)body[S[i].el], q = (size_t)body[S[i + 1].el];
+      size_t p = (size_t)body[S[i].elem], q = (size_t)body[S[i + 1].elem];
       char nodes[160];
       int k = 0;
       for (a = 0; a < T->nfn; a++)

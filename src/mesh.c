@@ -1,6 +1,7 @@
 /* mesh.c: mesh storage, named sets, boundary facets, structured generators. */
 #include "config.h"
 #include <moreau/mesh.h>
+#include "mesh_internal.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -114,18 +115,22 @@ int mo_mesh_add_nodeset(mo_mesh *m, const char *name, const int *ids, int n, mo_
   return MO_OK;
 }
 
-typedef struct {
-  int key[4];
-  int elem, lface;
-} facet_key;
-
-static int cmp_facet(const void *a, const void *b)
+int mo_facet_cmp_key(const void *a, const void *b)
 {
-  const facet_key *p = a, *q = b;
+  const mo_facet *p = a, *q = b;
   int i;
   for (i = 0; i < 4; i++)
     if (p->key[i] != q->key[i]) return (p->key[i] > q->key[i]) - (p->key[i] < q->key[i]);
   return 0;
+}
+
+static int cmp_facet_sorted(const void *a, const void *b)
+{
+  const mo_facet *p = a, *q = b;
+  int c = mo_facet_cmp_key(a, b);
+  if (c) return c;
+  if (p->elem != q->elem) return (p->elem > q->elem) - (p->elem < q->elem);
+  return (p->lface > q->lface) - (p->lface < q->lface);
 }
 
 /* Sort the n <= 4 nodes of a facet key (insertion: qsort's call costs more than the sort). */
@@ -139,13 +144,11 @@ static void sort_key(int *k, int n)
   }
 }
 
-/* Every facet of every element, its sorted nodes as key, sorted by key (shared facets are
-   adjacent). */
-static int all_facets(const mo_mesh *m, facet_key **out, size_t *nout, mo_ctx *ctx)
+int mo_mesh_all_facets(const mo_mesh *m, mo_facet **out, size_t *nout, mo_ctx *ctx)
 {
   const mo_eltype_info *T = &eltypes[m->type];
   size_t nf = (size_t)m->nelem * (size_t)T->nfacet, i;
-  facet_key *F = mo_malloc(ctx, (nf ? nf : 1) * sizeof *F);
+  mo_facet *F = mo_malloc(ctx, (nf ? nf : 1) * sizeof *F);
   int e, f, a;
   *out = NULL;
   *nout = 0;
@@ -159,23 +162,23 @@ static int all_facets(const mo_mesh *m, facet_key **out, size_t *nout, mo_ctx *c
       F[i].elem = e;
       F[i].lface = f;
     }
-  qsort(F, nf, sizeof *F, cmp_facet);
+  qsort(F, nf, sizeof *F, cmp_facet_sorted);
   *out = F;
   *nout = nf;
   return MO_OK;
 }
 
 /* Boundary facets: element facets that no other element shares. */
-static int boundary_facets(const mo_mesh *m, facet_key **out, int *nout, mo_ctx *ctx)
+static int boundary_facets(const mo_mesh *m, mo_facet **out, int *nout, mo_ctx *ctx)
 {
-  facet_key *F;
+  mo_facet *F;
   size_t nf, i, j, nb = 0;
-  int st = all_facets(m, &F, &nf, ctx);
+  int st = mo_mesh_all_facets(m, &F, &nf, ctx);
   *out = NULL;
   *nout = 0;
   if (st) return st;
   for (i = 0; i < nf; i = j) {
-    for (j = i + 1; j < nf && !cmp_facet(&F[i], &F[j]); j++) {}
+    for (j = i + 1; j < nf && !mo_facet_cmp_key(&F[i], &F[j]); j++) {}
     if (j == i + 1) F[nb++] = F[i];
   }
   *out = F;
@@ -187,23 +190,23 @@ int mo_mesh_locate_facets(const mo_mesh *m, const int *fnodes, int nf, int *elem
                           mo_ctx *ctx)
 {
   const int nfn = eltypes[m->type].nfn;
-  facet_key *F, q;
+  mo_facet *F, q;
   size_t n;
   int f, a, st;
   for (f = 0; f < nf * nfn; f++)
     if (fnodes[f] < 0 || fnodes[f] >= m->nnode)
       return mo_error(ctx, MO_EINPUT, "facet %d refers to node %d, which does not exist (0..%d)",
                       f / nfn, fnodes[f], m->nnode - 1);
-  if ((st = all_facets(m, &F, &n, ctx))) return st;
+  if ((st = mo_mesh_all_facets(m, &F, &n, ctx))) return st;
   for (f = 0; f < nf; f++) {
-    const facet_key *hit;
+    const mo_facet *hit;
     for (a = 0; a < 4; a++) q.key[a] = a < nfn ? fnodes[(size_t)f * (size_t)nfn + (size_t)a] : -1;
     sort_key(q.key, nfn);
-    hit = bsearch(&q, F, n, sizeof *F, cmp_facet);
+    hit = bsearch(&q, F, n, sizeof *F, mo_facet_cmp_key);
     elem[f] = -1;
     lface[f] = -1;
     if (!hit) continue;
-    if ((hit > F && !cmp_facet(hit - 1, &q)) || (hit + 1 < F + n && !cmp_facet(hit + 1, &q))) {
+    if ((hit > F && !mo_facet_cmp_key(hit - 1, &q)) || (hit + 1 < F + n && !mo_facet_cmp_key(hit + 1, &q))) {
       elem[f] = -2; /* two elements share it: inside the mesh */
       continue;
     }
@@ -282,7 +285,7 @@ int mo_mesh_add_facetset_from_nodes(mo_mesh *m, const char *name, const int *nod
                                     mo_ctx *ctx)
 {
   const mo_eltype_info *T = &eltypes[m->type];
-  facet_key *F = NULL;
+  mo_facet *F = NULL;
   unsigned char *in = NULL;
   int *el = NULL, *lf = NULL;
   int nb, i, a, cnt = 0, st;
