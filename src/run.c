@@ -671,30 +671,8 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   cv.D = drv;
 
   /* columns: t, probes, their exact values, energies, contact */
-  for (p = 0; p < sc->nprobe; p++) {
-    int q;
-    nprobecol += sc->probe[p].nq;
-    for (q = 0; q < sc->probe[p].nq; q++) {
-      double dummy;
-      const mo_probe *P = &sc->probe[p];
-      nexact += (sc->ref.body < 0 || P->body == sc->ref.body) &&
-                mo_reference_eval(&sc->ref, P->q[q], sc->body[P->body].mesh->x[P->node[0] * sc->dim], 0, &dummy);
-    }
-  }
-  /* finite-strain scenes add energy.plastic and the Newton columns */
-  nl = sc->nonlinear;
-  necol = sc->out.energy ? 7 + nl : 0;
-  ncol = 1 + nprobecol + nexact + necol + (C ? 8 : 0) + (nl ? 2 : 0);
-  /* with step cutting, the steps cut so far (cumulative, so that output.every loses none) */
-  if (sc->time.max_cuts > 0) cutcol = ncol++;
-  cols = mo_calloc(ctx, (size_t)(nprobecol ? nprobecol : 1), sizeof *cols);
-  names = mo_calloc(ctx, (size_t)ncol, sizeof *names);
-  namebuf = mo_calloc(ctx, (size_t)ncol, 80);
-  row = mo_calloc(ctx, (size_t)ncol, sizeof *row);
-  work = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof *work);
-  if (!cols || !names || !namebuf || !row || !work) { st = MO_ENOMEM; goto done; }
-  for (k = 0; k < ncol; k++) names[k] = namebuf + 80 * k;
-  snprintf(names[0], 80, "t");
+  for (p = 0; p < sc->nprobe; p++) nprobecol += sc->probe[p].nq;
+  if (!(cols = mo_calloc(ctx, (size_t)(nprobecol ? nprobecol : 1), sizeof *cols))) { st = MO_ENOMEM; goto done; }
   for (p = 0, k = 0; p < sc->nprobe; p++) {
     const mo_probe *P = &sc->probe[p];
     int q;
@@ -706,7 +684,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
       /* a closed form describes one body: compare the probes on it only */
       cols[k].has_ref = (sc->ref.body < 0 || P->body == sc->ref.body) &&
                         mo_reference_eval(&sc->ref, P->q[q], cols[k].x, 0, &dummy);
-      snprintf(names[1 + k], 80, "%s.%s", P->name, mo_quantity_name(P->q[q]));
+      nexact += cols[k].has_ref;
       if (P->q[q] >= MO_Q_CX && P->q[q] <= MO_Q_LAM && !C) {
         st = mo_error(ctx, MO_EINPUT, "%s: probe '%s' asks for '%s', but the case has no contact",
                       mo_case_file(cs), P->name, mo_quantity_name(P->q[q]));
@@ -715,6 +693,21 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
       if (P->q[q] >= MO_Q_CX && P->q[q] <= MO_Q_CZ) cv.need_R = 1;
     }
   }
+  /* finite-strain scenes add energy.plastic and the Newton columns */
+  nl = sc->nonlinear;
+  necol = sc->out.energy ? 7 + nl : 0;
+  ncol = 1 + nprobecol + nexact + necol + (C ? 8 : 0) + (nl ? 2 : 0);
+  /* with step cutting, the steps cut so far (cumulative, so that output.every loses none) */
+  if (sc->time.max_cuts > 0) cutcol = ncol++;
+  names = mo_calloc(ctx, (size_t)ncol, sizeof *names);
+  namebuf = mo_calloc(ctx, (size_t)ncol, 80);
+  row = mo_calloc(ctx, (size_t)ncol, sizeof *row);
+  work = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof *work);
+  if (!names || !namebuf || !row || !work) { st = MO_ENOMEM; goto done; }
+  for (k = 0; k < ncol; k++) names[k] = namebuf + 80 * k;
+  snprintf(names[0], 80, "t");
+  for (k = 0; k < nprobecol; k++)
+    snprintf(names[1 + k], 80, "%s.%s", sc->probe[cols[k].probe].name, mo_quantity_name((mo_quantity)cols[k].q));
   if (cv.need_R && !(cv.Rfull = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof(double)))) { st = MO_ENOMEM; goto done; }
   x0col = 1 + nprobecol;
   for (k = 0, p = 0; k < nprobecol; k++)
@@ -871,7 +864,7 @@ done:
     char msg[MO_ERRMSG_MAX];
     snprintf(msg, sizeof msg, "%s", ctx->errmsg);
     mo_ctx_clear_error(ctx);
-    st2 = write_summary(outdir, cs, sc, S, s.u ? &s : NULL, C, drv, met, cols, nprobecol,
+    st2 = write_summary(outdir, cs, sc, S, s.u ? &s : NULL, C, drv, met, cols, cols ? nprobecol : 0,
                         (const char *const *)names, e0, e1, drift, balance, emax_growth, complete, reason,
                         res->wall, p0, stepper.cuts, stepper.hmin, ctx);
     if (!st2 && drv && s.u && s.step > 0) {
