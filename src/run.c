@@ -776,14 +776,17 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
     if (e0 > 0 && fabs(e1 - e0) / e0 > drift) drift = fabs(e1 - e0) / e0;
     if (eratio - 1 > emax_growth) emax_growth = eratio - 1;
     balance = e1 - e0 - s.wext - s.wsupport - s.wcontact;
-    if (cv.need_R && drv) {
+    /* the probes with an exact value at every step (their errors), the others on the rows
+       written; the nodal contact forces when a probe reads them */
+    if (cv.need_R && drv && (write_row || nexact)) {
       double sc_f = sc->time.scheme == MO_SCHEME_THETA ? 1 / mo_contact_driver_dt(drv) : 1;
       mo_csc_gaxpy(mo_contact_H_full(C), sc_f, mo_contact_reactions(drv), 0, cv.Rfull);
     }
-    /* probes and errors at every step; energies when a row is written */
     for (k = 0; k < nprobecol; k++) {
       const mo_probe *P = &sc->probe[cols[k].probe];
-      double v = probe_value(sc, P, (mo_quantity)cols[k].q, &s, &cv), r;
+      double v, r;
+      if (!write_row && !cols[k].has_ref) continue;
+      v = probe_value(sc, P, (mo_quantity)cols[k].q, &s, &cv);
       row[1 + k] = v;
       if (cols[k].has_ref && mo_reference_eval(&sc->ref, (mo_quantity)cols[k].q, cols[k].x, s.t, &r)) {
         row[cols[k].exact_col] = r;
