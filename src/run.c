@@ -302,15 +302,7 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
     json_object_set_new(scene, "dofs", json_integer(sc->ndof));
     json_object_set_new(scene, "free_dofs", json_integer(sc->nfree));
     json_object_set_new(scene, "mass", json_real(sc->mass_total));
-    {
-      double hmin = HUGE_VAL, hb;
-      for (b = 0; b < sc->nbody; b++)
-        if (sc->body[b].kind == MO_BODY_DEFORMABLE) {
-          mo_mesh_edge_range(sc->body[b].mesh, &hb, NULL);
-          if (hb < hmin) hmin = hb;
-        }
-      json_object_set_new(scene, "hmin", json_real(hmin));
-    }
+    json_object_set_new(scene, "hmin", json_real(mo_metrics_hmin(sc)));
     for (b = 0; b < sc->nbody; b++) {
       const mo_body *B = &sc->body[b];
       json_t *jb = json_object();
