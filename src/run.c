@@ -109,17 +109,6 @@ typedef struct {
   int need_R;
 } contact_view;
 
-/* The friction semi-multiplier |Lambda| = |r_t| / (mu r_n) of a candidate's reaction (BDZ07
-   Fig. 10, doc/theory.md (T66)): below 1 sticking, 1 sliding; 0 when open or frictionless. */
-static double friction_ratio(int d, double mu, const double *r)
-{
-  double rt = 0;
-  int i;
-  if (d < 2 || !(mu > 0) || !(r[0] > 0)) return 0;
-  for (i = 1; i < d; i++) rt += r[i] * r[i];
-  return sqrt(rt) / (mu * r[0]);
-}
-
 static double probe_value(const mo_scene *sc, const mo_probe *P, mo_quantity q, const mo_state *s,
                           const contact_view *cv)
 {
@@ -142,7 +131,7 @@ static double probe_value(const mo_scene *sc, const mo_probe *P, mo_quantity q, 
           double f = r[a * d] / (sc->time.scheme == MO_SCHEME_THETA ? mo_contact_driver_dt(cv->D) : 1);
           if (q == MO_Q_PN) acc += c->w > 0 ? f / c->w : f;
           else if (q == MO_Q_GN) acc += g[a];
-          else acc += friction_ratio(d, c->mu, r + a * d);
+          else acc += mo_contact_friction_ratio(d, c->mu, r + a * d);
           n++;
         }
     }
