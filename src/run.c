@@ -292,6 +292,13 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
     json_object_set_new(scene, "free_dofs", json_integer(sc->nfree));
     json_object_set_new(scene, "mass", json_real(sc->mass_total));
     json_object_set_new(scene, "hmin", json_real(mo_metrics_hmin(sc)));
+    if (p0 && s && sc->M) {
+      /* the bodies' momenta at the end, beside p0 at the start */
+      pw = mo_malloc(ctx, ((size_t)sc->ndof + 1) * sizeof *pw);
+      p1 = mo_malloc(ctx, (3 * (size_t)sc->nbody + 1) * sizeof *p1);
+      if (pw && p1) body_momenta(sc, s->v, pw, p1);
+      else pw_fail = 1;
+    }
     for (b = 0; b < sc->nbody; b++) {
       const mo_body *B = &sc->body[b];
       json_t *jb = json_object();
@@ -303,16 +310,10 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
         json_object_set_new(jb, "elements", json_integer(B->mesh->nelem));
         json_object_set_new(jb, "hypothesis", json_string(mo_hyp_name(B->mat.hyp)));
         json_object_set_new(jb, "mass", json_real(B->mass));
-        if (p0 && s && sc->M) {
+        if (pw && p1) {
           json_t *ji = json_array(), *jf = json_array();
           int i;
-          if (!pw) {
-            pw = mo_malloc(ctx, ((size_t)sc->ndof + 1) * sizeof *pw);
-            p1 = mo_malloc(ctx, (3 * (size_t)sc->nbody + 1) * sizeof *p1);
-            if (pw && p1) body_momenta(sc, s->v, pw, p1);
-            else pw_fail = 1;
-          }
-          for (i = 0; i < sc->dim && pw && p1; i++) {
+          for (i = 0; i < sc->dim; i++) {
             json_array_append_new(ji, json_real(p0[3 * b + i]));
             json_array_append_new(jf, json_real(p1[3 * b + i]));
           }
