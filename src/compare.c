@@ -631,6 +631,7 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
   int nrun, r, metric_col, nown;
   run_row *rows = NULL;
   colset *C = NULL, *H = NULL;
+  const char **sets = NULL;
   peer_set P;
   char dir[1024], path[1400];
   sbuf b = {NULL, 0, 0, 0};
@@ -646,18 +647,18 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
   rows = mo_calloc(ctx, (size_t)nrun + (size_t)P.n, sizeof *rows);
   C = mo_calloc(ctx, 1, sizeof *C);
   H = mo_calloc(ctx, 1, sizeof *H);
-  if (!rows || !C || !H) { st = MO_ENOMEM; goto done; }
+  /* each run's --set list: the common ones, its time step, its grid point */
+  sets = mo_calloc(ctx, (size_t)opt->nset + (size_t)opt->nvary + 2, sizeof *sets);
+  if (!rows || !C || !H || !sets) { st = MO_ENOMEM; goto done; }
 
   /* run every (solver, dt, grid point) */
   for (r = 0; r < nrun; r++) {
     run_row *R = &rows[r];
     int si = r / (ndt * ngrid), di = (r / ngrid) % ndt, gi = r % ngrid, g = gi, nset = 0;
-    const char **sets = mo_calloc(ctx, (size_t)opt->nset + (size_t)opt->nvary + 2, sizeof *sets);
     char dtset[64], varyset[MO_COMPARE_MAX_VARY][512], lab[512];
     mo_run_options ro;
     mo_run_result rr;
     mo_ctx rc;
-    if (!sets) { st = MO_ENOMEM; goto done; }
     for (k = 0; k < opt->nset; k++) sets[nset++] = opt->sets[k];
     snprintf(R->solver, sizeof R->solver, "%s", opt->nsolver ? opt->solvers[si] : "case");
     R->dt = opt->ndt ? opt->dt[di] : NAN;
@@ -680,7 +681,6 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
     }
     slug(lab, R->label, sizeof R->label);
     if (snprintf(R->outdir, sizeof R->outdir, "%s/runs/%s", dir, R->label) >= (int)sizeof R->outdir) {
-      mo_free(sets);
       st = mo_error(ctx, MO_EIO, "compare: output path too long under %s", dir);
       goto done;
     }
@@ -694,7 +694,6 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
     rc.verbosity = 0;
     rc.interrupt = ctx->interrupt;
     R->status = mo_run(&ro, &rr, &rc);
-    mo_free(sets);
     R->wall = rr.wall;
     R->steps = rr.steps;
     if (R->status && snprintf(R->reason, sizeof R->reason, "%s", rc.errmsg) >= (int)sizeof R->reason)
@@ -1020,5 +1019,6 @@ done:
   mo_free(C);
   peers_free(&P);
   mo_free(H);
+  mo_free(sets);
   return st;
 }
