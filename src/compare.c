@@ -303,16 +303,14 @@ static void axis_setup(sbuf *gp, const mo_compare_vary *V, char axis)
   sb_printf(gp, ")\n");
 }
 
-/* Column number (1-based, gnuplot) of `name` in a CSV header, 0 when absent. */
-static int csv_column(const char *path, const char *name)
+#define HEADER_MAX 16384
+
+/* Column number (1-based, gnuplot) of `name` in a CSV header line, 0 when absent. */
+static int csv_column(const char *header, const char *name)
 {
-  FILE *f = fopen(path, "r");
-  char line[16384], *tok, *save = NULL;
+  char line[HEADER_MAX], *tok, *save = NULL;
   int k = 0;
-  if (!f) return 0;
-  if (!fgets(line, sizeof line, f)) { fclose(f); return 0; }
-  fclose(f);
-  line[strcspn(line, "\r\n")] = '\0';
+  snprintf(line, sizeof line, "%s", header);
   for (tok = strtok_r(line, ",", &save); tok; tok = strtok_r(NULL, ",", &save)) {
     k++;
     if (!strcmp(tok, name)) return k;
@@ -333,6 +331,46 @@ static int run_gnuplot(const char *dir, const char *script, mo_ctx *ctx)
   (void)dir; (void)script; (void)ctx;
   return 0;
 #endif
+}
+
+/* The terminal of one rendering of figure `name`: PNG (svg = 0), then SVG. */
+static void set_terminal(sbuf *gp, const char *name, int svg)
+{
+  sb_printf(gp, svg ? "set terminal svg noenhanced size 900,600\nset output '%s.svg'\n"
+                    : "set terminal pngcairo noenhanced size 900,600\nset output '%s.png'\n", name);
+}
+
+/* Keep the script of figure `name` as plots/NAME.gp and render it: 1 when gnuplot drew it. */
+static int render(const char *dir, const char *name, const sbuf *gp, mo_ctx *ctx)
+{
+  char pdir[1200], sname[300], path[1600];
+  snprintf(pdir, sizeof pdir, "%s/plots", dir);
+  snprintf(sname, sizeof sname, "%s.gp", name);
+  snprintf(path, sizeof path, "%s/%s", pdir, sname);
+  if (gp->s) write_text(path, gp->s, ctx);
+  return run_gnuplot(pdir, sname, ctx);
+}
+
+/* The header line of a run's history.csv, "" when it has none. */
+static void history_header(const char *outdir, char *line, size_t n)
+{
+  char path[1200];
+  FILE *f;
+  line[0] = '\0';
+  snprintf(path, sizeof path, "%s/history.csv", outdir);
+  if (!(f = fopen(path, "r"))) return;
+  if (!fgets(line, (int)n, f)) line[0] = '\0';
+  fclose(f);
+  line[strcspn(line, "\r\n")] = '\0';
+}
+
+/* The run of `solver` with the smallest time step at the first grid point, -1 when none. */
+static int finest_run(const run_row *rows, int nrun, int ngrid, const char *solver)
+{
+  int r, rb = -1;
+  for (r = 0; r < nrun; r += ngrid)
+    if (!strcmp(rows[r].solver, solver) && (rb < 0 || rows[r].dt < rows[rb].dt)) rb = r;
+  return rb;
 }
 
 /* Sanitise a label for file names. */
@@ -593,6 +631,7 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
   int nrun, r, metric_col, nown;
   run_row *rows = NULL;
   colset *C = NULL, *H = NULL;
+  const char **sets = NULL;
   peer_set P;
   char dir[1024], path[1400];
   sbuf b = {NULL, 0, 0, 0};
@@ -608,18 +647,18 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
   rows = mo_calloc(ctx, (size_t)nrun + (size_t)P.n, sizeof *rows);
   C = mo_calloc(ctx, 1, sizeof *C);
   H = mo_calloc(ctx, 1, sizeof *H);
-  if (!rows || !C || !H) { st = MO_ENOMEM; goto done; }
+  /* each run's --set list: the common ones, its time step, its grid point */
+  sets = mo_calloc(ctx, (size_t)opt->nset + (size_t)opt->nvary + 2, sizeof *sets);
+  if (!rows || !C || !H || !sets) { st = MO_ENOMEM; goto done; }
 
   /* run every (solver, dt, grid point) */
   for (r = 0; r < nrun; r++) {
     run_row *R = &rows[r];
     int si = r / (ndt * ngrid), di = (r / ngrid) % ndt, gi = r % ngrid, g = gi, nset = 0;
-    const char **sets = mo_calloc(ctx, (size_t)opt->nset + (size_t)opt->nvary + 2, sizeof *sets);
     char dtset[64], varyset[MO_COMPARE_MAX_VARY][512], lab[512];
     mo_run_options ro;
     mo_run_result rr;
     mo_ctx rc;
-    if (!sets) { st = MO_ENOMEM; goto done; }
     for (k = 0; k < opt->nset; k++) sets[nset++] = opt->sets[k];
     snprintf(R->solver, sizeof R->solver, "%s", opt->nsolver ? opt->solvers[si] : "case");
     R->dt = opt->ndt ? opt->dt[di] : NAN;
@@ -642,7 +681,6 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
     }
     slug(lab, R->label, sizeof R->label);
     if (snprintf(R->outdir, sizeof R->outdir, "%s/runs/%s", dir, R->label) >= (int)sizeof R->outdir) {
-      mo_free(sets);
       st = mo_error(ctx, MO_EIO, "compare: output path too long under %s", dir);
       goto done;
     }
@@ -656,7 +694,6 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
     rc.verbosity = 0;
     rc.interrupt = ctx->interrupt;
     R->status = mo_run(&ro, &rr, &rc);
-    mo_free(sets);
     R->wall = rr.wall;
     R->steps = rr.steps;
     if (R->status && snprintf(R->reason, sizeof R->reason, "%s", rc.errmsg) >= (int)sizeof R->reason)
@@ -758,48 +795,46 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
         if (dat.s) write_text(f, dat.s, ctx);
         free(dat.s);
       }
-      for (i = 0; i < 2; i++) {
-        int s2;
-        sb_printf(&gp, "%s", i == 0 ? "set terminal pngcairo noenhanced size 900,600\nset output 'work-precision.png'\nplot "
-                                     : "set terminal svg noenhanced size 900,600\nset output 'work-precision.svg'\nreplot\n");
-        if (i == 0)
-          for (s2 = 0; s2 < nsol; s2++) {
-            char nm[128];
-            slug(rows[s2 * ndt * ngrid].solver, nm, sizeof nm);
-            sb_printf(&gp, "%s'work-precision-%s.csv' using 1:2 with linespoints lw 2 title '%s'", s2 ? ", " : "", nm,
-                      rows[s2 * ndt * ngrid].solver);
-          }
-        if (i == 0) peers_plot(&gp, rows + nown, nrun - nown, metric_col, dir, ctx);
-        if (i == 0) sb_printf(&gp, "\n");
+      set_terminal(&gp, "work-precision", 0);
+      sb_printf(&gp, "plot ");
+      for (i = 0; i < nsol; i++) {
+        char nm[128];
+        slug(rows[i * ndt * ngrid].solver, nm, sizeof nm);
+        sb_printf(&gp, "%s'work-precision-%s.csv' using 1:2 with linespoints lw 2 title '%s'", i ? ", " : "", nm,
+                  rows[i * ndt * ngrid].solver);
       }
-      snprintf(path, sizeof path, "%s/plots/work-precision.gp", dir);
-      if (gp.s) write_text(path, gp.s, ctx);
+      peers_plot(&gp, rows + nown, nrun - nown, metric_col, dir, ctx);
+      sb_printf(&gp, "\n");
+      set_terminal(&gp, "work-precision", 1);
+      sb_printf(&gp, "replot\n");
+      rendered += render(dir, "work-precision", &gp, ctx);
       free(gp.s);
-      {
-        char pdir[1200];
-        snprintf(pdir, sizeof pdir, "%s/plots", dir);
-        rendered += run_gnuplot(pdir, "work-precision.gp", ctx);
-      }
       nfig++;
     }
-    /* 2. histories of each back end (smallest dt of the first grid point) against the exact
-          solution, and 3. the energy */
+    /* 2. histories of each back end (its run with the smallest dt at the first grid point)
+          against the exact solution, and 3. the energy; the probes are those of the first
+          run's history. Each history's header is read once. */
     {
       static const char *quant[] = {"ux", "vx", "uy", "vy", "uz", "vz", "cx", "cy", "cz", "pn"};
-      char first_hist[1400];
       size_t qk;
-      int best = 0;
-      for (r = 0; r < nrun; r++)
-        if (rows[r].dt < rows[best].dt || isnan(rows[best].dt)) best = r;
-      snprintf(first_hist, sizeof first_hist, "%s/history.csv", rows[0].outdir);
-      for (qk = 0; qk < sizeof quant / sizeof quant[0]; qk++) {
+      int *best = mo_malloc(ctx, (size_t)nsol * sizeof *best);
+      char *head = mo_malloc(ctx, ((size_t)nsol + 1) * HEADER_MAX), *first_head;
+      if (!best || !head) {
+        mo_free(best);
+        mo_free(head);
+        st = MO_ENOMEM;
+        goto done;
+      }
+      for (i = 0; i < nsol; i++) {
+        best[i] = finest_run(rows, nown, ngrid, rows[i * ndt * ngrid].solver);
+        if (best[i] >= 0) history_header(rows[best[i]].outdir, head + (size_t)i * HEADER_MAX, HEADER_MAX);
+      }
+      first_head = head + (size_t)nsol * HEADER_MAX;
+      history_header(rows[0].outdir, first_head, HEADER_MAX);
+      for (qk = 0; first_head[0] && qk < sizeof quant / sizeof quant[0]; qk++) {
         /* the first probe with this quantity in the first run's history */
-        FILE *f = fopen(first_hist, "r");
-        char line[16384], *tok, *save = NULL, probe[128] = "";
-        if (!f) break;
-        if (!fgets(line, sizeof line, f)) { fclose(f); break; }
-        fclose(f);
-        line[strcspn(line, "\r\n")] = '\0';
+        char line[HEADER_MAX], *tok, *save = NULL, probe[128] = "";
+        snprintf(line, sizeof line, "%s", first_head);
         for (tok = strtok_r(line, ",", &save); tok; tok = strtok_r(NULL, ",", &save)) {
           size_t l = strlen(tok), lq = strlen(quant[qk]);
           if (l > lq + 1 && !strcmp(tok + l - lq, quant[qk]) && tok[l - lq - 1] == '.' && !strstr(tok, ".exact") &&
@@ -811,98 +846,74 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
         if (!probe[0]) continue;
         {
           sbuf gp = {NULL, 0, 0, 0};
-          char nm[200], ex[160];
-          int first = 1, t2;
+          char nm[200], ex[160], fig[220];
+          int first = 1;
           slug(probe, nm, sizeof nm);
+          snprintf(fig, sizeof fig, "history-%s", nm);
           snprintf(ex, sizeof ex, "%s.exact", probe);
           sb_printf(&gp, "# history of %s: each back end at its smallest time step, and the exact solution\n"
                     "set datafile separator ','\nset key autotitle columnhead outside right\nset grid\n"
                     "set xlabel 't (s)'\nset ylabel '%s'\nset title '%s'\n", probe, probe, probe);
-          for (t2 = 0; t2 < 2; t2++) {
-            sb_printf(&gp, t2 == 0 ? "set terminal pngcairo noenhanced size 900,600\nset output 'history-%s.png'\nplot " :
-                                     "set terminal svg noenhanced size 900,600\nset output 'history-%s.svg'\nreplot\n", nm);
-            if (t2) continue;
-            for (i = 0; i < nsol; i++) {
-              /* the run of this solver with the smallest dt at the first grid point */
-              int rb = -1, cu, ce;
-              char h[1400];
-              for (r = 0; r < nrun; r++)
-                if (!strcmp(rows[r].solver, rows[i * ndt * ngrid].solver) && (r % ngrid) == 0 &&
-                    (rb < 0 || rows[r].dt < rows[rb].dt))
-                  rb = r;
-              if (rb < 0) continue;
-              snprintf(h, sizeof h, "%s/history.csv", rows[rb].outdir);
-              cu = csv_column(h, probe);
-              if (!cu) continue;
-              sb_printf(&gp, "%s'../runs/%s/history.csv' using 1:%d with lines lw 2 title '%s (h = %g)'", first ? "" : ", ",
-                        rows[rb].label, cu, rows[rb].solver, rows[rb].dt);
-              first = 0;
-              ce = csv_column(h, ex);
-              if (ce && i == nsol - 1)
-                sb_printf(&gp, ", '../runs/%s/history.csv' using 1:%d with lines lw 1 dt 2 lc rgb 'black' title 'exact'",
-                          rows[rb].label, ce);
-            }
-            sb_printf(&gp, "\n");
+          set_terminal(&gp, fig, 0);
+          sb_printf(&gp, "plot ");
+          for (i = 0; i < nsol; i++) {
+            int rb = best[i], cu, ce;
+            const char *h = head + (size_t)i * HEADER_MAX;
+            if (rb < 0 || !(cu = csv_column(h, probe))) continue;
+            sb_printf(&gp, "%s'../runs/%s/history.csv' using 1:%d with lines lw 2 title '%s (h = %g)'", first ? "" : ", ",
+                      rows[rb].label, cu, rows[rb].solver, rows[rb].dt);
+            first = 0;
+            ce = csv_column(h, ex);
+            if (ce && i == nsol - 1)
+              sb_printf(&gp, ", '../runs/%s/history.csv' using 1:%d with lines lw 1 dt 2 lc rgb 'black' title 'exact'",
+                        rows[rb].label, ce);
           }
+          sb_printf(&gp, "\n");
+          set_terminal(&gp, fig, 1);
+          sb_printf(&gp, "replot\n");
           if (!first) {
-            char pdir[1200], sname[300];
-            snprintf(sname, sizeof sname, "history-%s.gp", nm);
-            snprintf(path, sizeof path, "%s/plots/%s", dir, sname);
-            write_text(path, gp.s, ctx);
-            snprintf(pdir, sizeof pdir, "%s/plots", dir);
-            rendered += run_gnuplot(pdir, sname, ctx);
+            rendered += render(dir, fig, &gp, ctx);
             nfig++;
           }
           free(gp.s);
         }
       }
-      (void)best;
       /* energy */
       {
         sbuf gp = {NULL, 0, 0, 0};
-        int first = 1, t2;
+        int first = 1;
         sb_printf(&gp, "# energy ratio E(t)/E0 of each back end at its smallest time step\n"
                   "set datafile separator ','\nset key outside right\nset grid\nset xlabel 't (s)'\n"
                   "set ylabel 'E(t) / E0'\nset title 'energy'\n");
-        for (t2 = 0; t2 < 2; t2++) {
-          sb_printf(&gp, "%s", t2 == 0 ? "set terminal pngcairo noenhanced size 900,600\nset output 'energy.png'\nplot "
-                                       : "set terminal svg noenhanced size 900,600\nset output 'energy.svg'\nreplot\n");
-          if (t2) continue;
-          for (i = 0; i < nsol; i++) {
-            int rb = -1, ce;
-            char h[1400];
-            for (r = 0; r < nrun; r++)
-              if (!strcmp(rows[r].solver, rows[i * ndt * ngrid].solver) && (r % ngrid) == 0 &&
-                  (rb < 0 || rows[r].dt < rows[rb].dt))
-                rb = r;
-            if (rb < 0) continue;
-            snprintf(h, sizeof h, "%s/history.csv", rows[rb].outdir);
-            ce = csv_column(h, "energy.ratio");
-            if (!ce) continue;
-            sb_printf(&gp, "%s'../runs/%s/history.csv' using 1:%d with lines lw 2 title '%s (h = %g)'", first ? "" : ", ",
-                      rows[rb].label, ce, rows[rb].solver, rows[rb].dt);
-            first = 0;
-          }
-          sb_printf(&gp, "\n");
+        set_terminal(&gp, "energy", 0);
+        sb_printf(&gp, "plot ");
+        for (i = 0; i < nsol; i++) {
+          int rb = best[i], ce;
+          if (rb < 0 || !(ce = csv_column(head + (size_t)i * HEADER_MAX, "energy.ratio"))) continue;
+          sb_printf(&gp, "%s'../runs/%s/history.csv' using 1:%d with lines lw 2 title '%s (h = %g)'", first ? "" : ", ",
+                    rows[rb].label, ce, rows[rb].solver, rows[rb].dt);
+          first = 0;
         }
+        sb_printf(&gp, "\n");
+        set_terminal(&gp, "energy", 1);
+        sb_printf(&gp, "replot\n");
         if (!first) {
-          char pdir[1200];
-          snprintf(path, sizeof path, "%s/plots/energy.gp", dir);
-          write_text(path, gp.s, ctx);
-          snprintf(pdir, sizeof pdir, "%s/plots", dir);
-          rendered += run_gnuplot(pdir, "energy.gp", ctx);
+          rendered += render(dir, "energy", &gp, ctx);
           nfig++;
         }
         free(gp.s);
       }
+      mo_free(best);
+      mo_free(head);
     }
     /* 4. stability map per back end */
     if (opt->nvary >= 1) {
       for (i = 0; i < nsol; i++) {
         sbuf gp = {NULL, 0, 0, 0}, dat = {NULL, 0, 0, 0};
-        char nm[128], pdir[1200], sname[200];
+        char nm[128], fig[200];
         int two = opt->nvary >= 2, cls;
         slug(rows[i * ndt * ngrid].solver, nm, sizeof nm);
+        snprintf(fig, sizeof fig, "stability-%s", nm);
         for (r = 0; r < nrun; r++) {
           char xs[32], ys[32];
           if (strcmp(rows[r].solver, rows[i * ndt * ngrid].solver)) continue;
@@ -924,18 +935,13 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
         else sb_printf(&gp, "unset ytics\n");
         sb_printf(&gp, "set offsets graph 0.05, graph 0.05, graph 0.08, graph 0.08\n");
         for (j = 0; j < 2; j++) {
-          sb_printf(&gp, j == 0 ? "set terminal pngcairo noenhanced size 900,600\nset output 'stability-%s.png'\n"
-                                : "set terminal svg noenhanced size 900,600\nset output 'stability-%s.svg'\n", nm);
+          set_terminal(&gp, fig, j);
           sb_printf(&gp, "plot 'stability-%s.csv' using 1:($3==0?$2:1/0) with points pt 7 ps 2 lc rgb '#2a9d2a' title 'stable', "
                     "'' using 1:($3==1?$2:1/0) with points pt 7 ps 2 lc rgb '#e69500' title 'unstable', "
                     "'' using 1:($3==2?$2:1/0) with points pt 7 ps 2 lc rgb '#d62728' title 'failure'\n", nm);
         }
-        snprintf(sname, sizeof sname, "stability-%s.gp", nm);
-        snprintf(path, sizeof path, "%s/plots/%s", dir, sname);
-        write_text(path, gp.s, ctx);
+        rendered += render(dir, fig, &gp, ctx);
         free(gp.s);
-        snprintf(pdir, sizeof pdir, "%s/plots", dir);
-        rendered += run_gnuplot(pdir, sname, ctx);
         nfig++;
       }
     }
@@ -1013,5 +1019,6 @@ done:
   mo_free(C);
   peers_free(&P);
   mo_free(H);
+  mo_free(sets);
   return st;
 }

@@ -56,6 +56,15 @@ static int other_representation(const mo_contact *C, int k, const double *r, dou
   return st;
 }
 
+double mo_contact_friction_ratio(int d, double mu, const double *r)
+{
+  double rt = 0;
+  int i;
+  if (d < 2 || !(mu > 0) || !(r[0] > 0)) return 0;
+  for (i = 1; i < d; i++) rt += r[i] * r[i];
+  return sqrt(rt) / (mu * r[0]);
+}
+
 static void cand_node_disp(const mo_scene *sc, const mo_contact *C, int a, const double *u, double *D)
 {
   const mo_candidate *c = &C->cand[a];
@@ -138,13 +147,7 @@ int mo_contact_write_csv(const char *path, const mo_scene *sc, const mo_contact 
       if (has_other[a]) APPEND(",%.10g", other[a * d + i] * fs);
       else APPEND(",");
     }
-    {
-      /* the friction semi-multiplier |Lambda| = |r_t| / (mu r_n) (T66): 0 open or frictionless */
-      double rt = 0, lam = 0;
-      for (i = 1; i < d; i++) rt += r[a * d + i] * r[a * d + i];
-      if (d > 1 && c->mu > 0 && r[a * d] > 0) lam = sqrt(rt) / (c->mu * r[a * d]);
-      APPEND(",%.10g\n", lam);
-    }
+    APPEND(",%.10g\n", mo_contact_friction_ratio(d, c->mu, r + a * d));
   }
 #undef APPEND
   st = mo_write_file_atomic(path, buf, len, ctx);

@@ -16,6 +16,17 @@ static void on_signal(int sig)
   interrupted = 1;
 }
 
+/* SIGINT and SIGTERM set the flag that the library polls (ctx.interrupt). */
+static void catch_signals(mo_ctx *ctx)
+{
+  struct sigaction sa;
+  memset(&sa, 0, sizeof sa);
+  sa.sa_handler = on_signal;
+  sigaction(SIGINT, &sa, NULL);
+  sigaction(SIGTERM, &sa, NULL);
+  ctx->interrupt = &interrupted;
+}
+
 static void usage(FILE *f)
 {
   fprintf(f,
@@ -96,7 +107,6 @@ static int parse_run_args(int argc, char **argv, int i, cli *c)
 
 static int exit_code(int st);
 
-/* Split "a,b,c" in place into items (at most max). */
 /* Split a comma-separated list in place. Commas inside brackets, parentheses or quotes belong
    to the item (a --vary value may be a vector: velocity=[0.0,-1.0],[0.0,-10.0]). Returns the
    number of items, or -1 when there are more than max or the brackets do not match. */
@@ -131,13 +141,9 @@ static int cmd_compare(int argc, char **argv, mo_ctx *ctx)
   char *solvers[16], *vals[MO_COMPARE_MAX_VARY][64], outbuf[4200];
   double dts[64];
   const char **sets = calloc((size_t)argc, sizeof *sets), **peers = calloc((size_t)argc, sizeof *peers);
-  int i, k, st;
+  int i, k, st, rc = 2;
   memset(&o, 0, sizeof o);
-  if (!sets || !peers) {
-    free(sets);
-    free(peers);
-    return 2;
-  }
+  if (!sets || !peers) goto out;
   o.sets = sets;
   o.peers = peers;
   for (i = 2; i < argc; i++) {
@@ -147,24 +153,20 @@ static int cmd_compare(int argc, char **argv, mo_ctx *ctx)
       o.solvers = (const char *const *)solvers;
       if (o.nsolver <= 0) {
         fprintf(stderr, "moreau compare: --solvers a,b,...: at most 16 back ends\n");
-        free(sets);
-        return 2;
+        goto out;
       }
     } else if (!strcmp(a, "--dt") && i + 1 < argc) {
       char *items[64], *end;
       int n = split_list(argv[++i], items, 64);
       if (n <= 0) {
         fprintf(stderr, "moreau compare: --dt h1,h2,...: 1 to 64 time steps\n");
-        free(sets);
-        return 2;
+        goto out;
       }
       for (k = 0; k < n; k++) {
         dts[k] = strtod(items[k], &end);
         if (*end || !(dts[k] > 0)) {
           fprintf(stderr, "moreau compare: --dt: '%s' is not a positive time step\n", items[k]);
-          free(sets);
-          free(peers);
-          return 2;
+          goto out;
         }
       }
       o.ndt = n;
@@ -173,9 +175,7 @@ static int cmd_compare(int argc, char **argv, mo_ctx *ctx)
       char *eq = strchr(argv[++i], '=');
       if (!eq || o.nvary == MO_COMPARE_MAX_VARY) {
         fprintf(stderr, "moreau compare: --vary KEY=v1,v2,... (at most %d keys)\n", MO_COMPARE_MAX_VARY);
-        free(sets);
-        free(peers);
-        return 2;
+        goto out;
       }
       *eq = '\0';
       o.vary[o.nvary].key = argv[i];
@@ -184,8 +184,7 @@ static int cmd_compare(int argc, char **argv, mo_ctx *ctx)
       if (o.vary[o.nvary].nval <= 0) {
         fprintf(stderr, "moreau compare: --vary %s=...: 1 to 64 values, brackets matched (a vector value "
                 "keeps its commas inside [ ])\n", argv[i]);
-        free(sets);
-        return 2;
+        goto out;
       }
       o.nvary++;
     } else if ((!strcmp(a, "--set") || !strcmp(a, "-s")) && i + 1 < argc) {
@@ -202,23 +201,17 @@ static int cmd_compare(int argc, char **argv, mo_ctx *ctx)
       ctx->verbosity = 0;
     } else if (a[0] == '-' && a[1]) {
       fprintf(stderr, "moreau compare: unknown or incomplete option '%s'\n", a);
-      free(sets);
-      free(peers);
-      return 2;
+      goto out;
     } else if (!o.case_path) {
       o.case_path = a;
     } else {
       fprintf(stderr, "moreau compare: one case at a time\n");
-      free(sets);
-      free(peers);
-      return 2;
+      goto out;
     }
   }
   if (!o.case_path) {
     fprintf(stderr, "moreau compare: which case?\n");
-    free(sets);
-    free(peers);
-    return 2;
+    goto out;
   }
   if (!o.outdir) {
     char tmp[4096], *base;
@@ -230,12 +223,10 @@ static int cmd_compare(int argc, char **argv, mo_ctx *ctx)
     snprintf(outbuf, sizeof outbuf, "out/compare-%s", base ? base + 1 : tmp);
     o.outdir = outbuf;
   }
-  st = mo_compare(&o, &res, ctx);
-  free(sets);
-  free(peers);
-  if (st) {
+  if ((st = mo_compare(&o, &res, ctx))) {
     fprintf(stderr, "moreau compare: %s\n", ctx->errmsg);
-    return exit_code(st);
+    rc = exit_code(st);
+    goto out;
   }
   if (ctx->verbosity >= 1) {
     printf("%s: %d runs (%d stable, %d unstable, %d failed)\n", o.case_path, res.nrun, res.nstable, res.nunstable, res.nfailed);
@@ -243,7 +234,11 @@ static int cmd_compare(int argc, char **argv, mo_ctx *ctx)
            res.nfigures, res.rendered);
     if (res.npeer) printf("  with %d external rows from the --peer files (report.md, work-precision figure)\n", res.npeer);
   }
-  return 0;
+  rc = 0;
+out:
+  free(sets);
+  free(peers);
+  return rc;
 }
 
 /* moreau bench-local FILE... [options] */
@@ -300,7 +295,7 @@ static int bench_local(int argc, char **argv, mo_ctx *ctx)
   free(files);
   if (st) {
     fprintf(stderr, "moreau: %s\n", ctx->errmsg);
-    return st == MO_EINPUT || st == MO_EIO ? 2 : 1;
+    return exit_code(st);
   }
   return 0;
 }
@@ -344,12 +339,7 @@ int main(int argc, char **argv)
     return 0;
   }
   if (!strcmp(cmd, "compare")) {
-    struct sigaction sa;
-    memset(&sa, 0, sizeof sa);
-    sa.sa_handler = on_signal;
-    sigaction(SIGINT, &sa, NULL);
-    sigaction(SIGTERM, &sa, NULL);
-    ctx.interrupt = &interrupted;
+    catch_signals(&ctx);
     return cmd_compare(argc, argv, &ctx);
   }
   if (!strcmp(cmd, "bench-local")) return bench_local(argc, argv, &ctx);
@@ -357,7 +347,6 @@ int main(int argc, char **argv)
     return mo_cli_list_solvers(stdout);
   }
   if (!strcmp(cmd, "run") || !strcmp(cmd, "check")) {
-    struct sigaction sa;
     mo_run_result res;
     if ((rc = parse_run_args(argc, argv, 2, &c))) {
       free(c.sets);
@@ -374,11 +363,7 @@ int main(int argc, char **argv)
       if (!c.quiet) printf("%s: ok\n", c.o.case_path);
       return 0;
     }
-    memset(&sa, 0, sizeof sa);
-    sa.sa_handler = on_signal;
-    sigaction(SIGINT, &sa, NULL);
-    sigaction(SIGTERM, &sa, NULL);
-    ctx.interrupt = &interrupted;
+    catch_signals(&ctx);
     st = mo_run(&c.o, &res, &ctx);
     free(c.sets);
     if (st) {

@@ -47,6 +47,18 @@ void mo_metrics_free(mo_metrics *M)
   mo_free(M);
 }
 
+double mo_metrics_hmin(const mo_scene *sc)
+{
+  double hmin = HUGE_VAL, h;
+  int b;
+  for (b = 0; b < sc->nbody; b++)
+    if (sc->body[b].kind == MO_BODY_DEFORMABLE) {
+      mo_mesh_edge_range(sc->body[b].mesh, &h, NULL);
+      if (h < hmin) hmin = h;
+    }
+  return hmin;
+}
+
 int mo_metrics_create(const mo_scene *sc, const mo_contact *C, mo_metrics **out, mo_ctx *ctx)
 {
   mo_metrics *M = mo_calloc(ctx, 1, sizeof *M);
@@ -70,16 +82,7 @@ int mo_metrics_create(const mo_scene *sc, const mo_contact *C, mo_metrics **out,
     M->tv = mo_calloc(ctx, (size_t)M->nc + 1, sizeof(double));
     M->incontact = mo_calloc(ctx, (size_t)M->nc + 1, 1);
     if (!M->Un || !M->Unprev || !M->status || !M->prevstatus || !M->tv || !M->incontact) { mo_metrics_free(M); return MO_ENOMEM; }
-    {
-      int b;
-      double hmin = HUGE_VAL, h;
-      for (b = 0; b < sc->nbody; b++)
-        if (sc->body[b].kind == MO_BODY_DEFORMABLE) {
-          mo_mesh_edge_range(sc->body[b].mesh, &h, NULL);
-          if (h < hmin) hmin = h;
-        }
-      M->gtol = 1e-9 * hmin;
-    }
+    M->gtol = 1e-9 * mo_metrics_hmin(sc);
   }
   *out = M;
   return MO_OK;

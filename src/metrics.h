@@ -11,6 +11,10 @@
 
 typedef struct mo_metrics mo_metrics;
 
+/* The shortest element edge of the deformable bodies (HUGE_VAL without one): the scale of
+   the gap tolerance here and of the penetration `moreau compare` judges (summary.json
+   scene.hmin). */
+double mo_metrics_hmin(const mo_scene *sc);
 int mo_metrics_create(const mo_scene *sc, const mo_contact *C, mo_metrics **out, mo_ctx *ctx);
 /* Record the state after a step (and at t = 0, with D = NULL before the first step). */
 void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *D);

@@ -109,17 +109,6 @@ typedef struct {
   int need_R;
 } contact_view;
 
-/* The friction semi-multiplier |Lambda| = |r_t| / (mu r_n) of a candidate's reaction (BDZ07
-   Fig. 10, doc/theory.md (T66)): below 1 sticking, 1 sliding; 0 when open or frictionless. */
-static double friction_ratio(int d, double mu, const double *r)
-{
-  double rt = 0;
-  int i;
-  if (d < 2 || !(mu > 0) || !(r[0] > 0)) return 0;
-  for (i = 1; i < d; i++) rt += r[i] * r[i];
-  return sqrt(rt) / (mu * r[0]);
-}
-
 static double probe_value(const mo_scene *sc, const mo_probe *P, mo_quantity q, const mo_state *s,
                           const contact_view *cv)
 {
@@ -142,7 +131,7 @@ static double probe_value(const mo_scene *sc, const mo_probe *P, mo_quantity q, 
           double f = r[a * d] / (sc->time.scheme == MO_SCHEME_THETA ? mo_contact_driver_dt(cv->D) : 1);
           if (q == MO_Q_PN) acc += c->w > 0 ? f / c->w : f;
           else if (q == MO_Q_GN) acc += g[a];
-          else acc += friction_ratio(d, c->mu, r + a * d);
+          else acc += mo_contact_friction_ratio(d, c->mu, r + a * d);
           n++;
         }
     }
@@ -302,14 +291,13 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
     json_object_set_new(scene, "dofs", json_integer(sc->ndof));
     json_object_set_new(scene, "free_dofs", json_integer(sc->nfree));
     json_object_set_new(scene, "mass", json_real(sc->mass_total));
-    {
-      double hmin = HUGE_VAL, hb;
-      for (b = 0; b < sc->nbody; b++)
-        if (sc->body[b].kind == MO_BODY_DEFORMABLE) {
-          mo_mesh_edge_range(sc->body[b].mesh, &hb, NULL);
-          if (hb < hmin) hmin = hb;
-        }
-      json_object_set_new(scene, "hmin", json_real(hmin));
+    json_object_set_new(scene, "hmin", json_real(mo_metrics_hmin(sc)));
+    if (p0 && s && sc->M) {
+      /* the bodies' momenta at the end, beside p0 at the start */
+      pw = mo_malloc(ctx, ((size_t)sc->ndof + 1) * sizeof *pw);
+      p1 = mo_malloc(ctx, (3 * (size_t)sc->nbody + 1) * sizeof *p1);
+      if (pw && p1) body_momenta(sc, s->v, pw, p1);
+      else pw_fail = 1;
     }
     for (b = 0; b < sc->nbody; b++) {
       const mo_body *B = &sc->body[b];
@@ -322,16 +310,10 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
         json_object_set_new(jb, "elements", json_integer(B->mesh->nelem));
         json_object_set_new(jb, "hypothesis", json_string(mo_hyp_name(B->mat.hyp)));
         json_object_set_new(jb, "mass", json_real(B->mass));
-        if (p0 && s && sc->M) {
+        if (pw && p1) {
           json_t *ji = json_array(), *jf = json_array();
           int i;
-          if (!pw) {
-            pw = mo_malloc(ctx, ((size_t)sc->ndof + 1) * sizeof *pw);
-            p1 = mo_malloc(ctx, (3 * (size_t)sc->nbody + 1) * sizeof *p1);
-            if (pw && p1) body_momenta(sc, s->v, pw, p1);
-            else pw_fail = 1;
-          }
-          for (i = 0; i < sc->dim && pw && p1; i++) {
+          for (i = 0; i < sc->dim; i++) {
             json_array_append_new(ji, json_real(p0[3 * b + i]));
             json_array_append_new(jf, json_real(p1[3 * b + i]));
           }
@@ -671,30 +653,8 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   cv.D = drv;
 
   /* columns: t, probes, their exact values, energies, contact */
-  for (p = 0; p < sc->nprobe; p++) {
-    int q;
-    nprobecol += sc->probe[p].nq;
-    for (q = 0; q < sc->probe[p].nq; q++) {
-      double dummy;
-      const mo_probe *P = &sc->probe[p];
-      nexact += (sc->ref.body < 0 || P->body == sc->ref.body) &&
-                mo_reference_eval(&sc->ref, P->q[q], sc->body[P->body].mesh->x[P->node[0] * sc->dim], 0, &dummy);
-    }
-  }
-  /* finite-strain scenes add energy.plastic and the Newton columns */
-  nl = sc->nonlinear;
-  necol = sc->out.energy ? 7 + nl : 0;
-  ncol = 1 + nprobecol + nexact + necol + (C ? 8 : 0) + (nl ? 2 : 0);
-  /* with step cutting, the steps cut so far (cumulative, so that output.every loses none) */
-  if (sc->time.max_cuts > 0) cutcol = ncol++;
-  cols = mo_calloc(ctx, (size_t)(nprobecol ? nprobecol : 1), sizeof *cols);
-  names = mo_calloc(ctx, (size_t)ncol, sizeof *names);
-  namebuf = mo_calloc(ctx, (size_t)ncol, 80);
-  row = mo_calloc(ctx, (size_t)ncol, sizeof *row);
-  work = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof *work);
-  if (!cols || !names || !namebuf || !row || !work) { st = MO_ENOMEM; goto done; }
-  for (k = 0; k < ncol; k++) names[k] = namebuf + 80 * k;
-  snprintf(names[0], 80, "t");
+  for (p = 0; p < sc->nprobe; p++) nprobecol += sc->probe[p].nq;
+  if (!(cols = mo_calloc(ctx, (size_t)(nprobecol ? nprobecol : 1), sizeof *cols))) { st = MO_ENOMEM; goto done; }
   for (p = 0, k = 0; p < sc->nprobe; p++) {
     const mo_probe *P = &sc->probe[p];
     int q;
@@ -706,7 +666,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
       /* a closed form describes one body: compare the probes on it only */
       cols[k].has_ref = (sc->ref.body < 0 || P->body == sc->ref.body) &&
                         mo_reference_eval(&sc->ref, P->q[q], cols[k].x, 0, &dummy);
-      snprintf(names[1 + k], 80, "%s.%s", P->name, mo_quantity_name(P->q[q]));
+      nexact += cols[k].has_ref;
       if (P->q[q] >= MO_Q_CX && P->q[q] <= MO_Q_LAM && !C) {
         st = mo_error(ctx, MO_EINPUT, "%s: probe '%s' asks for '%s', but the case has no contact",
                       mo_case_file(cs), P->name, mo_quantity_name(P->q[q]));
@@ -715,6 +675,21 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
       if (P->q[q] >= MO_Q_CX && P->q[q] <= MO_Q_CZ) cv.need_R = 1;
     }
   }
+  /* finite-strain scenes add energy.plastic and the Newton columns */
+  nl = sc->nonlinear;
+  necol = sc->out.energy ? 7 + nl : 0;
+  ncol = 1 + nprobecol + nexact + necol + (C ? 8 : 0) + (nl ? 2 : 0);
+  /* with step cutting, the steps cut so far (cumulative, so that output.every loses none) */
+  if (sc->time.max_cuts > 0) cutcol = ncol++;
+  names = mo_calloc(ctx, (size_t)ncol, sizeof *names);
+  namebuf = mo_calloc(ctx, (size_t)ncol, 80);
+  row = mo_calloc(ctx, (size_t)ncol, sizeof *row);
+  work = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof *work);
+  if (!names || !namebuf || !row || !work) { st = MO_ENOMEM; goto done; }
+  for (k = 0; k < ncol; k++) names[k] = namebuf + 80 * k;
+  snprintf(names[0], 80, "t");
+  for (k = 0; k < nprobecol; k++)
+    snprintf(names[1 + k], 80, "%s.%s", sc->probe[cols[k].probe].name, mo_quantity_name((mo_quantity)cols[k].q));
   if (cv.need_R && !(cv.Rfull = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof(double)))) { st = MO_ENOMEM; goto done; }
   x0col = 1 + nprobecol;
   for (k = 0, p = 0; k < nprobecol; k++)
@@ -783,14 +758,17 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
     if (e0 > 0 && fabs(e1 - e0) / e0 > drift) drift = fabs(e1 - e0) / e0;
     if (eratio - 1 > emax_growth) emax_growth = eratio - 1;
     balance = e1 - e0 - s.wext - s.wsupport - s.wcontact;
-    if (cv.need_R && drv) {
+    /* the probes with an exact value at every step (their errors), the others on the rows
+       written; the nodal contact forces when a probe reads them */
+    if (cv.need_R && drv && (write_row || nexact)) {
       double sc_f = sc->time.scheme == MO_SCHEME_THETA ? 1 / mo_contact_driver_dt(drv) : 1;
       mo_csc_gaxpy(mo_contact_H_full(C), sc_f, mo_contact_reactions(drv), 0, cv.Rfull);
     }
-    /* probes and errors at every step; energies when a row is written */
     for (k = 0; k < nprobecol; k++) {
       const mo_probe *P = &sc->probe[cols[k].probe];
-      double v = probe_value(sc, P, (mo_quantity)cols[k].q, &s, &cv), r;
+      double v, r;
+      if (!write_row && !cols[k].has_ref) continue;
+      v = probe_value(sc, P, (mo_quantity)cols[k].q, &s, &cv);
       row[1 + k] = v;
       if (cols[k].has_ref && mo_reference_eval(&sc->ref, (mo_quantity)cols[k].q, cols[k].x, s.t, &r)) {
         row[cols[k].exact_col] = r;
@@ -871,7 +849,7 @@ done:
     char msg[MO_ERRMSG_MAX];
     snprintf(msg, sizeof msg, "%s", ctx->errmsg);
     mo_ctx_clear_error(ctx);
-    st2 = write_summary(outdir, cs, sc, S, s.u ? &s : NULL, C, drv, met, cols, nprobecol,
+    st2 = write_summary(outdir, cs, sc, S, s.u ? &s : NULL, C, drv, met, cols, cols ? nprobecol : 0,
                         (const char *const *)names, e0, e1, drift, balance, emax_growth, complete, reason,
                         res->wall, p0, stepper.cuts, stepper.hmin, ctx);
     if (!st2 && drv && s.u && s.step > 0) {

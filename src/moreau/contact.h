@@ -368,6 +368,10 @@ int mo_contact_write_csv(const char *path, const mo_scene *sc, const mo_contact 
 /* The same in Jean's layout (J88 Figs. 3-4), with the resultants and the sweeps. */
 void mo_contact_print_table(FILE *f, const mo_scene *sc, const mo_contact *C,
                             const mo_contact_driver *D, const mo_state *s, mo_ctx *ctx);
+/* The friction semi-multiplier |Lambda| = |r_t| / (mu r_n) of a reaction r (d components,
+   normal first; BDZ07 Fig. 10, doc/theory.md (T66)): below 1 sticking, 1 sliding; 0 when
+   open or frictionless. contact.csv's lambda and the probes' lam. */
+double mo_contact_friction_ratio(int d, double mu, const double *r);
 
 /* --- FCLIB local problems (doc/theory.md §4.6) ----------------------------------------------- */
 
