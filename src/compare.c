@@ -628,12 +628,12 @@ static void peers_plot(sbuf *gp, const run_row *rows, int n, int metric_col, con
 int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ctx)
 {
   int nsol = opt->nsolver ? opt->nsolver : 1, ndt = opt->ndt ? opt->ndt : 1, ngrid = 1, i, j, k, st = MO_OK;
-  int nrun, r, metric_col, nown;
+  int nrun, r, metric_col, nown, stop;
   run_row *rows = NULL;
   colset *C = NULL, *H = NULL;
   const char **sets = NULL;
   peer_set P;
-  char dir[1024], path[1400];
+  char dir[1024], path[1400], stopmsg[MO_ERRMSG_MAX];
   sbuf b = {NULL, 0, 0, 0};
   for (k = 0; k < opt->nvary; k++) ngrid *= opt->vary[k].nval;
   nrun = nsol * ndt * ngrid;
@@ -715,6 +715,10 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
       break;
     }
   }
+  /* a case that does not load, or an interrupt, ends the comparison with that error once the
+     runs done so far are written */
+  stop = st;
+  if (stop) snprintf(stopmsg, sizeof stopmsg, "%s", ctx->errmsg);
   res->nrun = nrun;
   for (r = 0; r < nrun; r++) {
     if (!strcmp(rows[r].cls, "stable")) res->nstable++;
@@ -1013,6 +1017,7 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
             opt->nvary ? "; stability maps: `plots/stability-*.png`" : "");
   snprintf(path, sizeof path, "%s/report.md", dir);
   if (!b.err) st = write_text(path, b.s, ctx);
+  if (!st && stop) st = mo_error(ctx, stop, "%s", stopmsg);
 done:
   free(b.s);
   mo_free(rows);

@@ -63,4 +63,11 @@ check finite "$OUT/pen"
 ran $? "$OUT/blow.err" "compare with a run that blows up: exit 0"
 check blowup "$OUT/blow"
 check finite "$OUT/blow"
+
+# a case that does not load stops the comparison with its error and a non-zero exit, after
+# writing the row that says why
+"$MOREAU" compare "$OUT/no-such-case" --solvers nscd,levelset --out "$OUT/noload" > "$OUT/noload.out" 2> "$OUT/noload.err"
+is "$?" "2" "compare of a case that does not load: exit status 2"
+contains "$(cat "$OUT/noload.err")" "moreau compare: $OUT/no-such-case: no such case file or folder" "and the reason on standard error"
+is "$(awk -F, 'NR > 1' "$OUT/noload/compare.csv" | wc -l)" "1" "it stopped after the first run (one row in compare.csv)"
 done_testing

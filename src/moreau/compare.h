@@ -45,7 +45,8 @@ typedef struct {
    wall_s, steps, status, class, reason, then every metric of summary.json flattened as
    name.sub), stability.csv when keys vary, report.md, and plots/ (gnuplot scripts and their
    PNG and SVG renderings when gnuplot is present). A failing run is recorded, not fatal; a
-   case that does not load stops the comparison. Rows of the peer files join the
+   case that does not load (or an interrupt) stops the comparison: what was run is written, and
+   the error is returned. Rows of the peer files join the
    work-precision figure (one dashed line per peer solver) and report.md's table, marked
    external; they are not written to compare.csv. */
 int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ctx);
