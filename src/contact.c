@@ -236,6 +236,12 @@ int mo_contact_time_scheme(mo_scene *sc, const mo_contact *C, mo_ctx *ctx)
   return MO_OK;
 }
 
+/* A key with the position it had, sorted to find the old candidate of a new one. */
+typedef struct {
+  int k[MO_KEY];
+  int pos;
+} keypos;
+
 struct mo_contact_driver {
   const mo_scene *sc;
   mo_contact *C;
@@ -243,51 +249,173 @@ struct mo_contact_driver {
   const mo_contact_solver_type *T;
   void *params, *state;
   int initialised;
+  long cset;                 /* the candidate set the arrays and the back end were set up for */
   mo_delassus *W;
   mo_contact_problem P;
   mo_contact_vars x;
   mo_contact_report rep;
-  int nc, m, d;
-  double *b, *q, *U, *Uprev, *r, *rprev, *xfull, *xf, *dx, *dxfull, *mu, *gk, *w;
+  int nc, m, d, cap;         /* candidates, m = d nc, capacity (candidates) of the arrays */
+  double *b, *q, *U, *Uprev, *r, *rprev, *mu, *gk, *w;
   double *ukin;              /* W r of the last solve (with W), then U without the Signorini
                                 offsets: W r + b (contact_finish) */
-  double *xnl;               /* nonlinear steps: Newton's iterate (full) */
-  int any_step, it_step, loops_step[4]; /* nonlinear steps: totals over the Newton iterations */
   unsigned char *active;
   int *act, nact;            /* the active candidates of the last solve, in increasing order */
   int *status;
+  int *key;                  /* nc * MO_KEY: the candidates the arrays hold */
+  double *xfull, *xf, *dx, *dxfull, *xnl, *gnl;
+  double *tmp;               /* remapping scratch (m values) */
+  int *itmp;
+  keypos *skey;
+  int any_step, it_step, loops_step[4]; /* nonlinear steps: totals over the Newton iterations */
   long steps, iterations, max_iterations, wbuilds, failures;
   double max_residual;
-  long fversion;
 };
 
 const mo_contact_report *mo_contact_last_report(const mo_contact_driver *D) { return &D->rep; }
 double mo_contact_driver_dt(const mo_contact_driver *D) { return mo_stepper_dt(D->S); }
 
+/* --- the arrays of the candidate set ---------------------------------------------------------
+   A scene with rigid shapes detects its candidates at every step: the arrays follow the set,
+   carrying a candidate's reaction (the warm start), status and local velocity over by its key
+   (pair, bodies, features; doc/theory.md §12.3). */
+
+static int grow(mo_contact_driver *D, int nc, mo_ctx *ctx)
+{
+  int cap = D->cap, d = D->d;
+  void *p;
+  if (nc <= cap) return MO_OK;
+  while (cap < nc) cap = cap ? 2 * cap : 16;
+#define GROW(ptr, n) if (!(p = mo_realloc(ctx, ptr, (size_t)(n) * sizeof *(ptr)))) return MO_ENOMEM; ptr = p
+  GROW(D->b, (size_t)cap * d); GROW(D->q, (size_t)cap * d); GROW(D->U, (size_t)cap * d);
+  GROW(D->Uprev, (size_t)cap * d); GROW(D->r, (size_t)cap * d); GROW(D->rprev, (size_t)cap * d);
+  GROW(D->ukin, (size_t)cap * d); GROW(D->tmp, (size_t)cap * d * 3);
+  GROW(D->mu, cap); GROW(D->gk, cap); GROW(D->w, cap); GROW(D->active, cap); GROW(D->act, cap + 1);
+  GROW(D->status, cap); GROW(D->key, (size_t)cap * MO_KEY); GROW(D->itmp, (size_t)cap + 1);
+  GROW(D->skey, cap);
+#undef GROW
+  D->cap = cap;
+  return MO_OK;
+}
+
+static int cmp_keypos(const void *a, const void *b)
+{
+  const int *x = ((const keypos *)a)->k, *y = ((const keypos *)b)->k;
+  int k;
+  for (k = 0; k < MO_KEY; k++)
+    if (x[k] != y[k]) return x[k] < y[k] ? -1 : 1;
+  return 0;
+}
+
+/* Position of key k among the sorted old keys, or -1. */
+static int find_key(const keypos *sk, int n, const int *k)
+{
+  int lo = 0, hi = n - 1;
+  while (lo <= hi) {
+    int mid = (lo + hi) / 2, c = 0, j;
+    for (j = 0; j < MO_KEY && !c; j++) c = sk[mid].k[j] < k[j] ? -1 : sk[mid].k[j] > k[j];
+    if (!c) return sk[mid].pos;
+    if (c < 0) lo = mid + 1;
+    else hi = mid - 1;
+  }
+  return -1;
+}
+
+/* U- = H^T v + U0 of candidate range [a0, a1) at state s (the relative velocity at the start of
+   the step where the contact is now). */
+static void fresh_uprev(mo_contact_driver *D, const mo_state *s, int a0, int a1)
+{
+  const mo_csc *H = mo_contact_H_full(D->C);
+  const double *U0 = mo_contact_U0(D->C);
+  int j, p, d = D->d;
+  for (j = a0 * d; j < a1 * d; j++) {
+    double acc = U0[j];
+    for (p = H->p[j]; p < H->p[j + 1]; p++) acc += H->x[p] * s->v[H->i[p]];
+    D->Uprev[j] = acc;
+  }
+}
+
+/* Fit the arrays to the contact set of the last geometry at state s. The old set is described
+   by okey (nold keys) and its r, U, status (the driver's own arrays, or a snapshot's). */
+static int fit(mo_contact_driver *D, const mo_state *s, const int *okey, int nold, const double *orr,
+               const double *oU, const int *ost, mo_ctx *ctx)
+{
+  const mo_contact *C = D->C;
+  int nc = mo_contact_ncandidates(C), d = D->d, a, i, st, ns = mo_contact_nstatic(C);
+  double *nr, *nU;
+  int *nst;
+  if ((st = grow(D, nc > nold ? nc : nold, ctx))) return st;
+  /* the old values aside (they may be the arrays about to be rewritten) */
+  nr = D->tmp;
+  nU = D->tmp + (size_t)D->cap * d;
+  nst = D->itmp;
+  if (nold) {
+    memcpy(nr, orr, (size_t)nold * d * sizeof *nr);
+    memcpy(nU, oU, (size_t)nold * d * sizeof *nU);
+    memcpy(nst, ost, (size_t)nold * sizeof *nst);
+  }
+  for (a = 0; a < nold; a++) {
+    memcpy(D->skey[a].k, okey + (size_t)a * MO_KEY, sizeof D->skey[a].k);
+    D->skey[a].pos = a;
+  }
+  qsort(D->skey, (size_t)nold, sizeof *D->skey, cmp_keypos);
+  fresh_uprev(D, s, ns, nc);
+  for (a = 0; a < nc; a++) {
+    const mo_candidate *c = mo_contact_candidate(C, a);
+    int o = find_key(D->skey, nold, mo_contact_key(C, a));
+    for (i = 0; i < d; i++) {
+      D->r[a * d + i] = o >= 0 ? nr[o * d + i] : 0;
+      D->U[a * d + i] = o >= 0 ? nU[o * d + i] : D->Uprev[a * d + i];
+    }
+    D->status[a] = o >= 0 ? nst[o] : MO_CS_OPEN;
+    D->mu[a] = c->mu;
+    D->w[a] = c->w;
+  }
+  /* the key list after the remap: okey may be D->key itself, read above */
+  if (nc) memcpy(D->key, mo_contact_key(C, 0), (size_t)nc * MO_KEY * sizeof *D->key);
+  D->nc = nc;
+  D->m = nc * d;
+  if (D->initialised && D->cset != mo_contact_set_version(C)) {
+    /* the back end derived its state from the old set: set it up again at the next solve */
+    if (D->T->free) D->T->free(D->state);
+    memset(D->state, 0, D->T->state_size ? D->T->state_size : 1);
+    D->initialised = 0;
+  }
+  D->cset = mo_contact_set_version(C);
+  return MO_OK;
+}
+
+/* After a geometry: follow the candidate set when it changed, and refresh U- of the candidates
+   under Newton's law (their contact point moved with the bodies). */
+static int follow_set(mo_contact_driver *D, const mo_state *s, mo_ctx *ctx)
+{
+  const mo_contact *C = D->C;
+  const unsigned char *law = mo_contact_laws(C);
+  int a, ns = mo_contact_nstatic(C);
+  if (D->cset != mo_contact_set_version(C))
+    return fit(D, s, D->key, D->nc, D->r, D->U, D->status, ctx);
+  /* the same set: U- of the rigid candidates at the new contact points */
+  for (a = 0; a < ns; a++)
+    if (law[a] == MO_LAW_NEWTON) fresh_uprev(D, s, a, a + 1);
+  fresh_uprev(D, s, ns, D->nc);
+  return MO_OK;
+}
+
 /* --- snapshots for step cutting ------------------------------------------------------------
-   What a step changes in the driver and needs back to be taken again: the reactions (warm
-   start, and the index set's "carried a compressive impulse"), the previous local velocities,
-   the statuses; the geometry is recomputed from the restored displacements. D->rprev is not
-   saved: a nonlinear step sets it from D->r before reading it. */
+   What a step changes in the driver and needs back to be taken again: the candidate set's keys,
+   the reactions (warm start, and the index set's "carried a compressive impulse"), the previous
+   local velocities, the statuses; the geometry is recomputed from the restored state. */
 struct mo_contact_snapshot {
+  int nc, cap;
   double *r, *Uprev, *U;
-  int *status;
+  int *status, *key;
 };
 
 int mo_contact_snapshot_create(const mo_contact_driver *D, mo_contact_snapshot **out, mo_ctx *ctx)
 {
   mo_contact_snapshot *X = mo_calloc(ctx, 1, sizeof *X);
-  size_t m = (size_t)D->m + 1;
   *out = NULL;
   if (!X) return MO_ENOMEM;
-  X->r = mo_malloc(ctx, m * sizeof(double));
-  X->Uprev = mo_malloc(ctx, m * sizeof(double));
-  X->U = mo_malloc(ctx, m * sizeof(double));
-  X->status = mo_malloc(ctx, ((size_t)D->nc + 1) * sizeof(int));
-  if (!X->r || !X->Uprev || !X->U || !X->status) {
-    mo_contact_snapshot_free(X);
-    return MO_ENOMEM;
-  }
+  (void)D;
   *out = X;
   return MO_OK;
 }
@@ -299,28 +427,43 @@ void mo_contact_snapshot_free(mo_contact_snapshot *X)
   mo_free(X->Uprev);
   mo_free(X->U);
   mo_free(X->status);
+  mo_free(X->key);
   mo_free(X);
 }
 
-void mo_contact_snapshot_save(const mo_contact_driver *D, mo_contact_snapshot *X)
+int mo_contact_snapshot_save(const mo_contact_driver *D, mo_contact_snapshot *X, mo_ctx *ctx)
 {
   size_t m = (size_t)D->m * sizeof(double);
+  if (D->nc > X->cap) {
+    int cap = D->nc + 16;
+    void *p;
+#define GROW(ptr, n) if (!(p = mo_realloc(ctx, ptr, (size_t)(n) * sizeof *(ptr)))) return MO_ENOMEM; ptr = p
+    GROW(X->r, (size_t)cap * D->d); GROW(X->Uprev, (size_t)cap * D->d); GROW(X->U, (size_t)cap * D->d);
+    GROW(X->status, cap); GROW(X->key, (size_t)cap * MO_KEY);
+#undef GROW
+    X->cap = cap;
+  }
+  X->nc = D->nc;
   memcpy(X->r, D->r, m);
   memcpy(X->Uprev, D->Uprev, m);
   memcpy(X->U, D->U, m);
   memcpy(X->status, D->status, (size_t)D->nc * sizeof(int));
+  memcpy(X->key, D->key, (size_t)D->nc * MO_KEY * sizeof(int));
+  return MO_OK;
 }
 
 int mo_contact_snapshot_restore(mo_contact_driver *D, const mo_contact_snapshot *X, const mo_state *s,
                                 mo_ctx *ctx)
 {
-  size_t m = (size_t)D->m * sizeof(double);
-  memcpy(D->r, X->r, m);
-  memcpy(D->Uprev, X->Uprev, m);
-  memcpy(D->U, X->U, m);
-  memcpy(D->status, X->status, (size_t)D->nc * sizeof(int));
-  return mo_contact_geometry(D->C, s->u, s->t, D->C->repair, ctx);
+  int st;
+  if ((st = mo_contact_geometry(D->C, s, s->t, D->C->repair, ctx))) return st;
+  if ((st = fit(D, s, X->key, X->nc, X->r, X->U, X->status, ctx))) return st;
+  /* the mesh candidates take their saved U- (the static part is the same set) */
+  memcpy(D->Uprev, X->Uprev, (size_t)mo_contact_nstatic(D->C) * D->d * sizeof(double));
+  follow_set(D, s, ctx);
+  return MO_OK;
 }
+
 const double *mo_contact_reactions(const mo_contact_driver *D) { return D->r; }
 const double *mo_contact_local_velocity(const mo_contact_driver *D) { return D->U; }
 const int *mo_contact_statuses(const mo_contact_driver *D) { return D->status; }
@@ -345,10 +488,13 @@ void mo_contact_driver_free(mo_contact_driver *D)
   mo_free(D->params);
   mo_delassus_free(D->W);
   mo_free(D->b); mo_free(D->q); mo_free(D->U); mo_free(D->Uprev); mo_free(D->r); mo_free(D->rprev);
-  mo_free(D->xfull); mo_free(D->xf); mo_free(D->dx); mo_free(D->dxfull); mo_free(D->mu); mo_free(D->gk); mo_free(D->w); mo_free(D->ukin); mo_free(D->xnl);
+  mo_free(D->xfull); mo_free(D->xf); mo_free(D->dx); mo_free(D->dxfull); mo_free(D->mu); mo_free(D->gk);
+  mo_free(D->w); mo_free(D->ukin); mo_free(D->xnl); mo_free(D->gnl); mo_free(D->tmp); mo_free(D->itmp);
+  mo_free(D->skey);
   mo_free(D->active);
   mo_free(D->act);
   mo_free(D->status);
+  mo_free(D->key);
   mo_free(D);
 }
 
@@ -385,31 +531,16 @@ int mo_contact_driver_create(const mo_scene *sc, mo_contact *C, mo_stepper *S,
     mo_free(D);
     return st;
   }
-  D->nc = C->nc;
   D->d = C->dim;
-  D->m = C->nc * C->dim;
   D->params = mo_calloc(ctx, 1, D->T->params_size ? D->T->params_size : 1);
   D->state = mo_calloc(ctx, 1, D->T->state_size ? D->T->state_size : 1);
-  D->b = mo_calloc(ctx, (size_t)D->m, sizeof(double));
-  D->q = mo_calloc(ctx, (size_t)D->m, sizeof(double));
-  D->U = mo_calloc(ctx, (size_t)D->m, sizeof(double));
-  D->Uprev = mo_calloc(ctx, (size_t)D->m, sizeof(double));
-  D->r = mo_calloc(ctx, (size_t)D->m, sizeof(double));
-  D->rprev = mo_calloc(ctx, (size_t)D->m, sizeof(double));
-  D->mu = mo_calloc(ctx, (size_t)D->nc, sizeof(double));
-  D->gk = mo_calloc(ctx, (size_t)D->nc, sizeof(double));
-  D->w = mo_calloc(ctx, (size_t)D->nc, sizeof(double));
-  D->ukin = mo_calloc(ctx, (size_t)D->m, sizeof(double));
-  D->active = mo_calloc(ctx, (size_t)D->nc, 1);
-  D->act = mo_calloc(ctx, (size_t)D->nc + 1, sizeof(int));
-  D->status = mo_calloc(ctx, (size_t)D->nc, sizeof(int));
   D->xfull = mo_calloc(ctx, (size_t)n + 1, sizeof(double));
   D->dxfull = mo_calloc(ctx, (size_t)n + 1, sizeof(double));
   D->xf = mo_calloc(ctx, (size_t)nf + 1, sizeof(double));
   D->dx = mo_calloc(ctx, (size_t)nf + 1, sizeof(double));
   D->xnl = mo_calloc(ctx, (size_t)n + 1, sizeof(double));
-  if (!D->params || !D->state || !D->b || !D->q || !D->U || !D->Uprev || !D->r || !D->rprev || !D->mu ||
-      !D->gk || !D->w || !D->ukin || !D->active || !D->act || !D->status || !D->xfull || !D->dxfull || !D->xf || !D->dx || !D->xnl) {
+  D->gnl = mo_calloc(ctx, (size_t)n + 1, sizeof(double));
+  if (!D->params || !D->state || !D->xfull || !D->dxfull || !D->xf || !D->dx || !D->xnl || !D->gnl) {
     mo_contact_driver_free(D);
     return MO_ENOMEM;
   }
@@ -422,15 +553,39 @@ int mo_contact_driver_create(const mo_scene *sc, mo_contact *C, mo_stepper *S,
     mo_contact_driver_free(D);
     return st;
   }
-  for (k = 0; k < D->nc; k++) {
-    D->mu[k] = C->cand[k].mu;
-    D->w[k] = C->cand[k].w;
+  for (k = 0; k < C->npair; k++)
+    if (C->pair[k].law == MO_LAW_NEWTON && C->pair[k].e > 0 && sc->time.scheme != MO_SCHEME_THETA) {
+      mo_note_skip(ctx, "restitution (the %s scheme is displacement-based: it has no velocity impact law, e is "
+                   "not applied)", sc->time.scheme == MO_SCHEME_NEWMARK ? "newmark" : "quasistatic");
+      break;
+    }
+  /* the arrays of the set at t = 0, U- = H^T v0 + U0 */
+  {
+    mo_state s0;
+    memset(&s0, 0, sizeof s0);
+    s0.u = sc->u0;
+    s0.v = sc->v0;
+    D->cset = mo_contact_set_version(C);
+    if ((st = grow(D, C->nc + 1, ctx)) || (st = fit(D, &s0, NULL, 0, NULL, NULL, NULL, ctx))) {
+      mo_contact_driver_free(D);
+      return st;
+    }
+    fresh_uprev(D, &s0, 0, D->nc);
   }
-  /* U- at t = 0: H^T v0 + U0 */
-  mo_csc_gatxpy(C->Hfull, 1, sc->v0, 0, D->Uprev);
-  for (k = 0; k < D->m; k++) D->Uprev[k] += C->U0[k];
   *out = D;
   return MO_OK;
+}
+
+/* "candidate 12 (pair 'p', node 13)" or, for a detected contact, its bodies. */
+static int describe(const mo_contact_driver *D, int a, char *buf, size_t n)
+{
+  const mo_candidate *c = mo_contact_candidate(D->C, a);
+  const mo_cpoint *p = mo_contact_point(D->C, c->point);
+  const mo_contact_pair *P = mo_contact_pair_get(D->C, c->pair);
+  if (P->dynamic)
+    return snprintf(buf, n, "%d (pair '%s', '%s' on '%s')", a, P->name, D->sc->body[p->sb].name, D->sc->body[p->mb].name);
+  return snprintf(buf, n, "%d (pair '%s', %s %d)", a, P->name, c->node >= 0 ? "node" : "Gauss point of facet",
+                  c->node >= 0 ? c->node : p->facet);
 }
 
 /* The three candidates furthest from the contact law (natural map with U in force units,
@@ -459,41 +614,33 @@ static void worst_candidates(const mo_contact_driver *D, char *buf, size_t n)
   }
   buf[0] = '\0';
   for (k = 0; k < 3 && best[k] >= 0; k++) {
-    const mo_candidate *c = &D->C->cand[best[k]];
-    int w = snprintf(buf + len, n - len, "%s%d (pair '%s', %s %d)", k ? ", " : "", best[k], D->C->pair[c->pair].name,
-                     c->node >= 0 ? "node" : "Gauss point of facet", c->node >= 0 ? c->node : D->C->pt[c->point].facet);
+    char who[200];
+    int w;
+    describe(D, best[k], who, sizeof who);
+    w = snprintf(buf + len, n - len, "%s%s", k ? ", " : "", who);
     if (w < 0 || (size_t)w >= n - len) break;
     len += (size_t)w;
   }
   if (!len) snprintf(buf, n, "none active");
 }
 
-/* Steps 2-7 of a step (doc/theory.md §5): from the unconstrained iterate D->xfull (full; D->xf
-   its free part) and the gaps at the start of the step, the local problem, the back end's
-   solve, the core's measure, and the correction dx (free dofs) added to D->xfull. rstep: the
-   reactions of the previous step (the velocity-level index set). newton: the Newton iterate of a
-   nonlinear step (-1 for a linear one), for diagnoses. *any: some candidate was active. */
-static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *rstep, int newton,
-                         int *any_out, mo_ctx *ctx)
+/* Steps 3-4 (doc/theory.md §5, §12.4): the local free kinematics b from the unconstrained
+   iterate, then q = b with the offset of each candidate's law, and the index set. rstep: the
+   reactions of the previous step. Returns the scale c of W (du = c dx). */
+static double local_problem(mo_contact_driver *D, const mo_state *s, const double *rstep, int *any_out)
 {
   const mo_scene *sc = D->sc;
   mo_contact *C = D->C;
-  mo_stepper *S = D->S;
-  mo_contact_problem *P = &D->P;
-  mo_contact_report *rep = &D->rep;
-  int d = D->d, m = D->m, nc = D->nc, n = sc->ndof, st, a, i, any = 0, rebuilt = 0;
-  double h = mo_stepper_dt(S), theta = sc->time.theta, t0, c, dtpos;
-  const double *g;
+  const unsigned char *law = mo_contact_laws(C);
+  const double *e = mo_contact_restitution(C), *U0 = mo_contact_U0(C);
+  int d = D->d, m = D->m, nc = D->nc, n = sc->ndof, a, i, any = 0;
+  double h = mo_stepper_dt(D->S), theta = sc->time.theta, c, dtpos;
+  const double *g = mo_contact_gaps(C);
   mo_scheme scheme = sc->time.scheme;
-
-  /* 2. geometry at the start of the step: computed at the end of the previous step (or by
-     mo_contact_build at t = 0), so that reported gaps are end-of-step values */
-  g = mo_contact_gaps(C);
   memcpy(D->gk, g, (size_t)nc * sizeof(double));
-  /* 3. the local free kinematics b: velocity (theta) or displacement increment */
   if (scheme == MO_SCHEME_THETA) {
     mo_csc_gatxpy(C->Hfull, 1, D->xfull, 0, D->b);
-    for (i = 0; i < m; i++) D->b[i] += C->U0[i];
+    for (i = 0; i < m; i++) D->b[i] += U0[i];
     c = 1;
     dtpos = h * theta;
   } else {
@@ -507,15 +654,19 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
       c = 1;
     }
     mo_csc_gatxpy(C->Hfull, 1, du, 0, D->b);
-    for (i = 0; i < m; i++) D->b[i] += C->U0[i] * h;
+    for (i = 0; i < m; i++) D->b[i] += U0[i] * h;
     dtpos = 1;
   }
-  /* 4. the complementarity problem U' = W r + q, with the Signorini offsets in q */
   memcpy(D->q, D->b, (size_t)m * sizeof(double));
   D->nact = 0;
   for (a = 0; a < nc; a++) {
     int act = C->active[a];
-    if (scheme == MO_SCHEME_THETA && C->signorini == MO_SIGNORINI_POSITION)
+    if (scheme == MO_SCHEME_THETA && law[a] == MO_LAW_NEWTON) {
+      /* Moreau's impact law (T71): U_n+ + e U_n- >= 0 _|_ r_n >= 0 on the contacts closed at the
+         predicted position g + h (1 - theta) U_n- (DEM.md §2, Jean/LMGC90 practice) */
+      if (g[a] + h * (1 - theta) * D->Uprev[a * d] > 0) act = 0;
+      D->q[a * d] += e[a] * D->Uprev[a * d];
+    } else if (scheme == MO_SCHEME_THETA && C->signorini == MO_SIGNORINI_POSITION)
       /* g_k+1 = g_k + h (theta U+ + (1 - theta) U-) >= 0  (J88 (3.2)_1 with theta) */
       D->q[a * d] += (g[a] + h * (1 - theta) * D->Uprev[a * d]) / dtpos;
     else if (scheme == MO_SCHEME_THETA) {
@@ -533,12 +684,31 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
     any |= act;
   }
   *any_out = any;
+  return c;
+}
+
+/* Steps 2-7 of a step (doc/theory.md §5): from the unconstrained iterate D->xfull (full; D->xf
+   its free part) and the gaps at the start of the step, the local problem, the back end's
+   solve, the core's measure, and the correction dx (free dofs) added to D->xfull. rstep: the
+   reactions of the previous step (the velocity-level index set). newton: the Newton iterate of a
+   nonlinear step (-1 for a linear one), for diagnoses. *any: some candidate was active. */
+static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *rstep, int newton,
+                         int *any_out, mo_ctx *ctx)
+{
+  const mo_scene *sc = D->sc;
+  mo_contact *C = D->C;
+  mo_stepper *S = D->S;
+  mo_contact_problem *P = &D->P;
+  mo_contact_report *rep = &D->rep;
+  const mo_what_inverse *Wi = mo_stepper_inverse(S);
+  int d = D->d, m = D->m, nc = D->nc, n = sc->ndof, st, a, i, any = 0, rebuilt = 0;
+  double h = mo_stepper_dt(S), t0, c;
+  mo_scheme scheme = sc->time.scheme;
+
+  c = local_problem(D, s, rstep, &any);
+  *any_out = any;
   if (D->W) {
-    long fv = 0;
-    mo_linsolver_stats(mo_stepper_solver(S), &fv, NULL, NULL);
-    if ((st = mo_delassus_update(D->W, C->H, mo_contact_h_version(C), mo_stepper_solver(S), fv, c, d,
-                                 &rebuilt, ctx)))
-      return st;
+    if ((st = mo_delassus_update(D->W, C->H, mo_contact_h_version(C), Wi, c, d, &rebuilt, ctx))) return st;
     if (rebuilt) D->wbuilds++;
     else if (D->steps) mo_note_skip(ctx, "Delassus rebuilds (H and What unchanged)");
   }
@@ -557,20 +727,22 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
   P->active = D->active;
   P->scheme = scheme;
   P->h = h;
-  P->theta = theta;
+  P->theta = sc->time.theta;
   P->theta_f = sc->time.theta_f;
   P->beta = sc->time.beta;
   P->gamma = sc->time.gamma;
   P->signorini = C->signorini;
   P->nfree = sc->nfree;
   P->H = C->H;
-  P->What = mo_stepper_matrix(S);
-  P->ls = mo_stepper_solver(S);
+  P->What = NULL;
+  if ((D->T->needs & MO_NEEDS_GLOBAL) && (st = mo_stepper_matrix_full(S, &P->What, ctx))) return st;
+  P->Wi = Wi;
   P->xfree = D->xf;
   P->du_dx = c;
   P->step = s->step + 1;
   P->t = s->t;
   P->w = D->w;
+  P->cset = D->cset;
   memset(rep, 0, sizeof *rep);
   D->x.r = D->r;
   D->x.U = D->U;
@@ -580,8 +752,11 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
   for (a = 0; a < nc; a++)
     if (!D->active[a]) for (i = 0; i < d; i++) D->r[a * d + i] = 0;
   t0 = mo_clock();
-  if (!D->initialised) {
-    if (D->T->init && (st = D->T->init(D->state, D->params, P, ctx))) return st;
+  if (!D->initialised && nc) {
+    if (D->T->init && (st = D->T->init(D->state, D->params, P, ctx))) {
+      mo_phase_add(ctx, MO_PH_CONTACT, t0);
+      return st;
+    }
     D->initialised = 1;
   }
   if (!any) {
@@ -597,9 +772,12 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
   }
   mo_phase_add(ctx, MO_PH_CONTACT, t0);
   for (i = 0; i < m; i++)
-    if (!isfinite(D->r[i]))
+    if (!isfinite(D->r[i])) {
+      char who[200];
+      describe(D, i / d, who, sizeof who);
       return mo_error(ctx, MO_ENAN, "step %ld (t = %.6g): contact back end %s returned a non-finite "
-                      "reaction at candidate %d", P->step, s->t + h, D->T->name, i / d);
+                      "reaction at candidate %s", P->step, s->t + h, D->T->name, who);
+    }
   /* 6. the core's measure: U' = W r + q when W is known, else the back end's U; W r is kept
      for contact_finish */
   if (D->W) {
@@ -631,7 +809,7 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
   if (rep->reason < 0) {
     D->failures++;
     if (!C->on_failure_continue) {
-      char worst[400], it[48] = "";
+      char worst[700], it[48] = "";
       worst_candidates(D, worst, sizeof worst);
       if (newton >= 0) snprintf(it, sizeof it, ", Newton iterate %d", newton);
       return mo_error(ctx, MO_ENOCONV,
@@ -647,7 +825,7 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
   /* 7. correction */
   if (!D->x.dx_set) {
     if (D->W) {
-      if ((st = mo_delassus_apply_Cinv(D->W, C->H, mo_stepper_solver(S), D->r, D->dx, ctx))) return st;
+      if ((st = mo_delassus_apply_Cinv(D->W, C->H, Wi, D->r, D->dx, ctx))) return st;
     } else {
       double *rhs = D->dxfull;
       memset(rhs, 0, (size_t)n * sizeof(double));
@@ -662,8 +840,9 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
 
 /* The end of a step: the work of the contact impulses, impulse . mean local velocity (theta),
    force . increment (others), the local velocities U- of the next step, then the stepper's
-   finish at x and the geometry of the end of the step. With W, D->ukin holds W r of the step's
-   last contact_solve (r, b and W are those of that solve). */
+   finish at x, the geometry of the end of the step (the detection of rigid shapes included) and
+   the arrays of its candidate set. With W, D->ukin holds W r of the step's last contact_solve
+   (r, b and W are those of that solve). */
 static int contact_finish(mo_contact_driver *D, mo_state *s, const double *x, mo_ctx *ctx)
 {
   int m = D->m, i, st;
@@ -676,43 +855,40 @@ static int contact_finish(mo_contact_driver *D, mo_state *s, const double *x, mo
   s->wcontact += w;
   if (scheme == MO_SCHEME_THETA) memcpy(D->Uprev, Ukin, (size_t)m * sizeof(double));
   if ((st = mo_stepper_finish(D->S, s, x, ctx))) return st;
-  return mo_contact_geometry(D->C, s->u, s->t, D->C->repair, ctx);
-}
-
-/* The contact layer inside a Newton iteration of a nonlinear step (mo_constraint_fn): the same
-   local problem as a linear step's, on What_k and x_free of the iterate (doc/theory.md (T63)). */
-static int newton_constraint(void *data, const mo_state *s, const double *x_free, double *x, double *g,
-                             int iter, mo_ctx *ctx)
-{
-  mo_contact_driver *D = data;
-  const mo_scene *sc = D->sc;
-  int st, any, k, n = sc->ndof;
-  memcpy(D->xfull, x_free, (size_t)n * sizeof *x);
-  mo_stepper_gather(D->S, D->xfull, D->xf);
-  if ((st = contact_solve(D, s, D->rprev, iter, &any, ctx))) return st;
-  memcpy(x, D->xfull, (size_t)n * sizeof *x);
-  /* g = What (x - x_free) = H r over free dofs (the KKT path's dv solves What dv = H_C r) */
-  mo_csc_gaxpy(D->C->Hfull, 1, D->r, 0, g);
-  for (k = 0; k < sc->npresc; k++) g[sc->presc[k].dof] = 0;
-  D->any_step |= any;
-  D->it_step += D->rep.iterations;
-  for (k = 0; k < 4; k++) D->loops_step[k] += D->rep.loops[k];
-  return MO_OK;
+  if ((st = mo_contact_geometry(D->C, s, s->t, D->C->repair, ctx))) return st;
+  return follow_set(D, s, ctx);
 }
 
 int mo_contact_step(mo_contact_driver *D, mo_state *s, mo_ctx *ctx)
 {
   mo_stepper *S = D->S;
-  int st, any, k;
+  const mo_scene *sc = D->sc;
+  int st, any, k, n = sc->ndof;
+  const double *xfree;
 
   if (mo_stepper_nonlinear(S)) {
-    /* Newton on the smooth part, the contact problem solved at every iteration on the
-       linearized step; the reactions of the previous step set the index set and warm start */
+    /* Newton on the smooth part (doc/theory.md §11.2), the contact problem solved on the
+       linearized step of every iterate; the reactions of the previous step set the index set
+       and the warm start */
     memcpy(D->rprev, D->r, (size_t)D->m * sizeof(double));
     D->any_step = D->it_step = 0;
     memset(D->loops_step, 0, sizeof D->loops_step);
     mo_stepper_guess(S, s, D->xnl);
-    if ((st = mo_stepper_solve(S, s, D->xnl, newton_constraint, D, ctx))) return st;
+    if ((st = mo_newton_begin(S, s, D->xnl, D->gnl, ctx))) return st;
+    while ((st = mo_newton_iterate(S, s, D->xnl, D->gnl, &xfree, ctx)) == MO_NEWTON_LINEARIZED) {
+      int iter = mo_stepper_newton_report(S)->iterations - 1;
+      memcpy(D->xfull, xfree, (size_t)n * sizeof *D->xfull);
+      mo_stepper_gather(S, D->xfull, D->xf);
+      if ((st = contact_solve(D, s, D->rprev, iter, &any, ctx))) return st;
+      memcpy(D->xnl, D->xfull, (size_t)n * sizeof *D->xnl);
+      /* g = What (x - x_free) = H r over free dofs (the KKT path's dv solves What dv = H_C r) */
+      mo_csc_gaxpy(D->C->Hfull, 1, D->r, 0, D->gnl);
+      for (k = 0; k < sc->npresc; k++) D->gnl[sc->presc[k].dof] = 0;
+      D->any_step |= any;
+      D->it_step += D->rep.iterations;
+      for (k = 0; k < 4; k++) D->loops_step[k] += D->rep.loops[k];
+    }
+    if (st) return st;
     D->rep.iterations = D->it_step;
     for (k = 0; k < 4; k++) D->rep.loops[k] = D->loops_step[k];
     if (D->any_step) {
@@ -722,7 +898,7 @@ int mo_contact_step(mo_contact_driver *D, mo_state *s, mo_ctx *ctx)
     }
     return contact_finish(D, s, D->xnl, ctx);
   }
-  /* 1. the unconstrained step */
+  /* 1. the unconstrained step (bodies), 2-7. the contact problem, its solve and the correction */
   if ((st = mo_stepper_predict(S, s, D->xfull, ctx))) return st;
   mo_stepper_gather(S, D->xfull, D->xf);
   if ((st = contact_solve(D, s, D->r, -1, &any, ctx))) return st;
@@ -736,8 +912,8 @@ int mo_contact_driver_local_problem(const mo_contact_driver *D, double **W, doub
   *W = *q = *mu = NULL;
   if (!D->W) return mo_error(ctx, MO_EUNSUPPORTED, "back end %s does not use the Delassus operator", D->T->name);
   if ((st = mo_delassus_dense(D->W, W, ctx))) return st;
-  *q = mo_malloc(ctx, (size_t)D->m * sizeof(double));
-  *mu = mo_malloc(ctx, (size_t)D->nc * sizeof(double));
+  *q = mo_malloc(ctx, (size_t)D->m * sizeof(double) + 1);
+  *mu = mo_malloc(ctx, (size_t)D->nc * sizeof(double) + 1);
   if (!*q || !*mu) {
     mo_free(*W); mo_free(*q); mo_free(*mu);
     return MO_ENOMEM;

@@ -24,6 +24,8 @@ void mo_contact_free(mo_contact *C)
     mo_free(C->pair[k].sset);
     mo_free(C->pair[k].mset);
     mo_free(C->pair[k].exclude);
+    mo_free(C->pair[k].sb);
+    mo_free(C->pair[k].mb);
     mo_free(C->pp[k].cand);
     mo_free(C->pp[k].P);
   }
@@ -37,6 +39,10 @@ void mo_contact_free(mo_contact *C)
   mo_free(C->frame);
   mo_free(C->U0);
   mo_free(C->active);
+  mo_free(C->key);
+  mo_free(C->law);
+  mo_free(C->e);
+  mo_contact_detect_free(C);
   mo_csc_free(C->Hfull);
   mo_csc_free(C->H);
   mo_free(C->solver);
@@ -57,6 +63,11 @@ const double *mo_contact_frames(const mo_contact *C) { return C->frame; }
 const mo_csc *mo_contact_H(const mo_contact *C) { return C->H; }
 const mo_csc *mo_contact_H_full(const mo_contact *C) { return C->Hfull; }
 const double *mo_contact_U0(const mo_contact *C) { return C->U0; }
+long mo_contact_set_version(const mo_contact *C) { return C->cset_version; }
+int mo_contact_nstatic(const mo_contact *C) { return C->nc_static; }
+const int *mo_contact_key(const mo_contact *C, int a) { return C->key + (size_t)a * MO_KEY; }
+const unsigned char *mo_contact_laws(const mo_contact *C) { return C->law; }
+const double *mo_contact_restitution(const mo_contact *C) { return C->e; }
 
 int mo_contact_pair_P(const mo_contact *C, int pair, const double **P, int *n, const int **cands)
 {
@@ -98,14 +109,23 @@ void mo_contact_frame_from_normal(int dim, const double *n, double *F)
 
 /* --- positions -------------------------------------------------------------------------------- */
 
-static void node_pos(const mo_scene *sc, int b, int a, const double *u, double *x)
+/* Node a of mesh body b at state u (NULL: the reference configuration): a deformable body's
+   nodes move with their dofs, a rigid mesh's with the body (T68). */
+void mo_contact_node_pos(const mo_scene *sc, int b, int a, const mo_state *u, double *x)
 {
   const mo_body *B = &sc->body[b];
   int D = sc->dim, i;
-  for (i = 0; i < D; i++) x[i] = B->mesh->x[a * D + i] + (u ? u[B->dof0 + a * D + i] : 0);
+  if (B->type->flags & MO_BODY_F_RIGID) {
+    double X[3] = {0, 0, 0};
+    for (i = 0; i < D; i++) X[i] = B->mesh->x[a * D + i] - B->xc0[i];
+    mo_rigid_point(sc, B, u, X, x);
+    return;
+  }
+  for (i = 0; i < D; i++) x[i] = B->mesh->x[a * D + i] + (u ? u->u[B->dof0 + a * D + i] : 0);
 }
+#define node_pos mo_contact_node_pos
 
-static void point_pos(const mo_contact *C, const mo_cpoint *p, const double *u, double *x)
+static void point_pos(const mo_contact *C, const mo_cpoint *p, const mo_state *u, double *x)
 {
   const mo_scene *sc = C->sc;
   int D = sc->dim, i, k;
@@ -131,7 +151,7 @@ static double facet_factor(const mo_material *mat, const double *x)
 
 /* Position, tangents and measure density of a facet at reference coordinates s. */
 static double facet_eval(const mo_scene *sc, int b, const mo_facetset *fs, int f, const double *s,
-                         const double *u, double *N, double *x, double *n)
+                         const mo_state *u, double *N, double *x, double *n)
 {
   int D = sc->dim, nfn = fs->nfn, a, i;
   double dN[8], t1[3] = {0, 0, 0}, t2[3] = {0, 0, 0}, y[3], len = 1;
@@ -167,8 +187,8 @@ static double facet_eval(const mo_scene *sc, int b, const mo_facetset *fs, int f
 
 /* Closest point of x on master facet f: facet coordinates xi, shape values, distance,
    and whether the unclamped projection lies on the facet. */
-static double project_facet(const mo_scene *sc, int b, const mo_facetset *fs, int f,
-                            const double *x, const double *u, double *xi, double *N, double *q,
+double mo_contact_project_facet(const mo_scene *sc, int b, const mo_facetset *fs, int f,
+                            const double *x, const mo_state *u, double *xi, double *N, double *q,
                             double *n, int *inside)
 {
   int D = sc->dim, nfn = fs->nfn, i, it;
@@ -232,18 +252,22 @@ static double project_facet(const mo_scene *sc, int b, const mo_facetset *fs, in
 }
 
 /* Pair point p (slave position x) with its master; frame and gap. */
-static void pair_point(mo_contact *C, mo_cpoint *p, const double *u, double t, int repair)
+static void pair_point(mo_contact *C, mo_cpoint *p, const mo_state *u, double t, int repair)
 {
   const mo_scene *sc = C->sc;
   const mo_contact_pair *P = &C->pair[p->pair];
   int D = sc->dim, i;
   double x[3];
   point_pos(C, p, u, x);
+  p->sb = P->sbody;
+  p->mb = P->mbody;
+  memcpy(p->xs, x, sizeof x);
   if (P->master == MO_MASTER_PLANE) {
     const mo_body *B = &sc->body[P->mbody];
     double g = 0;
     for (i = 0; i < D; i++) g += (x[i] - (B->point[i] + B->velocity[i] * t)) * B->normal[i];
     mo_contact_frame_from_normal(D, B->normal, p->frame);
+    for (i = 0; i < D; i++) p->xm[i] = x[i] - g * B->normal[i];
     p->g = g;
     p->off = 0;
     return;
@@ -255,7 +279,7 @@ static void pair_point(mo_contact *C, mo_cpoint *p, const double *u, double t, i
       double best = HUGE_VAL, bestin = HUGE_VAL;
       int f, fbest = -1, fin = -1, inside;
       for (f = 0; f < fs->n; f++) {
-        double d = project_facet(sc, P->mbody, fs, f, x, u, xi, N, q, n, &inside);
+        double d = mo_contact_project_facet(sc, P->mbody, fs, f, x, u, xi, N, q, n, &inside);
         if (d < best) { best = d; fbest = f; }
         if (inside && d < bestin) { bestin = d; fin = f; }
       }
@@ -264,7 +288,7 @@ static void pair_point(mo_contact *C, mo_cpoint *p, const double *u, double t, i
     }
     {
       int inside;
-      project_facet(sc, P->mbody, fs, p->mfacet, x, u, p->xi, N, q, n, &inside);
+      mo_contact_project_facet(sc, P->mbody, fs, p->mfacet, x, u, p->xi, N, q, n, &inside);
       /* with a frozen pairing the projection stays on the chosen facet */
     }
     p->mn = fs->nfn;
@@ -275,15 +299,50 @@ static void pair_point(mo_contact *C, mo_cpoint *p, const double *u, double t, i
     mo_contact_frame_from_normal(D, n, p->frame);
     p->g = 0;
     for (i = 0; i < D; i++) p->g += (x[i] - q[i]) * n[i];
+    memcpy(p->xm, q, sizeof q);
   }
 }
 
 /* --- H ----------------------------------------------------------------------------------------- */
 
+/* The columns of H of one side of a point, scaled by sign * cf: a mesh body's nodes (shape values
+   N at nodes), a rigid body's dofs through its velocity Jacobian at the material point x (T68),
+   nothing for a plane. */
+static int side_H(mo_contact *C, mo_triplet *T, int b, int nn, const int *node, const double *N, const double *x,
+                  const double *F, double cf, int col0, mo_ctx *ctx)
+{
+  const mo_scene *sc = C->sc;
+  const mo_body *B = &sc->body[b];
+  int D = sc->dim, d = C->dim, i, j, q, st;
+  if (B->type->flags & MO_BODY_F_NODAL) {
+    for (q = 0; q < nn; q++) {
+      int dof0 = B->dof0 + node[q] * D;
+      for (i = 0; i < d; i++)
+        for (j = 0; j < D; j++) {
+          double v = cf * N[q] * F[i * d + j];
+          if (v != 0 && (st = mo_triplet_add(T, dof0 + j, col0 + i, v, ctx))) return st;
+        }
+    }
+  } else if (B->type->flags & MO_BODY_F_RIGID) {
+    double G[18], xc[3];
+    int nd = B->ndof;
+    mo_rigid_center(sc, B, C->hstate, xc);
+    mo_rigid_jacobian(D, xc, x, G);
+    for (i = 0; i < d; i++)
+      for (j = 0; j < nd; j++) {
+        double v = 0;
+        for (q = 0; q < D; q++) v += F[i * d + q] * G[q * nd + j];
+        v *= cf;
+        if (v != 0 && (st = mo_triplet_add(T, B->dof0 + j, col0 + i, v, ctx))) return st;
+      }
+  }
+  return MO_OK;
+}
+
 static int build_H(mo_contact *C, mo_ctx *ctx)
 {
   const mo_scene *sc = C->sc;
-  int D = sc->dim, d = C->dim, m = d * C->nc, a, k, i, j, st;
+  int d = C->dim, m = d * C->nc, a, k, i, st;
   mo_triplet T;
   mo_csc *Hf = NULL, *H = NULL;
   int *colmap;
@@ -293,26 +352,11 @@ static int build_H(mo_contact *C, mo_ctx *ctx)
     const double *F = &C->frame[a * d * d];
     for (k = 0; k < c->np; k++) {
       const mo_cpoint *p = &C->pt[C->cpt[c->first + k]];
-      const mo_contact_pair *P = &C->pair[p->pair];
       double cf = C->ccoef[c->first + k];
-      int q;
-      for (q = 0; q < p->nn; q++) {
-        int dof0 = sc->body[P->sbody].dof0 + p->node[q] * D;
-        for (i = 0; i < d; i++)
-          for (j = 0; j < D; j++) {
-            double v = cf * p->N[q] * F[i * d + j];
-            if (v != 0 && (st = mo_triplet_add(&T, dof0 + j, a * d + i, v, ctx))) goto done;
-          }
-      }
-      if (P->master == MO_MASTER_FACETS && !p->off)
-        for (q = 0; q < p->mn; q++) {
-          int dof0 = sc->body[P->mbody].dof0 + p->mnode[q] * D;
-          for (i = 0; i < d; i++)
-            for (j = 0; j < D; j++) {
-              double v = -cf * p->mN[q] * F[i * d + j];
-              if (v != 0 && (st = mo_triplet_add(&T, dof0 + j, a * d + i, v, ctx))) goto done;
-            }
-        }
+      if ((st = side_H(C, &T, p->sb, p->nn, p->node, p->N, p->xs, F, cf, a * d, ctx))) goto done;
+      if (p->mb >= 0 && !p->off &&
+          (st = side_H(C, &T, p->mb, p->mn, p->mnode, p->mN, p->xm, F, -cf, a * d, ctx)))
+        goto done;
     }
   }
   if ((st = mo_triplet_to_csc(&T, 0, &Hf, ctx))) goto done;
@@ -336,11 +380,11 @@ done:
 }
 
 /* Candidate frames, gaps and obstacle velocities from the points. */
-static void candidates_update(mo_contact *C, const double *u, double t)
+static void candidates_update(mo_contact *C, const mo_state *u, double t)
 {
   const mo_scene *sc = C->sc;
   int d = C->dim, D = sc->dim, a, k, i, j;
-  for (a = 0; a < C->nc; a++) {
+  for (a = 0; a < C->nc_static; a++) {
     const mo_candidate *c = &C->cand[a];
     const mo_cpoint *rep = &C->pt[c->point];
     const mo_contact_pair *P = &C->pair[c->pair];
@@ -381,21 +425,32 @@ static void candidates_update(mo_contact *C, const double *u, double t)
   }
 }
 
-int mo_contact_geometry(mo_contact *C, const double *u, double t, int repair, mo_ctx *ctx)
+/* 1 when a point sits on a rigid body: its pairing, frame and columns of H follow the body. */
+static int on_rigid(const mo_contact *C, const mo_cpoint *p)
+{
+  const mo_body *S = &C->sc->body[C->pair[p->pair].sbody], *M = &C->sc->body[C->pair[p->pair].mbody];
+  return ((S->type->flags | M->type->flags) & MO_BODY_F_RIGID) != 0;
+}
+
+int mo_contact_geometry(mo_contact *C, const mo_state *u, double t, int repair, mo_ctx *ctx)
 {
   int k, changed = 0, st = MO_OK;
+  long cset = C->cset_version;
   double t0 = mo_clock();
-  if (repair || !C->H) {
-    for (k = 0; k < C->npt; k++) {
-      mo_cpoint old = C->pt[k];
-      pair_point(C, &C->pt[k], u, t, repair || !C->H);
-      if (old.mfacet != C->pt[k].mfacet || memcmp(old.frame, C->pt[k].frame, sizeof old.frame) ||
-          memcmp(old.mN, C->pt[k].mN, sizeof old.mN))
-        changed = 1;
-    }
+  C->hstate = u;
+  for (k = 0; k < C->npt_static; k++) {
+    mo_cpoint old = C->pt[k];
+    if (!(repair || !C->H || on_rigid(C, &C->pt[k]))) continue;
+    pair_point(C, &C->pt[k], u, t, repair || !C->H);
+    if (old.mfacet != C->pt[k].mfacet || memcmp(old.frame, C->pt[k].frame, sizeof old.frame) ||
+        memcmp(old.mN, C->pt[k].mN, sizeof old.mN))
+      changed = 1;
   }
   candidates_update(C, u, t);
-  if (!C->H || changed) st = build_H(C, ctx);
+  /* the detected candidates of the dynamic pairs (rigid shapes), replaced at every geometry */
+  if (C->ndyn) st = mo_contact_detect(C, u, t, ctx);
+  if (!st && (!C->H || changed || C->moving_h || C->cset_version != cset)) st = build_H(C, ctx);
+  C->hstate = NULL;
   mo_phase_add(ctx, MO_PH_GEOMETRY, t0);
   return st;
 }
@@ -443,7 +498,26 @@ static void facet_cells(const mo_scene *sc, int b, const mo_facetset *fs, int f,
 
 /* --- building from the case --------------------------------------------------------------------- */
 
-static int add_point(mo_contact *C, const mo_cpoint *p, mo_ctx *ctx)
+int mo_contact_reserve(mo_contact *C, int nc, mo_ctx *ctx)
+{
+  int cap = C->nalloc, d = C->dim;
+  void *q;
+  if (nc <= cap) return MO_OK;
+  while (cap < nc) cap = cap ? 2 * cap : 64;
+#define GROW(ptr, n) if (!(q = mo_realloc(ctx, ptr, (size_t)(n) * sizeof *(ptr)))) return MO_ENOMEM; ptr = q
+  GROW(C->g, cap);
+  GROW(C->frame, (size_t)cap * (size_t)(d * d));
+  GROW(C->U0, (size_t)cap * (size_t)d);
+  GROW(C->active, cap);
+  GROW(C->key, (size_t)cap * MO_KEY);
+  GROW(C->law, cap);
+  GROW(C->e, cap);
+#undef GROW
+  C->nalloc = cap;
+  return MO_OK;
+}
+
+int mo_contact_add_point(mo_contact *C, const mo_cpoint *p, mo_ctx *ctx)
 {
   if (C->npt == C->ptcap) {
     int cap = C->ptcap ? 2 * C->ptcap : 64;
@@ -456,8 +530,8 @@ static int add_point(mo_contact *C, const mo_cpoint *p, mo_ctx *ctx)
   return MO_OK;
 }
 
-static int add_candidate(mo_contact *C, const mo_candidate *c, const int *pts, const double *coef,
-                         mo_ctx *ctx)
+int mo_contact_add_candidate(mo_contact *C, const mo_candidate *c, const int *pts, const double *coef,
+                             mo_ctx *ctx)
 {
   int k;
   if (C->nc == C->ccap) {
@@ -493,10 +567,78 @@ static int add_candidate(mo_contact *C, const mo_candidate *c, const int *pts, c
 
 static int node_fully_prescribed(const mo_scene *sc, int b, int a)
 {
+  const mo_body *B = &sc->body[b];
   int i;
+  if (B->type->flags & MO_BODY_F_RIGID) return B->fixed; /* a rigid mesh's nodes move with it */
   for (i = 0; i < sc->dim; i++)
-    if (sc->free_of[sc->body[b].dof0 + a * sc->dim + i] >= 0) return 0;
+    if (sc->free_of[B->dof0 + a * sc->dim + i] >= 0) return 0;
   return 1;
+}
+
+/* The bodies a pair names on one side: a body, or every body of a group (an entry that made
+   several); *n = 0 when the name is neither. */
+static int side_bodies(const mo_scene *sc, const char *name, int **list, int *n, mo_ctx *ctx)
+{
+  int b, k = 0;
+  *n = 0;
+  *list = NULL;
+  if ((b = mo_scene_body_index(sc, name)) >= 0) {
+    if (!(*list = mo_malloc(ctx, sizeof(int)))) return MO_ENOMEM;
+    (*list)[0] = b;
+    *n = 1;
+    return MO_OK;
+  }
+  for (b = 0; b < sc->nbody; b++) k += sc->body[b].group && !strcmp(sc->body[b].group, name);
+  if (!k) return MO_OK;
+  if (!(*list = mo_malloc(ctx, (size_t)k * sizeof(int)))) return MO_ENOMEM;
+  for (b = 0; b < sc->nbody; b++)
+    if (sc->body[b].group && !strcmp(sc->body[b].group, name)) (*list)[(*n)++] = b;
+  return MO_OK;
+}
+
+/* A pair the detection serves (doc/theory.md §12.3): each side is rigid shapes (disks, spheres,
+   polygons), a plane (master only), or one mesh body with its set (master: facets; slave:
+   nodes). */
+static int check_dynamic(const mo_contact *C, const mo_contact_pair *P, const config_setting_t *pg, mo_ctx *ctx)
+{
+  const mo_scene *sc = C->sc;
+  const mo_case *cs = sc->cs;
+  int k;
+  for (k = 0; k < P->ns; k++) {
+    const mo_body *B = &sc->body[P->sb[k]];
+    if (B->type->flags & MO_BODY_F_OBSTACLE)
+      return mo_case_error(cs, mo_cfg_member(pg, "slave"), ctx, "a plane is an obstacle: it is the master of its pairs");
+    if (B->type->flags & MO_BODY_F_MESH) {
+      if (P->ns > 1 || !P->sset[0])
+        return mo_case_error(cs, mo_cfg_member(pg, "slave"), ctx, "mesh body '%s' takes part through a node set: "
+                             "give 'slave_set'", B->name);
+    } else if (P->sset[0])
+      return mo_case_error(cs, mo_cfg_member(pg, "slave_set"), ctx, "a %s has no sets", B->type->name);
+  }
+  for (k = 0; k < P->nm; k++) {
+    const mo_body *B = &sc->body[P->mb[k]];
+    if (B->type->flags & MO_BODY_F_MESH) {
+      if (P->nm > 1 || !P->mset)
+        return mo_case_error(cs, mo_cfg_member(pg, "master"), ctx, "mesh body '%s' takes part through a facet set: "
+                             "give 'master_set'", B->name);
+    } else if (P->mset)
+      return mo_case_error(cs, mo_cfg_member(pg, "master_set"), ctx, "a %s has no sets", B->type->name);
+    if ((B->type->flags & MO_BODY_F_OBSTACLE) && P->nm > 1)
+      return mo_case_error(cs, mo_cfg_member(pg, "master"), ctx, "a group of planes is not a master");
+  }
+  if (P->mset && P->sset[0])
+    return mo_case_error(cs, pg, ctx, "a mesh against a mesh is a pair of sets; here one side is not a single mesh body");
+  if (P->mset) {
+    const mo_facetset *mfs = mo_mesh_find_facetset(sc->body[P->mb[0]].mesh, P->mset);
+    if (!mfs || mfs->n == 0)
+      return mo_case_error(cs, mo_cfg_member(pg, "master_set"), ctx, "body '%s' has no facets in set '%s'",
+                           sc->body[P->mb[0]].name, P->mset);
+  }
+  if (P->sset[0] && !mo_mesh_find_nodeset(sc->body[P->sb[0]].mesh, P->sset) &&
+      !mo_mesh_find_facetset(sc->body[P->sb[0]].mesh, P->sset))
+    return mo_case_error(cs, mo_cfg_member(pg, "slave_set"), ctx, "body '%s' has no set '%s'", sc->body[P->sb[0]].name,
+                         P->sset);
+  return MO_OK;
 }
 
 /* Points and candidates of pair k. */
@@ -580,14 +722,14 @@ static int build_pair(mo_contact *C, int k, const config_setting_t *pg, mo_ctx *
         for (a = 0; a < fs->nfn; a++) { p.node[a] = fs->node[f * fs->nfn + a]; p.N[a] = N[a]; }
         for (i = 0; i < D; i++) p.x0[i] = x[i];
         pi = C->npt;
-        if ((st = add_point(C, &p, ctx))) goto done;
+        if ((st = mo_contact_add_point(C, &p, ctx))) goto done;
         c.pair = k;
         c.np = 1;
         c.node = -1;
         c.point = pi;
         c.w = jac * Q.w[q] * facet_factor(&sc->body[P->sbody].mat, x);
         c.mu = P->mu;
-        if ((st = add_candidate(C, &c, &pi, &one, ctx))) goto done;
+        if ((st = mo_contact_add_candidate(C, &c, &pi, &one, ctx))) goto done;
       }
     }
     goto done;
@@ -605,7 +747,7 @@ static int build_pair(mo_contact *C, int k, const config_setting_t *pg, mo_ctx *
     p.mfacet = -1;
     node_pos(sc, P->sbody, snodes[i], NULL, p.x0);
     ptof[snodes[i]] = C->npt;
-    if ((st = add_point(C, &p, ctx))) goto done;
+    if ((st = mo_contact_add_point(C, &p, ctx))) goto done;
   }
   {
     /* dual cells: A[h][s] = int_{cell h} f_s, meas[h] (doc/theory.md §4.3) */
@@ -684,7 +826,7 @@ static int build_pair(mo_contact *C, int k, const config_setting_t *pg, mo_ctx *
       }
       if (P->reactions == MO_REACT_CONCENTRATED) { rowpts[0] = ptof[h]; rowcoef[0] = 1; np = 1; }
       c.np = np;
-      st = add_candidate(C, &c, rowpts, rowcoef, ctx);
+      st = mo_contact_add_candidate(C, &c, rowpts, rowcoef, ctx);
     }
     mo_free(meas); mo_free(cidx); mo_free(rowpts); mo_free(rowcoef); mo_free(Arow); mo_free(sidx);
   }
@@ -701,7 +843,7 @@ int mo_contact_build(const mo_scene *sc, mo_contact **out, mo_ctx *ctx)
   const mo_case *cs = sc->cs;
   const config_setting_t *cg = config_lookup(&cs->cfg, "contact"), *pl;
   mo_contact *C;
-  int k, st = MO_OK, np, m;
+  int k, st = MO_OK, np;
   *out = NULL;
   if (!cg) return MO_OK;
   pl = mo_cfg_member(cg, "pairs");
@@ -755,22 +897,57 @@ int mo_contact_build(const mo_scene *sc, mo_contact **out, mo_ctx *ctx)
       st = mo_case_error(cs, mo_cfg_member(pg, "collocation"), ctx, "weighted reactions live on the dual cells of the slave nodes: use collocation = \"nodes\"");
       goto fail;
     }
-    b = mo_scene_body_index(sc, mo_cfg_string(pg, "slave", ""));
-    if (b < 0 || sc->body[b].kind != MO_BODY_DEFORMABLE) {
-      st = mo_case_error(cs, mo_cfg_member(pg, "slave"), ctx, "no deformable body named '%s'", mo_cfg_string(pg, "slave", ""));
+    if ((st = side_bodies(sc, mo_cfg_string(pg, "slave", ""), &P->sb, &P->ns, ctx)) ||
+        (st = side_bodies(sc, mo_cfg_string(pg, "master", ""), &P->mb, &P->nm, ctx)))
+      goto fail;
+    if (!P->ns) {
+      st = mo_case_error(cs, mo_cfg_member(pg, "slave"), ctx, "no body or group named '%s'", mo_cfg_string(pg, "slave", ""));
       goto fail;
     }
-    P->sbody = b;
+    if (!P->nm) {
+      st = mo_case_error(cs, mo_cfg_member(pg, "master"), ctx, "no body or group named '%s'", mo_cfg_string(pg, "master", ""));
+      goto fail;
+    }
+    P->sbody = P->sb[0];
+    P->mbody = P->mb[0];
+    P->e = mo_cfg_float(pg, "e", 0);
+    {
+      const mo_body *SB = &sc->body[P->sbody], *MB = &sc->body[P->mbody];
+      unsigned sf = SB->type->flags, mf = MB->type->flags;
+      int rigid = ((sf | mf) & MO_BODY_F_RIGID) != 0;
+      /* a mesh body's set against a plane or another mesh body's facets: fixed slave points */
+      int fixed = P->ns == 1 && P->nm == 1 && (sf & MO_BODY_F_MESH) && mo_cfg_member(pg, "slave_set") &&
+                  (mf & (MO_BODY_F_OBSTACLE | MO_BODY_F_MESH));
+      P->law = rigid ? MO_LAW_NEWTON : MO_LAW_SIGNORINI;
+      if (!rigid && mo_cfg_member(pg, "e")) {
+        st = mo_case_error(cs, mo_cfg_member(pg, "e"), ctx, "a restitution coefficient belongs to pairs with a rigid "
+                           "body (Newton's impact law); deformable pairs follow contact.signorini");
+        goto fail;
+      }
+      if (!fixed) {
+        if (P->reactions == MO_REACT_WEIGHTED || P->colloc == MO_COLLOC_GAUSS)
+          mo_note_skip(ctx, "weighted reactions and Gauss collocation on pair '%s' (detected contacts are points: "
+                       "concentrated reactions)", P->name);
+        P->dynamic = 1;
+        P->master = (mf & MO_BODY_F_OBSTACLE) ? MO_MASTER_PLANE : MO_MASTER_FACETS;
+        P->reactions = MO_REACT_CONCENTRATED;
+        P->colloc = MO_COLLOC_NODES;
+        if ((st = check_dynamic(C, P, pg, ctx))) goto fail;
+        C->ndyn++;
+        continue;
+      }
+      if (!(sf & MO_BODY_F_MESH)) {
+        st = mo_case_error(cs, mo_cfg_member(pg, "slave"), ctx, "no mesh body named '%s'", mo_cfg_string(pg, "slave", ""));
+        goto fail;
+      }
+      if (rigid) C->moving_h = 1;
+    }
+    b = P->sbody;
     if (!mo_mesh_find_facetset(sc->body[b].mesh, P->sset) && !mo_mesh_find_nodeset(sc->body[b].mesh, P->sset) && !strchr(P->sset, '&')) {
       st = mo_case_error(cs, mo_cfg_member(pg, "slave_set"), ctx, "body '%s' has no set '%s'", sc->body[b].name, P->sset);
       goto fail;
     }
-    b = mo_scene_body_index(sc, mo_cfg_string(pg, "master", ""));
-    if (b < 0) {
-      st = mo_case_error(cs, mo_cfg_member(pg, "master"), ctx, "no body named '%s'", mo_cfg_string(pg, "master", ""));
-      goto fail;
-    }
-    P->mbody = b;
+    b = P->mbody;
     if (sc->body[b].kind == MO_BODY_PLANE) {
       P->master = MO_MASTER_PLANE;
       if (P->mset) {
@@ -797,25 +974,45 @@ int mo_contact_build(const mo_scene *sc, mo_contact **out, mo_ctx *ctx)
     mo_contact_free(C);
     return MO_OK;
   }
-  if (C->nc == 0) {
+  if (C->nc == 0 && !C->ndyn) {
     st = mo_case_error(cs, pl, ctx, "the contact pairs have no candidate (every slave node is excluded or prescribed)");
     goto fail;
   }
-  m = C->dim * C->nc;
-  C->g = mo_calloc(ctx, (size_t)C->nc, sizeof(double));
-  C->frame = mo_calloc(ctx, (size_t)C->nc * (size_t)(C->dim * C->dim), sizeof(double));
-  C->U0 = mo_calloc(ctx, (size_t)m, sizeof(double));
-  C->active = mo_calloc(ctx, (size_t)C->nc, 1);
-  if (!C->g || !C->frame || !C->U0 || !C->active) { st = MO_ENOMEM; goto fail; }
+  C->npt_static = C->npt;
+  C->nc_static = C->nc;
+  C->ncoef_static = C->ncoef;
+  if ((st = mo_contact_reserve(C, C->nc + 1, ctx))) goto fail;
+  for (k = 0; k < C->nc; k++) {
+    const mo_contact_pair *P = &C->pair[C->cand[k].pair];
+    int *key = C->key + (size_t)k * MO_KEY;
+    key[0] = -1; key[1] = k; key[2] = key[3] = key[4] = 0;
+    C->law[k] = (unsigned char)P->law;
+    C->e[k] = P->e;
+  }
   {
     int fr = 1;
     for (k = 0; k < C->npair; k++) fr &= C->pair[k].mu == 0;
     if (fr) mo_note_skip(ctx, "friction (mu = 0 on every pair)");
     fr = 1;
-    for (k = 0; k < C->npair; k++) fr &= C->pair[k].master == MO_MASTER_PLANE;
-    if (fr && !C->repair) mo_note_skip(ctx, "geometric loop and H rebuilds (plane masters: the pairing and the frames do not change)");
+    for (k = 0; k < C->npair; k++) fr &= C->pair[k].master == MO_MASTER_PLANE && !C->pair[k].dynamic;
+    if (fr && !C->repair && !C->moving_h)
+      mo_note_skip(ctx, "geometric loop and H rebuilds (plane masters: the pairing and the frames do not change)");
   }
-  if ((st = mo_contact_geometry(C, sc->u0, 0, 1, ctx))) goto fail;
+  if (C->ndyn) {
+    C->moving_h = 1; /* detected contacts move with their bodies */
+    C->alert = mo_cfg_float(cg, "alert", -1);
+    C->h = sc->time.dt;
+    if ((st = mo_contact_detect_setup(C, ctx))) goto fail;
+  } else
+    mo_note_skip(ctx, "contact detection (no pair with a rigid shape: the candidates are fixed)");
+  {
+    /* the reference configuration: u0, the bodies at rest in their reference orientation */
+    mo_state s0;
+    memset(&s0, 0, sizeof s0);
+    s0.u = sc->u0;
+    s0.v = sc->v0;
+    if ((st = mo_contact_geometry(C, &s0, 0, 1, ctx))) goto fail;
+  }
   *out = C;
   return MO_OK;
 fail:

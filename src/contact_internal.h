@@ -2,7 +2,12 @@
 #ifndef MOREAU_CONTACT_INTERNAL_H
 #define MOREAU_CONTACT_INTERNAL_H
 
+#include <moreau/body.h>
 #include <moreau/contact.h>
+
+struct mo_broad;
+
+#define MO_KEY 5   /* ints per candidate key: pair, slave body, master body, features */
 
 struct mo_contact {
   const mo_scene *sc;
@@ -14,25 +19,62 @@ struct mo_contact {
     int *cand;                /* their global candidate numbers */
     double *P;                /* P* (n x n, row-major), NULL without facets */
   } *pp;
-  int npt, ptcap;
+  /* points, candidates and coefficient lists: the mesh points fixed at build first (the static
+     part: npt_static, nc_static, ncoef_static), then the detected ones of the last geometry */
+  int npt, ptcap, npt_static;
   mo_cpoint *pt;
-  int nc, ccap;
+  int nc, ccap, nc_static;
   mo_candidate *cand;
-  int ncoef, coefcap;
+  int ncoef, coefcap, ncoef_static;
   int *cpt;                   /* candidate point lists */
   double *ccoef;              /* and coefficients */
+  int nalloc;                 /* capacity of the per-candidate arrays below */
   double *g;                  /* nc gaps */
   double *frame;              /* nc * dim * dim */
   double *U0;                 /* dim * nc obstacle local velocities */
   unsigned char *active;      /* nc: 0 when its projection fell off the master (inactive) */
+  int *key;                   /* nc * MO_KEY */
+  unsigned char *law;         /* nc: mo_contact_law */
+  double *e;                  /* nc: restitution */
   mo_csc *Hfull, *H;
-  long hversion;
+  long hversion, cset_version;
+  int moving_h;               /* some point sits on a rigid body: H follows it at every step */
+  const mo_state *hstate;     /* the state of the geometry under way (NULL outside it) */
   mo_signorini signorini;
   int repair;                 /* pair again at every step */
   int on_failure_continue;
   char *solver;
+  /* detection between rigid shapes (detect.c) */
+  int ndyn;                   /* dynamic pairs */
+  double alert;               /* contact.alert; the automatic value when the case gives none */
+  double h;                   /* the step the margin of the alert distance is taken over */
+  struct mo_broad *broad;
+  unsigned long long *mside, *sside; /* per body: bit k when it is on the master / slave side of
+                                        rigid-rigid pair k */
+  int nrr;                    /* rigid-rigid pairs (at most 64) */
+  int *rr;                    /* their pair numbers */
+  double *bc, *br;            /* broad phase: centres and radii of the rigid bodies */
+  unsigned char *bmask;
 };
 
 void mo_contact_frame_from_normal(int dim, const double *n, double *F);
+/* contact_geom.c: node a of mesh body b at state s (NULL: reference), and the closest point of x
+   on facet f of a facet set of body b (facet coordinates, shape values, point, normal). */
+void mo_contact_node_pos(const mo_scene *sc, int b, int a, const mo_state *s, double *x);
+double mo_contact_project_facet(const mo_scene *sc, int b, const mo_facetset *fs, int f, const double *x,
+                                const mo_state *s, double *xi, double *N, double *q, double *n, int *inside);
+/* Append a point / a candidate (its point and coefficient lists); grow the per-candidate arrays
+   to hold nc candidates. */
+int mo_contact_add_point(mo_contact *C, const mo_cpoint *p, mo_ctx *ctx);
+int mo_contact_add_candidate(mo_contact *C, const mo_candidate *c, const int *pts, const double *coef,
+                             mo_ctx *ctx);
+int mo_contact_reserve(mo_contact *C, int nc, mo_ctx *ctx);
+
+/* detect.c: set up the detection of the dynamic pairs, and run it at state s (the detected
+   points and candidates replace the previous ones: C->nc_static .. C->nc - 1, their gaps,
+   frames, obstacle velocities, keys, laws). */
+int mo_contact_detect_setup(mo_contact *C, mo_ctx *ctx);
+int mo_contact_detect(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx);
+void mo_contact_detect_free(mo_contact *C);
 
 #endif

@@ -22,7 +22,10 @@ struct mo_delassus {
   int *colb;        /* block columns */
   double *val;      /* d*d per block, row-major */
   long nblocks;
-  double *C;        /* nfree x m column-major: What^-1 H, or NULL */
+  double *C;        /* nfe x (d nbf) column-major: What_fe^-1 H over the candidates touching the
+                       nodal block, or NULL */
+  int nfe, nbf;     /* nodal free dofs; candidates touching them */
+  int *fecol;       /* nb: each candidate's block column in C, or -1 */
   double *work;     /* nfree */
 };
 
@@ -41,7 +44,8 @@ static void clear(mo_delassus *D)
   mo_free(D->val);
   mo_free(D->C);
   mo_free(D->work);
-  D->rowp = D->colb = NULL;
+  mo_free(D->fecol);
+  D->rowp = D->colb = D->fecol = NULL;
   D->val = D->C = D->work = NULL;
   D->built = 0;
 }
@@ -58,108 +62,289 @@ int mo_delassus_dim(const mo_delassus *D) { return D->d; }
 long mo_delassus_nblocks(const mo_delassus *D) { return D->nblocks; }
 int mo_delassus_has_columns(const mo_delassus *D) { return D->C != NULL; }
 
-int mo_delassus_update(mo_delassus *D, const mo_csc *H, long hversion, mo_linsolver *ls,
-                       long fversion, double c, int dim, int *rebuilt, mo_ctx *ctx)
+/* --- rows of blocks under construction ------------------------------------------------------ */
+
+typedef struct {
+  int nb, dd;
+  int *cnt, *cap;
+  int **col;
+  double **val;
+} rows;
+
+static void rows_free(rows *R)
 {
-  int m = H->ncol, n = H->nrow, d = dim, nb = m / dim, st = MO_OK, j0, k, p, a, b;
-  double *B = NULL, *X = NULL, t0;
-  int *cnt = NULL;
-  /* per block row: growable lists of (beta, block) */
-  int **rcol = NULL;
-  double **rval = NULL;
-  int *rcap = NULL;
-  if (rebuilt) *rebuilt = 0;
-  if (D->built && D->hversion == hversion && D->fversion == fversion && D->c == c) return MO_OK;
-  t0 = mo_clock();
-  clear(D);
-  D->m = m;
-  D->d = d;
-  D->nb = nb;
-  D->nfree = n;
-  D->c = c;
-  B = mo_calloc(ctx, (size_t)n * MO_CHUNK + 1, sizeof(double));
-  X = mo_malloc(ctx, ((size_t)n * MO_CHUNK + 1) * sizeof(double));
-  cnt = mo_calloc(ctx, (size_t)nb + 1, sizeof(int));
-  rcol = mo_calloc(ctx, (size_t)nb + 1, sizeof(int *));
-  rval = mo_calloc(ctx, (size_t)nb + 1, sizeof(double *));
-  rcap = mo_calloc(ctx, (size_t)nb + 1, sizeof(int));
-  D->work = mo_malloc(ctx, ((size_t)n + 1) * sizeof(double));
-  if (!B || !X || !cnt || !rcol || !rval || !rcap || !D->work) { st = MO_ENOMEM; goto done; }
-  if ((double)n * (double)m <= MO_KEEP_COLUMNS_MAX) {
-    D->C = mo_malloc(ctx, ((size_t)n * (size_t)m + 1) * sizeof(double));
+  int a;
+  for (a = 0; a < R->nb; a++) {
+    if (R->col) mo_free(R->col[a]);
+    if (R->val) mo_free(R->val[a]);
+  }
+  mo_free(R->col);
+  mo_free(R->val);
+  mo_free(R->cnt);
+  mo_free(R->cap);
+  memset(R, 0, sizeof *R);
+}
+
+static int rows_init(rows *R, int nb, int d, mo_ctx *ctx)
+{
+  memset(R, 0, sizeof *R);
+  R->nb = nb;
+  R->dd = d * d;
+  R->cnt = mo_calloc(ctx, (size_t)nb + 1, sizeof(int));
+  R->cap = mo_calloc(ctx, (size_t)nb + 1, sizeof(int));
+  R->col = mo_calloc(ctx, (size_t)nb + 1, sizeof(int *));
+  R->val = mo_calloc(ctx, (size_t)nb + 1, sizeof(double *));
+  return R->cnt && R->cap && R->col && R->val ? MO_OK : MO_ENOMEM;
+}
+
+/* Append block (a, b) (duplicates are summed when the rows are compressed). */
+static int rows_add(rows *R, int a, int b, const double *blk, mo_ctx *ctx)
+{
+  if (R->cnt[a] == R->cap[a]) {
+    int cap = R->cap[a] ? 2 * R->cap[a] : 8;
+    int *ic = mo_realloc(ctx, R->col[a], (size_t)cap * sizeof(int));
+    double *vc;
+    if (!ic) return MO_ENOMEM;
+    R->col[a] = ic;
+    vc = mo_realloc(ctx, R->val[a], (size_t)cap * (size_t)R->dd * sizeof(double));
+    if (!vc) return MO_ENOMEM;
+    R->val[a] = vc;
+    R->cap[a] = cap;
+  }
+  R->col[a][R->cnt[a]] = b;
+  memcpy(R->val[a] + (size_t)R->cnt[a] * (size_t)R->dd, blk, (size_t)R->dd * sizeof(double));
+  R->cnt[a]++;
+  return MO_OK;
+}
+
+/* Sort each row by block column (insertion: rows are short), sum duplicates, store as CSR. */
+static int rows_compress(rows *R, mo_delassus *D, mo_ctx *ctx)
+{
+  int nb = R->nb, dd = R->dd, a, k, q;
+  size_t total = 0;
+  double tmp[9];
+  for (a = 0; a < nb; a++) {
+    int *c = R->col[a], n = R->cnt[a], w = 0;
+    double *v = R->val[a];
+    for (k = 1; k < n; k++) {
+      int ck = c[k];
+      memcpy(tmp, v + (size_t)k * dd, (size_t)dd * sizeof *tmp);
+      for (q = k; q > 0 && c[q - 1] > ck; q--) {
+        c[q] = c[q - 1];
+        memcpy(v + (size_t)q * dd, v + (size_t)(q - 1) * dd, (size_t)dd * sizeof *v);
+      }
+      c[q] = ck;
+      memcpy(v + (size_t)q * dd, tmp, (size_t)dd * sizeof *tmp);
+    }
+    for (k = 0; k < n; k++) {
+      if (w && c[w - 1] == c[k]) {
+        for (q = 0; q < dd; q++) v[(size_t)(w - 1) * dd + q] += v[(size_t)k * dd + q];
+        continue;
+      }
+      if (w != k) {
+        c[w] = c[k];
+        memcpy(v + (size_t)w * dd, v + (size_t)k * dd, (size_t)dd * sizeof *v);
+      }
+      w++;
+    }
+    R->cnt[a] = w;
+    total += (size_t)w;
+  }
+  D->rowp = mo_malloc(ctx, ((size_t)nb + 1) * sizeof(int));
+  D->colb = mo_malloc(ctx, (total + 1) * sizeof(int));
+  D->val = mo_malloc(ctx, (total * (size_t)dd + 1) * sizeof(double));
+  if (!D->rowp || !D->colb || !D->val) return MO_ENOMEM;
+  D->rowp[0] = 0;
+  for (a = 0; a < nb; a++) {
+    D->rowp[a + 1] = D->rowp[a] + R->cnt[a];
+    memcpy(D->colb + D->rowp[a], R->col[a], (size_t)R->cnt[a] * sizeof(int));
+    memcpy(D->val + (size_t)D->rowp[a] * dd, R->val[a], (size_t)R->cnt[a] * (size_t)dd * sizeof(double));
+  }
+  D->nblocks = (long)total;
+  return MO_OK;
+}
+
+/* --- the build (doc/theory.md §4.4, (T72)) -------------------------------------------------- */
+
+/* The nodal part: c H_a^T What_fe^-1 H_b for the candidates whose columns touch the nodal block
+   (rows 0 .. nfe-1), by chunks of right-hand sides through the factorization; the columns
+   What_fe^-1 H are kept when they fit. */
+static int build_nodal(mo_delassus *D, const mo_csc *H, const mo_what_inverse *Wi, double c, rows *R, mo_ctx *ctx)
+{
+  int nfe = Wi->nfe, d = D->d, nb = D->nb, nbf = 0, a, b, k, p, j0, st = MO_OK;
+  int *fe = NULL;
+  double *B = NULL, *X = NULL;
+  fe = mo_malloc(ctx, ((size_t)nb + 1) * sizeof *fe);
+  D->fecol = mo_malloc(ctx, ((size_t)nb + 1) * sizeof *D->fecol);
+  if (!fe || !D->fecol) { st = MO_ENOMEM; goto done; }
+  for (a = 0; a < nb; a++) {
+    int touch = 0;
+    for (k = a * d; k < a * d + d && !touch; k++)
+      for (p = H->p[k]; p < H->p[k + 1]; p++) touch |= H->i[p] < nfe;
+    D->fecol[a] = touch ? nbf : -1;
+    if (touch) fe[nbf++] = a;
+  }
+  D->nbf = nbf;
+  if (!nbf || !nfe) goto done;
+  B = mo_calloc(ctx, (size_t)nfe * MO_CHUNK + 1, sizeof(double));
+  X = mo_malloc(ctx, ((size_t)nfe * MO_CHUNK + 1) * sizeof(double));
+  if (!B || !X) { st = MO_ENOMEM; goto done; }
+  if ((double)nfe * (double)nbf * d <= MO_KEEP_COLUMNS_MAX) {
+    D->C = mo_malloc(ctx, ((size_t)nfe * (size_t)nbf * (size_t)d + 1) * sizeof(double));
     if (!D->C) { st = MO_ENOMEM; goto done; }
   } else
     mo_note_skip(ctx, "storing What^-1 H (%d x %d would exceed %.0f MB): one solve per correction",
-                 n, m, MO_KEEP_COLUMNS_MAX * 8 / 1e6);
+                 nfe, nbf * d, MO_KEEP_COLUMNS_MAX * 8 / 1e6);
   /* chunks of whole candidates so that each block column is computed at once */
-  for (j0 = 0; j0 < m; j0 += (MO_CHUNK / d) * d) {
-    int ncols = (MO_CHUNK / d) * d, bc0 = j0 / d, nbc;
-    if (j0 + ncols > m) ncols = m - j0;
-    nbc = ncols / d;
-    memset(B, 0, (size_t)n * (size_t)ncols * sizeof(double));
-    for (k = 0; k < ncols; k++)
-      for (p = H->p[j0 + k]; p < H->p[j0 + k + 1]; p++) B[(size_t)k * n + (size_t)H->i[p]] = H->x[p];
-    if ((st = mo_linsolver_solve_multi(ls, ncols, B, X, ctx))) goto done;
-    if (D->C) memcpy(D->C + (size_t)j0 * n, X, (size_t)n * (size_t)ncols * sizeof(double));
-    /* W(:, chunk) = H^T X: row r of W is column r of H dotted with X's columns */
-    for (a = 0; a < nb; a++)
+  for (j0 = 0; j0 < nbf; j0 += MO_CHUNK / d) {
+    int nbc = MO_CHUNK / d, ncols;
+    if (j0 + nbc > nbf) nbc = nbf - j0;
+    ncols = nbc * d;
+    memset(B, 0, (size_t)nfe * (size_t)ncols * sizeof(double));
+    for (b = 0; b < nbc; b++)
+      for (k = 0; k < d; k++) {
+        int col = fe[j0 + b] * d + k;
+        for (p = H->p[col]; p < H->p[col + 1]; p++)
+          if (H->i[p] < nfe) B[(size_t)(b * d + k) * nfe + (size_t)H->i[p]] = H->x[p];
+      }
+    if ((st = mo_linsolver_solve_multi(Wi->ls, ncols, B, X, ctx))) goto done;
+    if (D->C) memcpy(D->C + (size_t)j0 * d * nfe, X, (size_t)nfe * (size_t)ncols * sizeof(double));
+    /* W(a, chunk) = c H_a^T X over the nodal rows */
+    for (k = 0; k < nbf; k++)
       for (b = 0; b < nbc; b++) {
         double blk[9];
         int nz = 0, ii, jj;
+        a = fe[k];
         for (ii = 0; ii < d; ii++)
           for (jj = 0; jj < d; jj++) {
             int r = a * d + ii, col = b * d + jj;
-            double s = 0;
-            for (p = H->p[r]; p < H->p[r + 1]; p++) s += H->x[p] * X[(size_t)col * n + (size_t)H->i[p]];
-            blk[ii * d + jj] = c * s;
-            nz |= s != 0;
+            double sum = 0;
+            for (p = H->p[r]; p < H->p[r + 1]; p++)
+              if (H->i[p] < nfe) sum += H->x[p] * X[(size_t)col * nfe + (size_t)H->i[p]];
+            blk[ii * d + jj] = c * sum;
+            nz |= sum != 0;
           }
-        if (!nz) continue;
-        if (cnt[a] == rcap[a]) {
-          int cap = rcap[a] ? 2 * rcap[a] : 8;
-          int *ic = mo_realloc(ctx, rcol[a], (size_t)cap * sizeof(int));
-          double *vc;
-          if (!ic) { st = MO_ENOMEM; goto done; }
-          rcol[a] = ic;
-          vc = mo_realloc(ctx, rval[a], (size_t)cap * (size_t)(d * d) * sizeof(double));
-          if (!vc) { st = MO_ENOMEM; goto done; }
-          rval[a] = vc;
-          rcap[a] = cap;
-        }
-        rcol[a][cnt[a]] = bc0 + b;
-        memcpy(rval[a] + (size_t)cnt[a] * (size_t)(d * d), blk, (size_t)(d * d) * sizeof(double));
-        cnt[a]++;
+        if (nz && (st = rows_add(R, a, fe[j0 + b], blk, ctx))) goto done;
       }
   }
-  /* compress the rows (block columns already increasing: chunks go left to right) */
-  D->rowp = mo_malloc(ctx, ((size_t)nb + 1) * sizeof(int));
-  if (!D->rowp) { st = MO_ENOMEM; goto done; }
-  D->rowp[0] = 0;
-  for (a = 0; a < nb; a++) D->rowp[a + 1] = D->rowp[a] + cnt[a];
-  D->nblocks = D->rowp[nb];
-  D->colb = mo_malloc(ctx, ((size_t)D->nblocks + 1) * sizeof(int));
-  D->val = mo_malloc(ctx, ((size_t)D->nblocks * (size_t)(d * d) + 1) * sizeof(double));
-  if (!D->colb || !D->val) { st = MO_ENOMEM; goto done; }
-  for (a = 0; a < nb; a++) {
-    memcpy(D->colb + D->rowp[a], rcol[a], (size_t)cnt[a] * sizeof(int));
-    memcpy(D->val + (size_t)D->rowp[a] * (size_t)(d * d), rval[a], (size_t)cnt[a] * (size_t)(d * d) * sizeof(double));
+done:
+  mo_free(fe);
+  mo_free(B);
+  mo_free(X);
+  return st;
+}
+
+/* The rigid part: for every rigid block k, c H_ak^T inv_k H_bk over the pairs of candidates
+   touching it, O(sum_k n_k^2) for n_k candidates on body k (T72). */
+static int build_rigid(mo_delassus *D, const mo_csc *H, const mo_what_inverse *Wi, double c, rows *R, mo_ctx *ctx)
+{
+  int nfe = Wi->nfe, n = Wi->n, nr = n - nfe, d = D->d, m = H->ncol, nblk = Wi->nblk, st = MO_OK;
+  int *blk_of = NULL, *cnt = NULL, *ecol = NULL, *erow = NULL, j, p, k, e;
+  double *eval = NULL, *Hk = NULL, *Gk = NULL;
+  int *cand = NULL;
+  size_t ne = 0;
+  if (!nblk) return MO_OK;
+  blk_of = mo_malloc(ctx, ((size_t)nr + 1) * sizeof *blk_of);
+  cnt = mo_calloc(ctx, (size_t)nblk + 2, sizeof *cnt);
+  if (!blk_of || !cnt) { st = MO_ENOMEM; goto done; }
+  for (k = 0; k < nblk; k++)
+    for (j = Wi->off[k]; j < Wi->off[k + 1]; j++) blk_of[j - nfe] = k;
+  for (j = 0; j < m; j++)
+    for (p = H->p[j]; p < H->p[j + 1]; p++)
+      if (H->i[p] >= nfe) { cnt[blk_of[H->i[p] - nfe] + 1]++; ne++; }
+  if (!ne) goto done;
+  for (k = 0; k < nblk; k++) cnt[k + 1] += cnt[k];
+  ecol = mo_malloc(ctx, ne * sizeof *ecol);
+  erow = mo_malloc(ctx, ne * sizeof *erow);
+  eval = mo_malloc(ctx, ne * sizeof *eval);
+  if (!ecol || !erow || !eval) { st = MO_ENOMEM; goto done; }
+  /* entries grouped by block, in column order within a block (counting sort) */
+  for (j = 0; j < m; j++)
+    for (p = H->p[j]; p < H->p[j + 1]; p++)
+      if (H->i[p] >= nfe) {
+        int kb = blk_of[H->i[p] - nfe], q = cnt[kb]++;
+        ecol[q] = j;
+        erow[q] = H->i[p] - Wi->off[kb];
+        eval[q] = H->x[p];
+      }
+  for (k = nblk; k > 0; k--) cnt[k] = cnt[k - 1];
+  cnt[0] = 0;
+  for (k = 0; k < nblk; k++) {
+    int e0 = cnt[k], e1 = cnt[k + 1], nk = Wi->off[k + 1] - Wi->off[k], nc = 0, a, b, i, jj, q;
+    const double *inv = Wi->inv + Wi->ioff[k];
+    if (e0 == e1) continue;
+    /* the candidates on the block and their H_ak (nk x d, row-major), then G_ak = inv_k H_ak */
+    mo_free(cand); mo_free(Hk); mo_free(Gk);
+    cand = mo_malloc(ctx, (size_t)(e1 - e0) * sizeof *cand);
+    Hk = mo_calloc(ctx, (size_t)(e1 - e0) * (size_t)(nk * d), sizeof *Hk);
+    Gk = mo_calloc(ctx, (size_t)(e1 - e0) * (size_t)(nk * d), sizeof *Gk);
+    if (!cand || !Hk || !Gk) { st = MO_ENOMEM; goto done; }
+    for (e = e0; e < e1; e++) {
+      int ca = ecol[e] / d;
+      if (!nc || cand[nc - 1] != ca) cand[nc++] = ca;
+      Hk[(size_t)(nc - 1) * (nk * d) + (size_t)(erow[e] * d + ecol[e] % d)] = eval[e];
+    }
+    for (a = 0; a < nc; a++)
+      for (i = 0; i < nk; i++)
+        for (jj = 0; jj < d; jj++) {
+          double acc = 0;
+          for (q = 0; q < nk; q++) acc += inv[i * nk + q] * Hk[(size_t)a * (nk * d) + (size_t)(q * d + jj)];
+          Gk[(size_t)a * (nk * d) + (size_t)(i * d + jj)] = acc;
+        }
+    for (a = 0; a < nc; a++)
+      for (b = 0; b < nc; b++) {
+        double blk[9];
+        const double *Ha = Hk + (size_t)a * (nk * d), *Gb = Gk + (size_t)b * (nk * d);
+        for (i = 0; i < d; i++)
+          for (jj = 0; jj < d; jj++) {
+            double acc = 0;
+            for (q = 0; q < nk; q++) acc += Ha[q * d + i] * Gb[q * d + jj];
+            blk[i * d + jj] = c * acc;
+          }
+        if ((st = rows_add(R, cand[a], cand[b], blk, ctx))) goto done;
+      }
   }
+done:
+  mo_free(blk_of); mo_free(cnt); mo_free(ecol); mo_free(erow); mo_free(eval);
+  mo_free(cand); mo_free(Hk); mo_free(Gk);
+  return st;
+}
+
+int mo_delassus_update(mo_delassus *D, const mo_csc *H, long hversion, const mo_what_inverse *Wi, double c, int dim,
+                       int *rebuilt, mo_ctx *ctx)
+{
+  int m = H->ncol, n = H->nrow, st;
+  long fv = Wi->version * 1000003L;
+  double t0;
+  rows R;
+  if (rebuilt) *rebuilt = 0;
+  if (Wi->ls) {
+    long nf;
+    mo_linsolver_stats(Wi->ls, &nf, NULL, NULL);
+    fv += nf;
+  }
+  if (D->built && D->hversion == hversion && D->fversion == fv && D->c == c) return MO_OK;
+  if (n != Wi->n) return mo_error(ctx, MO_EINTERNAL, "Delassus: H has %d rows, What %d", n, Wi->n);
+  t0 = mo_clock();
+  clear(D);
+  D->m = m;
+  D->d = dim;
+  D->nb = m / dim;
+  D->nfree = n;
+  D->nfe = Wi->nfe;
+  D->c = c;
+  D->work = mo_malloc(ctx, ((size_t)n + 1) * sizeof(double));
+  if (!D->work) { mo_phase_add(ctx, MO_PH_DELASSUS, t0); return MO_ENOMEM; }
+  if ((st = rows_init(&R, D->nb, dim, ctx)) || (st = build_nodal(D, H, Wi, c, &R, ctx)) ||
+      (st = build_rigid(D, H, Wi, c, &R, ctx)) || (st = rows_compress(&R, D, ctx)))
+    goto done;
   D->hversion = hversion;
-  D->fversion = fversion;
+  D->fversion = fv;
   D->built = 1;
   D->version++;
   if (rebuilt) *rebuilt = 1;
 done:
-  for (a = 0; a < nb; a++) { /* either list may be the allocation that failed */
-    if (rcol) mo_free(rcol[a]);
-    if (rval) mo_free(rval[a]);
-  }
-  mo_free(rcol);
-  mo_free(rval);
-  mo_free(rcap);
-  mo_free(cnt);
-  mo_free(B);
-  mo_free(X);
+  rows_free(&R);
   if (st) clear(D);
   mo_phase_add(ctx, MO_PH_DELASSUS, t0);
   return st;
@@ -209,25 +394,34 @@ int mo_delassus_dense(const mo_delassus *D, double **out, mo_ctx *ctx)
   return MO_OK;
 }
 
-int mo_delassus_apply_Cinv(mo_delassus *D, const mo_csc *H, mo_linsolver *ls, const double *r,
+int mo_delassus_apply_Cinv(mo_delassus *D, const mo_csc *H, const mo_what_inverse *Wi, const double *r,
                            double *dx, mo_ctx *ctx)
 {
-  int n = H->nrow, m = H->ncol, j, i, p;
-  if (D->C) {
-    memset(dx, 0, (size_t)n * sizeof(double));
-    for (j = 0; j < m; j++) {
-      const double *col = D->C + (size_t)j * (size_t)n;
-      double rj = r[j];
-      if (rj == 0) continue;
-      for (i = 0; i < n; i++) dx[i] += rj * col[i];
-    }
-    return MO_OK;
-  }
+  int n = H->nrow, m = H->ncol, nfe = Wi->nfe, d = D->d, j, i, p, st;
+  /* What^-1 (H r): the rigid rows by their blocks; the nodal rows from the kept columns, or by
+     one solve */
   memset(D->work, 0, (size_t)n * sizeof(double));
   for (j = 0; j < m; j++)
     if (r[j] != 0)
       for (p = H->p[j]; p < H->p[j + 1]; p++) D->work[H->i[p]] += H->x[p] * r[j];
-  return mo_linsolver_solve(ls, D->work, dx, ctx);
+  if (!D->C || !nfe) return mo_what_solve(Wi, 1, D->work, dx, ctx);
+  memset(dx, 0, (size_t)nfe * sizeof(double));
+  for (j = 0; j < m; j++) {
+    const double *col;
+    double rj = r[j];
+    if (rj == 0 || D->fecol[j / d] < 0) continue;
+    col = D->C + ((size_t)D->fecol[j / d] * d + (size_t)(j % d)) * (size_t)nfe;
+    for (i = 0; i < nfe; i++) dx[i] += rj * col[i];
+  }
+  if (n > nfe) {
+    mo_what_inverse Wr = *Wi;
+    Wr.nfe = 0; /* the rigid blocks alone; their rows of work are what they act on */
+    memcpy(D->work, dx, (size_t)nfe * sizeof(double));
+    st = mo_what_solve(&Wr, 1, D->work, D->work, ctx);
+    if (st) return st;
+    memcpy(dx + nfe, D->work + nfe, (size_t)(n - nfe) * sizeof(double));
+  }
+  return MO_OK;
 }
 
 static int cmp_int(const void *a, const void *b)

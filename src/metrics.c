@@ -70,8 +70,8 @@ int mo_metrics_create(const mo_scene *sc, const mo_contact *C, mo_metrics **out,
   M->work = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof(double));
   if (!M->work) { mo_metrics_free(M); return MO_ENOMEM; }
   M->first_release = NAN;
-  M->fields = R->type != MO_REF_NONE && R->type != MO_REF_ENERGY && R->body >= 0 &&
-              sc->body[R->body].mesh->dim == 1;
+  M->fields = R->type != MO_REF_NONE && R->type != MO_REF_ENERGY && R->type < MO_REF_BOUNCE && R->body >= 0 &&
+              sc->body[R->body].kind == MO_BODY_DEFORMABLE && sc->body[R->body].mesh->dim == 1;
   if (C) {
     M->nc = mo_contact_ncandidates(C);
     M->d = mo_contact_dim(C);
@@ -91,7 +91,7 @@ int mo_metrics_create(const mo_scene *sc, const mo_contact *C, mo_metrics **out,
 static double mech_energy(const mo_metrics *M, const mo_state *s)
 {
   const mo_scene *sc = M->sc;
-  double e = mo_energy_kinetic(sc, s->v, M->work) + mo_energy_elastic(sc, s->u, M->work);
+  double e = mo_energy_kinetic(sc, s, M->work) + mo_energy_elastic(sc, s->u, M->work);
   /* finite-strain bodies: their stored energy and the plastic work they took (T65) */
   if (sc->nonlinear) e += s->psi + s->wplastic;
   return e - s->wext - s->wsupport;
@@ -106,7 +106,7 @@ double mo_metrics_energy_ratio(const mo_metrics *M, const mo_state *s)
 void mo_metrics_energies(const mo_metrics *M, const mo_state *s, double *ek, double *ee, double *ratio)
 {
   double e0 = M->e0 + M->eshift;
-  *ek = mo_energy_kinetic(M->sc, s->v, M->work);
+  *ek = mo_energy_kinetic(M->sc, s, M->work);
   *ee = mo_energy_stored(M->sc, s, M->work);   /* elastic, and finite-strain bodies' stored */
   /* the plastic work is energy the bodies took (T65), as in mech_energy */
   *ratio = e0 != 0 ? (*ek + *ee + (M->sc->nonlinear ? s->wplastic : 0) - s->wext - s->wsupport + M->eshift) / e0 : NAN;

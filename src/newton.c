@@ -125,7 +125,7 @@ int mo_newton_setup(mo_stepper *S, mo_ctx *ctx)
   if (S->scheme == MO_SCHEME_QUASISTATIC) st = mo_csc_copy(sc->K, &L, ctx);
   else st = mo_csc_add(sc->M, sc->K, S->cm, S->ck, &L, ctx);
   if (!st) st = mo_csc_add(L, P, 1, 0, &Wf, ctx); /* the union of the patterns, P's values x 0 */
-  if (!st) st = mo_csc_extract(Wf, sc->free_of, sc->nfree, sc->free_of, sc->nfree, &S->W, ctx);
+  if (!st) st = mo_csc_extract(Wf, sc->free_of, sc->nfe_free, sc->free_of, sc->nfe_free, &S->W, ctx);
   if (st) goto done;
   S->Wlin = mo_malloc(ctx, ((size_t)mo_csc_nnz(S->W) + 1) * sizeof *S->Wlin);
   if (!S->Wlin) { st = MO_ENOMEM; goto done; }
@@ -346,19 +346,14 @@ static void halve(mo_stepper *S, double *x, double *g, double tn)
   mo_stepper_presc_unknown(S, tn, x);
 }
 
-int mo_stepper_solve(mo_stepper *S, const mo_state *s, double *x, mo_constraint_fn fn, void *data,
-                     mo_ctx *ctx)
+int mo_newton_begin(mo_stepper *S, const mo_state *s, double *x, double *g, mo_ctx *ctx)
 {
   const mo_scene *sc = S->sc;
-  mo_newton_report *rep = &S->rep;
-  int n = sc->ndof, nf = sc->nfree, i, it, st;
-  double h = S->h, tn = s->t + h, tf = S->theta_f, cf, tol = sc->time.newton_tol;
-  double *fext = S->w1, *u = S->w2, *mx = S->w3, *R = S->R, *g = S->g, prev = HUGE_VAL;
-  int damped = 0, nhalf = 0, ninv = 0, any_dxp = 0;
-  char inverted[MO_ERRMSG_MAX] = "";
-  char hist[400];
-  if (!S->nl) return mo_error(ctx, MO_EINTERNAL, "mo_stepper_solve: the scene is linear");
-  mo_scene_fext(sc, tn, fext);
+  int n = sc->ndof, i, st;
+  double tn = s->t + S->h;
+  if (!S->nl) return mo_error(ctx, MO_EINTERNAL, "mo_newton_begin: the scene is linear");
+  if (S->blk_varies && (st = mo_stepper_rigid_update(S, s, ctx))) return st;
+  mo_scene_fext(sc, tn, S->w1);
   /* the prescribed dofs: x holds their continuation (the guess); dxp their increment to t+,
      which the first linearization carries into the free rows through the tangent's coupling
      (a Dirichlet predictor: iterate 0 is the start configuration moving on, never a
@@ -366,30 +361,112 @@ int mo_stepper_solve(mo_stepper *S, const mo_state *s, double *x, mo_constraint_
   memcpy(S->xk, x, (size_t)n * sizeof *x);
   mo_stepper_presc_unknown(S, tn, S->xk);
   memset(S->dxp, 0, (size_t)n * sizeof *S->dxp);
+  S->any_dxp = 0;
   for (i = 0; i < sc->npresc; i++) {
     int d = sc->presc[i].dof;
     S->dxp[d] = S->xk[d] - x[d];
-    any_dxp |= S->dxp[d] != 0;
+    S->any_dxp |= S->dxp[d] != 0;
   }
   memset(g, 0, (size_t)n * sizeof *g);
-  rep->iterations = rep->nres = 0;
-  /* the balance: cm M (x - xm) + cf [theta_f (f_int - f_ext+) + (1 - theta_f) (f_int0 - f_ext)]
-     (T60)-(T62) */
-  if (S->scheme != MO_SCHEME_THETA) tf = 1;
-  cf = S->scheme == MO_SCHEME_THETA ? h : 1;
-  for (it = 0;; it++) {
-    double res, scale, a1 = 0, a2 = 0, a3 = 0;
-    kinematics(S, s, x, it > 0, u);
-    if (it == 0 && any_dxp) memset(S->cfp, 0, (size_t)n * sizeof *S->cfp);
-    st = mo_newton_forces(S, u, s->q, S->fint, 1, it == 0 && any_dxp ? S->dxp : NULL, S->cfp, ctx);
-    if (st == MO_ENAN && it > 0 && nhalf < MAX_HALVINGS) {
+  S->rep.iterations = S->rep.nres = 0;
+  S->nit = S->nhalf = S->ninv = S->ndamp = 0;
+  S->prev = HUGE_VAL;
+  S->inverted[0] = '\0';
+  return MO_OK;
+}
+
+/* The residual of the balance at iterate x with constraint term g: cm M (x - xm) + cf [theta_f
+   (f_int - f_ext+) + (1 - theta_f) (f_int0 - f_ext)] - cf g_rigid - g (T60)-(T62), its norm over
+   the free dofs and its scale (T64), recorded in the report. S->w2 receives R - g. */
+static void residual(mo_stepper *S, const mo_state *s, const double *x, const double *g, double *res,
+                     double *scale)
+{
+  const mo_scene *sc = S->sc;
+  mo_newton_report *rep = &S->rep;
+  int n = sc->ndof, i;
+  double tf = S->scheme == MO_SCHEME_THETA ? S->theta_f : 1, cf = S->scheme == MO_SCHEME_THETA ? S->h : 1;
+  double *fext = S->w1, *u = S->w2, *mx = S->w3, *R = S->R, a1 = 0, a2, a3, r;
+  if (S->cm != 0) {
+    if (S->scheme == MO_SCHEME_THETA)
+      for (i = 0; i < n; i++) R[i] = x[i] - s->v[i];
+    else
+      memcpy(R, x, (size_t)n * sizeof *R);
+    mo_stepper_mass_apply(S, R, mx);
+    a1 = norm_all(n, mx);
+  } else
+    memset(mx, 0, (size_t)n * sizeof *mx);
+  for (i = 0; i < n; i++) u[i] = cf * (tf * S->fint[i] + (1 - tf) * S->fint0[i]);
+  a2 = norm_all(n, u);
+  for (i = 0; i < n; i++) R[i] = u[i] + mx[i];
+  /* the loads and the rigid bodies' explicit gyroscopic forces */
+  for (i = 0; i < n; i++) u[i] = cf * (tf * fext[i] + (1 - tf) * s->f[i] + (S->gyro ? S->gyro[i] : 0));
+  a3 = norm_all(n, u);
+  for (i = 0; i < n; i++) {
+    R[i] -= u[i];
+    u[i] = R[i] - g[i];
+  }
+  *res = norm_free(sc, u);
+  *scale = fmax(fmax(a1, a2), fmax(a3, norm_all(n, g)));
+  rep->scale = *scale;
+  r = *scale > 0 ? *res / *scale : *res;
+  if (rep->nres < MO_NEWTON_HISTORY) rep->res[rep->nres++] = r;
+  else {
+    memmove(rep->res, rep->res + 1, (MO_NEWTON_HISTORY - 1) * sizeof *rep->res);
+    rep->res[MO_NEWTON_HISTORY - 1] = r;
+  }
+}
+
+/* (T63): factor What_k at the iterate, x_free = x_k - What_k^-1 R(x_k) into S->xfr. Returns
+   MO_ESINGULAR (message cleared) when the tangent is not definite, for the caller to halve. */
+static int linearize(mo_stepper *S, const mo_state *s, const double *x, int it, mo_ctx *ctx)
+{
+  const mo_scene *sc = S->sc;
+  int n = sc->ndof, i, st;
+  double t0 = mo_clock(), *u = S->w2, *R = S->R;
+  st = mo_linsolver_factor(S->ls, S->W, ctx);
+  mo_phase_add(ctx, MO_PH_FACTOR, t0);
+  if (st) return st;
+  t0 = mo_clock();
+  if (it == 0 && S->any_dxp) {
+    /* R + What_fp dx_p: cm M dx_p, ck K dx_p of the linear bodies, the elements' part */
+    if (S->cm != 0) mo_stepper_mass_apply(S, S->dxp, S->w3);
+    for (i = 0; i < n; i++) u[i] = S->cfp[i] + (S->cm != 0 ? S->cm * S->w3[i] : 0) + R[i];
+    mo_csc_gaxpy(sc->K, S->ck, S->dxp, 1, u);
+    mo_stepper_gather(S, u, S->rhs);
+  } else
+    mo_stepper_gather(S, R, S->rhs);
+  st = mo_stepper_what_solve(S, 1, S->rhs, S->xf, ctx);
+  mo_phase_add(ctx, MO_PH_SOLVE, t0);
+  if (st) return st;
+  memcpy(S->xfr, x, (size_t)n * sizeof *x);
+  for (i = 0; i < sc->nfree; i++) S->xfr[sc->full_of[i]] -= S->xf[i];
+  if (it == 0) mo_stepper_presc_unknown(S, s->t + S->h, S->xfr);
+  return MO_OK;
+}
+
+int mo_newton_iterate(mo_stepper *S, const mo_state *s, double *x, double *g, const double **xfree,
+                      mo_ctx *ctx)
+{
+  const mo_scene *sc = S->sc;
+  mo_newton_report *rep = &S->rep;
+  int n = sc->ndof, st;
+  double tn = s->t + S->h, tol = sc->time.newton_tol;
+  char hist[400];
+  *xfree = NULL;
+  for (;; S->nit++) {
+    int it = S->nit;
+    double res, scale;
+    kinematics(S, s, x, it > 0, S->w2);
+    if (it == 0 && S->any_dxp) memset(S->cfp, 0, (size_t)n * sizeof *S->cfp);
+    st = mo_newton_forces(S, S->w2, s->q, S->fint, 1, it == 0 && S->any_dxp ? S->dxp : NULL, S->cfp, ctx);
+    if (st == MO_ENAN && it > 0 && S->nhalf < MAX_HALVINGS) {
       /* an iterate that inverts elements: back toward the last linearization point */
-      snprintf(inverted, sizeof inverted, "%s", ctx->errmsg);
-      ninv++;
+      snprintf(S->inverted, sizeof S->inverted, "%s", ctx->errmsg);
+      S->ninv++;
       mo_ctx_clear_error(ctx);
       halve(S, x, g, tn);
-      damped = 1;
-      nhalf++;
+      S->ndamp = 1;
+      S->nhalf++;
       rep->damped++;
       continue;
     }
@@ -402,37 +479,10 @@ int mo_stepper_solve(mo_stepper *S, const mo_state *s, double *x, mo_constraint_
                       "Relative residuals of the step: %s. The step deforms the mesh beyond what its "
                       "elements can follow: a smaller time step (time.dt), a finer mesh where elements "
                       "are crushed, or a slower loading", s->step + 1, tn, it,
-                      nhalf ? " (nor its update halved 8 times)" : "", msg, hist[0] ? hist : "none yet");
+                      S->nhalf ? " (nor its update halved 8 times)" : "", msg, hist[0] ? hist : "none yet");
     }
     if (st) return mo_error_prefix(ctx, "step %ld (t = %.6g), Newton iterate %d", s->step + 1, tn, it);
-    /* R over full dofs (the prescribed rows are the support reactions, not tested) */
-    if (S->cm != 0) {
-      if (S->scheme == MO_SCHEME_THETA)
-        for (i = 0; i < n; i++) R[i] = x[i] - s->v[i];
-      else
-        memcpy(R, x, (size_t)n * sizeof *R);
-      mo_csc_gaxpy(sc->M, 1, R, 0, mx);
-      a1 = norm_all(n, mx);
-    } else
-      memset(mx, 0, (size_t)n * sizeof *mx);
-    /* the terms' magnitudes, and R - g over free dofs (u, no longer needed, holds them) */
-    for (i = 0; i < n; i++) u[i] = cf * (tf * S->fint[i] + (1 - tf) * S->fint0[i]);
-    a2 = norm_all(n, u);
-    for (i = 0; i < n; i++) R[i] = u[i] + mx[i];
-    for (i = 0; i < n; i++) u[i] = cf * (tf * fext[i] + (1 - tf) * s->f[i]);
-    a3 = norm_all(n, u);
-    for (i = 0; i < n; i++) {
-      R[i] -= u[i];
-      u[i] = R[i] - g[i];
-    }
-    res = norm_free(sc, u);
-    scale = fmax(fmax(a1, a2), fmax(a3, norm_all(n, g)));
-    rep->scale = scale;
-    if (rep->nres < MO_NEWTON_HISTORY) rep->res[rep->nres++] = scale > 0 ? res / scale : res;
-    else {
-      memmove(rep->res, rep->res + 1, (MO_NEWTON_HISTORY - 1) * sizeof *rep->res);
-      rep->res[MO_NEWTON_HISTORY - 1] = scale > 0 ? res / scale : res;
-    }
+    residual(S, s, x, g, &res, &scale);
     if (!isfinite(res)) {
       history(rep, hist, sizeof hist);
       return mo_error(ctx, MO_ENOCONV, "step %ld (t = %.6g): Newton iterate %d has a non-finite residual "
@@ -440,85 +490,74 @@ int mo_stepper_solve(mo_stepper *S, const mo_state *s, double *x, mo_constraint_
     }
     /* (T64): at least one linearization, so that the constraint layer sees every step; a
        damped iterate is only a new linearization point, its contact term is not a solution */
-    if (it > 0 && !damped && res <= tol * scale) break;
-    if (it >= 2 && !damped && !(res < prev)) {
+    if (it > 0 && !S->ndamp && res <= tol * scale) {
+      rep->steps++;
+      rep->total += rep->iterations;
+      if (rep->iterations > rep->max) rep->max = rep->iterations;
+      return MO_OK;
+    }
+    if (it >= 2 && !S->ndamp && !(res < S->prev)) {
       /* no decrease: a point of the material or a contact switching between two states from
          one linearization to the next (a 2-cycle); halve the update (T63) */
       halve(S, x, g, tn);
-      damped = 1;
+      S->ndamp = 1;
       rep->damped++;
       continue;
     }
-    damped = 0;
-    nhalf = 0;
-    prev = res;
+    S->ndamp = 0;
+    S->nhalf = 0;
+    S->prev = res;
     if (it >= sc->time.newton_max) {
       char why[600] = "";
       history(rep, hist, sizeof hist);
-      if (ninv) snprintf(why, sizeof why, "; %d iterates were not admissible, the last: %.400s", ninv, inverted);
+      if (S->ninv) snprintf(why, sizeof why, "; %d iterates were not admissible, the last: %.400s", S->ninv, S->inverted);
       return mo_error(ctx, MO_ENOCONV, "step %ld (t = %.6g): Newton did not converge in %d iterations "
                       "(time.newton.max_iter = %d, %d updates halved): relative residuals %s, tolerance %g "
                       "(time.newton.tol)%s. Remedies: a smaller time step (time.dt, or time.max_cuts), more numerical damping "
                       "(time.theta above 1/2), more iterations, or a looser tolerance",
                       s->step + 1, tn, rep->iterations, sc->time.newton_max, it - rep->iterations, hist, tol, why);
     }
-    /* (T63): factor What_k, x_free = x_k - What_k^-1 R(x_k) */
-    {
-      double t0 = mo_clock();
-      st = mo_linsolver_factor(S->ls, S->W, ctx);
-      mo_phase_add(ctx, MO_PH_FACTOR, t0);
-      if (st == MO_ESINGULAR && it > 0 && nhalf < MAX_HALVINGS) {
-        /* the tangent is not definite here (crushed elements whose compressive geometric
-           stiffness outweighs their mass): back toward the last linearization point */
-        mo_ctx_clear_error(ctx);
-        halve(S, x, g, tn);
-        damped = 1;
-        nhalf++;
-        rep->damped++;
-        continue;
-      }
-      if (st == MO_ESINGULAR) {
-        mo_ctx_clear_error(ctx);
-        history(rep, hist, sizeof hist);
-        return mo_error(ctx, MO_ESINGULAR, "step %ld (t = %.6g), Newton iterate %d: the tangent iteration "
-                        "matrix %s is not positive definite%s: the tangent stiffness of crushed elements "
-                        "outweighs their mass. Relative residuals of the step: %s. Remedies: a smaller time "
-                        "step (time.dt), more numerical damping, a finer mesh where elements are crushed",
-                        s->step + 1, tn, it, S->cm != 0 ? "M + c K_t" : "K_t",
-                        nhalf ? " (nor after halving the update 8 times)" : "", hist);
-      }
-      if (st)
-        return mo_error_prefix(ctx, "step %ld (t = %.6g), Newton iterate %d: the tangent iteration matrix",
-                               s->step + 1, tn, it);
-      t0 = mo_clock();
-      if (it == 0 && any_dxp) {
-        /* R + What_fp dx_p: cm M dx_p, ck K dx_p of the linear bodies, the elements' part */
-        memcpy(u, S->cfp, (size_t)n * sizeof *u);
-        if (S->cm != 0) mo_csc_gaxpy(sc->M, S->cm, S->dxp, 1, u);
-        mo_csc_gaxpy(sc->K, S->ck, S->dxp, 1, u);
-        for (i = 0; i < n; i++) u[i] += R[i];
-        mo_stepper_gather(S, u, S->rhs);
-      } else
-        mo_stepper_gather(S, R, S->rhs);
-      st = mo_linsolver_solve(S->ls, S->rhs, S->xf, ctx);
-      mo_phase_add(ctx, MO_PH_SOLVE, t0);
-      if (st) return st;
+    st = linearize(S, s, x, it, ctx);
+    if (st == MO_ESINGULAR && it > 0 && S->nhalf < MAX_HALVINGS) {
+      /* the tangent is not definite here (crushed elements whose compressive geometric
+         stiffness outweighs their mass): back toward the last linearization point */
+      mo_ctx_clear_error(ctx);
+      halve(S, x, g, tn);
+      S->ndamp = 1;
+      S->nhalf++;
+      rep->damped++;
+      continue;
     }
-    memcpy(S->xfr, x, (size_t)n * sizeof *x);
-    for (i = 0; i < nf; i++) S->xfr[sc->full_of[i]] -= S->xf[i];
-    if (it == 0) mo_stepper_presc_unknown(S, tn, S->xfr);
+    if (st == MO_ESINGULAR) {
+      mo_ctx_clear_error(ctx);
+      history(rep, hist, sizeof hist);
+      return mo_error(ctx, MO_ESINGULAR, "step %ld (t = %.6g), Newton iterate %d: the tangent iteration "
+                      "matrix %s is not positive definite%s: the tangent stiffness of crushed elements "
+                      "outweighs their mass. Relative residuals of the step: %s. Remedies: a smaller time "
+                      "step (time.dt), more numerical damping, a finer mesh where elements are crushed",
+                      s->step + 1, tn, it, S->cm != 0 ? "M + c K_t" : "K_t",
+                      S->nhalf ? " (nor after halving the update 8 times)" : "", hist);
+    }
+    if (st)
+      return mo_error_prefix(ctx, "step %ld (t = %.6g), Newton iterate %d: the tangent iteration matrix",
+                             s->step + 1, tn, it);
     memcpy(S->xk, x, (size_t)n * sizeof *x);
     memcpy(S->gk, g, (size_t)n * sizeof *g);
     rep->iterations++;
-    if (fn) {
-      if ((st = fn(data, s, S->xfr, x, g, it, ctx))) return st;
-    } else {
-      memcpy(x, S->xfr, (size_t)n * sizeof *x);
-      memset(g, 0, (size_t)n * sizeof *g);
-    }
+    S->nit++;
+    *xfree = S->xfr;
+    return MO_NEWTON_LINEARIZED;
   }
-  rep->steps++;
-  rep->total += rep->iterations;
-  if (rep->iterations > rep->max) rep->max = rep->iterations;
-  return MO_OK;
+}
+
+int mo_stepper_solve(mo_stepper *S, const mo_state *s, double *x, mo_ctx *ctx)
+{
+  int n = S->sc->ndof, st;
+  const double *xfree;
+  if ((st = mo_newton_begin(S, s, x, S->g, ctx))) return st;
+  while ((st = mo_newton_iterate(S, s, x, S->g, &xfree, ctx)) == MO_NEWTON_LINEARIZED) {
+    memcpy(x, xfree, (size_t)n * sizeof *x);
+    memset(S->g, 0, (size_t)n * sizeof *S->g);
+  }
+  return st;
 }

@@ -1,6 +1,7 @@
 /* reference.c: the closed-form solutions the core measures runs against (doc/theory.md §3). */
 #include "config.h"
 #include <moreau/scene.h>
+#include <moreau/body.h>
 #include "case_internal.h"
 
 #include <math.h>
@@ -14,8 +15,59 @@ const char *mo_reference_name(mo_reference_type t)
   case MO_REF_RODS_IMPACT: return "rods_impact";
   case MO_REF_BAR_OBSTACLE: return "bar_obstacle";
   case MO_REF_ENERGY: return "energy";
+  case MO_REF_BOUNCE: return "bounce";
+  case MO_REF_INCLINE: return "incline";
+  case MO_REF_STRUCK_BAR: return "struck_bar";
   default: return "none";
   }
+}
+
+/* The rigid references (doc/theory.md §12.6): the body they describe and what follows from the
+   case (the incline's regime and accelerations). */
+static int rigid_reference(mo_reference *R, const mo_scene *sc, const config_setting_t *rg, mo_ctx *ctx)
+{
+  const mo_case *cs = sc->cs;
+  const char *bname = mo_cfg_string(rg, "body", NULL);
+  const mo_body *B;
+  int k;
+  R->body = -1;
+  for (k = 0; k < sc->nbody && R->body < 0; k++)
+    if (bname ? !strcmp(sc->body[k].name, bname) : (sc->body[k].type->flags & MO_BODY_F_RIGID) && !sc->body[k].fixed)
+      R->body = k;
+  if (R->body < 0 || !(sc->body[R->body].type->flags & MO_BODY_F_RIGID))
+    return mo_case_error(cs, mo_cfg_member(rg, "body") ? mo_cfg_member(rg, "body") : rg, ctx,
+                         "no rigid body named '%s'", bname ? bname : "");
+  B = &sc->body[R->body];
+  for (k = 0; k < 3; k++) R->x1[k] = B->xc0[k];
+  R->gravity = mo_cfg_float(rg, "gravity", 9.81);
+  R->height = mo_cfg_float(rg, "height", 1);
+  R->restitution = mo_cfg_float(rg, "restitution", 0);
+  R->radius = B->radius;
+  R->angle = mo_cfg_float(rg, "angle", 0) * M_PI / 180;
+  R->mu = mo_cfg_float(rg, "mu", 0);
+  if (R->type == MO_REF_INCLINE) {
+    /* (T74): a block sticks when tan alpha <= mu, else slides at g (sin - mu cos); a disk (a
+       sphere) rolls without slip when mu >= tan alpha / 3 (2/7 tan alpha) at a = g sin alpha /
+       (1 + I / (m R^2)), else slips with friction mu g cos alpha driving the spin */
+    double g = R->gravity, sa = sin(R->angle), ca = cos(R->angle), ta = sa / ca;
+    if (B->kind == MO_BODY_POLYGON || B->kind == MO_BODY_RIGID_MESH) {
+      R->regime = ta <= R->mu ? 0 : 1;
+      R->accel = R->regime ? g * (sa - R->mu * ca) : 0;
+      R->alpha = 0;
+    } else {
+      double k2 = B->kind == MO_BODY_SPHERE ? 0.4 : 0.5; /* I / (m R^2) */
+      if (R->mu >= ta * k2 / (1 + k2)) {
+        R->regime = 2;
+        R->accel = g * sa / (1 + k2);
+        R->alpha = -R->accel / R->radius;
+      } else {
+        R->regime = 1;
+        R->accel = g * (sa - R->mu * ca);
+        R->alpha = -R->mu * g * ca / (k2 * R->radius);
+      }
+    }
+  }
+  return MO_OK;
 }
 
 int mo_reference_build(mo_reference *R, const mo_scene *sc, mo_ctx *ctx)
@@ -23,12 +75,15 @@ int mo_reference_build(mo_reference *R, const mo_scene *sc, mo_ctx *ctx)
   const mo_case *cs = sc->cs;
   const config_setting_t *rg = config_lookup(&cs->cfg, "reference");
   const char *type, *bname;
-  static const char *need[6][5] = {{NULL},
+  static const char *need[9][6] = {{NULL},
                                    {"length", "wave_speed", "strain", NULL},
                                    {"length", "wave_speed", "velocity", NULL},
                                    {"length", "wave_speed", "velocity", "gap", "contact_end"},
                                    {"length", "wave_speed", "amplitude", NULL},
-                                   {"energy", NULL}};
+                                   {"energy", NULL},
+                                   {"height", "restitution", NULL},
+                                   {"angle", "mu", NULL},
+                                   {"length", "wave_speed", "velocity", "mass", "density", "area"}};
   int k;
   memset(R, 0, sizeof *R);
   R->energy = NAN;
@@ -37,8 +92,11 @@ int mo_reference_build(mo_reference *R, const mo_scene *sc, mo_ctx *ctx)
   R->type = !strcmp(type, "bar_release") ? MO_REF_BAR_RELEASE
             : !strcmp(type, "bar_step_velocity") ? MO_REF_BAR_STEP_VELOCITY
             : !strcmp(type, "rods_impact") ? MO_REF_RODS_IMPACT
-            : !strcmp(type, "bar_obstacle") ? MO_REF_BAR_OBSTACLE : MO_REF_ENERGY;
-  for (k = 0; k < 5 && need[R->type][k]; k++)
+            : !strcmp(type, "bar_obstacle") ? MO_REF_BAR_OBSTACLE
+            : !strcmp(type, "bounce") ? MO_REF_BOUNCE
+            : !strcmp(type, "incline") ? MO_REF_INCLINE
+            : !strcmp(type, "struck_bar") ? MO_REF_STRUCK_BAR : MO_REF_ENERGY;
+  for (k = 0; k < 6 && need[R->type][k]; k++)
     if (!mo_cfg_member(rg, need[R->type][k]))
       return mo_case_error(cs, rg, ctx, "reference '%s' needs '%s'", type, need[R->type][k]);
   R->length = mo_cfg_float(rg, "length", 1);
@@ -51,7 +109,9 @@ int mo_reference_build(mo_reference *R, const mo_scene *sc, mo_ctx *ctx)
   R->amplitude = mo_cfg_float(rg, "amplitude", 0);
   R->density = mo_cfg_float(rg, "density", 1);
   R->area = mo_cfg_float(rg, "area", 1);
+  R->mass = mo_cfg_float(rg, "mass", 1);
   R->energy = mo_cfg_member(rg, "energy") ? mo_cfg_float(rg, "energy", 0) : NAN;
+  if (R->type == MO_REF_BOUNCE || R->type == MO_REF_INCLINE) return rigid_reference(R, sc, rg, ctx);
   bname = mo_cfg_string(rg, "body", NULL);
   R->body = -1;
   for (k = 0; k < sc->nbody; k++)
@@ -66,6 +126,62 @@ int mo_reference_build(mo_reference *R, const mo_scene *sc, mo_ctx *ctx)
     return mo_case_error(cs, rg, ctx, "rods_impact needs a positive velocity (speed toward the "
                          "obstacle) and a gap >= 0");
   return MO_OK;
+}
+
+/* --- rigid bodies (doc/theory.md §12.6) --------------------------------------------------------- */
+
+/* A ball dropped from rest with its bottom at h0 above a plane, Newton's law with e (T73): the
+   height of the bottom and the vertical velocity at t. t_1 = sqrt(2 h0 / g), bounce k leaves at
+   e^k v_1 and lands 2 e^k v_1 / g later; at rest after t_1 (1 + e) / (1 - e). */
+static void bounce(const mo_reference *R, double t, double *h, double *v)
+{
+  double g = R->gravity, e = R->restitution, v1 = sqrt(2 * g * R->height), tk = v1 / g, vk = v1;
+  *h = 0;
+  *v = 0;
+  if (t < tk) {
+    *h = R->height - 0.5 * g * t * t;
+    *v = -g * t;
+    return;
+  }
+  for (;;) {
+    double dur;
+    vk *= e;
+    dur = 2 * vk / g;
+    if (!(dur > 1e-15 * tk) || vk <= 0) return; /* at rest (Zeno point passed) */
+    if (t < tk + dur) {
+      double tau = t - tk;
+      *h = vk * tau - 0.5 * g * tau * tau;
+      *v = vk - g * tau;
+      return;
+    }
+    tk += dur;
+  }
+}
+
+int mo_reference_rigid(const mo_reference *R, const mo_scene *sc, int b, int comp, double t, double *val)
+{
+  int D = sc->dim, vy = D == 2 ? 4 : 8, wz = D == 2 ? 5 : 12;
+  if (b != R->body) return 0;
+  if (R->type == MO_REF_BOUNCE) {
+    double h, v;
+    bounce(R, t, &h, &v);
+    if (comp == 1) *val = h + R->radius;
+    else if (comp == vy) *val = v;
+    else return 0;
+    return 1;
+  }
+  if (R->type == MO_REF_INCLINE) {
+    /* along the slope s = (cos a, -sin a), descending toward +x; the spin about z */
+    double sdist = 0.5 * R->accel * t * t, sv = R->accel * t;
+    if (comp == 0) *val = R->x1[0] + sdist * cos(R->angle);
+    else if (comp == 1) *val = R->x1[1] - sdist * sin(R->angle);
+    else if (comp == (D == 2 ? 3 : 7)) *val = sv * cos(R->angle);
+    else if (comp == vy) *val = -sv * sin(R->angle);
+    else if (comp == wz) *val = R->alpha * t;
+    else return 0;
+    return 1;
+  }
+  return 0;
 }
 
 /* Triangle wave: the odd (about 0), even (about L) extension of s -> s on [0, L], period 4L. */
@@ -209,7 +325,9 @@ double mo_reference_impulse(const mo_reference *R, double T)
 int mo_reference_eval(const mo_reference *R, mo_quantity q, double x, double t, double *val)
 {
   double u, v, e, p;
-  if (R->type == MO_REF_NONE || R->type == MO_REF_ENERGY) return 0;
+  if (R->type == MO_REF_NONE || R->type == MO_REF_ENERGY || R->type == MO_REF_BOUNCE || R->type == MO_REF_INCLINE)
+    return 0;
+  if (R->type == MO_REF_STRUCK_BAR && q != MO_Q_CX) return 0;
   switch (q) {
   case MO_Q_UX: mo_reference_field(R, x, t, &u, &v, &e); *val = u; return 1;
   case MO_Q_VX: mo_reference_field(R, x, t, &u, &v, &e); *val = v; return 1;
@@ -219,6 +337,14 @@ int mo_reference_eval(const mo_reference *R, mo_quantity q, double x, double t, 
     *val = p;
     return 1;
   case MO_Q_CX:
+    if (R->type == MO_REF_STRUCK_BAR) {
+      /* Saint-Venant (T75): F = rho c A v0 exp(-rho c A t / M) on the struck end, +x, until the
+         wave reflected at the far end comes back at 2 L / c */
+      double z = R->density * R->c * R->area, t0 = R->gap / (R->velocity > 0 ? R->velocity : 1);
+      if (fabs(x - R->x0) > 1e-9 * R->length || t < t0 || t >= t0 + 2 * R->length / R->c) return 0;
+      *val = z * R->velocity * exp(-z * (t - t0) / R->mass);
+      return 1;
+    }
     /* contact force on the body at the contact end: toward the body, away from the obstacle */
     if (R->type != MO_REF_RODS_IMPACT && R->type != MO_REF_BAR_OBSTACLE) return 0;
     if (fabs(x - R->x0) > 1e-9 * R->length) return 0;

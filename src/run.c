@@ -2,6 +2,7 @@
    the summary. */
 #include "config.h"
 #include <moreau/run.h>
+#include <moreau/body.h>
 #include <moreau/case.h>
 #include <moreau/contact.h>
 #include <moreau/material.h>
@@ -93,7 +94,9 @@ static void default_outdir(const char *case_path, char *buf, size_t n)
 /* --- probes and metrics ------------------------------------------------------------------------ */
 
 typedef struct {
-  int probe, q;          /* column source */
+  int probe, q;          /* column source: a probe's quantity, or (probe -1) rigid body `body`'s
+                            component q (rigid_value) */
+  int body;
   int exact_col;         /* column of the exact value, or -1 */
   double x;              /* position for the reference */
   int has_ref;
@@ -142,6 +145,63 @@ static double probe_value(const mo_scene *sc, const mo_probe *P, mo_quantity q, 
     acc += kind == 0 ? s->u[d] : kind == 1 ? s->v[d] : kind == 2 ? s->reac[d] : (cv->Rfull ? cv->Rfull[d] : 0);
   }
   return kind >= 2 ? acc : acc / P->nnode;
+}
+
+/* The rigid bodies' columns (DEM.md §3): 2D x, y, theta, vx, vy, omega; 3D x, y, z, q0..q3, vx,
+   vy, vz, wx, wy, wz. At most this many moving rigid bodies get them; larger scenes write the
+   aggregate columns (rigid.*). */
+#define MO_RIGID_COLUMNS_MAX 32
+static const char *const rigid2[] = {"x", "y", "theta", "vx", "vy", "omega"};
+static const char *const rigid3[] = {"x", "y", "z", "q0", "q1", "q2", "q3", "vx", "vy", "vz", "wx", "wy", "wz"};
+
+static double rigid_value(const mo_scene *sc, const mo_state *s, int b, int comp)
+{
+  const mo_body *B = &sc->body[b];
+  if (sc->dim == 2) {
+    if (comp < 2) return B->xc0[comp] + s->u[B->dof0 + comp];
+    if (comp == 2) return B->theta0 + s->u[B->dof0 + 2];
+    return s->v[B->dof0 + comp - 3];
+  }
+  if (comp < 3) return B->xc0[comp] + s->u[B->dof0 + comp];
+  if (comp < 7) return s->orient[4 * B->orient + comp - 3];
+  return s->v[B->dof0 + comp - 7];
+}
+
+/* The rigid bodies that move (not held fixed): the ones with history columns. */
+static int moving_rigid(const mo_scene *sc)
+{
+  int k, n = 0;
+  for (k = 0; k < sc->nrigid; k++) n += !sc->body[sc->rigid[k]].fixed;
+  return n;
+}
+
+/* Aggregates of the rigid bodies for scenes with many (columns rigid.kinetic, rigid.vmax,
+   rigid.coordination: closed contacts per moving rigid body, a contact with two of them counted
+   for both). */
+static void rigid_aggregates(const mo_scene *sc, const mo_state *s, const contact_view *cv, double *out)
+{
+  int k, i, n = 0, D = sc->dim;
+  double vmax = 0, z = 0;
+  for (k = 0; k < sc->nrigid; k++) {
+    const mo_body *B = &sc->body[sc->rigid[k]];
+    double v2 = 0;
+    if (B->fixed) continue;
+    n++;
+    for (i = 0; i < D; i++) v2 += s->v[B->dof0 + i] * s->v[B->dof0 + i];
+    vmax = fmax(vmax, sqrt(v2));
+  }
+  if (cv->C && cv->D) {
+    const int *st = mo_contact_statuses(cv->D);
+    for (k = 0; k < mo_contact_ncandidates(cv->C); k++) {
+      const mo_cpoint *p = mo_contact_point(cv->C, mo_contact_candidate(cv->C, k)->point);
+      if (st[k] == MO_CS_OPEN) continue;
+      z += (sc->body[p->sb].type->flags & MO_BODY_F_RIGID) && !sc->body[p->sb].fixed;
+      z += p->mb >= 0 && (sc->body[p->mb].type->flags & MO_BODY_F_RIGID) && !sc->body[p->mb].fixed;
+    }
+  }
+  out[0] = mo_rigid_kinetic(sc, s);
+  out[1] = vmax;
+  out[2] = n ? z / n : 0;
 }
 
 /* --- progress ---------------------------------------------------------------------------------- */
@@ -411,10 +471,11 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
     json_object_set_new(nj, "damped", json_integer(nr->damped));
     json_object_set_new(root, "newton", nj);
   }
-  if (S) {
+  if (S && mo_stepper_solver((mo_stepper *)S)) {
+    /* the nodal block of What (the deformable bodies); rigid bodies have their mass blocks */
     mo_linsolver_stats(mo_stepper_solver((mo_stepper *)S), &nf, &nsym, &nsol);
     json_object_set_new(ls, "name", json_string(mo_linsolver_name(mo_stepper_solver((mo_stepper *)S))));
-    json_object_set_new(ls, "n", json_integer(sc->nfree));
+    json_object_set_new(ls, "n", json_integer(sc->nfe_free));
     json_object_set_new(ls, "nnz", json_integer(mo_csc_nnz(mo_stepper_matrix(S))));
     json_object_set_new(ls, "factorizations", json_integer(nf));
     json_object_set_new(ls, "symbolic_analyses", json_integer(nsym));
@@ -559,7 +620,7 @@ static int advance(stepping *T, mo_state *s, int level, double h, mo_ctx *ctx)
     if (!T->save[level].u && (st = mo_state_alloc(T->sc, &T->save[level], ctx))) return st;
     if (T->drv && !T->csave[level] && (st = mo_contact_snapshot_create(T->drv, &T->csave[level], ctx))) return st;
     mo_state_copy(T->sc, s, &T->save[level]);
-    if (T->drv) mo_contact_snapshot_save(T->drv, T->csave[level]);
+    if (T->drv && (st = mo_contact_snapshot_save(T->drv, T->csave[level], ctx))) return st;
   }
   st = one_step(T, s, level > 0, ctx);
   /* the substeps of a cut step keep its number (take_step sets it when they are done) */
@@ -616,7 +677,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   double *row = NULL, *work = NULL, *p0 = NULL, start = mo_clock(), e0 = 0, e1 = 0, drift = 0, balance = 0;
   double emax_growth = 0;
   int st, ncol = 0, nprobecol = 0, nexact = 0, k, p, complete = 0, ecol0 = 0, ccol0 = 0, table = 0, x0col;
-  int nl = 0, necol = 0, ncol0 = 0, cutcol = 0;
+  int nl = 0, necol = 0, ncol0 = 0, cutcol = 0, nvalcol = 0, nrigcol = 0, agcol = 0;
   char reason[MO_ERRMSG_MAX] = "";
   progress prog;
   stepping stepper;
@@ -652,9 +713,13 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   cv.C = C;
   cv.D = drv;
 
-  /* columns: t, probes, their exact values, energies, contact */
+  /* columns: t, probes, rigid bodies (or their aggregates), the exact values, energies, contact */
   for (p = 0; p < sc->nprobe; p++) nprobecol += sc->probe[p].nq;
-  if (!(cols = mo_calloc(ctx, (size_t)(nprobecol ? nprobecol : 1), sizeof *cols))) { st = MO_ENOMEM; goto done; }
+  if (moving_rigid(sc) <= MO_RIGID_COLUMNS_MAX) nrigcol = moving_rigid(sc) * (sc->dim == 2 ? 6 : 13);
+  else mo_note_skip(ctx, "per-body history columns (%d moving rigid bodies, more than %d): rigid.* aggregates instead",
+                    moving_rigid(sc), MO_RIGID_COLUMNS_MAX);
+  nvalcol = nprobecol + nrigcol;
+  if (!(cols = mo_calloc(ctx, (size_t)(nvalcol ? nvalcol : 1), sizeof *cols))) { st = MO_ENOMEM; goto done; }
   for (p = 0, k = 0; p < sc->nprobe; p++) {
     const mo_probe *P = &sc->probe[p];
     int q;
@@ -675,10 +740,27 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
       if (P->q[q] >= MO_Q_CX && P->q[q] <= MO_Q_CZ) cv.need_R = 1;
     }
   }
+  for (p = 0; nrigcol && p < sc->nrigid; p++) {
+    int b = sc->rigid[p], q;
+    if (sc->body[b].fixed) continue;
+    for (q = 0; q < (sc->dim == 2 ? 6 : 13); q++, k++) {
+      double dummy;
+      cols[k].probe = -1;
+      cols[k].body = b;
+      cols[k].q = q;
+      cols[k].has_ref = mo_reference_rigid(&sc->ref, sc, b, q, 0, &dummy);
+      nexact += cols[k].has_ref;
+    }
+  }
   /* finite-strain scenes add energy.plastic and the Newton columns */
   nl = sc->nonlinear;
   necol = sc->out.energy ? 7 + nl : 0;
-  ncol = 1 + nprobecol + nexact + necol + (C ? 8 : 0) + (nl ? 2 : 0);
+  ncol = 1 + nvalcol + nexact + necol + (C ? 8 : 0) + (nl ? 2 : 0);
+  /* many rigid bodies: their aggregates */
+  if (moving_rigid(sc) > MO_RIGID_COLUMNS_MAX) {
+    agcol = ncol;
+    ncol += 3;
+  }
   /* with step cutting, the steps cut so far (cumulative, so that output.every loses none) */
   if (sc->time.max_cuts > 0) cutcol = ncol++;
   names = mo_calloc(ctx, (size_t)ncol, sizeof *names);
@@ -688,18 +770,26 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   if (!names || !namebuf || !row || !work) { st = MO_ENOMEM; goto done; }
   for (k = 0; k < ncol; k++) names[k] = namebuf + 80 * k;
   snprintf(names[0], 80, "t");
-  for (k = 0; k < nprobecol; k++)
-    snprintf(names[1 + k], 80, "%s.%s", sc->probe[cols[k].probe].name, mo_quantity_name((mo_quantity)cols[k].q));
+  for (k = 0; k < nvalcol; k++)
+    if (cols[k].probe >= 0)
+      snprintf(names[1 + k], 80, "%s.%s", sc->probe[cols[k].probe].name, mo_quantity_name((mo_quantity)cols[k].q));
+    else
+      snprintf(names[1 + k], 80, "%.60s.%s", sc->body[cols[k].body].name, sc->dim == 2 ? rigid2[cols[k].q] : rigid3[cols[k].q]);
+  if (agcol) {
+    snprintf(names[agcol], 80, "rigid.kinetic");
+    snprintf(names[agcol + 1], 80, "rigid.vmax");
+    snprintf(names[agcol + 2], 80, "rigid.coordination");
+  }
   if (cv.need_R && !(cv.Rfull = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof(double)))) { st = MO_ENOMEM; goto done; }
-  x0col = 1 + nprobecol;
-  for (k = 0, p = 0; k < nprobecol; k++)
+  x0col = 1 + nvalcol;
+  for (k = 0, p = 0; k < nvalcol; k++)
     if (cols[k].has_ref) {
       cols[k].exact_col = x0col + p++;
       snprintf(names[cols[k].exact_col], 80, "%s.exact", names[1 + k]);
     } else
       cols[k].exact_col = -1;
   if (sc->out.energy) {
-    ecol0 = 1 + nprobecol + nexact;
+    ecol0 = 1 + nvalcol + nexact;
     snprintf(names[ecol0], 80, "energy.kinetic");
     snprintf(names[ecol0 + 1], 80, "energy.elastic");
     snprintf(names[ecol0 + 2], 80, "energy.total");
@@ -710,7 +800,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
     if (nl) snprintf(names[ecol0 + 7], 80, "energy.plastic");
   }
   if (C) {
-    ccol0 = 1 + nprobecol + nexact + necol;
+    ccol0 = 1 + nvalcol + nexact + necol;
     snprintf(names[ccol0], 80, "contact.closed");
     snprintf(names[ccol0 + 1], 80, "contact.iterations");
     snprintf(names[ccol0 + 2], 80, "contact.residual");
@@ -723,7 +813,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
     snprintf(names[ccol0 + 7], 80, "contact.loops_newton");
   }
   if (nl) {
-    ncol0 = 1 + nprobecol + nexact + necol + (C ? 8 : 0);
+    ncol0 = 1 + nvalcol + nexact + necol + (C ? 8 : 0);
     snprintf(names[ncol0], 80, "newton.iterations");
     snprintf(names[ncol0 + 1], 80, "newton.residual");
   } else
@@ -741,7 +831,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   prog.on = opt->progress && isatty(2) && ctx->verbosity >= 1;
   prog.start = prog.last = mo_clock();
   mo_metrics_step(met, &s, NULL);
-  e0 = mo_energy_kinetic(sc, s.v, work) + mo_energy_stored(sc, &s, work) + s.wplastic;
+  e0 = mo_energy_kinetic(sc, &s, work) + mo_energy_stored(sc, &s, work) + s.wplastic;
   if (!(p0 = mo_malloc(ctx, (3 * (size_t)sc->nbody + 1) * sizeof *p0))) {
     st = MO_ENOMEM;
     goto done;
@@ -764,13 +854,19 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
       double sc_f = sc->time.scheme == MO_SCHEME_THETA ? 1 / mo_contact_driver_dt(drv) : 1;
       mo_csc_gaxpy(mo_contact_H_full(C), sc_f, mo_contact_reactions(drv), 0, cv.Rfull);
     }
-    for (k = 0; k < nprobecol; k++) {
-      const mo_probe *P = &sc->probe[cols[k].probe];
+    for (k = 0; k < nvalcol; k++) {
       double v, r;
+      int has;
       if (!write_row && !cols[k].has_ref) continue;
-      v = probe_value(sc, P, (mo_quantity)cols[k].q, &s, &cv);
+      if (cols[k].probe >= 0) {
+        v = probe_value(sc, &sc->probe[cols[k].probe], (mo_quantity)cols[k].q, &s, &cv);
+        has = cols[k].has_ref && mo_reference_eval(&sc->ref, (mo_quantity)cols[k].q, cols[k].x, s.t, &r);
+      } else {
+        v = rigid_value(sc, &s, cols[k].body, cols[k].q);
+        has = cols[k].has_ref && mo_reference_rigid(&sc->ref, sc, cols[k].body, cols[k].q, s.t, &r);
+      }
       row[1 + k] = v;
-      if (cols[k].has_ref && mo_reference_eval(&sc->ref, (mo_quantity)cols[k].q, cols[k].x, s.t, &r)) {
+      if (has) {
         row[cols[k].exact_col] = r;
         double e = fabs(v - r);
         cols[k].se2 += e * e;
@@ -810,6 +906,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
         for (k = 0; k < 4; k++) row[ccol0 + 4 + k] = rep && s.step ? rep->loops[k] : 0;
       }
       if (cutcol) row[cutcol] = (double)stepper.cuts;
+      if (agcol) rigid_aggregates(sc, &s, &cv, row + agcol);
       if ((st = mo_csv_row(csv, row, ctx))) goto done;
     }
     if (vtk && (s.step % sc->out.vtk_every == 0 || last))
@@ -834,7 +931,7 @@ done:
   res->energy0 = e0;
   res->energy1 = e1;
   res->complete = complete;
-  for (k = 0; k < nprobecol && res->nmetric < 32; k++)
+  for (k = 0; k < nvalcol && res->nmetric < 32; k++)
     if (cols && cols[k].has_ref && cols[k].n) {
       snprintf(res->metric_name[res->nmetric], 64, "%s", names[1 + k]);
       res->metric_l2[res->nmetric] = cols[k].sr2 > 0 ? sqrt(cols[k].se2 / cols[k].sr2) : NAN;
@@ -849,7 +946,7 @@ done:
     char msg[MO_ERRMSG_MAX];
     snprintf(msg, sizeof msg, "%s", ctx->errmsg);
     mo_ctx_clear_error(ctx);
-    st2 = write_summary(outdir, cs, sc, S, s.u ? &s : NULL, C, drv, met, cols, cols ? nprobecol : 0,
+    st2 = write_summary(outdir, cs, sc, S, s.u ? &s : NULL, C, drv, met, cols, cols ? nvalcol : 0,
                         (const char *const *)names, e0, e1, drift, balance, emax_growth, complete, reason,
                         res->wall, p0, stepper.cuts, stepper.hmin, ctx);
     if (!st2 && drv && s.u && s.step > 0) {

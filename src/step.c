@@ -1,6 +1,7 @@
 /* step.c: the theta-scheme, Newmark and quasi-static steps on free dofs with a factored
    iteration matrix (nonlinear steps: newton.c). */
 #include "config.h"
+#include <moreau/body.h>
 #include <moreau/material.h>
 #include <moreau/step.h>
 #include "step_internal.h"
@@ -19,8 +20,9 @@ int mo_state_alloc(const mo_scene *sc, mo_state *s, mo_ctx *ctx)
   s->reac = mo_calloc(ctx, n, sizeof(double));
   if (sc->time.scheme == MO_SCHEME_NEWMARK) s->a = mo_calloc(ctx, n, sizeof(double));
   if (sc->nq) s->q = mo_calloc(ctx, sc->nq, sizeof(double));
+  if (sc->norient) s->orient = mo_calloc(ctx, 4 * (size_t)sc->norient, sizeof(double));
   if (!s->u || !s->v || !s->f || !s->reac || (sc->time.scheme == MO_SCHEME_NEWMARK && !s->a) ||
-      (sc->nq && !s->q)) {
+      (sc->nq && !s->q) || (sc->norient && !s->orient)) {
     mo_state_release(s);
     return MO_ENOMEM;
   }
@@ -35,6 +37,7 @@ void mo_state_release(mo_state *s)
   mo_free(s->f);
   mo_free(s->reac);
   mo_free(s->q);
+  mo_free(s->orient);
   memset(s, 0, sizeof *s);
 }
 
@@ -49,6 +52,7 @@ int mo_state_copy(const mo_scene *sc, const mo_state *src, mo_state *dst)
   dst->psi = src->psi;
   dst->wplastic = src->wplastic;
   if (sc->nq && src->q && dst->q) memcpy(dst->q, src->q, sc->nq * sizeof(double));
+  if (sc->norient && src->orient && dst->orient) memcpy(dst->orient, src->orient, 4 * (size_t)sc->norient * sizeof(double));
   memcpy(dst->u, src->u, n);
   memcpy(dst->v, src->v, n);
   memcpy(dst->f, src->f, n);
@@ -65,11 +69,15 @@ static double dot(const double *a, const double *b, int n)
   return s;
 }
 
-double mo_energy_kinetic(const mo_scene *sc, const double *v, double *work)
+double mo_energy_kinetic(const mo_scene *sc, const mo_state *s, double *work)
 {
+  double e = 0;
   if (!sc->M) return 0;
-  mo_csc_gaxpy(sc->M, 1, v, 0, work);
-  return 0.5 * dot(v, work, sc->ndof);
+  if (sc->nfe_dof) {
+    mo_csc_gaxpy(sc->M, 1, s->v, 0, work);
+    e = 0.5 * dot(s->v, work, sc->nfe_dof);
+  }
+  return e + mo_rigid_kinetic(sc, s);
 }
 
 double mo_energy_elastic(const mo_scene *sc, const double *u, double *work)
@@ -98,7 +106,213 @@ void mo_stepper_free(mo_stepper *S)
   mo_free(S->vprev);
   mo_free(S->fprev);
   mo_newton_release(S);
+  mo_free(S->blk_body);
+  mo_free(S->blk_off);
+  mo_free(S->blk_loc);
+  mo_free(S->blk_ioff);
+  mo_free(S->blk_inv);
+  mo_free(S->rig_M);
+  mo_free(S->gyro);
+  mo_csc_free(S->Wall);
   mo_free(S);
+}
+
+/* --- the rigid blocks of What (doc/theory.md (T70)) ------------------------------------------ */
+
+/* Invert the SPD n x n matrix A (row-major) into X by Gauss-Jordan with partial pivoting;
+   MO_ESINGULAR when a pivot vanishes. */
+static int small_inverse(int n, const double *A, double *X)
+{
+  double a[36], piv;
+  int i, j, k;
+  memcpy(a, A, (size_t)(n * n) * sizeof *a);
+  for (i = 0; i < n; i++)
+    for (j = 0; j < n; j++) X[i * n + j] = i == j;
+  for (k = 0; k < n; k++) {
+    int p = k;
+    for (i = k + 1; i < n; i++)
+      if (fabs(a[i * n + k]) > fabs(a[p * n + k])) p = i;
+    if (!(fabs(a[p * n + k]) > 0)) return MO_ESINGULAR;
+    for (j = 0; j < n && p != k; j++) {
+      double t = a[k * n + j]; a[k * n + j] = a[p * n + j]; a[p * n + j] = t;
+      t = X[k * n + j]; X[k * n + j] = X[p * n + j]; X[p * n + j] = t;
+    }
+    piv = a[k * n + k];
+    for (j = 0; j < n; j++) { a[k * n + j] /= piv; X[k * n + j] /= piv; }
+    for (i = 0; i < n; i++) {
+      double f = a[i * n + k];
+      if (i == k || f == 0) continue;
+      for (j = 0; j < n; j++) { a[i * n + j] -= f * a[k * n + j]; X[i * n + j] -= f * X[k * n + j]; }
+    }
+  }
+  return MO_OK;
+}
+
+/* 1 when a 3D body's inertia is not a multiple of the identity (its block turns with it). */
+static int anisotropic(const mo_body *B)
+{
+  const double *J = B->J;
+  double t = fabs(J[0]) + fabs(J[4]) + fabs(J[8]);
+  return fabs(J[1]) + fabs(J[2]) + fabs(J[3]) + fabs(J[5]) + fabs(J[6]) + fabs(J[7]) > 1e-14 * t ||
+         fabs(J[0] - J[4]) > 1e-14 * t || fabs(J[0] - J[8]) > 1e-14 * t;
+}
+
+int mo_stepper_rigid_update(mo_stepper *S, const mo_state *s, mo_ctx *ctx)
+{
+  const mo_scene *sc = S->sc;
+  int nd = mo_rigid_ndof(sc->dim), k, r, i, j;
+  for (r = 0; r < sc->nrigid; r++) {
+    const mo_body *B = &sc->body[sc->rigid[r]];
+    mo_rigid_mass(sc, B, s, S->rig_M + (size_t)r * 36);
+    if (s && sc->dim == 3) mo_rigid_gyroscopic(sc, B, s, s->v + B->dof0, S->gyro + B->dof0);
+  }
+  for (k = 0; k < S->nblk; k++) {
+    int b = S->blk_body[k], nk = S->blk_off[k + 1] - S->blk_off[k], ri;
+    const int *loc = S->blk_loc + (S->blk_off[k] - S->nfe);
+    double Mff[36];
+    const double *M;
+    for (ri = 0; ri < sc->nrigid && sc->rigid[ri] != b; ri++) {}
+    M = S->rig_M + (size_t)ri * 36;
+    for (i = 0; i < nk; i++)
+      for (j = 0; j < nk; j++) Mff[i * nk + j] = M[loc[i] * nd + loc[j]];
+    if (small_inverse(nk, Mff, S->blk_inv + S->blk_ioff[k]))
+      return mo_error(ctx, MO_ESINGULAR, "rigid body '%s': its mass matrix is singular (zero mass or inertia "
+                      "on a free dof)", sc->body[b].name);
+  }
+  S->blk_version++;
+  S->Wi.version = S->blk_version;
+  return MO_OK;
+}
+
+/* Blocks of the rigid bodies that have free dofs, at the reference orientation. */
+static int rigid_setup(mo_stepper *S, mo_ctx *ctx)
+{
+  const mo_scene *sc = S->sc;
+  int r, k = 0, nfree_r = sc->nfree - sc->nfe_free, ninv = 0, i;
+  S->nfe = sc->nfe_free;
+  S->blk_body = mo_malloc(ctx, ((size_t)sc->nrigid + 1) * sizeof *S->blk_body);
+  S->blk_off = mo_malloc(ctx, ((size_t)sc->nrigid + 2) * sizeof *S->blk_off);
+  S->blk_ioff = mo_malloc(ctx, ((size_t)sc->nrigid + 1) * sizeof *S->blk_ioff);
+  S->blk_loc = mo_malloc(ctx, ((size_t)nfree_r + 1) * sizeof *S->blk_loc);
+  S->rig_M = mo_calloc(ctx, 36 * (size_t)sc->nrigid + 1, sizeof *S->rig_M);
+  S->gyro = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof *S->gyro);
+  if (!S->blk_body || !S->blk_off || !S->blk_ioff || !S->blk_loc || !S->rig_M || !S->gyro) return MO_ENOMEM;
+  S->blk_off[0] = S->nfe;
+  for (r = 0; r < sc->nrigid; r++) {
+    const mo_body *B = &sc->body[sc->rigid[r]];
+    int nk = 0;
+    for (i = 0; i < B->ndof; i++)
+      if (sc->free_of[B->dof0 + i] >= 0) S->blk_loc[sc->free_of[B->dof0 + i] - S->nfe] = i, nk++;
+    if (sc->dim == 3 && anisotropic(B) && nk) S->blk_varies = 1;
+    if (!nk) continue;
+    S->blk_body[k] = sc->rigid[r];
+    S->blk_ioff[k] = ninv;
+    ninv += nk * nk;
+    S->blk_off[k + 1] = S->blk_off[k] + nk;
+    k++;
+  }
+  S->nblk = k;
+  S->blk_inv = mo_malloc(ctx, ((size_t)ninv + 1) * sizeof *S->blk_inv);
+  if (!S->blk_inv) return MO_ENOMEM;
+  if (!S->blk_varies && sc->nrigid)
+    mo_note_skip(ctx, "rigid mass blocks updates (2D bodies, or 3D bodies with isotropic inertia)");
+  S->Wi.n = sc->nfree;
+  S->Wi.nfe = S->nfe;
+  S->Wi.ls = S->ls;
+  S->Wi.nblk = S->nblk;
+  S->Wi.off = S->blk_off;
+  S->Wi.ioff = S->blk_ioff;
+  S->Wi.inv = S->blk_inv;
+  return mo_stepper_rigid_update(S, NULL, ctx);
+}
+
+const mo_what_inverse *mo_stepper_inverse(const mo_stepper *S) { return &S->Wi; }
+
+int mo_what_solve(const mo_what_inverse *Wi, int nrhs, const double *B, double *X, mo_ctx *ctx)
+{
+  int n = Wi->n, nfe = Wi->nfe, c, k, i, j, st;
+  if (nfe > 0) {
+    if (n == nfe) {
+      if ((st = mo_linsolver_solve_multi(Wi->ls, nrhs, B, X, ctx))) return st;
+    } else
+      for (c = 0; c < nrhs; c++)
+        if ((st = mo_linsolver_solve(Wi->ls, B + (size_t)c * n, X + (size_t)c * n, ctx))) return st;
+  }
+  for (c = 0; c < nrhs; c++) {
+    const double *b = B + (size_t)c * n;
+    double *x = X + (size_t)c * n, y[6];
+    for (k = 0; k < Wi->nblk; k++) {
+      int o = Wi->off[k], nk = Wi->off[k + 1] - o;
+      const double *Ai = Wi->inv + Wi->ioff[k];
+      for (i = 0; i < nk; i++) {
+        y[i] = 0;
+        for (j = 0; j < nk; j++) y[i] += Ai[i * nk + j] * b[o + j];
+      }
+      memcpy(x + o, y, (size_t)nk * sizeof *y);
+    }
+  }
+  return MO_OK;
+}
+
+int mo_stepper_what_solve(mo_stepper *S, int nrhs, const double *B, double *X, mo_ctx *ctx)
+{
+  return mo_what_solve(&S->Wi, nrhs, B, X, ctx);
+}
+
+void mo_stepper_mass_apply(const mo_stepper *S, const double *x, double *y)
+{
+  const mo_scene *sc = S->sc;
+  int nd = mo_rigid_ndof(sc->dim), r, i, j;
+  if (sc->M) mo_csc_gaxpy(sc->M, 1, x, 0, y);
+  else memset(y, 0, (size_t)sc->ndof * sizeof *y); /* quasi-static: no inertia */
+  for (r = 0; r < sc->nrigid; r++) {
+    const mo_body *B = &sc->body[sc->rigid[r]];
+    const double *M = S->rig_M + (size_t)r * 36, *xb = x + B->dof0;
+    for (i = 0; i < nd; i++) {
+      double acc = 0;
+      for (j = 0; j < nd; j++) acc += M[i * nd + j] * xb[j];
+      y[B->dof0 + i] = acc;
+    }
+  }
+}
+
+int mo_stepper_matrix_full(mo_stepper *S, const mo_csc **W, mo_ctx *ctx)
+{
+  const mo_scene *sc = S->sc;
+  long ver = S->blk_version * 1000003L + (S->ls ? 0 : 1);
+  mo_triplet T;
+  int k, i, j, p, st;
+  *W = S->W;
+  if (!S->nblk && S->W) return MO_OK;
+  if (S->ls) {
+    long nf;
+    mo_linsolver_stats(S->ls, &nf, NULL, NULL);
+    ver += nf * 7919L;
+  }
+  if (S->Wall && S->Wall_version == ver) { *W = S->Wall; return MO_OK; }
+  if ((st = mo_triplet_init(&T, sc->nfree, sc->nfree, (size_t)(S->W ? mo_csc_nnz(S->W) : 0) + 36 * (size_t)S->nblk + 1, ctx)))
+    return st;
+  for (j = 0; S->W && j < S->W->ncol; j++)
+    for (p = S->W->p[j]; p < S->W->p[j + 1]; p++)
+      if ((st = mo_triplet_add(&T, S->W->i[p], j, S->W->x[p], ctx))) goto done;
+  for (k = 0; k < S->nblk; k++) {
+    int b = S->blk_body[k], o = S->blk_off[k], nk = S->blk_off[k + 1] - o, r, nd = mo_rigid_ndof(sc->dim);
+    const int *loc = S->blk_loc + (o - S->nfe);
+    const double *M;
+    for (r = 0; r < sc->nrigid && sc->rigid[r] != b; r++) {}
+    M = S->rig_M + (size_t)r * 36;
+    for (i = 0; i < nk; i++)
+      for (j = 0; j < nk; j++)
+        if (M[loc[i] * nd + loc[j]] != 0 && (st = mo_triplet_add(&T, o + i, o + j, M[loc[i] * nd + loc[j]], ctx))) goto done;
+  }
+  mo_csc_free(S->Wall);
+  S->Wall = NULL;
+  if ((st = mo_triplet_to_csc(&T, 1, &S->Wall, ctx))) goto done;
+  S->Wall_version = ver;
+  *W = S->Wall;
+done:
+  mo_triplet_release(&T);
+  return st;
 }
 
 /* Virgin states of every finite-strain body. */
@@ -157,7 +371,8 @@ static int linear_matrix(const mo_stepper *S, mo_csc **Wf, mo_csc **W, mo_ctx *c
   *Wf = *W = NULL;
   if (S->scheme == MO_SCHEME_QUASISTATIC) st = mo_csc_copy(sc->K, Wf, ctx);
   else st = mo_csc_add(sc->M, sc->K, S->cm, S->ck, Wf, ctx);
-  if (!st) st = mo_csc_extract(*Wf, sc->free_of, sc->nfree, sc->free_of, sc->nfree, W, ctx);
+  /* the nodal block: rigid dofs have no row in M or K, so free_of maps into 0 .. nfe_free-1 */
+  if (!st) st = mo_csc_extract(*Wf, sc->free_of, sc->nfe_free, sc->free_of, sc->nfe_free, W, ctx);
   mo_phase_add(ctx, MO_PH_ASSEMBLY, t0);
   if (st) {
     mo_csc_free(*Wf);
@@ -196,7 +411,7 @@ int mo_stepper_create(const mo_scene *sc, mo_stepper **out, mo_ctx *ctx)
     return MO_ENOMEM;
   }
   if (sc->nonlinear) {
-    if ((st = create_nonlinear(S, ctx))) {
+    if ((st = create_nonlinear(S, ctx)) || (st = rigid_setup(S, ctx))) {
       mo_stepper_free(S);
       return st;
     }
@@ -204,6 +419,15 @@ int mo_stepper_create(const mo_scene *sc, mo_stepper **out, mo_ctx *ctx)
     return MO_OK;
   }
   mo_note_skip(ctx, "Newton iterations and refactorizations (every material is linear)");
+  if (!sc->nfe_free) {
+    /* rigid bodies only: What is their mass blocks, no factorization */
+    if ((st = rigid_setup(S, ctx))) {
+      mo_stepper_free(S);
+      return st;
+    }
+    *out = S;
+    return MO_OK;
+  }
   if ((st = linear_matrix(S, &Wf, &S->W, ctx))) {
     mo_stepper_free(S);
     return st;
@@ -220,6 +444,10 @@ int mo_stepper_create(const mo_scene *sc, mo_stepper **out, mo_ctx *ctx)
   if (st) {
     mo_error_prefix(ctx, "iteration matrix (%s)",
                     S->scheme == MO_SCHEME_QUASISTATIC ? "stiffness K" : "M + c K");
+    mo_stepper_free(S);
+    return st;
+  }
+  if ((st = rigid_setup(S, ctx))) {
     mo_stepper_free(S);
     return st;
   }
@@ -268,6 +496,7 @@ int mo_stepper_set_dt(mo_stepper *S, double h, mo_ctx *ctx)
   coefficients(S);
   if (S->nl) return mo_newton_set_dt(S, ctx);
   if (S->scheme == MO_SCHEME_QUASISTATIC) return MO_OK; /* K does not depend on the load step */
+  if (!S->ls) return MO_OK; /* rigid bodies only: What = M whatever h */
   /* What = M + c K for the new h, on the same pattern: the factorization keeps its analysis */
   if ((st = linear_matrix(S, &Wf, &W, ctx))) return st;
   mo_csc_free(S->W);
@@ -326,6 +555,32 @@ void mo_stepper_presc_unknown(const mo_stepper *S, double t, double *x)
   }
 }
 
+/* The rigid rows of the right-hand side (T70): theta: M_b v- + h g(v-) (the explicit
+   gyroscopic force), Newmark: g; both minus M_fp x_p, the coupling with the body's prescribed
+   dofs at their values x_p of t+. f1's rigid rows (added by the caller) hold the loads. */
+static void rigid_rhs(const mo_stepper *S, const mo_state *s, const double *x, double *rhs)
+{
+  const mo_scene *sc = S->sc;
+  int nd = mo_rigid_ndof(sc->dim), k, i, j, r;
+  for (k = 0; k < S->nblk; k++) {
+    const mo_body *B = &sc->body[S->blk_body[k]];
+    int o = S->blk_off[k], nk = S->blk_off[k + 1] - o;
+    const int *loc = S->blk_loc + (o - S->nfe);
+    const double *M, *v = s->v + B->dof0, *xb = x + B->dof0;
+    for (r = 0; r < sc->nrigid && sc->rigid[r] != S->blk_body[k]; r++) {}
+    M = S->rig_M + (size_t)r * 36;
+    for (i = 0; i < nk; i++) {
+      const double *Mi = M + loc[i] * nd;
+      double acc = S->scheme == MO_SCHEME_THETA ? S->h * S->gyro[B->dof0 + loc[i]] : S->gyro[B->dof0 + loc[i]];
+      for (j = 0; j < nd; j++) {
+        if (S->scheme == MO_SCHEME_THETA) acc += Mi[j] * v[j];
+        if (sc->free_of[B->dof0 + j] < 0) acc -= Mi[j] * xb[j];
+      }
+      rhs[o + i] += acc;
+    }
+  }
+}
+
 int mo_stepper_init_state(mo_stepper *S, mo_state *s, mo_ctx *ctx)
 {
   const mo_scene *sc = S->sc;
@@ -339,6 +594,11 @@ int mo_stepper_init_state(mo_stepper *S, mo_state *s, mo_ctx *ctx)
   mo_scene_fext(sc, 0, s->f);
   memset(s->reac, 0, (size_t)n * sizeof(double));
   s->psi = s->wplastic = 0;
+  /* 3D rigid bodies start in their reference orientation (the body frame is the world's) */
+  for (st = 0; st < sc->norient; st++) {
+    s->orient[4 * st] = 1;
+    s->orient[4 * st + 1] = s->orient[4 * st + 2] = s->orient[4 * st + 3] = 0;
+  }
   if (S->nl) {
     /* the material at u0: one update from the virgin state, committed (T65) */
     init_material(sc, s->q);
@@ -361,10 +621,23 @@ int mo_stepper_init_state(mo_stepper *S, mo_state *s, mo_ctx *ctx)
       mo_csc_gaxpy(sc->K, -1, s->u, 1, S->w1);
     mo_csc_gaxpy(sc->M, -1, s->a, 1, S->w1);
     mo_stepper_gather(S, S->w1, S->rhs);
-    st = mo_csc_extract(sc->M, sc->free_of, sc->nfree, sc->free_of, sc->nfree, &Mff, ctx);
-    if (!st) st = mo_linsolver_create(&mo_linsolver_cholmod, &Ml, ctx);
-    if (!st) st = mo_linsolver_factor(Ml, Mff, ctx);
-    if (!st) st = mo_linsolver_solve(Ml, S->rhs, S->xf, ctx);
+    st = MO_OK;
+    if (sc->nfe_free) {
+      /* the nodal rows through M_ff; the rigid rows' mass blocks are What's (What = M + beta h^2 K) */
+      st = mo_csc_extract(sc->M, sc->free_of, sc->nfe_free, sc->free_of, sc->nfe_free, &Mff, ctx);
+      if (!st) st = mo_linsolver_create(&mo_linsolver_cholmod, &Ml, ctx);
+      if (!st) st = mo_linsolver_factor(Ml, Mff, ctx);
+      if (!st) st = mo_linsolver_solve(Ml, S->rhs, S->xf, ctx);
+    }
+    if (!st && S->nblk) {
+      mo_what_inverse Wr = S->Wi;
+      if (S->blk_varies) st = mo_stepper_rigid_update(S, s, ctx);
+      rigid_rhs(S, s, s->a, S->rhs);
+      Wr.nfe = 0; /* the rigid blocks alone */
+      memcpy(S->w2, S->xf, (size_t)sc->nfe_free * sizeof(double));
+      if (!st) st = mo_what_solve(&Wr, 1, S->rhs, S->xf, ctx);
+      memcpy(S->xf, S->w2, (size_t)sc->nfe_free * sizeof(double));
+    }
     if (!st) mo_stepper_scatter(S, S->xf, s->a);
     mo_linsolver_free(Ml);
     mo_csc_free(Mff);
@@ -382,6 +655,7 @@ int mo_stepper_predict(mo_stepper *S, const mo_state *s, double *x, mo_ctx *ctx)
   if (S->nl)
     return mo_error(ctx, MO_EUNSUPPORTED, "mo_stepper_predict: a nonlinear scene's step is "
                     "mo_stepper_solve (Newton)");
+  if (S->blk_varies && (st = mo_stepper_rigid_update(S, s, ctx))) return st;
   mo_scene_fext(sc, tn, f1);
   switch (S->scheme) {
   case MO_SCHEME_THETA: {
@@ -426,7 +700,8 @@ int mo_stepper_predict(mo_stepper *S, const mo_state *s, double *x, mo_ctx *ctx)
   }
   (void)z;
   mo_stepper_gather(S, f1, S->rhs);
-  st = mo_linsolver_solve(S->ls, S->rhs, S->xf, ctx);
+  if (S->nblk) rigid_rhs(S, s, x, S->rhs);
+  st = mo_stepper_what_solve(S, 1, S->rhs, S->xf, ctx);
   if (!st) mo_stepper_scatter(S, S->xf, x);
   mo_phase_add(ctx, MO_PH_SOLVE, t0);
   return st;
@@ -437,7 +712,7 @@ int mo_stepper_correct(mo_stepper *S, const double *imp, double *dx, mo_ctx *ctx
   int st;
   double t0 = mo_clock();
   mo_stepper_gather(S, imp, S->rhs);
-  st = mo_linsolver_solve(S->ls, S->rhs, S->xf, ctx);
+  st = mo_stepper_what_solve(S, 1, S->rhs, S->xf, ctx);
   memset(dx, 0, (size_t)S->sc->ndof * sizeof(double));
   if (!st) mo_stepper_scatter(S, S->xf, dx);
   mo_phase_add(ctx, MO_PH_SOLVE, t0);
@@ -446,6 +721,38 @@ int mo_stepper_correct(mo_stepper *S, const double *imp, double *dx, mo_ctx *ctx
 
 /* Support reactions over the step on prescribed dofs; K and M are symmetric, so row p is
    column p and only the prescribed columns are visited. */
+/* The rigid body holding dof d (bodies are numbered in dof order): its rank in sc->rigid. */
+static int rigid_of_dof(const mo_scene *sc, int d)
+{
+  int lo = 0, hi = sc->nrigid - 1;
+  while (lo <= hi) {
+    int mid = (lo + hi) / 2;
+    const mo_body *B = &sc->body[sc->rigid[mid]];
+    if (d < B->dof0) hi = mid - 1;
+    else if (d >= B->dof0 + B->ndof) lo = mid + 1;
+    else return mid;
+  }
+  return -1;
+}
+
+/* The inertia term of a prescribed rigid dof's reaction: [M_b (v+ - v-) / h]_d (theta) or
+   [M_b a+]_d (Newmark). */
+static double rigid_inertia(const mo_stepper *S, const mo_state *s, int d)
+{
+  const mo_scene *sc = S->sc;
+  int r = rigid_of_dof(sc, d), nd = mo_rigid_ndof(sc->dim), j;
+  const mo_body *B;
+  const double *Mi;
+  double acc = 0;
+  if (r < 0) return 0;
+  B = &sc->body[sc->rigid[r]];
+  Mi = S->rig_M + (size_t)r * 36 + (d - B->dof0) * nd;
+  for (j = 0; j < nd; j++)
+    acc += Mi[j] * (S->scheme == MO_SCHEME_NEWMARK ? s->a[B->dof0 + j]
+                                                   : (s->v[B->dof0 + j] - S->vprev[B->dof0 + j]) / S->h);
+  return acc;
+}
+
 static void reactions(const mo_stepper *S, mo_state *s)
 {
   const mo_scene *sc = S->sc;
@@ -471,7 +778,7 @@ static void reactions(const mo_stepper *S, mo_state *s)
         r = S->fint[d] - s->f[d];
         break;
       }
-      s->reac[d] = r;
+      s->reac[d] = r + (d >= sc->nfe_dof ? rigid_inertia(S, s, d) : 0);
       continue;
     }
     switch (S->scheme) {
@@ -491,7 +798,7 @@ static void reactions(const mo_stepper *S, mo_state *s)
       r -= s->f[d];
       break;
     }
-    s->reac[d] = r;
+    s->reac[d] = r + (d >= sc->nfe_dof && S->scheme != MO_SCHEME_QUASISTATIC ? rigid_inertia(S, s, d) : 0);
   }
 }
 
@@ -508,6 +815,12 @@ static int nan_diagnosis(const mo_stepper *S, const mo_state *s, const double *x
     if (B->kind == MO_BODY_DEFORMABLE && dof >= B->dof0 && dof < B->dof0 + B->ndof) {
       snprintf(where, sizeof where, " (body '%s', node %d, component %c)", B->name,
                (dof - B->dof0) / sc->dim, "xyz"[(dof - B->dof0) % sc->dim]);
+      break;
+    }
+    if ((B->type->flags & MO_BODY_F_RIGID) && dof >= B->dof0 && dof < B->dof0 + B->ndof) {
+      static const char *const n2[] = {"x", "y", "theta"}, *const n3[] = {"x", "y", "z", "rx", "ry", "rz"};
+      snprintf(where, sizeof where, " (rigid body '%s', dof %s)", B->name,
+               sc->dim == 2 ? n2[dof - B->dof0] : n3[dof - B->dof0]);
       break;
     }
   }
@@ -562,6 +875,13 @@ int mo_stepper_finish(mo_stepper *S, mo_state *s, const double *x, mo_ctx *ctx)
   }
   /* prescribed dofs exactly on their path */
   presc_values(S, tn, s->u, S->scheme == MO_SCHEME_QUASISTATIC ? NULL : s->v, NULL);
+  /* 3D rigid bodies turn by the increment of the integral of omega over the step (T69) */
+  for (k = 0; k < sc->nrigid && sc->dim == 3; k++) {
+    const mo_body *B = &sc->body[sc->rigid[k]];
+    double phi[3];
+    for (i = 0; i < 3; i++) phi[i] = s->u[B->dof0 + 3 + i] - S->uprev[B->dof0 + 3 + i];
+    mo_quat_rotate(s->orient + 4 * B->orient, phi);
+  }
   mo_scene_fext(sc, tn, s->f);
   /* external work, trapezoidal in time, over the load patterns only */
   for (l = 0; l < sc->nload; l++) {
@@ -599,7 +919,7 @@ int mo_stepper_step(mo_stepper *S, mo_state *s, mo_ctx *ctx)
   if (S->nl) {
     x = S->xs; /* w1..w3 are Newton's work */
     mo_stepper_guess(S, s, x);
-    if ((st = mo_stepper_solve(S, s, x, NULL, NULL, ctx))) return st;
+    if ((st = mo_stepper_solve(S, s, x, ctx))) return st;
     return mo_stepper_finish(S, s, x, ctx);
   }
   st = mo_stepper_predict(S, s, x, ctx);

@@ -31,7 +31,36 @@ struct mo_stepper {
   double *dxp, *cfp;    /* a step's prescribed increment of the unknown, and ck K_t dxp */
   double *work;         /* element work: ue, fe, Ke */
   mo_newton_report rep;
+  /* Newton's state between the calls of mo_newton_iterate */
+  int nit, nhalf, ninv, ndamp, any_dxp;
+  double prev;
+  char inverted[MO_ERRMSG_MAX];
+  /* What by blocks (doc/theory.md (T70)): W above is the nodal block (free indices 0 .. nfe-1,
+     factored by ls, NULL when there is none); each rigid body with free dofs has a dense block,
+     the free-free part of its mass matrix, inverted */
+  int nfe;
+  int nblk;
+  int *blk_body;        /* nblk: the body of each block */
+  int *blk_off;         /* nblk + 1: free index of each block's first dof (blk_off[0] = nfe) */
+  int *blk_loc;         /* per free rigid dof (index - nfe): its local dof in the body */
+  int *blk_ioff;        /* nblk: offset of the block's inverse in blk_inv */
+  double *blk_inv;
+  double *rig_M;        /* per rigid body (scene order), its full mass block (ndof^2, 36 max) */
+  int blk_varies;       /* some block turns with its body (3D, anisotropic inertia) */
+  long blk_version;     /* changes with the blocks */
+  double *gyro;         /* full: the gyroscopic forces at the start of the step (rigid rows) */
+  mo_what_inverse Wi;
+  mo_csc *Wall;         /* What over every free dof (the nodal block and the rigid blocks), on demand */
+  long Wall_version;    /* blk_version + factorizations it was assembled at */
 };
+
+/* step.c: What^-1 by blocks over free vectors (nrhs columns, leading dimension nfree), and the
+   mass matrix of every body applied to a full vector (y = M x, rigid blocks at the state the
+   blocks were last updated at). */
+int mo_stepper_what_solve(mo_stepper *S, int nrhs, const double *B, double *X, mo_ctx *ctx);
+void mo_stepper_mass_apply(const mo_stepper *S, const double *x, double *y);
+/* The rigid blocks at state s (orientations), and the gyroscopic forces at s into S->gyro. */
+int mo_stepper_rigid_update(mo_stepper *S, const mo_state *s, mo_ctx *ctx);
 
 /* step.c: the prescribed components of the scheme's unknown at time t (v, a or u). */
 void mo_stepper_presc_unknown(const mo_stepper *S, double t, double *x);

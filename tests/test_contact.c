@@ -311,9 +311,9 @@ static void test_delassus(void)
   Wh = mo_stepper_matrix(S);
   m = H->ncol;
   n = H->nrow;
-  ok(mo_delassus_update(D, H, mo_contact_h_version(C), mo_stepper_solver(S), 1, 1.0, 2, &rebuilt, &ctx) == MO_OK && rebuilt,
+  ok(mo_delassus_update(D, H, mo_contact_h_version(C), mo_stepper_inverse(S), 1.0, 2, &rebuilt, &ctx) == MO_OK && rebuilt,
      "W built (%d x %d from %d free dofs)", m, m, n);
-  mo_delassus_update(D, H, mo_contact_h_version(C), mo_stepper_solver(S), 1, 1.0, 2, &rebuilt, &ctx);
+  mo_delassus_update(D, H, mo_contact_h_version(C), mo_stepper_inverse(S), 1.0, 2, &rebuilt, &ctx);
   ok(!rebuilt, "W reused while H and What are unchanged");
   mo_delassus_dense(D, &Wd, &ctx);
   /* dense reference: What \ H by LAPACK, then H^T (.) */
@@ -350,7 +350,7 @@ static void test_delassus(void)
     double *r = calloc((size_t)m, sizeof *r), *dx = calloc((size_t)n, sizeof *dx), *hr = calloc((size_t)n, sizeof *hr);
     double *dx2 = calloc((size_t)n, sizeof *dx2), e = 0, mx = 0;
     for (i = 0; i < m; i++) r[i] = sin(1.0 + i);
-    mo_delassus_apply_Cinv(D, H, mo_stepper_solver(S), r, dx, &ctx);
+    mo_delassus_apply_Cinv(D, H, mo_stepper_inverse(S), r, dx, &ctx);
     mo_csc_gaxpy(H, 1, r, 0, hr);
     mo_linsolver_solve(mo_stepper_solver(S), hr, dx2, &ctx);
     for (i = 0; i < n; i++) { if (fabs(dx[i] - dx2[i]) > e) e = fabs(dx[i] - dx2[i]); if (fabs(dx2[i]) > mx) mx = fabs(dx2[i]); }

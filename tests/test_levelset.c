@@ -121,7 +121,7 @@ static void test_rods(void)
       if (fabs(r[0] / h - F0) > 1e-6 * F0) plateau_ok = 0;
     }
     /* d_n <= 0 (g >= 0) at the end of the step */
-    mo_contact_geometry(R.C, R.s.u, R.s.t, 0, &R.ctx);
+    mo_contact_geometry(R.C, &R.s, R.s.t, 0, &R.ctx);
     if (mo_contact_gaps(R.C)[0] < ming) ming = mo_contact_gaps(R.C)[0];
   }
   ok(!st, "rods: 300 steps at h = 2e-6 s with the levelset back end %s", st ? R.ctx.errmsg : "");

@@ -38,12 +38,12 @@ static int energies(const char *const *sets, int nset, double *drift, int *monot
     return st;
   }
   w = malloc((size_t)sc->ndof * sizeof *w);
-  e0 = eprev = mo_energy_kinetic(sc, s.v, w) + mo_energy_elastic(sc, s.u, w);
+  e0 = eprev = mo_energy_kinetic(sc, &s, w) + mo_energy_elastic(sc, s.u, w);
   *drift = 0;
   *monotone = 1;
   for (k = 0; k < sc->time.steps && !st; k++) {
     st = mo_stepper_step(S, &s, &ctx);
-    e = mo_energy_kinetic(sc, s.v, w) + mo_energy_elastic(sc, s.u, w);
+    e = mo_energy_kinetic(sc, &s, w) + mo_energy_elastic(sc, s.u, w);
     if (fabs(e - e0) / e0 > *drift) *drift = fabs(e - e0) / e0;
     if (!(e < eprev)) *monotone = 0;
     eprev = e;

@@ -29,6 +29,10 @@ typedef enum { MO_ENDS_DUAL = 0, MO_ENDS_HALF, MO_ENDS_EXTEND } mo_weighted_ends
 typedef enum { MO_MASTER_PLANE = 0, MO_MASTER_FACETS } mo_master_kind;
 /* What happens to a slave point whose projection falls off the master surface. */
 typedef enum { MO_OFF_NEAREST = 0, MO_OFF_INACTIVE } mo_off_master;
+/* The unilateral law of a candidate: Signorini as contact.signorini says (position or velocity
+   level), or Moreau's form of Newton's impact law at velocity level with restitution e (pairs
+   with a rigid body, DEM.md §2, doc/theory.md (T71)). */
+typedef enum { MO_LAW_SIGNORINI = 0, MO_LAW_NEWTON } mo_contact_law;
 
 typedef enum { MO_CS_OPEN = 0, MO_CS_STICK, MO_CS_SLIDE } mo_contact_status;
 const char *mo_contact_status_name(int s);
@@ -36,7 +40,7 @@ const char *mo_contact_status_name(int s);
 /* A contact pair of the case (contact.pairs.[k]). */
 typedef struct {
   char *name;
-  int sbody;                 /* slave body */
+  int sbody;                 /* slave body (the first body of a group) */
   char *sset;                /* slave node or facet set */
   int mbody;                 /* master body: a plane or a deformable body */
   char *mset;                /* master facet set (deformable master) */
@@ -48,6 +52,12 @@ typedef struct {
   mo_weighted_ends ends;
   mo_off_master off;
   char *exclude;             /* node set whose nodes are not candidates (or NULL) */
+  double e;                  /* restitution coefficient (MO_LAW_NEWTON) */
+  mo_contact_law law;
+  int dynamic;               /* candidates found by the detection at every step (rigid shapes,
+                                doc/theory.md §12.3); 0: the fixed slave points of a mesh */
+  int ns, nm;                /* dynamic pairs: the bodies of each side (a body or a group) */
+  int *sb, *mb;
 } mo_contact_pair;
 
 /* A point of a slave surface (a node, or a Gauss point of a facet) with its pairing. */
@@ -66,6 +76,12 @@ typedef struct {
   int off;                   /* 1: the projection fell off the master (inactive) */
   double frame[9];           /* rows: n (master to slave), t, s */
   double g;                  /* gap in the current configuration (>= 0 open) */
+  /* the bodies and material points on each side (pairs may join groups of bodies): the slave
+     point and its master point (the projection) for mesh points, the point midway between the
+     surfaces on both sides for detected ones; rigid bodies' columns of H are taken there */
+  int sb, mb;
+  double xs[3], xm[3];
+  int sfeat, mfeat;          /* detected points: features (vertex, edge), to match them over steps */
 } mo_cpoint;
 
 /* A candidate alpha: a combination sum_k c_k of points (one point with c = 1 for concentrated
@@ -101,8 +117,20 @@ const double *mo_contact_cand_coefs(const mo_contact *C);
    master; frozen when `repair` is 0), frames and gaps of every point, then the candidates'
    gaps. H changes only when the pairing or the frames change (planes in small strain: never);
    mo_contact_h_version tells. */
-int mo_contact_geometry(mo_contact *C, const double *u, double t, int repair, mo_ctx *ctx);
+int mo_contact_geometry(mo_contact *C, const struct mo_state *s, double t, int repair, mo_ctx *ctx);
 long mo_contact_h_version(const mo_contact *C);
+/* Changes whenever the set of candidates changes (the detection between rigid bodies at every
+   step): the arrays sized by the candidates must follow (mo_contact_ncandidates). */
+long mo_contact_set_version(const mo_contact *C);
+/* The candidates of the last geometry that are detected ones (rigid shapes): nc_static .. nc-1;
+   0 .. nc_static-1 are the mesh points fixed at build. */
+int mo_contact_nstatic(const mo_contact *C);
+/* Identity of candidate a (5 ints: pair, slave body, master body, slave feature, master
+   feature; static candidates (-1, a, 0, 0, 0)), to match candidates from one set to the next. */
+const int *mo_contact_key(const mo_contact *C, int a);
+/* Per candidate: its law and restitution coefficient. */
+const unsigned char *mo_contact_laws(const mo_contact *C);
+const double *mo_contact_restitution(const mo_contact *C);
 /* Candidate gaps (nc) and frames (nc * dim * dim, rows n, t, s) after mo_contact_geometry. */
 const double *mo_contact_gaps(const mo_contact *C);
 const double *mo_contact_frames(const mo_contact *C);
@@ -127,8 +155,8 @@ int mo_delassus_create(mo_delassus **out, mo_ctx *ctx);
 void mo_delassus_free(mo_delassus *D);
 /* (Re)build from H (nfree x m) and the factored What when H's version or the factorization
    changed; a no-op otherwise. Returns 1 in *rebuilt when it did work. */
-int mo_delassus_update(mo_delassus *D, const mo_csc *H, long hversion, mo_linsolver *ls,
-                       long factor_version, double c, int dim, int *rebuilt, mo_ctx *ctx);
+int mo_delassus_update(mo_delassus *D, const mo_csc *H, long hversion, const mo_what_inverse *Wi,
+                       double c, int dim, int *rebuilt, mo_ctx *ctx);
 int mo_delassus_m(const mo_delassus *D);
 int mo_delassus_dim(const mo_delassus *D);
 /* Block (alpha, beta), d x d row-major, or NULL when structurally zero. */
@@ -140,7 +168,7 @@ void mo_delassus_mult(const mo_delassus *D, const double *x, double beta, double
 /* Dense copy (m x m row-major) for tests, FCLIB and small problems. */
 int mo_delassus_dense(const mo_delassus *D, double **W, mo_ctx *ctx);
 /* dx = What^-1 H r over free dofs: from the stored columns, or by one solve. */
-int mo_delassus_apply_Cinv(mo_delassus *D, const mo_csc *H, mo_linsolver *ls, const double *r,
+int mo_delassus_apply_Cinv(mo_delassus *D, const mo_csc *H, const mo_what_inverse *Wi, const double *r,
                            double *dx, mo_ctx *ctx);
 /* Set W to a given matrix (m x m column-compressed, m = dim nc): FCLIB local problems, tests,
    benchmarks. Blocks that are entirely zero are not stored; no columns What^-1 H are kept (the
@@ -209,8 +237,10 @@ typedef struct mo_contact_problem {
   int nfree;
   const mo_csc *H;           /* nfree x m */
   const mo_csc *What;        /* nfree x nfree iteration matrix */
-  mo_linsolver *ls;          /* its factorization */
+  const mo_what_inverse *Wi; /* What^-1 by blocks (the nodal factorization, the rigid blocks) */
   const double *xfree;       /* nfree: the unconstrained step (v_free, a_free or u_free) */
+  long cset;                 /* mo_contact_set_version: a back end re-reads what it derived from
+                                the candidates when it changes (init is called again) */
   double du_dx;              /* du = c dx over the step */
   long step;                 /* step being computed (1-based) */
   double t;                  /* time at the start of the step */
@@ -344,7 +374,7 @@ double mo_contact_driver_dt(const mo_contact_driver *D);
 typedef struct mo_contact_snapshot mo_contact_snapshot;
 int mo_contact_snapshot_create(const mo_contact_driver *D, mo_contact_snapshot **out, mo_ctx *ctx);
 void mo_contact_snapshot_free(mo_contact_snapshot *X);
-void mo_contact_snapshot_save(const mo_contact_driver *D, mo_contact_snapshot *X);
+int mo_contact_snapshot_save(const mo_contact_driver *D, mo_contact_snapshot *X, mo_ctx *ctx);
 int mo_contact_snapshot_restore(mo_contact_driver *D, const mo_contact_snapshot *X, const mo_state *s,
                                 mo_ctx *ctx);
 const double *mo_contact_reactions(const mo_contact_driver *D);  /* m, last step */

@@ -12,6 +12,7 @@
 #include <moreau/sparse.h>
 #include <moreau/case.h>
 #include <moreau/scene.h>
+#include <moreau/body.h>
 #include <moreau/step.h>
 #include <moreau/output.h>
 #include <moreau/run.h>

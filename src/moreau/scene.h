@@ -14,12 +14,21 @@
 extern "C" {
 #endif
 
-typedef enum { MO_BODY_DEFORMABLE = 0, MO_BODY_PLANE } mo_body_kind;
+/* The kinds of body (moreau/body.h: each is a type object; this enum names them). */
+typedef enum {
+  MO_BODY_DEFORMABLE = 0, MO_BODY_PLANE, MO_BODY_DISK, MO_BODY_SPHERE, MO_BODY_POLYGON,
+  MO_BODY_RIGID_MESH
+} mo_body_kind;
+
+struct mo_body_type;
+struct mo_scene;
 
 typedef struct mo_body {
   char *name;
+  char *group;          /* the entry that generated it with others (an arch's voussoirs), or NULL */
+  const struct mo_body_type *type;
   mo_body_kind kind;
-  mo_mesh *mesh;        /* deformable bodies */
+  mo_mesh *mesh;        /* deformable and rigid-mesh bodies */
   mo_material mat;
   int lumped;           /* lumped mass */
   /* finite-strain bodies (material models hencky and j2, moreau/material.h): their internal
@@ -30,6 +39,17 @@ typedef struct mo_body {
   int dof0, ndof;       /* global dofs dof0 .. dof0+ndof-1; node a, component i: dof0+a*dim+i */
   double mass;          /* total mass (kg, or kg per unit thickness as the hypothesis says) */
   double point[3], normal[3], velocity[3]; /* plane obstacles (unit normal) */
+  /* rigid bodies: disk, sphere, polygon, rigid mesh (doc/theory.md §12) */
+  double J[9];          /* inertia about the centroid in the body frame (2D: J[0] = I) */
+  double xc0[3];        /* centroid in the reference configuration */
+  double theta0;        /* 2D: orientation in the reference configuration (rad) */
+  double radius;        /* disk, sphere */
+  int nvert;
+  double *vert;         /* polygon: vertices about the centroid in the body frame, counter-clockwise */
+  double thickness;     /* 2D rigid bodies: out-of-plane thickness the mass is computed with */
+  int orient;           /* 3D rigid bodies: index of the quaternion in mo_state.orient, else -1 */
+  int fixed;            /* every dof held fixed (a support: no history columns) */
+  double bound;         /* bounding radius about the centroid */
 } mo_body;
 
 typedef enum { MO_PRESC_FIX = 0, MO_PRESC_VELOCITY, MO_PRESC_EXPR } mo_presc_kind;
@@ -118,7 +138,11 @@ typedef enum {
   MO_REF_BAR_STEP_VELOCITY,  /* clamped bar, far end given a constant velocity (T6) */
   MO_REF_RODS_IMPACT,        /* a rod against a rigid wall, or half of two identical rods (T43) */
   MO_REF_BAR_OBSTACLE,       /* Doyen-Ern-Piperno's bar released against an obstacle (T44) */
-  MO_REF_ENERGY              /* only the exact total energy (potential of the loads included) */
+  MO_REF_ENERGY,             /* only the exact total energy (potential of the loads included) */
+  MO_REF_BOUNCE,             /* a ball dropped on a plane, Newton's restitution e (T73) */
+  MO_REF_INCLINE,            /* a block sliding or sticking, a disk or sphere rolling or slipping
+                                on a slope (T74) */
+  MO_REF_STRUCK_BAR          /* a bar struck by a rigid mass: Saint-Venant's contact force (T75) */
 } mo_reference_type;
 
 typedef struct {
@@ -132,6 +156,15 @@ typedef struct {
   double amplitude;          /* bar_obstacle: initial displacement of the contact end */
   double density, area;      /* for forces and pressures (E = rho c^2) */
   double energy;             /* exact total energy (NaN: E(0)) */
+  /* rigid scenes (doc/theory.md §12.6): the body described (body), gravity g, */
+  double gravity;
+  double height, restitution, radius; /* bounce: initial height of the bottom, e, radius */
+  double angle, mu;          /* incline: slope (rad, descending toward +x), friction */
+  double accel, alpha;       /* incline: acceleration along the slope, angular acceleration
+                                (negative: clockwise), from the regime */
+  int regime;                /* incline: 0 stick, 1 slide (or roll with slip), 2 roll */
+  double mass;               /* struck_bar: the striking mass M */
+  double x1[3];              /* the centroid at t = 0 */
 } mo_reference;
 
 /* Closed form along the bar at material coordinate x, time t: displacement, velocity and axial
@@ -146,6 +179,10 @@ double mo_reference_release_time(const mo_reference *R);
 double mo_reference_impulse(const mo_reference *R, double T);
 /* Value of probe quantity q at (x, t) from the reference; 0 when it has none. */
 int mo_reference_eval(const mo_reference *R, mo_quantity q, double x, double t, double *val);
+/* Value of component comp of rigid body b's history columns (2D x, y, theta, vx, vy, omega; 3D
+   x, y, z, q0..q3, vx, vy, vz, wx, wy, wz) at time t from a rigid reference; 0 when it has
+   none. */
+int mo_reference_rigid(const mo_reference *R, const struct mo_scene *sc, int b, int comp, double t, double *val);
 const char *mo_reference_name(mo_reference_type t);
 
 typedef struct mo_scene {
@@ -155,6 +192,12 @@ typedef struct mo_scene {
   int nbody;
   mo_body *body;
   int ndof, nfree;
+  /* the nodal dofs of deformable bodies come first (0 .. nfe_dof-1, free indices 0 ..
+     nfe_free-1: the block of What factored by CHOLMOD), the rigid bodies' after */
+  int nfe_dof, nfe_free;
+  int nrigid;
+  int *rigid;     /* nrigid body indices */
+  int norient;    /* 3D rigid bodies (quaternions in mo_state.orient) */
   int *free_of;   /* ndof: free index of each dof, or -1 when prescribed */
   int *full_of;   /* nfree: dof of each free index */
   int npresc;

@@ -26,6 +26,9 @@ typedef struct mo_state {
      work accumulated since t = 0 (J), both from q */
   double *q;
   double psi, wplastic;
+  /* 3D rigid bodies: their orientations, unit quaternions (w, x, y, z) body to world
+     (4 mo_scene.norient doubles, NULL without them) */
+  double *orient;
 } mo_state;
 
 int mo_state_alloc(const mo_scene *sc, mo_state *s, mo_ctx *ctx);
@@ -33,9 +36,10 @@ void mo_state_release(mo_state *s);
 /* Copy a state of the scene sc (both allocated by mo_state_alloc for it). */
 int mo_state_copy(const mo_scene *sc, const mo_state *src, mo_state *dst);
 
-/* Kinetic energy 1/2 v.Mv and elastic energy 1/2 u.Ku of the linear bodies (both over full
-   dofs; finite-strain bodies have no K: their stored energy is mo_state.psi). */
-double mo_energy_kinetic(const mo_scene *sc, const double *v, double *work);
+/* Kinetic energy 1/2 v.Mv of every body at state s (rigid bodies' blocks included) and elastic
+   energy 1/2 u.Ku of the linear bodies (both over full dofs; finite-strain bodies have no K:
+   their stored energy is mo_state.psi). */
+double mo_energy_kinetic(const mo_scene *sc, const mo_state *s, double *work);
 double mo_energy_elastic(const mo_scene *sc, const double *u, double *work);
 /* Stored elastic energy of every body: 1/2 u.Ku + psi. */
 double mo_energy_stored(const mo_scene *sc, const mo_state *s, double *work);
@@ -76,18 +80,6 @@ int mo_stepper_step(mo_stepper *S, mo_state *s, mo_ctx *ctx);
 /* 1 when a body has a finite-strain material (mo_body.nl): steps solve (T60)-(T62) by Newton. */
 int mo_stepper_nonlinear(const mo_stepper *S);
 
-/* The constraint solve inside a Newton iteration (the contact layer). On entry the stepper has
-   linearized the step at iterate `iter` (0-based): What_k = M + c K_t(u_k) is factored (the
-   solver's version changed: mo_linsolver_stats) and x_free = x_k - What_k^-1 R(x_k) is the
-   unconstrained Newton update (full vector of the scheme's unknown, prescribed values in
-   place), (T63). The callback writes the next iterate x (full) and the constraint term it
-   carries, g = What_k (x - x_free) over full dofs (H r: an impulse for the theta-scheme, a
-   force otherwise; 0 on prescribed dofs), so that the residual the stepper tests next is that
-   of the momentum balance with the contact term (T64). A non-zero return stops the step with
-   that status (the message in ctx). */
-typedef int (*mo_constraint_fn)(void *data, const mo_state *s, const double *x_free, double *x,
-                                double *g, int iter, mo_ctx *ctx);
-
 #define MO_NEWTON_HISTORY 64
 /* Newton's record of the last step, and totals over the run. */
 typedef struct {
@@ -99,22 +91,56 @@ typedef struct {
   long damped;                          /* halved updates over the run (T63) */
 } mo_newton_report;
 
-/* Solve a step of a nonlinear scene: Newton from x (on entry the initial iterate, full, e.g.
-   from mo_stepper_guess) to the solution, returned in x with the trial material states that go
-   with it. fn (NULL: no constraint) is called once per iteration. Non-convergence within time.newton.max_iter
-   iterations, or an iterate that inverts elements (det F <= 0), returns MO_ENOCONV with the
-   step, the time, the residual history and the inverted elements. */
-int mo_stepper_solve(mo_stepper *S, const mo_state *s, double *x, mo_constraint_fn fn, void *data,
-                     mo_ctx *ctx);
+/* Newton on a nonlinear step (doc/theory.md §11.2), driven by the caller so that the constraint
+   solve of the contact layer sits inside the loop and the stepper never calls back up:
+
+     mo_newton_begin(S, s, x, g)                  x: the initial iterate (mo_stepper_guess)
+     while ((st = mo_newton_iterate(S, s, x, g, &xfree)) == MO_NEWTON_LINEARIZED)
+       the constraint solve on What_k: writes the next iterate x and its term g = What_k (x -
+       xfree) = H r over full dofs (0 on prescribed dofs); without constraint x = xfree, g = 0
+     st == MO_OK: x is the solution, with the trial material states that go with it.
+
+   At each call, mo_newton_iterate evaluates the residual of x (T64): converged, it returns
+   MO_OK; otherwise (after halving updates that invert elements or do not decrease it, (T63)) it
+   factors What_k = M + c K_t(u_k) and returns MO_NEWTON_LINEARIZED with xfree = x_k - What_k^-1
+   R(x_k), the unconstrained Newton update (full, prescribed values in place). Non-convergence
+   within time.newton.max_iter iterations, or an iterate that inverts elements (det F <= 0),
+   returns MO_ENOCONV with the step, the time, the residual history and the inverted elements. */
+#define MO_NEWTON_LINEARIZED 100
+int mo_newton_begin(mo_stepper *S, const mo_state *s, double *x, double *g, mo_ctx *ctx);
+int mo_newton_iterate(mo_stepper *S, const mo_state *s, double *x, double *g, const double **xfree,
+                      mo_ctx *ctx);
+/* A step without constraint: the loop above with x = xfree, g = 0. */
+int mo_stepper_solve(mo_stepper *S, const mo_state *s, double *x, mo_ctx *ctx);
 /* The initial iterate of a step: the constant-velocity prediction u+ = u + h v (theta: v;
    Newmark: -(1/2 - beta) a / beta; quasi-static: u), prescribed dofs included (mo_stepper_solve
    moves them to t+ with the first linearization). */
 void mo_stepper_guess(mo_stepper *S, const mo_state *s, double *x);
 const mo_newton_report *mo_stepper_newton_report(const mo_stepper *S);
 
-/* The factored iteration matrix and its free-dof restriction (for the Delassus operator). */
+/* What^-1 by blocks (doc/theory.md (T70)): the nodal block (free indices 0 .. nfe-1, the
+   deformable bodies) through its factorization, then one dense block per rigid body with free
+   dofs (the free-free part of its mass matrix, inverted). */
+typedef struct mo_what_inverse {
+  int n, nfe;             /* free dofs; nodal free dofs */
+  mo_linsolver *ls;       /* factorization of the nodal block (NULL when nfe = 0) */
+  int nblk;
+  const int *off;         /* nblk + 1: free index of each block's first dof (off[0] = nfe) */
+  const int *ioff;        /* nblk: offset of each block's inverse (row-major) in inv */
+  const double *inv;
+  long version;           /* changes whenever the factorization or a block changes */
+} mo_what_inverse;
+const mo_what_inverse *mo_stepper_inverse(const mo_stepper *S);
+/* X = What^-1 B over free dofs (nrhs columns, leading dimension n; X may alias B). */
+int mo_what_solve(const mo_what_inverse *Wi, int nrhs, const double *B, double *X, mo_ctx *ctx);
+
+/* The factorization of the nodal block of What and the block itself (nfe x nfe; NULL when
+   the scene has no deformable body). */
 mo_linsolver *mo_stepper_solver(mo_stepper *S);
 const mo_csc *mo_stepper_matrix(const mo_stepper *S);
+/* What over every free dof, the rigid blocks included (assembled on demand when they changed;
+   the nodal block alone without rigid bodies): the KKT path of levelset. */
+int mo_stepper_matrix_full(mo_stepper *S, const mo_csc **W, mo_ctx *ctx);
 /* Scale linking the scheme's unknown x to the displacement increment over the step,
    du = du_fixed + c dx: h theta (theta), beta h^2 (newmark), 1 (quasistatic). */
 double mo_stepper_du_dx(const mo_stepper *S);

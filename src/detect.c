@@ -1,0 +1,438 @@
+/* detect.c: contact detection for the pairs with rigid shapes (disks, spheres, polygons), run at
+   every geometry with an alert distance: the broad phase, the narrow phases, and the detected
+   candidates with their frames, gaps and keys (doc/theory.md §12.3). */
+#include "config.h"
+#include <moreau/body.h>
+#include <moreau/contact.h>
+#include "broad.h"
+#include "contact_internal.h"
+#include "narrow.h"
+
+#include <math.h>
+#include <string.h>
+
+static int is_shape(const mo_body *B) { return (B->type->flags & (MO_BODY_F_BALL | MO_BODY_F_POLYGON)) != 0; }
+
+/* 1 when pair k joins rigid shapes on both sides (the broad phase serves it). */
+static int rigid_rigid(const mo_contact *C, const mo_contact_pair *P)
+{
+  return P->dynamic && is_shape(&C->sc->body[P->sb[0]]) && is_shape(&C->sc->body[P->mb[0]]);
+}
+
+void mo_contact_detect_free(mo_contact *C)
+{
+  mo_broad_free(C->broad);
+  mo_free(C->mside);
+  mo_free(C->sside);
+  mo_free(C->rr);
+  mo_free(C->bc);
+  mo_free(C->br);
+  mo_free(C->bmask);
+  C->broad = NULL;
+}
+
+/* The smallest size of the bodies of the dynamic pairs: a rigid shape's bounding radius, a mesh's
+   shortest edge (the default alert distance is a tenth of it). */
+static double smallest_size(const mo_contact *C)
+{
+  const mo_scene *sc = C->sc;
+  double hmin = HUGE_VAL;
+  int k, i, side;
+  for (k = 0; k < C->npair; k++) {
+    const mo_contact_pair *P = &C->pair[k];
+    if (!P->dynamic) continue;
+    for (side = 0; side < 2; side++)
+      for (i = 0; i < (side ? P->nm : P->ns); i++) {
+        const mo_body *B = &sc->body[side ? P->mb[i] : P->sb[i]];
+        double h = HUGE_VAL;
+        if (is_shape(B)) h = B->kind == MO_BODY_POLYGON ? B->bound * cos(M_PI / B->nvert) : B->bound;
+        else if (B->mesh) mo_mesh_edge_range(B->mesh, &h, NULL);
+        if (h < hmin) hmin = h;
+      }
+  }
+  return isfinite(hmin) ? hmin : 1;
+}
+
+int mo_contact_detect_setup(mo_contact *C, mo_ctx *ctx)
+{
+  const mo_scene *sc = C->sc;
+  int k, i, st;
+  if (C->alert < 0) C->alert = 0.1 * smallest_size(C);
+  C->mside = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->mside);
+  C->sside = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->sside);
+  C->rr = mo_malloc(ctx, ((size_t)C->npair + 1) * sizeof *C->rr);
+  C->bc = mo_calloc(ctx, 3 * (size_t)sc->nbody + 1, sizeof *C->bc);
+  C->br = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->br);
+  C->bmask = mo_calloc(ctx, (size_t)sc->nbody + 1, 1);
+  if (!C->mside || !C->sside || !C->rr || !C->bc || !C->br || !C->bmask) return MO_ENOMEM;
+  C->nrr = 0;
+  for (k = 0; k < C->npair; k++) {
+    const mo_contact_pair *P = &C->pair[k];
+    if (!rigid_rigid(C, P)) continue;
+    if (C->nrr == 64)
+      return mo_error(ctx, MO_EUNSUPPORTED, "%s: more than 64 contact pairs between rigid shapes; join bodies into "
+                      "groups (one entry making several bodies) and pair the groups", mo_case_file(sc->cs));
+    for (i = 0; i < P->nm; i++) C->mside[P->mb[i]] |= 1ULL << C->nrr;
+    for (i = 0; i < P->ns; i++) C->sside[P->sb[i]] |= 1ULL << C->nrr;
+    C->rr[C->nrr++] = k;
+  }
+  for (i = 0; i < sc->nbody; i++) C->bmask[i] = (C->mside[i] | C->sside[i]) != 0;
+  if (C->nrr && (st = mo_broad_create(&C->broad, ctx))) return st;
+  mo_log(ctx, 2, "contact detection: %d dynamic pairs (%d between rigid shapes), alert distance %g m\n", C->ndyn,
+         C->nrr, C->alert);
+  return MO_OK;
+}
+
+/* --- one detected contact ------------------------------------------------------------------- */
+
+typedef struct {
+  int pair, sb, mb, sfeat, mfeat;
+  int snode;                 /* slave mesh node, or -1 */
+  int mfacet, mn, mnode[4];  /* master mesh facet, or -1 */
+  double mN[4];
+} dyn_side;
+
+/* Append the contact N of pair k between slave sb and master mb as a point and a candidate,
+   with its frame, gap, obstacle velocity, key and law. */
+static int add_contact(mo_contact *C, const dyn_side *S, const mo_narrow *N, double t, mo_ctx *ctx)
+{
+  const mo_scene *sc = C->sc;
+  const mo_contact_pair *P = &C->pair[S->pair];
+  const mo_body *M = &sc->body[S->mb];
+  int D = sc->dim, d = C->dim, a = C->nc, i, j, st, pi = C->npt, *key;
+  double one = 1, *F;
+  mo_cpoint p;
+  mo_candidate c;
+  memset(&p, 0, sizeof p);
+  memset(&c, 0, sizeof c);
+  p.pair = S->pair;
+  p.facet = -1;
+  p.sb = S->sb;
+  p.mb = S->mb;
+  p.sfeat = S->sfeat;
+  p.mfeat = S->mfeat;
+  if (S->snode >= 0) {
+    p.nn = 1;
+    p.node[0] = S->snode;
+    p.N[0] = 1;
+  }
+  p.mfacet = S->mfacet;
+  p.mn = S->mn;
+  for (i = 0; i < S->mn; i++) {
+    p.mnode[i] = S->mnode[i];
+    p.mN[i] = S->mN[i];
+  }
+  for (i = 0; i < D; i++) p.xs[i] = p.xm[i] = p.x0[i] = N->x[i];
+  mo_contact_frame_from_normal(D, N->n, p.frame);
+  p.g = N->g;
+  if ((st = mo_contact_add_point(C, &p, ctx))) return st;
+  c.pair = S->pair;
+  c.np = 1;
+  c.node = S->snode;
+  c.point = pi;
+  c.w = 1;
+  c.mu = P->mu;
+  if ((st = mo_contact_add_candidate(C, &c, &pi, &one, ctx)) || (st = mo_contact_reserve(C, C->nc, ctx))) return st;
+  F = C->frame + (size_t)a * (size_t)(d * d);
+  memcpy(F, p.frame, (size_t)(d * d) * sizeof *F);
+  C->g[a] = N->g;
+  C->active[a] = 1;
+  for (i = 0; i < d; i++) {
+    double u0 = 0;
+    if (M->type->flags & MO_BODY_F_OBSTACLE)
+      for (j = 0; j < D; j++) u0 -= F[i * d + j] * M->velocity[j];
+    C->U0[(size_t)a * d + i] = u0;
+  }
+  key = C->key + (size_t)a * MO_KEY;
+  key[0] = S->pair; key[1] = S->sb; key[2] = S->mb; key[3] = S->sfeat; key[4] = S->mfeat;
+  C->law[a] = (unsigned char)P->law;
+  C->e[a] = P->e;
+  (void)t;
+  return MO_OK;
+}
+
+/* --- narrow phases by the kinds of the two sides ------------------------------------------------ */
+
+/* A rigid shape's world description: centre and radius (ball), or world vertices (polygon). */
+static void shape_world(const mo_scene *sc, const mo_body *B, const mo_state *s, double *c, double *v)
+{
+  mo_rigid_center(sc, B, s, c);
+  if (B->kind == MO_BODY_POLYGON) mo_polygon_world(sc, B, s, v);
+}
+
+/* Shape `sb` (slave) against shape `mb` (master): the narrow phase of their two kinds. */
+static int shape_shape(mo_contact *C, int k, int sb, int mb, const mo_state *s, double alert, double t, mo_ctx *ctx)
+{
+  const mo_scene *sc = C->sc;
+  const mo_body *S = &sc->body[sb], *M = &sc->body[mb];
+  double cs[3], cm[3], vs[2 * MO_POLYGON_MAX], vm[2 * MO_POLYGON_MAX];
+  mo_narrow out[2];
+  dyn_side ds;
+  int n = 0, i, st, flip = 0;
+  shape_world(sc, S, s, cs, vs);
+  shape_world(sc, M, s, cm, vm);
+  if (S->kind != MO_BODY_POLYGON && M->kind != MO_BODY_POLYGON)
+    n = mo_narrow_ball_ball(sc->dim, cm, M->radius, cs, S->radius, alert, out);
+  else if (M->kind == MO_BODY_POLYGON && S->kind != MO_BODY_POLYGON)
+    n = mo_narrow_polygon_ball(M->nvert, vm, cs, S->radius, alert, out);
+  else if (M->kind != MO_BODY_POLYGON) {
+    /* a ball master and a polygon slave: the polygon's narrow phase, turned round */
+    n = mo_narrow_polygon_ball(S->nvert, vs, cm, M->radius, alert, out);
+    flip = 1;
+  } else
+    n = mo_narrow_polygon_polygon(M->nvert, vm, S->nvert, vs, alert, out);
+  memset(&ds, 0, sizeof ds);
+  ds.pair = k;
+  ds.sb = sb;
+  ds.mb = mb;
+  ds.snode = ds.mfacet = -1;
+  for (i = 0; i < n; i++) {
+    if (flip) {
+      int f = out[i].fa;
+      out[i].n[0] = -out[i].n[0]; out[i].n[1] = -out[i].n[1]; out[i].n[2] = -out[i].n[2];
+      out[i].fa = out[i].fb;
+      out[i].fb = f;
+    }
+    ds.mfeat = out[i].fa;
+    ds.sfeat = out[i].fb;
+    if ((st = add_contact(C, &ds, &out[i], t, ctx))) return st;
+  }
+  return MO_OK;
+}
+
+/* The closest facet of a facet set to x (projections inside a facet preferred, as the pairing of
+   mesh points): facet, shape values, point q and normal n; the signed distance along n. */
+static double closest_facet(const mo_scene *sc, int b, const mo_facetset *fs, const double *x, const mo_state *s,
+                            int *fbest, double *N, double *q, double *n)
+{
+  double best = HUGE_VAL, bestin = HUGE_VAL, xi[2], Nf[4], qf[3], nf[3], g = 0;
+  int f, fin = -1, fout = -1, inside, i, fsel;
+  for (f = 0; f < fs->n; f++) {
+    double dist = mo_contact_project_facet(sc, b, fs, f, x, s, xi, Nf, qf, nf, &inside);
+    if (dist < best) { best = dist; fout = f; }
+    if (inside && dist < bestin) { bestin = dist; fin = f; }
+  }
+  fsel = fin >= 0 ? fin : fout;
+  *fbest = fsel;
+  mo_contact_project_facet(sc, b, fs, fsel, x, s, xi, N, q, n, &inside);
+  for (i = 0; i < sc->dim; i++) g += (x[i] - q[i]) * n[i];
+  return g;
+}
+
+/* A ball (centre c, radius r) or a polygon vertex (r = 0) of slave sb against the facets of mesh
+   master mb. */
+static int point_facets(mo_contact *C, int k, int sb, int sfeat, const double *c, double r, const mo_state *s,
+                        double alert, double t, mo_ctx *ctx)
+{
+  const mo_scene *sc = C->sc;
+  const mo_contact_pair *P = &C->pair[k];
+  const mo_facetset *fs = mo_mesh_find_facetset(sc->body[P->mb[0]].mesh, P->mset);
+  double N[4], q[3], n[3], g;
+  int f, i;
+  dyn_side ds;
+  mo_narrow nc;
+  g = closest_facet(sc, P->mb[0], fs, c, s, &f, N, q, n) - r;
+  if (g > alert) return MO_OK;
+  memset(&ds, 0, sizeof ds);
+  memset(&nc, 0, sizeof nc);
+  ds.pair = k;
+  ds.sb = sb;
+  ds.mb = P->mb[0];
+  ds.sfeat = sfeat;
+  ds.mfeat = -1;
+  ds.snode = -1;
+  ds.mfacet = f;
+  ds.mn = fs->nfn;
+  for (i = 0; i < fs->nfn; i++) {
+    ds.mnode[i] = fs->node[f * fs->nfn + i];
+    ds.mN[i] = N[i];
+  }
+  for (i = 0; i < sc->dim; i++) {
+    nc.n[i] = n[i];
+    nc.x[i] = q[i] + 0.5 * g * n[i];
+  }
+  nc.g = g;
+  return add_contact(C, &ds, &nc, t, ctx);
+}
+
+/* The nodes of a mesh slave (its set) against a rigid shape master mb. */
+static int nodes_shape(mo_contact *C, int k, int mb, const mo_state *s, double alert, double t, mo_ctx *ctx)
+{
+  const mo_scene *sc = C->sc;
+  const mo_contact_pair *P = &C->pair[k];
+  const mo_body *M = &sc->body[mb];
+  int sb = P->sb[0], *ids = NULL, nn = 0, a, i, st = MO_OK, D = sc->dim;
+  double cm[3], vm[2 * MO_POLYGON_MAX];
+  const mo_facetset *fs = mo_mesh_find_facetset(sc->body[sb].mesh, P->sset);
+  shape_world(sc, M, s, cm, vm);
+  if (fs) { /* the nodes of the facets */
+    ids = mo_malloc(ctx, ((size_t)fs->n * fs->nfn + 1) * sizeof *ids);
+    if (!ids) return MO_ENOMEM;
+    for (i = 0; i < fs->n * fs->nfn; i++) {
+      int v = fs->node[i], j, dup = 0;
+      for (j = 0; j < nn && !dup; j++) dup = ids[j] == v;
+      if (!dup) ids[nn++] = v;
+    }
+  } else if (mo_mesh_nodeset_resolve(sc->body[sb].mesh, P->sset, &ids, &nn, ctx))
+    return ctx->status;
+  for (a = 0; a < nn && !st; a++) {
+    double x[3], d2 = 0, rr = M->bound + alert;
+    mo_narrow out[1];
+    dyn_side ds;
+    int n;
+    mo_contact_node_pos(sc, sb, ids[a], s, x);
+    for (i = 0; i < D; i++) d2 += (x[i] - cm[i]) * (x[i] - cm[i]);
+    if (d2 > rr * rr) continue;
+    n = M->kind == MO_BODY_POLYGON ? mo_narrow_polygon_ball(M->nvert, vm, x, 0, alert, out)
+                                   : mo_narrow_ball_ball(D, cm, M->radius, x, 0, alert, out);
+    if (!n) continue;
+    memset(&ds, 0, sizeof ds);
+    ds.pair = k;
+    ds.sb = sb;
+    ds.mb = mb;
+    ds.sfeat = ids[a];
+    ds.mfeat = out[0].fa;
+    ds.snode = ids[a];
+    ds.mfacet = -1;
+    st = add_contact(C, &ds, &out[0], t, ctx);
+  }
+  mo_free(ids);
+  return st;
+}
+
+/* Every slave shape of pair k against its plane or mesh master (O(bodies of the pair)). */
+static int shapes_obstacle(mo_contact *C, int k, const mo_state *s, double alert, double t, mo_ctx *ctx)
+{
+  const mo_scene *sc = C->sc;
+  const mo_contact_pair *P = &C->pair[k];
+  const mo_body *M = &sc->body[P->mb[0]];
+  int i, j, n, st;
+  for (i = 0; i < P->ns; i++) {
+    int sb = P->sb[i];
+    const mo_body *S = &sc->body[sb];
+    double c[3], v[2 * MO_POLYGON_MAX], p[3];
+    mo_narrow out[MO_POLYGON_MAX];
+    dyn_side ds;
+    shape_world(sc, S, s, c, v);
+    if (M->type->flags & MO_BODY_F_OBSTACLE) {
+      for (j = 0; j < sc->dim; j++) p[j] = M->point[j] + M->velocity[j] * t;
+      n = S->kind == MO_BODY_POLYGON ? mo_narrow_plane_polygon(p, M->normal, S->nvert, v, alert, out)
+                                     : mo_narrow_plane_ball(sc->dim, p, M->normal, c, S->radius, alert, out);
+      memset(&ds, 0, sizeof ds);
+      ds.pair = k;
+      ds.sb = sb;
+      ds.mb = P->mb[0];
+      ds.snode = ds.mfacet = -1;
+      for (j = 0; j < n; j++) {
+        ds.sfeat = out[j].fb;
+        ds.mfeat = -1;
+        if ((st = add_contact(C, &ds, &out[j], t, ctx))) return st;
+      }
+    } else if (S->kind == MO_BODY_POLYGON) {
+      for (j = 0; j < S->nvert; j++)
+        if ((st = point_facets(C, k, sb, j, v + 2 * j, 0, s, alert, t, ctx))) return st;
+    } else if ((st = point_facets(C, k, sb, -1, c, S->radius, s, alert, t, ctx)))
+      return st;
+  }
+  return MO_OK;
+}
+
+/* The broad phase over the bodies of the rigid-rigid pairs, then their narrow phases. */
+static int rigid_pairs(mo_contact *C, const mo_state *s, double alert, double t, mo_ctx *ctx)
+{
+  const mo_scene *sc = C->sc;
+  const int *pairs;
+  long np, q;
+  int b, st;
+  for (b = 0; b < sc->nbody; b++)
+    if (C->bmask[b]) {
+      double c[3];
+      mo_rigid_center(sc, &sc->body[b], s, c);
+      memcpy(C->bc + (size_t)sc->dim * (size_t)b, c, (size_t)sc->dim * sizeof *c);
+      C->br[b] = sc->body[b].bound;
+    }
+  st = mo_broad_pairs(C->broad, sc->dim, sc->nbody, C->bc, C->br, C->bmask, alert, &pairs, &np, ctx);
+  if (st) return st;
+  for (q = 0; q < np; q++) {
+    int i = pairs[2 * q], j = pairs[2 * q + 1], r;
+    unsigned long long ij = C->mside[i] & C->sside[j], ji = C->mside[j] & C->sside[i];
+    unsigned long long any = ij | ji;
+    if (!any) continue;
+    for (r = 0; !(any >> r & 1ULL); r++) {}
+    /* master i, slave j when pair r reads so (for a pair within a group: the lower index) */
+    if (ij >> r & 1ULL) st = shape_shape(C, C->rr[r], j, i, s, alert, t, ctx);
+    else st = shape_shape(C, C->rr[r], i, j, s, alert, t, ctx);
+    if (st) return st;
+  }
+  return MO_OK;
+}
+
+/* The largest speed a point of the bodies of the dynamic pairs can have (the alert distance's
+   margin over a step). */
+static double max_speed(const mo_contact *C, const mo_state *s)
+{
+  const mo_scene *sc = C->sc;
+  double vmax = 0;
+  int k, i, side, a, D = sc->dim;
+  for (k = 0; k < C->npair; k++) {
+    const mo_contact_pair *P = &C->pair[k];
+    if (!P->dynamic) continue;
+    for (side = 0; side < 2; side++)
+      for (i = 0; i < (side ? P->nm : P->ns); i++) {
+        const mo_body *B = &sc->body[side ? P->mb[i] : P->sb[i]];
+        double v2 = 0, w2 = 0;
+        if (B->type->flags & MO_BODY_F_RIGID) {
+          for (a = 0; a < D; a++) v2 += s->v[B->dof0 + a] * s->v[B->dof0 + a];
+          for (a = D; a < B->ndof; a++) w2 += s->v[B->dof0 + a] * s->v[B->dof0 + a];
+          vmax = fmax(vmax, sqrt(v2) + sqrt(w2) * B->bound);
+        } else if (B->type->flags & MO_BODY_F_OBSTACLE) {
+          for (a = 0; a < D; a++) v2 += B->velocity[a] * B->velocity[a];
+          vmax = fmax(vmax, sqrt(v2));
+        } else
+          for (a = 0; a < B->mesh->nnode; a++) {
+            v2 = 0;
+            for (i = 0; i < D; i++) v2 += s->v[B->dof0 + a * D + i] * s->v[B->dof0 + a * D + i];
+            vmax = fmax(vmax, sqrt(v2));
+          }
+      }
+  }
+  return vmax;
+}
+
+/* 1 when the detected keys equal the previous ones (same candidates in the same order). */
+static int same_keys(const mo_contact *C, const int *old, int nold)
+{
+  int n = C->nc - C->nc_static;
+  return n == nold && !memcmp(old, C->key + (size_t)C->nc_static * MO_KEY, (size_t)n * MO_KEY * sizeof(int));
+}
+
+int mo_contact_detect(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx)
+{
+  int k, st = MO_OK, nold = C->nc - C->nc_static;
+  int *old = NULL;
+  double alert = C->alert + 2 * C->h * max_speed(C, s);
+  if (nold > 0) {
+    old = mo_malloc(ctx, (size_t)nold * MO_KEY * sizeof *old);
+    if (!old) return MO_ENOMEM;
+    memcpy(old, C->key + (size_t)C->nc_static * MO_KEY, (size_t)nold * MO_KEY * sizeof *old);
+  }
+  C->npt = C->npt_static;
+  C->nc = C->nc_static;
+  C->ncoef = C->ncoef_static;
+  for (k = 0; k < C->npair && !st; k++) {
+    const mo_contact_pair *P = &C->pair[k];
+    const mo_body *S, *M;
+    if (!P->dynamic || rigid_rigid(C, P)) continue;
+    S = &C->sc->body[P->sb[0]];
+    M = &C->sc->body[P->mb[0]];
+    if ((S->type->flags & MO_BODY_F_MESH) && !(M->type->flags & MO_BODY_F_OBSTACLE)) {
+      int i;
+      for (i = 0; i < P->nm && !st; i++) st = nodes_shape(C, k, P->mb[i], s, alert, t, ctx);
+    } else
+      st = shapes_obstacle(C, k, s, alert, t, ctx);
+  }
+  if (!st && C->nrr) st = rigid_pairs(C, s, alert, t, ctx);
+  if (!st && !same_keys(C, old, nold)) C->cset_version++;
+  mo_free(old);
+  return st;
+}
