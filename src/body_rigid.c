@@ -207,14 +207,17 @@ static int polygon_read(mo_body *B, int member, int dim, const mo_case *cs, cons
   B->nvert = nv;
   B->vert = mo_malloc(ctx, (size_t)(2 * nv) * sizeof *B->vert);
   if (!B->vert) return MO_ENOMEM;
+  /* the body frame: a rectangle's or a regular polygon's own axes (theta = the angle given), the
+     world's axes for given vertices and voussoirs (theta = 0 at t = 0) */
+  B->theta0 = mo_cfg_member(bg, "size") || mo_cfg_member(bg, "sides") ? mo_cfg_float(bg, "angle", 0) : 0;
   for (k = 0; k < nv; k++) {
-    B->vert[2 * k] = v[2 * k] - c[0];
-    B->vert[2 * k + 1] = v[2 * k + 1] - c[1];
-    r2max = fmax(r2max, B->vert[2 * k] * B->vert[2 * k] + B->vert[2 * k + 1] * B->vert[2 * k + 1]);
+    double dx = v[2 * k] - c[0], dy = v[2 * k + 1] - c[1], ca = cos(B->theta0), sa = sin(B->theta0);
+    B->vert[2 * k] = ca * dx + sa * dy;
+    B->vert[2 * k + 1] = -sa * dx + ca * dy;
+    r2max = fmax(r2max, dx * dx + dy * dy);
   }
   B->xc0[0] = c[0];
   B->xc0[1] = c[1];
-  B->theta0 = 0; /* the body frame is the world's, about the centroid */
   B->mass = rho * area * B->thickness;
   memset(B->J, 0, sizeof B->J);
   B->J[0] = rho * B->thickness * mo_polygon_inertia(nv, v, c);

@@ -205,6 +205,13 @@ static int pick_metric(const colset *C, const char *want)
       if (!strcmp(C->name[k], pref[p])) return k;
   for (k = 0; k < C->n; k++)
     if (strstr(C->name[k], "ux.l2_rel") || strstr(C->name[k], "uy.l2_rel") || strstr(C->name[k], "uz.l2_rel")) return k;
+  /* rigid bodies: the error of a position of the centre (BODY.x, .y, .z) */
+  for (k = 0; k < C->n; k++) {
+    size_t l = strlen(C->name[k]);
+    if (l > 9 && (!strcmp(C->name[k] + l - 9, ".x.l2_rel") || !strcmp(C->name[k] + l - 9, ".y.l2_rel") ||
+                  !strcmp(C->name[k] + l - 9, ".z.l2_rel")))
+      return k;
+  }
   return -1;
 }
 
@@ -819,7 +826,9 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
           against the exact solution, and 3. the energy; the probes are those of the first
           run's history. Each history's header is read once. */
     {
-      static const char *quant[] = {"ux", "vx", "uy", "vy", "uz", "vz", "cx", "cy", "cz", "pn"};
+      /* probe quantities, then rigid bodies' columns (BODY.x ...), these only with an exact value */
+      static const char *quant[] = {"ux", "vx", "uy", "vy", "uz", "vz", "cx", "cy", "cz", "pn", "x", "y", "z", "omega"};
+      const size_t nprobeq = 10;
       size_t qk;
       int *best = mo_malloc(ctx, (size_t)nsol * sizeof *best);
       char *head = mo_malloc(ctx, ((size_t)nsol + 1) * HEADER_MAX), *first_head;
@@ -842,7 +851,10 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
         for (tok = strtok_r(line, ",", &save); tok; tok = strtok_r(NULL, ",", &save)) {
           size_t l = strlen(tok), lq = strlen(quant[qk]);
           if (l > lq + 1 && !strcmp(tok + l - lq, quant[qk]) && tok[l - lq - 1] == '.' && !strstr(tok, ".exact") &&
-              strncmp(tok, "energy.", 7) && strncmp(tok, "contact.", 8)) {
+              strncmp(tok, "energy.", 7) && strncmp(tok, "contact.", 8) && strncmp(tok, "rigid.", 6)) {
+            char ex[160];
+            snprintf(ex, sizeof ex, "%s.exact", tok);
+            if (qk >= nprobeq && !csv_column(first_head, ex)) continue;
             snprintf(probe, sizeof probe, "%s", tok);
             break;
           }

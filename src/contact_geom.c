@@ -1013,6 +1013,17 @@ int mo_contact_build(const mo_scene *sc, mo_contact **out, mo_ctx *ctx)
     s0.v = sc->v0;
     if ((st = mo_contact_geometry(C, &s0, 0, 1, ctx))) goto fail;
   }
+  /* bodies that start inside one another: a mistake in the case (an overlap the first step would
+     push apart violently), refused beyond a millionth of the smallest body */
+  for (k = C->nc_static; k < C->nc; k++)
+    if (C->g[k] < -1000 * C->gtol) {
+      const mo_cpoint *p = &C->pt[C->cand[k].point];
+      const config_setting_t *bl = config_lookup(&cs->cfg, "bodies");
+      st = mo_case_error(cs, config_setting_get_elem(bl, (unsigned)sc->body[p->sb].entry), ctx,
+                         "bodies '%s' and '%s' overlap by %.3g m at t = 0 (the tolerance is %.3g m): move them apart",
+                         sc->body[p->sb].name, sc->body[p->mb].name, -C->g[k], 1000 * C->gtol);
+      goto fail;
+    }
   *out = C;
   return MO_OK;
 fail:

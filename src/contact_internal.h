@@ -47,6 +47,8 @@ struct mo_contact {
   /* detection between rigid shapes (detect.c) */
   int ndyn;                   /* dynamic pairs */
   double alert;               /* contact.alert; the automatic value when the case gives none */
+  double gtol;                /* gaps below this are closed: round-off of resting contacts (1e-9
+                                 of the smallest body of the dynamic pairs) */
   double h;                   /* the step the margin of the alert distance is taken over */
   struct mo_broad *broad;
   unsigned long long *mside, *sside; /* per body: bit k when it is on the master / slave side of

@@ -206,3 +206,92 @@ void mo_contact_print_table(FILE *f, const mo_scene *sc, const mo_contact *C,
     mo_free(oth);
   }
 }
+
+/* --- the contact network for the VTK series and the drawings --------------------------------- */
+
+/* A rigid shape (disk, sphere, polygon): its line ends at its centre. */
+static int network_shape(const mo_scene *sc, int b)
+{
+  return b >= 0 && (sc->body[b].type->flags & MO_BODY_F_RIGID) && sc->body[b].kind != MO_BODY_RIGID_MESH;
+}
+
+/* World position at state s of the point of mesh body b interpolating nodes node[0..n-1] by N
+   (x = X + u on a deformable body, through the rigid map on a rigid mesh); `dflt` when the point
+   has no nodes. */
+static void network_material(const mo_scene *sc, const mo_state *s, int b, int n, const int *node,
+                             const double *N, const double *dflt, double *x)
+{
+  const mo_body *B = b >= 0 ? &sc->body[b] : NULL;
+  int D = sc->dim, k, i;
+  double X[3], y[3];
+  memset(x, 0, 3 * sizeof *x);
+  if (!B || !B->mesh || n <= 0) {
+    for (i = 0; i < D; i++) x[i] = dflt[i];
+    return;
+  }
+  for (k = 0; k < n; k++) {
+    const double *Xk = B->mesh->x + (size_t)node[k] * D;
+    if (B->kind == MO_BODY_RIGID_MESH) {
+      for (i = 0; i < D; i++) X[i] = Xk[i] - B->xc0[i];
+      mo_rigid_point(sc, B, s, X, y);
+    } else
+      for (i = 0; i < D; i++) y[i] = Xk[i] + s->u[B->dof0 + node[k] * D + i];
+    for (i = 0; i < D; i++) x[i] += N[k] * y[i];
+  }
+}
+
+/* The ends and the contact point of point p: slave side, contact point, master side (3 each). */
+static void network_line(const mo_scene *sc, const mo_state *s, const mo_cpoint *p, double *ends, double *cp)
+{
+  int D = sc->dim, i;
+  double xs[3];
+  network_material(sc, s, p->sb, p->nn, p->node, p->N, p->xs, xs);
+  if (p->mb >= 0 && sc->body[p->mb].kind == MO_BODY_PLANE) {
+    /* the slave point projected on the plane where it is at time t */
+    const mo_body *P = &sc->body[p->mb];
+    double g = 0;
+    for (i = 0; i < D; i++) g += (xs[i] - (P->point[i] + P->velocity[i] * s->t)) * P->normal[i];
+    memset(cp, 0, 3 * sizeof *cp);
+    for (i = 0; i < D; i++) cp[i] = xs[i] - g * P->normal[i];
+  } else
+    network_material(sc, s, p->mb, p->mn, p->mnode, p->mN, p->xm, cp);
+  if (network_shape(sc, p->sb)) mo_rigid_center(sc, &sc->body[p->sb], s, ends);
+  else memcpy(ends, xs, 3 * sizeof *ends);
+  if (network_shape(sc, p->mb)) mo_rigid_center(sc, &sc->body[p->mb], s, ends + 3);
+  else memcpy(ends + 3, cp, 3 * sizeof *ends);
+}
+
+int mo_contact_network(const mo_scene *sc, const mo_contact *C, const mo_contact_driver *Dr,
+                       const mo_state *s, mo_vtk_contacts *N, mo_ctx *ctx)
+{
+  const double *r, *g;
+  const int *status;
+  double fs;
+  int a, i, d, nc, st;
+  N->n = 0;
+  if (!C || !Dr) return MO_OK;
+  d = C->dim;
+  nc = mo_contact_ncandidates(C);
+  r = mo_contact_reactions(Dr);
+  g = mo_contact_gaps(C);
+  status = mo_contact_statuses(Dr);
+  fs = force_scale(sc, Dr);
+  if ((st = mo_vtk_contacts_reserve(N, nc, ctx))) return st;
+  for (a = 0; a < nc; a++) {
+    const mo_cpoint *p = &C->pt[C->cand[a].point];
+    double rt = 0;
+    int n = N->n, any = status[a] != MO_CS_OPEN;
+    for (i = 0; i < d; i++) any |= r[a * d + i] != 0;
+    if (!any) continue;
+    for (i = 1; i < d; i++) rt += r[a * d + i] * r[a * d + i];
+    network_line(sc, s, p, N->end + 6 * n, N->point + 3 * n);
+    N->rn[n] = r[a * d] * fs;
+    N->rt[n] = sqrt(rt) * fs;
+    N->gap[n] = g[a];
+    N->status[n] = status[a];
+    N->body[2 * n] = p->sb;
+    N->body[2 * n + 1] = p->mb;
+    N->n++;
+  }
+  return MO_OK;
+}

@@ -57,6 +57,7 @@ int mo_contact_detect_setup(mo_contact *C, mo_ctx *ctx)
 {
   const mo_scene *sc = C->sc;
   int k, i, st;
+  C->gtol = 1e-9 * smallest_size(C);
   if (C->alert < 0) C->alert = 0.1 * smallest_size(C);
   C->mside = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->mside);
   C->sside = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->sside);

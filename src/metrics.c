@@ -5,6 +5,7 @@
 #include "metrics.h"
 
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 #define MAX_IMPACTS 64
@@ -20,7 +21,8 @@ struct mo_metrics {
   double eumax, rumax, evmax, rvmax;      /* max over steps of the L2 norms */
   long nfield;
   /* contact */
-  int nc, d;
+  int nc, d;                 /* candidates followed one by one: the fixed (mesh) ones */
+  int uncap;                 /* capacity of Un (candidates): detected ones come and go */
   double *Un, *Unprev;       /* normal relative velocities, nc */
   int *status, *prevstatus;  /* per candidate */
   double *tv;                /* total variation of U_n while closed, per candidate */
@@ -73,9 +75,10 @@ int mo_metrics_create(const mo_scene *sc, const mo_contact *C, mo_metrics **out,
   M->fields = R->type != MO_REF_NONE && R->type != MO_REF_ENERGY && R->type < MO_REF_BOUNCE && R->body >= 0 &&
               sc->body[R->body].kind == MO_BODY_DEFORMABLE && sc->body[R->body].mesh->dim == 1;
   if (C) {
-    M->nc = mo_contact_ncandidates(C);
+    M->nc = mo_contact_nstatic(C);
     M->d = mo_contact_dim(C);
-    M->Un = mo_calloc(ctx, (size_t)M->nc * (size_t)M->d + 1, sizeof(double));
+    M->uncap = mo_contact_ncandidates(C) + 1;
+    M->Un = mo_calloc(ctx, (size_t)M->uncap * (size_t)M->d + 1, sizeof(double));
     M->Unprev = mo_calloc(ctx, (size_t)M->nc + 1, sizeof(double));
     M->status = mo_calloc(ctx, (size_t)M->nc + 1, sizeof(int));
     M->prevstatus = mo_calloc(ctx, (size_t)M->nc + 1, sizeof(int));
@@ -148,6 +151,19 @@ static void field_step(mo_metrics *M, const mo_state *s)
   M->nfield++;
 }
 
+/* Room in Un for every candidate of the current set (the detected ones change at every step);
+   on failure the detected candidates are left out of the step's measures. */
+static int un_room(mo_metrics *M, int nc)
+{
+  double *p;
+  if (nc <= M->uncap) return 1;
+  p = mo_realloc(NULL, M->Un, ((size_t)nc * (size_t)M->d + 1) * sizeof *p);
+  if (!p) return 0;
+  M->Un = p;
+  M->uncap = nc;
+  return 1;
+}
+
 void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *D)
 {
   const mo_scene *sc = M->sc;
@@ -166,8 +182,18 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
     const double *r = D ? mo_contact_reactions(D) : NULL;
     int d = M->d;
     double h = D ? mo_contact_driver_dt(D) : sc->time.dt;
+    int ncur = mo_contact_ncandidates(C);
+    if (!un_room(M, ncur)) ncur = M->nc;
     /* U = H^T v + U0: the relative velocity at the end of the step, whatever the scheme */
-    mo_csc_gatxpy(mo_contact_H_full(C), 1, s->v, 0, M->Un);
+    if (ncur == mo_contact_ncandidates(C)) mo_csc_gatxpy(mo_contact_H_full(C), 1, s->v, 0, M->Un);
+    /* the detected candidates (rigid shapes): penetration, velocity scale, bearing, impulse */
+    for (a = M->nc; a < ncur; a++) {
+      double un = M->Un[a * d] + U0[a * d];
+      if (-g[a] > M->max_pen) M->max_pen = -g[a];
+      if (fabs(un) > M->vscale) M->vscale = fabs(un);
+      closed += s->step > 0 && r && r[a * d] > 0;
+      if (r && s->step > 0) M->impulse += r[a * d] * (sc->time.scheme == MO_SCHEME_THETA ? 1 : h);
+    }
     for (a = 0; a < M->nc; a++) {
       double un = M->Un[a * d] + U0[a * d];
       /* bearing: a compressive reaction. The jump of the normal velocity and its variation

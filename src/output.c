@@ -1,10 +1,14 @@
-/* output.c: CSV histories, VTK XML field series, atomic file replacement. */
+/* output.c: CSV histories, VTK XML series (fields, rigid bodies, contact network), atomic file
+   replacement. */
 #include "config.h"
+#include <moreau/body.h>
 #include <moreau/material.h>
 #include <moreau/output.h>
 
 #include <errno.h>
+#include <limits.h>
 #include <math.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -120,16 +124,29 @@ struct mo_vtk {
   char *dir;
   int nframe, cap;
   double *times;
+  int balls, shapes, rigid;  /* the rigid series of the scene: particles, polygons, contacts */
 };
+
+static int write_paraview_script(const mo_vtk *v, const mo_scene *sc, mo_ctx *ctx);
 
 int mo_vtk_open(const char *dir, const mo_scene *sc, mo_vtk **out, mo_ctx *ctx)
 {
   mo_vtk *v = mo_calloc(ctx, 1, sizeof *v);
-  (void)sc;
+  int k, st;
   *out = NULL;
   if (!v) return MO_ENOMEM;
   v->dir = mo_strdup(ctx, dir);
   if (!v->dir) { mo_free(v); return MO_ENOMEM; }
+  for (k = 0; k < sc->nrigid; k++) {
+    mo_body_kind kd = sc->body[sc->rigid[k]].kind;
+    v->balls |= kd == MO_BODY_DISK || kd == MO_BODY_SPHERE;
+    v->shapes |= kd == MO_BODY_POLYGON || kd == MO_BODY_RIGID_MESH;
+  }
+  v->rigid = sc->nrigid > 0;
+  if (v->rigid && (st = write_paraview_script(v, sc, ctx))) {
+    mo_vtk_close(v);
+    return st;
+  }
   *out = v;
   return MO_OK;
 }
@@ -142,6 +159,103 @@ void mo_vtk_close(mo_vtk *v)
   mo_free(v->dir);
   mo_free(v->times);
   mo_free(v);
+}
+
+int mo_vtk_contacts_reserve(mo_vtk_contacts *N, int n, mo_ctx *ctx)
+{
+  int cap = N->cap ? N->cap : 16;
+  void *p;
+  if (n <= N->cap) return MO_OK;
+  while (cap < n) cap *= 2;
+#define GROW(ptr, k) if (!(p = mo_realloc(ctx, ptr, (size_t)cap * (k) * sizeof *(ptr)))) return MO_ENOMEM; ptr = p
+  GROW(N->end, 6); GROW(N->point, 3); GROW(N->rn, 1); GROW(N->rt, 1); GROW(N->gap, 1);
+  GROW(N->status, 1); GROW(N->body, 2);
+#undef GROW
+  N->cap = cap;
+  return MO_OK;
+}
+
+void mo_vtk_contacts_release(mo_vtk_contacts *N)
+{
+  if (!N) return;
+  mo_free(N->end);
+  mo_free(N->point);
+  mo_free(N->rn);
+  mo_free(N->rt);
+  mo_free(N->gap);
+  mo_free(N->status);
+  mo_free(N->body);
+  memset(N, 0, sizeof *N);
+}
+
+/* The tubes' radius in particles.py: a tenth of the smallest rigid body. */
+static double tube_radius(const mo_scene *sc)
+{
+  double r = HUGE_VAL;
+  int k;
+  for (k = 0; k < sc->nrigid; k++) {
+    const mo_body *B = &sc->body[sc->rigid[k]];
+    double b = B->kind == MO_BODY_DISK || B->kind == MO_BODY_SPHERE ? B->radius : B->bound;
+    if (b > 0 && b < r) r = b;
+  }
+  return r < HUGE_VAL ? 0.1 * r : 0.01;
+}
+
+/* particles.py, once: the ParaView script that shows the rigid series (pvpython, or the GUI's
+   Python Shell > Run Script). The folder is found from the script's own path, or else is the
+   absolute path of v->dir when the run wrote it. */
+static int write_paraview_script(const mo_vtk *v, const mo_scene *sc, mo_ctx *ctx)
+{
+  char path[4200], absdir[PATH_MAX], here[PATH_MAX + 8], text[6144];
+  int n;
+  /* the folder as a Python literal; a name with quotes or backslashes: the current folder */
+  if (realpath(v->dir, absdir) && !strpbrk(absdir, "'\\\n")) snprintf(here, sizeof here, "'%s'", absdir);
+  else snprintf(here, sizeof here, "os.getcwd()");
+  n = snprintf(text, sizeof text,
+    "# particles.py: a ParaView view of the rigid-body series moreau wrote in this folder.\n"
+    "# Run: `pvpython particles.py`, `paraview --script=particles.py`, or in ParaView View > Python Shell >\n"
+    "# Run Script. It loads particles.pvd (disks and spheres as points) and draws them as spheres of\n"
+    "# their radius (Glyph scaled by the point array radius) coloured by the velocity magnitude,\n"
+    "# polygons.pvd (polygons and rigid meshes) coloured likewise, and contacts.pvd (the contact network,\n"
+    "# one line per closed contact) as tubes coloured by the normal force rn. Arrays: particles (points):\n"
+    "# radius, velocity, omega, orientation (2D: angle; 3D: quaternion w x y z), body; polygons (cells):\n"
+    "# velocity, omega, body; contacts (cells): rn, rt (forces), gap, point, status (0 open, 1 stick,\n"
+    "# 2 slide), slave, master (body numbers). Play the animation for the time series.\n"
+    "import os\n"
+    "from paraview.simple import *\n\n"
+    "try:\n    HERE = os.path.dirname(os.path.abspath(__file__))\n"
+    "except NameError:  # Run Script may not set __file__\n    HERE = %s\n\n"
+    "def series(name):\n"
+    "    path = os.path.join(HERE, name + '.pvd')\n"
+    "    return PVDReader(FileName=path) if os.path.exists(path) else None\n\n"
+    "def colour(shown, where, array, component=None):\n"
+    "    ColorBy(shown, (where, array, component) if component else (where, array))\n"
+    "    shown.RescaleTransferFunctionToDataRange(True, False)\n"
+    "    shown.SetScalarBarVisibility(view, True)\n\n"
+    "view = GetActiveViewOrCreate('RenderView')\n"
+    "particles = series('particles')\n"
+    "if particles is not None:\n"
+    "    glyph = Glyph(Input=particles, GlyphType='Sphere')\n"
+    "    glyph.ScaleArray = ['POINTS', 'radius']\n"
+    "    glyph.ScaleFactor = 2.0  # the glyph sphere has radius 1/2: a sphere of radius r\n"
+    "    glyph.GlyphMode = 'All Points'\n"
+    "    colour(Show(glyph, view), 'POINTS', 'velocity', 'Magnitude')\n"
+    "polygons = series('polygons')\n"
+    "if polygons is not None:\n"
+    "    colour(Show(polygons, view), 'CELLS', 'velocity', 'Magnitude')\n"
+    "contacts = series('contacts')\n"
+    "if contacts is not None:\n"
+    "    tube = Tube(Input=contacts)\n"
+    "    tube.Radius = %.6g  # a tenth of the smallest body\n"
+    "    colour(Show(tube, view), 'CELLS', 'rn')\n"
+    "GetAnimationScene().UpdateAnimationUsingDataTimeSteps()\n"
+    "%s"
+    "view.ResetCamera()\n"
+    "Render()\n",
+    here, tube_radius(sc), sc->dim == 2 ? "view.InteractionMode = '2D'\n" : "");
+  if (n < 0 || n >= (int)sizeof text) return mo_error(ctx, MO_EINTERNAL, "particles.py: text too long");
+  snprintf(path, sizeof path, "%s/particles.py", v->dir);
+  return mo_write_file_atomic(path, text, (size_t)n, ctx);
 }
 
 static int vtk_cell_type(mo_eltype t)
@@ -299,25 +413,12 @@ static int write_vtu(const char *path, const mo_scene *sc, const mo_body *B, con
   return MO_OK;
 }
 
-int mo_vtk_frame(mo_vtk *v, const mo_scene *sc, const mo_state *s, mo_ctx *ctx)
+/* fields.pvd, rewritten whole so that it always lists complete frames only. */
+static int write_fields_pvd(const mo_vtk *v, const mo_scene *sc, mo_ctx *ctx)
 {
   char path[4200], *pvd = NULL;
   size_t cap = 4096, len = 0;
   int b, k, st;
-  if (v->nframe == v->cap) {
-    int cap2 = v->cap ? 2 * v->cap : 64;
-    double *t = mo_realloc(ctx, v->times, (size_t)cap2 * sizeof *t);
-    if (!t) return MO_ENOMEM;
-    v->times = t;
-    v->cap = cap2;
-  }
-  for (b = 0; b < sc->nbody; b++) {
-    if (sc->body[b].kind != MO_BODY_DEFORMABLE) continue;
-    snprintf(path, sizeof path, "%s/fields_%s_%05d.vtu", v->dir, sc->body[b].name, v->nframe);
-    if ((st = write_vtu(path, sc, &sc->body[b], s, sc->out.vtk_fields, ctx))) return st;
-  }
-  v->times[v->nframe++] = s->t;
-  /* the collection, rewritten whole so that it always lists complete frames only */
   pvd = mo_malloc(ctx, cap);
   if (!pvd) return MO_ENOMEM;
 #define APPEND(...)                                                                             \
@@ -343,4 +444,397 @@ int mo_vtk_frame(mo_vtk *v, const mo_scene *sc, const mo_state *s, mo_ctx *ctx)
   st = mo_write_file_atomic(path, pvd, len, ctx);
   mo_free(pvd);
   return st;
+}
+
+/* --- rigid bodies and the contact network: binary .vtu ------------------------------------------ */
+
+/* A .vtu being written under a temporary name, and the base64 stream of its current DataArray
+   (VTK's inline binary format: base64 of a UInt64 byte count followed by the values, as one
+   stream). */
+typedef struct {
+  FILE *f;
+  char path[4200], tmp[4200];
+  unsigned char in[3];
+  int nin, nout;
+  char out[4096];
+} vtu;
+
+static void b64_flush(vtu *w)
+{
+  if (w->nout) fwrite(w->out, 1, (size_t)w->nout, w->f);
+  w->nout = 0;
+}
+
+/* The 1 to 3 bytes held as 4 digits ('=' padding when fewer than 3). */
+static void b64_group(vtu *w)
+{
+  static const char dig[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  unsigned long x = (unsigned long)w->in[0] << 16 | (unsigned long)(w->nin > 1 ? w->in[1] : 0) << 8 |
+                    (unsigned long)(w->nin > 2 ? w->in[2] : 0);
+  char *o;
+  if (w->nout + 4 > (int)sizeof w->out) b64_flush(w);
+  o = w->out + w->nout;
+  o[0] = dig[x >> 18 & 63];
+  o[1] = dig[x >> 12 & 63];
+  o[2] = w->nin > 1 ? dig[x >> 6 & 63] : '=';
+  o[3] = w->nin > 2 ? dig[x & 63] : '=';
+  w->nout += 4;
+  w->nin = 0;
+}
+
+static void vtu_put(vtu *w, const void *p, size_t n)
+{
+  const unsigned char *b = p;
+  size_t i;
+  for (i = 0; i < n; i++) {
+    w->in[w->nin++] = b[i];
+    if (w->nin == 3) b64_group(w);
+  }
+}
+
+static void put_f64(vtu *w, double x) { vtu_put(w, &x, sizeof x); }
+static void put_i32(vtu *w, long x)
+{
+  int32_t y = (int32_t)x;
+  vtu_put(w, &y, sizeof y);
+}
+static void put_u8(vtu *w, int x)
+{
+  unsigned char y = (unsigned char)x;
+  vtu_put(w, &y, 1);
+}
+
+/* Start a DataArray of n values (Float64, Int32 or UInt8, by the size) of ncomp components. */
+static void vtu_begin(vtu *w, const char *name, int ncomp, long n, int size)
+{
+  uint64_t bytes = (uint64_t)n * (uint64_t)size;
+  fprintf(w->f, "<DataArray type=\"%s\" Name=\"%s\" NumberOfComponents=\"%d\" format=\"binary\">\n",
+          size == 8 ? "Float64" : size == 4 ? "Int32" : "UInt8", name, ncomp);
+  vtu_put(w, &bytes, sizeof bytes);
+}
+
+static void vtu_end(vtu *w)
+{
+  if (w->nin) b64_group(w);
+  b64_flush(w);
+  fputs("\n</DataArray>\n", w->f);
+}
+
+static const char *byte_order(void)
+{
+  const uint16_t one = 1;
+  return *(const unsigned char *)&one ? "LittleEndian" : "BigEndian";
+}
+
+/* Open DIR/NAME_NNNNN.vtu of frame k under a temporary name and write its header. */
+static int vtu_open(vtu *w, const mo_vtk *v, const char *name, int k, long npoint, long ncell, mo_ctx *ctx)
+{
+  memset(w, 0, sizeof *w);
+  if (snprintf(w->path, sizeof w->path, "%s/%s_%05d.vtu", v->dir, name, k) >= (int)sizeof w->path ||
+      snprintf(w->tmp, sizeof w->tmp, "%s.tmp.%ld", w->path, (long)getpid()) >= (int)sizeof w->tmp)
+    return mo_error(ctx, MO_EIO, "path too long: '%s/%s'", v->dir, name);
+  if (npoint > INT_MAX || ncell > INT_MAX)
+    return mo_error(ctx, MO_ELIMIT, "'%s': more than %d points or cells", w->path, INT_MAX);
+  w->f = fopen(w->tmp, "w");
+  if (!w->f) return mo_error(ctx, MO_EIO, "cannot write '%s': %s", w->tmp, strerror(errno));
+  fprintf(w->f, "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" "
+                "byte_order=\"%s\" header_type=\"UInt64\">\n<UnstructuredGrid>\n"
+                "<Piece NumberOfPoints=\"%ld\" NumberOfCells=\"%ld\">\n",
+          byte_order(), npoint, ncell);
+  return MO_OK;
+}
+
+/* Close the file and put it in place (or remove it when writing failed). */
+static int vtu_close(vtu *w, mo_ctx *ctx)
+{
+  fputs("</Piece>\n</UnstructuredGrid>\n</VTKFile>\n", w->f);
+  if (ferror(w->f) | fclose(w->f)) {
+    remove(w->tmp);
+    return mo_error(ctx, MO_EIO, "cannot write '%s'", w->tmp);
+  }
+  if (rename(w->tmp, w->path) != 0) {
+    remove(w->tmp);
+    return mo_error(ctx, MO_EIO, "cannot replace '%s': %s", w->path, strerror(errno));
+  }
+  return MO_OK;
+}
+
+/* The offsets and types of ncell cells of one type with nv vertices each (vertices, lines). */
+static void vtu_uniform_cells(vtu *w, long ncell, int nv, int type)
+{
+  long c;
+  vtu_begin(w, "offsets", 1, ncell, 4);
+  for (c = 0; c < ncell; c++) put_i32(w, (c + 1) * nv);
+  vtu_end(w);
+  vtu_begin(w, "types", 1, ncell, 1);
+  for (c = 0; c < ncell; c++) put_u8(w, type);
+  vtu_end(w);
+}
+
+/* A rigid body's state as the series show it: centre, velocity, angular velocity (2D: along z),
+   orientation (2D: the angle; 3D: the quaternion w, x, y, z). */
+typedef struct {
+  double x[3], v[3], w[3], q[4];
+} rigid_view;
+
+static void rigid_view_get(const mo_scene *sc, const mo_state *s, const mo_body *B, rigid_view *r)
+{
+  const double *v = s->v + B->dof0;
+  int i;
+  memset(r, 0, sizeof *r);
+  mo_rigid_center(sc, B, s, r->x);
+  if (sc->dim == 2) {
+    r->v[0] = v[0];
+    r->v[1] = v[1];
+    r->w[2] = v[2];
+    r->q[0] = B->theta0 + s->u[B->dof0 + 2];
+    return;
+  }
+  for (i = 0; i < 3; i++) {
+    r->v[i] = v[i];
+    r->w[i] = v[3 + i];
+  }
+  for (i = 0; i < 4; i++) r->q[i] = s->orient && B->orient >= 0 ? s->orient[4 * B->orient + i] : i == 0;
+}
+
+static int is_ball(const mo_body *B) { return B->kind == MO_BODY_DISK || B->kind == MO_BODY_SPHERE; }
+static int is_shape(const mo_body *B) { return B->kind == MO_BODY_POLYGON || B->kind == MO_BODY_RIGID_MESH; }
+
+/* Cells of a body in polygons_: a polygon is one, a rigid mesh its elements. */
+static long shape_cells(const mo_body *B) { return B->kind == MO_BODY_RIGID_MESH ? B->mesh->nelem : 1; }
+
+enum { RV_RADIUS, RV_VELOCITY, RV_OMEGA, RV_ORIENTATION, RV_BODY };
+
+/* The array `what` over the rigid bodies of a series (balls: one value each; shapes: one per
+   cell), n entries. */
+static void rigid_array(vtu *w, const mo_scene *sc, const mo_state *s, int balls, int what, long n)
+{
+  static const char *names[] = {"radius", "velocity", "omega", "orientation", "body"};
+  int nq = sc->dim == 2 ? 1 : 4, ncomp = what == RV_VELOCITY || what == RV_OMEGA ? 3 : what == RV_ORIENTATION ? nq : 1;
+  int k, i;
+  long c;
+  vtu_begin(w, names[what], ncomp, n * ncomp, what == RV_BODY ? 4 : 8);
+  for (k = 0; k < sc->nrigid; k++) {
+    const mo_body *B = &sc->body[sc->rigid[k]];
+    rigid_view r;
+    if (balls ? !is_ball(B) : !is_shape(B)) continue;
+    rigid_view_get(sc, s, B, &r);
+    for (c = 0; c < (balls ? 1 : shape_cells(B)); c++) {
+      if (what == RV_BODY) put_i32(w, sc->rigid[k]);
+      else if (what == RV_RADIUS) put_f64(w, B->radius);
+      for (i = 0; i < ncomp && what != RV_BODY && what != RV_RADIUS; i++)
+        put_f64(w, what == RV_VELOCITY ? r.v[i] : what == RV_OMEGA ? r.w[i] : r.q[i]);
+    }
+  }
+  vtu_end(w);
+}
+
+/* particles_NNNNN.vtu: every disk and sphere as a vertex at its centre. */
+static int write_particles(const mo_vtk *v, int frame, const mo_scene *sc, const mo_state *s, mo_ctx *ctx)
+{
+  vtu w;
+  long n = 0, a;
+  int k, st, what;
+  for (k = 0; k < sc->nrigid; k++) n += is_ball(&sc->body[sc->rigid[k]]);
+  if ((st = vtu_open(&w, v, "particles", frame, n, n, ctx))) return st;
+  fputs("<Points>\n", w.f);
+  vtu_begin(&w, "points", 3, 3 * n, 8);
+  for (k = 0; k < sc->nrigid; k++) {
+    double x[3];
+    if (!is_ball(&sc->body[sc->rigid[k]])) continue;
+    mo_rigid_center(sc, &sc->body[sc->rigid[k]], s, x);
+    for (a = 0; a < 3; a++) put_f64(&w, x[a]);
+  }
+  vtu_end(&w);
+  fputs("</Points>\n<Cells>\n", w.f);
+  vtu_begin(&w, "connectivity", 1, n, 4);
+  for (a = 0; a < n; a++) put_i32(&w, a);
+  vtu_end(&w);
+  vtu_uniform_cells(&w, n, 1, 1); /* VTK_VERTEX */
+  fputs("</Cells>\n<PointData Scalars=\"radius\" Vectors=\"velocity\">\n", w.f);
+  for (what = RV_RADIUS; what <= RV_BODY; what++) rigid_array(&w, sc, s, 1, what, n);
+  fputs("</PointData>\n", w.f);
+  return vtu_close(&w, ctx);
+}
+
+/* World position of node a of a rigid mesh: x = c + R (X - xc0). */
+static void rigid_node(const mo_scene *sc, const mo_state *s, const mo_body *B, int a, double *x)
+{
+  double X[3] = {0, 0, 0};
+  int i, D = sc->dim;
+  for (i = 0; i < D; i++) X[i] = B->mesh->x[a * D + i] - B->xc0[i];
+  x[2] = 0;
+  mo_rigid_point(sc, B, s, X, x);
+}
+
+/* The points of polygons_: each polygon's world vertices, each rigid mesh's nodes. */
+static void shape_points(vtu *w, const mo_scene *sc, const mo_state *s, long npoint)
+{
+  int k, a, i;
+  vtu_begin(w, "points", 3, 3 * npoint, 8);
+  for (k = 0; k < sc->nrigid; k++) {
+    const mo_body *B = &sc->body[sc->rigid[k]];
+    double vw[2 * MO_POLYGON_MAX], x[3];
+    if (B->kind == MO_BODY_POLYGON) {
+      mo_polygon_world(sc, B, s, vw);
+      for (a = 0; a < B->nvert; a++) {
+        put_f64(w, vw[2 * a]);
+        put_f64(w, vw[2 * a + 1]);
+        put_f64(w, 0);
+      }
+    } else if (B->kind == MO_BODY_RIGID_MESH)
+      for (a = 0; a < B->mesh->nnode; a++) {
+        rigid_node(sc, s, B, a, x);
+        for (i = 0; i < 3; i++) put_f64(w, x[i]);
+      }
+  }
+  vtu_end(w);
+}
+
+/* The cells of polygons_: connectivity, offsets, types (VTK_POLYGON, the mesh's cell type). */
+static void shape_cells_write(vtu *w, const mo_scene *sc, long nconn, long ncell)
+{
+  long p0 = 0, off = 0;
+  int k, a, e, pass;
+  for (pass = 0; pass < 3; pass++) {
+    static const char *names[] = {"connectivity", "offsets", "types"};
+    vtu_begin(w, names[pass], 1, pass == 0 ? nconn : ncell, pass == 2 ? 1 : 4);
+    for (k = 0, p0 = 0, off = 0; k < sc->nrigid; k++) {
+      const mo_body *B = &sc->body[sc->rigid[k]];
+      if (B->kind == MO_BODY_POLYGON) {
+        if (pass == 0) for (a = 0; a < B->nvert; a++) put_i32(w, p0 + a);
+        else if (pass == 1) put_i32(w, off += B->nvert);
+        else put_u8(w, 7); /* VTK_POLYGON */
+        p0 += B->nvert;
+      } else if (B->kind == MO_BODY_RIGID_MESH) {
+        const mo_mesh *m = B->mesh;
+        for (e = 0; e < m->nelem; e++)
+          if (pass == 0) for (a = 0; a < m->nen; a++) put_i32(w, p0 + m->conn[(size_t)e * m->nen + a]);
+          else if (pass == 1) put_i32(w, off += m->nen);
+          else put_u8(w, vtk_cell_type(m->type));
+        p0 += m->nnode;
+      }
+    }
+    vtu_end(w);
+  }
+}
+
+/* polygons_NNNNN.vtu: every polygon and rigid mesh in its current configuration. */
+static int write_polygons(const mo_vtk *v, int frame, const mo_scene *sc, const mo_state *s, mo_ctx *ctx)
+{
+  vtu w;
+  long npoint = 0, ncell = 0, nconn = 0;
+  int k, st, what;
+  for (k = 0; k < sc->nrigid; k++) {
+    const mo_body *B = &sc->body[sc->rigid[k]];
+    if (B->kind == MO_BODY_POLYGON) {
+      npoint += B->nvert;
+      nconn += B->nvert;
+      ncell++;
+    } else if (B->kind == MO_BODY_RIGID_MESH) {
+      npoint += B->mesh->nnode;
+      nconn += (long)B->mesh->nelem * B->mesh->nen;
+      ncell += B->mesh->nelem;
+    }
+  }
+  if ((st = vtu_open(&w, v, "polygons", frame, npoint, ncell, ctx))) return st;
+  fputs("<Points>\n", w.f);
+  shape_points(&w, sc, s, npoint);
+  fputs("</Points>\n<Cells>\n", w.f);
+  shape_cells_write(&w, sc, nconn, ncell);
+  fputs("</Cells>\n<CellData Vectors=\"velocity\">\n", w.f);
+  for (what = RV_VELOCITY; what <= RV_BODY; what++)
+    if (what != RV_ORIENTATION) rigid_array(&w, sc, s, 0, what, ncell);
+  fputs("</CellData>\n", w.f);
+  return vtu_close(&w, ctx);
+}
+
+/* contacts_NNNNN.vtu: the network as lines, two points of their own each. */
+static int write_contacts(const mo_vtk *v, int frame, const mo_vtk_contacts *net, mo_ctx *ctx)
+{
+  static const char *names[] = {"rn", "rt", "gap", "point", "status", "slave", "master"};
+  vtu w;
+  long n = net ? net->n : 0, a;
+  int st, f, i;
+  if ((st = vtu_open(&w, v, "contacts", frame, 2 * n, n, ctx))) return st;
+  fputs("<Points>\n", w.f);
+  vtu_begin(&w, "points", 3, 6 * n, 8);
+  for (a = 0; a < 6 * n; a++) put_f64(&w, net->end[a]);
+  vtu_end(&w);
+  fputs("</Points>\n<Cells>\n", w.f);
+  vtu_begin(&w, "connectivity", 1, 2 * n, 4);
+  for (a = 0; a < 2 * n; a++) put_i32(&w, a);
+  vtu_end(&w);
+  vtu_uniform_cells(&w, n, 2, 3); /* VTK_LINE */
+  fputs("</Cells>\n<CellData Scalars=\"rn\">\n", w.f);
+  for (f = 0; f < 7; f++) {
+    int nc = f == 3 ? 3 : 1;
+    vtu_begin(&w, names[f], nc, nc * n, f >= 4 ? 4 : 8);
+    for (a = 0; a < n; a++)
+      switch (f) {
+      case 0: put_f64(&w, net->rn[a]); break;
+      case 1: put_f64(&w, net->rt[a]); break;
+      case 2: put_f64(&w, net->gap[a]); break;
+      case 3: for (i = 0; i < 3; i++) put_f64(&w, net->point[3 * a + i]); break;
+      case 4: put_i32(&w, net->status[a]); break;
+      default: put_i32(&w, net->body[2 * a + f - 5]); break;
+      }
+    vtu_end(&w);
+  }
+  fputs("</CellData>\n", w.f);
+  return vtu_close(&w, ctx);
+}
+
+/* PREFIX.pvd listing the frames PREFIX_NNNNN.vtu with their times (one part). */
+static int write_series_pvd(const mo_vtk *v, const char *prefix, mo_ctx *ctx)
+{
+  size_t line = 100 + strlen(prefix), cap = 200 + (size_t)v->nframe * line, len = 0;
+  char path[4200], *buf = mo_malloc(ctx, cap);
+  int k, st;
+  if (!buf) return MO_ENOMEM;
+  len += (size_t)snprintf(buf, cap, "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\">\n<Collection>\n");
+  for (k = 0; k < v->nframe; k++)
+    len += (size_t)snprintf(buf + len, cap - len, "<DataSet timestep=\"%.17g\" part=\"0\" file=\"%s_%05d.vtu\"/>\n",
+                            v->times[k], prefix, k);
+  len += (size_t)snprintf(buf + len, cap - len, "</Collection>\n</VTKFile>\n");
+  snprintf(path, sizeof path, "%s/%s.pvd", v->dir, prefix);
+  st = mo_write_file_atomic(path, buf, len, ctx);
+  mo_free(buf);
+  return st;
+}
+
+/* The rigid series of the last frame recorded (v->nframe - 1) and their collections. */
+static int write_rigid_frame(const mo_vtk *v, const mo_scene *sc, const mo_state *s, const mo_vtk_contacts *net,
+                             mo_ctx *ctx)
+{
+  int st, k = v->nframe - 1;
+  st = v->balls ? write_particles(v, k, sc, s, ctx) : MO_OK;
+  if (!st && v->shapes) st = write_polygons(v, k, sc, s, ctx);
+  if (!st) st = write_contacts(v, k, net, ctx);
+  if (!st && v->balls) st = write_series_pvd(v, "particles", ctx);
+  if (!st && v->shapes) st = write_series_pvd(v, "polygons", ctx);
+  if (!st) st = write_series_pvd(v, "contacts", ctx);
+  return st;
+}
+
+int mo_vtk_frame(mo_vtk *v, const mo_scene *sc, const mo_state *s, const mo_vtk_contacts *net,
+                 mo_ctx *ctx)
+{
+  char path[4200];
+  int b, st;
+  if (v->nframe == v->cap) {
+    int cap2 = v->cap ? 2 * v->cap : 64;
+    double *t = mo_realloc(ctx, v->times, (size_t)cap2 * sizeof *t);
+    if (!t) return MO_ENOMEM;
+    v->times = t;
+    v->cap = cap2;
+  }
+  for (b = 0; b < sc->nbody; b++) {
+    if (sc->body[b].kind != MO_BODY_DEFORMABLE) continue;
+    snprintf(path, sizeof path, "%s/fields_%s_%05d.vtu", v->dir, sc->body[b].name, v->nframe);
+    if ((st = write_vtu(path, sc, &sc->body[b], s, sc->out.vtk_fields, ctx))) return st;
+  }
+  v->times[v->nframe++] = s->t;
+  if (v->rigid && (st = write_rigid_frame(v, sc, s, net, ctx))) return st;
+  return write_fields_pvd(v, sc, ctx);
 }

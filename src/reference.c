@@ -161,6 +161,13 @@ static void bounce(const mo_reference *R, double t, double *h, double *v)
 int mo_reference_rigid(const mo_reference *R, const mo_scene *sc, int b, int comp, double t, double *val)
 {
   int D = sc->dim, vy = D == 2 ? 4 : 8, wz = D == 2 ? 5 : 12;
+  if (R->type == MO_REF_STRUCK_BAR && (sc->body[b].type->flags & MO_BODY_F_RIGID) && comp == (D == 2 ? 3 : 7)) {
+    /* the striker slows down as the force of (T75) says, v = v0 exp(-rho c A t / M), until 2 L / c */
+    double z = R->density * R->c * R->area, t0 = R->gap / (R->velocity > 0 ? R->velocity : 1);
+    if (t < t0 || t >= t0 + 2 * R->length / R->c) return 0;
+    *val = R->velocity * exp(-z * (t - t0) / R->mass);
+    return 1;
+  }
   if (b != R->body) return 0;
   if (R->type == MO_REF_BOUNCE) {
     double h, v;

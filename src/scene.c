@@ -454,6 +454,7 @@ static int read_bodies(mo_scene *sc, const config_setting_t *bl, int nentry, mo_
         B->type = T;
         B->kind = T->kind;
         B->orient = -1;
+        B->entry = e;
         if (c == 1) B->name = mo_strdup(ctx, name);
         else {
           char buf[300];

@@ -159,6 +159,12 @@ static const mo_key core_keys[] = {
   {"output.vtk", K_GROUP, NULL, NONE, 0, NULL, "VTK XML field series (fields.pvd + .vtu), written when present.", NULL},
   {"output.vtk.every", K_INT, NULL, R(1, U, 0, 0), 0, "10", "Write fields every N steps (and at the last step).", NULL},
   {"output.vtk.fields", K_SARRAY, "displacement|velocity|stress|strain|von_mises|eps_p", A(U, U, 0, 0, 1, 6), 0, "all", "Fields written (eps_p: equivalent plastic strain of j2 bodies).", NULL},
+  {"output.draw", K_GROUP, NULL, NONE, 0, NULL, "Drawings without ParaView, written when present: plots/draw.dat and plots/draw.gp, rendered by gnuplot (when on PATH) into plots/snapshots.png and plots/animation.gif (2D; a 3D scene is drawn in x-y projection).", NULL},
+  {"output.draw.frames", K_INT, NULL, R(1, 64, 0, 0), 0, "8", "Snapshots in snapshots.png, evenly spaced from t = 0 to the end, each titled with its time.", "output.draw.frames lies in 1 .. 64"},
+  {"output.draw.gif", K_BOOL, NULL, NONE, 0, "true when gnuplot has the gif terminal", "Also animation.gif, the whole run in at most 200 frames.", NULL},
+  {"output.draw.every", K_INT, NULL, R(1, U, 0, 0), 0, "steps / 100", "Steps between frames of the GIF (and the last step); raised when the GIF would have more than 200 frames.", NULL},
+  {"output.draw.box", K_FARRAY, NULL, A(U, U, 0, 0, 4, 4), 0, "everything drawn, with a margin", "The view [xmin, xmax, ymin, ymax] (m).", NULL},
+  {"output.draw.forces", K_BOOL, NULL, NONE, 0, "true", "Draw the contact network: a segment per closed contact, wider as its normal force r_n grows.", NULL},
 
   /* --- reference solution ------------------------------------------------------------------ */
   {"reference", K_GROUP, NULL, NONE, 0, NULL, "A closed-form solution the core compares the probes with (errors in summary.json).", NULL},

@@ -31,7 +31,7 @@ typedef struct {
   unsigned char *rev;        /* nc: the sliding direction reversed in the last Newton loop */
   double *viol;              /* nc: how far the new solution is beyond a sign's boundary */
   /* work sized by the contact set (grown on demand) */
-  double *y, *dy, *WCC, *J, *Uc, *Umc;
+  double *y, *dy, *D, *WCC, *J, *Uc, *Umc;
   int *ipiv;
   size_t cap_y, cap_u;
   double *dv, *ddv;          /* KKT path: velocity correction over the free dofs */
@@ -109,7 +109,7 @@ static void ls_free(void *state)
   mo_free(L->su); mo_free(L->sv); mo_free(L->sf); mo_free(L->nsu); mo_free(L->nsv); mo_free(L->nsf);
   mo_free(L->pg); mo_free(L->ph); mo_free(L->lam); mo_free(L->U); mo_free(L->Umag); mo_free(L->r);
   mo_free(L->ph_prev); mo_free(L->lam_prev); mo_free(L->pm); mo_free(L->lm);
-  mo_free(L->y); mo_free(L->dy); mo_free(L->WCC); mo_free(L->J); mo_free(L->Uc); mo_free(L->Umc);
+  mo_free(L->y); mo_free(L->dy); mo_free(L->D); mo_free(L->WCC); mo_free(L->J); mo_free(L->Uc); mo_free(L->Umc);
   mo_free(L->ipiv); mo_free(L->dv); mo_free(L->ddv); mo_free(L->hist); mo_free(L->gdir); mo_free(L->mu); mo_free(L->rev); mo_free(L->viol);
   memset(L, 0, sizeof *L);
 }
@@ -163,6 +163,8 @@ static int ls_reserve(ls_state *L, size_t ny, size_t nu, mo_ctx *ctx)
     L->y = a;
     if (!(a = mo_realloc(ctx, L->dy, (ny + 1) * sizeof(double)))) return MO_ENOMEM;
     L->dy = a;
+    if (!(a = mo_realloc(ctx, L->D, (ny + 1) * sizeof(double)))) return MO_ENOMEM;
+    L->D = a;
     if (!(a = mo_realloc(ctx, L->J, (ny * ny + 1) * sizeof(double)))) return MO_ENOMEM;
     L->J = a;
     if (!(ip = mo_realloc(ctx, L->ipiv, (ny + 1) * sizeof(int)))) return MO_ENOMEM;
@@ -203,6 +205,34 @@ static int slide_reversed(ls_state *L, const double *y, const double *Uc, int fi
     for (t = 0; t < S->dt; t++) L->gdir[2 * j + t] = G[t];
   }
   return rev;
+}
+
+/* The scales of the unknowns that choose among the solutions of a singular frozen system (T76):
+   the columns of J equilibrated, except the friction impulses r_t and semi-multipliers Lam of
+   sticking candidates with their own multiplier, scaled by sqrt(tau) and 1 / sqrt(tau) (tau = c w
+   mu p^g): the smallest |D^-1 y| then minimises sum r_t^2 / tau + tau Lam^2, the distribution of
+   the friction impulses among redundant points proportional to their thresholds, every point at
+   the same mobilization |Lam| (the total's), inside its cone when the total is inside its own. */
+static void newton_scales(const ls_state *L, const double *J, double *D)
+{
+  const ls_system *S = &L->S;
+  const ls_space *A = &L->A;
+  int ny = S->ny, nr = S->nr, nu = S->nC * nr, k, e, jc, t;
+  for (k = 0; k < ny; k++) {
+    double c2 = 0;
+    for (e = 0; e < ny; e++) c2 += J[(size_t)e * ny + k] * J[(size_t)e * ny + k];
+    D[k] = c2 > 0 ? 1 / sqrt(c2) : 1;
+  }
+  for (jc = 0; S->dt && jc < S->nC; jc++) {
+    int j = S->cset[jc], q = A->rp[j], mi;
+    double tau = S->c * S->w[j] * S->mu[j] * S->pg[j];
+    if (!S->sf[j] || !(tau > 0) || A->rp[j + 1] - q != 1 || A->cp[A->ri[q] + 1] - A->cp[A->ri[q]] != 1) continue;
+    if ((mi = S->mpos[A->ri[q]]) < 0) continue;
+    for (t = 0; t < S->dt; t++) {
+      D[jc * nr + 1 + t] = sqrt(tau);
+      D[nu + S->nM + mi * S->dt + t] = 1 / sqrt(tau);
+    }
+  }
 }
 
 /* Solve F(y, U') = 0 for the frozen sign fields and threshold (T17)-(T20), by (generalized)
@@ -257,7 +287,8 @@ static int ls_newton(ls_state *L, const mo_contact_problem *P, int kkt, int *its
         }
       }
       for (e = 0; e < ny; e++) L->dy[e] = -S->F[e];
-      if ((st = ls_dense_solve(ny, L->J, L->dy, L->ipiv, ctx))) return st;
+      newton_scales(L, L->J, L->D);
+      if ((st = ls_dense_solve(ny, L->J, L->dy, L->y, L->D, L->ipiv, ctx))) return st;
     }
     for (e = 0; e < ny; e++) L->y[e] += L->dy[e];
     (*its)++;
@@ -276,7 +307,8 @@ static void describe_candidate(const mo_contact_problem *P, int j, char *buf, si
 {
   const mo_candidate *c = mo_contact_candidate(P->contact, j);
   const mo_contact_pair *pr = mo_contact_pair_get(P->contact, c->pair);
-  if (c->node >= 0) snprintf(buf, n, "%d (node %d of '%s')", j, c->node, pr->name);
+  if (pr->dynamic) snprintf(buf, n, "%d (contact %d of '%s')", j, j - mo_contact_nstatic(P->contact), pr->name);
+  else if (c->node >= 0) snprintf(buf, n, "%d (node %d of '%s')", j, c->node, pr->name);
   else snprintf(buf, n, "%d (Gauss point of facet %d of '%s')", j,
                 mo_contact_point(P->contact, c->point)->facet, pr->name);
 }

@@ -84,9 +84,11 @@ void ls_lam_at(const ls_system *S, const ls_space *A, const double *y, int j, do
 
 /* --- linear algebra paths (levelset_linalg.c) ------------------------------------------------- */
 
-/* Dense LU solve of the n x n row-major system J x = b (J overwritten). MO_ESINGULAR when LAPACK
-   reports a zero pivot. */
-int ls_dense_solve(int n, double *J, double *b, int *ipiv, mo_ctx *ctx);
+/* Dense LU solve of the n x n row-major Newton system J dx = b at iterate y (J overwritten, dx
+   into b). A singular J (redundant constraints: two points of an edge resting on an edge leave
+   their tangential impulses non-unique) takes the iterate y + dx of smallest norm |D^-1 (y +
+   dx)| (LAPACK's SVD least squares), D > 0 the scales of the unknowns. */
+int ls_dense_solve(int n, double *J, double *b, const double *y, const double *D, int *ipiv, mo_ctx *ctx);
 
 /* Schur path: the local velocities U' = W_CC r + q over Cset and their magnitudes. */
 void ls_schur_velocity(const ls_system *S, const double *WCC, const double *q, const double *y,

@@ -9,10 +9,43 @@
 
 extern void dgesv_(const int *n, const int *nrhs, double *a, const int *lda, int *ipiv,
                    double *b, const int *ldb, int *info);
+extern void dgecon_(const char *norm, const int *n, const double *a, const int *lda, const double *anorm,
+                    double *rcond, double *work, int *iwork, int *info);
+extern void dgelsd_(const int *m, const int *n, const int *nrhs, double *a, const int *lda, double *b,
+                    const int *ldb, double *s, const double *rcond, int *rank, double *work,
+                    const int *lwork, int *iwork, int *info);
 
-int ls_dense_solve(int n, double *J, double *b, int *ipiv, mo_ctx *ctx)
+/* The minimum-norm least-squares solution of a singular J x = b (J column-major, overwritten) by
+   LAPACK's SVD solver: redundant constraints (two points of one edge on an edge, both sticking,
+   leave the tangential impulses non-unique) have many solutions, all giving the same
+   velocities; this one is the smallest. */
+static int min_norm_solve(int n, double *J, double *b, int *rank, mo_ctx *ctx)
 {
-  int nrhs = 1, info = 0, i, j;
+  int nrhs = 1, info = 0, lwork = -1, liwork = 0, *iwork = NULL;
+  double rcond = 1e-14, wq = 0, *sv = NULL, *work = NULL;
+  dgelsd_(&n, &n, &nrhs, J, &n, b, &n, &wq, &rcond, rank, &wq, &lwork, &liwork, &info);
+  lwork = (int)wq + 1;
+  /* LAPACK's bound on the integer workspace: 3 n nlvl + 11 n, nlvl <= log2(n) + 1 */
+  liwork = 3 * n * (int)(log2((double)n + 1) + 2) + 11 * n + 1;
+  sv = mo_malloc(ctx, ((size_t)n + 1) * sizeof *sv);
+  work = mo_malloc(ctx, (size_t)lwork * sizeof *work);
+  iwork = mo_malloc(ctx, (size_t)liwork * sizeof *iwork);
+  if (!sv || !work || !iwork) {
+    mo_free(sv); mo_free(work); mo_free(iwork);
+    return MO_ENOMEM;
+  }
+  dgelsd_(&n, &n, &nrhs, J, &n, b, &n, sv, &rcond, rank, work, &lwork, iwork, &info);
+  mo_free(sv); mo_free(work); mo_free(iwork);
+  if (info != 0)
+    return mo_error(ctx, MO_ESINGULAR, "levelset: the frozen-status system is singular and its SVD did not "
+                    "converge (LAPACK dgelsd info %d)", info);
+  return MO_OK;
+}
+
+int ls_dense_solve(int n, double *J, double *b, const double *y, const double *D, int *ipiv, mo_ctx *ctx)
+{
+  int nrhs = 1, info = 0, i, j, st;
+  double *A = NULL, *b0 = NULL;
   if (n == 0) return MO_OK;
   /* LAPACK is column-major: transpose in place (J is square) */
   for (i = 0; i < n; i++)
@@ -21,10 +54,49 @@ int ls_dense_solve(int n, double *J, double *b, int *ipiv, mo_ctx *ctx)
       J[(size_t)i * n + j] = J[(size_t)j * n + i];
       J[(size_t)j * n + i] = t;
     }
+  /* kept for a singular system (dgesv overwrites both) */
+  A = mo_malloc(ctx, (size_t)n * (size_t)n * sizeof *A);
+  b0 = mo_malloc(ctx, (size_t)n * sizeof *b0);
+  if (!A || !b0) { mo_free(A); mo_free(b0); return MO_ENOMEM; }
+  memcpy(A, J, (size_t)n * (size_t)n * sizeof *A);
+  memcpy(b0, b, (size_t)n * sizeof *b0);
   dgesv_(&n, &nrhs, J, &n, ipiv, b, &n, &info);
-  if (info > 0)
-    return mo_error(ctx, MO_ESINGULAR, "levelset: the frozen-status system is singular (zero pivot %d "
-                    "of %d in LAPACK dgesv)", info, n);
+  if (info == 0) {
+    /* a pivot that is round-off of zero: redundant constraints whose LU "succeeds" with an
+       arbitrary component along the null space; the condition number tells */
+    double anorm = 0, rc = 1, *w4 = mo_malloc(ctx, (4 * (size_t)n + 1) * sizeof *w4);
+    int *iw = mo_malloc(ctx, ((size_t)n + 1) * sizeof *iw), ci = 0;
+    if (!w4 || !iw) { mo_free(w4); mo_free(iw); mo_free(A); mo_free(b0); return MO_ENOMEM; }
+    for (j = 0; j < n; j++) {
+      double cs = 0;
+      for (i = 0; i < n; i++) cs += fabs(A[(size_t)j * n + i]);
+      if (cs > anorm) anorm = cs;
+    }
+    dgecon_("1", &n, J, &n, &anorm, &rc, w4, iw, &ci);
+    mo_free(w4);
+    mo_free(iw);
+    if (ci == 0 && rc < 1e-15) info = n;
+  }
+  if (info > 0) {
+    /* redundant constraints: the new iterate y + dx of smallest norm |D^-1 (y + dx)| among the
+       solutions of J (y + dx) = J y + b, the scales D choosing which one (levelset.c) */
+    int rank = 0;
+    for (i = 0; i < n; i++) {
+      double acc = b0[i];
+      for (j = 0; j < n; j++) acc += A[(size_t)j * n + i] * y[j];
+      b[i] = acc;
+    }
+    for (j = 0; j < n; j++)
+      for (i = 0; i < n; i++) A[(size_t)j * n + i] *= D[j];
+    st = min_norm_solve(n, A, b, &rank, ctx);
+    mo_log(ctx, 3, "levelset: the frozen-status system is singular (zero pivot %d of %d): the solution of "
+           "smallest scaled norm, rank %d\n", info, n, rank);
+    info = 0;
+    if (st) { mo_free(A); mo_free(b0); return st; }
+    for (i = 0; i < n; i++) b[i] = D[i] * b[i] - y[i];
+  }
+  mo_free(A);
+  mo_free(b0);
   if (info < 0) return mo_error(ctx, MO_EINTERNAL, "levelset: dgesv argument %d", -info);
   for (i = 0; i < n; i++)
     if (!isfinite(b[i]))

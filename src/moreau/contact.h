@@ -416,6 +416,17 @@ int mo_fclib_write(const char *path, int d, int nc, const double *W, const doubl
 int mo_fclib_read(const char *path, int *d, int *nc, mo_csc **W, double **q, double **mu,
                   mo_ctx *ctx);
 
+/* --- the contact network for the outputs (moreau/output.h) ------------------------------------ */
+
+struct mo_vtk_contacts;
+/* The network of the last step into N (N->n lines; its arrays grown as needed): every candidate
+   closed or with a non-zero reaction, as a line from the slave side (a rigid shape's centre, or
+   the material point of a mesh at state s) to the master side (a rigid shape's centre, or the
+   contact point on a plane or a mesh), with its forces (reactions over mo_contact_driver_dt for
+   the theta-scheme), status and gap. C or D NULL: an empty network. */
+int mo_contact_network(const mo_scene *sc, const mo_contact *C, const mo_contact_driver *D,
+                       const mo_state *s, struct mo_vtk_contacts *N, mo_ctx *ctx);
+
 #ifdef __cplusplus
 }
 #endif

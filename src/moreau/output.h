@@ -25,11 +25,46 @@ int mo_csv_open(const char *path, const char *const *names, int ncol, int precis
 int mo_csv_row(mo_csv *c, const double *vals, mo_ctx *ctx);
 int mo_csv_close(mo_csv *c, mo_ctx *ctx);
 
+/* The contact network of one frame, as the VTK series and the drawings show it: one line per
+   candidate that is closed or carries a reaction (filled by mo_contact_network, moreau/contact.h,
+   so that the writers need not know the contact layer). Each array holds n entries; cap is the
+   room allocated. The owner releases the arrays with mo_vtk_contacts_release. */
+typedef struct mo_vtk_contacts {
+  int n, cap;
+  double *end;      /* 6 n: the two ends (x, y, z): the slave side, then the master side: a rigid
+                       shape's centre, or the material point (mesh slave) and the contact point
+                       (plane or mesh master) */
+  double *point;    /* 3 n: the contact point */
+  double *rn, *rt;  /* n: normal force, norm of the tangential force (forces, not impulses) */
+  double *gap;      /* n: the gap of the step's geometry */
+  int *status;      /* n: 0 open, 1 stick, 2 slide (MO_CS_*) */
+  int *body;        /* 2 n: slave and master body (index in mo_scene.body; -1: none) */
+} mo_vtk_contacts;
+/* Room for n lines (n and the contents kept). */
+int mo_vtk_contacts_reserve(mo_vtk_contacts *N, int n, mo_ctx *ctx);
+void mo_vtk_contacts_release(mo_vtk_contacts *N);
+
 typedef struct mo_vtk mo_vtk;
 /* VTK XML series in `dir`: one .vtu per deformable body and frame, indexed by fields.pvd
-   (rewritten atomically after each frame). */
+   (rewritten atomically after each frame). A scene with rigid bodies adds, per frame:
+     particles_NNNNN.vtu  every disk and sphere as a vertex at its centre, point data radius,
+                          velocity, omega (2D: along z), orientation (2D: the angle; 3D: the
+                          quaternion w, x, y, z), body;
+     polygons_NNNNN.vtu   every polygon as a VTK_POLYGON of its world vertices, and every rigid
+                          mesh (2D and 3D) as the cells of its mesh in the current configuration,
+                          cell data velocity, omega, body;
+     contacts_NNNNN.vtu   the contact network (mo_vtk_contacts) as VTK_LINE cells, cell data rn,
+                          rt, status, gap, point, slave, master (a valid empty file when there is
+                          no contact);
+   with particles.pvd, polygons.pvd, contacts.pvd (the series a scene has; contacts.pvd always)
+   and once, particles.py: a ParaView script that shows them (glyphs, tubes). These files are
+   binary (format="binary": base64 of a UInt64 byte count and the values, in the machine's
+   byte order, which the file names), exact to the last bit; fields_ files stay ASCII. */
 int mo_vtk_open(const char *dir, const mo_scene *sc, mo_vtk **out, mo_ctx *ctx);
-int mo_vtk_frame(mo_vtk *v, const mo_scene *sc, const mo_state *s, mo_ctx *ctx);
+/* Write frame mo_vtk_frames(v) of state s: the fields, and for a scene with rigid bodies the
+   rigid series with the network `net` (NULL: no contact). */
+int mo_vtk_frame(mo_vtk *v, const mo_scene *sc, const mo_state *s, const mo_vtk_contacts *net,
+                 mo_ctx *ctx);
 int mo_vtk_frames(const mo_vtk *v);
 void mo_vtk_close(mo_vtk *v);
 

@@ -26,6 +26,7 @@ struct mo_scene;
 typedef struct mo_body {
   char *name;
   char *group;          /* the entry that generated it with others (an arch's voussoirs), or NULL */
+  int entry;            /* its entry in the case's bodies list */
   const struct mo_body_type *type;
   mo_body_kind kind;
   mo_mesh *mesh;        /* deformable and rigid-mesh bodies */
