@@ -469,6 +469,7 @@ const double *mo_contact_local_velocity(const mo_contact_driver *D) { return D->
 const int *mo_contact_statuses(const mo_contact_driver *D) { return D->status; }
 const mo_contact_solver_type *mo_contact_driver_type(const mo_contact_driver *D) { return D->T; }
 const mo_delassus *mo_contact_driver_delassus(const mo_contact_driver *D) { return D->W; }
+long mo_contact_driver_failures(const mo_contact_driver *D) { return D->failures; }
 
 void mo_contact_driver_totals(const mo_contact_driver *D, long *steps, long *iterations,
                               long *max_iterations, long *wbuilds, double *max_residual)

@@ -998,6 +998,9 @@ int mo_contact_build(const mo_scene *sc, mo_contact **out, mo_ctx *ctx)
     if (fr && !C->repair && !C->moving_h)
       mo_note_skip(ctx, "geometric loop and H rebuilds (plane masters: the pairing and the frames do not change)");
   }
+  /* eps_g of (T71): resting contacts of rigid bodies closed through the round-off of their gaps */
+  for (k = 0; k < C->npair; k++)
+    if (C->pair[k].law == MO_LAW_NEWTON) C->gtol = 1e-9 * mo_contact_smallest_size(C);
   if (C->ndyn) {
     C->moving_h = 1; /* detected contacts move with their bodies */
     C->alert = mo_cfg_float(cg, "alert", -1);

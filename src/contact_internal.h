@@ -76,6 +76,9 @@ int mo_contact_reserve(mo_contact *C, int nc, mo_ctx *ctx);
    points and candidates replace the previous ones: C->nc_static .. C->nc - 1, their gaps,
    frames, obstacle velocities, keys, laws). */
 int mo_contact_detect_setup(mo_contact *C, mo_ctx *ctx);
+/* The smallest size of the bodies of the pairs under Newton's law (a rigid shape's bounding
+   radius, a mesh's shortest edge): the scale of the alert distance and of eps_g (T71). */
+double mo_contact_smallest_size(const mo_contact *C);
 int mo_contact_detect(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx);
 void mo_contact_detect_free(mo_contact *C);
 

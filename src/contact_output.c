@@ -1,5 +1,6 @@
 /* contact_output.c: per-candidate results: contact.csv and the table in Jean's layout (J88
-   Figs. 3-4), with the other reaction representation (P images or P^-1 images). */
+   Figs. 3-4), with the other reaction representation (P images or P^-1 images); the contact
+   network the VTK series and the drawings show. */
 #include "config.h"
 #include <moreau/contact.h>
 #include <moreau/output.h>

@@ -31,19 +31,17 @@ void mo_contact_detect_free(mo_contact *C)
   C->broad = NULL;
 }
 
-/* The smallest size of the bodies of the dynamic pairs: a rigid shape's bounding radius, a mesh's
-   shortest edge (the default alert distance is a tenth of it). */
-static double smallest_size(const mo_contact *C)
+double mo_contact_smallest_size(const mo_contact *C)
 {
   const mo_scene *sc = C->sc;
   double hmin = HUGE_VAL;
   int k, i, side;
   for (k = 0; k < C->npair; k++) {
     const mo_contact_pair *P = &C->pair[k];
-    if (!P->dynamic) continue;
+    if (P->law != MO_LAW_NEWTON) continue;
     for (side = 0; side < 2; side++)
-      for (i = 0; i < (side ? P->nm : P->ns); i++) {
-        const mo_body *B = &sc->body[side ? P->mb[i] : P->sb[i]];
+      for (i = 0; i < (side ? (P->dynamic ? P->nm : 1) : (P->dynamic ? P->ns : 1)); i++) {
+        const mo_body *B = &sc->body[side ? (P->dynamic ? P->mb[i] : P->mbody) : (P->dynamic ? P->sb[i] : P->sbody)];
         double h = HUGE_VAL;
         if (is_shape(B)) h = B->kind == MO_BODY_POLYGON ? B->bound * cos(M_PI / B->nvert) : B->bound;
         else if (B->mesh) mo_mesh_edge_range(B->mesh, &h, NULL);
@@ -57,8 +55,7 @@ int mo_contact_detect_setup(mo_contact *C, mo_ctx *ctx)
 {
   const mo_scene *sc = C->sc;
   int k, i, st;
-  C->gtol = 1e-9 * smallest_size(C);
-  if (C->alert < 0) C->alert = 0.1 * smallest_size(C);
+  if (C->alert < 0) C->alert = 0.1 * mo_contact_smallest_size(C);
   C->mside = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->mside);
   C->sside = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->sside);
   C->rr = mo_malloc(ctx, ((size_t)C->npair + 1) * sizeof *C->rr);
@@ -404,7 +401,7 @@ static double max_speed(const mo_contact *C, const mo_state *s)
 static int same_keys(const mo_contact *C, const int *old, int nold)
 {
   int n = C->nc - C->nc_static;
-  return n == nold && !memcmp(old, C->key + (size_t)C->nc_static * MO_KEY, (size_t)n * MO_KEY * sizeof(int));
+  return n == nold && (!n || !memcmp(old, C->key + (size_t)C->nc_static * MO_KEY, (size_t)n * MO_KEY * sizeof(int)));
 }
 
 int mo_contact_detect(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx)

@@ -78,8 +78,9 @@ static int run_gnuplot(const char *prog, const char *dir, char *const argv[], co
   pid_t pid;
   if (cap && pipe(fd) != 0) return -1;
   pid = fork();
-  if (pid == 0) {
+  if (pid == 0) { /* the child: only async-signal-safe calls until exec */
     int o = cap ? fd[1] : -1, in = open("/dev/null", O_RDONLY);
+    if (cap) close(fd[0]);
     if (dir && chdir(dir) != 0) _exit(127);
     if (!cap) o = open(log ? log : "/dev/null", O_WRONLY | O_CREAT | O_TRUNC, 0666);
     if (o < 0 || in < 0 || dup2(in, 0) < 0 || dup2(o, 1) < 0 || dup2(o, 2) < 0) _exit(127);
@@ -141,7 +142,8 @@ static int read_settings(mo_draw *d, const mo_scene *sc, const mo_case *cs, cons
   d->steps = N;
   d->forces = mo_cfg_bool(g, "forces", 1);
   d->gif = mo_cfg_member(g, "gif") ? mo_cfg_bool(g, "gif", 1) : !d->gnuplot[0] || gif_supported(d->gnuplot);
-  if (!d->gif && !mo_cfg_member(g, "gif")) mo_note_skip(ctx, "animation.gif (this gnuplot has no gif terminal)");
+  if (!d->gif && !mo_cfg_member(g, "gif"))
+    mo_note_skip(ctx, "animation.gif (this gnuplot has no gif terminal)");
   d->every = mo_cfg_member(g, "every") ? mo_cfg_int(g, "every", 1) : (long)fmax(1, floor(N / 100.0 + 0.5));
   if (d->gif && N / d->every + 1 > DRAW_GIF_MAX) {
     long e = (N + DRAW_GIF_MAX - 2) / (DRAW_GIF_MAX - 1);
@@ -212,8 +214,8 @@ int mo_draw_open(const char *outdir, const mo_scene *sc, const mo_case *cs, mo_d
   }
   find_on_path("gnuplot", d->gnuplot, sizeof d->gnuplot);
   d->nbody = sc->nbody;
-  if ((st = read_settings(d, sc, cs, g, ctx)) || !(d->out = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *d->out)))
-    goto fail;
+  if ((st = read_settings(d, sc, cs, g, ctx))) goto fail;
+  if (!(d->out = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *d->out))) goto fail;
   for (b = 0; b < sc->nbody; b++)
     if (sc->body[b].mesh && (st = outline_build(sc->body[b].mesh, &d->out[b], ctx))) goto fail;
   if ((st = mo_mkdir_p(d->dir, ctx))) goto fail;
@@ -223,9 +225,10 @@ int mo_draw_open(const char *outdir, const mo_scene *sc, const mo_case *cs, mo_d
     goto fail;
   }
   fprintf(d->f, "# draw.dat: the frames moreau drew of '%s' (plots/draw.gp renders them).\n"
-                "# Frame k: index 3k circles (x y r: disks, spheres), 3k+1 outlines (x y polylines: polygons,\n"
-                "# radius lines, mesh boundaries), 3k+2 contact network (x y dx dy rn, forces in N); after the\n"
-                "# frames, index 3 NF + k: the planes of frame k clipped to the view (NF frames).\n\n",
+                "# Frame k: index 3k circles (x y r: disks, spheres), 3k+1 outlines (x y polylines:\n"
+                "# polygons, radius lines, mesh boundaries), 3k+2 contact network (x y dx dy rn, forces\n"
+                "# in N); after the NF frames, index 3 NF + k: the planes of frame k, clipped to the\n"
+                "# view.\n\n",
           sc->title ? sc->title : "");
   *out = d;
   return MO_OK;
@@ -518,15 +521,17 @@ static void script_head(text *g, const mo_draw *d, const double *v)
         "# spheres: x y r), 3*K+1 (outlines: polygons, radius lines, mesh boundaries), 3*K+2 (contact\n"
         "# network: x y dx dy rn, drawn with widths by rn); index 3*NF+K are the planes of frame K.\n",
      nsnap, ngif, d->gif ? "" : " (no GIF asked)");
-  tx(g, "NF = %d\nRN = %.9g   # the largest normal force drawn (N)\n", d->nframe, d->rnmax > 0 ? d->rnmax : 1.0);
-  tx(g, "set xrange [%.9g:%.9g]\nset yrange [%.9g:%.9g]\nset size ratio -1\nunset key\n", v[0], v[1], v[2], v[3]);
+  tx(g, "NF = %d\nRN = %.9g   # the largest normal force drawn (N)\n", d->nframe,
+     d->rnmax > 0 ? d->rnmax : 1.0);
+  tx(g, "set xrange [%.9g:%.9g]\nset yrange [%.9g:%.9g]\nset size ratio -1\nunset key\n", v[0], v[1], v[2],
+     v[3]);
   tx(g, "set style fill solid 0.35 border\n");
   tx(g, "FRAME = \"plot 'draw.dat' index 3*K using 1:2:3 with circles lc rgb '#1f77b4', "
         "'' index 3*K+1 using 1:2 with lines lw 1.5 lc rgb '#202020', "
         "'' index 3*NF+K using 1:2 with lines lw 3 lc rgb '#8c6d31'");
   if (d->forces)
-    tx(g, ", for [c=1:%d] '' index 3*K+2 using 1:2:((c == 1 || $5 > (c-1)*RN/%d) && (c == %d || $5 <= c*RN/%d) "
-          "? $3 : 1/0):4 with vectors nohead lw c lc rgb '#d62728'",
+    tx(g, ", for [c=1:%d] '' index 3*K+2 using 1:2:((c == 1 || $5 > (c-1)*RN/%d) && "
+          "(c == %d || $5 <= c*RN/%d) ? $3 : 1/0):4 with vectors nohead lw c lc rgb '#d62728'",
        DRAW_CLASSES, DRAW_CLASSES, DRAW_CLASSES, DRAW_CLASSES);
   tx(g, "\"\n");
 }
@@ -558,10 +563,12 @@ static void script_snapshots(text *g, const mo_draw *d, const mo_scene *sc, cons
     }
   }
   rows = (n + cols - 1) / cols;
-  snprintf(t, sizeof t, "%s%s", sc->title ? sc->title : "", sc->dim == 3 ? " (x-y projection of a 3D scene)" : "");
+  snprintf(t, sizeof t, "%s%s", sc->title ? sc->title : "",
+           sc->dim == 3 ? " (x-y projection of a 3D scene)" : "");
   gp_quote(t, title, sizeof title);
   tx(g, "\n# snapshots.png\nif (strstrt(GPVAL_TERMINALS, 'pngcairo') > 0) {\n"
-        "  set terminal pngcairo noenhanced size %d,%d\n} else {\n  set terminal png noenhanced size %d,%d\n}\n",
+        "  set terminal pngcairo noenhanced size %d,%d\n} else {\n"
+        "  set terminal png noenhanced size %d,%d\n}\n",
      cols * w, rows * h + 40, cols * w, rows * h + 40);
   tx(g, "set output 'snapshots.png'\nset multiplot layout %d,%d title %s\n", rows ? rows : 1, cols, title);
   for (k = 0; k < d->nframe; k++)
@@ -648,9 +655,13 @@ int mo_draw_finish(mo_draw *d, const mo_scene *sc, mo_ctx *ctx)
   if (bad) return mo_error(ctx, MO_EIO, "cannot write '%s/draw.dat'", d->dir);
   if ((st = write_script(d, sc, v, ctx))) return st;
   nfig = d->nframe ? 1 + d->gif : 0;
-  if (nfig && d->gnuplot[0]) nrend = render(d, ctx);
-  else if (nfig) mo_note_skip(ctx, "rendering the drawings (no gnuplot on PATH: gnuplot draw.gp in %s renders them)", d->dir);
-  mo_log(ctx, 1, "  drawings: %d figure%s, %d rendered (%s/draw.gp%s)\n", nfig, nfig == 1 ? "" : "s", nrend, d->dir,
-         d->gnuplot[0] ? "" : "; no gnuplot on PATH");
+  if (nfig && d->gnuplot[0] && ctx->interrupt && *ctx->interrupt)
+    mo_note_skip(ctx, "rendering the drawings (interrupted: gnuplot draw.gp in %s renders them)", d->dir);
+  else if (nfig && d->gnuplot[0]) nrend = render(d, ctx);
+  else if (nfig)
+    mo_note_skip(ctx, "rendering the drawings (no gnuplot on PATH: gnuplot draw.gp in %s renders them)",
+                 d->dir);
+  mo_log(ctx, 1, "  drawings: %d figure%s, %d rendered (%s/draw.gp%s)\n", nfig, nfig == 1 ? "" : "s", nrend,
+         d->dir, d->gnuplot[0] ? "" : "; no gnuplot on PATH");
   return MO_OK;
 }

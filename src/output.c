@@ -167,7 +167,9 @@ int mo_vtk_contacts_reserve(mo_vtk_contacts *N, int n, mo_ctx *ctx)
   void *p;
   if (n <= N->cap) return MO_OK;
   while (cap < n) cap *= 2;
-#define GROW(ptr, k) if (!(p = mo_realloc(ctx, ptr, (size_t)cap * (k) * sizeof *(ptr)))) return MO_ENOMEM; ptr = p
+#define GROW(ptr, k)                                                                            \
+  if (!(p = mo_realloc(ctx, ptr, (size_t)cap * (k) * sizeof *(ptr)))) return MO_ENOMEM;           \
+  ptr = p
   GROW(N->end, 6); GROW(N->point, 3); GROW(N->rn, 1); GROW(N->rt, 1); GROW(N->gap, 1);
   GROW(N->status, 1); GROW(N->body, 2);
 #undef GROW
@@ -610,8 +612,8 @@ enum { RV_RADIUS, RV_VELOCITY, RV_OMEGA, RV_ORIENTATION, RV_BODY };
 static void rigid_array(vtu *w, const mo_scene *sc, const mo_state *s, int balls, int what, long n)
 {
   static const char *names[] = {"radius", "velocity", "omega", "orientation", "body"};
-  int nq = sc->dim == 2 ? 1 : 4, ncomp = what == RV_VELOCITY || what == RV_OMEGA ? 3 : what == RV_ORIENTATION ? nq : 1;
-  int k, i;
+  int nq = sc->dim == 2 ? 1 : 4, k, i;
+  int ncomp = what == RV_VELOCITY || what == RV_OMEGA ? 3 : what == RV_ORIENTATION ? nq : 1;
   long c;
   vtu_begin(w, names[what], ncomp, n * ncomp, what == RV_BODY ? 4 : 8);
   for (k = 0; k < sc->nrigid; k++) {
@@ -792,10 +794,12 @@ static int write_series_pvd(const mo_vtk *v, const char *prefix, mo_ctx *ctx)
   char path[4200], *buf = mo_malloc(ctx, cap);
   int k, st;
   if (!buf) return MO_ENOMEM;
-  len += (size_t)snprintf(buf, cap, "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\">\n<Collection>\n");
+  len += (size_t)snprintf(buf, cap, "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\">\n"
+                                    "<Collection>\n");
   for (k = 0; k < v->nframe; k++)
-    len += (size_t)snprintf(buf + len, cap - len, "<DataSet timestep=\"%.17g\" part=\"0\" file=\"%s_%05d.vtu\"/>\n",
-                            v->times[k], prefix, k);
+    len += (size_t)snprintf(buf + len, cap - len,
+                            "<DataSet timestep=\"%.17g\" part=\"0\" file=\"%s_%05d.vtu\"/>\n", v->times[k],
+                            prefix, k);
   len += (size_t)snprintf(buf + len, cap - len, "</Collection>\n</VTKFile>\n");
   snprintf(path, sizeof path, "%s/%s.pvd", v->dir, prefix);
   st = mo_write_file_atomic(path, buf, len, ctx);
@@ -804,8 +808,8 @@ static int write_series_pvd(const mo_vtk *v, const char *prefix, mo_ctx *ctx)
 }
 
 /* The rigid series of the last frame recorded (v->nframe - 1) and their collections. */
-static int write_rigid_frame(const mo_vtk *v, const mo_scene *sc, const mo_state *s, const mo_vtk_contacts *net,
-                             mo_ctx *ctx)
+static int write_rigid_frame(const mo_vtk *v, const mo_scene *sc, const mo_state *s,
+                             const mo_vtk_contacts *net, mo_ctx *ctx)
 {
   int st, k = v->nframe - 1;
   st = v->balls ? write_particles(v, k, sc, s, ctx) : MO_OK;

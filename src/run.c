@@ -321,10 +321,34 @@ static void body_momenta(const mo_scene *sc, const double *v, double *work, doub
   mo_csc_gaxpy(sc->M, 1, v, 0, work);
   for (b = 0; b < sc->nbody; b++) {
     const mo_body *B = &sc->body[b];
+    if (B->type->flags & MO_BODY_F_RIGID) /* m v of the centroid */
+      for (i = 0; i < sc->dim; i++) p[3 * b + i] = B->mass * v[B->dof0 + i];
     if (B->kind != MO_BODY_DEFORMABLE) continue;
     for (a = 0; a < B->mesh->nnode; a++)
       for (i = 0; i < sc->dim; i++) p[3 * b + i] += work[B->dof0 + a * sc->dim + i];
   }
+}
+
+/* A rigid body's entry of summary.json: mass, inertia, and where it ended. */
+static void rigid_json(json_t *jb, const mo_scene *sc, const mo_body *B, const mo_state *s)
+{
+  json_t *J = json_array(), *x = json_array(), *v = json_array(), *w = json_array();
+  int i, nr = sc->dim == 2 ? 1 : 3;
+  double xc[3];
+  json_object_set_new(jb, "mass", json_real(B->mass));
+  if (sc->dim == 2) json_array_append_new(J, json_real(B->J[0]));
+  else for (i = 0; i < 9; i++) json_array_append_new(J, json_real(B->J[i]));
+  json_object_set_new(jb, "inertia", J);
+  json_object_set_new(jb, "fixed", json_boolean(B->fixed));
+  mo_rigid_center(sc, B, s, xc);
+  for (i = 0; i < sc->dim; i++) {
+    json_array_append_new(x, json_real(xc[i]));
+    json_array_append_new(v, json_real(s ? s->v[B->dof0 + i] : 0));
+  }
+  for (i = 0; i < nr; i++) json_array_append_new(w, json_real(s ? s->v[B->dof0 + sc->dim + i] : 0));
+  json_object_set_new(jb, "center_final", x);
+  json_object_set_new(jb, "velocity_final", v);
+  json_object_set_new(jb, "omega_final", w);
 }
 
 static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
@@ -364,7 +388,9 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
       const mo_body *B = &sc->body[b];
       json_t *jb = json_object();
       json_object_set_new(jb, "name", json_string(B->name));
-      json_object_set_new(jb, "type", json_string(B->kind == MO_BODY_PLANE ? "plane" : "deformable"));
+      json_object_set_new(jb, "type", json_string(B->type->name));
+      if (B->group) json_object_set_new(jb, "group", json_string(B->group));
+      if (B->type->flags & MO_BODY_F_RIGID) rigid_json(jb, sc, B, s);
       if (B->kind == MO_BODY_DEFORMABLE) {
         json_object_set_new(jb, "element", json_string(mo_eltype_get(B->mesh->type)->name));
         json_object_set_new(jb, "nodes", json_integer(B->mesh->nnode));
@@ -554,6 +580,8 @@ static json_t *contact_json(const mo_contact *C, const mo_contact_driver *D)
   json_object_set_new(j, "iterations_mean", json_real(steps ? (double)it / (double)steps : 0));
   json_object_set_new(j, "residual_max", json_real(maxres));
   json_object_set_new(j, "delassus_builds", json_integer(wb));
+  /* solves that did not converge and that contact.on_failure = "continue" let the run go on */
+  json_object_set_new(j, "failed_solves", json_integer(mo_contact_driver_failures(D)));
   if (W) {
     json_object_set_new(j, "delassus_blocks", json_integer(mo_delassus_nblocks(W)));
     json_object_set_new(j, "delassus_columns_kept", json_boolean(mo_delassus_has_columns(W)));
@@ -911,7 +939,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
         double fsum = 0, fs = sc->time.scheme == MO_SCHEME_THETA && drv ? 1 / mo_contact_driver_dt(drv) : 1;
         int a, d = mo_contact_dim(C);
         for (a = 0; r && a < mo_contact_ncandidates(C); a++) fsum += r[a * d] * fs;
-        row[ccol0] = rep && s.step ? mo_contact_ncandidates(C) - rep->nopen : 0;
+        row[ccol0] = rep && s.step ? rep->nstick + rep->nslide : 0;
         row[ccol0 + 1] = rep && s.step ? rep->iterations : 0;
         row[ccol0 + 2] = rep && s.step ? rep->residual : 0;
         row[ccol0 + 3] = fsum;
@@ -923,7 +951,8 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
     }
     {
       /* fields and drawings, with the contact network of the step when they need it */
-      int vframe = vtk && (s.step % sc->out.vtk_every == 0 || last), dframe = draw && mo_draw_wants(draw, s.step);
+      int vframe = vtk && (s.step % sc->out.vtk_every == 0 || last);
+      int dframe = draw && mo_draw_wants(draw, s.step);
       if ((vframe || dframe) && (st = mo_contact_network(sc, C, drv, &s, &net, ctx))) goto done;
       if (vframe && (st = mo_vtk_frame(vtk, sc, &s, &net, ctx))) goto done;
       if (dframe && (st = mo_draw_frame(draw, sc, &s, &net, ctx))) goto done;

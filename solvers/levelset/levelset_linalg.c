@@ -9,6 +9,7 @@
 
 extern void dgesv_(const int *n, const int *nrhs, double *a, const int *lda, int *ipiv,
                    double *b, const int *ldb, int *info);
+extern void dgetrf_(const int *m, const int *n, double *a, const int *lda, int *ipiv, int *info);
 extern void dgecon_(const char *norm, const int *n, const double *a, const int *lda, const double *anorm,
                     double *rcond, double *work, int *iwork, int *info);
 extern void dgelsd_(const int *m, const int *n, const int *nrhs, double *a, const int *lda, double *b,
@@ -42,10 +43,46 @@ static int min_norm_solve(int n, double *J, double *b, int *rank, mo_ctx *ctx)
   return MO_OK;
 }
 
+/* The reciprocal condition number (1-norm estimate) of J scaled to unit rows and columns: the
+   scales of the unknowns (impulses, pressures, semi-multipliers) and of the equations differ by
+   orders of magnitude, so the condition of J itself says little; scaled, a redundant system
+   (rank-deficient whatever the units) stands out from an ill-scaled one. -1 when out of memory. */
+static double scaled_rcond(int n, const double *A, mo_ctx *ctx)
+{
+  double *S = mo_malloc(ctx, (size_t)n * (size_t)n * sizeof *S), *w4 = mo_malloc(ctx, (4 * (size_t)n + 1) * sizeof *w4);
+  int *iw = mo_malloc(ctx, ((size_t)n + 1) * sizeof *iw), *piv = mo_malloc(ctx, ((size_t)n + 1) * sizeof *piv);
+  double rc = -1, anorm = 0;
+  int i, j, info = 0;
+  if (!S || !w4 || !iw || !piv) goto done;
+  rc = 1;
+  memcpy(S, A, (size_t)n * (size_t)n * sizeof *S);
+  for (j = 0; j < n; j++) { /* columns (column-major) */
+    double c = 0;
+    for (i = 0; i < n; i++) c = fmax(c, fabs(S[(size_t)j * n + i]));
+    for (i = 0; c > 0 && i < n; i++) S[(size_t)j * n + i] /= c;
+  }
+  for (i = 0; i < n; i++) { /* then rows */
+    double r = 0;
+    for (j = 0; j < n; j++) r = fmax(r, fabs(S[(size_t)j * n + i]));
+    for (j = 0; r > 0 && j < n; j++) S[(size_t)j * n + i] /= r;
+  }
+  for (j = 0; j < n; j++) {
+    double cs = 0;
+    for (i = 0; i < n; i++) cs += fabs(S[(size_t)j * n + i]);
+    anorm = fmax(anorm, cs);
+  }
+  dgetrf_(&n, &n, S, &n, piv, &info);
+  if (info > 0) rc = 0;
+  else if (info == 0) dgecon_("1", &n, S, &n, &anorm, &rc, w4, iw, &info);
+done:
+  mo_free(S); mo_free(w4); mo_free(iw); mo_free(piv);
+  return rc;
+}
+
 int ls_dense_solve(int n, double *J, double *b, const double *y, const double *D, int *ipiv, mo_ctx *ctx)
 {
-  int nrhs = 1, info = 0, i, j, st;
-  double *A = NULL, *b0 = NULL;
+  int nrhs = 1, info = 0, i, j, st = MO_OK, rank = 0;
+  double *A = NULL, *b0 = NULL, rc;
   if (n == 0) return MO_OK;
   /* LAPACK is column-major: transpose in place (J is square) */
   for (i = 0; i < n; i++)
@@ -54,55 +91,37 @@ int ls_dense_solve(int n, double *J, double *b, const double *y, const double *D
       J[(size_t)i * n + j] = J[(size_t)j * n + i];
       J[(size_t)j * n + i] = t;
     }
-  /* kept for a singular system (dgesv overwrites both) */
-  A = mo_malloc(ctx, (size_t)n * (size_t)n * sizeof *A);
-  b0 = mo_malloc(ctx, (size_t)n * sizeof *b0);
-  if (!A || !b0) { mo_free(A); mo_free(b0); return MO_ENOMEM; }
-  memcpy(A, J, (size_t)n * (size_t)n * sizeof *A);
-  memcpy(b0, b, (size_t)n * sizeof *b0);
-  dgesv_(&n, &nrhs, J, &n, ipiv, b, &n, &info);
-  if (info == 0) {
-    /* a pivot that is round-off of zero: redundant constraints whose LU "succeeds" with an
-       arbitrary component along the null space; the condition number tells */
-    double anorm = 0, rc = 1, *w4 = mo_malloc(ctx, (4 * (size_t)n + 1) * sizeof *w4);
-    int *iw = mo_malloc(ctx, ((size_t)n + 1) * sizeof *iw), ci = 0;
-    if (!w4 || !iw) { mo_free(w4); mo_free(iw); mo_free(A); mo_free(b0); return MO_ENOMEM; }
-    for (j = 0; j < n; j++) {
-      double cs = 0;
-      for (i = 0; i < n; i++) cs += fabs(A[(size_t)j * n + i]);
-      if (cs > anorm) anorm = cs;
-    }
-    dgecon_("1", &n, J, &n, &anorm, &rc, w4, iw, &ci);
-    mo_free(w4);
-    mo_free(iw);
-    if (ci == 0 && rc < 1e-15) info = n;
-  }
-  if (info > 0) {
-    /* redundant constraints: the new iterate y + dx of smallest norm |D^-1 (y + dx)| among the
-       solutions of J (y + dx) = J y + b, the scales D choosing which one (levelset.c) */
-    int rank = 0;
+  if ((rc = scaled_rcond(n, J, ctx)) < 0) return MO_ENOMEM;
+  if (rc >= 1e-13) {
+    dgesv_(&n, &nrhs, J, &n, ipiv, b, &n, &info);
+    if (info > 0) return mo_error(ctx, MO_ESINGULAR, "levelset: the frozen-status system is singular (zero pivot %d of %d "
+                                  "in LAPACK dgesv)", info, n);
+  } else {
+    /* redundant constraints: the iterate y + dx of smallest |D^-1 (y + dx)| among the solutions of
+       J (y + dx) = J y + b (least squares when the frozen status admits none) */
+    A = mo_malloc(ctx, (size_t)n * (size_t)n * sizeof *A);
+    b0 = mo_malloc(ctx, (size_t)n * sizeof *b0);
+    if (!A || !b0) { st = MO_ENOMEM; goto done; }
     for (i = 0; i < n; i++) {
-      double acc = b0[i];
-      for (j = 0; j < n; j++) acc += A[(size_t)j * n + i] * y[j];
-      b[i] = acc;
+      double acc = b[i];
+      for (j = 0; j < n; j++) acc += J[(size_t)j * n + i] * y[j];
+      b0[i] = acc;
     }
     for (j = 0; j < n; j++)
-      for (i = 0; i < n; i++) A[(size_t)j * n + i] *= D[j];
-    st = min_norm_solve(n, A, b, &rank, ctx);
-    mo_log(ctx, 3, "levelset: the frozen-status system is singular (zero pivot %d of %d): the solution of "
-           "smallest scaled norm, rank %d\n", info, n, rank);
-    info = 0;
-    if (st) { mo_free(A); mo_free(b0); return st; }
-    for (i = 0; i < n; i++) b[i] = D[i] * b[i] - y[i];
+      for (i = 0; i < n; i++) A[(size_t)j * n + i] = J[(size_t)j * n + i] * D[j];
+    if ((st = min_norm_solve(n, A, b0, &rank, ctx))) goto done;
+    for (i = 0; i < n; i++) b[i] = D[i] * b0[i] - y[i];
+    mo_log(ctx, 3, "levelset: the frozen-status system has rank %d of %d: the iterate of smallest scaled norm\n", rank, n);
   }
+  if (info < 0) st = mo_error(ctx, MO_EINTERNAL, "levelset: dgesv argument %d", -info);
+  for (i = 0; !st && i < n; i++)
+    if (!isfinite(b[i]))
+      st = mo_error(ctx, MO_ENAN, "levelset: the frozen-status system gave a non-finite value "
+                    "(unknown %d of %d)", i, n);
+done:
   mo_free(A);
   mo_free(b0);
-  if (info < 0) return mo_error(ctx, MO_EINTERNAL, "levelset: dgesv argument %d", -info);
-  for (i = 0; i < n; i++)
-    if (!isfinite(b[i]))
-      return mo_error(ctx, MO_ENAN, "levelset: the frozen-status system gave a non-finite value "
-                      "(unknown %d of %d)", i, n);
-  return MO_OK;
+  return st;
 }
 
 /* --- Schur path ----------------------------------------------------------------------------------- */

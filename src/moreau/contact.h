@@ -385,6 +385,8 @@ const mo_delassus *mo_contact_driver_delassus(const mo_contact_driver *D);
 /* Totals over the run: steps with contact, back-end iterations, rebuilds of W. */
 void mo_contact_driver_totals(const mo_contact_driver *D, long *steps, long *iterations,
                               long *max_iterations, long *w_builds, double *max_residual);
+/* Solves that did not converge over the run (non-zero only with contact.on_failure = "continue"). */
+long mo_contact_driver_failures(const mo_contact_driver *D);
 /* The last step's local problem (W dense, q, mu) for export (FCLIB). */
 int mo_contact_driver_local_problem(const mo_contact_driver *D, double **W, double **q,
                                     double **mu, int *nc, int *d, mo_ctx *ctx);
