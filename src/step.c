@@ -105,7 +105,7 @@ void mo_stepper_free(mo_stepper *S)
   mo_free(S->uprev);
   mo_free(S->vprev);
   mo_free(S->fprev);
-  mo_newton_release(S);
+  mo_tangent_release(S);
   mo_free(S->blk_body);
   mo_free(S->blk_off);
   mo_free(S->blk_loc);
@@ -333,12 +333,12 @@ static int create_nonlinear(mo_stepper *S, mo_ctx *ctx)
   double *q = NULL, t0;
   int st;
   t0 = mo_clock();
-  st = mo_newton_setup(S, ctx);
+  st = mo_tangent_setup(S, ctx);
   mo_phase_add(ctx, MO_PH_ASSEMBLY, t0);
   if (st) return st;
   if (!(q = mo_malloc(ctx, (sc->nq + 1) * sizeof *q))) return MO_ENOMEM;
   init_material(sc, q);
-  st = mo_newton_forces(S, sc->u0, q, S->fint0, 1, NULL, NULL, ctx);
+  st = mo_tangent_forces(S, sc->u0, q, S->fint0, 1, NULL, NULL, ctx);
   mo_free(q);
   if (st) return mo_error_prefix(ctx, "the initial configuration");
   t0 = mo_clock();
@@ -480,7 +480,7 @@ int mo_stepper_restart(mo_stepper *S, const mo_state *s, mo_ctx *ctx)
   int st;
   if (!S->nl) return MO_OK;
   /* the internal forces at the start of the step, from the state's committed material */
-  if ((st = mo_newton_forces(S, s->u, s->q, S->fint0, 0, NULL, NULL, ctx)))
+  if ((st = mo_tangent_forces(S, s->u, s->q, S->fint0, 0, NULL, NULL, ctx)))
     return mo_error_prefix(ctx, "restarting step %ld", s->step + 1);
   return MO_OK;
 }
@@ -494,7 +494,7 @@ int mo_stepper_set_dt(mo_stepper *S, double h, mo_ctx *ctx)
   if (!(h > 0) || !isfinite(h)) return mo_error(ctx, MO_EINTERNAL, "step change to h = %g", h);
   S->h = h;
   coefficients(S);
-  if (S->nl) return mo_newton_set_dt(S, ctx);
+  if (S->nl) return mo_tangent_set_dt(S, ctx);
   if (S->scheme == MO_SCHEME_QUASISTATIC) return MO_OK; /* K does not depend on the load step */
   if (!S->ls) return MO_OK; /* rigid bodies only: What = M whatever h */
   /* What = M + c K for the new h, on the same pattern: the factorization keeps its analysis */
@@ -602,10 +602,10 @@ int mo_stepper_init_state(mo_stepper *S, mo_state *s, mo_ctx *ctx)
   if (S->nl) {
     /* the material at u0: one update from the virgin state, committed (T65) */
     init_material(sc, s->q);
-    if ((st = mo_newton_forces(S, s->u, s->q, S->fint0, 0, NULL, NULL, ctx)))
+    if ((st = mo_tangent_forces(S, s->u, s->q, S->fint0, 0, NULL, NULL, ctx)))
       return mo_error_prefix(ctx, "the initial configuration");
     memcpy(s->q, S->qt, sc->nq * sizeof *s->q);
-    mo_newton_energies(S, s->q, &s->psi, &s->wplastic);
+    mo_tangent_energies(S, s->q, &s->psi, &s->wplastic);
   }
   if (S->scheme == MO_SCHEME_NEWMARK) {
     /* M_ff a0 = [f0 - K u0 - M z0]_f, z0 the prescribed accelerations */
@@ -906,23 +906,8 @@ int mo_stepper_finish(mo_stepper *S, mo_state *s, const double *x, mo_ctx *ctx)
     /* commit: the trial states of the solution, its internal forces, its energies */
     memcpy(s->q, S->qt, sc->nq * sizeof *s->q);
     memcpy(S->fint0, S->fint, (size_t)n * sizeof *S->fint0);
-    mo_newton_energies(S, s->q, &s->psi, &s->wplastic);
+    mo_tangent_energies(S, s->q, &s->psi, &s->wplastic);
   }
   mo_phase_add(ctx, MO_PH_SOLVE, t0);
   return MO_OK;
-}
-
-int mo_stepper_step(mo_stepper *S, mo_state *s, mo_ctx *ctx)
-{
-  double *x = S->w3;
-  int st;
-  if (S->nl) {
-    x = S->xs; /* w1..w3 are Newton's work */
-    mo_stepper_guess(S, s, x);
-    if ((st = mo_stepper_solve(S, s, x, ctx))) return st;
-    return mo_stepper_finish(S, s, x, ctx);
-  }
-  st = mo_stepper_predict(S, s, x, ctx);
-  if (st) return st;
-  return mo_stepper_finish(S, s, x, ctx);
 }

@@ -65,17 +65,17 @@ int mo_stepper_rigid_update(mo_stepper *S, const mo_state *s, mo_ctx *ctx);
 /* step.c: the prescribed components of the scheme's unknown at time t (v, a or u). */
 void mo_stepper_presc_unknown(const mo_stepper *S, double t, double *x);
 
-/* newton.c */
-int mo_newton_setup(mo_stepper *S, mo_ctx *ctx);
+/* tangent.c: the finite-strain bodies' element kernels */
+int mo_tangent_setup(mo_stepper *S, mo_ctx *ctx);
 /* A new step h (S->h, S->cm and S->ck already set): the linear part Wlin of the tangent. */
-int mo_newton_set_dt(mo_stepper *S, mo_ctx *ctx);
-void mo_newton_release(mo_stepper *S);
+int mo_tangent_set_dt(mo_stepper *S, mo_ctx *ctx);
+void mo_tangent_release(mo_stepper *S);
 /* Internal forces at u (full) from the committed states q: f_int into f (full), trial states
    into S->qt, and with tangent != 0, What = cm M + ck K_t into S->W's values; with dxp (full,
    non-zero on prescribed dofs only) the elements' coupling ck K_t dxp is added to cfp. */
-int mo_newton_forces(mo_stepper *S, const double *u, const double *q, double *f, int tangent,
+int mo_tangent_forces(mo_stepper *S, const double *u, const double *q, double *f, int tangent,
                      const double *dxp, double *cfp, mo_ctx *ctx);
 /* Stored energy and plastic work of the finite-strain bodies in states q. */
-void mo_newton_energies(const mo_stepper *S, const double *q, double *psi, double *wp);
+void mo_tangent_energies(const mo_stepper *S, const double *q, double *psi, double *wp);
 
 #endif
