@@ -66,15 +66,27 @@ double mo_contact_friction_ratio(int d, double mu, const double *r)
   return sqrt(rt) / (mu * r[0]);
 }
 
-static void cand_node_disp(const mo_scene *sc, const mo_contact *C, int a, const double *u, double *D)
+/* The displacement of candidate a's slave point: its nodes' (a deformable body), the rigid motion
+   of its nodes (a rigid mesh), the body's centroid (a rigid shape). */
+static void cand_node_disp(const mo_scene *sc, const mo_contact *C, int a, const mo_state *s, double *D)
 {
   const mo_candidate *c = &C->cand[a];
   const mo_cpoint *p = &C->pt[c->point];
-  const mo_body *B = &sc->body[C->pair[c->pair].sbody];
+  const mo_body *B = &sc->body[p->sb];
   int i, k;
-  for (i = 0; i < sc->dim; i++) {
-    D[i] = 0;
-    for (k = 0; k < p->nn; k++) D[i] += p->N[k] * u[B->dof0 + p->node[k] * sc->dim + i];
+  for (i = 0; i < sc->dim; i++) D[i] = 0;
+  if (B->kind == MO_BODY_DEFORMABLE) {
+    for (i = 0; i < sc->dim; i++)
+      for (k = 0; k < p->nn; k++) D[i] += p->N[k] * s->u[B->dof0 + p->node[k] * sc->dim + i];
+  } else if (B->type->flags & MO_BODY_F_RIGID) {
+    if (B->mesh && p->nn) {
+      for (k = 0; k < p->nn; k++) {
+        double x[3];
+        mo_contact_node_pos(sc, p->sb, p->node[k], s, x);
+        for (i = 0; i < sc->dim; i++) D[i] += p->N[k] * (x[i] - B->mesh->x[p->node[k] * sc->dim + i]);
+      }
+    } else
+      for (i = 0; i < sc->dim; i++) D[i] = s->u[B->dof0 + i];
   }
 }
 
@@ -135,7 +147,7 @@ int mo_contact_write_csv(const char *path, const mo_scene *sc, const mo_contact 
     const mo_candidate *c = &C->cand[a];
     const mo_cpoint *p = &C->pt[c->point];
     double Dd[3];
-    cand_node_disp(sc, C, a, s->u, Dd);
+    cand_node_disp(sc, C, a, s, Dd);
     APPEND("%s,%d,%d", C->pair[c->pair].name, a, c->node);
     for (i = 0; i < D; i++) APPEND(",%.10g", p->x0[i]);
     for (i = 0; i < D; i++) APPEND(",%.10g", Dd[i]);
@@ -189,7 +201,7 @@ void mo_contact_print_table(FILE *f, const mo_scene *sc, const mo_contact *C,
       double Dd[3], rt = d > 1 ? r[a * d + 1] * fs : 0, rn = r[a * d] * fs;
       const double *F = &mo_contact_frames(C)[a * d * d];
       int j;
-      cand_node_disp(sc, C, a, s->u, Dd);
+      cand_node_disp(sc, C, a, s, Dd);
       fprintf(f, "%5d %13.5e %13.5e %13.5e %13.5e  %-6s| ", i + 1, Dd[0], sc->dim > 1 ? Dd[1] : 0.0, rt, rn,
               mo_contact_status_name(status[a]));
       if (have_other)
