@@ -65,6 +65,7 @@ const mo_csc *mo_contact_H_full(const mo_contact *C) { return C->Hfull; }
 const double *mo_contact_U0(const mo_contact *C) { return C->U0; }
 long mo_contact_set_version(const mo_contact *C) { return C->cset_version; }
 int mo_contact_nstatic(const mo_contact *C) { return C->nc_static; }
+double mo_contact_alert(const mo_contact *C) { return C->ndyn ? C->alert : 0; }
 const int *mo_contact_key(const mo_contact *C, int a) { return C->key + (size_t)a * MO_KEY; }
 const unsigned char *mo_contact_laws(const mo_contact *C) { return C->law; }
 const double *mo_contact_restitution(const mo_contact *C) { return C->e; }

@@ -574,6 +574,11 @@ static json_t *contact_json(const mo_contact *C, const mo_contact_driver *D)
   json_object_set_new(j, "solver", json_string(mo_contact_driver_type(D)->name));
   json_object_set_new(j, "pairs", json_integer(mo_contact_npairs(C)));
   json_object_set_new(j, "candidates", json_integer(mo_contact_ncandidates(C)));
+  if (mo_contact_ncandidates(C) > mo_contact_nstatic(C) || mo_contact_alert(C) > 0) {
+    /* detected candidates (rigid shapes): the last step's, and the alert distance */
+    json_object_set_new(j, "candidates_detected", json_integer(mo_contact_ncandidates(C) - mo_contact_nstatic(C)));
+    json_object_set_new(j, "alert", json_real(mo_contact_alert(C)));
+  }
   json_object_set_new(j, "steps_with_contact", json_integer(steps));
   json_object_set_new(j, "iterations_total", json_integer(it));
   json_object_set_new(j, "iterations_max", json_integer(maxit));

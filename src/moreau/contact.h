@@ -128,6 +128,8 @@ int mo_contact_nstatic(const mo_contact *C);
 /* Identity of candidate a (5 ints: pair, slave body, master body, slave feature, master
    feature; static candidates (-1, a, 0, 0, 0)), to match candidates from one set to the next. */
 const int *mo_contact_key(const mo_contact *C, int a);
+/* The alert distance of the detection (0 without pairs of rigid shapes). */
+double mo_contact_alert(const mo_contact *C);
 /* Per candidate: its law and restitution coefficient. */
 const unsigned char *mo_contact_laws(const mo_contact *C);
 const double *mo_contact_restitution(const mo_contact *C);
