@@ -68,13 +68,79 @@ static int read_inertia(mo_body *B, int dim, const mo_case *cs, const config_set
 }
 
 static const char *const mesh_keys[] = {"mesh", "material", "loads", "mass"};
+
+/* --- packs of grains ---------------------------------------------------------------------------
+   One entry makes `count` disks (spheres) on a loose lattice filling a box from its bottom, with
+   radii uniform in R (1 -+ dispersion) and a jitter inside each lattice cell: deterministic for a
+   seed, each grain computed from its rank alone (a counter-based generator, no state). */
+
+/* A uniform number in [0, 1) from (seed, grain, draw): SplitMix64's finalizer. */
+static double pack_uniform(unsigned long seed, int grain, int draw)
+{
+  unsigned long long z = (unsigned long long)seed * 0x9E3779B97F4A7C15ULL + (unsigned long long)grain * 0xBF58476D1CE4E5B9ULL +
+                         (unsigned long long)draw * 0x94D049BB133111EBULL + 0x632BE59BD9B4E019ULL;
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+  z ^= z >> 31;
+  return (double)(z >> 11) * (1.0 / 9007199254740992.0);
+}
+
+static int pack_count(const config_setting_t *bg)
+{
+  const config_setting_t *p = mo_cfg_member(bg, "pack");
+  return p ? mo_cfg_int(p, "count", 1) : 1;
+}
+
+/* Grain `member` of the pack: its centre (dim values) and radius. */
+static int pack_grain(const mo_body *B, int member, int dim, const mo_case *cs, const config_setting_t *bg, double *c,
+                      double *R, mo_ctx *ctx)
+{
+  const config_setting_t *p = mo_cfg_member(bg, "pack");
+  double Rm = mo_cfg_float(p, "radius", 1), disp = mo_cfg_float(p, "dispersion", 0), jit = mo_cfg_float(p, "jitter", 0.5);
+  double s = mo_cfg_float(p, "spacing", 2.2 * Rm * (1 + disp)), lo[3], hi[3];
+  unsigned long seed = (unsigned long)mo_cfg_int(p, "seed", 1);
+  int count = mo_cfg_int(p, "count", 1), n[3] = {1, 1, 1}, idx[3], k, cap = 1, up = dim - 1;
+  if (mo_cfg_count(p, "box") != 2 * dim)
+    return mo_case_error(cs, mo_cfg_member(p, "box") ? mo_cfg_member(p, "box") : p, ctx,
+                         "a pack's box is [xmin, xmax, ymin, ymax%s]", dim == 3 ? ", zmin, zmax" : "");
+  if (!(s >= 2 * Rm * (1 + disp)))
+    return mo_case_error(cs, mo_cfg_member(p, "spacing"), ctx, "a spacing of %g m lets grains of radius up to %g m "
+                         "overlap", s, Rm * (1 + disp));
+  for (k = 0; k < dim; k++) {
+    lo[k] = mo_cfg_num_at(p, "box", 2 * k);
+    hi[k] = mo_cfg_num_at(p, "box", 2 * k + 1);
+    n[k] = (int)floor((hi[k] - lo[k]) / s + 1e-9);
+    if (n[k] < 1)
+      return mo_case_error(cs, mo_cfg_member(p, "box"), ctx, "the box is narrower than one lattice cell (%g m) along %c",
+                           s, "xyz"[k]);
+    cap *= n[k];
+  }
+  if (count > cap)
+    return mo_case_error(cs, mo_cfg_member(p, "count"), ctx, "the box holds %d grains on a lattice of spacing %g m, "
+                         "not %d: make it taller or wider", cap, s, count);
+  /* fill the horizontal layers first (x, then z in 3D), then go up (y) */
+  idx[0] = member % n[0];
+  if (dim == 2) idx[1] = member / n[0];
+  else {
+    idx[2] = (member / n[0]) % n[2];
+    idx[1] = member / (n[0] * n[2]);
+  }
+  *R = Rm * (1 + disp * (2 * pack_uniform(seed, member, 0) - 1));
+  for (k = 0; k < dim; k++) {
+    double free = 0.5 * s - *R;  /* room inside the cell */
+    c[k] = lo[k] + s * (idx[k] + 0.5) + jit * free * (2 * pack_uniform(seed, member, 1 + k) - 1);
+  }
+  (void)up;
+  (void)B;
+  return MO_OK;
+}
 static const char *const plane_keys[] = {"point", "normal", "velocity"};
 
 static int ball_read(mo_body *B, int member, int dim, const mo_case *cs, const config_setting_t *bg, mo_ctx *ctx)
 {
   static const char *const poly[] = {"size", "sides", "vertices", "arch"};
   const char *kind = B->kind == MO_BODY_SPHERE ? "sphere" : "disk";
-  double rho, R;
+  double rho, R = 0;
   int st;
   (void)member;
   if ((st = refuse(cs, bg, kind, mesh_keys, 4, ctx)) || (st = refuse(cs, bg, kind, plane_keys, 3, ctx)) ||
@@ -86,10 +152,18 @@ static int ball_read(mo_body *B, int member, int dim, const mo_case *cs, const c
   dim = B->kind == MO_BODY_SPHERE ? 3 : 2;
   if (B->kind == MO_BODY_SPHERE && mo_cfg_member(bg, "angle"))
     return mo_case_error(cs, mo_cfg_member(bg, "angle"), ctx, "only 2D bodies take an angle");
-  if ((st = read_center(B, dim, cs, bg, ctx)) || (st = mo_scene_need(cs, bg, "radius", kind, ctx)) ||
-      (st = read_density(B, dim, cs, bg, &rho, ctx)))
-    return st;
-  R = B->radius = mo_cfg_float(bg, "radius", 1);
+  if (mo_cfg_member(bg, "pack")) {
+    const config_setting_t *s2 = mo_cfg_member(bg, "center") ? mo_cfg_member(bg, "center") : mo_cfg_member(bg, "radius");
+    if (s2) return mo_case_error(cs, s2, ctx, "a pack places and sizes its grains (pack.box, pack.radius)");
+    if ((st = pack_grain(B, member, dim, cs, bg, B->xc0, &R, ctx)) || (st = read_density(B, dim, cs, bg, &rho, ctx)))
+      return st;
+    B->radius = R;
+  } else {
+    if ((st = read_center(B, dim, cs, bg, ctx)) || (st = mo_scene_need(cs, bg, "radius", kind, ctx)) ||
+        (st = read_density(B, dim, cs, bg, &rho, ctx)))
+      return st;
+    R = B->radius = mo_cfg_float(bg, "radius", 1);
+  }
   B->theta0 = mo_cfg_float(bg, "angle", 0);
   memset(B->J, 0, sizeof B->J);
   if (dim == 2) {
@@ -454,14 +528,14 @@ static int rigid_loads(mo_scene *sc, int b, const config_setting_t *bg, double *
 
 const mo_body_type mo_body_disk = {
   "disk", MO_BODY_DISK, MO_BODY_F_RIGID | MO_BODY_F_BALL, 1u << 2,
-  "a rigid disk (2D): center, radius, density",
-  NULL, ball_read, rigid_conditions, rigid_loads, NULL
+  "a rigid disk (2D): center, radius, density; or a pack of them",
+  pack_count, ball_read, rigid_conditions, rigid_loads, NULL
 };
 
 const mo_body_type mo_body_sphere = {
   "sphere", MO_BODY_SPHERE, MO_BODY_F_RIGID | MO_BODY_F_BALL, 1u << 3,
-  "a rigid sphere (3D): center, radius, density",
-  NULL, ball_read, rigid_conditions, rigid_loads, NULL
+  "a rigid sphere (3D): center, radius, density; or a pack of them",
+  pack_count, ball_read, rigid_conditions, rigid_loads, NULL
 };
 
 const mo_body_type mo_body_polygon = {

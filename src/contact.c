@@ -251,6 +251,8 @@ struct mo_contact_driver {
   int initialised;
   long cset;                 /* the candidate set the arrays and the back end were set up for */
   mo_delassus *W;
+  int wused;                 /* the last solve was given W (else a back end on the bodies' blocks) */
+  int wkeep;                 /* W wanted at every step even where the back end works without (FCLIB) */
   mo_contact_problem P;
   mo_contact_vars x;
   mo_contact_report rep;
@@ -468,7 +470,20 @@ const double *mo_contact_reactions(const mo_contact_driver *D) { return D->r; }
 const double *mo_contact_local_velocity(const mo_contact_driver *D) { return D->U; }
 const int *mo_contact_statuses(const mo_contact_driver *D) { return D->status; }
 const mo_contact_solver_type *mo_contact_driver_type(const mo_contact_driver *D) { return D->T; }
-const mo_delassus *mo_contact_driver_delassus(const mo_contact_driver *D) { return D->W; }
+const mo_delassus *mo_contact_driver_delassus(const mo_contact_driver *D) { return D->wused ? D->W : NULL; }
+void mo_contact_driver_keep_delassus(mo_contact_driver *D) { D->wkeep = 1; }
+
+/* 1 when the back end may work without W this step: it can (MO_NEEDS_BODIES) and every candidate
+   joins rigid bodies and obstacles only (no row of H in the nodal block). */
+static int bodies_only(const mo_contact_driver *D, const mo_what_inverse *Wi)
+{
+  const mo_csc *H = D->C->H;
+  int p;
+  if (!(D->T->needs & MO_NEEDS_BODIES) || D->wkeep || D->C->delassus_always) return 0;
+  for (p = 0; p < H->p[H->ncol]; p++)
+    if (H->i[p] < Wi->nfe) return 0;
+  return 1;
+}
 long mo_contact_driver_failures(const mo_contact_driver *D) { return D->failures; }
 
 void mo_contact_driver_totals(const mo_contact_driver *D, long *steps, long *iterations,
@@ -598,7 +613,7 @@ static void worst_candidates(const mo_contact_driver *D, char *buf, size_t n)
   size_t len = 0;
   for (a = 0; a < D->nc; a++) {
     double Us[3], w = 1, e;
-    const double *Waa = D->W ? mo_delassus_block(D->W, a, a) : NULL;
+    const double *Waa = D->wused ? mo_delassus_block(D->W, a, a) : NULL;
     int i;
     if (!D->active[a]) continue;
     if (Waa && Waa[0] > 0) w = Waa[0];
@@ -708,7 +723,11 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
 
   c = local_problem(D, s, rstep, &any);
   *any_out = any;
-  if (D->W) {
+  D->wused = D->W && !bodies_only(D, Wi);
+  if (D->W && !D->wused)
+    mo_note_skip(ctx, "the Delassus operator (every contact joins rigid bodies: back end %s sweeps on their velocities)",
+                 D->T->name);
+  if (D->wused) {
     if ((st = mo_delassus_update(D->W, C->H, mo_contact_h_version(C), Wi, c, d, &rebuilt, ctx))) return st;
     if (rebuilt) D->wbuilds++;
     else if (D->steps) mo_note_skip(ctx, "Delassus rebuilds (H and What unchanged)");
@@ -723,7 +742,7 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
   P->Uprev = D->Uprev;
   P->frame = mo_contact_frames(C);
   P->contact = C;
-  P->W = D->W;
+  P->W = D->wused ? D->W : NULL;
   P->b = D->q;
   P->active = D->active;
   P->scheme = scheme;
@@ -781,7 +800,7 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
     }
   /* 6. the core's measure: U' = W r + q when W is known, else the back end's U; W r is kept
      for contact_finish */
-  if (D->W) {
+  if (D->wused) {
     mo_delassus_mult(D->W, D->r, 0, D->ukin);
     for (i = 0; i < m; i++) D->U[i] = D->ukin[i] + D->q[i];
   }
@@ -825,7 +844,7 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
   }
   /* 7. correction */
   if (!D->x.dx_set) {
-    if (D->W) {
+    if (D->wused) {
       if ((st = mo_delassus_apply_Cinv(D->W, C->H, Wi, D->r, D->dx, ctx))) return st;
     } else {
       double *rhs = D->dxfull;
@@ -849,8 +868,10 @@ static int contact_finish(mo_contact_driver *D, mo_state *s, const double *x, mo
   int m = D->m, i, st;
   mo_scheme scheme = D->sc->time.scheme;
   double w = 0;
-  const double *Ukin = D->W ? D->ukin : D->U; /* without W: the back end's U, read in place */
-  if (D->W) for (i = 0; i < m; i++) D->ukin[i] += D->b[i];
+  /* U without the offsets of the laws (Signorini, restitution): W r + b, or the back end's U' - (q - b) */
+  const double *Ukin = D->ukin;
+  if (D->wused) for (i = 0; i < m; i++) D->ukin[i] += D->b[i];
+  else for (i = 0; i < m; i++) D->ukin[i] = D->U[i] - (D->q[i] - D->b[i]);
   for (i = 0; i < m; i++)
     w += D->r[i] * (scheme == MO_SCHEME_THETA ? 0.5 * (Ukin[i] + D->Uprev[i]) : Ukin[i]);
   s->wcontact += w;
@@ -911,7 +932,9 @@ int mo_contact_driver_local_problem(const mo_contact_driver *D, double **W, doub
 {
   int st;
   *W = *q = *mu = NULL;
-  if (!D->W) return mo_error(ctx, MO_EUNSUPPORTED, "back end %s does not use the Delassus operator", D->T->name);
+  if (!D->wused)
+    return mo_error(ctx, MO_EUNSUPPORTED, "back end %s did not use the Delassus operator at this step%s", D->T->name,
+                    D->W ? " (mo_contact_driver_keep_delassus asks for it)" : "");
   if ((st = mo_delassus_dense(D->W, W, ctx))) return st;
   *q = mo_malloc(ctx, (size_t)D->m * sizeof(double) + 1);
   *mu = mo_malloc(ctx, (size_t)D->nc * sizeof(double) + 1);

@@ -15,6 +15,19 @@ const char *mo_contact_status_name(int s)
   return s == MO_CS_STICK ? "stick" : s == MO_CS_SLIDE ? "slide" : "open";
 }
 
+/* The entries of one candidate's columns (at most 3), gathered before they are sorted into H
+   (contact_internal.h keeps one in the contact set). */
+typedef __typeof__(((mo_contact *)0)->hb) hbuf;
+
+static void hbuf_free(hbuf *B)
+{
+  int k;
+  for (k = 0; k < 3; k++) {
+    mo_free(B->row[k]);
+    mo_free(B->val[k]);
+  }
+}
+
 void mo_contact_free(mo_contact *C)
 {
   int k;
@@ -43,6 +56,7 @@ void mo_contact_free(mo_contact *C)
   mo_free(C->law);
   mo_free(C->e);
   mo_contact_detect_free(C);
+  hbuf_free(&C->hb);
   mo_csc_free(C->Hfull);
   mo_csc_free(C->H);
   mo_free(C->solver);
@@ -306,77 +320,159 @@ static void pair_point(mo_contact *C, mo_cpoint *p, const mo_state *u, double t,
 
 /* --- H ----------------------------------------------------------------------------------------- */
 
-/* The columns of H of one side of a point, scaled by sign * cf: a mesh body's nodes (shape values
-   N at nodes), a rigid body's dofs through its velocity Jacobian at the material point x (T68),
-   nothing for a plane. */
-static int side_H(mo_contact *C, mo_triplet *T, int b, int nn, const int *node, const double *N, const double *x,
-                  const double *F, double cf, int col0, mo_ctx *ctx)
+static int hbuf_add(hbuf *B, int col, int row, double v, mo_ctx *ctx)
+{
+  if (v == 0) return MO_OK;
+  if (B->n[col] == B->cap) {
+    int cap = B->cap ? 2 * B->cap : 64, k;
+    void *p;
+    for (k = 0; k < 3; k++) {
+      if (!(p = mo_realloc(ctx, B->row[k], (size_t)cap * sizeof *B->row[k]))) return MO_ENOMEM;
+      B->row[k] = p;
+      if (!(p = mo_realloc(ctx, B->val[k], (size_t)cap * sizeof *B->val[k]))) return MO_ENOMEM;
+      B->val[k] = p;
+    }
+    B->cap = cap;
+  }
+  B->row[col][B->n[col]] = row;
+  B->val[col][B->n[col]++] = v;
+  return MO_OK;
+}
+
+/* The entries of one side of a point in the candidate's columns, scaled by cf (the side's sign
+   and the point's coefficient): a mesh body's nodes (shape values N at nodes), a rigid body's
+   dofs through its velocity Jacobian at the material point x (T68), nothing for a plane. */
+static int side_H(mo_contact *C, hbuf *B, int b, int nn, const int *node, const double *N, const double *x,
+                  const double *F, double cf, mo_ctx *ctx)
 {
   const mo_scene *sc = C->sc;
-  const mo_body *B = &sc->body[b];
+  const mo_body *Bd = &sc->body[b];
   int D = sc->dim, d = C->dim, i, j, q, st;
-  if (B->type->flags & MO_BODY_F_NODAL) {
+  if (Bd->type->flags & MO_BODY_F_NODAL) {
     for (q = 0; q < nn; q++) {
-      int dof0 = B->dof0 + node[q] * D;
+      int dof0 = Bd->dof0 + node[q] * D;
       for (i = 0; i < d; i++)
-        for (j = 0; j < D; j++) {
-          double v = cf * N[q] * F[i * d + j];
-          if (v != 0 && (st = mo_triplet_add(T, dof0 + j, col0 + i, v, ctx))) return st;
-        }
+        for (j = 0; j < D; j++)
+          if ((st = hbuf_add(B, i, dof0 + j, cf * N[q] * F[i * d + j], ctx))) return st;
     }
-  } else if (B->type->flags & MO_BODY_F_RIGID) {
+  } else if (Bd->type->flags & MO_BODY_F_RIGID) {
     double G[18], xc[3];
-    int nd = B->ndof;
-    mo_rigid_center(sc, B, C->hstate, xc);
+    int nd = Bd->ndof;
+    mo_rigid_center(sc, Bd, C->hstate, xc);
     mo_rigid_jacobian(D, xc, x, G);
     for (i = 0; i < d; i++)
       for (j = 0; j < nd; j++) {
         double v = 0;
         for (q = 0; q < D; q++) v += F[i * d + q] * G[q * nd + j];
-        v *= cf;
-        if (v != 0 && (st = mo_triplet_add(T, B->dof0 + j, col0 + i, v, ctx))) return st;
+        if ((st = hbuf_add(B, i, Bd->dof0 + j, cf * v, ctx))) return st;
       }
   }
+  return MO_OK;
+}
+
+/* Room for nnz more entries in A (grown by doubling). */
+static int csc_room(mo_csc *A, int nnz, int *cap, mo_ctx *ctx)
+{
+  void *p;
+  if (nnz <= *cap) return MO_OK;
+  while (*cap < nnz) *cap = *cap ? 2 * *cap : 256;
+  if (!(p = mo_realloc(ctx, A->i, (size_t)*cap * sizeof *A->i))) return MO_ENOMEM;
+  A->i = p;
+  if (!(p = mo_realloc(ctx, A->x, (size_t)*cap * sizeof *A->x))) return MO_ENOMEM;
+  A->x = p;
+  return MO_OK;
+}
+
+/* The candidate's d columns from its gathered entries, rows sorted (the sides' dofs come in
+   runs: usually in order already) and duplicates summed, into Hf (every dof) and H (free). */
+static int flush_columns(const mo_scene *sc, hbuf *B, int d, int col0, mo_csc *Hf, int *capf, mo_csc *H, int *caph,
+                         mo_ctx *ctx)
+{
+  int i, k, st;
+  for (i = 0; i < d; i++) {
+    int j = col0 + i, n = B->n[i], *row = B->row[i], nf = Hf->p[j], nh = H->p[j];
+    double *val = B->val[i];
+    if ((st = csc_room(Hf, nf + n, capf, ctx)) || (st = csc_room(H, nh + n, caph, ctx))) return st;
+    for (k = 1; k < n; k++) /* insertion sort: already sorted in the common case */
+      if (row[k] < row[k - 1]) {
+        int r = row[k], q = k;
+        double v = val[k];
+        for (; q > 0 && row[q - 1] > r; q--) {
+          row[q] = row[q - 1];
+          val[q] = val[q - 1];
+        }
+        row[q] = r;
+        val[q] = v;
+      }
+    for (k = 0; k < n; k++) {
+      if (nf > Hf->p[j] && Hf->i[nf - 1] == row[k]) { /* the same dof from both sides (self-contact) */
+        Hf->x[nf - 1] += val[k];
+        continue;
+      }
+      Hf->i[nf] = row[k];
+      Hf->x[nf++] = val[k];
+    }
+    for (k = Hf->p[j]; k < nf; k++)
+      if (sc->free_of[Hf->i[k]] >= 0) {
+        H->i[nh] = sc->free_of[Hf->i[k]];
+        H->x[nh++] = Hf->x[k];
+      }
+    Hf->p[j + 1] = nf;
+    H->p[j + 1] = nh;
+    B->n[i] = 0;
+  }
+  return MO_OK;
+}
+
+/* H over every dof and over the free dofs, column by column (the candidates' columns are
+   independent: no triplets, no sort of the whole). */
+/* A matrix of the previous geometry, its arrays kept and resized for ncol columns. */
+static int csc_reuse(mo_csc **A, int nrow, int ncol, int *pcap, mo_ctx *ctx)
+{
+  if (!*A) {
+    int st = mo_csc_alloc(nrow, ncol, 0, A, ctx);
+    if (st) return st;
+    *pcap = ncol + 1;
+  } else if (ncol + 1 > *pcap) {
+    int *p = mo_realloc(ctx, (*A)->p, (size_t)(2 * ncol + 2) * sizeof *p);
+    if (!p) return MO_ENOMEM;
+    (*A)->p = p;
+    *pcap = 2 * ncol + 2;
+  }
+  (*A)->nrow = nrow;
+  (*A)->ncol = ncol;
+  (*A)->p[0] = 0;
   return MO_OK;
 }
 
 static int build_H(mo_contact *C, mo_ctx *ctx)
 {
   const mo_scene *sc = C->sc;
-  int d = C->dim, m = d * C->nc, a, k, i, st;
-  mo_triplet T;
-  mo_csc *Hf = NULL, *H = NULL;
-  int *colmap;
-  if ((st = mo_triplet_init(&T, sc->ndof, m, (size_t)m * 8, ctx))) return st;
+  int d = C->dim, m = d * C->nc, a, k, st = MO_OK;
+  /* the arrays of the previous H are reused: a scene of detected contacts builds H at every
+     step, and fresh arrays would fault their pages in each time */
+  if ((st = csc_reuse(&C->Hfull, sc->ndof, m, &C->hpcapf, ctx)) || (st = csc_reuse(&C->H, sc->nfree, m, &C->hpcap, ctx)))
+    return st;
   for (a = 0; a < C->nc; a++) {
     const mo_candidate *c = &C->cand[a];
     const double *F = &C->frame[a * d * d];
     for (k = 0; k < c->np; k++) {
       const mo_cpoint *p = &C->pt[C->cpt[c->first + k]];
       double cf = C->ccoef[c->first + k];
-      if ((st = side_H(C, &T, p->sb, p->nn, p->node, p->N, p->xs, F, cf, a * d, ctx))) goto done;
-      if (p->mb >= 0 && !p->off &&
-          (st = side_H(C, &T, p->mb, p->mn, p->mnode, p->mN, p->xm, F, -cf, a * d, ctx)))
-        goto done;
+      if ((st = side_H(C, &C->hb, p->sb, p->nn, p->node, p->N, p->xs, F, cf, ctx))) goto fail;
+      if (p->mb >= 0 && !p->off && (st = side_H(C, &C->hb, p->mb, p->mn, p->mnode, p->mN, p->xm, F, -cf, ctx)))
+        goto fail;
     }
+    if ((st = flush_columns(sc, &C->hb, d, a * d, C->Hfull, &C->hcapf, C->H, &C->hcap, ctx))) goto fail;
   }
-  if ((st = mo_triplet_to_csc(&T, 0, &Hf, ctx))) goto done;
-  colmap = mo_malloc(ctx, (size_t)(m ? m : 1) * sizeof(int));
-  if (!colmap) { st = MO_ENOMEM; goto done; }
-  for (i = 0; i < m; i++) colmap[i] = i;
-  st = mo_csc_extract(Hf, sc->free_of, sc->nfree, colmap, m, &H, ctx);
-  mo_free(colmap);
-  if (st) goto done;
+  C->hversion++;
+  return MO_OK;
+fail:
+  /* no half-built H left behind */
   mo_csc_free(C->Hfull);
   mo_csc_free(C->H);
-  C->Hfull = Hf;
-  C->H = H;
-  Hf = H = NULL;
-  C->hversion++;
-done:
-  mo_csc_free(Hf);
-  mo_csc_free(H);
-  mo_triplet_release(&T);
+  C->Hfull = C->H = NULL;
+  C->hcapf = C->hcap = C->hpcapf = C->hpcap = 0;
   return st;
 }
 
@@ -859,6 +955,7 @@ int mo_contact_build(const mo_scene *sc, mo_contact **out, mo_ctx *ctx)
   if (!C->pair || !C->pp || !C->solver) { st = MO_ENOMEM; goto fail; }
   C->signorini = !strcmp(mo_cfg_string(cg, "signorini", "position"), "velocity") ? MO_SIGNORINI_VELOCITY : MO_SIGNORINI_POSITION;
   C->repair = !strcmp(mo_cfg_string(cg, "geometry", "reference"), "step");
+  C->delassus_always = !strcmp(mo_cfg_string(cg, "delassus", "auto"), "always");
   C->on_failure_continue = !strcmp(mo_cfg_string(cg, "on_failure", "stop"), "continue");
   for (k = 0; k < np; k++) {
     const config_setting_t *pg = config_setting_get_elem(pl, (unsigned)k);

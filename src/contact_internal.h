@@ -37,12 +37,19 @@ struct mo_contact {
   unsigned char *law;         /* nc: mo_contact_law */
   double *e;                  /* nc: restitution */
   mo_csc *Hfull, *H;
+  int hcapf, hcap, hpcapf, hpcap; /* capacities of their arrays (entries, columns + 1), kept */
+  struct {
+    int n[3], cap;
+    int *row[3];
+    double *val[3];
+  } hb;                       /* one candidate's entries of H, gathered before they are sorted */
   long hversion, cset_version;
   int moving_h;               /* some point sits on a rigid body: H follows it at every step */
   const mo_state *hstate;     /* the state of the geometry under way (NULL outside it) */
   mo_signorini signorini;
   int repair;                 /* pair again at every step */
   int on_failure_continue;
+  int delassus_always;       /* contact.delassus = "always": W at every step, no body sweep */
   char *solver;
   /* detection between rigid shapes (detect.c) */
   int ndyn;                   /* dynamic pairs */
@@ -57,6 +64,12 @@ struct mo_contact {
   int *rr;                    /* their pair numbers */
   double *bc, *br;            /* broad phase: centres and radii of the rigid bodies */
   unsigned char *bmask;
+  /* the broad phase's pair list kept between steps (a Verlet list), its reach (alert plus skin)
+     and how many times it was built */
+  int *vl;
+  long vl_n, vl_cap, vl_builds;
+  double vl_reach;
+  int vl_built;
 };
 
 void mo_contact_frame_from_normal(int dim, const double *n, double *F);

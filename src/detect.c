@@ -28,6 +28,7 @@ void mo_contact_detect_free(mo_contact *C)
   mo_free(C->bc);
   mo_free(C->br);
   mo_free(C->bmask);
+  mo_free(C->vl);
   C->broad = NULL;
 }
 
@@ -335,24 +336,60 @@ static int shapes_obstacle(mo_contact *C, int k, const mo_state *s, double alert
   return MO_OK;
 }
 
-/* The broad phase over the bodies of the rigid-rigid pairs, then their narrow phases. */
-static int rigid_pairs(mo_contact *C, const mo_state *s, double alert, double t, mo_ctx *ctx)
+/* The broad phase's pair list, kept while it holds every pair within the alert distance: it was
+   built with the bodies' bounding balls grown by a skin, and stays valid while no body has moved
+   more than half of what is left of the skin (a Verlet list; doc/theory.md §12.3, (T77)). */
+static int pair_list(mo_contact *C, const mo_state *s, double alert, mo_ctx *ctx)
 {
   const mo_scene *sc = C->sc;
+  const int D = sc->dim;
   const int *pairs;
-  long np, q;
-  int b, st;
+  long np;
+  int b, k, st;
+  double dmax = 0;
+  for (b = 0; b < sc->nbody; b++)
+    if (C->bmask[b]) {
+      double c[3], dd = 0;
+      mo_rigid_center(sc, &sc->body[b], s, c);
+      for (k = 0; k < D; k++) {
+        double e = c[k] - C->bc[(size_t)D * b + k];
+        dd += e * e;
+      }
+      if (dd > dmax) dmax = dd;
+    }
+  dmax = sqrt(dmax);
+  /* every pair closer than alert now was closer than alert + 2 dmax at the build */
+  if (C->vl_built && alert + 2 * dmax <= C->vl_reach) return MO_OK;
   for (b = 0; b < sc->nbody; b++)
     if (C->bmask[b]) {
       double c[3];
       mo_rigid_center(sc, &sc->body[b], s, c);
-      memcpy(C->bc + (size_t)sc->dim * (size_t)b, c, (size_t)sc->dim * sizeof *c);
+      memcpy(C->bc + (size_t)D * (size_t)b, c, (size_t)D * sizeof *c);
       C->br[b] = sc->body[b].bound;
     }
-  st = mo_broad_pairs(C->broad, sc->dim, sc->nbody, C->bc, C->br, C->bmask, alert, &pairs, &np, ctx);
-  if (st) return st;
-  for (q = 0; q < np; q++) {
-    int i = pairs[2 * q], j = pairs[2 * q + 1], r;
+  C->vl_reach = alert + C->alert; /* a skin of one alert distance */
+  if ((st = mo_broad_pairs(C->broad, D, sc->nbody, C->bc, C->br, C->bmask, C->vl_reach, &pairs, &np, ctx))) return st;
+  if (np > C->vl_cap) {
+    int *p = mo_realloc(ctx, C->vl, (size_t)(2 * np) * sizeof *p);
+    if (!p) return MO_ENOMEM;
+    C->vl = p;
+    C->vl_cap = np;
+  }
+  if (np) memcpy(C->vl, pairs, (size_t)(2 * np) * sizeof *C->vl);
+  C->vl_n = np;
+  C->vl_built = 1;
+  C->vl_builds++;
+  return MO_OK;
+}
+
+/* The pair list of the bodies of the rigid-rigid pairs, then their narrow phases. */
+static int rigid_pairs(mo_contact *C, const mo_state *s, double alert, double t, mo_ctx *ctx)
+{
+  long q;
+  int st;
+  if ((st = pair_list(C, s, alert, ctx))) return st;
+  for (q = 0; q < C->vl_n; q++) {
+    int i = C->vl[2 * q], j = C->vl[2 * q + 1], r;
     unsigned long long ij = C->mside[i] & C->sside[j], ji = C->mside[j] & C->sside[i];
     unsigned long long any = ij | ji;
     if (!any) continue;

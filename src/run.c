@@ -736,6 +736,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   if (C && (st = mo_contact_time_scheme(sc, C, ctx))) goto done;
   if ((st = mo_stepper_create(sc, &S, ctx))) goto done;
   if (C && (st = mo_contact_driver_create(sc, C, S, &drv, ctx))) goto done;
+  if (drv && opt->dump_fclib) mo_contact_driver_keep_delassus(drv);
   if ((st = mo_state_alloc(sc, &s, ctx))) goto done;
   if ((st = mo_stepper_init_state(S, &s, ctx))) goto done;
   table = mo_case_lookup_bool(cs, "output.contact_table");

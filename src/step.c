@@ -107,6 +107,8 @@ void mo_stepper_free(mo_stepper *S)
   mo_free(S->fprev);
   mo_tangent_release(S);
   mo_free(S->blk_body);
+  mo_free(S->blk_rig);
+  mo_free(S->blk_of);
   mo_free(S->blk_off);
   mo_free(S->blk_loc);
   mo_free(S->blk_ioff);
@@ -171,7 +173,7 @@ int mo_stepper_rigid_update(mo_stepper *S, const mo_state *s, mo_ctx *ctx)
     const int *loc = S->blk_loc + (S->blk_off[k] - S->nfe);
     double Mff[36];
     const double *M;
-    for (ri = 0; ri < sc->nrigid && sc->rigid[ri] != b; ri++) {}
+    ri = S->blk_rig[k];
     M = S->rig_M + (size_t)ri * 36;
     for (i = 0; i < nk; i++)
       for (j = 0; j < nk; j++) Mff[i * nk + j] = M[loc[i] * nd + loc[j]];
@@ -191,12 +193,13 @@ static int rigid_setup(mo_stepper *S, mo_ctx *ctx)
   int r, k = 0, nfree_r = sc->nfree - sc->nfe_free, ninv = 0, i;
   S->nfe = sc->nfe_free;
   S->blk_body = mo_malloc(ctx, ((size_t)sc->nrigid + 1) * sizeof *S->blk_body);
+  S->blk_rig = mo_malloc(ctx, ((size_t)sc->nrigid + 1) * sizeof *S->blk_rig);
   S->blk_off = mo_malloc(ctx, ((size_t)sc->nrigid + 2) * sizeof *S->blk_off);
   S->blk_ioff = mo_malloc(ctx, ((size_t)sc->nrigid + 1) * sizeof *S->blk_ioff);
   S->blk_loc = mo_malloc(ctx, ((size_t)nfree_r + 1) * sizeof *S->blk_loc);
   S->rig_M = mo_calloc(ctx, 36 * (size_t)sc->nrigid + 1, sizeof *S->rig_M);
   S->gyro = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof *S->gyro);
-  if (!S->blk_body || !S->blk_off || !S->blk_ioff || !S->blk_loc || !S->rig_M || !S->gyro) return MO_ENOMEM;
+  if (!S->blk_body || !S->blk_rig || !S->blk_off || !S->blk_ioff || !S->blk_loc || !S->rig_M || !S->gyro) return MO_ENOMEM;
   S->blk_off[0] = S->nfe;
   for (r = 0; r < sc->nrigid; r++) {
     const mo_body *B = &sc->body[sc->rigid[r]];
@@ -206,6 +209,7 @@ static int rigid_setup(mo_stepper *S, mo_ctx *ctx)
     if (sc->dim == 3 && anisotropic(B) && nk) S->blk_varies = 1;
     if (!nk) continue;
     S->blk_body[k] = sc->rigid[r];
+    S->blk_rig[k] = r;
     S->blk_ioff[k] = ninv;
     ninv += nk * nk;
     S->blk_off[k + 1] = S->blk_off[k] + nk;
@@ -213,7 +217,10 @@ static int rigid_setup(mo_stepper *S, mo_ctx *ctx)
   }
   S->nblk = k;
   S->blk_inv = mo_malloc(ctx, ((size_t)ninv + 1) * sizeof *S->blk_inv);
-  if (!S->blk_inv) return MO_ENOMEM;
+  S->blk_of = mo_malloc(ctx, ((size_t)nfree_r + 1) * sizeof *S->blk_of);
+  if (!S->blk_inv || !S->blk_of) return MO_ENOMEM;
+  for (k = 0; k < S->nblk; k++)
+    for (i = S->blk_off[k]; i < S->blk_off[k + 1]; i++) S->blk_of[i - S->nfe] = k;
   if (!S->blk_varies && sc->nrigid)
     mo_note_skip(ctx, "rigid mass blocks updates (2D bodies, or 3D bodies with isotropic inertia)");
   S->Wi.n = sc->nfree;
@@ -223,6 +230,7 @@ static int rigid_setup(mo_stepper *S, mo_ctx *ctx)
   S->Wi.off = S->blk_off;
   S->Wi.ioff = S->blk_ioff;
   S->Wi.inv = S->blk_inv;
+  S->Wi.blkof = S->blk_of;
   return mo_stepper_rigid_update(S, NULL, ctx);
 }
 
@@ -296,10 +304,10 @@ int mo_stepper_matrix_full(mo_stepper *S, const mo_csc **W, mo_ctx *ctx)
     for (p = S->W->p[j]; p < S->W->p[j + 1]; p++)
       if ((st = mo_triplet_add(&T, S->W->i[p], j, S->W->x[p], ctx))) goto done;
   for (k = 0; k < S->nblk; k++) {
-    int b = S->blk_body[k], o = S->blk_off[k], nk = S->blk_off[k + 1] - o, r, nd = mo_rigid_ndof(sc->dim);
+    int o = S->blk_off[k], nk = S->blk_off[k + 1] - o, r, nd = mo_rigid_ndof(sc->dim);
     const int *loc = S->blk_loc + (o - S->nfe);
     const double *M;
-    for (r = 0; r < sc->nrigid && sc->rigid[r] != b; r++) {}
+    r = S->blk_rig[k];
     M = S->rig_M + (size_t)r * 36;
     for (i = 0; i < nk; i++)
       for (j = 0; j < nk; j++)
@@ -567,7 +575,7 @@ static void rigid_rhs(const mo_stepper *S, const mo_state *s, const double *x, d
     int o = S->blk_off[k], nk = S->blk_off[k + 1] - o;
     const int *loc = S->blk_loc + (o - S->nfe);
     const double *M, *v = s->v + B->dof0, *xb = x + B->dof0;
-    for (r = 0; r < sc->nrigid && sc->rigid[r] != S->blk_body[k]; r++) {}
+    r = S->blk_rig[k];
     M = S->rig_M + (size_t)r * 36;
     for (i = 0; i < nk; i++) {
       const double *Mi = M + loc[i] * nd;

@@ -41,6 +41,8 @@ struct mo_stepper {
   int nfe;
   int nblk;
   int *blk_body;        /* nblk: the body of each block */
+  int *blk_rig;         /* nblk: its rank in sc->rigid (its mass block in rig_M) */
+  int *blk_of;          /* per free rigid dof (index - nfe): its block */
   int *blk_off;         /* nblk + 1: free index of each block's first dof (blk_off[0] = nfe) */
   int *blk_loc;         /* per free rigid dof (index - nfe): its local dof in the body */
   int *blk_ioff;        /* nblk: offset of the block's inverse in blk_inv */

@@ -52,37 +52,7 @@ static void nscd_defaults(void *params) { nscd_params_default(params); }
 
 /* --- state --------------------------------------------------------------------------------------- */
 
-typedef struct {
-  nscd_params p;
-  int nc, d, m;
-  /* rows of W (pointers into the core's Delassus operator, refreshed at every solve) */
-  int *rcnt;
-  const int **rcol;
-  const double **rval;
-  const double **diag;          /* W_aa */
-  /* columns: the rows transposed (sym) or a transposed copy (W not symmetric), whose blocks
-     are stored transposed (W_ba^T) like the rows' blocks W_ab = W_ba^T of a symmetric W */
-  int sym;
-  int *cp, *cb;
-  double *cv;
-  size_t ccap;
-  double *aux;                  /* nc * NSCD_AUX: per-contact data of the local solvers */
-  const mo_delassus *wsrc;      /* the W the cached data were built for, and its version */
-  long wver;
-  int *act, nact, *order;
-  double *U;                    /* U = W r + q kept up to date by the column updates */
-  double *rold;                 /* m: the reactions at the start of the sweep (Jean's norms) */
-  double *scale;                /* nc: 1 / W_aa,nn, the scaling of (T42) (0 when W_nn = 0) */
-  double *mu;                   /* nc: friction coefficients, 0 where no free dof moves the
-                                   contact tangentially (W_tt = 0, e.g. on a symmetry axis: its
-                                   friction impulse acts on nothing, any r_t in the cone would do) */
-  double qn2, qs2;              /* |q|^2 and |S q|^2 over the active contacts */
-  /* a GSL generator on our own memory (gsl_rng_alloc aborts on failure) */
-  gsl_rng rng;
-  void *rng_state;
-  nscd_local_stats lst;
-  nscd_params lp;               /* the parameters the local solvers see in this sweep */
-} nscd_state;
+
 
 static void nscd_free(void *state)
 {
@@ -103,6 +73,7 @@ static void nscd_free(void *state)
   mo_free(S->scale);
   mo_free(S->mu);
   mo_free(S->rng_state);
+  nscd_bodies_free(S);
   memset(S, 0, sizeof *S);
 }
 
@@ -117,7 +88,10 @@ static int nscd_init(void *state, const void *params, const mo_contact_problem *
   S->m = P->m;
   S->wsrc = NULL;
   S->wver = -1;
-  if (!P->W) return mo_error(ctx, MO_EINTERNAL, "nscd: the core gave no Delassus operator");
+  /* without W, every contact joins rigid bodies (and obstacles): the sweep on body velocities */
+  S->bodies = !P->W;
+  if (S->bodies && (!P->H || !P->Wi || !P->xfree))
+    return mo_error(ctx, MO_EINTERNAL, "nscd: the core gave neither W nor the blocks of H and What");
   S->rcnt = mo_malloc(ctx, nc * sizeof *S->rcnt);
   S->rcol = mo_malloc(ctx, nc * sizeof *S->rcol);
   S->rval = mo_malloc(ctx, nc * sizeof *S->rval);
@@ -141,6 +115,18 @@ static int nscd_init(void *state, const void *params, const mo_contact_problem *
   return MO_OK;
 }
 
+void nscd_prepare_local(nscd_state *S, const mo_contact_problem *P)
+{
+  int d = S->d, a, t;
+  for (a = 0; a < S->nc; a++) {
+    double wtt = 0;
+    for (t = 1; t < d; t++) wtt += S->diag[a][t * d + t];
+    S->mu[a] = P->mu && !(d > 1 && !(wtt > 1e-12 * S->diag[a][0])) ? P->mu[a] : 0;
+    nscd_local_prepare(d, S->diag[a], S->mu[a], S->aux + (size_t)a * NSCD_AUX);
+    S->scale[a] = S->diag[a][0] > 0 ? 1 / S->diag[a][0] : 0;
+  }
+}
+
 /* Rows of W, and what depends on W only when it changed: its columns and the local data. */
 static int prepare_matrix(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
 {
@@ -162,14 +148,7 @@ static int prepare_matrix(nscd_state *S, const mo_contact_problem *P, mo_ctx *ct
   if (P->W == S->wsrc && ver == S->wver) return MO_OK;
   S->wsrc = P->W;
   S->wver = ver;
-  for (a = 0; a < nb; a++) {
-    double wtt = 0;
-    int t;
-    for (t = 1; t < d; t++) wtt += S->diag[a][t * d + t];
-    S->mu[a] = P->mu && !(d > 1 && !(wtt > 1e-12 * S->diag[a][0])) ? P->mu[a] : 0;
-    nscd_local_prepare(d, S->diag[a], S->mu[a], S->aux + (size_t)a * NSCD_AUX);
-    S->scale[a] = S->diag[a][0] > 0 ? 1 / S->diag[a][0] : 0;
-  }
+  nscd_prepare_local(S, P);
   /* Symmetric W (the Delassus operator of a symmetric What): column a is row a transposed.
      Rows are sorted by block column, so one cursor per row finds W_ba in O(nnz). */
   S->sym = sorted;
@@ -234,6 +213,11 @@ static int prepare_matrix(nscd_state *S, const mo_contact_problem *P, mo_ctx *ct
 static void exact_U(nscd_state *S, const mo_contact_problem *P, const double *r)
 {
   int i, zero = 1;
+  if (S->bodies) { /* from the body velocities, which follow r */
+    nscd_bodies_velocities(S, P, r);
+    nscd_bodies_exact_U(S, P);
+    return;
+  }
   for (i = 0; i < S->m && zero; i++) zero = r[i] == 0;
   if (zero) { /* a cold start: U = q */
     memcpy(S->U, P->b, (size_t)S->m * sizeof *S->U);
@@ -384,9 +368,9 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
   const int scaled = p->stop == NSCD_STOP_SCALED;
   int (*do_sweep)(nscd_state *, const mo_contact_problem *, double *, int *) =
       d == 3 ? sweep3 : d == 2 ? sweep2 : sweep1;
-  if (P->nc != S->nc || P->dim != S->d || !P->W)
+  if (P->nc != S->nc || P->dim != S->d || (!P->W) != S->bodies)
     return mo_error(ctx, MO_EINTERNAL, "nscd: the problem changed size (%d x %d, was %d x %d)", P->nc, P->dim, S->nc, S->d);
-  if ((st = prepare_matrix(S, P, ctx))) return st;
+  if ((st = S->bodies ? nscd_bodies_prepare(S, P, ctx) : prepare_matrix(S, P, ctx))) return st;
   /* the active contacts, in the chosen order */
   S->nact = 0;
   for (a = 0; a < S->nc; a++) {
@@ -421,7 +405,7 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
        than local_tol): early sweeps need no exact local solve, the last ones get it */
     if (res < HUGE_VAL) S->lp.local_tol = fmax(p->local_tol, fmin(1e-4, 1e-2 * res));
     memcpy(S->rold, r, (size_t)m * sizeof *r);
-    broke = do_sweep(S, P, r, x->status);
+    broke = S->bodies ? nscd_bodies_sweep(S, P, r, x->status) : do_sweep(S, P, r, x->status);
     sweeps++;
     if (broke >= 0) break;
     if (p->stop == NSCD_STOP_NATURAL || scaled) {
@@ -446,6 +430,10 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
   /* U is exact already when a residual rule has just confirmed convergence */
   if (!(conv && (scaled || p->stop == NSCD_STOP_NATURAL))) exact_U(S, P, r);
   memcpy(x->U, S->U, (size_t)m * sizeof *x->U);
+  if (S->bodies) { /* the correction is the body velocities' change: no solve left to the core */
+    nscd_bodies_dx(S, P, x->dx);
+    x->dx_set = 1;
+  }
   /* Jean's norms of the last sweep (the quad and maxm rules have them already) */
   if (sweeps && p->stop != NSCD_STOP_QUAD && p->stop != NSCD_STOP_MAXM) jean_norms(S, S->rold, r, &quad, &maxm);
   rep->iterations = sweeps;
@@ -483,7 +471,7 @@ const mo_contact_solver_type mo_contact_solver_nscd = {
   "Jean's nonsmooth contact dynamics: nonlinear Gauss-Seidel over contacts on the Delassus operator",
   sizeof(nscd_state),
   sizeof(nscd_params),
-  MO_NEEDS_DELASSUS,
+  MO_NEEDS_DELASSUS | MO_NEEDS_BODIES,
   (1u << MO_SCHEME_THETA) | (1u << MO_SCHEME_NEWMARK) | (1u << MO_SCHEME_QUASISTATIC),
   nscd_options,
   (int)MO_COUNT(nscd_options),

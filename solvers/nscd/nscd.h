@@ -64,4 +64,66 @@ int nscd_slide_angle(const double *W, const double *q, double mu, double *r, dou
 int nscd_projection(const double *W, const double *q, double mu, double *r, double tol,
                     int maxit);
 
+/* --- the solver's state (nscd.c; the sweep on body velocities in nscd_bodies.c) ----------------- */
+
+#include <gsl/gsl_rng.h>
+
+typedef struct {
+  nscd_params p;
+  int nc, d, m;
+  /* rows of W (pointers into the core's Delassus operator, refreshed at every solve) */
+  int *rcnt;
+  const int **rcol;
+  const double **rval;
+  const double **diag;          /* W_aa */
+  /* columns: the rows transposed (sym) or a transposed copy (W not symmetric), whose blocks
+     are stored transposed (W_ba^T) like the rows' blocks W_ab = W_ba^T of a symmetric W */
+  int sym;
+  int *cp, *cb;
+  double *cv;
+  size_t ccap;
+  double *aux;                  /* nc * NSCD_AUX: per-contact data of the local solvers */
+  const mo_delassus *wsrc;      /* the W the cached data were built for, and its version */
+  long wver;
+  int *act, nact, *order;
+  double *U;                    /* U = W r + q kept up to date by the column updates */
+  double *rold;                 /* m: the reactions at the start of the sweep (Jean's norms) */
+  double *scale;                /* nc: 1 / W_aa,nn, the scaling of (T42) (0 when W_nn = 0) */
+  double *mu;                   /* nc: friction coefficients, 0 where no free dof moves the
+                                   contact tangentially (W_tt = 0, e.g. on a symmetry axis: its
+                                   friction impulse acts on nothing, any r_t in the cone would do) */
+  double qn2, qs2;              /* |q|^2 and |S q|^2 over the active contacts */
+  /* a GSL generator on our own memory (gsl_rng_alloc aborts on failure) */
+  gsl_rng rng;
+  void *rng_state;
+  nscd_local_stats lst;
+  nscd_params lp;               /* the parameters the local solvers see in this sweep */
+  /* the sweep on body velocities (nscd_bodies.c), when the core gave no W: every contact joins
+     rigid bodies and obstacles (doc/theory.md §8.6) */
+  int bodies;
+  int *nsd, *sblk;              /* per contact: its rigid sides (0 to 2) and their blocks of What */
+  double *G;                    /* per contact and side: the d x n_k rows of H on the block's dofs */
+  double *MG;                   /* per contact and side: inv_k G^T (n_k x d), the velocity change
+                                   of an impulse */
+  double *Wd;                   /* nc d x d: W_aa = sum over sides G inv_k G^T */
+  double *c;                    /* m: q - H^T v_free, so that U = c + sum G v */
+  double *vb;                   /* nfree: v = v_free + What^-1 H r, kept up to date by the sweep */
+  size_t bcap, vcap;
+} nscd_state;
+
+/* The local data of every contact from its diagonal block S->diag[a] and mu: the friction kept
+   where a free dof moves the contact tangentially, the local solvers' data, the scaling (T42). */
+void nscd_prepare_local(nscd_state *S, const mo_contact_problem *P);
+
+/* The sweep on body velocities (nscd_bodies.c): the contacts' blocks of H by rigid block, W_aa
+   and c = q - H^T v_free (prepare); v = v_free + What^-1 H r from r (velocities); U = c + H^T v
+   (exact_U); one Gauss-Seidel sweep updating v contact by contact (sweep, the contact that broke
+   down or -1); and the correction dx = v - v_free over the free dofs. */
+int nscd_bodies_prepare(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx);
+void nscd_bodies_velocities(nscd_state *S, const mo_contact_problem *P, const double *r);
+void nscd_bodies_exact_U(nscd_state *S, const mo_contact_problem *P);
+int nscd_bodies_sweep(nscd_state *S, const mo_contact_problem *P, double *r, int *status);
+void nscd_bodies_dx(const nscd_state *S, const mo_contact_problem *P, double *dx);
+void nscd_bodies_free(nscd_state *S);
+
 #endif

@@ -293,7 +293,11 @@ typedef struct {
 /* Capability flags: what the core must build for the back end. */
 enum {
   MO_NEEDS_DELASSUS = 1,     /* W = H^T What^-1 H */
-  MO_NEEDS_GLOBAL = 2        /* H, What, its factor and x_free (KKT or Schur paths) */
+  MO_NEEDS_GLOBAL = 2,       /* H, What, its factor and x_free (KKT or Schur paths) */
+  MO_NEEDS_BODIES = 4        /* with MO_NEEDS_DELASSUS: when every candidate joins rigid bodies and
+                                obstacles only, the back end works from H, the blocks of What^-1
+                                and x_free instead of W, which the core then does not build (P->W
+                                NULL): the sweep on body velocities (doc/theory.md §8.6) */
 };
 
 typedef struct mo_contact_solver_type {
@@ -387,6 +391,9 @@ const mo_delassus *mo_contact_driver_delassus(const mo_contact_driver *D);
 /* Totals over the run: steps with contact, back-end iterations, rebuilds of W. */
 void mo_contact_driver_totals(const mo_contact_driver *D, long *steps, long *iterations,
                               long *max_iterations, long *w_builds, double *max_residual);
+/* Build the Delassus operator at every step even where the back end works without it (every
+   contact between rigid bodies, MO_NEEDS_BODIES): FCLIB dumps of the steps' problems. */
+void mo_contact_driver_keep_delassus(mo_contact_driver *D);
 /* Solves that did not converge over the run (non-zero only with contact.on_failure = "continue"). */
 long mo_contact_driver_failures(const mo_contact_driver *D);
 /* The last step's local problem (W dense, q, mu) for export (FCLIB). */

@@ -128,6 +128,7 @@ typedef struct mo_what_inverse {
   const int *off;         /* nblk + 1: free index of each block's first dof (off[0] = nfe) */
   const int *ioff;        /* nblk: offset of each block's inverse (row-major) in inv */
   const double *inv;
+  const int *blkof;       /* n - nfe: the block of each rigid free dof (index i - nfe) */
   long version;           /* changes whenever the factorization or a block changes */
 } mo_what_inverse;
 const mo_what_inverse *mo_stepper_inverse(const mo_stepper *S);

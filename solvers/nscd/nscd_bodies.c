@@ -1,0 +1,192 @@
+/* nscd_bodies.c: nscd's sweep on body velocities, for contact sets that join rigid bodies and
+   obstacles only (doc/theory.md §8.6): v = v_free + What^-1 H r is kept up to date contact by
+   contact, the local problem of contact a read from the velocities of its (at most two) bodies,
+   U_a = c_a + sum_s G_as v_s, W_aa from its own blocks: a contact update costs O(1), a sweep
+   O(contacts), and no W is stored beyond the diagonal blocks (the LMGC90 and Siconos way). */
+#include "config.h"
+#include "nscd.h"
+
+#include <math.h>
+#include <string.h>
+
+/* Room for nc contacts (two sides each) and nfree velocities. */
+static int reserve(nscd_state *S, int nfree, mo_ctx *ctx)
+{
+  size_t nc = (size_t)S->nc + 1, d = (size_t)S->d;
+  void *p;
+  if (nc > S->bcap) {
+#define GROW(ptr, n) if (!(p = mo_realloc(ctx, ptr, (n) * sizeof *(ptr)))) return MO_ENOMEM; ptr = p
+    GROW(S->nsd, nc);
+    GROW(S->sblk, 2 * nc);
+    GROW(S->G, 2 * nc * d * 6);
+    GROW(S->MG, 2 * nc * d * 6);
+    GROW(S->Wd, nc * d * d);
+    GROW(S->c, nc * d);
+    S->bcap = nc;
+  }
+  if ((size_t)nfree + 1 > S->vcap) {
+    GROW(S->vb, (size_t)nfree + 1);
+    S->vcap = (size_t)nfree + 1;
+#undef GROW
+  }
+  return MO_OK;
+}
+
+void nscd_bodies_free(nscd_state *S)
+{
+  mo_free(S->nsd);
+  mo_free(S->sblk);
+  mo_free(S->G);
+  mo_free(S->MG);
+  mo_free(S->Wd);
+  mo_free(S->c);
+  mo_free(S->vb);
+}
+
+/* Contact a's sides from its d columns of H: the blocks its entries fall in (at most two) and the
+   rows of H on each block's dofs, G_as (d x n_k, row-major, stride 6). */
+static int contact_sides(nscd_state *S, const mo_contact_problem *P, int a, mo_ctx *ctx)
+{
+  const mo_csc *H = P->H;
+  const mo_what_inverse *Wi = P->Wi;
+  int d = S->d, i, p, *blk = S->sblk + 2 * a, *ns = S->nsd + a;
+  double *G = S->G + (size_t)2 * a * d * 6;
+  *ns = 0;
+  memset(G, 0, (size_t)(2 * d * 6) * sizeof *G);
+  for (i = 0; i < d; i++)
+    for (p = H->p[a * d + i]; p < H->p[a * d + i + 1]; p++) {
+      int row = H->i[p], k, s;
+      if (row < Wi->nfe)
+        return mo_error(ctx, MO_EINTERNAL, "nscd: contact %d touches a deformable body, the core should have built W", a);
+      k = Wi->blkof[row - Wi->nfe];
+      for (s = 0; s < *ns && blk[s] != k; s++) {}
+      if (s == *ns) {
+        if (*ns == 2) return mo_error(ctx, MO_EINTERNAL, "nscd: contact %d touches more than two bodies", a);
+        blk[(*ns)++] = k;
+      }
+      G[(size_t)s * d * 6 + (size_t)i * 6 + (size_t)(row - Wi->off[k])] = H->x[p];
+    }
+  return MO_OK;
+}
+
+int nscd_bodies_prepare(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
+{
+  const mo_what_inverse *Wi = P->Wi;
+  int d = S->d, a, s, i, j, k, q, st;
+  if ((st = reserve(S, P->nfree, ctx))) return st;
+  for (a = 0; a < S->nc; a++) {
+    double *Waa = S->Wd + (size_t)a * d * d, *ca = S->c + (size_t)a * d;
+    if ((st = contact_sides(S, P, a, ctx))) return st;
+    memset(Waa, 0, (size_t)(d * d) * sizeof *Waa);
+    for (i = 0; i < d; i++) ca[i] = P->b[a * d + i];
+    for (s = 0; s < S->nsd[a]; s++) {
+      int kb = S->sblk[2 * a + s], o = Wi->off[kb], nk = Wi->off[kb + 1] - o;
+      const double *G = S->G + (size_t)(2 * a + s) * d * 6, *inv = Wi->inv + Wi->ioff[kb];
+      double *MG = S->MG + (size_t)(2 * a + s) * d * 6; /* inv G^T: nk x d (stride d) */
+      for (k = 0; k < nk; k++)
+        for (j = 0; j < d; j++) {
+          double acc = 0;
+          for (q = 0; q < nk; q++) acc += inv[k * nk + q] * G[j * 6 + q];
+          MG[k * d + j] = acc;
+        }
+      /* W_aa += G inv G^T; c = q - G v_free */
+      for (i = 0; i < d; i++) {
+        for (j = 0; j < d; j++)
+          for (k = 0; k < nk; k++) Waa[i * d + j] += G[i * 6 + k] * MG[k * d + j];
+        for (k = 0; k < nk; k++) ca[i] -= G[i * 6 + k] * P->xfree[o + k];
+      }
+    }
+    S->diag[a] = Waa;
+  }
+  nscd_prepare_local(S, P);
+  return MO_OK;
+}
+
+/* v += (inv_k G_as^T) dr over the sides of contact a. */
+static inline void push(nscd_state *S, const mo_what_inverse *Wi, int a, const double *dr)
+{
+  const int d = S->d;
+  int s, k, j;
+  for (s = 0; s < S->nsd[a]; s++) {
+    int kb = S->sblk[2 * a + s], o = Wi->off[kb], nk = Wi->off[kb + 1] - o;
+    const double *MG = S->MG + (size_t)(2 * a + s) * d * 6;
+    double *v = S->vb + o;
+    for (k = 0; k < nk; k++, MG += d) {
+      double acc = 0;
+      for (j = 0; j < d; j++) acc += MG[j] * dr[j];
+      v[k] += acc;
+    }
+  }
+}
+
+/* U_a = c_a + sum_s G_as v_s. */
+static inline void local_U(const nscd_state *S, const mo_what_inverse *Wi, int a, double *U)
+{
+  const int d = S->d;
+  int s, i, k;
+  for (i = 0; i < d; i++) U[i] = S->c[(size_t)a * d + i];
+  for (s = 0; s < S->nsd[a]; s++) {
+    int kb = S->sblk[2 * a + s], o = Wi->off[kb], nk = Wi->off[kb + 1] - o;
+    const double *G = S->G + (size_t)(2 * a + s) * d * 6;
+    for (i = 0; i < d; i++)
+      for (k = 0; k < nk; k++) U[i] += G[i * 6 + k] * S->vb[o + k];
+  }
+}
+
+void nscd_bodies_velocities(nscd_state *S, const mo_contact_problem *P, const double *r)
+{
+  int a;
+  memcpy(S->vb, P->xfree, (size_t)P->nfree * sizeof *S->vb);
+  for (a = 0; a < S->nc; a++) push(S, P->Wi, a, r + (size_t)a * S->d);
+}
+
+void nscd_bodies_exact_U(nscd_state *S, const mo_contact_problem *P)
+{
+  int a;
+  for (a = 0; a < S->nc; a++) local_U(S, P->Wi, a, S->U + (size_t)a * S->d);
+}
+
+int nscd_bodies_sweep(nscd_state *S, const mo_contact_problem *P, double *r, int *status)
+{
+  const int d = S->d;
+  const double omega = S->p.relax, *mu = S->mu;
+  const mo_what_inverse *Wi = P->Wi;
+  int k, i, j;
+  for (k = 0; k < S->nact; k++) {
+    const int a = S->order[k];
+    const double *Waa = S->diag[a];
+    double *ra = r + (size_t)a * d, U[3], ql[3], rl[3], dr[3];
+    int st, nz = 0;
+    /* the local free term: U_a - W_aa r_a, U_a from the bodies' current velocities */
+    local_U(S, Wi, a, U);
+    for (i = 0; i < d; i++) {
+      double acc = U[i];
+      for (j = 0; j < d; j++) acc -= Waa[i * d + j] * ra[j];
+      ql[i] = acc;
+      rl[i] = ra[i];
+    }
+    st = nscd_local_solve(d, Waa, S->aux + (size_t)a * NSCD_AUX, ql, mu ? mu[a] : 0, rl, &S->lp, &S->lst);
+    if (st < 0) return a;
+    status[a] = st;
+    for (i = 0; i < d; i++) {
+      if (omega != 1) rl[i] = omega * rl[i] + (1 - omega) * ra[i]; /* (T37) */
+      dr[i] = rl[i] - ra[i];
+      nz |= dr[i] != 0;
+    }
+    if (nz) {
+      push(S, Wi, a, dr);
+      for (i = 0; i < d; i++) ra[i] = rl[i];
+    }
+  }
+  /* the natural-map rules read U: from the velocities at the end of the sweep (Jean's norms read
+     r and W_aa only) */
+  if (S->p.stop == NSCD_STOP_SCALED || S->p.stop == NSCD_STOP_NATURAL)
+    for (k = 0; k < S->nact; k++) local_U(S, Wi, S->act[k], S->U + (size_t)S->act[k] * d);
+  return -1;
+}
+
+void nscd_bodies_dx(const nscd_state *S, const mo_contact_problem *P, double *dx)
+{
+  int i;
+  for (i = 0; i < P->nfree; i++) dx[i] = S->vb[i] - P->xfree[i];
+}
