@@ -237,10 +237,6 @@ int mo_contact_time_scheme(mo_scene *sc, const mo_contact *C, mo_ctx *ctx)
 }
 
 /* A key with the position it had, sorted to find the old candidate of a new one. */
-typedef struct {
-  int k[MO_KEY];
-  int pos;
-} keypos;
 
 struct mo_contact_driver {
   const mo_scene *sc;
@@ -249,6 +245,7 @@ struct mo_contact_driver {
   const mo_contact_solver_type *T;
   void *params, *state;
   int initialised;
+  int reinit;                /* the set changed since the back end's init: its reinit is due */
   long cset;                 /* the candidate set the arrays and the back end were set up for */
   mo_delassus *W;
   int wused;                 /* the last solve was given W (else a back end on the bodies' blocks) */
@@ -267,7 +264,7 @@ struct mo_contact_driver {
   double *xfull, *xf, *dx, *dxfull, *xnl, *gnl;
   double *tmp;               /* remapping scratch (m values) */
   int *itmp;
-  keypos *skey;
+  mo_keymap kmap;            /* fit: the old keys' positions */
   int any_step, it_step, loops_step[4]; /* nonlinear steps: totals over the Newton iterations */
   long steps, iterations, max_iterations, wbuilds, failures;
   double max_residual;
@@ -293,33 +290,9 @@ static int grow(mo_contact_driver *D, int nc, mo_ctx *ctx)
   GROW(D->ukin, (size_t)cap * d); GROW(D->tmp, (size_t)cap * d * 3);
   GROW(D->mu, cap); GROW(D->gk, cap); GROW(D->w, cap); GROW(D->active, cap); GROW(D->act, cap + 1);
   GROW(D->status, cap); GROW(D->key, (size_t)cap * MO_KEY); GROW(D->itmp, (size_t)cap + 1);
-  GROW(D->skey, cap);
 #undef GROW
   D->cap = cap;
   return MO_OK;
-}
-
-static int cmp_keypos(const void *a, const void *b)
-{
-  const int *x = ((const keypos *)a)->k, *y = ((const keypos *)b)->k;
-  int k;
-  for (k = 0; k < MO_KEY; k++)
-    if (x[k] != y[k]) return x[k] < y[k] ? -1 : 1;
-  return 0;
-}
-
-/* Position of key k among the sorted old keys, or -1. */
-static int find_key(const keypos *sk, int n, const int *k)
-{
-  int lo = 0, hi = n - 1;
-  while (lo <= hi) {
-    int mid = (lo + hi) / 2, c = 0, j;
-    for (j = 0; j < MO_KEY && !c; j++) c = sk[mid].k[j] < k[j] ? -1 : sk[mid].k[j] > k[j];
-    if (!c) return sk[mid].pos;
-    if (c < 0) lo = mid + 1;
-    else hi = mid - 1;
-  }
-  return -1;
 }
 
 /* U- = H^T v + U0 of candidate range [a0, a1) at state s (the relative velocity at the start of
@@ -344,8 +317,14 @@ static int fit(mo_contact_driver *D, const mo_state *s, const int *okey, int nol
   const mo_contact *C = D->C;
   int nc = mo_contact_ncandidates(C), d = D->d, a, i, st, ns = mo_contact_nstatic(C);
   double *nr, *nU;
-  int *nst;
+  int *nst, own = okey == D->key;
   if ((st = grow(D, nc > nold ? nc : nold, ctx))) return st;
+  if (own) { /* grow may have moved the driver's own arrays (their contents kept) */
+    okey = D->key;
+    orr = D->r;
+    oU = D->U;
+    ost = D->status;
+  }
   /* the old values aside (they may be the arrays about to be rewritten) */
   nr = D->tmp;
   nU = D->tmp + (size_t)D->cap * d;
@@ -355,15 +334,11 @@ static int fit(mo_contact_driver *D, const mo_state *s, const int *okey, int nol
     memcpy(nU, oU, (size_t)nold * d * sizeof *nU);
     memcpy(nst, ost, (size_t)nold * sizeof *nst);
   }
-  for (a = 0; a < nold; a++) {
-    memcpy(D->skey[a].k, okey + (size_t)a * MO_KEY, sizeof D->skey[a].k);
-    D->skey[a].pos = a;
-  }
-  qsort(D->skey, (size_t)nold, sizeof *D->skey, cmp_keypos);
+  if ((st = mo_keymap_build(&D->kmap, okey, nold, ctx))) return st;
   fresh_uprev(D, s, ns, nc);
   for (a = 0; a < nc; a++) {
     const mo_candidate *c = mo_contact_candidate(C, a);
-    int o = find_key(D->skey, nold, mo_contact_key(C, a));
+    int o = mo_keymap_find(&D->kmap, mo_contact_key(C, a));
     for (i = 0; i < d; i++) {
       D->r[a * d + i] = o >= 0 ? nr[o * d + i] : 0;
       D->U[a * d + i] = o >= 0 ? nU[o * d + i] : D->Uprev[a * d + i];
@@ -378,9 +353,12 @@ static int fit(mo_contact_driver *D, const mo_state *s, const int *okey, int nol
   D->m = nc * d;
   if (D->initialised && D->cset != mo_contact_set_version(C)) {
     /* the back end derived its state from the old set: set it up again at the next solve */
-    if (D->T->free) D->T->free(D->state);
-    memset(D->state, 0, D->T->state_size ? D->T->state_size : 1);
-    D->initialised = 0;
+    if (D->T->reinit) D->reinit = 1;
+    else {
+      if (D->T->free) D->T->free(D->state);
+      memset(D->state, 0, D->T->state_size ? D->T->state_size : 1);
+      D->initialised = 0;
+    }
   }
   D->cset = mo_contact_set_version(C);
   return MO_OK;
@@ -506,7 +484,7 @@ void mo_contact_driver_free(mo_contact_driver *D)
   mo_free(D->b); mo_free(D->q); mo_free(D->U); mo_free(D->Uprev); mo_free(D->r); mo_free(D->rprev);
   mo_free(D->xfull); mo_free(D->xf); mo_free(D->dx); mo_free(D->dxfull); mo_free(D->mu); mo_free(D->gk);
   mo_free(D->w); mo_free(D->ukin); mo_free(D->xnl); mo_free(D->gnl); mo_free(D->tmp); mo_free(D->itmp);
-  mo_free(D->skey);
+  mo_keymap_free(&D->kmap);
   mo_free(D->active);
   mo_free(D->act);
   mo_free(D->status);
@@ -778,6 +756,13 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
       return st;
     }
     D->initialised = 1;
+    D->reinit = 0;
+  } else if (D->reinit && nc) {
+    if ((st = D->T->reinit(D->state, P, ctx))) {
+      mo_phase_add(ctx, MO_PH_CONTACT, t0);
+      return st;
+    }
+    D->reinit = 0;
   }
   if (!any) {
     memset(D->r, 0, (size_t)m * sizeof(double));

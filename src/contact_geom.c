@@ -28,6 +28,49 @@ static void hbuf_free(hbuf *B)
   }
 }
 
+static unsigned key_hash(const int *k)
+{
+  unsigned h = 2166136261u;
+  int j;
+  for (j = 0; j < MO_KEY; j++) h = (h ^ (unsigned)k[j]) * 16777619u; /* FNV-1a on the ints */
+  return h ^ h >> 15;
+}
+
+int mo_keymap_build(mo_keymap *M, const int *keys, int n, mo_ctx *ctx)
+{
+  int size = 16, a;
+  while (size < 2 * n) size *= 2; /* at most half full */
+  if (size - 1 > M->mask || !M->tab) {
+    int *p = mo_realloc(ctx, M->tab, (size_t)size * sizeof *p);
+    if (!p) return MO_ENOMEM;
+    M->tab = p;
+    M->mask = size - 1;
+  }
+  M->keys = keys;
+  for (a = 0; a <= M->mask; a++) M->tab[a] = -1;
+  for (a = 0; a < n; a++) {
+    unsigned h = key_hash(keys + (size_t)a * MO_KEY) & (unsigned)M->mask;
+    while (M->tab[h] >= 0) h = (h + 1) & (unsigned)M->mask;
+    M->tab[h] = a;
+  }
+  return MO_OK;
+}
+
+int mo_keymap_find(const mo_keymap *M, const int *k)
+{
+  unsigned h;
+  if (!M->tab) return -1;
+  for (h = key_hash(k) & (unsigned)M->mask; M->tab[h] >= 0; h = (h + 1) & (unsigned)M->mask)
+    if (!memcmp(M->keys + (size_t)M->tab[h] * MO_KEY, k, MO_KEY * sizeof *k)) return M->tab[h];
+  return -1;
+}
+
+void mo_keymap_free(mo_keymap *M)
+{
+  mo_free(M->tab);
+  memset(M, 0, sizeof *M);
+}
+
 void mo_contact_free(mo_contact *C)
 {
   int k;

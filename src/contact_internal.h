@@ -7,7 +7,6 @@
 
 struct mo_broad;
 
-#define MO_KEY 5   /* ints per candidate key: pair, slave body, master body, features */
 
 struct mo_contact {
   const mo_scene *sc;

@@ -21,11 +21,17 @@ struct mo_metrics {
   double eumax, rumax, evmax, rvmax;      /* max over steps of the L2 norms */
   long nfield;
   /* contact */
-  int nc, d;                 /* candidates followed one by one: the fixed (mesh) ones */
-  int uncap;                 /* capacity of Un (candidates): detected ones come and go */
-  double *Un, *Unprev;       /* normal relative velocities, nc */
-  int *status, *prevstatus;  /* per candidate */
+  int nc, d;                 /* candidates: those of the last step (static ones first) */
+  int cap;                   /* capacity of the per-candidate arrays: detected ones come and go */
+  double *Un, *Unprev;       /* normal relative velocities */
+  int *prevstatus;           /* per candidate */
   double *tv;                /* total variation of U_n while closed, per candidate */
+  long cset;                 /* the candidate set the arrays follow (mo_contact_set_version) */
+  int *keys;                 /* its keys, to carry a detected candidate's history to the next set */
+  mo_keymap kmap;
+  double *tmp;               /* remapping scratch */
+  double tv_gone;            /* the largest variation of the candidates that left the set */
+  long unmeasured;           /* steps left out of the contact measures (no memory to follow the set) */
   double max_pen, max_vn_closed, vscale, impulse, first_release, t_prev;
   long flips;
   int closed_prev;           /* number of candidates in contact at the previous step */
@@ -42,10 +48,12 @@ void mo_metrics_free(mo_metrics *M)
   mo_free(M->work);
   mo_free(M->Un);
   mo_free(M->Unprev);
-  mo_free(M->status);
   mo_free(M->prevstatus);
   mo_free(M->tv);
   mo_free(M->incontact);
+  mo_free(M->keys);
+  mo_free(M->tmp);
+  mo_keymap_free(&M->kmap);
   mo_free(M);
 }
 
@@ -59,6 +67,63 @@ double mo_metrics_hmin(const mo_scene *sc)
       if (h < hmin) hmin = h;
     }
   return hmin;
+}
+
+/* Room for nc candidates in the per-candidate arrays (contents kept); 0 on failure. */
+static int room(mo_metrics *M, int nc, mo_ctx *ctx)
+{
+  size_t n;
+  void *p;
+  if (nc <= M->cap && M->Un) return 1;
+  n = (size_t)(nc + nc / 2) + 1;
+#define GROW(ptr, k) if (!(p = mo_realloc(ctx, ptr, (k) * sizeof *(ptr)))) return 0; ptr = p
+  GROW(M->Un, n * (size_t)M->d); GROW(M->Unprev, n); GROW(M->prevstatus, n); GROW(M->tv, n);
+  GROW(M->incontact, n); GROW(M->keys, n * MO_KEY); GROW(M->tmp, 4 * n);
+#undef GROW
+  memset(M->Unprev + M->cap, 0, (n - (size_t)M->cap) * sizeof *M->Unprev);
+  memset(M->prevstatus + M->cap, 0, (n - (size_t)M->cap) * sizeof *M->prevstatus);
+  memset(M->tv + M->cap, 0, (n - (size_t)M->cap) * sizeof *M->tv);
+  memset(M->incontact + M->cap, 0, n - (size_t)M->cap);
+  M->cap = (int)n - 1;
+  return 1;
+}
+
+/* After a new detection: the per-candidate histories carried to the new set by key (a new
+   candidate starts open, with no history; one that left keeps its variation in tv_gone).
+   0 on failure (the histories are then restarted). */
+static int follow(mo_metrics *M)
+{
+  const mo_contact *C = M->C;
+  int nold = M->nc, nc = mo_contact_ncandidates(C), a, ok;
+  double *oUp, *otv, *ost, *oin;
+  ok = room(M, nc > nold ? nc : nold, NULL) && !mo_keymap_build(&M->kmap, M->keys, nold, NULL);
+  if (!ok) nold = 0;
+  else {
+    /* the old values aside: tmp holds 4 values per candidate */
+    oUp = M->tmp;
+    otv = oUp + nold;
+    ost = otv + nold;
+    oin = ost + nold;
+    for (a = 0; a < nold; a++) {
+      oUp[a] = M->Unprev[a];
+      otv[a] = M->tv[a];
+      ost[a] = M->prevstatus[a];
+      oin[a] = M->incontact[a];
+      if (M->tv[a] > M->tv_gone) M->tv_gone = M->tv[a];
+    }
+  }
+  nc = nc < M->cap ? nc : M->cap;
+  for (a = 0; a < nc; a++) {
+    int o = nold ? mo_keymap_find(&M->kmap, mo_contact_key(C, a)) : -1;
+    M->Unprev[a] = o >= 0 ? oUp[o] : 0;
+    M->tv[a] = o >= 0 ? otv[o] : 0;
+    M->prevstatus[a] = o >= 0 ? (int)ost[o] : MO_CS_OPEN;
+    M->incontact[a] = o >= 0 ? (unsigned char)oin[o] : 0;
+  }
+  if (nc) memcpy(M->keys, mo_contact_key(C, 0), (size_t)nc * MO_KEY * sizeof *M->keys);
+  M->nc = nc;
+  M->cset = mo_contact_set_version(C);
+  return ok;
 }
 
 int mo_metrics_create(const mo_scene *sc, const mo_contact *C, mo_metrics **out, mo_ctx *ctx)
@@ -75,16 +140,11 @@ int mo_metrics_create(const mo_scene *sc, const mo_contact *C, mo_metrics **out,
   M->fields = R->type != MO_REF_NONE && R->type != MO_REF_ENERGY && R->type < MO_REF_BOUNCE && R->body >= 0 &&
               sc->body[R->body].kind == MO_BODY_DEFORMABLE && sc->body[R->body].mesh->dim == 1;
   if (C) {
-    M->nc = mo_contact_nstatic(C);
     M->d = mo_contact_dim(C);
-    M->uncap = mo_contact_ncandidates(C) + 1;
-    M->Un = mo_calloc(ctx, (size_t)M->uncap * (size_t)M->d + 1, sizeof(double));
-    M->Unprev = mo_calloc(ctx, (size_t)M->nc + 1, sizeof(double));
-    M->status = mo_calloc(ctx, (size_t)M->nc + 1, sizeof(int));
-    M->prevstatus = mo_calloc(ctx, (size_t)M->nc + 1, sizeof(int));
-    M->tv = mo_calloc(ctx, (size_t)M->nc + 1, sizeof(double));
-    M->incontact = mo_calloc(ctx, (size_t)M->nc + 1, 1);
-    if (!M->Un || !M->Unprev || !M->status || !M->prevstatus || !M->tv || !M->incontact) { mo_metrics_free(M); return MO_ENOMEM; }
+    M->nc = mo_contact_ncandidates(C);
+    M->cset = mo_contact_set_version(C);
+    if (!room(M, M->nc, ctx)) { mo_metrics_free(M); return MO_ENOMEM; }
+    if (M->nc) memcpy(M->keys, mo_contact_key(C, 0), (size_t)M->nc * MO_KEY * sizeof *M->keys);
     M->gtol = 1e-9 * mo_metrics_hmin(sc);
   }
   *out = M;
@@ -151,19 +211,6 @@ static void field_step(mo_metrics *M, const mo_state *s)
   M->nfield++;
 }
 
-/* Room in Un for every candidate of the current set (the detected ones change at every step);
-   on failure the detected candidates are left out of the step's measures. */
-static int un_room(mo_metrics *M, int nc)
-{
-  double *p;
-  if (nc <= M->uncap) return 1;
-  p = mo_realloc(NULL, M->Un, ((size_t)nc * (size_t)M->d + 1) * sizeof *p);
-  if (!p) return 0;
-  M->Un = p;
-  M->uncap = nc;
-  return 1;
-}
-
 void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *D)
 {
   const mo_scene *sc = M->sc;
@@ -182,23 +229,19 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
     const double *r = D ? mo_contact_reactions(D) : NULL;
     int d = M->d;
     double h = D ? mo_contact_driver_dt(D) : sc->time.dt;
-    int ncur = mo_contact_ncandidates(C);
-    if (!un_room(M, ncur)) ncur = M->nc;
+    if (M->cset != mo_contact_set_version(C)) follow(M);
     /* U = H^T v + U0: the relative velocity at the end of the step, whatever the scheme */
-    if (ncur == mo_contact_ncandidates(C)) mo_csc_gatxpy(mo_contact_H_full(C), 1, s->v, 0, M->Un);
-    /* the detected candidates (rigid shapes): penetration, velocity scale, bearing, impulse */
-    for (a = M->nc; a < ncur; a++) {
-      double un = M->Un[a * d] + U0[a * d];
-      if (-g[a] > M->max_pen) M->max_pen = -g[a];
-      if (fabs(un) > M->vscale) M->vscale = fabs(un);
-      closed += s->step > 0 && r && r[a * d] > 0;
-      if (r && s->step > 0) M->impulse += r[a * d] * (sc->time.scheme == MO_SCHEME_THETA ? 1 : h);
+    if (M->nc != mo_contact_ncandidates(C)) { /* out of memory in follow: the step is not measured */
+      M->unmeasured++;
+      return;
     }
+    mo_csc_gatxpy(mo_contact_H_full(C), 1, s->v, 0, M->Un);
     for (a = 0; a < M->nc; a++) {
       double un = M->Un[a * d] + U0[a * d];
       /* bearing: a compressive reaction. The jump of the normal velocity and its variation
          are measured between two bearing steps (the landing step is the impact itself); a
-         release is the first step with no reaction and an open gap after bearing. */
+         release is the first step with no reaction and an open gap after bearing. Detected
+         candidates (rigid shapes) carry their history from set to set by key. */
       int inc = s->step > 0 && r && r[a * d] > 0;
       if (-g[a] > M->max_pen) M->max_pen = -g[a];
       if (fabs(un) > M->vscale) M->vscale = fabs(un);
@@ -252,12 +295,15 @@ json_t *mo_metrics_json(const mo_metrics *M)
     json_t *c = json_object(), *imp = json_array(), *impt = json_array();
     double osc = 0, tref = mo_reference_release_time(R);
     int a, k;
-    for (a = 0; a < M->nc; a++) if (M->tv[a] > osc) osc = M->tv[a];
+    double osc_all = M->tv_gone;
+    for (a = 0; a < M->nc; a++) if (M->tv[a] > osc_all) osc_all = M->tv[a];
+    osc = osc_all;
     json_object_set_new(c, "max_penetration", json_real(M->max_pen));
     json_object_set_new(c, "max_vn_in_contact", json_real(M->max_vn_closed));
     json_object_set_new(c, "velocity_scale", json_real(M->vscale));
     json_object_set_new(c, "oscillation_index", json_real(M->vscale > 0 ? osc / M->vscale : 0));
     json_object_set_new(c, "status_flips", json_integer(M->flips));
+    if (M->unmeasured) json_object_set_new(c, "steps_not_measured", json_integer(M->unmeasured));
     json_object_set_new(c, "release_time", json_real(M->first_release));
     if (!isnan(tref)) {
       json_object_set_new(c, "release_time_exact", json_real(tref));

@@ -37,30 +37,47 @@ int mo_mkdir_p(const char *dir, mo_ctx *ctx)
   return MO_OK;
 }
 
-int mo_write_file_atomic(const char *path, const char *data, size_t len, mo_ctx *ctx)
+int mo_atomic_open(mo_atomic_file *A, const char *path, mo_ctx *ctx)
 {
-  char tmp[4200];
-  FILE *f;
-  if (snprintf(tmp, sizeof tmp, "%s.tmp.%ld", path, (long)getpid()) >= (int)sizeof tmp)
+  A->f = NULL;
+  if (snprintf(A->path, sizeof A->path, "%s", path) >= (int)sizeof A->path ||
+      snprintf(A->tmp, sizeof A->tmp, "%s.tmp.%ld", path, (long)getpid()) >= (int)sizeof A->tmp)
     return mo_error(ctx, MO_EIO, "path too long: '%s'", path);
-  f = fopen(tmp, "wb");
-  if (!f) return mo_error(ctx, MO_EIO, "cannot write '%s': %s", tmp, strerror(errno));
-  if (fwrite(data, 1, len, f) != len || fflush(f) != 0 || fsync(fileno(f)) != 0) {
-    int e = errno;
-    fclose(f);
-    remove(tmp);
-    return mo_error(ctx, MO_EIO, "cannot write '%s': %s", tmp, strerror(e));
+  if (!(A->f = fopen(A->tmp, "wb"))) return mo_error(ctx, MO_EIO, "cannot write '%s': %s", A->tmp, strerror(errno));
+  return MO_OK;
+}
+
+int mo_atomic_commit(mo_atomic_file *A, int ok, mo_ctx *ctx)
+{
+  int e = 0, st = MO_OK;
+  if (!A->f) return MO_OK;
+  if (ok && (ferror(A->f) || fflush(A->f) != 0 || fsync(fileno(A->f)) != 0)) e = errno ? errno : EIO;
+  if (fclose(A->f) != 0 && ok && !e) e = errno;
+  A->f = NULL;
+  if (!ok || e) {
+    remove(A->tmp);
+    if (e) st = mo_error(ctx, MO_EIO, "cannot write '%s': %s", A->tmp, strerror(e));
+    return st;
   }
-  if (fclose(f) != 0) {
-    remove(tmp);
-    return mo_error(ctx, MO_EIO, "cannot write '%s': %s", tmp, strerror(errno));
-  }
-  if (rename(tmp, path) != 0) {
-    int e = errno;
-    remove(tmp);
-    return mo_error(ctx, MO_EIO, "cannot replace '%s': %s", path, strerror(e));
+  if (rename(A->tmp, A->path) != 0) {
+    e = errno;
+    remove(A->tmp);
+    return mo_error(ctx, MO_EIO, "cannot replace '%s': %s", A->path, strerror(e));
   }
   return MO_OK;
+}
+
+int mo_write_file_atomic(const char *path, const char *data, size_t len, mo_ctx *ctx)
+{
+  mo_atomic_file A;
+  int st = mo_atomic_open(&A, path, ctx);
+  if (st) return st;
+  if (fwrite(data, 1, len, A.f) != len) {
+    int e = errno ? errno : EIO;
+    mo_atomic_commit(&A, 0, ctx);
+    return mo_error(ctx, MO_EIO, "cannot write '%s': %s", A.tmp, strerror(e));
+  }
+  return mo_atomic_commit(&A, 1, ctx);
 }
 
 /* --- CSV --------------------------------------------------------------------------------------- */

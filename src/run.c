@@ -351,6 +351,82 @@ static void rigid_json(json_t *jb, const mo_scene *sc, const mo_body *B, const m
   json_object_set_new(jb, "omega_final", w);
 }
 
+/* The number of bodies of B's group (1 for a body of its own). */
+static int group_size(const mo_scene *sc, const mo_body *B)
+{
+  int b, n = 0;
+  if (!B->group) return 1;
+  /* a group's bodies are consecutive (one entry makes them) */
+  for (b = (int)(B - sc->body); b < sc->nbody && sc->body[b].group && !strcmp(sc->body[b].group, B->group); b++) n++;
+  return n;
+}
+
+/* One entry for the n bodies of a large group from B on (their table is bodies.csv): count,
+   total mass, the box of their centres, the largest speed. */
+static json_t *group_json(const mo_scene *sc, const mo_body *B, int n, const mo_state *s)
+{
+  json_t *jb = json_object(), *lo = json_array(), *hi = json_array();
+  double mass = 0, xmin[3], xmax[3], vmax = 0;
+  int k, i;
+  for (i = 0; i < 3; i++) {
+    xmin[i] = HUGE_VAL;
+    xmax[i] = -HUGE_VAL;
+  }
+  for (k = 0; k < n; k++) {
+    const mo_body *G = B + k;
+    double xc[3], v2 = 0;
+    mass += G->mass;
+    mo_rigid_center(sc, G, s, xc);
+    for (i = 0; i < sc->dim; i++) {
+      xmin[i] = fmin(xmin[i], xc[i]);
+      xmax[i] = fmax(xmax[i], xc[i]);
+      if (s) v2 += s->v[G->dof0 + i] * s->v[G->dof0 + i];
+    }
+    vmax = fmax(vmax, sqrt(v2));
+  }
+  for (i = 0; i < sc->dim; i++) {
+    json_array_append_new(lo, json_real(xmin[i]));
+    json_array_append_new(hi, json_real(xmax[i]));
+  }
+  json_object_set_new(jb, "name", json_string(B->group));
+  json_object_set_new(jb, "type", json_string(B->type->name));
+  json_object_set_new(jb, "count", json_integer(n));
+  json_object_set_new(jb, "mass", json_real(mass));
+  json_object_set_new(jb, "center_min_final", lo);
+  json_object_set_new(jb, "center_max_final", hi);
+  json_object_set_new(jb, "speed_max_final", json_real(vmax));
+  json_object_set_new(jb, "table", json_string("bodies.csv"));
+  return jb;
+}
+
+/* bodies.csv: every rigid body's final state, one row each (name, group, mass, bounding radius,
+   centre, velocity, angular velocity), the table of a granular scene. */
+static int write_bodies_csv(const char *dir, const mo_scene *sc, const mo_state *s, mo_ctx *ctx)
+{
+  static const char *ax[3] = {"x", "y", "z"};
+  char path[4200];
+  mo_atomic_file A;
+  int b, i, st, D = sc->dim, nr = D == 2 ? 1 : 3;
+  snprintf(path, sizeof path, "%s/bodies.csv", dir);
+  if ((st = mo_atomic_open(&A, path, ctx))) return st;
+  fprintf(A.f, "name,group,mass,radius");
+  for (i = 0; i < D; i++) fprintf(A.f, ",%s", ax[i]);
+  for (i = 0; i < D; i++) fprintf(A.f, ",v%s", ax[i]);
+  if (D == 2) fprintf(A.f, ",omega\n");
+  else fprintf(A.f, ",wx,wy,wz\n");
+  for (b = 0; b < sc->nbody; b++) {
+    const mo_body *B = &sc->body[b];
+    double xc[3];
+    if (!(B->type->flags & MO_BODY_F_RIGID)) continue;
+    mo_rigid_center(sc, B, s, xc);
+    fprintf(A.f, "%s,%s,%.12g,%.12g", B->name, B->group ? B->group : "", B->mass, B->bound);
+    for (i = 0; i < D; i++) fprintf(A.f, ",%.12g", xc[i]);
+    for (i = 0; i < D + nr; i++) fprintf(A.f, ",%.12g", s ? s->v[B->dof0 + i] : 0.0);
+    fputc('\n', A.f);
+  }
+  return mo_atomic_commit(&A, 1, ctx);
+}
+
 static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
                          const mo_stepper *S, const mo_state *s, const mo_contact *C,
                          const mo_contact_driver *drv, const mo_metrics *met, const column *cols, int ncol,
@@ -362,7 +438,8 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
   int pw_fail = 0;
   json_t *root = json_object(), *scene = json_object(), *bodies = json_array(), *time = json_object();
   json_t *energy = json_object(), *metrics = json_object(), *skipped = json_array(), *ls = json_object();
-  char path[4200], *text;
+  char path[4200];
+  mo_atomic_file A;
   int b, k, st;
   long nf = 0, nsym = 0, nsol = 0;
   json_object_set_new(root, "moreau", json_string(PACKAGE_VERSION));
@@ -386,7 +463,15 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
     }
     for (b = 0; b < sc->nbody; b++) {
       const mo_body *B = &sc->body[b];
-      json_t *jb = json_object();
+      json_t *jb;
+      int ng = group_size(sc, B);
+      if (ng > MO_RIGID_COLUMNS_MAX && (B->type->flags & MO_BODY_F_RIGID)) {
+        /* a pack of grains: one entry, the bodies in bodies.csv */
+        json_array_append_new(bodies, group_json(sc, B, ng, s));
+        b += ng - 1;
+        continue;
+      }
+      jb = json_object();
       json_object_set_new(jb, "name", json_string(B->name));
       json_object_set_new(jb, "type", json_string(B->type->name));
       if (B->group) json_object_set_new(jb, "group", json_string(B->group));
@@ -520,12 +605,20 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
   }
   mo_free(pw);
   mo_free(p1);
-  text = pw_fail ? NULL : json_dumps(root, JSON_INDENT(2) | JSON_PRESERVE_ORDER | JSON_REAL_PRECISION(12));
-  json_decref(root);
-  if (!text) return mo_error(ctx, MO_ENOMEM, "cannot format summary.json");
+  if (pw_fail) {
+    json_decref(root);
+    return mo_error(ctx, MO_ENOMEM, "cannot format summary.json");
+  }
+  /* streamed to the file: a scene of 10^5 grains has a large summary */
   snprintf(path, sizeof path, "%s/summary.json", dir);
-  st = mo_write_file_atomic(path, text, strlen(text), ctx);
-  free(text);
+  if (!(st = mo_atomic_open(&A, path, ctx))) {
+    int ok = json_dumpf(root, A.f, JSON_INDENT(2) | JSON_PRESERVE_ORDER | JSON_REAL_PRECISION(12)) == 0;
+    if (ok) fputc('\n', A.f);
+    st = mo_atomic_commit(&A, ok, ctx);
+    if (!st && !ok) st = mo_error(ctx, MO_EIO, "cannot write '%s'", path);
+  }
+  json_decref(root);
+  if (!st && sc && sc->nrigid) st = write_bodies_csv(dir, sc, s, ctx);
   return st;
 }
 

@@ -642,5 +642,6 @@ const mo_contact_solver_type mo_contact_solver_levelset = {
   ls_init,
   ls_solve,
   ls_free,
-  NULL /* the case's time scheme */
+  NULL, /* the case's time scheme */
+  NULL  /* a new contact set: free, then init */
 };

@@ -297,4 +297,5 @@ const mo_contact_solver_type mo_contact_solver_newmark = {
   newmark_solve,
   newmark_free,
   newmark_time,
+  NULL /* a new contact set: free, then init */
 };

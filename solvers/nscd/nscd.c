@@ -77,12 +77,12 @@ static void nscd_free(void *state)
   memset(S, 0, sizeof *S);
 }
 
-static int nscd_init(void *state, const void *params, const mo_contact_problem *P, mo_ctx *ctx)
+/* The state brought to P's contact set: sizes, the arrays grown when the set grew (kept
+   otherwise), nothing derived from an older set's W. */
+static int fit_set(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
 {
-  nscd_state *S = state;
-  size_t nc = (size_t)P->nc + 1;
-  memset(S, 0, sizeof *S);
-  S->p = *(const nscd_params *)params;
+  size_t nc = (size_t)P->nc + 1, m = (size_t)P->m + 1;
+  void *q;
   S->nc = P->nc;
   S->d = P->dim;
   S->m = P->m;
@@ -92,20 +92,33 @@ static int nscd_init(void *state, const void *params, const mo_contact_problem *
   S->bodies = !P->W;
   if (S->bodies && (!P->H || !P->Wi || !P->xfree))
     return mo_error(ctx, MO_EINTERNAL, "nscd: the core gave neither W nor the blocks of H and What");
-  S->rcnt = mo_malloc(ctx, nc * sizeof *S->rcnt);
-  S->rcol = mo_malloc(ctx, nc * sizeof *S->rcol);
-  S->rval = mo_malloc(ctx, nc * sizeof *S->rval);
-  S->diag = mo_malloc(ctx, nc * sizeof *S->diag);
-  S->aux = mo_malloc(ctx, nc * NSCD_AUX * sizeof *S->aux);
-  S->act = mo_malloc(ctx, nc * sizeof *S->act);
-  S->order = mo_malloc(ctx, nc * sizeof *S->order);
-  S->U = mo_malloc(ctx, ((size_t)P->m + 1) * sizeof *S->U);
-  S->rold = mo_malloc(ctx, ((size_t)P->m + 1) * sizeof *S->rold);
-  S->scale = mo_malloc(ctx, nc * sizeof *S->scale);
-  S->mu = mo_malloc(ctx, nc * sizeof *S->mu);
-  S->rng_state = mo_calloc(ctx, 1, gsl_rng_mt19937->size + 1);
-  if (!S->rcnt || !S->rcol || !S->rval || !S->diag || !S->aux || !S->act || !S->order || !S->U || !S->rold ||
-      !S->scale || !S->mu || !S->rng_state) {
+  if (nc > S->cap) {
+    nc += nc / 2; /* sets grow a little at a time while grains settle */
+#define GROW(ptr, n) if (!(q = mo_realloc(ctx, ptr, (n) * sizeof *(ptr)))) return MO_ENOMEM; ptr = q
+    GROW(S->rcnt, nc); GROW(S->rcol, nc); GROW(S->rval, nc); GROW(S->diag, nc);
+    GROW(S->aux, nc * NSCD_AUX); GROW(S->act, nc); GROW(S->order, nc); GROW(S->scale, nc); GROW(S->mu, nc);
+    S->cap = nc;
+  }
+  if (m > S->mcap) {
+    m += m / 2;
+    GROW(S->U, m); GROW(S->rold, m);
+#undef GROW
+    S->mcap = m;
+  }
+  return MO_OK;
+}
+
+static int nscd_init(void *state, const void *params, const mo_contact_problem *P, mo_ctx *ctx)
+{
+  nscd_state *S = state;
+  int st;
+  memset(S, 0, sizeof *S);
+  S->p = *(const nscd_params *)params;
+  if ((st = fit_set(S, P, ctx))) {
+    nscd_free(S);
+    return st;
+  }
+  if (!(S->rng_state = mo_calloc(ctx, 1, gsl_rng_mt19937->size + 1))) {
     nscd_free(S);
     return MO_ENOMEM;
   }
@@ -113,6 +126,13 @@ static int nscd_init(void *state, const void *params, const mo_contact_problem *
   S->rng.state = S->rng_state;
   gsl_rng_mt19937->set(S->rng_state, ctx->seed);
   return MO_OK;
+}
+
+/* A new contact set (detected contacts between rigid bodies change it at most steps): the
+   memory is kept, the generator goes on. */
+static int nscd_reinit(void *state, const mo_contact_problem *P, mo_ctx *ctx)
+{
+  return fit_set(state, P, ctx);
 }
 
 void nscd_prepare_local(nscd_state *S, const mo_contact_problem *P)
@@ -178,7 +198,12 @@ static int prepare_matrix(nscd_state *S, const mo_contact_problem *P, mo_ctx *ct
     int *cnt;
     for (a = 0; a < nb; a++) nnz += (size_t)S->rcnt[a];
     need = nnz + 1;
-    if (!S->cp && !(S->cp = mo_malloc(ctx, ((size_t)nb + 1) * sizeof *S->cp))) return MO_ENOMEM;
+    if ((size_t)nb + 1 > S->cpcap) {
+      int *cp = mo_realloc(ctx, S->cp, ((size_t)nb + 1) * sizeof *cp);
+      if (!cp) return MO_ENOMEM;
+      S->cp = cp;
+      S->cpcap = (size_t)nb + 1;
+    }
     if (need > S->ccap) {
       int *cb = mo_realloc(ctx, S->cb, need * sizeof *cb);
       double *cv;
@@ -479,5 +504,6 @@ const mo_contact_solver_type mo_contact_solver_nscd = {
   nscd_init,
   nscd_solve,
   nscd_free,
-  NULL /* the case's time scheme */
+  NULL, /* the case's time scheme */
+  nscd_reinit
 };

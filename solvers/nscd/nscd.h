@@ -81,7 +81,8 @@ typedef struct {
   int sym;
   int *cp, *cb;
   double *cv;
-  size_t ccap;
+  size_t ccap, cpcap;
+  size_t cap, mcap;             /* room of the per-contact arrays (contacts) and of U, rold (m) */
   double *aux;                  /* nc * NSCD_AUX: per-contact data of the local solvers */
   const mo_delassus *wsrc;      /* the W the cached data were built for, and its version */
   long wver;

@@ -128,6 +128,17 @@ int mo_contact_nstatic(const mo_contact *C);
 /* Identity of candidate a (5 ints: pair, slave body, master body, slave feature, master
    feature; static candidates (-1, a, 0, 0, 0)), to match candidates from one set to the next. */
 const int *mo_contact_key(const mo_contact *C, int a);
+#define MO_KEY 5
+/* Candidates found by key from one set to the next: a hash of n keys (MO_KEY ints each, kept by
+   the caller while the map is used); find gives a key's position among them, or -1. build
+   reuses the map's table. O(1) per key on average. */
+typedef struct mo_keymap {
+  const int *keys;
+  int *tab, mask;
+} mo_keymap;
+int mo_keymap_build(mo_keymap *M, const int *keys, int n, mo_ctx *ctx);
+int mo_keymap_find(const mo_keymap *M, const int *k);
+void mo_keymap_free(mo_keymap *M);
 /* The alert distance of the detection (0 without pairs of rigid shapes). */
 double mo_contact_alert(const mo_contact *C);
 /* Per candidate: its law and restitution coefficient. */
@@ -323,6 +334,10 @@ typedef struct mo_contact_solver_type {
      built (the newmark baseline runs Newmark with its own beta, gamma whatever time.scheme says).
      NULL: the case's time settings. */
   int (*time_scheme)(const void *params, mo_time_settings *T, mo_ctx *ctx);
+  /* Optional: the contact set changed since init (detected contacts between rigid bodies change
+     it at most steps): bring the state to P's set, keeping what memory it can. NULL: the core
+     calls free, then init. */
+  int (*reinit)(void *state, const mo_contact_problem *P, mo_ctx *ctx);
 } mo_contact_solver_type;
 
 /* The registry: an explicit table in the core (src/registry.c). */

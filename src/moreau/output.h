@@ -3,6 +3,8 @@
 #ifndef MOREAU_OUTPUT_H
 #define MOREAU_OUTPUT_H
 
+#include <stdio.h>
+
 #include <moreau/ctx.h>
 #include <moreau/scene.h>
 #include <moreau/step.h>
@@ -16,6 +18,15 @@ int mo_mkdir_p(const char *dir, mo_ctx *ctx);
 /* Write `len` bytes to `path` atomically: a reader sees the old file or the new one, never a
    part of the new one. */
 int mo_write_file_atomic(const char *path, const char *data, size_t len, mo_ctx *ctx);
+/* The same for a file written piece by piece: open a temporary beside `path`, write to A->f,
+   then commit: with ok, flushed, synced and renamed onto `path` (an error if any write
+   failed); without, removed (the old file stays). */
+typedef struct mo_atomic_file {
+  FILE *f;
+  char path[4200], tmp[4240];
+} mo_atomic_file;
+int mo_atomic_open(mo_atomic_file *A, const char *path, mo_ctx *ctx);
+int mo_atomic_commit(mo_atomic_file *A, int ok, mo_ctx *ctx);
 
 typedef struct mo_csv mo_csv;
 /* Open a CSV file with a header row; rows are flushed as written, so that a crash leaves every
