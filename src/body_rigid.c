@@ -513,15 +513,18 @@ static int rigid_conditions(mo_scene *sc, int b, const config_setting_t *bg, int
 static int rigid_loads(mo_scene *sc, int b, const config_setting_t *bg, double *f, mo_ctx *ctx)
 {
   mo_body *B = &sc->body[b];
-  double bf[3];
-  int k, st;
+  double bf[3], val[3];
+  int k, st, dof[3];
   if (mo_cfg_member(bg, "loads"))
     return mo_case_error(sc->cs, mo_cfg_member(bg, "loads"), ctx, "a rigid body takes a 'body_force', not 'loads'");
   if (!mo_cfg_member(bg, "body_force")) return MO_OK;
   if ((st = eval_at_center(sc, B, bg, "body_force", sc->dim, bf, ctx))) return st;
-  memset(f, 0, (size_t)sc->ndof * sizeof *f);
-  for (k = 0; k < sc->dim; k++) f[B->dof0 + k] = B->mass * bf[k];
-  return mo_scene_add_load(sc, f, NULL, ctx);
+  (void)f;
+  for (k = 0; k < sc->dim; k++) {
+    dof[k] = B->dof0 + k;
+    val[k] = B->mass * bf[k];
+  }
+  return mo_scene_add_load_sparse(sc, sc->dim, dof, val, NULL, ctx);
 }
 
 /* --- the kinds ------------------------------------------------------------------------------------ */

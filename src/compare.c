@@ -697,6 +697,7 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
     ro.sets = sets;
     ro.nset = nset;
     ro.outdir = R->outdir;
+    ro.no_draw = 1;
     mo_ctx_init(&rc);
     rc.verbosity = 0;
     rc.interrupt = ctx->interrupt;
@@ -826,8 +827,10 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
           against the exact solution, and 3. the energy; the probes are those of the first
           run's history. Each history's header is read once. */
     {
-      /* probe quantities, then rigid bodies' columns (BODY.x ...), these only with an exact value */
-      static const char *quant[] = {"ux", "vx", "uy", "vy", "uz", "vz", "cx", "cy", "cz", "pn", "x", "y", "z", "omega"};
+      /* probe quantities (the first probe of each), then rigid bodies' columns (BODY.x ... BODY.vx
+         ..., the first body of each that has an exact value) */
+      static const char *quant[] = {"ux", "vx", "uy", "vy", "uz", "vz", "cx", "cy", "cz", "pn",
+                                    "x", "y", "z", "vx", "vy", "vz", "omega"};
       const size_t nprobeq = 10;
       size_t qk;
       int *best = mo_malloc(ctx, (size_t)nsol * sizeof *best);
@@ -852,9 +855,14 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
           size_t l = strlen(tok), lq = strlen(quant[qk]);
           if (l > lq + 1 && !strcmp(tok + l - lq, quant[qk]) && tok[l - lq - 1] == '.' && !strstr(tok, ".exact") &&
               strncmp(tok, "energy.", 7) && strncmp(tok, "contact.", 8) && strncmp(tok, "rigid.", 6)) {
-            char ex[160];
+            char ex[160], om[160], wz[160];
+            int rigid;
+            /* a rigid body's columns: BODY.x .. BODY.omega (or .wz) */
             snprintf(ex, sizeof ex, "%s.exact", tok);
-            if (qk >= nprobeq && !csv_column(first_head, ex)) continue;
+            snprintf(om, sizeof om, "%.*s.omega", (int)(l - lq - 1), tok);
+            snprintf(wz, sizeof wz, "%.*s.wz", (int)(l - lq - 1), tok);
+            rigid = csv_column(first_head, om) || csv_column(first_head, wz);
+            if (qk < nprobeq ? rigid : !rigid || !csv_column(first_head, ex)) continue;
             snprintf(probe, sizeof probe, "%s", tok);
             break;
           }

@@ -532,9 +532,13 @@ int mo_contact_driver_create(const mo_scene *sc, mo_contact *C, mo_stepper *S,
   D->dxfull = mo_calloc(ctx, (size_t)n + 1, sizeof(double));
   D->xf = mo_calloc(ctx, (size_t)nf + 1, sizeof(double));
   D->dx = mo_calloc(ctx, (size_t)nf + 1, sizeof(double));
-  D->xnl = mo_calloc(ctx, (size_t)n + 1, sizeof(double));
-  D->gnl = mo_calloc(ctx, (size_t)n + 1, sizeof(double));
-  if (!D->params || !D->state || !D->xfull || !D->dxfull || !D->xf || !D->dx || !D->xnl || !D->gnl) {
+  /* the Newton iterates of nonlinear scenes (S is NULL for `moreau check`) */
+  if (S && mo_stepper_nonlinear(S)) {
+    D->xnl = mo_calloc(ctx, (size_t)n + 1, sizeof(double));
+    D->gnl = mo_calloc(ctx, (size_t)n + 1, sizeof(double));
+  }
+  if (!D->params || !D->state || !D->xfull || !D->dxfull || !D->xf || !D->dx ||
+      (S && mo_stepper_nonlinear(S) && (!D->xnl || !D->gnl))) {
     mo_contact_driver_free(D);
     return MO_ENOMEM;
   }
@@ -820,10 +824,16 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
       return mo_error(ctx, MO_ENOCONV,
                       "step %ld (t = %.6g%s): the %s contact solve stopped on %s after %d iterations "
                       "(residual %.3e; %d closed of %d candidates)%s%s. Candidates furthest from the "
-                      "contact law: %s. Remedies: a smaller time step (time.dt, or time.max_cuts), a larger iteration limit "
-                      "(contact.%s options), or contact.on_failure = \"continue\"",
+                      "contact law: %s. %sa smaller time step (time.dt, or time.max_cuts), a larger iteration "
+                      "limit (contact.%s options), or contact.on_failure = \"continue\"",
                       P->step, s->t + h, it, D->T->name, mo_contact_reason_name(rep->reason), rep->iterations,
                       rep->residual, nc - rep->nopen, nc, rep->message[0] ? ": " : "", rep->message, worst,
+                      /* cycling between rigid bodies: more contacts than the bodies have dofs, the
+                         impulses are not unique and no step size changes that */
+                      rep->reason == MO_CR_CYCLING && mo_contact_ncandidates(C) > mo_contact_nstatic(C)
+                          ? "The statuses cycle: between rigid bodies this is the mark of redundant contacts, whose "
+                            "impulses are not unique (doc/theory.md §12.7); nscd solves such scenes. Otherwise: "
+                          : "Remedies: ",
                       D->T->name);
     }
   }

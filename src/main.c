@@ -33,8 +33,10 @@ static void usage(FILE *f)
           "usage: moreau COMMAND [ARGS]\n"
           "\n"
           "  run CASE [--solver S] [--set KEY=VALUE]... [--out DIR] [--log] [--quiet]\n"
+          "          [--dump-fclib DIR]\n"
           "            run a case (a folder holding case.cfg, or a file); outputs in DIR\n"
-          "            (default out/<case>): history.csv, summary.json, fields.pvd\n"
+          "            (default out/<case>): history.csv, summary.json, fields.pvd;\n"
+          "            --dump-fclib: every step's contact problem as an FCLIB file in DIR\n"
           "  compare CASE [--solvers a,b,...] [--dt h1,h2,...] [--vary KEY=v1,v2,...]...\n"
           "          [--set KEY=VALUE]... [--out DIR] [--metric NAME] [--penetration-tol F]\n"
           "            the same scene by several back ends and time steps (and parameter grids):\n"
@@ -313,6 +315,9 @@ static void print_key(const char *path, const char *type, const char *range, con
   printf("%-36s %-28s %-24s %-14s %s\n", path, type, range, deflt, doc);
 }
 
+/* OpenBLAS's thread count, when OpenBLAS is the BLAS loaded (weak: absent otherwise). */
+extern void openblas_set_num_threads(int n) __attribute__((weak));
+
 int main(int argc, char **argv)
 {
   mo_ctx ctx;
@@ -320,6 +325,10 @@ int main(int argc, char **argv)
   int st, rc;
   const char *cmd;
   mo_ctx_init(&ctx);
+  /* moreau computes on one thread: the comparisons time one core against one core, and the
+     dense kernels it calls are small (levelset's least squares, CHOLMOD's supernodes), where
+     OpenBLAS's threads spin in sched_yield more than they help. OPENBLAS_NUM_THREADS overrides. */
+  if (openblas_set_num_threads && !getenv("OPENBLAS_NUM_THREADS")) openblas_set_num_threads(1);
   memset(&c, 0, sizeof c);
   if (argc < 2) {
     usage(stderr);
@@ -329,6 +338,14 @@ int main(int argc, char **argv)
   if (!strcmp(cmd, "--help") || !strcmp(cmd, "-h") || !strcmp(cmd, "help")) {
     usage(stdout);
     return 0;
+  }
+  {
+    int i;
+    for (i = 2; i < argc; i++)
+      if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) { /* moreau COMMAND --help */
+        usage(stdout);
+        return 0;
+      }
   }
   if (!strcmp(cmd, "--version")) {
     printf("moreau %s\n", PACKAGE_VERSION);

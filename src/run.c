@@ -956,7 +956,10 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
     if ((st = mo_vtk_open(outdir, sc, &vtk, ctx))) goto done;
   } else
     mo_note_skip(ctx, "field output (no output.vtk group)");
-  if ((st = mo_draw_open(outdir, sc, cs, &draw, ctx))) goto done;
+  if (opt->no_draw) {
+    if (config_lookup(&cs->cfg, "output.draw"))
+      mo_note_skip(ctx, "drawings (output.draw: left to single runs, not the runs of a comparison)");
+  } else if ((st = mo_draw_open(outdir, sc, cs, &draw, ctx))) goto done;
   if (!sc->nprobe) mo_note_skip(ctx, "probe histories (no output.probes)");
   if (!C) mo_note_skip(ctx, "contact (no contact pairs)");
 

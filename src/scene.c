@@ -36,7 +36,7 @@ void mo_scene_free(mo_scene *sc)
     mo_mesh_free(B->mesh); /* a body whose reading failed before its type was set */
     mo_free(B->vert);
     mo_free(B->name);
-    mo_free(B->group);
+    if (!i || sc->body[i - 1].group != B->group) mo_free(B->group); /* one string per group */
   }
   mo_free(sc->rigid);
   mo_free(sc->body);
@@ -144,10 +144,59 @@ int mo_scene_add_presc(mo_scene *sc, int dof, mo_presc_kind kind, double vel, mo
 
 static int load_push(mo_scene *sc, mo_load *L, mo_ctx *ctx)
 {
-  mo_load *p = mo_realloc(ctx, sc->load, (size_t)(sc->nload + 1) * sizeof *p);
-  if (!p) return MO_ENOMEM;
-  sc->load = p;
+  if (sc->nload == sc->loadcap) {
+    int cap = sc->loadcap ? 2 * sc->loadcap : 8;
+    mo_load *p = mo_realloc(ctx, sc->load, (size_t)cap * sizeof *p);
+    if (!p) return MO_ENOMEM;
+    sc->load = p;
+    sc->loadcap = cap;
+  }
   sc->load[sc->nload++] = *L;
+  return MO_OK;
+}
+
+int mo_scene_add_load_sparse(mo_scene *sc, int n, const int *dof, const double *val, mo_expr *amp, mo_ctx *ctx)
+{
+  mo_load *L = sc->nload ? &sc->load[sc->nload - 1] : NULL, N;
+  if (!amp && L && !L->amp) {
+    /* constant loads join the last constant pattern: one pattern for the body forces of a pack
+       of 10^5 grains, not one each */
+    if (L->n + n > L->cap) {
+      int cap = 2 * (L->n + n);
+      int *d = mo_realloc(ctx, L->dof, (size_t)cap * sizeof *d);
+      double *v;
+      if (!d) return MO_ENOMEM;
+      L->dof = d;
+      if (!(v = mo_realloc(ctx, L->val, (size_t)cap * sizeof *v))) return MO_ENOMEM;
+      L->val = v;
+      L->cap = cap;
+    }
+    memcpy(L->dof + L->n, dof, (size_t)n * sizeof *dof);
+    memcpy(L->val + L->n, val, (size_t)n * sizeof *val);
+    L->n += n;
+    return MO_OK;
+  }
+  memset(&N, 0, sizeof N);
+  N.dof = mo_malloc(ctx, (size_t)(n ? n : 1) * sizeof *N.dof);
+  N.val = mo_malloc(ctx, (size_t)(n ? n : 1) * sizeof *N.val);
+  if (!N.dof || !N.val) {
+    mo_free(N.dof);
+    mo_free(N.val);
+    mo_expr_free(amp);
+    return MO_ENOMEM;
+  }
+  if (n) {
+    memcpy(N.dof, dof, (size_t)n * sizeof *dof);
+    memcpy(N.val, val, (size_t)n * sizeof *val);
+  }
+  N.n = N.cap = n;
+  N.amp = amp;
+  if (load_push(sc, &N, ctx)) {
+    mo_free(N.dof);
+    mo_free(N.val);
+    mo_expr_free(amp);
+    return MO_ENOMEM;
+  }
   return MO_OK;
 }
 
@@ -172,6 +221,7 @@ int mo_scene_add_load(mo_scene *sc, const double *f, mo_expr *amp, mo_ctx *ctx)
       L.val[L.n++] = f[i];
     }
   L.amp = amp;
+  L.cap = L.n;
   if (load_push(sc, &L, ctx)) {
     mo_free(L.dof);
     mo_free(L.val);
@@ -435,12 +485,48 @@ static int body_dim(const mo_body *B)
   return B->kind == MO_BODY_SPHERE ? 3 : B->kind == MO_BODY_DISK || B->kind == MO_BODY_POLYGON ? 2 : 0;
 }
 
+/* 1 when name is "group.k" with 0 <= k < count. */
+static int generated_name(const char *name, const char *group, int count)
+{
+  size_t n = strlen(group);
+  char *end;
+  long k;
+  if (strncmp(name, group, n) || name[n] != '.' || !name[n + 1]) return 0;
+  k = strtol(name + n + 1, &end, 10);
+  return !*end && k >= 0 && k < count && (name[n + 1] != '0' || !name[n + 2]);
+}
+
+/* Body names are unique: the entries' names against each other and against the names the
+   groups generate (NAME.k), in O(entries^2) rather than O(bodies^2). */
+static int check_names(const mo_case *cs, const config_setting_t *bl, int nentry, mo_ctx *ctx)
+{
+  int e, f;
+  for (e = 0; e < nentry; e++) {
+    const config_setting_t *ge = config_setting_get_elem(bl, (unsigned)e);
+    const mo_body_type *Te = mo_body_type_find(mo_cfg_string(ge, "type", "deformable"));
+    const char *ne = mo_cfg_string(ge, "name", "");
+    int ce = Te->count ? Te->count(ge) : 1;
+    for (f = 0; f < e; f++) {
+      const config_setting_t *gf = config_setting_get_elem(bl, (unsigned)f);
+      const mo_body_type *Tf = mo_body_type_find(mo_cfg_string(gf, "type", "deformable"));
+      const char *nf = mo_cfg_string(gf, "name", "");
+      int cf = Tf->count ? Tf->count(gf) : 1;
+      if (ce > 1 ? !strcmp(ne, nf) || (cf <= 1 && generated_name(nf, ne, ce))
+                 : cf > 1 ? generated_name(ne, nf, cf) : !strcmp(ne, nf))
+        return mo_case_error(cs, mo_cfg_member(ge, "name"), ctx, "body name '%s' is used twice%s", ne,
+                             ce > 1 || cf > 1 ? " (a group of N bodies names them NAME.0 .. NAME.N-1)" : "");
+    }
+  }
+  return MO_OK;
+}
+
 /* Pass 1: every body's own keys; the dimension from the first body that fixes it; obstacles
    (planes) once it is known. Generated bodies are named NAME.k, their group NAME. */
 static int read_bodies(mo_scene *sc, const config_setting_t *bl, int nentry, mo_ctx *ctx)
 {
   const mo_case *cs = sc->cs;
-  int e, k, b, st, dim = 0, pass;
+  int e, b, st, dim = 0, pass;
+  if ((st = check_names(cs, bl, nentry, ctx))) return st;
   for (pass = 0; pass < 2; pass++)
     for (e = 0, b = 0; e < nentry; e++) {
       const config_setting_t *bg = config_setting_get_elem(bl, (unsigned)e);
@@ -460,13 +546,11 @@ static int read_bodies(mo_scene *sc, const config_setting_t *bl, int nentry, mo_
           char buf[300];
           snprintf(buf, sizeof buf, "%s.%d", name, m);
           B->name = mo_strdup(ctx, buf);
-          B->group = mo_strdup(ctx, name);
+          /* the group's name, shared by its bodies */
+          B->group = m ? sc->body[b - 1].group : mo_strdup(ctx, name);
           if (!B->group) return MO_ENOMEM;
         }
         if (!B->name) return MO_ENOMEM;
-        for (k = 0; k < b; k++)
-          if (sc->body[k].name && !strcmp(sc->body[k].name, B->name))
-            return mo_case_error(cs, mo_cfg_member(bg, "name"), ctx, "body name '%s' is used twice", B->name);
         if ((st = T->read(B, m, dim, cs, bg, ctx))) return st;
         if (!dim) dim = body_dim(B);
       }

@@ -165,8 +165,8 @@ int mo_stepper_rigid_update(mo_stepper *S, const mo_state *s, mo_ctx *ctx)
   int nd = mo_rigid_ndof(sc->dim), k, r, i, j;
   for (r = 0; r < sc->nrigid; r++) {
     const mo_body *B = &sc->body[sc->rigid[r]];
-    mo_rigid_mass(sc, B, s, S->rig_M + (size_t)r * 36);
-    if (s && sc->dim == 3) mo_rigid_gyroscopic(sc, B, s, s->v + B->dof0, S->gyro + B->dof0);
+    mo_rigid_mass(sc, B, s, S->rig_M + (size_t)r * (size_t)(nd * nd));
+    if (s && S->gyro) mo_rigid_gyroscopic(sc, B, s, s->v + B->dof0, S->gyro + B->dof0);
   }
   for (k = 0; k < S->nblk; k++) {
     int b = S->blk_body[k], nk = S->blk_off[k + 1] - S->blk_off[k], ri;
@@ -174,7 +174,7 @@ int mo_stepper_rigid_update(mo_stepper *S, const mo_state *s, mo_ctx *ctx)
     double Mff[36];
     const double *M;
     ri = S->blk_rig[k];
-    M = S->rig_M + (size_t)ri * 36;
+    M = S->rig_M + (size_t)ri * (size_t)(nd * nd);
     for (i = 0; i < nk; i++)
       for (j = 0; j < nk; j++) Mff[i * nk + j] = M[loc[i] * nd + loc[j]];
     if (small_inverse(nk, Mff, S->blk_inv + S->blk_ioff[k]))
@@ -197,9 +197,12 @@ static int rigid_setup(mo_stepper *S, mo_ctx *ctx)
   S->blk_off = mo_malloc(ctx, ((size_t)sc->nrigid + 2) * sizeof *S->blk_off);
   S->blk_ioff = mo_malloc(ctx, ((size_t)sc->nrigid + 1) * sizeof *S->blk_ioff);
   S->blk_loc = mo_malloc(ctx, ((size_t)nfree_r + 1) * sizeof *S->blk_loc);
-  S->rig_M = mo_calloc(ctx, 36 * (size_t)sc->nrigid + 1, sizeof *S->rig_M);
-  S->gyro = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof *S->gyro);
-  if (!S->blk_body || !S->blk_rig || !S->blk_off || !S->blk_ioff || !S->blk_loc || !S->rig_M || !S->gyro) return MO_ENOMEM;
+  /* nd x nd per body; the gyroscopic forces exist in 3D only */
+  S->rig_M = mo_calloc(ctx, (size_t)(mo_rigid_ndof(sc->dim) * mo_rigid_ndof(sc->dim)) * (size_t)sc->nrigid + 1,
+                       sizeof *S->rig_M);
+  S->gyro = sc->dim == 3 ? mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof *S->gyro) : NULL;
+  if (!S->blk_body || !S->blk_rig || !S->blk_off || !S->blk_ioff || !S->blk_loc || !S->rig_M || (sc->dim == 3 && !S->gyro))
+    return MO_ENOMEM;
   S->blk_off[0] = S->nfe;
   for (r = 0; r < sc->nrigid; r++) {
     const mo_body *B = &sc->body[sc->rigid[r]];
@@ -275,7 +278,7 @@ void mo_stepper_mass_apply(const mo_stepper *S, const double *x, double *y)
   else memset(y, 0, (size_t)sc->ndof * sizeof *y); /* quasi-static: no inertia */
   for (r = 0; r < sc->nrigid; r++) {
     const mo_body *B = &sc->body[sc->rigid[r]];
-    const double *M = S->rig_M + (size_t)r * 36, *xb = x + B->dof0;
+    const double *M = S->rig_M + (size_t)r * (size_t)(nd * nd), *xb = x + B->dof0;
     for (i = 0; i < nd; i++) {
       double acc = 0;
       for (j = 0; j < nd; j++) acc += M[i * nd + j] * xb[j];
@@ -308,7 +311,7 @@ int mo_stepper_matrix_full(mo_stepper *S, const mo_csc **W, mo_ctx *ctx)
     const int *loc = S->blk_loc + (o - S->nfe);
     const double *M;
     r = S->blk_rig[k];
-    M = S->rig_M + (size_t)r * 36;
+    M = S->rig_M + (size_t)r * (size_t)(nd * nd);
     for (i = 0; i < nk; i++)
       for (j = 0; j < nk; j++)
         if (M[loc[i] * nd + loc[j]] != 0 && (st = mo_triplet_add(&T, o + i, o + j, M[loc[i] * nd + loc[j]], ctx))) goto done;
@@ -576,10 +579,11 @@ static void rigid_rhs(const mo_stepper *S, const mo_state *s, const double *x, d
     const int *loc = S->blk_loc + (o - S->nfe);
     const double *M, *v = s->v + B->dof0, *xb = x + B->dof0;
     r = S->blk_rig[k];
-    M = S->rig_M + (size_t)r * 36;
+    M = S->rig_M + (size_t)r * (size_t)(nd * nd);
     for (i = 0; i < nk; i++) {
       const double *Mi = M + loc[i] * nd;
-      double acc = S->scheme == MO_SCHEME_THETA ? S->h * S->gyro[B->dof0 + loc[i]] : S->gyro[B->dof0 + loc[i]];
+      double g = S->gyro ? S->gyro[B->dof0 + loc[i]] : 0;
+      double acc = S->scheme == MO_SCHEME_THETA ? S->h * g : g;
       for (j = 0; j < nd; j++) {
         if (S->scheme == MO_SCHEME_THETA) acc += Mi[j] * v[j];
         if (sc->free_of[B->dof0 + j] < 0) acc -= Mi[j] * xb[j];
@@ -754,7 +758,7 @@ static double rigid_inertia(const mo_stepper *S, const mo_state *s, int d)
   double acc = 0;
   if (r < 0) return 0;
   B = &sc->body[sc->rigid[r]];
-  Mi = S->rig_M + (size_t)r * 36 + (d - B->dof0) * nd;
+  Mi = S->rig_M + (size_t)r * (size_t)(nd * nd) + (d - B->dof0) * nd;
   for (j = 0; j < nd; j++)
     acc += Mi[j] * (S->scheme == MO_SCHEME_NEWMARK ? s->a[B->dof0 + j]
                                                    : (s->v[B->dof0 + j] - S->vprev[B->dof0 + j]) / S->h);

@@ -104,6 +104,9 @@ int mo_scene_add_presc(mo_scene *sc, int dof, mo_presc_kind kind, double vel, mo
                        int *owner, mo_ctx *ctx);
 /* A load pattern from a dense vector over all dofs (amp: NULL or an expression in t, owned). */
 int mo_scene_add_load(mo_scene *sc, const double *f, mo_expr *amp, mo_ctx *ctx);
+/* The same from n entries (dof, value); a constant load (amp NULL) joins the last constant
+   pattern. amp is owned by the scene afterwards (freed on failure). */
+int mo_scene_add_load_sparse(mo_scene *sc, int n, const int *dof, const double *val, mo_expr *amp, mo_ctx *ctx);
 
 #ifdef __cplusplus
 }

@@ -17,6 +17,7 @@ typedef struct {
   int log;                      /* --log: timing table and skipped work */
   int progress;                 /* draw a progress bar on stderr */
   const char *dump_fclib;       /* --dump-fclib DIR */
+  int no_draw;                  /* leave output.draw out (the runs of a comparison) */
 } mo_run_options;
 
 typedef struct {

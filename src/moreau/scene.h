@@ -66,7 +66,7 @@ typedef struct {
 
 /* A load pattern: f(t) += amplitude(t) * F, F stored sparse over full dofs. */
 typedef struct {
-  int n;
+  int n, cap;    /* entries, room */
   int *dof;
   double *val;
   mo_expr *amp;  /* NULL: constant 1 */
@@ -203,7 +203,7 @@ typedef struct mo_scene {
   int *full_of;   /* nfree: dof of each free index */
   int npresc;
   mo_presc *presc;
-  int nload;
+  int nload, loadcap;
   mo_load *load;
   mo_csc *K, *M;  /* full ndof x ndof (M is NULL for quasi-static scenes); K holds the linear
                      bodies only (finite-strain bodies have no constant stiffness) */
