@@ -62,6 +62,8 @@ struct mo_contact {
   int nrr;                    /* rigid-rigid pairs (at most 64) */
   int *rr;                    /* their pair numbers */
   double *bc, *br;            /* broad phase: centres and radii of the rigid bodies */
+  double *bs, *be;            /* per body: its speed bound, and its alert margin when the pair list was built */
+  unsigned char *dmask;       /* per body: 1 when in a dynamic pair (its speed is needed) */
   unsigned char *bmask;
   /* the broad phase's pair list kept between steps (a Verlet list), its reach (alert plus skin)
      and how many times it was built */

@@ -27,7 +27,10 @@ void mo_contact_detect_free(mo_contact *C)
   mo_free(C->rr);
   mo_free(C->bc);
   mo_free(C->br);
+  mo_free(C->bs);
+  mo_free(C->be);
   mo_free(C->bmask);
+  mo_free(C->dmask);
   mo_free(C->vl);
   C->broad = NULL;
 }
@@ -39,7 +42,7 @@ double mo_contact_smallest_size(const mo_contact *C)
   int k, i, side;
   for (k = 0; k < C->npair; k++) {
     const mo_contact_pair *P = &C->pair[k];
-    if (P->law != MO_LAW_NEWTON) continue;
+    if (P->law == MO_LAW_SIGNORINI) continue; /* pairs with a rigid body */
     for (side = 0; side < 2; side++)
       for (i = 0; i < (side ? (P->dynamic ? P->nm : 1) : (P->dynamic ? P->ns : 1)); i++) {
         const mo_body *B = &sc->body[side ? (P->dynamic ? P->mb[i] : P->mbody) : (P->dynamic ? P->sb[i] : P->sbody)];
@@ -62,8 +65,18 @@ int mo_contact_detect_setup(mo_contact *C, mo_ctx *ctx)
   C->rr = mo_malloc(ctx, ((size_t)C->npair + 1) * sizeof *C->rr);
   C->bc = mo_calloc(ctx, 3 * (size_t)sc->nbody + 1, sizeof *C->bc);
   C->br = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->br);
+  C->bs = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->bs);
+  C->be = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->be);
   C->bmask = mo_calloc(ctx, (size_t)sc->nbody + 1, 1);
-  if (!C->mside || !C->sside || !C->rr || !C->bc || !C->br || !C->bmask) return MO_ENOMEM;
+  C->dmask = mo_calloc(ctx, (size_t)sc->nbody + 1, 1);
+  if (!C->mside || !C->sside || !C->rr || !C->bc || !C->br || !C->bs || !C->be || !C->bmask || !C->dmask)
+    return MO_ENOMEM;
+  for (k = 0; k < C->npair; k++) {
+    const mo_contact_pair *P = &C->pair[k];
+    if (!P->dynamic) continue;
+    for (i = 0; i < P->ns; i++) C->dmask[P->sb[i]] = 1;
+    for (i = 0; i < P->nm; i++) C->dmask[P->mb[i]] = 1;
+  }
   C->nrr = 0;
   for (k = 0; k < C->npair; k++) {
     const mo_contact_pair *P = &C->pair[k];
@@ -159,9 +172,14 @@ static void shape_world(const mo_scene *sc, const mo_body *B, const mo_state *s,
   if (B->kind == MO_BODY_POLYGON) mo_polygon_world(sc, B, s, v);
 }
 
+/* The alert distance of a pair of bodies: contact.alert plus what the two can close in two steps
+   at their speeds (a fast grain widens its own pairs only). */
+static double pair_alert(const mo_contact *C, int a, int b) { return C->alert + 2 * C->h * (C->bs[a] + C->bs[b]); }
+
 /* Shape `sb` (slave) against shape `mb` (master): the narrow phase of their two kinds. */
-static int shape_shape(mo_contact *C, int k, int sb, int mb, const mo_state *s, double alert, double t, mo_ctx *ctx)
+static int shape_shape(mo_contact *C, int k, int sb, int mb, const mo_state *s, double t, mo_ctx *ctx)
 {
+  const double alert = pair_alert(C, sb, mb);
   const mo_scene *sc = C->sc;
   const mo_body *S = &sc->body[sb], *M = &sc->body[mb];
   double cs[3], cm[3], vs[2 * MO_POLYGON_MAX], vm[2 * MO_POLYGON_MAX];
@@ -255,8 +273,9 @@ static int point_facets(mo_contact *C, int k, int sb, int sfeat, const double *c
 }
 
 /* The nodes of a mesh slave (its set) against a rigid shape master mb. */
-static int nodes_shape(mo_contact *C, int k, int mb, const mo_state *s, double alert, double t, mo_ctx *ctx)
+static int nodes_shape(mo_contact *C, int k, int mb, const mo_state *s, double t, mo_ctx *ctx)
 {
+  const double alert = pair_alert(C, C->pair[k].sb[0], mb);
   const mo_scene *sc = C->sc;
   const mo_contact_pair *P = &C->pair[k];
   const mo_body *M = &sc->body[mb];
@@ -300,7 +319,7 @@ static int nodes_shape(mo_contact *C, int k, int mb, const mo_state *s, double a
 }
 
 /* Every slave shape of pair k against its plane or mesh master (O(bodies of the pair)). */
-static int shapes_obstacle(mo_contact *C, int k, const mo_state *s, double alert, double t, mo_ctx *ctx)
+static int shapes_obstacle(mo_contact *C, int k, const mo_state *s, double t, mo_ctx *ctx)
 {
   const mo_scene *sc = C->sc;
   const mo_contact_pair *P = &C->pair[k];
@@ -309,11 +328,12 @@ static int shapes_obstacle(mo_contact *C, int k, const mo_state *s, double alert
   for (i = 0; i < P->ns; i++) {
     int sb = P->sb[i];
     const mo_body *S = &sc->body[sb];
-    double c[3], v[2 * MO_POLYGON_MAX], p[3];
+    double c[3], v[2 * MO_POLYGON_MAX], p[3], alert = pair_alert(C, sb, P->mb[0]);
     mo_narrow out[MO_POLYGON_MAX];
     dyn_side ds;
     shape_world(sc, S, s, c, v);
     if (M->type->flags & MO_BODY_F_OBSTACLE) {
+      if (t > M->until) return MO_OK; /* the gate has opened */
       for (j = 0; j < sc->dim; j++) p[j] = M->point[j] + M->velocity[j] * t;
       n = S->kind == MO_BODY_POLYGON ? mo_narrow_plane_polygon(p, M->normal, S->nvert, v, alert, out)
                                      : mo_narrow_plane_ball(sc->dim, p, M->normal, c, S->radius, alert, out);
@@ -336,18 +356,20 @@ static int shapes_obstacle(mo_contact *C, int k, const mo_state *s, double alert
   return MO_OK;
 }
 
-/* The broad phase's pair list, kept while it holds every pair within the alert distance: it was
-   built with the bodies' bounding balls grown by a skin, and stays valid while no body has moved
-   more than half of what is left of the skin (a Verlet list; doc/theory.md §12.3, (T77)). */
-static int pair_list(mo_contact *C, const mo_state *s, double alert, mo_ctx *ctx)
+/* The broad phase's pair list, kept while it holds every pair closer than its alert distance
+   (pair_alert): it was built with each body's bounding ball grown by what it could close at its
+   speed then (e_b = 2 h s_b) and a skin of one alert distance, and it stays valid while every
+   body's displacement since plus what it can close at its speed now stays within half the skin
+   plus its e_b (a Verlet list; doc/theory.md §12.3, (T77)). */
+static int pair_list(mo_contact *C, const mo_state *s, mo_ctx *ctx)
 {
   const mo_scene *sc = C->sc;
   const int D = sc->dim;
+  const double skin = C->alert;
   const int *pairs;
   long np;
-  int b, k, st;
-  double dmax = 0;
-  for (b = 0; b < sc->nbody; b++)
+  int b, k, st, valid = C->vl_built;
+  for (b = 0; b < sc->nbody && valid; b++)
     if (C->bmask[b]) {
       double c[3], dd = 0;
       mo_rigid_center(sc, &sc->body[b], s, c);
@@ -355,19 +377,18 @@ static int pair_list(mo_contact *C, const mo_state *s, double alert, mo_ctx *ctx
         double e = c[k] - C->bc[(size_t)D * b + k];
         dd += e * e;
       }
-      if (dd > dmax) dmax = dd;
+      valid = sqrt(dd) + 2 * C->h * C->bs[b] <= 0.5 * skin + C->be[b];
     }
-  dmax = sqrt(dmax);
-  /* every pair closer than alert now was closer than alert + 2 dmax at the build */
-  if (C->vl_built && alert + 2 * dmax <= C->vl_reach) return MO_OK;
+  if (valid) return MO_OK;
   for (b = 0; b < sc->nbody; b++)
     if (C->bmask[b]) {
       double c[3];
       mo_rigid_center(sc, &sc->body[b], s, c);
       memcpy(C->bc + (size_t)D * (size_t)b, c, (size_t)D * sizeof *c);
-      C->br[b] = sc->body[b].bound;
+      C->be[b] = 2 * C->h * C->bs[b];
+      C->br[b] = sc->body[b].bound + C->be[b];
     }
-  C->vl_reach = alert + C->alert; /* a skin of one alert distance */
+  C->vl_reach = C->alert + skin;
   if ((st = mo_broad_pairs(C->broad, D, sc->nbody, C->bc, C->br, C->bmask, C->vl_reach, &pairs, &np, ctx))) return st;
   if (np > C->vl_cap) {
     int *p = mo_realloc(ctx, C->vl, (size_t)(2 * np) * sizeof *p);
@@ -383,11 +404,11 @@ static int pair_list(mo_contact *C, const mo_state *s, double alert, mo_ctx *ctx
 }
 
 /* The pair list of the bodies of the rigid-rigid pairs, then their narrow phases. */
-static int rigid_pairs(mo_contact *C, const mo_state *s, double alert, double t, mo_ctx *ctx)
+static int rigid_pairs(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx)
 {
   long q;
   int st;
-  if ((st = pair_list(C, s, alert, ctx))) return st;
+  if ((st = pair_list(C, s, ctx))) return st;
   for (q = 0; q < C->vl_n; q++) {
     int i = C->vl[2 * q], j = C->vl[2 * q + 1], r;
     unsigned long long ij = C->mside[i] & C->sside[j], ji = C->mside[j] & C->sside[i];
@@ -395,43 +416,39 @@ static int rigid_pairs(mo_contact *C, const mo_state *s, double alert, double t,
     if (!any) continue;
     for (r = 0; !(any >> r & 1ULL); r++) {}
     /* master i, slave j when pair r reads so (for a pair within a group: the lower index) */
-    if (ij >> r & 1ULL) st = shape_shape(C, C->rr[r], j, i, s, alert, t, ctx);
-    else st = shape_shape(C, C->rr[r], i, j, s, alert, t, ctx);
+    if (ij >> r & 1ULL) st = shape_shape(C, C->rr[r], j, i, s, t, ctx);
+    else st = shape_shape(C, C->rr[r], i, j, s, t, ctx);
     if (st) return st;
   }
   return MO_OK;
 }
 
-/* The largest speed a point of the bodies of the dynamic pairs can have (the alert distance's
-   margin over a step). */
-static double max_speed(const mo_contact *C, const mo_state *s)
+/* Each body of the dynamic pairs: the largest speed a point of it can have (|v| + |omega| times
+   its bounding radius; a plane's velocity; a mesh's fastest node), the margin of its pairs'
+   alert distances over a step. */
+static void body_speeds(mo_contact *C, const mo_state *s)
 {
   const mo_scene *sc = C->sc;
-  double vmax = 0;
-  int k, i, side, a, D = sc->dim;
-  for (k = 0; k < C->npair; k++) {
-    const mo_contact_pair *P = &C->pair[k];
-    if (!P->dynamic) continue;
-    for (side = 0; side < 2; side++)
-      for (i = 0; i < (side ? P->nm : P->ns); i++) {
-        const mo_body *B = &sc->body[side ? P->mb[i] : P->sb[i]];
-        double v2 = 0, w2 = 0;
-        if (B->type->flags & MO_BODY_F_RIGID) {
-          for (a = 0; a < D; a++) v2 += s->v[B->dof0 + a] * s->v[B->dof0 + a];
-          for (a = D; a < B->ndof; a++) w2 += s->v[B->dof0 + a] * s->v[B->dof0 + a];
-          vmax = fmax(vmax, sqrt(v2) + sqrt(w2) * B->bound);
-        } else if (B->type->flags & MO_BODY_F_OBSTACLE) {
-          for (a = 0; a < D; a++) v2 += B->velocity[a] * B->velocity[a];
-          vmax = fmax(vmax, sqrt(v2));
-        } else
-          for (a = 0; a < B->mesh->nnode; a++) {
-            v2 = 0;
-            for (i = 0; i < D; i++) v2 += s->v[B->dof0 + a * D + i] * s->v[B->dof0 + a * D + i];
-            vmax = fmax(vmax, sqrt(v2));
-          }
+  int b, a, i, D = sc->dim;
+  for (b = 0; b < sc->nbody; b++) {
+    const mo_body *B = &sc->body[b];
+    double v2 = 0, w2 = 0, vmax = 0;
+    if (!C->dmask[b]) continue;
+    if (B->type->flags & MO_BODY_F_RIGID) {
+      for (a = 0; a < D; a++) v2 += s->v[B->dof0 + a] * s->v[B->dof0 + a];
+      for (a = D; a < B->ndof; a++) w2 += s->v[B->dof0 + a] * s->v[B->dof0 + a];
+      vmax = sqrt(v2) + sqrt(w2) * B->bound;
+    } else if (B->type->flags & MO_BODY_F_OBSTACLE) {
+      for (a = 0; a < D; a++) v2 += B->velocity[a] * B->velocity[a];
+      vmax = sqrt(v2);
+    } else
+      for (a = 0; a < B->mesh->nnode; a++) {
+        v2 = 0;
+        for (i = 0; i < D; i++) v2 += s->v[B->dof0 + a * D + i] * s->v[B->dof0 + a * D + i];
+        vmax = fmax(vmax, sqrt(v2));
       }
+    C->bs[b] = vmax;
   }
-  return vmax;
 }
 
 /* 1 when the detected keys equal the previous ones (same candidates in the same order). */
@@ -445,7 +462,7 @@ int mo_contact_detect(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx)
 {
   int k, st = MO_OK, nold = C->nc - C->nc_static;
   int *old = NULL;
-  double alert = C->alert + 2 * C->h * max_speed(C, s);
+  body_speeds(C, s);
   if (nold > 0) {
     old = mo_malloc(ctx, (size_t)nold * MO_KEY * sizeof *old);
     if (!old) return MO_ENOMEM;
@@ -462,11 +479,11 @@ int mo_contact_detect(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx)
     M = &C->sc->body[P->mb[0]];
     if ((S->type->flags & MO_BODY_F_MESH) && !(M->type->flags & MO_BODY_F_OBSTACLE)) {
       int i;
-      for (i = 0; i < P->nm && !st; i++) st = nodes_shape(C, k, P->mb[i], s, alert, t, ctx);
+      for (i = 0; i < P->nm && !st; i++) st = nodes_shape(C, k, P->mb[i], s, t, ctx);
     } else
-      st = shapes_obstacle(C, k, s, alert, t, ctx);
+      st = shapes_obstacle(C, k, s, t, ctx);
   }
-  if (!st && C->nrr) st = rigid_pairs(C, s, alert, t, ctx);
+  if (!st && C->nrr) st = rigid_pairs(C, s, t, ctx);
   if (!st && !same_keys(C, old, nold)) C->cset_version++;
   mo_free(old);
   return st;
