@@ -517,8 +517,8 @@ static int refuse_keys(const mo_case *cs, const config_setting_t *bg, const char
   return MO_OK;
 }
 
-static const char *const rigid_keys[] = {"point", "normal", "velocity", "center", "radius", "angle", "size", "sides",
-                                         "vertices", "arch", "density", "thickness", "inertia", "fixed"};
+static const char *const rigid_keys[] = {"point", "normal", "velocity", "until", "center", "radius", "angle", "size", "sides",
+                                         "vertices", "arch", "pack", "density", "thickness", "inertia", "fixed"};
 
 static int deformable_read(mo_body *B, int member, int dim, const mo_case *cs, const config_setting_t *bg, mo_ctx *ctx)
 {
@@ -573,13 +573,14 @@ static int plane_read(mo_body *B, int member, int dim, const mo_case *cs, const 
 {
   static const char *const other[] = {"mesh", "material", "center", "radius", "angle", "size", "sides", "vertices",
                                       "arch", "density", "thickness", "inertia", "initial", "body_force", "fix",
-                                      "prescribed", "loads", "fixed"};
+                                      "prescribed", "loads", "fixed", "pack"};
   double nn = 0;
   int k, st;
   (void)member;
   if ((st = refuse_keys(cs, bg, other, (int)MO_COUNT(other), "plane", ctx))) return st;
   B->orient = -1;
   B->ndof = 0;
+  B->until = mo_cfg_float(bg, "until", HUGE_VAL);
   if (!dim) return MO_OK; /* read again once another body has fixed the dimension */
   if (mo_cfg_count(bg, "point") != dim || mo_cfg_count(bg, "normal") != dim)
     return mo_case_error(cs, bg, ctx, "plane '%s' needs a 'point' and a 'normal' of %d components", B->name, dim);

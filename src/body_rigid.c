@@ -134,7 +134,7 @@ static int pack_grain(const mo_body *B, int member, int dim, const mo_case *cs, 
   (void)B;
   return MO_OK;
 }
-static const char *const plane_keys[] = {"point", "normal", "velocity"};
+static const char *const plane_keys[] = {"point", "normal", "velocity", "until"};
 
 static int ball_read(mo_body *B, int member, int dim, const mo_case *cs, const config_setting_t *bg, mo_ctx *ctx)
 {
@@ -143,7 +143,7 @@ static int ball_read(mo_body *B, int member, int dim, const mo_case *cs, const c
   double rho, R = 0;
   int st;
   (void)member;
-  if ((st = refuse(cs, bg, kind, mesh_keys, 4, ctx)) || (st = refuse(cs, bg, kind, plane_keys, 3, ctx)) ||
+  if ((st = refuse(cs, bg, kind, mesh_keys, 4, ctx)) || (st = refuse(cs, bg, kind, plane_keys, (int)MO_COUNT(plane_keys), ctx)) ||
       (st = refuse(cs, bg, kind, poly, 4, ctx)))
     return st;
   if (dim && dim != (B->kind == MO_BODY_SPHERE ? 3 : 2))
@@ -265,7 +265,7 @@ static int polygon_read(mo_body *B, int member, int dim, const mo_case *cs, cons
   char why[160];
   int nv = 0, k, st;
   const config_setting_t *where;
-  if ((st = refuse(cs, bg, "polygon", mesh_keys, 4, ctx)) || (st = refuse(cs, bg, "polygon", plane_keys, 3, ctx)))
+  if ((st = refuse(cs, bg, "polygon", mesh_keys, 4, ctx)) || (st = refuse(cs, bg, "polygon", plane_keys, (int)MO_COUNT(plane_keys), ctx)))
     return st;
   if (dim && dim != 2)
     return mo_case_error(cs, mo_cfg_member(bg, "type"), ctx, "a polygon lives in 2D, but an earlier body is %dD", dim);
@@ -365,7 +365,7 @@ static int rigid_mesh_read(mo_body *B, int member, int dim, const mo_case *cs, c
   int st;
   (void)member;
   if ((st = refuse(cs, bg, "rigid_mesh", other, (int)MO_COUNT(other), ctx)) ||
-      (st = refuse(cs, bg, "rigid_mesh", plane_keys, 3, ctx)))
+      (st = refuse(cs, bg, "rigid_mesh", plane_keys, (int)MO_COUNT(plane_keys), ctx)))
     return st;
   if (!mo_cfg_member(bg, "mesh"))
     return mo_case_error(cs, bg, ctx, "body '%s' has no mesh (add mesh = { generator = ...; })", B->name);

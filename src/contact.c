@@ -246,6 +246,8 @@ struct mo_contact_driver {
   void *params, *state;
   int initialised;
   int reinit;                /* the set changed since the back end's init: its reinit is due */
+  double *pforce;            /* 3 per pair: the resultant force of the last step on the slaves */
+  double fn_step;            /* the sum of the normal forces of the last step */
   long cset;                 /* the candidate set the arrays and the back end were set up for */
   mo_delassus *W;
   int wused;                 /* the last solve was given W (else a back end on the bodies' blocks) */
@@ -375,7 +377,7 @@ static int follow_set(mo_contact_driver *D, const mo_state *s, mo_ctx *ctx)
     return fit(D, s, D->key, D->nc, D->r, D->U, D->status, ctx);
   /* the same set: U- of the rigid candidates at the new contact points */
   for (a = 0; a < ns; a++)
-    if (law[a] == MO_LAW_NEWTON) fresh_uprev(D, s, a, a + 1);
+    if (law[a] != MO_LAW_SIGNORINI) fresh_uprev(D, s, a, a + 1);
   fresh_uprev(D, s, ns, D->nc);
   return MO_OK;
 }
@@ -446,6 +448,8 @@ int mo_contact_snapshot_restore(mo_contact_driver *D, const mo_contact_snapshot 
 
 const double *mo_contact_reactions(const mo_contact_driver *D) { return D->r; }
 const double *mo_contact_local_velocity(const mo_contact_driver *D) { return D->U; }
+const double *mo_contact_pair_forces(const mo_contact_driver *D) { return D->pforce; }
+double mo_contact_normal_force(const mo_contact_driver *D) { return D->fn_step; }
 const int *mo_contact_statuses(const mo_contact_driver *D) { return D->status; }
 const mo_contact_solver_type *mo_contact_driver_type(const mo_contact_driver *D) { return D->T; }
 const mo_delassus *mo_contact_driver_delassus(const mo_contact_driver *D) { return D->wused ? D->W : NULL; }
@@ -483,6 +487,7 @@ void mo_contact_driver_free(mo_contact_driver *D)
   mo_delassus_free(D->W);
   mo_free(D->b); mo_free(D->q); mo_free(D->U); mo_free(D->Uprev); mo_free(D->r); mo_free(D->rprev);
   mo_free(D->xfull); mo_free(D->xf); mo_free(D->dx); mo_free(D->dxfull); mo_free(D->mu); mo_free(D->gk);
+  mo_free(D->pforce);
   mo_free(D->w); mo_free(D->ukin); mo_free(D->xnl); mo_free(D->gnl); mo_free(D->tmp); mo_free(D->itmp);
   mo_keymap_free(&D->kmap);
   mo_free(D->active);
@@ -528,6 +533,7 @@ int mo_contact_driver_create(const mo_scene *sc, mo_contact *C, mo_stepper *S,
   D->d = C->dim;
   D->params = mo_calloc(ctx, 1, D->T->params_size ? D->T->params_size : 1);
   D->state = mo_calloc(ctx, 1, D->T->state_size ? D->T->state_size : 1);
+  D->pforce = mo_calloc(ctx, 3 * (size_t)C->npair + 1, sizeof(double));
   D->xfull = mo_calloc(ctx, (size_t)n + 1, sizeof(double));
   D->dxfull = mo_calloc(ctx, (size_t)n + 1, sizeof(double));
   D->xf = mo_calloc(ctx, (size_t)nf + 1, sizeof(double));
@@ -537,7 +543,7 @@ int mo_contact_driver_create(const mo_scene *sc, mo_contact *C, mo_stepper *S,
     D->xnl = mo_calloc(ctx, (size_t)n + 1, sizeof(double));
     D->gnl = mo_calloc(ctx, (size_t)n + 1, sizeof(double));
   }
-  if (!D->params || !D->state || !D->xfull || !D->dxfull || !D->xf || !D->dx ||
+  if (!D->params || !D->state || !D->pforce || !D->xfull || !D->dxfull || !D->xf || !D->dx ||
       (S && mo_stepper_nonlinear(S) && (!D->xnl || !D->gnl))) {
     mo_contact_driver_free(D);
     return MO_ENOMEM;
@@ -664,7 +670,7 @@ static double local_problem(mo_contact_driver *D, const mo_state *s, const doubl
          predicted position g + h (1 - theta) U_n- (DEM.md §2, Jean/LMGC90 practice) */
       if (g[a] + h * (1 - theta) * D->Uprev[a * d] > C->gtol) act = 0;
       D->q[a * d] += e[a] * D->Uprev[a * d];
-    } else if (scheme == MO_SCHEME_THETA && C->signorini == MO_SIGNORINI_POSITION)
+    } else if (scheme == MO_SCHEME_THETA && (law[a] == MO_LAW_GAP || C->signorini == MO_SIGNORINI_POSITION))
       /* g_k+1 = g_k + h (theta U+ + (1 - theta) U-) >= 0  (J88 (3.2)_1 with theta) */
       D->q[a * d] += (g[a] + h * (1 - theta) * D->Uprev[a * d]) / dtpos;
     else if (scheme == MO_SCHEME_THETA) {
@@ -871,6 +877,21 @@ static int contact_finish(mo_contact_driver *D, mo_state *s, const double *x, mo
     w += D->r[i] * (scheme == MO_SCHEME_THETA ? 0.5 * (Ukin[i] + D->Uprev[i]) : Ukin[i]);
   s->wcontact += w;
   if (scheme == MO_SCHEME_THETA) memcpy(D->Uprev, Ukin, (size_t)m * sizeof(double));
+  {
+    /* the step's resultants, before the end-of-step geometry replaces the candidate set: per pair,
+       the force the master exerts on the slaves (world frame), and the sum of normal forces */
+    const double *F = mo_contact_frames(D->C);
+    const double fs = scheme == MO_SCHEME_THETA ? 1 / mo_stepper_dt(D->S) : 1;
+    int a, j, d = D->d, dim = D->sc->dim;
+    memset(D->pforce, 0, 3 * (size_t)D->C->npair * sizeof *D->pforce);
+    D->fn_step = 0;
+    for (a = 0; a < D->nc; a++) {
+      double *f = D->pforce + 3 * (size_t)mo_contact_candidate(D->C, a)->pair;
+      D->fn_step += D->r[a * d] * fs;
+      for (i = 0; i < d; i++)
+        for (j = 0; j < dim && d == dim; j++) f[j] += D->r[a * d + i] * fs * F[(size_t)a * d * d + (size_t)i * d + j];
+    }
+  }
   if ((st = mo_stepper_finish(D->S, s, x, ctx))) return st;
   if ((st = mo_contact_geometry(D->C, s, s->t, D->C->repair, ctx))) return st;
   return follow_set(D, s, ctx);

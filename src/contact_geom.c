@@ -555,7 +555,8 @@ static void candidates_update(mo_contact *C, const mo_state *u, double t)
       off |= p->off && P->off == MO_OFF_INACTIVE;
     }
     C->g[a] = g; /* P* rows sum to 1 (partition of unity over the cell) */
-    C->active[a] = !off;
+    /* a plane that is gone (bodies.[].until) holds nothing */
+    C->active[a] = !off && !(P->master == MO_MASTER_PLANE && t > sc->body[P->mbody].until);
     for (i = 0; i < d; i++) {
       double s = 0;
       if (P->master == MO_MASTER_PLANE)
@@ -1059,10 +1060,21 @@ int mo_contact_build(const mo_scene *sc, mo_contact **out, mo_ctx *ctx)
       /* a mesh body's set against a plane or another mesh body's facets: fixed slave points */
       int fixed = P->ns == 1 && P->nm == 1 && (sf & MO_BODY_F_MESH) && mo_cfg_member(pg, "slave_set") &&
                   (mf & (MO_BODY_F_OBSTACLE | MO_BODY_F_MESH));
-      P->law = rigid ? MO_LAW_NEWTON : MO_LAW_SIGNORINI;
+      P->law = !rigid ? MO_LAW_SIGNORINI
+               : !strcmp(mo_cfg_string(pg, "law", "impact"), "gap") ? MO_LAW_GAP : MO_LAW_NEWTON;
       if (!rigid && mo_cfg_member(pg, "e")) {
         st = mo_case_error(cs, mo_cfg_member(pg, "e"), ctx, "a restitution coefficient belongs to pairs with a rigid "
                            "body (Newton's impact law); deformable pairs follow contact.signorini");
+        goto fail;
+      }
+      if (!rigid && mo_cfg_member(pg, "law")) {
+        st = mo_case_error(cs, mo_cfg_member(pg, "law"), ctx, "a contact law belongs to pairs with a rigid body; "
+                           "deformable pairs follow contact.signorini");
+        goto fail;
+      }
+      if (P->law == MO_LAW_GAP && P->e > 0) {
+        st = mo_case_error(cs, mo_cfg_member(pg, "e"), ctx, "the gap law has no restitution (e = 0): Newton's "
+                           "impact law is law = \"impact\"");
         goto fail;
       }
       if (!fixed) {
@@ -1141,7 +1153,7 @@ int mo_contact_build(const mo_scene *sc, mo_contact **out, mo_ctx *ctx)
   }
   /* eps_g of (T71): resting contacts of rigid bodies closed through the round-off of their gaps */
   for (k = 0; k < C->npair; k++)
-    if (C->pair[k].law == MO_LAW_NEWTON) C->gtol = 1e-9 * mo_contact_smallest_size(C);
+    if (C->pair[k].law != MO_LAW_SIGNORINI) C->gtol = 1e-9 * mo_contact_smallest_size(C);
   if (C->ndyn) {
     C->moving_h = 1; /* detected contacts move with their bodies */
     C->alert = mo_cfg_float(cg, "alert", -1);

@@ -100,12 +100,12 @@ int mo_contact_write_csv(const char *path, const mo_scene *sc, const mo_contact 
   const int *status = mo_contact_statuses(Dr);
   double fs = force_scale(sc, Dr), *other = NULL;
   int *has_other = NULL;
-  char *buf = NULL;
-  size_t cap = 1 << 16, len = 0;
+  mo_atomic_file A;
+  FILE *f = NULL;
+  A.f = NULL;
   other = mo_calloc(ctx, (size_t)C->nc * (size_t)d + 1, sizeof(double));
   has_other = mo_calloc(ctx, (size_t)C->nc + 1, sizeof(int));
-  buf = mo_malloc(ctx, cap);
-  if (!other || !has_other || !buf) { st = MO_ENOMEM; goto done; }
+  if (!other || !has_other) { st = MO_ENOMEM; goto done; }
   for (k = 0; k < C->npair; k++) {
     const double *P;
     const int *cands;
@@ -122,17 +122,10 @@ int mo_contact_write_csv(const char *path, const mo_scene *sc, const mo_contact 
     mo_ctx_clear_error(ctx);
     mo_free(tmp);
   }
-#define APPEND(...)                                                                             \
-  do {                                                                                          \
-    int w_ = snprintf(buf + len, cap - len, __VA_ARGS__);                                       \
-    while (w_ >= 0 && (size_t)w_ >= cap - len) {                                                \
-      char *p_ = mo_realloc(ctx, buf, cap * 2);                                                 \
-      if (!p_) { st = MO_ENOMEM; goto done; }                                                   \
-      buf = p_; cap *= 2;                                                                       \
-      w_ = snprintf(buf + len, cap - len, __VA_ARGS__);                                         \
-    }                                                                                           \
-    len += (size_t)w_;                                                                          \
-  } while (0)
+  /* streamed: a pile of 10^5 grains has 2 10^5 candidates */
+  if ((st = mo_atomic_open(&A, path, ctx))) goto done;
+  f = A.f;
+#define APPEND(...) fprintf(f, __VA_ARGS__)
   APPEND("pair,candidate,node");
   for (i = 0; i < D; i++) APPEND(",%s", ax[i]);
   for (i = 0; i < D; i++) APPEND(",%s", dn[i]);
@@ -142,7 +135,7 @@ int mo_contact_write_csv(const char *path, const mo_scene *sc, const mo_contact 
   for (i = d - 1; i >= 0; i--) APPEND(",R%s", ln[i]);
   APPEND(",status,measure,representation");
   for (i = d - 1; i >= 0; i--) APPEND(",R%s_other", ln[i]);
-  APPEND(",lambda\n");
+  APPEND(",lambda,slave,master\n");
   for (a = 0; a < C->nc; a++) {
     const mo_candidate *c = &C->cand[a];
     const mo_cpoint *p = &C->pt[c->point];
@@ -160,12 +153,14 @@ int mo_contact_write_csv(const char *path, const mo_scene *sc, const mo_contact 
       if (has_other[a]) APPEND(",%.10g", other[a * d + i] * fs);
       else APPEND(",");
     }
-    APPEND(",%.10g\n", mo_contact_friction_ratio(d, c->mu, r + a * d));
+    APPEND(",%.10g,%s,%s\n", mo_contact_friction_ratio(d, c->mu, r + a * d), sc->body[p->sb].name,
+           p->mb >= 0 ? sc->body[p->mb].name : "");
   }
 #undef APPEND
-  st = mo_write_file_atomic(path, buf, len, ctx);
+  st = mo_atomic_commit(&A, 1, ctx);
+  A.f = NULL;
 done:
-  mo_free(buf);
+  if (A.f) mo_atomic_commit(&A, 0, ctx); /* an error above: the old file stays */
   mo_free(other);
   mo_free(has_other);
   return st;

@@ -43,6 +43,8 @@ struct mo_draw {
   double box[4];           /* output.draw.box */
   double bb[4];            /* bounding box of what was drawn: xmin, xmax, ymin, ymax */
   double rnmax;            /* the largest normal force drawn */
+  int many;                /* more than 32 balls (a granular scene): coloured by speed, no radius lines */
+  double vmax;             /* the largest ball speed drawn */
   int nframe, cap;
   frame_info *frame;
   outline *out;            /* per body (n = 0 for bodies without a mesh) */
@@ -214,6 +216,12 @@ int mo_draw_open(const char *outdir, const mo_scene *sc, const mo_case *cs, mo_d
   }
   find_on_path("gnuplot", d->gnuplot, sizeof d->gnuplot);
   d->nbody = sc->nbody;
+  {
+    int k, nb = 0;
+    for (k = 0; k < sc->nrigid; k++)
+      nb += sc->body[sc->rigid[k]].kind == MO_BODY_DISK || sc->body[sc->rigid[k]].kind == MO_BODY_SPHERE;
+    d->many = nb > 32;
+  }
   if ((st = read_settings(d, sc, cs, g, ctx))) goto fail;
   if (!(d->out = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *d->out))) goto fail;
   for (b = 0; b < sc->nbody; b++)
@@ -283,16 +291,18 @@ static void node_pos(const mo_scene *sc, const mo_state *s, const mo_body *B, in
   for (i = 0; i < D; i++) x[i] = B->mesh->x[(size_t)a * D + i] + s->u[B->dof0 + a * D + i];
 }
 
-/* Disks and spheres as circles x y r. */
+/* Disks and spheres as circles x y r speed. */
 static void frame_balls(mo_draw *d, const mo_scene *sc, const mo_state *s)
 {
-  int k;
+  int k, i;
   for (k = 0; k < sc->nrigid; k++) {
     const mo_body *B = &sc->body[sc->rigid[k]];
-    double c[3];
+    double c[3], v2 = 0;
     if (B->kind != MO_BODY_DISK && B->kind != MO_BODY_SPHERE) continue;
     mo_rigid_center(sc, B, s, c);
-    fprintf(d->f, "%.9g %.9g %.9g\n", c[0], c[1], B->radius);
+    for (i = 0; s && i < sc->dim; i++) v2 += s->v[B->dof0 + i] * s->v[B->dof0 + i];
+    fprintf(d->f, "%.9g %.9g %.9g %.6g\n", c[0], c[1], B->radius, sqrt(v2));
+    if (!B->fixed && sqrt(v2) > d->vmax) d->vmax = sqrt(v2);
     bb_add(d, c[0], c[1], B->radius);
   }
 }
@@ -305,6 +315,7 @@ static void body_outline(mo_draw *d, const mo_scene *sc, const mo_state *s, int 
   double x[3], R[9], v[2 * MO_POLYGON_MAX + 2];
   int k, a;
   if (B->kind == MO_BODY_DISK || B->kind == MO_BODY_SPHERE) {
+    if (d->many) return; /* a pile's radius lines would hide it */
     mo_rigid_center(sc, B, s, x);
     mo_rigid_rotation(sc, B, s, R);
     fputc('\n', d->f);
@@ -526,9 +537,15 @@ static void script_head(text *g, const mo_draw *d, const double *v)
   tx(g, "set xrange [%.9g:%.9g]\nset yrange [%.9g:%.9g]\nset size ratio -1\nunset key\n", v[0], v[1], v[2],
      v[3]);
   tx(g, "set style fill solid 0.35 border\n");
-  tx(g, "FRAME = \"plot 'draw.dat' index 3*K using 1:2:3 with circles lc rgb '#1f77b4', "
+  if (d->many) /* a granular scene: the grains coloured by speed */
+    tx(g, "set palette defined (0 '#2c7bb6', 0.5 '#ffffbf', 1 '#d7191c')\nset cbrange [0:%.9g]\n"
+          "set cblabel 'speed (m/s)'\n", d->vmax > 0 ? d->vmax : 1.0);
+  else
+    tx(g, "unset colorbox\n");
+  tx(g, "FRAME = \"plot 'draw.dat' index 3*K using 1:2:3%s with circles %s, "
         "'' index 3*K+1 using 1:2 with lines lw 1.5 lc rgb '#202020', "
-        "'' index 3*NF+K using 1:2 with lines lw 3 lc rgb '#8c6d31'");
+        "'' index 3*NF+K using 1:2 with lines lw 3 lc rgb '#8c6d31'",
+     d->many ? ":4" : "", d->many ? "lc palette fill solid 0.9 noborder" : "lc rgb '#1f77b4'");
   if (d->forces)
     tx(g, ", for [c=1:%d] '' index 3*K+2 using 1:2:((c == 1 || $5 > (c-1)*RN/%d) && "
           "(c == %d || $5 <= c*RN/%d) ? $3 : 1/0):4 with vectors nohead lw c lc rgb '#d62728'",
@@ -553,7 +570,7 @@ static void script_snapshots(text *g, const mo_draw *d, const mo_scene *sc, cons
   int n = 0, k, i = 0, cols = 1, rows, w, h;
   double best = HUGE_VAL;
   for (k = 0; k < d->nframe; k++) n += d->frame[k].snap;
-  panel_size(v, 480 * 360, &w, &h);
+  panel_size(v, d->many ? 960.0 * 720 : 480.0 * 360, &w, &h); /* a pile needs the pixels */
   for (k = 1; k <= (n < 4 ? n : 4); k++) {
     int r = (n + k - 1) / k;
     double dev = fabs(log((double)(k * w) / (r * h) / 1.6));

@@ -178,18 +178,21 @@ static int moving_rigid(const mo_scene *sc)
 
 /* Aggregates of the rigid bodies for scenes with many (columns rigid.kinetic, rigid.vmax,
    rigid.coordination: closed contacts per moving rigid body, a contact with two of them counted
-   for both). */
+   for both; rigid.xmax, .ymax (, .zmax): the extent of the moving bodies, centre plus bounding
+   radius: a pile's height, a collapse's front). */
 static void rigid_aggregates(const mo_scene *sc, const mo_state *s, const contact_view *cv, double *out)
 {
   int k, i, n = 0, D = sc->dim;
-  double vmax = 0, z = 0;
+  double vmax = 0, z = 0, ext[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
   for (k = 0; k < sc->nrigid; k++) {
     const mo_body *B = &sc->body[sc->rigid[k]];
-    double v2 = 0;
+    double v2 = 0, xc[3];
     if (B->fixed) continue;
     n++;
     for (i = 0; i < D; i++) v2 += s->v[B->dof0 + i] * s->v[B->dof0 + i];
     vmax = fmax(vmax, sqrt(v2));
+    mo_rigid_center(sc, B, s, xc);
+    for (i = 0; i < D; i++) ext[i] = fmax(ext[i], xc[i] + B->bound);
   }
   if (cv->C && cv->D) {
     const int *st = mo_contact_statuses(cv->D);
@@ -203,6 +206,7 @@ static void rigid_aggregates(const mo_scene *sc, const mo_state *s, const contac
   out[0] = mo_rigid_kinetic(sc, s);
   out[1] = vmax;
   out[2] = n ? z / n : 0;
+  for (i = 0; i < D; i++) out[3 + i] = n ? ext[i] : 0;
 }
 
 /* --- progress ---------------------------------------------------------------------------------- */
@@ -212,10 +216,12 @@ typedef struct {
   double start, last;
 } progress;
 
-static void progress_draw(progress *p, long step, long steps, double t, int final)
+/* The bar, the step and time, steps per second, and for scenes with contact the contacts closed
+   and the sweeps (iterations) of the last solve. */
+static void progress_draw(progress *p, long step, long steps, double t, int final, const mo_contact_driver *drv)
 {
   double now = mo_clock(), frac = steps > 0 ? (double)step / (double)steps : 1, eta;
-  int w = 30, k, fill;
+  int w = 24, k, fill;
   if (!p->on || (!final && now - p->last < 0.1)) return;
   p->last = now;
   fill = (int)(frac * w + 0.5);
@@ -223,8 +229,13 @@ static void progress_draw(progress *p, long step, long steps, double t, int fina
   fputc('\r', stderr);
   fputc('[', stderr);
   for (k = 0; k < w; k++) fputc(k < fill ? '#' : '.', stderr);
-  fprintf(stderr, "] %3.0f%%  step %ld/%ld  t = %-10.4g  %s %.1fs   ", 100 * frac, step, steps, t,
-          final ? "wall" : "eta", final ? now - p->start : eta);
+  fprintf(stderr, "] %3.0f%%  step %ld/%ld  t = %-9.4g %6.0f steps/s", 100 * frac, step, steps, t,
+          now > p->start ? step / (now - p->start) : 0.0);
+  if (drv && step > 0) {
+    const mo_contact_report *rep = mo_contact_last_report(drv);
+    fprintf(stderr, "  %d contacts  %d sweeps", rep->nstick + rep->nslide, rep->iterations);
+  }
+  fprintf(stderr, "  %s %.1fs   ", final ? "wall" : "eta", final ? now - p->start : eta);
   if (final) fputc('\n', stderr);
   fflush(stderr);
 }
@@ -806,7 +817,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   double *row = NULL, *work = NULL, *p0 = NULL, start = mo_clock(), e0 = 0, e1 = 0, drift = 0, balance = 0;
   double emax_growth = 0;
   int st, ncol = 0, nprobecol = 0, nexact = 0, k, p, complete = 0, ecol0 = 0, ccol0 = 0, table = 0, x0col;
-  int nl = 0, necol = 0, ncol0 = 0, cutcol = 0, nvalcol = 0, nrigcol = 0, agcol = 0;
+  int nl = 0, necol = 0, ncol0 = 0, cutcol = 0, nvalcol = 0, nrigcol = 0, agcol = 0, pfcol = 0;
   char reason[MO_ERRMSG_MAX] = "";
   progress prog;
   stepping stepper;
@@ -887,10 +898,17 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   nl = sc->nonlinear;
   necol = sc->out.energy ? 7 + nl : 0;
   ncol = 1 + nvalcol + nexact + necol + (C ? 8 : 0) + (nl ? 2 : 0);
+  /* pairs with a rigid body: the force of each master on its slaves (a silo's walls, a floor) */
+  if (C) {
+    pfcol = ncol;
+    for (k = 0; k < mo_contact_npairs(C); k++)
+      if (mo_contact_pair_get(C, k)->law != MO_LAW_SIGNORINI) ncol += sc->dim;
+    if (ncol == pfcol) pfcol = 0;
+  }
   /* many rigid bodies: their aggregates */
   if (moving_rigid(sc) > MO_RIGID_COLUMNS_MAX) {
     agcol = ncol;
-    ncol += 3;
+    ncol += 3 + sc->dim;
   }
   /* with step cutting, the steps cut so far (cumulative, so that output.every loses none) */
   if (sc->time.max_cuts > 0) cutcol = ncol++;
@@ -910,7 +928,15 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
     snprintf(names[agcol], 80, "rigid.kinetic");
     snprintf(names[agcol + 1], 80, "rigid.vmax");
     snprintf(names[agcol + 2], 80, "rigid.coordination");
+    for (k = 0; k < sc->dim; k++) snprintf(names[agcol + 3 + k], 80, "rigid.%smax", k == 0 ? "x" : k == 1 ? "y" : "z");
   }
+  if (pfcol)
+    for (k = 0, p = pfcol; k < mo_contact_npairs(C); k++) {
+      const mo_contact_pair *P = mo_contact_pair_get(C, k);
+      int i;
+      if (P->law == MO_LAW_SIGNORINI) continue;
+      for (i = 0; i < sc->dim; i++) snprintf(names[p++], 80, "%.60s.f%c", P->name, "xyz"[i]);
+    }
   if (cv.need_R && !(cv.Rfull = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof(double)))) { st = MO_ENOMEM; goto done; }
   x0col = 1 + nvalcol;
   for (k = 0, p = 0; k < nvalcol; k++)
@@ -1037,15 +1063,20 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
       }
       if (C) {
         const mo_contact_report *rep = drv ? mo_contact_last_report(drv) : NULL;
-        const double *r = drv ? mo_contact_reactions(drv) : NULL;
-        double fsum = 0, fs = sc->time.scheme == MO_SCHEME_THETA && drv ? 1 / mo_contact_driver_dt(drv) : 1;
-        int a, d = mo_contact_dim(C);
-        for (a = 0; r && a < mo_contact_ncandidates(C); a++) fsum += r[a * d] * fs;
+        /* the step's normal forces, not those its candidates carry to the next geometry */
+        double fsum = drv ? mo_contact_normal_force(drv) : 0;
         row[ccol0] = rep && s.step ? rep->nstick + rep->nslide : 0;
         row[ccol0 + 1] = rep && s.step ? rep->iterations : 0;
         row[ccol0 + 2] = rep && s.step ? rep->residual : 0;
         row[ccol0 + 3] = fsum;
         for (k = 0; k < 4; k++) row[ccol0 + 4 + k] = rep && s.step ? rep->loops[k] : 0;
+      }
+      if (pfcol) {
+        const double *pf = drv ? mo_contact_pair_forces(drv) : NULL;
+        int i, q = pfcol;
+        for (k = 0; k < mo_contact_npairs(C); k++)
+          if (mo_contact_pair_get(C, k)->law != MO_LAW_SIGNORINI)
+            for (i = 0; i < sc->dim; i++) row[q++] = pf && s.step ? pf[3 * k + i] : 0;
       }
       if (cutcol) row[cutcol] = (double)stepper.cuts;
       if (agcol) rigid_aggregates(sc, &s, &cv, row + agcol);
@@ -1060,7 +1091,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
       if (dframe && (st = mo_draw_frame(draw, sc, &s, &net, ctx))) goto done;
     }
     mo_phase_add(ctx, MO_PH_OUTPUT, t0);
-    progress_draw(&prog, s.step, sc->time.steps, s.t, last);
+    progress_draw(&prog, s.step, sc->time.steps, s.t, last, drv);
     if (last) break;
     if (ctx->interrupt && *ctx->interrupt) {
       st = mo_error(ctx, MO_EINTERRUPT, "interrupted at step %ld (t = %.6g)", s.step, s.t);

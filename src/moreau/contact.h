@@ -32,7 +32,10 @@ typedef enum { MO_OFF_NEAREST = 0, MO_OFF_INACTIVE } mo_off_master;
 /* The unilateral law of a candidate: Signorini as contact.signorini says (position or velocity
    level), or Moreau's form of Newton's impact law at velocity level with restitution e (pairs
    with a rigid body, DEM.md §2, doc/theory.md (T71)). */
-typedef enum { MO_LAW_SIGNORINI = 0, MO_LAW_NEWTON } mo_contact_law;
+/* SIGNORINI: deformable pairs (contact.signorini); NEWTON: pairs with a rigid body, Moreau's
+   impact law (T71); GAP: pairs with a rigid body, Signorini on the end-of-step gap (no
+   restitution, no penetration left: contact.pairs.[].law = "gap", (T78)). */
+typedef enum { MO_LAW_SIGNORINI = 0, MO_LAW_NEWTON, MO_LAW_GAP } mo_contact_law;
 
 typedef enum { MO_CS_OPEN = 0, MO_CS_STICK, MO_CS_SLIDE } mo_contact_status;
 const char *mo_contact_status_name(int s);
@@ -399,6 +402,11 @@ int mo_contact_snapshot_save(const mo_contact_driver *D, mo_contact_snapshot *X,
 int mo_contact_snapshot_restore(mo_contact_driver *D, const mo_contact_snapshot *X, const mo_state *s,
                                 mo_ctx *ctx);
 const double *mo_contact_reactions(const mo_contact_driver *D);  /* m, last step */
+/* The last step's resultants, taken before the end-of-step geometry (whose candidates the
+   reactions above follow): per pair, the force (world frame, 3 values; impulse / h under the
+   theta-scheme) its master exerts on its slaves; the sum of the normal forces. */
+const double *mo_contact_pair_forces(const mo_contact_driver *D);
+double mo_contact_normal_force(const mo_contact_driver *D);
 const double *mo_contact_local_velocity(const mo_contact_driver *D);
 const int *mo_contact_statuses(const mo_contact_driver *D);
 const mo_contact_solver_type *mo_contact_driver_type(const mo_contact_driver *D);

@@ -40,6 +40,7 @@ typedef struct mo_body {
   int dof0, ndof;       /* global dofs dof0 .. dof0+ndof-1; node a, component i: dof0+a*dim+i */
   double mass;          /* total mass (kg, or kg per unit thickness as the hypothesis says) */
   double point[3], normal[3], velocity[3]; /* plane obstacles (unit normal) */
+  double until;         /* plane: gone after this time (a gate that opens); HUGE_VAL: always there */
   /* rigid bodies: disk, sphere, polygon, rigid mesh (doc/theory.md §12) */
   double J[9];          /* inertia about the centroid in the body frame (2D: J[0] = I) */
   double xc0[3];        /* centroid in the reference configuration */
