@@ -265,7 +265,9 @@ static int polygon_read(mo_body *B, int member, int dim, const mo_case *cs, cons
   char why[160];
   int nv = 0, k, st;
   const config_setting_t *where;
-  if ((st = refuse(cs, bg, "polygon", mesh_keys, 4, ctx)) || (st = refuse(cs, bg, "polygon", plane_keys, (int)MO_COUNT(plane_keys), ctx)))
+  static const char *const pack_key[] = {"pack"}; /* packs are of disks and spheres */
+  if ((st = refuse(cs, bg, "polygon", mesh_keys, 4, ctx)) || (st = refuse(cs, bg, "polygon", plane_keys, (int)MO_COUNT(plane_keys), ctx)) ||
+      (st = refuse(cs, bg, "polygon", pack_key, 1, ctx)))
     return st;
   if (dim && dim != 2)
     return mo_case_error(cs, mo_cfg_member(bg, "type"), ctx, "a polygon lives in 2D, but an earlier body is %dD", dim);
@@ -360,7 +362,7 @@ static int mesh_mass(mo_body *B, double rho, mo_ctx *ctx)
 static int rigid_mesh_read(mo_body *B, int member, int dim, const mo_case *cs, const config_setting_t *bg, mo_ctx *ctx)
 {
   static const char *const other[] = {"material", "loads", "mass", "center", "radius", "angle", "size", "sides",
-                                      "vertices", "arch"};
+                                      "vertices", "arch", "pack"};
   double rho;
   int st;
   (void)member;
