@@ -132,7 +132,7 @@ void mo_phase_add(mo_ctx *ctx, mo_phase ph, double t0)
 const char *mo_phase_name(mo_phase ph)
 {
   static const char *names[MO_PH_N] = {"setup",    "assembly", "factor", "solve",
-                                       "geometry", "delassus", "contact", "output"};
+                                       "geometry", "delassus", "contact", "output", "broad"};
   return (unsigned)ph < MO_PH_N ? names[ph] : "?";
 }
 

@@ -369,6 +369,7 @@ static int pair_list(mo_contact *C, const mo_state *s, mo_ctx *ctx)
   const int *pairs;
   long np;
   int b, k, st, valid = C->vl_built;
+  double t0 = mo_clock();
   for (b = 0; b < sc->nbody && valid; b++)
     if (C->bmask[b]) {
       double c[3], dd = 0;
@@ -379,7 +380,10 @@ static int pair_list(mo_contact *C, const mo_state *s, mo_ctx *ctx)
       }
       valid = sqrt(dd) + 2 * C->h * C->bs[b] <= 0.5 * skin + C->be[b];
     }
-  if (valid) return MO_OK;
+  if (valid) {
+    mo_phase_add(ctx, MO_PH_BROAD, t0);
+    return MO_OK;
+  }
   for (b = 0; b < sc->nbody; b++)
     if (C->bmask[b]) {
       double c[3];
@@ -400,6 +404,7 @@ static int pair_list(mo_contact *C, const mo_state *s, mo_ctx *ctx)
   C->vl_n = np;
   C->vl_built = 1;
   C->vl_builds++;
+  mo_phase_add(ctx, MO_PH_BROAD, t0);
   return MO_OK;
 }
 

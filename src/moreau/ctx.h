@@ -36,6 +36,7 @@ typedef enum {
   MO_PH_DELASSUS,  /* W = H^T What^-1 H */
   MO_PH_CONTACT,   /* the back end's solve */
   MO_PH_OUTPUT,    /* histories, fields, summaries */
+  MO_PH_BROAD,     /* the broad phase of the rigid shapes (Verlet list and cell grid), out of geometry */
   MO_PH_N
 } mo_phase;
 
