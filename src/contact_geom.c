@@ -100,8 +100,8 @@ void mo_contact_free(mo_contact *C)
   mo_free(C->e);
   mo_contact_detect_free(C);
   hbuf_free(&C->hb);
+  if (C->H != C->Hfull) mo_csc_free(C->H);
   mo_csc_free(C->Hfull);
-  mo_csc_free(C->H);
   mo_free(C->solver);
   mo_free(C);
 }
@@ -363,7 +363,7 @@ static void pair_point(mo_contact *C, mo_cpoint *p, const mo_state *u, double t,
 
 /* --- H ----------------------------------------------------------------------------------------- */
 
-static int hbuf_add(hbuf *B, int col, int row, double v, mo_ctx *ctx)
+static inline int hbuf_add(hbuf *B, int col, int row, double v, mo_ctx *ctx)
 {
   if (v == 0) return MO_OK;
   if (B->n[col] == B->cap) {
@@ -399,16 +399,23 @@ static int side_H(mo_contact *C, hbuf *B, int b, int nn, const int *node, const 
           if ((st = hbuf_add(B, i, dof0 + j, cf * N[q] * F[i * d + j], ctx))) return st;
     }
   } else if (Bd->type->flags & MO_BODY_F_RIGID) {
-    double G[18], xc[3];
-    int nd = Bd->ndof;
-    mo_rigid_center(sc, Bd, C->hstate, xc);
-    mo_rigid_jacobian(D, xc, x, G);
-    for (i = 0; i < d; i++)
-      for (j = 0; j < nd; j++) {
-        double v = 0;
-        for (q = 0; q < D; q++) v += F[i * d + q] * G[q * nd + j];
-        if ((st = hbuf_add(B, i, Bd->dof0 + j, cf * v, ctx))) return st;
+    /* row i of F times the velocity Jacobian at x (T68): the translation dofs take F_i, the
+       rotation dofs (x - xc) x F_i (2D: its z component) */
+    double r[3] = {0, 0, 0};
+    const double *u = C->hstate ? C->hstate->u + Bd->dof0 : NULL;
+    for (q = 0; q < D; q++) r[q] = x[q] - (Bd->xc0[q] + (u ? u[q] : 0));
+    for (i = 0; i < d && d == D; i++) {
+      const double *Fi = F + i * d;
+      for (j = 0; j < D; j++)
+        if ((st = hbuf_add(B, i, Bd->dof0 + j, cf * Fi[j], ctx))) return st;
+      if (D == 2) {
+        if ((st = hbuf_add(B, i, Bd->dof0 + 2, cf * (r[0] * Fi[1] - r[1] * Fi[0]), ctx))) return st;
+      } else {
+        double w[3] = {r[1] * Fi[2] - r[2] * Fi[1], r[2] * Fi[0] - r[0] * Fi[2], r[0] * Fi[1] - r[1] * Fi[0]};
+        for (j = 0; j < 3; j++)
+          if ((st = hbuf_add(B, i, Bd->dof0 + 3 + j, cf * w[j], ctx))) return st;
       }
+    }
   }
   return MO_OK;
 }
@@ -435,7 +442,7 @@ static int flush_columns(const mo_scene *sc, hbuf *B, int d, int col0, mo_csc *H
   for (i = 0; i < d; i++) {
     int j = col0 + i, n = B->n[i], *row = B->row[i], nf = Hf->p[j], nh = H->p[j];
     double *val = B->val[i];
-    if ((st = csc_room(Hf, nf + n, capf, ctx)) || (st = csc_room(H, nh + n, caph, ctx))) return st;
+    if ((st = csc_room(Hf, nf + n, capf, ctx)) || (H != Hf && (st = csc_room(H, nh + n, caph, ctx)))) return st;
     for (k = 1; k < n; k++) /* insertion sort: already sorted in the common case */
       if (row[k] < row[k - 1]) {
         int r = row[k], q = k;
@@ -455,13 +462,15 @@ static int flush_columns(const mo_scene *sc, hbuf *B, int d, int col0, mo_csc *H
       Hf->i[nf] = row[k];
       Hf->x[nf++] = val[k];
     }
-    for (k = Hf->p[j]; k < nf; k++)
-      if (sc->free_of[Hf->i[k]] >= 0) {
-        H->i[nh] = sc->free_of[Hf->i[k]];
-        H->x[nh++] = Hf->x[k];
-      }
+    if (H != Hf) {
+      for (k = Hf->p[j]; k < nf; k++)
+        if (sc->free_of[Hf->i[k]] >= 0) {
+          H->i[nh] = sc->free_of[Hf->i[k]];
+          H->x[nh++] = Hf->x[k];
+        }
+      H->p[j + 1] = nh;
+    }
     Hf->p[j + 1] = nf;
-    H->p[j + 1] = nh;
     B->n[i] = 0;
   }
   return MO_OK;
@@ -494,8 +503,9 @@ static int build_H(mo_contact *C, mo_ctx *ctx)
   int d = C->dim, m = d * C->nc, a, k, st = MO_OK;
   /* the arrays of the previous H are reused: a scene of detected contacts builds H at every
      step, and fresh arrays would fault their pages in each time */
-  if ((st = csc_reuse(&C->Hfull, sc->ndof, m, &C->hpcapf, ctx)) || (st = csc_reuse(&C->H, sc->nfree, m, &C->hpcap, ctx)))
-    return st;
+  if ((st = csc_reuse(&C->Hfull, sc->ndof, m, &C->hpcapf, ctx))) return st;
+  if (C->h_alias) C->H = C->Hfull; /* every dof free, numbered in order: H over the free dofs is H */
+  else if ((st = csc_reuse(&C->H, sc->nfree, m, &C->hpcap, ctx))) return st;
   for (a = 0; a < C->nc; a++) {
     const mo_candidate *c = &C->cand[a];
     const double *F = &C->frame[a * d * d];
@@ -512,8 +522,8 @@ static int build_H(mo_contact *C, mo_ctx *ctx)
   return MO_OK;
 fail:
   /* no half-built H left behind */
+  if (C->H != C->Hfull) mo_csc_free(C->H);
   mo_csc_free(C->Hfull);
-  mo_csc_free(C->H);
   C->Hfull = C->H = NULL;
   C->hcapf = C->hcap = C->hpcapf = C->hpcap = 0;
   return st;
@@ -660,7 +670,7 @@ int mo_contact_reserve(mo_contact *C, int nc, mo_ctx *ctx)
   return MO_OK;
 }
 
-int mo_contact_add_point(mo_contact *C, const mo_cpoint *p, mo_ctx *ctx)
+int mo_contact_point_room(mo_contact *C, mo_ctx *ctx)
 {
   if (C->npt == C->ptcap) {
     int cap = C->ptcap ? 2 * C->ptcap : 64;
@@ -669,6 +679,13 @@ int mo_contact_add_point(mo_contact *C, const mo_cpoint *p, mo_ctx *ctx)
     C->pt = q;
     C->ptcap = cap;
   }
+  return MO_OK;
+}
+
+int mo_contact_add_point(mo_contact *C, const mo_cpoint *p, mo_ctx *ctx)
+{
+  int st = mo_contact_point_room(C, ctx);
+  if (st) return st;
   C->pt[C->npt++] = *p;
   return MO_OK;
 }
@@ -1002,6 +1019,12 @@ int mo_contact_build(const mo_scene *sc, mo_contact **out, mo_ctx *ctx)
   C->signorini = !strcmp(mo_cfg_string(cg, "signorini", "position"), "velocity") ? MO_SIGNORINI_VELOCITY : MO_SIGNORINI_POSITION;
   C->repair = !strcmp(mo_cfg_string(cg, "geometry", "reference"), "step");
   C->delassus_always = !strcmp(mo_cfg_string(cg, "delassus", "auto"), "always");
+  {
+    /* H over the free dofs is H itself when every dof is free and numbered in order */
+    int i;
+    C->h_alias = sc->nfree == sc->ndof;
+    for (i = 0; i < sc->ndof && C->h_alias; i++) C->h_alias = sc->free_of[i] == i;
+  }
   C->on_failure_continue = !strcmp(mo_cfg_string(cg, "on_failure", "stop"), "continue");
   for (k = 0; k < np; k++) {
     const config_setting_t *pg = config_setting_get_elem(pl, (unsigned)k);

@@ -49,6 +49,7 @@ struct mo_contact {
   int repair;                 /* pair again at every step */
   int on_failure_continue;
   int delassus_always;       /* contact.delassus = "always": W at every step, no body sweep */
+  int h_alias;               /* H is Hfull (every dof free, in order): one matrix built */
   char *solver;
   /* detection between rigid shapes (detect.c) */
   int ndyn;                   /* dynamic pairs */
@@ -82,6 +83,8 @@ double mo_contact_project_facet(const mo_scene *sc, int b, const mo_facetset *fs
 /* Append a point / a candidate (its point and coefficient lists); grow the per-candidate arrays
    to hold nc candidates. */
 int mo_contact_add_point(mo_contact *C, const mo_cpoint *p, mo_ctx *ctx);
+/* Room for one more point in C->pt (which it may move). */
+int mo_contact_point_room(mo_contact *C, mo_ctx *ctx);
 int mo_contact_add_candidate(mo_contact *C, const mo_candidate *c, const int *pts, const double *coef,
                              mo_ctx *ctx);
 int mo_contact_reserve(mo_contact *C, int nc, mo_ctx *ctx);

@@ -113,31 +113,33 @@ static int add_contact(mo_contact *C, const dyn_side *S, const mo_narrow *N, dou
   const mo_body *M = &sc->body[S->mb];
   int D = sc->dim, d = C->dim, a = C->nc, i, j, st, pi = C->npt, *key;
   double one = 1, *F;
-  mo_cpoint p;
+  mo_cpoint *p;
   mo_candidate c;
-  memset(&p, 0, sizeof p);
+  /* the point is written in its slot of the set (no copy of the large struct) */
+  if ((st = mo_contact_point_room(C, ctx))) return st;
+  p = &C->pt[C->npt++];
+  memset(p, 0, sizeof *p);
   memset(&c, 0, sizeof c);
-  p.pair = S->pair;
-  p.facet = -1;
-  p.sb = S->sb;
-  p.mb = S->mb;
-  p.sfeat = S->sfeat;
-  p.mfeat = S->mfeat;
+  p->pair = S->pair;
+  p->facet = -1;
+  p->sb = S->sb;
+  p->mb = S->mb;
+  p->sfeat = S->sfeat;
+  p->mfeat = S->mfeat;
   if (S->snode >= 0) {
-    p.nn = 1;
-    p.node[0] = S->snode;
-    p.N[0] = 1;
+    p->nn = 1;
+    p->node[0] = S->snode;
+    p->N[0] = 1;
   }
-  p.mfacet = S->mfacet;
-  p.mn = S->mn;
+  p->mfacet = S->mfacet;
+  p->mn = S->mn;
   for (i = 0; i < S->mn; i++) {
-    p.mnode[i] = S->mnode[i];
-    p.mN[i] = S->mN[i];
+    p->mnode[i] = S->mnode[i];
+    p->mN[i] = S->mN[i];
   }
-  for (i = 0; i < D; i++) p.xs[i] = p.xm[i] = p.x0[i] = N->x[i];
-  mo_contact_frame_from_normal(D, N->n, p.frame);
-  p.g = N->g;
-  if ((st = mo_contact_add_point(C, &p, ctx))) return st;
+  for (i = 0; i < D; i++) p->xs[i] = p->xm[i] = p->x0[i] = N->x[i];
+  mo_contact_frame_from_normal(D, N->n, p->frame);
+  p->g = N->g;
   c.pair = S->pair;
   c.np = 1;
   c.node = S->snode;
@@ -146,7 +148,7 @@ static int add_contact(mo_contact *C, const dyn_side *S, const mo_narrow *N, dou
   c.mu = P->mu;
   if ((st = mo_contact_add_candidate(C, &c, &pi, &one, ctx)) || (st = mo_contact_reserve(C, C->nc, ctx))) return st;
   F = C->frame + (size_t)a * (size_t)(d * d);
-  memcpy(F, p.frame, (size_t)(d * d) * sizeof *F);
+  memcpy(F, C->pt[pi].frame, (size_t)(d * d) * sizeof *F);
   C->g[a] = N->g;
   C->active[a] = 1;
   for (i = 0; i < d; i++) {

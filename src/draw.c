@@ -233,7 +233,7 @@ int mo_draw_open(const char *outdir, const mo_scene *sc, const mo_case *cs, mo_d
     goto fail;
   }
   fprintf(d->f, "# draw.dat: the frames moreau drew of '%s' (plots/draw.gp renders them).\n"
-                "# Frame k: index 3k circles (x y r: disks, spheres), 3k+1 outlines (x y polylines:\n"
+                "# Frame k: index 3k circles (x y r speed: disks, spheres), 3k+1 outlines (x y polylines:\n"
                 "# polygons, radius lines, mesh boundaries), 3k+2 contact network (x y dx dy rn, forces\n"
                 "# in N); after the NF frames, index 3 NF + k: the planes of frame k, clipped to the\n"
                 "# view.\n\n",
@@ -529,7 +529,7 @@ static void script_head(text *g, const mo_draw *d, const double *v)
   }
   tx(g, "# draw.gp: moreau's drawing of this run (gnuplot draw.gp, in this folder): snapshots.png, %d\n"
         "# snapshots, and animation.gif, %d frames%s. The data are draw.dat: frame K is index 3*K (disks,\n"
-        "# spheres: x y r), 3*K+1 (outlines: polygons, radius lines, mesh boundaries), 3*K+2 (contact\n"
+        "# spheres: x y r speed), 3*K+1 (outlines: polygons, radius lines, mesh boundaries), 3*K+2 (contact\n"
         "# network: x y dx dy rn, drawn with widths by rn); index 3*NF+K are the planes of frame K.\n",
      nsnap, ngif, d->gif ? "" : " (no GIF asked)");
   tx(g, "NF = %d\nRN = %.9g   # the largest normal force drawn (N)\n", d->nframe,

@@ -18,6 +18,9 @@ static const double merge_tol = 1e-9;
 /* |d| for a vector of dimension dim, without overflow or underflow on the way. */
 static double norm(int dim, const double *d)
 {
+  double s = d[0] * d[0] + d[1] * d[1] + (dim == 3 ? d[2] * d[2] : 0);
+  /* the plain sum when it neither overflowed nor lost its digits to underflow */
+  if (s < 1e300 && s > 1e-290) return sqrt(s);
   return dim == 3 ? hypot(hypot(d[0], d[1]), d[2]) : hypot(d[0], d[1]);
 }
 
@@ -74,7 +77,7 @@ int mo_narrow_plane_ball(int dim, const double *p, const double *n, const double
 int mo_narrow_ball_ball(int dim, const double *ca, double ra, const double *cb, double rb, double alert,
                         mo_narrow *out)
 {
-  double d[3], n[3] = {0, 0, 0}, x[3], L, g;
+  double d[3] = {0, 0, 0}, n[3] = {0, 0, 0}, x[3], L, g;
   int k;
   for (k = 0; k < dim; k++) d[k] = cb[k] - ca[k];
   L = norm(dim, d);

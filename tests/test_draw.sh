@@ -50,7 +50,7 @@ def blocks(path):
 EOF
 dat() { "$PY" -c "import sys; sys.path.insert(0, '$OUT'); from blocks import *; B = blocks('$p/draw.dat'); $1"; }
 is "$(dat "print(len(B))")" "28" "draw.dat: 3 blocks per frame and one of planes per frame (gnuplot's index 0 .. 27)"
-is "$(dat "print(B[0])")" "[[0.0, 0.1, 0.1], [0.5, 0.05, 0.05]]" "frame 0: the disks as circles x y r"
+is "$(dat "print(B[0])")" "[[0.0, 0.1, 0.1, 0.0], [0.5, 0.05, 0.05, 0.0]]" "frame 0: the disks as circles x y r and their speed"
 is "$(dat "print(len(B[1]))")" "9" "frame 0 outlines: 2 radius lines (2 points) and the closed rectangle (5 points)"
 is "$(dat "print(len(B[3 * 6 + 2]), max(r[4] for r in B[3 * 6 + 2]) > 300)")" "4 True" \
    "last frame: 4 contact lines (a disk each, the block's 2 corners), the largest rn > 300 N"

@@ -9,6 +9,10 @@
 #include <math.h>
 #include <string.h>
 
+/* The dofs of a rigid block in a problem of contact dimension d (2D bodies 3, 3D bodies 6): the
+   stride of the per-side rows G_as and columns What_s^-1 G_as^T. */
+#define NK(d) ((d) == 3 ? 6 : (d) == 2 ? 3 : 1)
+
 /* Room for nc contacts (two sides each) and nfree velocities. */
 static int reserve(nscd_state *S, int nfree, mo_ctx *ctx)
 {
@@ -18,8 +22,8 @@ static int reserve(nscd_state *S, int nfree, mo_ctx *ctx)
 #define GROW(ptr, n) if (!(p = mo_realloc(ctx, ptr, (n) * sizeof *(ptr)))) return MO_ENOMEM; ptr = p
     GROW(S->nsd, nc);
     GROW(S->sblk, 2 * nc);
-    GROW(S->G, 2 * nc * d * 6);
-    GROW(S->MG, 2 * nc * d * 6);
+    GROW(S->G, 2 * nc * d * NK(d));
+    GROW(S->MG, 2 * nc * d * NK(d));
     GROW(S->Wd, nc * d * d);
     GROW(S->c, nc * d);
     S->bcap = nc;
@@ -44,15 +48,15 @@ void nscd_bodies_free(nscd_state *S)
 }
 
 /* Contact a's sides from its d columns of H: the blocks its entries fall in (at most two) and the
-   rows of H on each block's dofs, G_as (d x n_k, row-major, stride 6). */
-static int contact_sides(nscd_state *S, const mo_contact_problem *P, int a, mo_ctx *ctx)
+   rows of H on each block's dofs, G_as (d x n_k, row-major, stride NK(d)). */
+static inline int contact_sides(nscd_state *S, const mo_contact_problem *P, int a, int d, mo_ctx *ctx)
 {
   const mo_csc *H = P->H;
   const mo_what_inverse *Wi = P->Wi;
-  int d = S->d, i, p, *blk = S->sblk + 2 * a, *ns = S->nsd + a;
-  double *G = S->G + (size_t)2 * a * d * 6;
+  int i, p, *blk = S->sblk + 2 * a, *ns = S->nsd + a;
+  double *G = S->G + (size_t)2 * a * d * NK(d);
   *ns = 0;
-  memset(G, 0, (size_t)(2 * d * 6) * sizeof *G);
+  for (i = 0; i < 2 * d * NK(d); i++) G[i] = 0;
   for (i = 0; i < d; i++)
     for (p = H->p[a * d + i]; p < H->p[a * d + i + 1]; p++) {
       int row = H->i[p], k, s;
@@ -64,52 +68,64 @@ static int contact_sides(nscd_state *S, const mo_contact_problem *P, int a, mo_c
         if (*ns == 2) return mo_error(ctx, MO_EINTERNAL, "nscd: contact %d touches more than two bodies", a);
         blk[(*ns)++] = k;
       }
-      G[(size_t)s * d * 6 + (size_t)i * 6 + (size_t)(row - Wi->off[k])] = H->x[p];
+      if (row - Wi->off[k] >= NK(d))
+        return mo_error(ctx, MO_EINTERNAL, "nscd: contact %d: a block of %d dofs in a %dD problem", a,
+                        Wi->off[k + 1] - Wi->off[k], d);
+      G[(size_t)s * d * NK(d) + (size_t)i * NK(d) + (size_t)(row - Wi->off[k])] = H->x[p];
     }
   return MO_OK;
 }
 
-int nscd_bodies_prepare(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
+/* W_aa, c_a and inv_k G^T of every contact, with d (the contact's dimension) a constant of each
+   instance: the loops unroll. */
+static inline int prepare_d(nscd_state *S, const mo_contact_problem *P, const int d, mo_ctx *ctx)
 {
   const mo_what_inverse *Wi = P->Wi;
-  int d = S->d, a, s, i, j, k, q, st;
-  if ((st = reserve(S, P->nfree, ctx))) return st;
+  int a, s, i, j, k, q, st;
   for (a = 0; a < S->nc; a++) {
     double *Waa = S->Wd + (size_t)a * d * d, *ca = S->c + (size_t)a * d;
-    if ((st = contact_sides(S, P, a, ctx))) return st;
-    memset(Waa, 0, (size_t)(d * d) * sizeof *Waa);
+    if ((st = contact_sides(S, P, a, d, ctx))) return st;
+    for (i = 0; i < d * d; i++) Waa[i] = 0;
     for (i = 0; i < d; i++) ca[i] = P->b[a * d + i];
     for (s = 0; s < S->nsd[a]; s++) {
       int kb = S->sblk[2 * a + s], o = Wi->off[kb], nk = Wi->off[kb + 1] - o;
-      const double *G = S->G + (size_t)(2 * a + s) * d * 6, *inv = Wi->inv + Wi->ioff[kb];
-      double *MG = S->MG + (size_t)(2 * a + s) * d * 6; /* inv G^T: nk x d (stride d) */
+      const double *G = S->G + (size_t)(2 * a + s) * d * NK(d), *inv = Wi->inv + Wi->ioff[kb];
+      double *MG = S->MG + (size_t)(2 * a + s) * d * NK(d); /* inv G^T: nk x d (stride d) */
       for (k = 0; k < nk; k++)
         for (j = 0; j < d; j++) {
           double acc = 0;
-          for (q = 0; q < nk; q++) acc += inv[k * nk + q] * G[j * 6 + q];
+          for (q = 0; q < nk; q++) acc += inv[k * nk + q] * G[j * NK(d) + q];
           MG[k * d + j] = acc;
         }
       /* W_aa += G inv G^T; c = q - G v_free */
       for (i = 0; i < d; i++) {
         for (j = 0; j < d; j++)
-          for (k = 0; k < nk; k++) Waa[i * d + j] += G[i * 6 + k] * MG[k * d + j];
-        for (k = 0; k < nk; k++) ca[i] -= G[i * 6 + k] * P->xfree[o + k];
+          for (k = 0; k < nk; k++) Waa[i * d + j] += G[i * NK(d) + k] * MG[k * d + j];
+        for (k = 0; k < nk; k++) ca[i] -= G[i * NK(d) + k] * P->xfree[o + k];
       }
     }
     S->diag[a] = Waa;
   }
+  return MO_OK;
+}
+
+int nscd_bodies_prepare(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
+{
+  int st;
+  if ((st = reserve(S, P->nfree, ctx))) return st;
+  st = S->d == 2 ? prepare_d(S, P, 2, ctx) : S->d == 3 ? prepare_d(S, P, 3, ctx) : prepare_d(S, P, 1, ctx);
+  if (st) return st;
   nscd_prepare_local(S, P);
   return MO_OK;
 }
 
 /* v += (inv_k G_as^T) dr over the sides of contact a. */
-static inline void push(nscd_state *S, const mo_what_inverse *Wi, int a, const double *dr)
+static inline void push(nscd_state *S, const mo_what_inverse *Wi, int a, const double *dr, const int d)
 {
-  const int d = S->d;
   int s, k, j;
   for (s = 0; s < S->nsd[a]; s++) {
     int kb = S->sblk[2 * a + s], o = Wi->off[kb], nk = Wi->off[kb + 1] - o;
-    const double *MG = S->MG + (size_t)(2 * a + s) * d * 6;
+    const double *MG = S->MG + (size_t)(2 * a + s) * d * NK(d);
     double *v = S->vb + o;
     for (k = 0; k < nk; k++, MG += d) {
       double acc = 0;
@@ -120,16 +136,15 @@ static inline void push(nscd_state *S, const mo_what_inverse *Wi, int a, const d
 }
 
 /* U_a = c_a + sum_s G_as v_s. */
-static inline void local_U(const nscd_state *S, const mo_what_inverse *Wi, int a, double *U)
+static inline void local_U(const nscd_state *S, const mo_what_inverse *Wi, int a, double *U, const int d)
 {
-  const int d = S->d;
   int s, i, k;
   for (i = 0; i < d; i++) U[i] = S->c[(size_t)a * d + i];
   for (s = 0; s < S->nsd[a]; s++) {
     int kb = S->sblk[2 * a + s], o = Wi->off[kb], nk = Wi->off[kb + 1] - o;
-    const double *G = S->G + (size_t)(2 * a + s) * d * 6;
+    const double *G = S->G + (size_t)(2 * a + s) * d * NK(d);
     for (i = 0; i < d; i++)
-      for (k = 0; k < nk; k++) U[i] += G[i * 6 + k] * S->vb[o + k];
+      for (k = 0; k < nk; k++) U[i] += G[i * NK(d) + k] * S->vb[o + k];
   }
 }
 
@@ -137,18 +152,17 @@ void nscd_bodies_velocities(nscd_state *S, const mo_contact_problem *P, const do
 {
   int a;
   memcpy(S->vb, P->xfree, (size_t)P->nfree * sizeof *S->vb);
-  for (a = 0; a < S->nc; a++) push(S, P->Wi, a, r + (size_t)a * S->d);
+  for (a = 0; a < S->nc; a++) push(S, P->Wi, a, r + (size_t)a * S->d, S->d);
 }
 
 void nscd_bodies_exact_U(nscd_state *S, const mo_contact_problem *P)
 {
   int a;
-  for (a = 0; a < S->nc; a++) local_U(S, P->Wi, a, S->U + (size_t)a * S->d);
+  for (a = 0; a < S->nc; a++) local_U(S, P->Wi, a, S->U + (size_t)a * S->d, S->d);
 }
 
-int nscd_bodies_sweep(nscd_state *S, const mo_contact_problem *P, double *r, int *status)
+static inline int sweep_d(nscd_state *S, const mo_contact_problem *P, double *r, int *status, const int d)
 {
-  const int d = S->d;
   const double omega = S->p.relax, *mu = S->mu;
   const mo_what_inverse *Wi = P->Wi;
   int k, i, j;
@@ -158,7 +172,7 @@ int nscd_bodies_sweep(nscd_state *S, const mo_contact_problem *P, double *r, int
     double *ra = r + (size_t)a * d, U[3], ql[3], rl[3], dr[3];
     int st, nz = 0;
     /* the local free term: U_a - W_aa r_a, U_a from the bodies' current velocities */
-    local_U(S, Wi, a, U);
+    local_U(S, Wi, a, U, d);
     for (i = 0; i < d; i++) {
       double acc = U[i];
       for (j = 0; j < d; j++) acc -= Waa[i * d + j] * ra[j];
@@ -174,15 +188,20 @@ int nscd_bodies_sweep(nscd_state *S, const mo_contact_problem *P, double *r, int
       nz |= dr[i] != 0;
     }
     if (nz) {
-      push(S, Wi, a, dr);
+      push(S, Wi, a, dr, d);
       for (i = 0; i < d; i++) ra[i] = rl[i];
     }
   }
   /* the natural-map rules read U: from the velocities at the end of the sweep (Jean's norms read
      r and W_aa only) */
   if (S->p.stop == NSCD_STOP_SCALED || S->p.stop == NSCD_STOP_NATURAL)
-    for (k = 0; k < S->nact; k++) local_U(S, Wi, S->act[k], S->U + (size_t)S->act[k] * d);
+    for (k = 0; k < S->nact; k++) local_U(S, Wi, S->act[k], S->U + (size_t)S->act[k] * d, d);
   return -1;
+}
+
+int nscd_bodies_sweep(nscd_state *S, const mo_contact_problem *P, double *r, int *status)
+{
+  return S->d == 2 ? sweep_d(S, P, r, status, 2) : S->d == 3 ? sweep_d(S, P, r, status, 3) : sweep_d(S, P, r, status, 1);
 }
 
 void nscd_bodies_dx(const nscd_state *S, const mo_contact_problem *P, double *dx)

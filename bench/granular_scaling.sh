@@ -1,0 +1,69 @@
+#!/bin/sh
+# granular_scaling.sh: the deposition scene (cases/disk-pile) at N = 10^3, 10^4, 10^5 grains
+# (boxes 33 sqrt(N / 1000) lattice columns wide): moreau's time per step with nscd held to
+# Box2D's 8 sweeps, the broad phase's share of it, Box2D's time per step on the same scene, and
+# moreau's memory. One line per N, then the table. Memory: the peak resident size of a run of one
+# step (the grains, their few contacts) and of the full run (the pile's contacts), less that of
+# a scene of one grain: per grain = (start - empty) / N, per contact = (end - start) / contacts
+# at the end (the candidates of the last geometry).
+#   bench/granular_scaling.sh [STEPS [MOREAU [COUNTS]]]   defaults: 1000, build/moreau, "1000 10000 100000"
+set -eu
+here=$(cd "$(dirname "$0")" && pwd)
+root=$(dirname "$here")
+steps=${1:-1000}
+moreau=${2:-$root/build/moreau}
+counts=${3:-1000 10000 100000}
+[ -x "$moreau" ] || { echo "granular_scaling.sh: no moreau binary at $moreau" >&2; exit 2; }
+tmp=$(mktemp -d /tmp/granular_scaling.XXXXXX)
+trap 'rm -rf "$tmp"' EXIT
+have_box2d=0
+if [ -f /usr/include/box2d/box2d.h ] && g++ -O2 -o "$tmp/box2d_pile" "$here/box2d_pile.cc" -lbox2d 2>/dev/null; then have_box2d=1; fi
+t=$(awk -v s="$steps" 'BEGIN { printf "%.6g", s * 1e-3 }')
+# run N END LABEL [SETS...]: moreau on the scene of N grains to END
+run() {
+  n=$1; end=$2; label=$3
+  shift 3
+  cols=$(awk -v n="$n" 'BEGIN { c = int(33 * sqrt(n / 1000) + 0.5); print (c < 1 ? 1 : c) }')
+  w=$(awk -v c="$cols" 'BEGIN { printf "%.6g", c * 0.0132 }')
+  hbox=$(awk -v n="$n" -v c="$cols" 'BEGIN { printf "%.6g", 0.0132 * (int(n / c) + 2) }')
+  "$moreau" run "$root/cases/disk-pile" --set "bodies.grains.pack.count=$n" \
+    --set "bodies.grains.pack.box=[0.0,$w,0.0,$hbox]" --set "bodies.right.point=[$w,0.0]" --set "time.end=$end" \
+    --set output.vtk.every=100000000 --set output.draw.frames=1 --set output.draw.gif=false "$@" \
+    --out "$tmp/$label" --quiet
+}
+field() { python3 -c "import json,sys; s=json.load(open(sys.argv[1])); print(eval(sys.argv[2]))" "$tmp/$1/summary.json" "$2"; }
+run 1 0.001 empty
+empty=$(field empty "s['peak_rss_bytes']")
+printf '%8s %10s %12s %12s %8s %10s %12s %12s\n' N contacts moreau_ms box2d_ms ratio broad_% B/grain B/contact > "$tmp/table"
+for n in $counts; do
+  run "$n" 0.001 "start$n"
+  run "$n" "$t" "full$n" --set contact.nscd.stop=sweeps --set contact.nscd.max_sweeps=8
+  start=$(field "start$n" "s['peak_rss_bytes']")
+  line=$(python3 - "$tmp/full$n" "$n" "$empty" "$start" <<'PY'
+import csv, json, sys
+d, n, empty, start = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4])
+s = json.load(open(d + '/summary.json'))
+T, c = s['timings'], s['contact']
+steps = s['time']['steps_done']
+loop = T['wall'] - T['setup'] - T['output']
+h = list(csv.DictReader(open(d + '/history.csv')))
+closed = [float(r['contact.closed']) for r in h[1:]] or [0.0]
+per_grain = (start - empty) / n
+per_contact = (s['peak_rss_bytes'] - start) / max(1, c['candidates'])
+print('%d %.1f %.4f %.3f %.0f %.0f %d' % (n, sum(closed) / len(closed), 1e3 * loop / steps, T.get('broad', 0) / loop,
+                                       per_grain, per_contact, c['candidates']))
+PY
+)
+  set -- $line
+  echo "moreau N=$1 steps=$steps contacts=$2 time_per_step_ms=$3 broad_share=$4 bytes_per_grain=$5 bytes_per_contact=$6 candidates_end=$7"
+  tb=nan
+  if [ "$have_box2d" = 1 ]; then
+    cols=$(awk -v n="$n" 'BEGIN { c = int(33 * sqrt(n / 1000) + 0.5); print (c < 1 ? 1 : c) }')
+    bline=$("$tmp/box2d_pile" "$n" "$cols" "$steps" 8)
+    echo "$bline"
+    tb=$(echo "$bline" | sed 's/.*time_per_step_ms=\([^ ]*\).*/\1/')
+  fi
+  awk -v n="$1" -v c="$2" -v m="$3" -v b="$tb" -v br="$4" -v g="$5" -v k="$6" \
+    'BEGIN { printf "%8d %10.0f %12.3f %12s %8s %10.1f %12.0f %12.0f\n", n, c, m, b, (b == "nan" ? "-" : sprintf("%.3f", m / b)), 100 * br, g, k }' >> "$tmp/table"
+done
+cat "$tmp/table"
