@@ -857,5 +857,7 @@ int mo_vtk_frame(mo_vtk *v, const mo_scene *sc, const mo_state *s, const mo_vtk_
   }
   v->times[v->nframe++] = s->t;
   if (v->rigid && (st = write_rigid_frame(v, sc, s, net, ctx))) return st;
-  return write_fields_pvd(v, sc, ctx);
+  /* fields.pvd lists the deformable bodies' fields: none, no file (the rigid series have theirs) */
+  for (b = 0; b < sc->nbody && sc->body[b].kind != MO_BODY_DEFORMABLE; b++) {}
+  return b < sc->nbody ? write_fields_pvd(v, sc, ctx) : MO_OK;
 }
