@@ -64,6 +64,7 @@ struct mo_contact {
   int *rr;                    /* their pair numbers */
   double *bc, *br;            /* broad phase: centres and radii of the rigid bodies */
   double *bs, *be;            /* per body: its speed bound, and its alert margin when the pair list was built */
+  double *bv, *bw;            /* per body: its translation velocity (3), and what its rotation adds (omega r_bound) */
   unsigned char *dmask;       /* per body: 1 when in a dynamic pair (its speed is needed) */
   unsigned char *bmask;
   /* the broad phase's pair list kept between steps (a Verlet list), its reach (alert plus skin)
