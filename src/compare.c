@@ -384,7 +384,10 @@ static int finest_run(const run_row *rows, int nrun, int ngrid, const char *solv
 static void slug(const char *in, char *out, size_t n)
 {
   size_t k = 0;
-  for (; *in && k + 1 < n; in++) out[k++] = (char)((*in == '/' || *in == ' ' || *in == '=' || *in == ',') ? '_' : *in);
+  for (; *in && k + 1 < n; in++) {
+    if (*in == ']' || *in == '"') continue; /* nscd:jean88[theta=0.5] -> nscd-jean88_theta_0.5 */
+    out[k++] = (char)(*in == ':' ? '-' : strchr("/ =,;[(*?", *in) ? '_' : *in);
+  }
   out[k] = '\0';
 }
 

@@ -49,9 +49,12 @@ static void usage(FILE *f)
           "            [--siconos-dense]\n"
           "            the nscd solver on FCLIB local problems: sweeps, residual, time to 1e-4\n"
           "            and 1e-8, cost per contact update (with Siconos' NSGS side by side)\n"
-          "  list-solvers   the registered contact back ends\n"
+          "  list-solvers   the registered contact back ends and their papers' presets\n"
           "  keys           every case-file key with its type, range and default\n"
           "  --version, --help\n"
+          "\n"
+          "S is a back end, or a formulation BACKEND[:PRESET][[KEY=VALUE;...]]: levelset:bdz07,\n"
+          "nscd:jean88, nscd[theta=0.5] (moreau list-solvers).\n"
           "\n"
           "Exit status: 0 success, 1 the run failed (the outputs say how far it got),\n"
           "2 bad command line or case file. See moreau(1) and doc/case-format.md.\n");

@@ -3,6 +3,7 @@
 #include "config.h"
 #include <moreau/moreau.h>
 #include <moreau/contact.h>
+#include <moreau/case.h>
 
 #include <string.h>
 
@@ -41,5 +42,10 @@ int mo_cli_list_solvers(FILE *out)
   if (!mo_contact_solver_count()) fprintf(out, "no contact back ends are registered in this build\n");
   for (i = 0; i < mo_contact_solver_count(); i++)
     fprintf(out, "%-10s %s\n", registry[i]->name, registry[i]->summary);
+  fprintf(out, "\npresets (--solver BACKEND:PRESET; any back end or preset takes [KEY=VALUE;...]):\n");
+  for (i = 0; i < mo_preset_count(); i++) {
+    const char *sum, *nm = mo_preset_name(i, &sum);
+    fprintf(out, "%-22s %s\n", nm, sum);
+  }
   return 0;
 }

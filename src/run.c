@@ -27,20 +27,12 @@ static int load_case(const mo_run_options *opt, mo_case **cs, mo_ctx *ctx)
   double t0 = mo_clock();
   if ((st = mo_case_load(opt->case_path, cs, ctx))) return st;
   if ((st = mo_case_validate(*cs, ctx))) goto fail;
-  for (k = 0; k < opt->nset; k++)
-    if ((st = mo_case_set(*cs, opt->sets[k], ctx))) goto fail;
   if (opt->solver) {
-    char buf[256];
-    snprintf(buf, sizeof buf, "contact.solver=%s", opt->solver);
-    if ((st = mo_case_set(*cs, buf, ctx))) {
-      /* re-word: the user typed --solver, not --set */
-      char msg[MO_ERRMSG_MAX];
-      snprintf(msg, sizeof msg, "%s", ctx->errmsg);
-      mo_ctx_clear_error(ctx);
-      st = mo_error(ctx, MO_EINPUT, "--solver %s: %s", opt->solver,
-                    strstr(msg, ": ") ? strstr(msg, ": ") + 2 : msg);
-      goto fail;
-    }
+    /* BACKEND[:PRESET][[KEY=VALUE;...]]: the preset, then --set, then the bracket (preset.c) */
+    if ((st = mo_solver_spec_apply(*cs, opt->solver, opt->sets, opt->nset, ctx))) goto fail;
+  } else {
+    for (k = 0; k < opt->nset; k++)
+      if ((st = mo_case_set(*cs, opt->sets[k], ctx))) goto fail;
   }
   if ((st = mo_case_validate(*cs, ctx))) goto fail;
   mo_phase_add(ctx, MO_PH_SETUP, t0);

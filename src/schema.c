@@ -18,6 +18,9 @@
 static const mo_key core_keys[] = {
   {"title", K_STRING, NULL, NONE, 0, "\"\"", "One line naming the scene (printed in summaries and plots).", NULL},
   {"description", K_STRING, NULL, NONE, 0, "\"\"", "Free text.", NULL},
+  {"presets", K_LIST, NULL, NONE, 0, NULL, "Formulations of this scene for --solver BACKEND:PRESET: the per-figure parameters of a paper's setting (applied after the program's preset of the same name), or new names.", NULL},
+  {"presets.[].name", K_STRING, NULL, NONE, 1, NULL, "BACKEND:PRESET, e.g. \"newmark:bdz07\".", NULL},
+  {"presets.[].set", K_SARRAY, NULL, NONE, 0, NULL, "KEY=VALUE assignments, as --set takes them.", NULL},
 
   /* --- bodies ------------------------------------------------------------------------------ */
   {"bodies", K_LIST, NULL, NONE, 1, NULL, "The bodies of the scene: deformable meshes, rigid planes, disks, spheres, polygons and meshes held rigid.", NULL},

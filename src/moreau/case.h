@@ -34,6 +34,15 @@ int mo_case_lookup_string(const mo_case *cs, const char *path, const char **v);
 int mo_case_lookup_bool(const mo_case *cs, const char *path);
 void mo_case_free(mo_case *cs);
 
+/* A back-end spec BACKEND[:PRESET][[KEY=VALUE;...]] (--solver, compare's --solvers): sets
+   contact.solver, applies the preset (the program's, then the case's `presets` entry of the same
+   name), then sets[0..nset), then the bracketed overrides (keys without a dot are looked up as
+   time.KEY, contact.KEY, contact.BACKEND.KEY). Errors name the spec. */
+int mo_solver_spec_apply(mo_case *cs, const char *spec, const char *const *sets, int nset, mo_ctx *ctx);
+/* The program's presets, for list-solvers: name of the i-th (NULL past the end), its summary. */
+int mo_preset_count(void);
+const char *mo_preset_name(int i, const char **summary);
+
 /* The schema, for `moreau keys` and the documentation check: calls fn for every key. */
 typedef void (*mo_key_visit)(const char *path, const char *type, const char *range,
                              const char *deflt, const char *doc, void *data);
