@@ -1,14 +1,15 @@
-/* test_fclib_dump.c: `moreau run --dump-fclib` writes the problem each step solved (doc/theory.md
-   §4.6, (T80)), a round trip through other programs: every file a short run writes is read back
-   by libfclib (problem and stored solution), the stored solution is held to the stored
-   problem's own law (natural-map residual (T10) of the stored (r, U) on the stored (W, q, mu),
-   and U = W r + q), and Siconos' NSGS (fc2d or fc3d), started from zero on the stored problem,
-   finds the stored reactions and velocities again (to 1e-5 of |r| and |U|: the stored
-   solutions meet 1e-8 of (T10), the runs' tolerance with a margin). Scenes: cylinder-wall (velocity-level
-   Signorini, nscd; the issue's step 25, 3 of 32 candidates closed), the same with levelset and
-   at the position level, Jean's GRECO block with weighted reactions (quasi-static), and rigid
-   scenes (newton-cradle: Moreau's impact law on a chain of disks; incline-block; the first steps
-   of disk-pile, whose detected candidate set changes every step).
+/* test_fclib_dump.c: `moreau run --dump-fclib` writes the problem each step solved
+   (doc/theory.md §4.6, (T80)), a round trip through other programs: every file a short run
+   writes is read back by libfclib (problem and stored solution), the stored solution is held to
+   the stored problem's own law (natural-map residual (T10) of the stored (r, U) on the stored
+   (W, q, mu), and U = W r + q), and Siconos' NSGS (fc2d or fc3d), started from zero on the
+   stored problem, finds the stored reactions and velocities again (to 1e-5 of |r| and |U|: the
+   stored solutions meet 1e-8 of (T10), the runs' tolerance with a margin).
+   Scenes: cylinder-wall (velocity-level Signorini, nscd; the issue's step 25, 3 of 32 candidates
+   closed), the same with levelset, with P-weighted reactions and at the position level; Jean's
+   GRECO block with weighted reactions (quasi-static); rigid scenes (newton-cradle: Moreau's
+   impact law on a chain of disks; incline-block; the first steps of disk-pile, whose detected
+   candidate set changes every step).
    With file arguments, it prints each file's figures instead (the issue's table):
    tests/test_fclib_dump DIR/step-000025.hdf5 ... */
 #define _XOPEN_SOURCE 700
@@ -245,6 +246,7 @@ int main(int argc, char **argv)
     const char *cw[] = {"time.end=3.0e-5"};
     const char *cwl[] = {"time.end=3.0e-5", "contact.solver=levelset"};
     const char *cwp[] = {"time.end=3.0e-5", "contact.signorini=position"};
+    const char *cww[] = {"time.end=3.0e-5", "contact.reactions=weighted"};
     const char *gw[] = {"contact.reactions=weighted"};
     const char *nc[] = {"time.end=0.003"};
     const char *ib[] = {"time.end=0.02"};
@@ -252,6 +254,7 @@ int main(int argc, char **argv)
     round_trip("cylinder-wall", "cylinder-wall", cw, 1, 100, "step-000025.hdf5", 1e-8, 1e-5);
     round_trip("cylinder-wall", "cylinder-wall-levelset", cwl, 2, 100, "step-000025.hdf5", 1e-8, 1e-5);
     round_trip("cylinder-wall", "cylinder-wall-position", cwp, 2, 100, NULL, 1e-8, 1e-5);
+    round_trip("cylinder-wall", "cylinder-wall-weighted", cww, 2, 100, "step-000025.hdf5", 1e-8, 1e-5);
     round_trip("greco-jean-mu1", "greco-mu1-weighted", gw, 1, 1, "step-000001.hdf5", 1e-8, 1e-5);
     round_trip("newton-cradle", "newton-cradle", nc, 1, 30, NULL, 1e-8, 1e-5);
     round_trip("incline-block", "incline-block", ib, 1, 20, NULL, 1e-8, 1e-5);
