@@ -268,6 +268,12 @@ struct mo_contact_driver {
   int *itmp;
   mo_keymap kmap;            /* fit: the old keys' positions */
   int any_step, it_step, loops_step[4]; /* nonlinear steps: totals over the Newton iterations */
+  /* the problem of the last solve on its index set, kept when wkeep (FCLIB dumps): sv_n
+     candidates sv_idx of sv_ncand, their q, mu, r, U; the set's W stays in D->W until the next
+     solve */
+  int sv_n, sv_ncand, sv_cap, sv_valid, sv_newton, sv_reason, sv_nlaw[3];
+  int *sv_idx;
+  double *sv_q, *sv_mu, *sv_r, *sv_U, sv_residual;
   long steps, iterations, max_iterations, wbuilds, failures;
   double max_residual;
 };
@@ -488,6 +494,7 @@ void mo_contact_driver_free(mo_contact_driver *D)
   mo_free(D->b); mo_free(D->q); mo_free(D->U); mo_free(D->Uprev); mo_free(D->r); mo_free(D->rprev);
   mo_free(D->xfull); mo_free(D->xf); mo_free(D->dx); mo_free(D->dxfull); mo_free(D->mu); mo_free(D->gk);
   mo_free(D->pforce);
+  mo_free(D->sv_idx); mo_free(D->sv_mu); mo_free(D->sv_q); mo_free(D->sv_r); mo_free(D->sv_U);
   mo_free(D->w); mo_free(D->ukin); mo_free(D->xnl); mo_free(D->gnl); mo_free(D->tmp); mo_free(D->itmp);
   mo_keymap_free(&D->kmap);
   mo_free(D->active);
@@ -691,6 +698,43 @@ static double local_problem(mo_contact_driver *D, const mo_state *s, const doubl
   return c;
 }
 
+/* Keep the problem the solve just solved (--dump-fclib, doc/theory.md (T80)): its index set
+   and, on it, q, mu, r and U = W r + q. W itself stays in D->W until the next solve. */
+static int keep_solved(mo_contact_driver *D, int newton, mo_ctx *ctx)
+{
+  int d = D->d, k, i;
+  D->sv_valid = 0;
+  if (!D->wused || !D->nact) return MO_OK;
+  if (D->nact > D->sv_cap) {
+    int cap = D->nact + 16;
+    void *p;
+#define GROW(ptr, n) if (!(p = mo_realloc(ctx, ptr, (size_t)(n) * sizeof *(ptr)))) return MO_ENOMEM; ptr = p
+    GROW(D->sv_idx, cap); GROW(D->sv_mu, cap);
+    GROW(D->sv_q, (size_t)cap * d); GROW(D->sv_r, (size_t)cap * d); GROW(D->sv_U, (size_t)cap * d);
+#undef GROW
+    D->sv_cap = cap;
+  }
+  for (k = 0; k < D->nact; k++) {
+    int a = D->act[k];
+    D->sv_idx[k] = a;
+    D->sv_mu[k] = D->mu[a];
+    for (i = 0; i < d; i++) {
+      D->sv_q[k * d + i] = D->q[a * d + i];
+      D->sv_r[k * d + i] = D->r[a * d + i];
+      D->sv_U[k * d + i] = D->U[a * d + i];
+    }
+  }
+  D->sv_nlaw[0] = D->sv_nlaw[1] = D->sv_nlaw[2] = 0;
+  for (k = 0; k < D->nact; k++) D->sv_nlaw[mo_contact_laws(D->C)[D->act[k]]]++;
+  D->sv_n = D->nact;
+  D->sv_ncand = D->nc;
+  D->sv_newton = newton;
+  D->sv_reason = D->rep.reason;
+  D->sv_residual = D->rep.residual;
+  D->sv_valid = 1;
+  return MO_OK;
+}
+
 /* Steps 2-7 of a step (doc/theory.md §5): from the unconstrained iterate D->xfull (full; D->xf
    its free part) and the gaps at the start of the step, the local problem, the back end's
    solve, the core's measure, and the correction dx (free dofs) added to D->xfull. rstep: the
@@ -774,6 +818,7 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
     }
     D->reinit = 0;
   }
+  D->sv_valid = 0;
   if (!any) {
     memset(D->r, 0, (size_t)m * sizeof(double));
     for (a = 0; a < nc; a++) D->status[a] = MO_CS_OPEN;
@@ -807,6 +852,7 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
       for (i = 0; i < d; i++) qn += D->q[D->act[k] * d + i] * D->q[D->act[k] * d + i];
     rep->residual = mo_fc_natural_map_subset(d, D->nact, D->act, D->mu, NULL, D->r, D->U, sqrt(qn));
   }
+  if (D->wkeep && (st = keep_solved(D, newton, ctx))) return st;
   for (a = 0; a < nc; a++) {
     if (!D->active[a]) D->status[a] = MO_CS_OPEN;
     rep->nopen += D->status[a] == MO_CS_OPEN;
@@ -963,4 +1009,114 @@ int mo_contact_driver_local_problem(const mo_contact_driver *D, double **W, doub
   *nc = D->nc;
   *d = D->d;
   return MO_OK;
+}
+
+void mo_solved_problem_release(mo_solved_problem *P)
+{
+  if (!P) return;
+  mo_free(P->idx);
+  mo_csc_free(P->W);
+  mo_free(P->q);
+  mo_free(P->mu);
+  mo_free(P->r);
+  mo_free(P->U);
+  memset(P, 0, sizeof *P);
+}
+
+/* "3-5, 9, 12-30" into buf (cut with "..." when it does not fit). */
+static void index_ranges(const int *idx, int n, char *buf, size_t len)
+{
+  size_t at = 0;
+  int k = 0;
+  buf[0] = '\0';
+  while (k < n) {
+    int j = k, w;
+    while (j + 1 < n && idx[j + 1] == idx[j] + 1) j++;
+    if (j > k) w = snprintf(buf + at, len - at, "%s%d-%d", k ? ", " : "", idx[k], idx[j]);
+    else w = snprintf(buf + at, len - at, "%s%d", k ? ", " : "", idx[k]);
+    if (w < 0 || (size_t)w >= len - at - 4) {
+      snprintf(buf + (at < len - 5 ? at : len - 5), 5, "...");
+      return;
+    }
+    at += (size_t)w;
+    k = j + 1;
+  }
+}
+
+int mo_contact_driver_solved_problem(const mo_contact_driver *D, mo_solved_problem *P, mo_ctx *ctx)
+{
+  int d = D->d, n = D->sv_n, k, i, j, st, *pos = NULL;
+  mo_triplet T;
+  const mo_contact_problem *Pb = &D->P;
+  char law[600], cands[400];
+  memset(P, 0, sizeof *P);
+  memset(&T, 0, sizeof T);
+  if (!D->sv_valid)
+    return mo_error(ctx, MO_EUNSUPPORTED, "no solved contact problem to export (%s)",
+                    !D->wkeep ? "mo_contact_driver_keep_delassus was not called"
+                              : "the last solve had no candidate in its index set, or no Delassus operator");
+  P->d = d;
+  P->n = n;
+  P->ncand = D->sv_ncand;
+  P->residual = D->sv_residual;
+  P->reason = D->sv_reason;
+  P->idx = mo_malloc(ctx, (size_t)n * sizeof *P->idx + 1);
+  P->q = mo_malloc(ctx, (size_t)n * d * sizeof *P->q + 1);
+  P->mu = mo_malloc(ctx, (size_t)n * sizeof *P->mu + 1);
+  P->r = mo_malloc(ctx, (size_t)n * d * sizeof *P->r + 1);
+  P->U = mo_malloc(ctx, (size_t)n * d * sizeof *P->U + 1);
+  pos = mo_malloc(ctx, (size_t)D->sv_ncand * sizeof *pos + 1);
+  if (!P->idx || !P->q || !P->mu || !P->r || !P->U || !pos) { st = MO_ENOMEM; goto done; }
+  memcpy(P->idx, D->sv_idx, (size_t)n * sizeof *P->idx);
+  memcpy(P->mu, D->sv_mu, (size_t)n * sizeof *P->mu);
+  memcpy(P->q, D->sv_q, (size_t)n * d * sizeof *P->q);
+  memcpy(P->r, D->sv_r, (size_t)n * d * sizeof *P->r);
+  memcpy(P->U, D->sv_U, (size_t)n * d * sizeof *P->U);
+  /* W_AA: the blocks of the solve's W between candidates of its index set */
+  for (k = 0; k < D->sv_ncand; k++) pos[k] = -1;
+  for (k = 0; k < n; k++) pos[D->sv_idx[k]] = k;
+  if ((st = mo_triplet_init(&T, n * d, n * d, (size_t)n * d * d * 4 + 1, ctx))) goto done;
+  for (k = 0; k < n; k++) {
+    const int *beta;
+    const double *blk;
+    int nb = mo_delassus_row(D->W, D->sv_idx[k], &beta, &blk), b;
+    for (b = 0; b < nb; b++) {
+      int l = pos[beta[b]];
+      if (l < 0) continue;
+      for (i = 0; i < d; i++)
+        for (j = 0; j < d; j++)
+          if (blk[(size_t)b * d * d + (size_t)(i * d + j)] != 0 &&
+              (st = mo_triplet_add(&T, k * d + i, l * d + j, blk[(size_t)b * d * d + (size_t)(i * d + j)], ctx)))
+            goto done;
+    }
+  }
+  if ((st = mo_triplet_to_csc(&T, 0, &P->W, ctx))) goto done;
+  /* what it is, in words */
+  if (Pb->scheme == MO_SCHEME_THETA)
+    snprintf(law, sizeof law,
+             "theta-scheme (h = %.6g, theta = %g): r are impulses over the step, U the local velocities; the normal "
+             "part of q holds the offset of each candidate's law: %d Signorini at the %s level%s, %d Moreau's "
+             "impact law (e U-_n, T71), %d gap law ((g + h (1 - theta) U-_n) / (h theta))",
+             Pb->h, Pb->theta, D->sv_nlaw[MO_LAW_SIGNORINI],
+             D->C->signorini == MO_SIGNORINI_VELOCITY ? "velocity" : "position",
+             D->C->signorini == MO_SIGNORINI_VELOCITY ? " (U+_n >= 0, no offset)" : " ((g + h (1 - theta) U-_n) / (h theta))",
+             D->sv_nlaw[MO_LAW_NEWTON], D->sv_nlaw[MO_LAW_GAP]);
+  else
+    snprintf(law, sizeof law,
+             "%s step: r are forces, U the increments of the local displacements over the step (W scaled by %g); "
+             "the normal part of q holds the gap, so that U_n is the end-of-step gap",
+             Pb->scheme == MO_SCHEME_NEWMARK ? "Newmark" : "quasi-static", Pb->du_dx);
+  index_ranges(P->idx, n, cands, sizeof cands);
+  snprintf(P->desc, sizeof P->desc,
+           "The contact problem moreau solved at step %ld (t = %.9g%s): U = W r + q over the %d candidates of "
+           "the step's index set, of %d (0-based candidates %s); the others were out of the problem (r = 0, "
+           "unconstrained) and are left out (doc/theory.md (T80)). %s. Back end %s: %s, natural-map residual "
+           "%.3e (T10); the solution (r, U = W r + q) is the one the step applied.",
+           Pb->step, Pb->t + Pb->h, D->sv_newton >= 0 ? ", last Newton iterate" : "", n, D->sv_ncand, cands, law,
+           D->T->name, mo_contact_reason_name(D->sv_reason), D->sv_residual);
+done:
+  mo_triplet_release(&T);
+  mo_free(pos);
+  if (st) mo_solved_problem_release(P);
+  return st;
 }

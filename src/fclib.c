@@ -32,33 +32,22 @@ static int mo_fclib_kind(const char *path)
 
 int mo_fclib_available(void) { return 1; }
 
-int mo_fclib_write(const char *path, int d, int nc, const double *W, const double *q,
-                   const double *mu, const double *r, const double *U, const char *title,
-                   mo_ctx *ctx)
+/* Write the local problem with W compressed by columns (p, i, x: m + 1, nnz, nnz) and its
+   solution (r, U) when r is not NULL, atomically (a temporary file renamed). */
+static int write_local(const char *path, int d, int nc, int *p, int *ii, double *x, const double *q,
+                       const double *mu, const double *r, const double *U, const char *title,
+                       const char *description, const char *math_info, mo_ctx *ctx)
 {
   struct fclib_local pb;
   struct fclib_matrix M;
   struct fclib_info info;
   struct fclib_solution sol;
   char tmp[4200];
-  int m = d * nc, i, j, nnz = 0, *p = NULL, *ii = NULL, st = MO_OK;
-  double *x = NULL;
+  int m = d * nc, st = MO_OK;
   if (d != 2 && d != 3)
     return mo_error(ctx, MO_EUNSUPPORTED, "FCLIB holds 2D and 3D frictional problems (local dimension %d)", d);
-  for (j = 0; j < m * m; j++) nnz += W[j] != 0;
-  p = mo_malloc(ctx, ((size_t)m + 1) * sizeof(int));
-  ii = mo_malloc(ctx, ((size_t)nnz + 1) * sizeof(int));
-  x = mo_malloc(ctx, ((size_t)nnz + 1) * sizeof(double));
-  if (!p || !ii || !x) { st = MO_ENOMEM; goto done; }
-  nnz = 0;
-  for (j = 0; j < m; j++) { /* compressed columns of the row-major dense W */
-    p[j] = nnz;
-    for (i = 0; i < m; i++)
-      if (W[(size_t)i * m + j] != 0) { ii[nnz] = i; x[nnz++] = W[(size_t)i * m + j]; }
-  }
-  p[m] = nnz;
   memset(&M, 0, sizeof M);
-  M.nzmax = nnz;
+  M.nzmax = p[m];
   M.m = M.n = m;
   M.p = p;
   M.i = ii;
@@ -66,18 +55,16 @@ int mo_fclib_write(const char *path, int d, int nc, const double *W, const doubl
   M.nz = -1;
   memset(&info, 0, sizeof info);
   info.title = (char *)(title ? title : "moreau local problem");
-  info.description = (char *)"U = W r + q with Coulomb friction; written by moreau";
-  info.math_info = (char *)"W = H^T What^-1 H symmetric positive semi-definite";
+  info.description = (char *)(description ? description : "U = W r + q with Coulomb friction; written by moreau");
+  info.math_info = (char *)(math_info ? math_info : "W = H^T What^-1 H symmetric positive semi-definite");
   memset(&pb, 0, sizeof pb);
   pb.W = &M;
   pb.mu = (double *)mu;
   pb.q = (double *)q;
   pb.spacedim = d;
   pb.info = &info;
-  if (snprintf(tmp, sizeof tmp, "%s.tmp.%ld", path, (long)getpid()) >= (int)sizeof tmp) {
-    st = mo_error(ctx, MO_EIO, "path too long: %s", path);
-    goto done;
-  }
+  if (snprintf(tmp, sizeof tmp, "%s.tmp.%ld", path, (long)getpid()) >= (int)sizeof tmp)
+    return mo_error(ctx, MO_EIO, "path too long: %s", path);
   remove(tmp);
   if (!fclib_write_local(&pb, tmp)) {
     st = mo_error(ctx, MO_EIO, "%s: libfclib could not write the local problem", path);
@@ -95,10 +82,44 @@ int mo_fclib_write(const char *path, int d, int nc, const double *W, const doubl
   if (rename(tmp, path) != 0) st = mo_error(ctx, MO_EIO, "cannot replace '%s'", path);
 done:
   if (st) remove(tmp);
+  return st;
+}
+
+int mo_fclib_write(const char *path, int d, int nc, const double *W, const double *q,
+                   const double *mu, const double *r, const double *U, const char *title,
+                   mo_ctx *ctx)
+{
+  int m = d * nc, i, j, nnz = 0, *p = NULL, *ii = NULL, st;
+  double *x = NULL;
+  if (d != 2 && d != 3)
+    return mo_error(ctx, MO_EUNSUPPORTED, "FCLIB holds 2D and 3D frictional problems (local dimension %d)", d);
+  for (j = 0; j < m * m; j++) nnz += W[j] != 0;
+  p = mo_malloc(ctx, ((size_t)m + 1) * sizeof(int));
+  ii = mo_malloc(ctx, ((size_t)nnz + 1) * sizeof(int));
+  x = mo_malloc(ctx, ((size_t)nnz + 1) * sizeof(double));
+  if (!p || !ii || !x) { st = MO_ENOMEM; goto done; }
+  nnz = 0;
+  for (j = 0; j < m; j++) { /* compressed columns of the row-major dense W */
+    p[j] = nnz;
+    for (i = 0; i < m; i++)
+      if (W[(size_t)i * m + j] != 0) { ii[nnz] = i; x[nnz++] = W[(size_t)i * m + j]; }
+  }
+  p[m] = nnz;
+  st = write_local(path, d, nc, p, ii, x, q, mu, r, U, title, NULL, NULL, ctx);
+done:
   mo_free(p);
   mo_free(ii);
   mo_free(x);
   return st;
+}
+
+int mo_fclib_write_csc(const char *path, int d, int nc, const mo_csc *W, const double *q,
+                       const double *mu, const double *r, const double *U, const char *title,
+                       const char *description, const char *math_info, mo_ctx *ctx)
+{
+  if (W->nrow != d * nc || W->ncol != d * nc)
+    return mo_error(ctx, MO_EINPUT, "%s: W is %d x %d for %d contacts of dimension %d", path, W->nrow, W->ncol, nc, d);
+  return write_local(path, d, nc, W->p, W->i, W->x, q, mu, r, U, title, description, math_info, ctx);
 }
 
 /* An fclib_matrix (triplets, compressed columns or rows) as CSC. */
@@ -250,6 +271,15 @@ int mo_fclib_write(const char *path, int d, int nc, const double *W, const doubl
                    mo_ctx *ctx)
 {
   (void)d; (void)nc; (void)W; (void)q; (void)mu; (void)r; (void)U; (void)title;
+  return mo_error(ctx, MO_EUNSUPPORTED, "%s: this build has no FCLIB support (configure found no "
+                  "libfclib; on Debian: apt-get install libfclib-dev libhdf5-dev)", path);
+}
+
+int mo_fclib_write_csc(const char *path, int d, int nc, const mo_csc *W, const double *q,
+                       const double *mu, const double *r, const double *U, const char *title,
+                       const char *description, const char *math_info, mo_ctx *ctx)
+{
+  (void)d; (void)nc; (void)W; (void)q; (void)mu; (void)r; (void)U; (void)title; (void)description; (void)math_info;
   return mo_error(ctx, MO_EUNSUPPORTED, "%s: this build has no FCLIB support (configure found no "
                   "libfclib; on Debian: apt-get install libfclib-dev libhdf5-dev)", path);
 }

@@ -638,24 +638,30 @@ static void print_log(const mo_ctx *ctx, double wall)
   for (p = 0; p < ctx->nskip; p++) fprintf(stderr, "  - %s\n", ctx->skipped[p]);
 }
 
-/* Export the step's local problem as an FCLIB file (--dump-fclib). */
+/* Export the problem the step's contact solve solved as an FCLIB file (--dump-fclib): its
+   index set only (doc/theory.md (T80)), with that solve's solution, so that any FCLIB solver
+   finds the reactions the step applied. */
 static int dump_fclib(const char *dir, const mo_contact_driver *D, long step, mo_ctx *ctx)
 {
-  double *W = NULL, *q = NULL, *mu = NULL;
-  int nc, d, st;
+  mo_solved_problem P;
+  int st;
   char path[4200], title[128];
   const mo_contact_report *rep = mo_contact_last_report(D);
   if (rep->reason == MO_CR_NOCONTACT) return MO_OK;
-  if ((st = mo_contact_driver_local_problem(D, &W, &q, &mu, &nc, &d, ctx))) return st;
-  if (d < 2) {
-    mo_free(W); mo_free(q); mo_free(mu);
+  if ((st = mo_contact_driver_solved_problem(D, &P, ctx))) return st;
+  if (P.d < 2) {
+    mo_solved_problem_release(&P);
     mo_note_skip(ctx, "FCLIB export (1D frictionless contacts: FCLIB holds 2D and 3D problems)");
     return MO_OK;
   }
   snprintf(path, sizeof path, "%s/step-%06ld.hdf5", dir, step);
-  snprintf(title, sizeof title, "moreau step %ld", step);
-  st = mo_fclib_write(path, d, nc, W, q, mu, mo_contact_reactions(D), mo_contact_local_velocity(D), title, ctx);
-  mo_free(W); mo_free(q); mo_free(mu);
+  snprintf(title, sizeof title, "moreau step %ld: %d of %d candidates (the index set)", step, P.n, P.ncand);
+  st = mo_fclib_write_csc(path, P.d, P.n, P.W, P.q, P.mu, P.r, P.U, title, P.desc,
+                          "U = W r + q, W = c H_A^T What^-1 H_A on the index set A (c = 1, or beta h^2 for Newmark); "
+                          "r in K_mu, U + mu |U_t| e_n in K_mu^*, orthogonal (FCLIB's local Coulomb problem); "
+                          "normal component first in every contact's frame",
+                          ctx);
+  mo_solved_problem_release(&P);
   return st;
 }
 

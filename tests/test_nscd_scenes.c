@@ -101,6 +101,44 @@ static double compare_table(const tl_table *J, const greco *G, const tl_table *R
   return worst;
 }
 
+/* The "equivalent weighted" column of Jean's mu = 1 concentrated table (J88 Fig. 3, first table,
+   last column "Whei. reac.", the RT component; decoded from the seed's text: that column is not
+   shifted, unlike RT and RN): the P^-1 images of the concentrated reactions, nodes 1-7. Nodes
+   1-5 are open (r = 0) and Jean prints non-zero values there: rho = (P*^T)^-1 r is not zero on
+   open nodes, it satisfies (P*^T rho)_h = r_h = 0 there (P*'s rows [3/4 1/4], [1/8 3/4 1/8] ...),
+   so rho_2 = -6 rho_1, rho_3 = -6 rho_2 - 2 rho_1, rho_h+1 = -6 rho_h - rho_h-1 (doc/theory.md
+   (T81)): |rho| grows by about 3 + 2 sqrt(2) per node toward the first closed node. Jean's replayed run must give his numbers (to 0.5 %: his reactions are
+   those of his 1e-4 iterate, printed to 5 digits), and the recurrence must hold to round-off. */
+static void jean_equivalent_weighted(const tl_table *R)
+{
+  static const double jean[7] = {3.3656, -20.209, 114.43, -666.38, 3883.9, -22637, -89416};
+  int i, ct = tl_col(R, "RT_other"), cn = tl_col(R, "RN_other"), open = 1;
+  double worst = 0, rec = 0, mx = 0, x[16];
+  for (i = 0; i < 7; i++) {
+    double got = tl_num(R, i, ct), e = fabs(got - jean[i]) / fabs(jean[i]);
+    if (!(e <= worst)) worst = e;
+  }
+  for (i = 0; i < 5; i++)
+    if (strcmp(R->cell[i][tl_col(R, "status")], "open") || tl_num(R, i, tl_col(R, "RT")) != 0 ||
+        tl_num(R, i, tl_col(R, "RN")) != 0)
+      open = 0;
+  ok(open && worst <= 5e-3,
+     "mu = 1 concentrated, Jean's run replayed: the equivalent weighted RT of nodes 1-7 (nodes 1-5 open, r = 0) are "
+     "Jean's printed %.5g, %.5g, %.5g, %.5g, %.5g, %.5g, %.5g within %.2f %% (moreau: %.5g, %.5g, %.5g, %.5g, %.5g, "
+     "%.5g, %.5g)", jean[0], jean[1], jean[2], jean[3], jean[4], jean[5], jean[6], 100 * worst, tl_num(R, 0, ct),
+     tl_num(R, 1, ct), tl_num(R, 2, ct), tl_num(R, 3, ct), tl_num(R, 4, ct), tl_num(R, 5, ct), tl_num(R, 6, ct));
+  for (i = 0; i < 16; i++) x[i] = tl_num(R, i, ct);
+  for (i = 0; i < 16; i++) mx = fmax(mx, fabs(x[i]));
+  /* columns of P* (ends = dual): (3/4, 1/8), (1/4, 3/4, 1/8), then (1/8, 3/4, 1/8) */
+  rec = fmax(fabs(0.75 * x[0] + 0.125 * x[1]), fabs(0.25 * x[0] + 0.75 * x[1] + 0.125 * x[2]));
+  for (i = 2; i < 5; i++) rec = fmax(rec, fabs(0.125 * x[i - 1] + 0.75 * x[i] + 0.125 * x[i + 1]));
+  for (i = 0; i < 16; i++) x[i] = tl_num(R, i, cn);
+  rec = fmax(rec, fmax(fabs(0.75 * x[0] + 0.125 * x[1]), fabs(0.25 * x[0] + 0.75 * x[1] + 0.125 * x[2])));
+  for (i = 2; i < 5; i++) rec = fmax(rec, fabs(0.125 * x[i - 1] + 0.75 * x[i] + 0.125 * x[i + 1]));
+  ok(rec <= 1e-9 * mx, "the open nodes' equivalent weighted reactions are the exact P^-1 images of r = 0 there: "
+     "(P*^T rho)_h = 0 for h = 1..5 to %.1e of max |rho| = %.4g (T81)", rec / mx, mx);
+}
+
 static void test_greco(void)
 {
   const char *src = getenv("MOREAU_SRCDIR"), *shared = getenv("MOREAU_SHARED");
@@ -136,6 +174,7 @@ static void test_greco(void)
     snprintf(csv, sizeof csv, "%s/contact.csv", out);
     if (st || tl_table_read(csv, &R)) { ok(0, "%s %s: run", G->example, G->reactions); continue; }
     compare_table(&J, G, &R, "Jean's run replayed", 1);
+    if (k == 0) jean_equivalent_weighted(&R);
     tl_table_free(&R);
     tl_remove_dir(out);
     /* converged (the case as shipped) */

@@ -419,9 +419,31 @@ void mo_contact_driver_totals(const mo_contact_driver *D, long *steps, long *ite
 void mo_contact_driver_keep_delassus(mo_contact_driver *D);
 /* Solves that did not converge over the run (non-zero only with contact.on_failure = "continue"). */
 long mo_contact_driver_failures(const mo_contact_driver *D);
-/* The last step's local problem (W dense, q, mu) for export (FCLIB). */
+/* The last step's local problem over every candidate (W dense, q, mu), the inactive ones
+   included: what the step solved only when every candidate was in its index set (quasi-static
+   and position-level steps with every candidate active). Tests. */
 int mo_contact_driver_local_problem(const mo_contact_driver *D, double **W, double **q,
                                     double **mu, int *nc, int *d, mo_ctx *ctx);
+
+/* The problem the last contact solve of a step solved (doc/theory.md §4.6, (T80)): the
+   candidates of its index set idx[0..n-1] (increasing, of ncand candidates), W restricted to
+   them (n d x n d, compressed columns), q and mu restricted to them, and that solve's solution
+   r and U = W r + q (the core's measure); the other candidates were out of the problem (r = 0)
+   and are not in it. desc: what it is, in words (the law of the normal part, units, the
+   candidates kept, the solve's outcome). Kept at every solve after
+   mo_contact_driver_keep_delassus; MO_EUNSUPPORTED when the last solve had no W or no
+   candidate in its index set. */
+typedef struct {
+  int d, n, ncand;
+  int *idx;
+  mo_csc *W;
+  double *q, *mu, *r, *U;
+  double residual;           /* the core's natural-map residual (T10) of that solve */
+  int reason;                /* MO_CR_* of that solve */
+  char desc[1400];
+} mo_solved_problem;
+int mo_contact_driver_solved_problem(const mo_contact_driver *D, mo_solved_problem *P, mo_ctx *ctx);
+void mo_solved_problem_release(mo_solved_problem *P);
 
 /* Per-candidate results of the last step: contact.csv (pair, candidate, node, position,
    displacement D1.., gap, local U, reactions as forces with RT before RN as in Jean's tables,
@@ -446,6 +468,11 @@ int mo_fclib_available(void);
 int mo_fclib_write(const char *path, int d, int nc, const double *W, const double *q,
                    const double *mu, const double *r, const double *U, const char *title,
                    mo_ctx *ctx);
+/* The same with W compressed by columns (m x m) and the file's info: title, description
+   (what the problem is) and math_info (NULL: moreau's defaults). */
+int mo_fclib_write_csc(const char *path, int d, int nc, const mo_csc *W, const double *q,
+                       const double *mu, const double *r, const double *U, const char *title,
+                       const char *description, const char *math_info, mo_ctx *ctx);
 /* Read an FCLIB local problem: W as CSC (m x m), q, mu; d the local dimension. */
 int mo_fclib_read(const char *path, int *d, int *nc, mo_csc **W, double **q, double **mu,
                   mo_ctx *ctx);
