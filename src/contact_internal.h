@@ -81,6 +81,27 @@ void mo_contact_frame_from_normal(int dim, const double *n, double *F);
 void mo_contact_node_pos(const mo_scene *sc, int b, int a, const mo_state *s, double *x);
 double mo_contact_project_facet(const mo_scene *sc, int b, const mo_facetset *fs, int f, const double *x,
                                 const mo_state *s, double *xi, double *N, double *q, double *n, int *inside);
+/* The position x, shape values N and (when n is not NULL) the outward unit normal of facet f of
+   a facet set of body b at reference coordinates s and state u (NULL: reference); returns the
+   measure density |dx/ds| (1 for a point facet). The facet factor of the measure at x:
+   thickness, 2 pi r, cross-section or 1. */
+double mo_contact_facet_eval(const mo_scene *sc, int b, const mo_facetset *fs, int f, const double *s,
+                             const mo_state *u, double *N, double *x, double *n);
+double mo_contact_facet_factor(const mo_material *mat, const double *x);
+/* contact_mortar.c: segmented integration (doc/theory.md §4.7). The Gauss points of slave facet f
+   (set sfs of body sb) cut by the facets of the master set mfs (body mb) that face it, at state u:
+   appended to *pts (n, capacity cap, grown), each with its facet coordinates, its weight (the
+   measure, facet factor included) and its master facet. Appends nothing when the master facets
+   do not cover the slave facet exactly once (a facet past the master's edge, masters of several
+   layers, a non-convex projected master facet): that facet keeps the rule of the whole facet. */
+typedef struct {
+  double xi[2];
+  double w;
+  int mfacet;
+} mo_segpt;
+int mo_contact_segment_facet(const mo_scene *sc, int sb, const mo_facetset *sfs, int f, int mb,
+                             const mo_facetset *mfs, const mo_state *u, int gauss, mo_segpt **pts, int *n,
+                             int *cap, mo_ctx *ctx);
 /* Append a point / a candidate (its point and coefficient lists); grow the per-candidate arrays
    to hold nc candidates. */
 int mo_contact_add_point(mo_contact *C, const mo_cpoint *p, mo_ctx *ctx);
