@@ -873,6 +873,7 @@ static int build_pair(mo_contact *C, int k, const config_setting_t *pg, mo_ctx *
   if (P->colloc == MO_COLLOC_GAUSS) {
     mo_quad Q;
     mo_segpt *seg = NULL;
+    double *mg = NULL;
     int nseg = 0, segcap = 0, segment = P->integ == MO_INTEG_SEGMENTS && P->master == MO_MASTER_FACETS && fs->nfn > 1;
     const mo_facetset *mfs = segment ? mo_mesh_find_facetset(sc->body[P->mbody].mesh, P->mset) : NULL;
     mo_state s0;
@@ -881,11 +882,13 @@ static int build_pair(mo_contact *C, int k, const config_setting_t *pg, mo_ctx *
     s0.u = sc->u0;
     s0.v = sc->v0;
     if ((st = mo_quad_facet(D - 1, P->gauss, &Q, ctx))) goto done;
+    if (mfs && (st = mo_contact_segment_masters(sc, P->mbody, mfs, &s0, &mg, ctx))) goto done;
     for (f = 0; f < fs->n && !st; f++) {
       int q, nq = Q.n;
       nseg = 0;
       if (mfs) {
-        if ((st = mo_contact_segment_facet(sc, P->sbody, fs, f, P->mbody, mfs, &s0, P->gauss, &seg, &nseg, &segcap, ctx)))
+        if ((st = mo_contact_segment_facet(sc, P->sbody, fs, f, P->mbody, mfs, mg, &s0, P->gauss, &seg, &nseg, &segcap,
+                                           ctx)))
           break;
         if (nseg) nq = nseg;
         else P->nseg_fallback++;
@@ -918,6 +921,7 @@ static int build_pair(mo_contact *C, int k, const config_setting_t *pg, mo_ctx *
       }
     }
     mo_free(seg);
+    mo_free(mg);
     if (!st && P->nseg_fallback)
       mo_note_skip(ctx, "segmented integration on %d of the %d slave facets of pair '%s' (the others are not covered "
                    "exactly once by the master: Gauss points on the whole facet)", fs->n - P->nseg_fallback, fs->n, P->name);

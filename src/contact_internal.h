@@ -89,7 +89,8 @@ double mo_contact_facet_eval(const mo_scene *sc, int b, const mo_facetset *fs, i
                              const mo_state *u, double *N, double *x, double *n);
 double mo_contact_facet_factor(const mo_material *mat, const double *x);
 /* contact_mortar.c: segmented integration (doc/theory.md §4.7). The Gauss points of slave facet f
-   (set sfs of body sb) cut by the facets of the master set mfs (body mb) that face it, at state u:
+   (set sfs of body sb) cut by the facets of the master set mfs (body mb, their centres, normals and
+   radii mg from mo_contact_segment_masters) that face it, at state u:
    appended to *pts (n, capacity cap, grown), each with its facet coordinates, its weight (the
    measure, facet factor included) and its master facet. Appends nothing when the master facets
    do not cover the slave facet exactly once (a facet past the master's edge, masters of several
@@ -100,8 +101,13 @@ typedef struct {
   int mfacet;
 } mo_segpt;
 int mo_contact_segment_facet(const mo_scene *sc, int sb, const mo_facetset *sfs, int f, int mb,
-                             const mo_facetset *mfs, const mo_state *u, int gauss, mo_segpt **pts, int *n,
-                             int *cap, mo_ctx *ctx);
+                             const mo_facetset *mfs, const double *mg, const mo_state *u, int gauss, mo_segpt **pts,
+                             int *n, int *cap, mo_ctx *ctx);
+/* What mo_contact_segment_facet needs of the master facets, once per pair: per facet its centre,
+   its unit normal at the centre and its radius about the centre (7 values; *mg freed by the
+   caller). */
+int mo_contact_segment_masters(const mo_scene *sc, int mb, const mo_facetset *mfs, const mo_state *u, double **mg,
+                               mo_ctx *ctx);
 /* Append a point / a candidate (its point and coefficient lists); grow the per-candidate arrays
    to hold nc candidates. */
 int mo_contact_add_point(mo_contact *C, const mo_cpoint *p, mo_ctx *ctx);

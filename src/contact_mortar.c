@@ -132,9 +132,35 @@ static void invert_bilinear(double zs[4][2], const double *z, double *xi)
   for (a = 0; a < 2; a++) xi[a] = fmax(-1, fmin(1, xi[a]));
 }
 
+int mo_contact_segment_masters(const mo_scene *sc, int mb, const mo_facetset *mfs, const mo_state *u, double **mg,
+                               mo_ctx *ctx)
+{
+  const int D = sc->dim, nfn = mfs->nfn;
+  double xi0[2] = {0, 0}, N[4], x[3];
+  int m, a, i;
+  *mg = mo_malloc(ctx, (size_t)(mfs->n ? mfs->n : 1) * 7 * sizeof **mg);
+  if (!*mg) return MO_ENOMEM;
+  for (m = 0; m < mfs->n; m++) {
+    double *g = *mg + 7 * m, Y[4][3], r = 0;
+    memset(g, 0, 7 * sizeof *g);
+    for (a = 0; a < nfn; a++) {
+      mo_contact_node_pos(sc, mb, mfs->node[m * nfn + a], u, Y[a]);
+      if (D == 2) Y[a][2] = 0;
+      for (i = 0; i < 3; i++) g[i] += Y[a][i] / nfn;
+    }
+    mo_contact_facet_eval(sc, mb, mfs, m, xi0, u, N, x, g + 3);
+    if (D == 2) g[5] = 0;
+    for (a = 0; a < nfn; a++)
+      r = fmax(r, sqrt((Y[a][0] - g[0]) * (Y[a][0] - g[0]) + (Y[a][1] - g[1]) * (Y[a][1] - g[1]) +
+                       (Y[a][2] - g[2]) * (Y[a][2] - g[2])));
+    g[6] = r;
+  }
+  return MO_OK;
+}
+
 int mo_contact_segment_facet(const mo_scene *sc, int sb, const mo_facetset *sfs, int f, int mb,
-                             const mo_facetset *mfs, const mo_state *u, int gauss, mo_segpt **pts, int *npts,
-                             int *cap, mo_ctx *ctx)
+                             const mo_facetset *mfs, const double *mg, const mo_state *u, int gauss, mo_segpt **pts,
+                             int *npts, int *cap, mo_ctx *ctx)
 {
   const int D = sc->dim, nfn = sfs->nfn;
   const mo_material *mat = &sc->body[sb].mat;
@@ -185,23 +211,25 @@ int mo_contact_segment_facet(const mo_scene *sc, int sb, const mo_facetset *sfs,
   if (!pc) return MO_ENOMEM;
   /* the master facets facing it whose projections overlap it */
   for (m = 0; m < mfs->n; m++) {
-    double Y[4][3], cm[3] = {0, 0, 0}, nm[3] = {0, 0, 0}, dm = 0;
+    const double *cm = mg + 7 * m, *nm = mg + 7 * m + 3;
+    double Y[4][3], dm = 0, r[3], lat;
     piece *P = &pc[npc];
+    if (!(dot3(nm, ns) < -0.5)) continue; /* not facing the slave facet */
+    P->m = m;
+    for (i = 0; i < 3; i++) r[i] = cm[i] - c[i];
+    P->dn = dot3(r, ns);
+    for (i = 0; i < 3; i++) r[i] -= P->dn * ns[i];
+    lat = sqrt(dot3(r, r));
+    if (lat > 0.5 * diam + mg[7 * m + 6] + 1e-9 * diam) continue; /* its projection is away from the facet */
     for (a = 0; a < nfn; a++) {
       mo_contact_node_pos(sc, mb, mfs->node[m * nfn + a], u, Y[a]);
       if (D == 2) Y[a][2] = 0;
-      for (i = 0; i < 3; i++) cm[i] += Y[a][i] / nfn;
     }
-    mo_contact_facet_eval(sc, mb, mfs, m, xi0, u, N, x, nm);
-    if (D == 2) nm[2] = 0;
-    if (!(dot3(nm, ns) < -0.5)) continue; /* not facing the slave facet */
-    P->m = m;
-    P->dn = (cm[0] - c[0]) * ns[0] + (cm[1] - c[1]) * ns[1] + (cm[2] - c[2]) * ns[2];
     if (D == 2) {
       double s[2];
       for (a = 0; a < 2; a++) {
-        double r[3] = {Y[a][0] - X[0][0], Y[a][1] - X[0][1], 0};
-        s[a] = dot3(r, e1) / (As * As);
+        double y[3] = {Y[a][0] - X[0][0], Y[a][1] - X[0][1], 0};
+        s[a] = dot3(y, e1) / (As * As);
       }
       P->lo = fmax(0, fmin(s[0], s[1]));
       P->hi = fmin(1, fmax(s[0], s[1]));
@@ -209,12 +237,11 @@ int mo_contact_segment_facet(const mo_scene *sc, int sb, const mo_facetset *sfs,
       if (!(P->hi - P->lo > 1e-10)) continue;
     } else {
       double zm[4][2], A;
+      dm = 2 * mg[7 * m + 6];
       for (a = 0; a < 4; a++) {
-        double r[3] = {Y[a][0] - c[0], Y[a][1] - c[1], Y[a][2] - c[2]};
-        zm[a][0] = dot3(r, e1);
-        zm[a][1] = dot3(r, e2);
-        dm = fmax(dm, 2 * sqrt((Y[a][0] - cm[0]) * (Y[a][0] - cm[0]) + (Y[a][1] - cm[1]) * (Y[a][1] - cm[1]) +
-                               (Y[a][2] - cm[2]) * (Y[a][2] - cm[2])));
+        double y[3] = {Y[a][0] - c[0], Y[a][1] - c[1], Y[a][2] - c[2]};
+        zm[a][0] = dot3(y, e1);
+        zm[a][1] = dot3(y, e2);
       }
       if (area2(4, zm) < 0) /* seen from the slave side, the master facet turns the other way */
         for (a = 0; a < 2; a++) {
@@ -222,6 +249,16 @@ int mo_contact_segment_facet(const mo_scene *sc, int sb, const mo_facetset *sfs,
           zm[a][0] = zm[3 - a][0]; zm[a][1] = zm[3 - a][1];
           zm[3 - a][0] = t0; zm[3 - a][1] = t1;
         }
+      {
+        /* bounding boxes apart: no overlap (and then its shape does not matter) */
+        double lo0 = HUGE_VAL, hi0 = -HUGE_VAL, lo1 = HUGE_VAL, hi1 = -HUGE_VAL, sl0 = HUGE_VAL, sh0 = -HUGE_VAL,
+               sl1 = HUGE_VAL, sh1 = -HUGE_VAL;
+        for (a = 0; a < 4; a++) {
+          lo0 = fmin(lo0, zm[a][0]); hi0 = fmax(hi0, zm[a][0]); lo1 = fmin(lo1, zm[a][1]); hi1 = fmax(hi1, zm[a][1]);
+          sl0 = fmin(sl0, zs[a][0]); sh0 = fmax(sh0, zs[a][0]); sl1 = fmin(sl1, zs[a][1]); sh1 = fmax(sh1, zs[a][1]);
+        }
+        if (hi0 <= sl0 || lo0 >= sh0 || hi1 <= sl1 || lo1 >= sh1) continue;
+      }
       for (a = 0; a < 4; a++) { /* Sutherland-Hodgman needs a convex clipping polygon */
         double cr = (zm[(a + 1) % 4][0] - zm[a][0]) * (zm[(a + 2) % 4][1] - zm[(a + 1) % 4][1]) -
                     (zm[(a + 1) % 4][1] - zm[a][1]) * (zm[(a + 2) % 4][0] - zm[(a + 1) % 4][0]);

@@ -188,6 +188,145 @@ static void check(int dim, int ns, int nm, const char *mult, const char *integ, 
   }
 }
 
+/* --- the cuts themselves: a master grid turned by 30 degrees ----------------------------------- */
+
+/* An H8 block of n x n x 1 cells of side h, turned by theta about the vertical through (0.5, 0.5),
+   its bottom face (set "bottom") at z = 0.5: an MSH 2.2 file. */
+static int write_turned_block(const char *path, int n, double h, double theta)
+{
+  FILE *f = fopen(path, "w");
+  int i, j, k, e = 0;
+  if (!f) return -1;
+  fprintf(f, "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$PhysicalNames\n2\n2 1 \"bottom\"\n3 2 \"block\"\n$EndPhysicalNames\n");
+  fprintf(f, "$Nodes\n%d\n", 2 * (n + 1) * (n + 1));
+  for (k = 0; k < 2; k++)
+    for (j = 0; j <= n; j++)
+      for (i = 0; i <= n; i++) {
+        double a = (i - 0.5 * n) * h, b = (j - 0.5 * n) * h;
+        fprintf(f, "%d %.17g %.17g %.17g\n", 1 + i + (n + 1) * (j + (n + 1) * k), 0.5 + cos(theta) * a - sin(theta) * b,
+                0.5 + sin(theta) * a + cos(theta) * b, 0.5 + 0.5 * k);
+      }
+  fprintf(f, "$EndNodes\n$Elements\n%d\n", 2 * n * n);
+#define NODE(i, j, k) (1 + (i) + (n + 1) * ((j) + (n + 1) * (k)))
+  for (j = 0; j < n; j++)
+    for (i = 0; i < n; i++) {
+      fprintf(f, "%d 5 2 2 1 %d %d %d %d %d %d %d %d\n", ++e, NODE(i, j, 0), NODE(i + 1, j, 0), NODE(i + 1, j + 1, 0),
+              NODE(i, j + 1, 0), NODE(i, j, 1), NODE(i + 1, j, 1), NODE(i + 1, j + 1, 1), NODE(i, j + 1, 1));
+      fprintf(f, "%d 3 2 1 1 %d %d %d %d\n", ++e, NODE(i, j, 0), NODE(i, j + 1, 0), NODE(i + 1, j + 1, 0), NODE(i + 1, j, 0));
+    }
+#undef NODE
+  fprintf(f, "$EndElements\n");
+  return fclose(f);
+}
+
+/* The 4 x 4 top of the unit box against the bottom of a block turned by 30 degrees that covers it:
+   the parts are triangles and polygons of up to six sides. Their points must integrate exactly
+   what is polynomial on them: the slave facets' measure, the consistent nodal weights of a uniform
+   pressure on the slave nodes (int N_a) and on the master nodes whose support lies under the slave
+   face (int N_b = h^2), and int x y = 1/4 over the face. */
+static void test_turned_master(void)
+{
+  static const char *fmt =
+    "bodies = (\n"
+    "  { name = \"lower\"; mesh = { generator = \"box\"; size = [1.0, 1.0, 0.5]; elements = [4, 4, 2]; };\n"
+    "    material = { E = 2.0e11; nu = 0.3; rho = 7800.0; }; fix = ( { set = \"zmin\"; dofs = [\"x\", \"y\", \"z\"]; } ); },\n"
+    "  { name = \"upper\"; mesh = { file = \"%s\"; };\n"
+    "    material = { E = 1.0e11; nu = 0.3; rho = 7800.0; }; }\n"
+    ");\n"
+    "time = { scheme = \"quasistatic\"; steps = 1; };\n"
+    "contact = { solver = \"levelset\";\n"
+    "  pairs = ( { name = \"interface\"; slave = \"lower\"; slave_set = \"zmax\"; master = \"upper\"; master_set = \"bottom\";\n"
+    "              collocation = \"gauss\"; gauss = 2; } ); };\n";
+  const int n = 10;
+  const double h = 0.2, theta = M_PI / 6;
+  char path[] = "/tmp/moreau-mortar-XXXXXX", file[64], text[4096];
+  mo_ctx ctx;
+  mo_case *cs = NULL;
+  mo_scene *sc = NULL;
+  mo_contact *C = NULL;
+  int fd = mkdtemp(path) ? 0 : -1, a, j, off = 0, nc, nmaster = 0;
+  double W = 0, xy = 0, es = 0, em = 0, Ns[25] = {0}, *Nm = NULL;
+  if (fd == 0) {
+    snprintf(file, sizeof file, "%s/turned.msh", path);
+    fd = write_turned_block(file, n, h, theta);
+  }
+  if (fd) { ok(0, "turned master: the mesh file"); return; }
+  snprintf(text, sizeof text, fmt, file);
+  mo_ctx_init(&ctx);
+  ctx.verbosity = 0;
+  if (tl_scene(text, "turned.cfg", &cs, &sc, &ctx) || mo_contact_build(sc, &C, &ctx)) {
+    ok(0, "turned master: the scene (%s)", ctx.errmsg);
+    goto done;
+  }
+  nc = mo_contact_ncandidates(C);
+  Nm = calloc((size_t)sc->body[1].mesh->nnode, sizeof *Nm);
+  for (a = 0; a < nc; a++) {
+    const mo_candidate *c = mo_contact_candidate(C, a);
+    const mo_cpoint *p = mo_contact_point(C, c->point);
+    W += c->w;
+    xy += c->w * p->x0[0] * p->x0[1];
+    off += p->off;
+    for (j = 0; j < p->nn; j++) Ns[p->node[j] % 25] += c->w * p->N[j]; /* the top nodes are 50..74 */
+    for (j = 0; j < p->mn; j++) Nm[p->mnode[j]] += c->w * p->mN[j];
+  }
+  for (a = 0; a < 25; a++) {
+    int i = a % 5, k = a / 5, edges = (i == 0 || i == 4) + (k == 0 || k == 4);
+    double exact = 1.0 / 16 / (edges == 2 ? 4 : edges == 1 ? 2 : 1);
+    if (fabs(Ns[a] - exact) / exact > es) es = fabs(Ns[a] - exact) / exact;
+  }
+  for (a = 0; a < sc->body[1].mesh->nnode; a++) {
+    const double *x = &sc->body[1].mesh->x[3 * a];
+    int inside = x[2] < 0.75, q;
+    for (q = 0; q < 4 && inside; q++) { /* the corners of its support */
+      double u = (q & 1 ? 1 : -1) * h, v = (q & 2 ? 1 : -1) * h;
+      double X = x[0] + cos(theta) * u - sin(theta) * v, Y = x[1] + sin(theta) * u + cos(theta) * v;
+      inside = X > 0 && X < 1 && Y > 0 && Y < 1;
+    }
+    if (!inside) continue;
+    nmaster++;
+    if (fabs(Nm[a] - h * h) / (h * h) > em) em = fabs(Nm[a] - h * h) / (h * h);
+  }
+  diag("turned master: %d points, measure %.17g, int x y %.17g, slave nodal weights %.1e, %d master nodes "
+       "under the face %.1e, %d falling off", nc, W, xy, es, nmaster, em, off);
+  ok(fabs(W - 1) <= 1e-13 && fabs(xy - 0.25) <= 1e-13 && es <= 1e-12 && off == 0 &&
+     mo_contact_pair_get(C, 0)->nseg_fallback == 0,
+     "turned master: the segments cover the slave face once (measure 1 %+.1e, int x y 1/4 %+.1e, int N_a %.1e)",
+     W - 1, xy - 0.25, es);
+  ok(nmaster >= 1 && em <= 1e-12, "turned master: int N_b = h^2 under the slave face (%d master nodes, %.1e)",
+     nmaster, em);
+done:
+  free(Nm);
+  mo_contact_free(C);
+  mo_scene_free(sc);
+  mo_case_free(cs);
+  if (fd == 0) {
+    remove(file);
+    rmdir(path);
+  }
+}
+
+/* A master narrower than the slave: the facets it does not cover once keep whole-facet points. */
+static void test_partial_cover(void)
+{
+  char text[4096];
+  run_t R;
+  const mo_contact_pair *P;
+  snprintf(text, sizeof text, patch2d_fmt, 12, 7, "p0");
+  /* the upper block 0.7 wide: slave facets 0..7 lie under it, 8 straddles its edge, 9..11 are past it */
+  {
+    char *s = strstr(text, "size = [1.0, 0.5]; elements = [7");
+    if (s) memcpy(s, "size = [0.7, 0.5]", 17);
+  }
+  if (run_open(&R, text, NULL, 0)) { ok(0, "partial cover: scene"); return; }
+  P = mo_contact_pair_get(R.C, 0);
+  /* under it, the master nodes 0.1, 0.2, 0.3, 0.4 and 0.6 cut five of the eight facets (0.5 is a
+     slave node): 13 segments of two points, and two points on each of the four others */
+  ok(P->nseg_fallback == 4 && mo_contact_ncandidates(R.C) == 13 * 2 + 4 * 2,
+     "partial cover: 4 of the 12 slave facets keep whole-facet points (%d), %d points", P->nseg_fallback,
+     mo_contact_ncandidates(R.C));
+  run_free(&R);
+}
+
 int main(void)
 {
   /* segmented integration, the default */
@@ -196,11 +335,14 @@ int main(void)
   check(2, 11, 12, "p0", NULL, 1e-10);
   check(3, 4, 3, "p0", NULL, 1e-10);
   check(3, 3, 4, "p0", NULL, 1e-10);
+  check(3, 4, 3, "p1", NULL, 1e-10);
   /* matching meshes: the segments are the facets */
   check(2, 12, 12, "p0", NULL, 1e-10);
   check(3, 4, 4, "p0", NULL, 1e-10);
   /* the Gauss points of whole facets */
   check(2, 12, 11, "p0", "facet", 0);
   check(3, 4, 3, "p0", "facet", 0);
+  test_turned_master();
+  test_partial_cover();
   return done_testing();
 }
