@@ -884,14 +884,14 @@ static int build_pair(mo_contact *C, int k, const config_setting_t *pg, mo_ctx *
     if ((st = mo_quad_facet(D - 1, P->gauss, &Q, ctx))) goto done;
     if (mfs && (st = mo_contact_segment_masters(sc, P->mbody, mfs, &s0, &mg, ctx))) goto done;
     for (f = 0; f < fs->n && !st; f++) {
-      int q, nq = Q.n;
+      int q, nq = Q.n, whole = 0;
       nseg = 0;
       if (mfs) {
         if ((st = mo_contact_segment_facet(sc, P->sbody, fs, f, P->mbody, mfs, mg, &s0, P->gauss, &seg, &nseg, &segcap,
-                                           ctx)))
+                                           &whole, ctx)))
           break;
         if (nseg) nq = nseg;
-        else P->nseg_fallback++;
+        P->nseg_fallback += whole;
       }
       for (q = 0; q < nq; q++) {
         mo_cpoint p;
@@ -923,8 +923,8 @@ static int build_pair(mo_contact *C, int k, const config_setting_t *pg, mo_ctx *
     mo_free(seg);
     mo_free(mg);
     if (!st && P->nseg_fallback)
-      mo_note_skip(ctx, "segmented integration on %d of the %d slave facets of pair '%s' (the others are not covered "
-                   "exactly once by the master: Gauss points on the whole facet)", fs->n - P->nseg_fallback, fs->n, P->name);
+      mo_note_skip(ctx, "segmented integration on %d of the %d slave facets of pair '%s' (not covered exactly once by "
+                   "the master: Gauss points on the whole facet)", P->nseg_fallback, fs->n, P->name);
     goto done;
   }
 

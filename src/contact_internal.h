@@ -90,11 +90,12 @@ double mo_contact_facet_eval(const mo_scene *sc, int b, const mo_facetset *fs, i
 double mo_contact_facet_factor(const mo_material *mat, const double *x);
 /* contact_mortar.c: segmented integration (doc/theory.md §4.7). The Gauss points of slave facet f
    (set sfs of body sb) cut by the facets of the master set mfs (body mb, their centres, normals and
-   radii mg from mo_contact_segment_masters) that face it, at state u:
-   appended to *pts (n, capacity cap, grown), each with its facet coordinates, its weight (the
-   measure, facet factor included) and its master facet. Appends nothing when the master facets
-   do not cover the slave facet exactly once (a facet past the master's edge, masters of several
-   layers, a non-convex projected master facet): that facet keeps the rule of the whole facet. */
+   radii mg from mo_contact_segment_masters) that face it, at state u: appended to *pts (n,
+   capacity cap, grown), each with its facet coordinates, its weight (the measure, facet factor
+   included) and its master facet (-1: a 2D segment past the master's edge, paired as any point).
+   Appends nothing when no master facet faces it, or when they do not cover it exactly once (a 3D
+   facet past the master's edge, masters of several layers, a non-convex projected facet: then
+   *whole = 1): that facet keeps the rule of the whole facet. */
 typedef struct {
   double xi[2];
   double w;
@@ -102,7 +103,7 @@ typedef struct {
 } mo_segpt;
 int mo_contact_segment_facet(const mo_scene *sc, int sb, const mo_facetset *sfs, int f, int mb,
                              const mo_facetset *mfs, const double *mg, const mo_state *u, int gauss, mo_segpt **pts,
-                             int *n, int *cap, mo_ctx *ctx);
+                             int *n, int *cap, int *whole, mo_ctx *ctx);
 /* What mo_contact_segment_facet needs of the master facets, once per pair: per facet its centre,
    its unit normal at the centre and its radius about the centre (7 values; *mg freed by the
    caller). */

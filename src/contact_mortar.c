@@ -160,7 +160,7 @@ int mo_contact_segment_masters(const mo_scene *sc, int mb, const mo_facetset *mf
 
 int mo_contact_segment_facet(const mo_scene *sc, int sb, const mo_facetset *sfs, int f, int mb,
                              const mo_facetset *mfs, const double *mg, const mo_state *u, int gauss, mo_segpt **pts,
-                             int *npts, int *cap, mo_ctx *ctx)
+                             int *npts, int *cap, int *whole, mo_ctx *ctx)
 {
   const int D = sc->dim, nfn = sfs->nfn;
   const mo_material *mat = &sc->body[sb].mat;
@@ -169,6 +169,7 @@ int mo_contact_segment_facet(const mo_scene *sc, int sb, const mo_facetset *sfs,
   piece *pc = NULL;
   int npc = 0, a, i, m, k, q, st = MO_OK, n0 = *npts;
   gsl_integration_glfixed_table *T1 = NULL, *T2 = NULL;
+  *whole = 0;
   if (nfn != 2 && nfn != 4) return MO_OK;
   /* the slave facet: its vertices, centre, normal at the centre and a basis of its plane */
   for (a = 0; a < nfn; a++) {
@@ -199,15 +200,14 @@ int mo_contact_segment_facet(const mo_scene *sc, int sb, const mo_facetset *sfs,
       diam = fmax(diam, 2 * hypot(zs[a][0], zs[a][1]));
     }
     As = 0.5 * area2(4, zs);
-    if (!(As > 0)) return MO_OK; /* not a counter-clockwise convex quadrilateral seen from n_s */
-    for (a = 0; a < 4; a++) {
+    for (a = 0; a < 4; a++) { /* a convex quadrilateral, counter-clockwise seen from n_s */
       double cr = (zs[(a + 1) % 4][0] - zs[a][0]) * (zs[(a + 2) % 4][1] - zs[(a + 1) % 4][1]) -
                   (zs[(a + 1) % 4][1] - zs[a][1]) * (zs[(a + 2) % 4][0] - zs[(a + 1) % 4][0]);
-      if (!(cr > 0)) return MO_OK;
+      if (!(cr > 0) || !(As > 0)) { *whole = 1; return MO_OK; }
     }
   }
   reach = diam;
-  pc = mo_malloc(ctx, (size_t)(mfs->n ? mfs->n : 1) * sizeof *pc);
+  pc = mo_malloc(ctx, (size_t)(2 * mfs->n + 1) * sizeof *pc); /* the parts, and in 2D the gaps between */
   if (!pc) return MO_ENOMEM;
   /* the master facets facing it whose projections overlap it */
   for (m = 0; m < mfs->n; m++) {
@@ -277,12 +277,31 @@ int mo_contact_segment_facet(const mo_scene *sc, int sb, const mo_facetset *sfs,
   for (k = 0, i = 0; k < npc; k++)
     if (fabs(pc[k].dn) <= dmin + reach) pc[i++] = pc[k];
   npc = i;
-  for (k = 0; k < npc; k++) covered += D == 2 ? pc[k].hi - pc[k].lo : 0.5 * area2(pc[k].nv, pc[k].z);
-  if (D == 3) covered /= As; /* in 2D s is already relative to the facet */
-  /* covered exactly once, else the facet keeps the Gauss points of the whole facet */
-  if (npc == 0 || fabs(covered - 1) > 1e-9) goto not_covered;
+  if (npc == 0) goto done; /* no master in front of it: the points of the whole facet, searched */
   if (D == 2) {
+    /* segments in order along the facet; one covered twice is a master of several layers; the
+       parts no master facet covers (past the master's edge) are segments of their own, whose
+       points pair with the nearest master facet as any point does (contact.pairs.[].off_master) */
     mo_quad Q;
+    int ng;
+    for (k = 1; k < npc; k++) {
+      piece t = pc[k];
+      for (i = k; i > 0 && pc[i - 1].lo > t.lo; i--) pc[i] = pc[i - 1];
+      pc[i] = t;
+    }
+    for (k = 1; k < npc; k++)
+      if (pc[k].lo < pc[k - 1].hi - 1e-10) goto not_covered;
+    for (k = 0, ng = npc; k <= npc; k++) {
+      double lo = k ? pc[k - 1].hi : 0, hi = k < npc ? pc[k].lo : 1;
+      if (hi - lo > 1e-10) {
+        piece *G = &pc[ng++];
+        memset(G, 0, sizeof *G);
+        G->m = -1;
+        G->lo = lo;
+        G->hi = hi;
+      }
+    }
+    npc = ng;
     if ((st = mo_quad_facet(1, gauss, &Q, ctx))) goto done;
     for (k = 0; k < npc; k++) {
       double x0 = 2 * pc[k].lo - 1, x1 = 2 * pc[k].hi - 1;
@@ -296,7 +315,11 @@ int mo_contact_segment_facet(const mo_scene *sc, int sb, const mo_facetset *sfs,
     }
     goto done;
   }
-  /* 3D: a quadrilateral part takes the gauss x gauss rule of its bilinear map; any other polygon
+  /* 3D: the parts must cover the facet exactly once, else it keeps the Gauss points of the whole
+     facet (the rest of a facet past the master's edge is not a convex polygon) */
+  for (k = 0; k < npc; k++) covered += 0.5 * area2(pc[k].nv, pc[k].z);
+  if (fabs(covered / As - 1) > 1e-9) goto not_covered;
+  /* a quadrilateral part takes the gauss x gauss rule of its bilinear map; any other polygon
      is cut into triangles, each with the collapsed (Duffy) product rule of gauss + 1 points per
      direction (exact to degree 2 gauss on the triangle) */
   T1 = gsl_integration_glfixed_table_alloc((size_t)gauss);
@@ -354,6 +377,7 @@ int mo_contact_segment_facet(const mo_scene *sc, int sb, const mo_facetset *sfs,
   goto done;
 not_covered:
   *npts = n0;
+  *whole = 1;
 done:
   if (T1) gsl_integration_glfixed_table_free(T1);
   if (T2) gsl_integration_glfixed_table_free(T2);

@@ -305,25 +305,30 @@ done:
   }
 }
 
-/* A master narrower than the slave: the facets it does not cover once keep whole-facet points. */
+/* A master narrower than the slave. In 2D the part of a slave facet past the master's edge is a
+   segment of its own, and the facets with no master in front keep their points; in 3D a facet
+   that the master covers in part keeps the points of the whole facet. */
 static void test_partial_cover(void)
 {
-  char text[4096];
+  char text[4096], *s;
   run_t R;
-  const mo_contact_pair *P;
   snprintf(text, sizeof text, patch2d_fmt, 12, 7, "p0");
   /* the upper block 0.7 wide: slave facets 0..7 lie under it, 8 straddles its edge, 9..11 are past it */
-  {
-    char *s = strstr(text, "size = [1.0, 0.5]; elements = [7");
-    if (s) memcpy(s, "size = [0.7, 0.5]", 17);
-  }
-  if (run_open(&R, text, NULL, 0)) { ok(0, "partial cover: scene"); return; }
-  P = mo_contact_pair_get(R.C, 0);
+  if ((s = strstr(text, "size = [1.0, 0.5]; elements = [7"))) memcpy(s, "size = [0.7, 0.5]", 17);
+  if (run_open(&R, text, NULL, 0)) { ok(0, "partial cover: 2D scene"); return; }
   /* under it, the master nodes 0.1, 0.2, 0.3, 0.4 and 0.6 cut five of the eight facets (0.5 is a
-     slave node): 13 segments of two points, and two points on each of the four others */
-  ok(P->nseg_fallback == 4 && mo_contact_ncandidates(R.C) == 13 * 2 + 4 * 2,
-     "partial cover: 4 of the 12 slave facets keep whole-facet points (%d), %d points", P->nseg_fallback,
-     mo_contact_ncandidates(R.C));
+     slave node): 13 segments; facet 8 is cut at 0.7; 3 whole facets: 18 segments of two points */
+  ok(mo_contact_pair_get(R.C, 0)->nseg_fallback == 0 && mo_contact_ncandidates(R.C) == 18 * 2,
+     "partial cover, 2D: the edge of the master cuts a slave facet like a node (%d points, %d whole facets)",
+     mo_contact_ncandidates(R.C), mo_contact_pair_get(R.C, 0)->nseg_fallback);
+  run_free(&R);
+  snprintf(text, sizeof text, patch3d_fmt, 4, 4, 3, 3, "p0");
+  /* the upper block 0.7 deep in x: the column of slave facets over x in [0.5, 0.75] straddles its edge */
+  if ((s = strstr(text, "size = [1.0, 1.0, 0.5]; elements = [3"))) memcpy(s, "size = [0.7, 1.0, 0.5]", 22);
+  if (run_open(&R, text, NULL, 0)) { ok(0, "partial cover: 3D scene"); return; }
+  ok(mo_contact_pair_get(R.C, 0)->nseg_fallback == 4,
+     "partial cover, 3D: the 4 slave facets the master's edge crosses keep whole-facet points (%d)",
+     mo_contact_pair_get(R.C, 0)->nseg_fallback);
   run_free(&R);
 }
 
