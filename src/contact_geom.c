@@ -196,7 +196,7 @@ static void point_pos(const mo_contact *C, const mo_cpoint *p, const mo_state *u
 }
 
 /* Facet factor of the measure: thickness, 2 pi r, cross-section area, or 1 (3D). */
-static double facet_factor(const mo_material *mat, const double *x)
+double mo_contact_facet_factor(const mo_material *mat, const double *x)
 {
   switch (mat->hyp) {
   case MO_HYP_BAR: return mat->area;
@@ -208,8 +208,10 @@ static double facet_factor(const mo_material *mat, const double *x)
 }
 
 /* Position, tangents and measure density of a facet at reference coordinates s. */
-static double facet_eval(const mo_scene *sc, int b, const mo_facetset *fs, int f, const double *s,
-                         const mo_state *u, double *N, double *x, double *n)
+#define facet_eval mo_contact_facet_eval
+#define facet_factor mo_contact_facet_factor
+double mo_contact_facet_eval(const mo_scene *sc, int b, const mo_facetset *fs, int f, const double *s,
+                             const mo_state *u, double *N, double *x, double *n)
 {
   int D = sc->dim, nfn = fs->nfn, a, i;
   double dN[8], t1[3] = {0, 0, 0}, t2[3] = {0, 0, 0}, y[3], len = 1;
@@ -333,7 +335,13 @@ static void pair_point(mo_contact *C, mo_cpoint *p, const mo_state *u, double t,
   {
     const mo_facetset *fs = mo_mesh_find_facetset(sc->body[P->mbody].mesh, P->mset);
     double q[3], n[3], N[4], xi[2];
-    if (repair || p->mfacet < 0) {
+    if (p->mseg > 0 && p->mfacet < 0) {
+      /* a point of a segment: its master facet is the segment's (doc/theory.md (T90)) */
+      int inside;
+      p->mfacet = p->mseg - 1;
+      mo_contact_project_facet(sc, P->mbody, fs, p->mfacet, x, u, xi, N, q, n, &inside);
+      p->off = !inside;
+    } else if (repair || p->mfacet < 0) {
       double best = HUGE_VAL, bestin = HUGE_VAL;
       int f, fbest = -1, fin = -1, inside;
       for (f = 0; f < fs->n; f++) {
@@ -864,13 +872,32 @@ static int build_pair(mo_contact *C, int k, const config_setting_t *pg, mo_ctx *
 
   if (P->colloc == MO_COLLOC_GAUSS) {
     mo_quad Q;
+    mo_segpt *seg = NULL;
+    double *mg = NULL;
+    int nseg = 0, segcap = 0, segment = P->integ == MO_INTEG_SEGMENTS && P->master == MO_MASTER_FACETS && fs->nfn > 1;
+    const mo_facetset *mfs = segment ? mo_mesh_find_facetset(sc->body[P->mbody].mesh, P->mset) : NULL;
+    mo_state s0;
+    /* the segments are cut in the configuration of the first pairing (u0) */
+    memset(&s0, 0, sizeof s0);
+    s0.u = sc->u0;
+    s0.v = sc->v0;
     if ((st = mo_quad_facet(D - 1, P->gauss, &Q, ctx))) goto done;
-    for (f = 0; f < fs->n; f++) {
-      int q;
-      for (q = 0; q < Q.n; q++) {
+    if (mfs && (st = mo_contact_segment_masters(sc, P->mbody, mfs, &s0, &mg, ctx))) goto done;
+    for (f = 0; f < fs->n && !st; f++) {
+      int q, nq = Q.n, whole = 0;
+      nseg = 0;
+      if (mfs) {
+        if ((st = mo_contact_segment_facet(sc, P->sbody, fs, f, P->mbody, mfs, mg, &s0, P->gauss, &seg, &nseg, &segcap,
+                                           &whole, ctx)))
+          break;
+        if (nseg) nq = nseg;
+        P->nseg_fallback += whole;
+      }
+      for (q = 0; q < nq; q++) {
         mo_cpoint p;
         mo_candidate c;
         double x[3], N[4], jac, one = 1;
+        const double *xi = nseg ? seg[q].xi : Q.xi[q];
         int pi;
         memset(&p, 0, sizeof p);
         memset(&c, 0, sizeof c);
@@ -878,20 +905,26 @@ static int build_pair(mo_contact *C, int k, const config_setting_t *pg, mo_ctx *
         p.facet = f;
         p.nn = fs->nfn;
         p.mfacet = -1;
-        jac = facet_eval(sc, P->sbody, fs, f, Q.xi[q], NULL, N, x, NULL);
+        p.mseg = nseg ? seg[q].mfacet + 1 : 0;
+        jac = facet_eval(sc, P->sbody, fs, f, xi, NULL, N, x, NULL);
         for (a = 0; a < fs->nfn; a++) { p.node[a] = fs->node[f * fs->nfn + a]; p.N[a] = N[a]; }
         for (i = 0; i < D; i++) p.x0[i] = x[i];
         pi = C->npt;
-        if ((st = mo_contact_add_point(C, &p, ctx))) goto done;
+        if ((st = mo_contact_add_point(C, &p, ctx))) break;
         c.pair = k;
         c.np = 1;
         c.node = -1;
         c.point = pi;
-        c.w = jac * Q.w[q] * facet_factor(&sc->body[P->sbody].mat, x);
+        c.w = nseg ? seg[q].w : jac * Q.w[q] * facet_factor(&sc->body[P->sbody].mat, x);
         c.mu = P->mu;
-        if ((st = mo_contact_add_candidate(C, &c, &pi, &one, ctx))) goto done;
+        if ((st = mo_contact_add_candidate(C, &c, &pi, &one, ctx))) break;
       }
     }
+    mo_free(seg);
+    mo_free(mg);
+    if (!st && P->nseg_fallback)
+      mo_note_skip(ctx, "segmented integration on %d of the %d slave facets of pair '%s' (not covered exactly once by "
+                   "the master: Gauss points on the whole facet)", P->nseg_fallback, fs->n, P->name);
     goto done;
   }
 
@@ -1057,6 +1090,7 @@ int mo_contact_build(const mo_scene *sc, mo_contact **out, mo_ctx *ctx)
     P->reactions = !strcmp(s ? s : mo_cfg_string(pg, "reactions", "concentrated"), "weighted") ? MO_REACT_WEIGHTED : MO_REACT_CONCENTRATED;
     P->colloc = !strcmp(mo_cfg_string(pg, "collocation", "nodes"), "gauss") ? MO_COLLOC_GAUSS : MO_COLLOC_NODES;
     P->gauss = mo_cfg_int(pg, "gauss", 2);
+    P->integ = !strcmp(mo_cfg_string(pg, "integration", "segments"), "facet") ? MO_INTEG_FACET : MO_INTEG_SEGMENTS;
     s = mo_cfg_string(pg, "ends", "dual");
     P->ends = !strcmp(s, "half") ? MO_ENDS_HALF : !strcmp(s, "extend") ? MO_ENDS_EXTEND : MO_ENDS_DUAL;
     P->off = !strcmp(mo_cfg_string(pg, "off_master", "nearest"), "inactive") ? MO_OFF_INACTIVE : MO_OFF_NEAREST;

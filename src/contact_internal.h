@@ -81,6 +81,34 @@ void mo_contact_frame_from_normal(int dim, const double *n, double *F);
 void mo_contact_node_pos(const mo_scene *sc, int b, int a, const mo_state *s, double *x);
 double mo_contact_project_facet(const mo_scene *sc, int b, const mo_facetset *fs, int f, const double *x,
                                 const mo_state *s, double *xi, double *N, double *q, double *n, int *inside);
+/* The position x, shape values N and (when n is not NULL) the outward unit normal of facet f of
+   a facet set of body b at reference coordinates s and state u (NULL: reference); returns the
+   measure density |dx/ds| (1 for a point facet). The facet factor of the measure at x:
+   thickness, 2 pi r, cross-section or 1. */
+double mo_contact_facet_eval(const mo_scene *sc, int b, const mo_facetset *fs, int f, const double *s,
+                             const mo_state *u, double *N, double *x, double *n);
+double mo_contact_facet_factor(const mo_material *mat, const double *x);
+/* contact_mortar.c: segmented integration (doc/theory.md §4.7). The Gauss points of slave facet f
+   (set sfs of body sb) cut by the facets of the master set mfs (body mb, their centres, normals and
+   radii mg from mo_contact_segment_masters) that face it, at state u: appended to *pts (n,
+   capacity cap, grown), each with its facet coordinates, its weight (the measure, facet factor
+   included) and its master facet (-1: a 2D segment past the master's edge, paired as any point).
+   Appends nothing when no master facet faces it, or when they do not cover it exactly once (a 3D
+   facet past the master's edge, masters of several layers, a non-convex projected facet: then
+   *whole = 1): that facet keeps the rule of the whole facet. */
+typedef struct {
+  double xi[2];
+  double w;
+  int mfacet;
+} mo_segpt;
+int mo_contact_segment_facet(const mo_scene *sc, int sb, const mo_facetset *sfs, int f, int mb,
+                             const mo_facetset *mfs, const double *mg, const mo_state *u, int gauss, mo_segpt **pts,
+                             int *n, int *cap, int *whole, mo_ctx *ctx);
+/* What mo_contact_segment_facet needs of the master facets, once per pair: per facet its centre,
+   its unit normal at the centre and its radius about the centre (7 values; *mg freed by the
+   caller). */
+int mo_contact_segment_masters(const mo_scene *sc, int mb, const mo_facetset *mfs, const mo_state *u, double **mg,
+                               mo_ctx *ctx);
 /* Append a point / a candidate (its point and coefficient lists); grow the per-candidate arrays
    to hold nc candidates. */
 int mo_contact_add_point(mo_contact *C, const mo_cpoint *p, mo_ctx *ctx);

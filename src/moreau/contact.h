@@ -19,6 +19,10 @@ extern "C" {
 
 typedef enum { MO_REACT_CONCENTRATED = 0, MO_REACT_WEIGHTED } mo_reactions;
 typedef enum { MO_COLLOC_NODES = 0, MO_COLLOC_GAUSS } mo_collocation;
+/* Gauss collocation against a mesh master: the Gauss points on the parts of each slave facet cut
+   by the master facets (SEGMENTS, mortar segmentation, doc/theory.md §4.7), or on the whole
+   slave facet (FACET). */
+typedef enum { MO_INTEG_SEGMENTS = 0, MO_INTEG_FACET } mo_integration;
 /* How dual cells end where the slave surface ends (weighted reactions, doc/theory.md §4.3):
    DUAL: every facet is split among its nodes; the parts of non-candidate nodes carry no
    reaction (Jean's GRECO runs: last row [.., 1/8, 3/4] at a held end);
@@ -52,6 +56,8 @@ typedef struct {
   mo_reactions reactions;
   mo_collocation colloc;
   int gauss;                 /* points per facet direction (Gauss collocation) */
+  mo_integration integ;      /* Gauss collocation: on segments or whole facets */
+  int nseg_fallback;         /* slave facets that kept the whole facet's points (not covered once) */
   mo_weighted_ends ends;
   mo_off_master off;
   char *exclude;             /* node set whose nodes are not candidates (or NULL) */
@@ -77,6 +83,8 @@ typedef struct {
   double mN[4];
   double xi[2];              /* master facet coordinates of the projection */
   int off;                   /* 1: the projection fell off the master (inactive) */
+  int mseg;                  /* segmented integration: 1 + the master facet of the point's segment,
+                                taken at the first pairing (0: none, search the nearest) */
   double frame[9];           /* rows: n (master to slave), t, s */
   double g;                  /* gap in the current configuration (>= 0 open) */
   /* the bodies and material points on each side (pairs may join groups of bodies): the slave
