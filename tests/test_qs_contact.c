@@ -131,14 +131,14 @@ static void run_free(run_t *R)
   mo_case_free(R->cs);
 }
 
-static int run_open(run_t *R, const char *const *sets, int nset)
+static int run_open_case(run_t *R, const char *name, const char *const *sets, int nset, int step)
 {
   char path[1024];
   int st, k;
   memset(R, 0, sizeof *R);
   mo_ctx_init(&R->ctx);
   R->ctx.verbosity = 0;
-  tl_case_path(path, sizeof path, "patch-test");
+  tl_case_path(path, sizeof path, name);
   st = mo_case_load(path, &R->cs, &R->ctx);
   for (k = 0; !st && k < nset; k++) st = mo_case_set(R->cs, sets[k], &R->ctx);
   if (!st) st = mo_case_validate(R->cs, &R->ctx);
@@ -148,9 +148,14 @@ static int run_open(run_t *R, const char *const *sets, int nset)
   if (!st) st = mo_contact_driver_create(R->sc, R->C, R->S, &R->D, &R->ctx);
   if (!st) st = mo_state_alloc(R->sc, &R->s, &R->ctx);
   if (!st) st = mo_stepper_init_state(R->S, &R->s, &R->ctx);
-  if (!st) st = mo_contact_step(R->D, &R->s, &R->ctx);
-  if (st) diag("patch test: %s", R->ctx.errmsg);
+  if (!st && step) st = mo_contact_step(R->D, &R->s, &R->ctx);
+  if (st) diag("%s: %s", name, R->ctx.errmsg);
   return st;
+}
+
+static int run_open(run_t *R, const char *const *sets, int nset)
+{
+  return run_open_case(R, "patch-test", sets, nset, 1);
 }
 
 /* The exact uniform pressure of the patch test (cases/patch-test/README.md). */
@@ -227,6 +232,27 @@ static void test_redundant(void)
   run_free(&R);
 }
 
+/* --- 5. the equilibrium check itself: a factor that is not K's --------------------------------------- */
+
+static void test_equilibrium_check(void)
+{
+  run_t R;
+  int k, st;
+  if (run_open_case(&R, "box-on-plane", NULL, 0, 0)) {
+    ok(0, "box-on-plane: setup");
+    run_free(&R);
+    return;
+  }
+  /* K as the check reads it 1 % stiffer than the K the stepper factored: the contact problem is
+     solved on the factor, so only the global equilibrium (T82) can see it */
+  for (k = 0; k < R.sc->K->p[R.sc->K->ncol]; k++) R.sc->K->x[k] *= 1.01;
+  st = mo_contact_step(R.D, &R.s, &R.ctx);
+  ok(st == MO_ENOCONV && strstr(R.ctx.errmsg, "not in equilibrium") && strstr(R.ctx.errmsg, "body 'box'"),
+     "a factor that does not solve K u = f + H r: the step fails on the global equilibrium (T82) (%.200s)",
+     st ? R.ctx.errmsg : "the step succeeded");
+  run_free(&R);
+}
+
 int main(void)
 {
   test_singular();
@@ -234,5 +260,6 @@ int main(void)
   test_box("levelset", 10);
   test_patch();
   test_redundant();
+  test_equilibrium_check();
   return done_testing();
 }
