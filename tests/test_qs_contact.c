@@ -4,7 +4,9 @@
    exactly (closed form: uniform uniaxial stress) by nscd within a bounded number of sweeps and by
    levelset; nscd on the patch test converges to the dense solution of its local problem, with the
    facet-mean pressure at the exact value (T83); on matching meshes (redundant constraints) it
-   reports the redundancy and the minimum-norm reactions, the exact uniform pressure (T84). */
+   reports the redundancy and the minimum-norm reactions, the exact uniform pressure (T84); a
+   factor that does not solve K u = f + H r fails the step on the global equilibrium (T82); a
+   tolerance below round-off is met at the round-off floor (T85). */
 #include "config.h"
 #include <moreau/moreau.h>
 #include "testlib.h"
@@ -253,6 +255,24 @@ static void test_equilibrium_check(void)
   run_free(&R);
 }
 
+/* --- 6. the round-off floor (T85): a tolerance no iteration can meet ---------------------------------- */
+
+static void test_roundoff(void)
+{
+  const char *sets[] = {"contact.nscd.tol=1e-20", "contact.nscd.max_sweeps=5000", "contact.nscd.accelerate=false"};
+  char out[256], err[MO_ERRMSG_MAX];
+  double it = NAN;
+  int st = run("greco-jean-mu1", "nscd", sets, 3, "roundoff", out, sizeof out, err, sizeof err);
+  if (!st) {
+    json_t *J = tl_summary(out);
+    it = tl_jnum(J, "contact", "iterations_max", NULL);
+    json_decref(J);
+  }
+  ok(!st && it <= 500, "GRECO mu = 1, tol = 1e-20, the sweeps alone: converged at the round-off floor (T85) in %g "
+     "sweeps (the 5000-sweep limit without it) %s", it, err);
+  tl_remove_dir(out);
+}
+
 int main(void)
 {
   test_singular();
@@ -261,5 +281,6 @@ int main(void)
   test_patch();
   test_redundant();
   test_equilibrium_check();
+  test_roundoff();
   return done_testing();
 }

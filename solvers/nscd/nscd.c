@@ -497,9 +497,10 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
     nscd_accel_info ai;
     double rdummy = res;
     memset(&ai, 0, sizeof ai);
-    /* with the scaled rule the direct solution replaces the sweeps' when it satisfies the law:
-       the minimum-norm reactions when they are not unique */
-    if ((st = nscd_status_step(S, P, r, x->status, scaled ? p->tol : -1, &rdummy, &ai, ctx))) return st;
+    /* with the scaled rule and accelerate, the direct solution replaces the sweeps' when it
+       satisfies the law: the minimum-norm reactions when they are not unique */
+    if ((st = nscd_status_step(S, P, r, x->status, scaled && p->accelerate ? p->tol : -1, &rdummy, &ai, ctx)))
+      return st;
     if (ai.tried) S->ai = ai;
     if (ai.accepted) {
       res = rdummy;

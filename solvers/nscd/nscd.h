@@ -156,7 +156,8 @@ void nscd_bodies_free(nscd_state *S);
 /* The status-set step on W (not the sweep on bodies): from the statuses of r, solve the closed
    contacts' linear problem (minimum-norm when it is rank-deficient); when its solution satisfies
    the law (scaled residual <= tol or at round-off) r, status and *res take it (info->accepted);
-   otherwise r is kept and S->U is recomputed exactly. MO_OK or MO_ENOMEM. */
+   otherwise r is kept and S->U is recomputed exactly. tol < 0: measure the rank only, never
+   accept. MO_OK or MO_ENOMEM. */
 int nscd_status_step(nscd_state *S, const mo_contact_problem *P, double *r, int *status, double tol,
                      double *res, nscd_accel_info *info, mo_ctx *ctx);
 /* The round-off level of the scaled residual at r (T85): 0 on the sweep on bodies. */

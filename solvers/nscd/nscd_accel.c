@@ -174,7 +174,7 @@ int nscd_status_step(nscd_state *S, const mo_contact_problem *P, double *r, int 
   mo_delassus_mult(P->W, rnew, 0, S->U);
   for (i = 0; i < S->m; i++) S->U[i] += P->b[i];
   res1 = mo_fc_natural_map_subset(d, S->nact, S->act, S->mu, S->scale, rnew, S->U, sqrt(S->qs2));
-  if (res1 <= tol || res1 <= nscd_roundoff_floor(S, P, rnew)) {
+  if (tol >= 0 && (res1 <= tol || res1 <= nscd_roundoff_floor(S, P, rnew))) {
     memcpy(r, rnew, (size_t)S->m * sizeof *r);
     for (k = 0; k < S->nact; k++) {
       a = S->act[k];
