@@ -397,7 +397,7 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
 {
   nscd_state *S = state;
   const nscd_params *p = &S->p;
-  int d = S->d, m = S->m, a, k, i, st, sweeps = 0, broke = -1, conv = 0, tried = -1000;
+  int d = S->d, m = S->m, a, k, i, st, sweeps = 0, broke = -1, conv = 0, tried = -1000, wait = 10;
   double *r = x->r, quad = 0, maxm = 0, res = HUGE_VAL, rhist[10] = {HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL};
   const int scaled = p->stop == NSCD_STOP_SCALED;
   int (*do_sweep)(nscd_state *, const mo_contact_problem *, double *, int *) =
@@ -458,7 +458,16 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
         /* the status-set step (T83) when the sweeps stall with stable statuses */
         int stable = sweeps > 1;
         for (k = 0; k < S->nact && stable; k++) stable = x->status[S->act[k]] == S->sprev[S->act[k]];
-        if (stable && sweeps >= 10 && res > 0.5 * rhist[sweeps % 10] && sweeps - tried >= 10) {
+        /* its cost (a dense LU of one unknown per closed frictionless contact, at most d per
+           frictional one) never above the sweeps' so far, and after a step that did not
+           converge, twice as many sweeps before the next */
+        double nclosed = 0, nb = 0;
+        if (stable && sweeps >= 10 && res > 0.5 * rhist[sweeps % 10] && sweeps - tried >= wait)
+          for (k = 0; k < S->nact; k++) {
+            nclosed += r[S->act[k] * d] > 0 ? (S->mu[S->act[k]] > 0 ? d : 1) : 0; /* unknowns, at most */
+            nb += S->rcnt[S->act[k]];
+          }
+        if (nb > 0 && 2.0 / 3.0 * pow(nclosed, 3) <= (double)sweeps * nb * 2 * d * d) {
           nscd_accel_info ai;
           memset(&ai, 0, sizeof ai);
           tried = sweeps;
@@ -466,6 +475,7 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
           if ((st = nscd_status_step(S, P, r, x->status, p->tol, &res, &ai, ctx))) return st;
           if (ai.tried) { S->ai = ai; S->accel_tries++; }
           if (ai.accepted) { conv = 1; break; }
+          wait *= 2;
           res = residual(S, r, scaled);
         }
         rhist[sweeps % 10] = res;
