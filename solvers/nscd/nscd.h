@@ -148,6 +148,8 @@ void nscd_bodies_free(nscd_state *S);
 #define NSCD_ACCEL_MAX 1500
 #define NSCD_RANK_TOL 1e-10
 #define NSCD_ROUNDOFF 64
+/* Status iterations of one status-set step (each a dense solve) */
+#define NSCD_STATUS_ITER 8
 /* A contact with no reaction is closed when its scaled velocity is below this fraction of the
    reactions' scale (or 100 tol, what the sweeps' tolerance leaves) */
 #define NSCD_WEAK 1e-9
