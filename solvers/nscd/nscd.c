@@ -493,13 +493,6 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
   if (p->stop == NSCD_STOP_SWEEPS && broke < 0 && sweeps == p->max_sweeps) conv = 1;
   /* U is exact already when a residual rule has just confirmed convergence */
   if (!(conv && (scaled || p->stop == NSCD_STOP_NATURAL))) exact_U(S, P, r);
-  memcpy(x->U, S->U, (size_t)m * sizeof *x->U);
-  if (S->bodies) { /* the correction is the body velocities' change: no solve left to the core */
-    nscd_bodies_dx(S, P, x->dx);
-    x->dx_set = 1;
-  }
-  /* Jean's norms of the last sweep (the quad and maxm rules have them already) */
-  if (sweeps && p->stop != NSCD_STOP_QUAD && p->stop != NSCD_STOP_MAXM) jean_norms(S, S->rold, r, &quad, &maxm);
   /* redundancy (T84): the rank of the closed set's problem, measured by the status-set step when
      it converged, else here for quasi-static solves (one or a few per run; dynamic steps would pay a
      dense factorization each) */
@@ -517,6 +510,13 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
       if (broke < 0) conv = 1;
     }
   }
+  memcpy(x->U, S->U, (size_t)m * sizeof *x->U);
+  if (S->bodies) { /* the correction is the body velocities' change: no solve left to the core */
+    nscd_bodies_dx(S, P, x->dx);
+    x->dx_set = 1;
+  }
+  /* Jean's norms of the last sweep (the quad and maxm rules have them already) */
+  if (sweeps && p->stop != NSCD_STOP_QUAD && p->stop != NSCD_STOP_MAXM) jean_norms(S, S->rold, r, &quad, &maxm);
   rep->constraints = S->ai.tried ? S->ai.rows : -1;
   rep->redundant = S->ai.tried ? S->ai.rows - S->ai.rank : -1;
   rep->rcond = S->ai.tried ? S->ai.rcond : NAN;
