@@ -915,10 +915,11 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
     D->rcond_last = rep->rcond;
     if (!(rep->rcond >= D->rcond_min)) D->rcond_min = rep->rcond; /* NaN at first */
     if (rep->redundant > 0 && !D->redundant_steps++)
-      mo_log(ctx, 1, "moreau: step %ld: %d of the %d unknowns of the closed contacts are redundant (rank %d): "
+      mo_log(ctx, 1, "moreau: step %ld: %d of the %d unknowns of the closed contacts are redundant (rank %s%d): "
              "their reactions are not unique; %s reports %s (doc/theory.md (T84))\n", P->step,
-             rep->redundant, rep->constraints, rep->constraints - rep->redundant, D->T->name,
-             rep->min_norm ? "the minimum-norm ones" : "the ones its iteration reached (the minimum-norm ones do not satisfy the law)");
+             rep->redundant, rep->constraints, rep->rcond == rep->rcond ? "" : "at most ",
+             rep->constraints - rep->redundant, D->T->name,
+             rep->min_norm ? "the minimum-norm ones" : "the ones its iteration reached");
     D->min_norm_last = rep->min_norm;
     if (rep->redundant > D->redundant_max) D->redundant_max = rep->redundant;
   }

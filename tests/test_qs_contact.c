@@ -6,7 +6,8 @@
    facet-mean pressure at the exact value (T83); on matching meshes (redundant constraints) it
    reports the redundancy and the minimum-norm reactions, the exact uniform pressure (T84); a
    factor that does not solve K u = f + H r fails the step on the global equilibrium (T82); a
-   tolerance below round-off is met at the round-off floor (T85). */
+   tolerance below round-off is met at the round-off floor (T85); the sweep on rigid bodies reports
+   redundancy by counting (T84). */
 #include "config.h"
 #include <moreau/moreau.h>
 #include "testlib.h"
@@ -273,6 +274,32 @@ static void test_roundoff(void)
   tl_remove_dir(out);
 }
 
+/* --- 7. redundancy on the sweep on bodies: the count (T84) ------------------------------------------- */
+
+static void test_count(void)
+{
+  /* Heyman's arch: voussoirs on two contact points per joint, most of them sticking: more closed
+     unknowns than the blocks' 3 dofs each */
+  const char *sets[] = {"time.end=0.005"};
+  char out[256], err[MO_ERRMSG_MAX];
+  double redmax = NAN, nk = NAN;
+  const char *measure = "";
+  json_t *J = NULL;
+  int st = run("masonry-arch", NULL, sets, 1, "arch", out, sizeof out, err, sizeof err);
+  if (!st && (J = tl_summary(out))) {
+    json_t *r = json_object_get(json_object_get(J, "contact"), "redundancy");
+    redmax = json_number_value(json_object_get(r, "max_redundant"));
+    nk = json_number_value(json_object_get(r, "last_unknowns"));
+    measure = json_string_value(json_object_get(r, "measure"));
+    if (!measure) measure = "";
+  }
+  ok(!st && redmax >= 1 && nk > redmax && !strcmp(measure, "count"),
+     "masonry-arch by nscd's sweep on bodies: redundancy reported by the count (%g of %g unknowns, measure '%s') %s",
+     redmax, nk, measure, err);
+  json_decref(J);
+  tl_remove_dir(out);
+}
+
 int main(void)
 {
   test_singular();
@@ -282,5 +309,6 @@ int main(void)
   test_redundant();
   test_equilibrium_check();
   test_roundoff();
+  test_count();
   return done_testing();
 }

@@ -510,6 +510,16 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
       if (broke < 0) conv = 1;
     }
   }
+  if (S->bodies && broke < 0) {
+    /* redundancy on the sweep on bodies: closed unknowns against the dofs they move (T84) */
+    int nu = 0, nd = 0;
+    if ((st = nscd_bodies_count(S, P, r, &nu, &nd, ctx))) return st;
+    memset(&S->ai, 0, sizeof S->ai);
+    S->ai.tried = nu > 0;
+    S->ai.rows = nu;
+    S->ai.rank = nu < nd ? nu : nd;
+    S->ai.rcond = NAN;
+  }
   memcpy(x->U, S->U, (size_t)m * sizeof *x->U);
   if (S->bodies) { /* the correction is the body velocities' change: no solve left to the core */
     nscd_bodies_dx(S, P, x->dx);

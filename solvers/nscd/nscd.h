@@ -122,6 +122,8 @@ typedef struct {
   double *Wd;                   /* nc d x d: W_aa = sum over sides G inv_k G^T */
   double *c;                    /* m: q - H^T v_free, so that U = c + sum G v */
   double *vb;                   /* nfree: v = v_free + What^-1 H r, kept up to date by the sweep */
+  int *bmark;                   /* per rigid block: touched by a closed contact (the count of (T84)) */
+  size_t bmcap;
   size_t bcap, vcap;
 } nscd_state;
 
@@ -139,6 +141,11 @@ void nscd_bodies_exact_U(nscd_state *S, const mo_contact_problem *P);
 int nscd_bodies_sweep(nscd_state *S, const mo_contact_problem *P, double *r, int *status);
 void nscd_bodies_dx(const nscd_state *S, const mo_contact_problem *P, double *dx);
 void nscd_bodies_free(nscd_state *S);
+/* The closed contacts' unknowns (1 per frictionless or sliding contact, d per sticking one) and
+   the dofs of the bodies they touch: more unknowns than dofs is redundancy (T84), the count
+   n - dofs a lower bound of it (the rank is not computed on the sweep on bodies). */
+int nscd_bodies_count(nscd_state *S, const mo_contact_problem *P, const double *r, int *unknowns, int *dofs,
+                      mo_ctx *ctx);
 
 /* --- the status-set step and the round-off floor (nscd_accel.c, doc/theory.md (T83)-(T85)) ------ */
 
