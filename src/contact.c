@@ -276,6 +276,11 @@ struct mo_contact_driver {
   double *sv_q, *sv_mu, *sv_r, *sv_U, sv_residual;
   long steps, iterations, max_iterations, wbuilds, failures;
   double max_residual;
+  double *eqf, *eqk;         /* quasi-static linear scenes: f + H r and K u (the equilibrium check, T82) */
+  double eq_residual, max_eq_residual;
+  int redundant_max, redundant_steps, constraints_last, redundant_last; /* (T84), when the back end measures it */
+  double rcond_last, rcond_min;
+  int min_norm_last;
 };
 
 const mo_contact_report *mo_contact_last_report(const mo_contact_driver *D) { return &D->rep; }
@@ -474,6 +479,21 @@ static int bodies_only(const mo_contact_driver *D, const mo_what_inverse *Wi)
 }
 long mo_contact_driver_failures(const mo_contact_driver *D) { return D->failures; }
 
+int mo_contact_driver_redundancy(const mo_contact_driver *D, int *constraints, int *redundant, int *redundant_max,
+                                 int *redundant_steps, double *rcond, double *rcond_min, int *min_norm)
+{
+  if (constraints) *constraints = D->constraints_last;
+  if (redundant) *redundant = D->redundant_last;
+  if (redundant_max) *redundant_max = D->redundant_max;
+  if (redundant_steps) *redundant_steps = D->redundant_steps;
+  if (rcond) *rcond = D->rcond_last;
+  if (rcond_min) *rcond_min = D->rcond_min;
+  if (min_norm) *min_norm = D->min_norm_last;
+  return D->constraints_last >= 0;
+}
+
+double mo_contact_driver_equilibrium(const mo_contact_driver *D) { return D->eqf ? D->max_eq_residual : NAN; }
+
 void mo_contact_driver_totals(const mo_contact_driver *D, long *steps, long *iterations,
                               long *max_iterations, long *wbuilds, double *max_residual)
 {
@@ -492,6 +512,7 @@ void mo_contact_driver_free(mo_contact_driver *D)
   mo_free(D->params);
   mo_delassus_free(D->W);
   mo_free(D->b); mo_free(D->q); mo_free(D->U); mo_free(D->Uprev); mo_free(D->r); mo_free(D->rprev);
+  mo_free(D->eqf); mo_free(D->eqk);
   mo_free(D->xfull); mo_free(D->xf); mo_free(D->dx); mo_free(D->dxfull); mo_free(D->mu); mo_free(D->gk);
   mo_free(D->pforce);
   mo_free(D->sv_idx); mo_free(D->sv_mu); mo_free(D->sv_q); mo_free(D->sv_r); mo_free(D->sv_U);
@@ -512,6 +533,10 @@ int mo_contact_driver_create(const mo_scene *sc, mo_contact *C, mo_stepper *S,
   int st, k, n = sc->ndof, nf = sc->nfree;
   *out = NULL;
   D = mo_calloc(ctx, 1, sizeof *D);
+  if (D) {
+    D->constraints_last = D->redundant_last = -1;
+    D->rcond_last = D->rcond_min = NAN;
+  }
   if (!D) return MO_ENOMEM;
   D->sc = sc;
   D->C = C;
@@ -545,6 +570,14 @@ int mo_contact_driver_create(const mo_scene *sc, mo_contact *C, mo_stepper *S,
   D->dxfull = mo_calloc(ctx, (size_t)n + 1, sizeof(double));
   D->xf = mo_calloc(ctx, (size_t)nf + 1, sizeof(double));
   D->dx = mo_calloc(ctx, (size_t)nf + 1, sizeof(double));
+  if (sc->time.scheme == MO_SCHEME_QUASISTATIC && !sc->nonlinear && sc->nfe_free) {
+    D->eqf = mo_calloc(ctx, (size_t)n + 1, sizeof(double));
+    D->eqk = mo_calloc(ctx, (size_t)n + 1, sizeof(double));
+    if (!D->eqf || !D->eqk) {
+      mo_contact_driver_free(D);
+      return MO_ENOMEM;
+    }
+  }
   /* the Newton iterates of nonlinear scenes (S is NULL for `moreau check`) */
   if (S && mo_stepper_nonlinear(S)) {
     D->xnl = mo_calloc(ctx, (size_t)n + 1, sizeof(double));
@@ -735,6 +768,58 @@ static int keep_solved(mo_contact_driver *D, int newton, mo_ctx *ctx)
   return MO_OK;
 }
 
+/* The equilibrium of the global problem after a quasi-static linear step (doc/theory.md (T82)):
+   e = f(t+) + H r - K u over the free nodal dofs, relative to the forces in play (the loads,
+   the contact forces, the support reactions: max_i |f_i| + |(H r)_i| over every nodal dof and
+   |(K u)_i| over the prescribed ones). The back ends check only their local problem U = W r + q;
+   this is what says whether u and r solve K u = f + H r, which a singular or badly factored K
+   (a body held only by contact) does not. A step whose e exceeds MO_EQUILIBRIUM_TOL fails with
+   the dof that carries the largest imbalance. */
+#define MO_EQUILIBRIUM_TOL 1e-8
+static int equilibrium_check(mo_contact_driver *D, const mo_state *s, mo_ctx *ctx)
+{
+  const mo_scene *sc = D->sc;
+  int n = sc->nfe_dof, i, worst = -1, b;
+  double h = mo_stepper_dt(D->S), emax = 0, scale = 0;
+  mo_scene_fext(sc, s->t + h, D->eqf);
+  mo_csc_gaxpy(D->C->Hfull, 1, D->r, 1, D->eqf);
+  mo_csc_gaxpy(sc->K, 1, D->xfull, 0, D->eqk);
+  for (i = 0; i < n; i++) {
+    double f = fabs(D->eqf[i]);
+    if (sc->free_of[i] < 0) {
+      if (fabs(D->eqk[i]) > scale) scale = fabs(D->eqk[i]);
+      continue;
+    }
+    if (f > scale) scale = f;
+    if (fabs(D->eqf[i] - D->eqk[i]) > emax) {
+      emax = fabs(D->eqf[i] - D->eqk[i]);
+      worst = i;
+    }
+  }
+  D->eq_residual = scale > 0 ? emax / scale : emax;
+  if (D->eq_residual > D->max_eq_residual) D->max_eq_residual = D->eq_residual;
+  mo_log(ctx, 3, "step %ld: global equilibrium |f + H r - K u| / forces = %.3e\n", s->step + 1, D->eq_residual);
+  if (!(D->eq_residual <= MO_EQUILIBRIUM_TOL)) {
+    char where[160] = "";
+    for (b = 0; b < sc->nbody && worst >= 0; b++) {
+      const mo_body *B = &sc->body[b];
+      if (B->kind == MO_BODY_DEFORMABLE && worst >= B->dof0 && worst < B->dof0 + B->ndof) {
+        snprintf(where, sizeof where, " at body '%s', node %d, component %c", B->name, (worst - B->dof0) / sc->dim,
+                 "xyz"[(worst - B->dof0) % sc->dim]);
+        break;
+      }
+    }
+    return mo_error(ctx, MO_ENOCONV,
+                    "step %ld (t = %.6g): the %s solution is not in equilibrium: |f + H r - K u| = %.3e of the "
+                    "forces in play%s (tolerance %.0e; the contact residual was %.3e, reason %s). The local problem "
+                    "was solved, the global one was not: the stiffness factor is not accurate for this scene "
+                    "(a body held only by contact, or a nearly singular K; doc/theory.md (T82))",
+                    (long)s->step + 1, s->t + h, D->T->name, D->eq_residual, where, MO_EQUILIBRIUM_TOL,
+                    D->rep.residual, mo_contact_reason_name(D->rep.reason));
+  }
+  return MO_OK;
+}
+
 /* Steps 2-7 of a step (doc/theory.md §5): from the unconstrained iterate D->xfull (full; D->xf
    its free part) and the gaps at the start of the step, the local problem, the back end's
    solve, the core's measure, and the correction dx (free dofs) added to D->xfull. rstep: the
@@ -796,6 +881,8 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
   P->w = D->w;
   P->cset = D->cset;
   memset(rep, 0, sizeof *rep);
+  rep->constraints = rep->redundant = -1;
+  rep->rcond = NAN;
   D->x.r = D->r;
   D->x.U = D->U;
   D->x.status = D->status;
@@ -867,6 +954,21 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
     }
     if (rep->residual > D->max_residual) D->max_residual = rep->residual;
   }
+  if (any && rep->constraints >= 0) {
+    /* redundancy (T84): once in the log, every step in summary.json */
+    D->constraints_last = rep->constraints;
+    D->redundant_last = rep->redundant;
+    D->rcond_last = rep->rcond;
+    if (!(rep->rcond >= D->rcond_min)) D->rcond_min = rep->rcond; /* NaN at first */
+    if (rep->redundant > 0 && !D->redundant_steps++)
+      mo_log(ctx, 1, "moreau: step %ld: %d of the %d unknowns of the closed contacts are redundant (rank %s%d): "
+             "their reactions are not unique; %s reports %s (doc/theory.md (T84))\n", P->step,
+             rep->redundant, rep->constraints, rep->rcond == rep->rcond ? "" : "at most ",
+             rep->constraints - rep->redundant, D->T->name,
+             rep->min_norm ? "the minimum-norm ones" : "the ones its iteration reached");
+    D->min_norm_last = rep->min_norm;
+    if (rep->redundant > D->redundant_max) D->redundant_max = rep->redundant;
+  }
   if (rep->reason < 0) {
     D->failures++;
     if (!C->on_failure_continue) {
@@ -902,6 +1004,7 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
     }
   }
   for (i = 0; i < sc->nfree; i++) D->xfull[sc->full_of[i]] += D->dx[i];
+  if (D->eqf && (st = equilibrium_check(D, s, ctx))) return st;
   return MO_OK;
 }
 

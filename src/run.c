@@ -699,6 +699,29 @@ static json_t *contact_json(const mo_contact *C, const mo_contact_driver *D)
   json_object_set_new(j, "last_open", json_integer(rep->nopen));
   json_object_set_new(j, "last_stick", json_integer(rep->nstick));
   json_object_set_new(j, "last_slide", json_integer(rep->nslide));
+  {
+    /* the checks of (T82) and (T84) */
+    int nk, red, redmax, redsteps, mn;
+    double rc, rcmin, eq = mo_contact_driver_equilibrium(D);
+    if (eq == eq) json_object_set_new(j, "equilibrium_residual_max", json_real(eq));
+    if (mo_contact_driver_redundancy(D, &nk, &red, &redmax, &redsteps, &rc, &rcmin, &mn)) {
+      json_t *r = json_object();
+      json_object_set_new(r, "last_unknowns", json_integer(nk));
+      json_object_set_new(r, "last_redundant", json_integer(red));
+      json_object_set_new(r, "last_rcond", json_real(rc));
+      json_object_set_new(r, "max_redundant", json_integer(redmax));
+      json_object_set_new(r, "steps_redundant", json_integer(redsteps));
+      json_object_set_new(r, "min_rcond", json_real(rcmin));
+      /* the rank of the closed set's problem, or (no rcond) only the count of its unknowns against
+         the dofs of the bodies they touch: a lower bound of the redundancy */
+      json_object_set_new(r, "measure", json_string(rc == rc ? "rank" : "count"));
+      json_object_set_new(r, "reactions", json_string(red > 0 ? (mn ? "not unique: the minimum-norm ones"
+                                                                         : "not unique: the ones the back end reached")
+                                                          : rc != rc ? "no redundancy found by the count"
+                                                          : redmax > 0 ? "unique at the last step" : "unique"));
+      json_object_set_new(j, "redundancy", r);
+    }
+  }
   return j;
 }
 

@@ -6,6 +6,7 @@
 #include <moreau/step.h>
 #include "step_internal.h"
 
+#include <gsl/gsl_eigen.h>
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -392,6 +393,97 @@ static int linear_matrix(const mo_stepper *S, mo_csc **Wf, mo_csc **W, mo_ctx *c
   return st;
 }
 
+/* A quasi-static scene has no inertia: a deformable body whose supports leave it a rigid motion
+   (K singular in that mode) is held only by contact, which acts after K is factored. The factor
+   is then exact (zero pivot: CHOLMOD stops) or arbitrary in that mode (a round-off pivot: the
+   answer looks converged and is not, issue 15). The rigid modes of each body (T82): translations
+   and, about its centroid scaled by its size, rotations (the axisymmetric ring: axial translation
+   only); those its prescribed dofs leave free are the null space of G = Z_p^T Z_p, Z_p the
+   modes' values at the prescribed dofs. Any: refuse with the body and the motion. */
+static int quasistatic_rigid_modes(const mo_scene *sc, mo_ctx *ctx)
+{
+  int b;
+  for (b = 0; b < sc->nbody; b++) {
+    const mo_body *B = &sc->body[b];
+    const mo_mesh *me = B->mesh;
+    int dim = sc->dim, nm, a, i, k, l, nfree = 0;
+    double G[36], xc[3] = {0, 0, 0}, L = 0, ev[6], V[36];
+    char what[400];
+    size_t len = 0;
+    if (B->kind != MO_BODY_DEFORMABLE || !me || !me->nnode) continue;
+    nm = dim == 1 ? 1 : dim == 2 ? (B->mat.hyp == MO_HYP_AXISYMMETRIC ? 1 : 3) : 6;
+    for (a = 0; a < me->nnode; a++)
+      for (i = 0; i < dim; i++) xc[i] += me->x[a * dim + i] / me->nnode;
+    for (a = 0; a < me->nnode; a++) {
+      double r2 = 0;
+      for (i = 0; i < dim; i++) r2 += (me->x[a * dim + i] - xc[i]) * (me->x[a * dim + i] - xc[i]);
+      if (r2 > L * L) L = sqrt(r2);
+    }
+    if (!(L > 0)) L = 1;
+    memset(G, 0, sizeof G);
+    for (a = 0; a < me->nnode; a++)
+      for (i = 0; i < dim; i++) {
+        double z[6], y[3];
+        int dof = B->dof0 + a * dim + i;
+        if (sc->free_of[dof] >= 0) continue;
+        for (k = 0; k < dim; k++) y[k] = (me->x[a * dim + k] - xc[k]) / L;
+        memset(z, 0, sizeof z);
+        if (dim == 2 && nm == 1) z[0] = i == 1;          /* axisymmetric: u_z = 1 */
+        else {
+          for (k = 0; k < dim; k++) z[k] = i == k;       /* translations */
+          if (dim == 2) z[2] = i == 0 ? -y[1] : y[0];    /* rotation: (-y, x) */
+          if (dim == 3) {                                /* omega_k x y, component i */
+            z[3] = i == 1 ? -y[2] : i == 2 ? y[1] : 0;   /* about x: (0, -z, y) */
+            z[4] = i == 0 ? y[2] : i == 2 ? -y[0] : 0;   /* about y: (z, 0, -x) */
+            z[5] = i == 0 ? -y[1] : i == 1 ? y[0] : 0;   /* about z: (-y, x, 0) */
+          }
+        }
+        for (k = 0; k < nm; k++)
+          for (l = 0; l < nm; l++) G[k * nm + l] += z[k] * z[l];
+      }
+    {
+      gsl_matrix_view Gv = gsl_matrix_view_array(G, (size_t)nm, (size_t)nm);
+      gsl_vector_view ew = gsl_vector_view_array(ev, (size_t)nm);
+      gsl_matrix_view Vv = gsl_matrix_view_array(V, (size_t)nm, (size_t)nm);
+      gsl_eigen_symmv_workspace *wk = gsl_eigen_symmv_alloc((size_t)nm);
+      if (!wk) return mo_error(ctx, MO_ENOMEM, "the rigid modes of body '%s'", B->name);
+      gsl_eigen_symmv(&Gv.matrix, &ew.vector, &Vv.matrix, wk);
+      gsl_eigen_symmv_free(wk);
+    }
+    /* a prescribed dof holds about 1 in G's units: 1e-9 of one is no support */
+    for (k = 0; k < nm; k++) {
+      static const char *const name3[6] = {"x", "y", "z", "rx", "ry", "rz"}, *const name2[3] = {"x", "y", "rz"};
+      int first = 1;
+      double big = 0;
+      if (!(ev[k] <= 1e-9)) continue;
+      nfree++;
+      for (l = 0; l < nm; l++)
+        if (fabs(V[l * nm + k]) > fabs(big)) big = V[l * nm + k];
+      for (l = 0; big < 0 && l < nm; l++) V[l * nm + k] = -V[l * nm + k]; /* its largest component positive */
+      len += (size_t)snprintf(what + len, len < sizeof what ? sizeof what - len : 0, "%s(", nfree > 1 ? ", " : "");
+      for (l = 0; l < nm && len < sizeof what; l++) {
+        double c = V[l * nm + k];
+        if (fabs(c) < 1e-6) continue;
+        len += (size_t)snprintf(what + len, sizeof what - len, "%s%.3g %s", first ? "" : " + ", c,
+                                nm == 1 ? (dim == 1 ? "x" : "z (axial)") : dim == 2 ? name2[l] : name3[l]);
+        first = 0;
+      }
+      if (len < sizeof what) len += (size_t)snprintf(what + len, sizeof what - len, ")");
+    }
+    if (nfree)
+      return mo_error(ctx, MO_ESINGULAR,
+                      "quasi-static scene: body '%s' has %d rigid motion%s that no support holds: %s (translations "
+                      "in m, rotations in rad times the body's radius %.3g m). Its stiffness K is singular in "
+                      "%s; contact alone cannot hold %s, because the quasi-static step factors K before contact "
+                      "acts (doc/theory.md (T82)): the answer would be arbitrary in %s. Hold %s with "
+                      "supports (fix the dofs of a point or a plane of symmetry), or run the scene dynamically "
+                      "(time.scheme = \"theta\")",
+                      B->name, nfree, nfree > 1 ? "s" : "", what, L, nfree > 1 ? "those modes" : "that mode",
+                      nfree > 1 ? "them" : "it", nfree > 1 ? "those motions" : "that motion", nfree > 1 ? "them" : "it");
+  }
+  return MO_OK;
+}
+
 int mo_stepper_create(const mo_scene *sc, mo_stepper **out, mo_ctx *ctx)
 {
   mo_stepper *S;
@@ -422,7 +514,8 @@ int mo_stepper_create(const mo_scene *sc, mo_stepper **out, mo_ctx *ctx)
     return MO_ENOMEM;
   }
   if (sc->nonlinear) {
-    if ((st = create_nonlinear(S, ctx)) || (st = rigid_setup(S, ctx))) {
+    if ((S->scheme == MO_SCHEME_QUASISTATIC && (st = quasistatic_rigid_modes(sc, ctx))) ||
+        (st = create_nonlinear(S, ctx)) || (st = rigid_setup(S, ctx))) {
       mo_stepper_free(S);
       return st;
     }
@@ -438,6 +531,10 @@ int mo_stepper_create(const mo_scene *sc, mo_stepper **out, mo_ctx *ctx)
     }
     *out = S;
     return MO_OK;
+  }
+  if (S->scheme == MO_SCHEME_QUASISTATIC && (st = quasistatic_rigid_modes(sc, ctx))) {
+    mo_stepper_free(S);
+    return st;
   }
   if ((st = linear_matrix(S, &Wf, &S->W, ctx))) {
     mo_stepper_free(S);

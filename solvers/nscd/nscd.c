@@ -33,6 +33,10 @@ static const mo_option_spec nscd_options[] = {
    "3D local solver: Newton stops when |phi| <= local_tol (|r| + |q_n| / W_nn) (T39)."},
   {"local_iter", MO_OPT_INT, offsetof(nscd_params, local_iter), NULL, 1, 1000, "20",
    "3D local solver: Newton iterations before the fallbacks (T40), (T41)."},
+  {"accelerate", MO_OPT_BOOL, offsetof(nscd_params, accelerate), NULL, NAN, NAN, "true",
+   "When the sweeps stall (less than a factor 2 over 10 sweeps) with stable statuses, solve the linear problem "
+   "of the closed contacts directly and keep its solution if it satisfies the law (T83); with the residual "
+   "rules only."},
 };
 
 void nscd_params_default(nscd_params *p)
@@ -46,6 +50,7 @@ void nscd_params_default(nscd_params *p)
   p->warm_start = 1;
   p->local_tol = 1e-13;
   p->local_iter = 20;
+  p->accelerate = 1;
 }
 
 static void nscd_defaults(void *params) { nscd_params_default(params); }
@@ -73,6 +78,7 @@ static void nscd_free(void *state)
   mo_free(S->scale);
   mo_free(S->mu);
   mo_free(S->rng_state);
+  mo_free(S->sprev);
   nscd_bodies_free(S);
   memset(S, 0, sizeof *S);
 }
@@ -97,6 +103,7 @@ static int fit_set(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
 #define GROW(ptr, n) if (!(q = mo_realloc(ctx, ptr, (n) * sizeof *(ptr)))) return MO_ENOMEM; ptr = q
     GROW(S->rcnt, nc); GROW(S->rcol, nc); GROW(S->rval, nc); GROW(S->diag, nc);
     GROW(S->aux, nc * NSCD_AUX); GROW(S->act, nc); GROW(S->order, nc); GROW(S->scale, nc); GROW(S->mu, nc);
+    GROW(S->sprev, nc);
     S->cap = nc;
   }
   if (m > S->mcap) {
@@ -358,7 +365,7 @@ static int name_candidate(const mo_contact_problem *P, int a, char *buf, size_t 
 
 /* The message of a non-converged solve: the three candidates farthest from the law. */
 static void worst_candidates(const nscd_state *S, const mo_contact_problem *P, const double *r,
-                             mo_contact_report *rep)
+                             mo_contact_report *rep, double res, int scaled)
 {
   int worst[3] = {-1, -1, -1}, k, i, len;
   double we[3] = {-1, -1, -1};
@@ -375,7 +382,9 @@ static void worst_candidates(const nscd_state *S, const mo_contact_problem *P, c
         break;
       }
   }
-  len = snprintf(rep->message, sizeof rep->message, "largest local residuals at");
+  /* the stopping rule's own measure first: the core's (T10) depends on the units */
+  len = snprintf(rep->message, sizeof rep->message, "%s residual %.2e against tol %.0e; largest local residuals at",
+                 scaled ? "scaled (T42)" : "natural-map", res, S->p.tol);
   for (i = 0; i < 3 && worst[i] >= 0 && len < (int)sizeof rep->message - 1; i++) {
     char nm[64];
     name_candidate(P, worst[i], nm, sizeof nm);
@@ -388,8 +397,8 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
 {
   nscd_state *S = state;
   const nscd_params *p = &S->p;
-  int d = S->d, m = S->m, a, k, i, st, sweeps = 0, broke = -1, conv = 0;
-  double *r = x->r, quad = 0, maxm = 0, res = HUGE_VAL;
+  int d = S->d, m = S->m, a, k, i, st, sweeps = 0, broke = -1, conv = 0, tried = -1000, wait = 10;
+  double *r = x->r, quad = 0, maxm = 0, res = HUGE_VAL, rhist[10] = {HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL};
   const int scaled = p->stop == NSCD_STOP_SCALED;
   int (*do_sweep)(nscd_state *, const mo_contact_problem *, double *, int *) =
       d == 3 ? sweep3 : d == 2 ? sweep2 : sweep1;
@@ -421,6 +430,8 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
     if (!isfinite(r[i])) { memset(r, 0, (size_t)m * sizeof *r); break; }
   exact_U(S, P, r);
   memset(&S->lst, 0, sizeof S->lst);
+  memset(&S->ai, 0, sizeof S->ai);
+  S->accel_tries = 0;
   S->lp = *p;
   while (sweeps < p->max_sweeps) {
     if (ctx->interrupt && *ctx->interrupt) break;
@@ -435,12 +446,40 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
     if (broke >= 0) break;
     if (p->stop == NSCD_STOP_NATURAL || scaled) {
       res = residual(S, r, scaled);
-      if (res <= p->tol || !isfinite(res)) {
-        /* confirm on the exact U (the column updates drift by round-off) */
+      if (res <= p->tol || !isfinite(res) || (scaled && !S->bodies && sweeps % 10 == 0 && res < 1e-6)) {
+        /* confirm on the exact U (the column updates drift by round-off); every 10 sweeps, whether
+           the residual is at its round-off floor (T85): then no sweep can lower it further */
         exact_U(S, P, r);
         res = residual(S, r, scaled);
-        if (res <= p->tol) { conv = 1; break; }
+        if (res <= p->tol || (scaled && !S->bodies && res <= nscd_roundoff_floor(S, P, r))) { conv = 1; break; }
         if (!isfinite(res)) break;
+      }
+      if (scaled && p->accelerate && !S->bodies) {
+        /* the status-set step (T83) when the sweeps stall with stable statuses */
+        int stable = sweeps > 1;
+        for (k = 0; k < S->nact && stable; k++) stable = x->status[S->act[k]] == S->sprev[S->act[k]];
+        /* its cost (a dense LU of one unknown per closed frictionless contact, at most d per
+           frictional one) never above the sweeps' so far, and after a step that did not
+           converge, twice as many sweeps before the next */
+        double nclosed = 0, nb = 0;
+        if (stable && sweeps >= 10 && res > 0.5 * rhist[sweeps % 10] && sweeps - tried >= wait)
+          for (k = 0; k < S->nact; k++) {
+            nclosed += r[S->act[k] * d] > 0 ? (S->mu[S->act[k]] > 0 ? d : 1) : 0; /* unknowns, at most */
+            nb += S->rcnt[S->act[k]];
+          }
+        if (nb > 0 && 2.0 / 3.0 * pow(nclosed, 3) <= (double)sweeps * nb * 2 * d * d) {
+          nscd_accel_info ai;
+          memset(&ai, 0, sizeof ai);
+          tried = sweeps;
+          exact_U(S, P, r);
+          if ((st = nscd_status_step(S, P, r, x->status, p->tol, &res, &ai, ctx))) return st;
+          if (ai.tried) { S->ai = ai; S->accel_tries++; }
+          if (ai.accepted) { conv = 1; break; }
+          wait *= 2;
+          res = residual(S, r, scaled);
+        }
+        rhist[sweeps % 10] = res;
+        for (k = 0; k < S->nact; k++) S->sprev[S->act[k]] = x->status[S->act[k]];
       }
     } else if (p->stop == NSCD_STOP_QUAD || p->stop == NSCD_STOP_MAXM) {
       jean_norms(S, S->rold, r, &quad, &maxm);
@@ -454,6 +493,33 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
   if (p->stop == NSCD_STOP_SWEEPS && broke < 0 && sweeps == p->max_sweeps) conv = 1;
   /* U is exact already when a residual rule has just confirmed convergence */
   if (!(conv && (scaled || p->stop == NSCD_STOP_NATURAL))) exact_U(S, P, r);
+  /* redundancy (T84): the rank of the closed set's problem, measured by the status-set step when
+     it converged, else here for quasi-static solves (one or a few per run; dynamic steps would pay a
+     dense factorization each) */
+  if (!S->bodies && broke < 0 && !S->ai.accepted && P->scheme == MO_SCHEME_QUASISTATIC) {
+    nscd_accel_info ai;
+    double rdummy = res;
+    memset(&ai, 0, sizeof ai);
+    /* with the scaled rule and accelerate, the direct solution replaces the sweeps' when it
+       satisfies the law: the minimum-norm reactions when they are not unique */
+    if ((st = nscd_status_step(S, P, r, x->status, scaled && p->accelerate ? p->tol : -1, &rdummy, &ai, ctx)))
+      return st;
+    if (ai.tried) S->ai = ai;
+    if (ai.accepted) {
+      res = rdummy;
+      if (broke < 0) conv = 1;
+    }
+  }
+  if (S->bodies && broke < 0) {
+    /* redundancy on the sweep on bodies: closed unknowns against the dofs they move (T84) */
+    int nu = 0, nd = 0;
+    if ((st = nscd_bodies_count(S, P, r, &nu, &nd, ctx))) return st;
+    memset(&S->ai, 0, sizeof S->ai);
+    S->ai.tried = nu > 0;
+    S->ai.rows = nu;
+    S->ai.rank = nu < nd ? nu : nd;
+    S->ai.rcond = NAN;
+  }
   memcpy(x->U, S->U, (size_t)m * sizeof *x->U);
   if (S->bodies) { /* the correction is the body velocities' change: no solve left to the core */
     nscd_bodies_dx(S, P, x->dx);
@@ -461,6 +527,13 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
   }
   /* Jean's norms of the last sweep (the quad and maxm rules have them already) */
   if (sweeps && p->stop != NSCD_STOP_QUAD && p->stop != NSCD_STOP_MAXM) jean_norms(S, S->rold, r, &quad, &maxm);
+  rep->constraints = S->ai.tried ? S->ai.rows : -1;
+  rep->redundant = S->ai.tried ? S->ai.rows - S->ai.rank : -1;
+  rep->rcond = S->ai.tried ? S->ai.rcond : NAN;
+  rep->min_norm = S->ai.tried && S->ai.accepted && S->ai.min_norm;
+  if (S->ai.tried)
+    mo_log(ctx, 3, "nscd: closed set of %d unknowns, rank %d, rcond %.2e; %d status-set steps%s\n", S->ai.rows,
+           S->ai.rank, S->ai.rcond, S->accel_tries, S->ai.accepted ? ", the last one converged" : "");
   rep->iterations = sweeps;
   rep->quad = quad;
   rep->maxm = maxm;
@@ -478,7 +551,7 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
     res = residual(S, r, scaled);
     rep->reason = isfinite(res) ? MO_CR_MAXITER : MO_CR_NAN;
     if (ctx->interrupt && *ctx->interrupt) snprintf(rep->message, sizeof rep->message, "interrupted");
-    else worst_candidates(S, P, r, rep);
+    else worst_candidates(S, P, r, rep, res, scaled);
   }
   mo_log(ctx, 3, "nscd: %d sweeps of %d contacts, %ld Newton steps, %ld stalls (%ld slip-angle, %ld projection, "
          "%ld unsolved)\n", sweeps, S->nact, S->lst.newton, S->lst.fallbacks, S->lst.angle, S->lst.projection,

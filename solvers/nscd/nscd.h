@@ -24,6 +24,7 @@ typedef struct {
   int warm_start;      /* start from the previous step's reactions */
   double local_tol;    /* 3D local Newton: |phi| <= local_tol (|r| + rho_n |q_n|) */
   int local_iter;      /* 3D local Newton iterations before the projection fallback */
+  int accelerate;      /* the status-set step when the sweeps stall (T83) */
 } nscd_params;
 
 void nscd_params_default(nscd_params *p);
@@ -64,6 +65,15 @@ int nscd_slide_angle(const double *W, const double *q, double mu, double *r, dou
 int nscd_projection(const double *W, const double *q, double mu, double *r, double tol,
                     int maxit);
 
+typedef struct {
+  int tried;           /* a status-set problem was built and solved */
+  int accepted;        /* its solution satisfies the law: the solve converged on it */
+  int rows;            /* its unknowns (one per closed frictionless or sliding contact, d per sticking one) */
+  int rank;            /* their numerical rank: rows - rank constraints are redundant (T84) */
+  double rcond;        /* reciprocal condition (LU estimate, or s_min / s_max kept by the SVD) */
+  int min_norm;        /* rank-deficient: the solution is the minimum-norm one */
+} nscd_accel_info;
+
 /* --- the solver's state (nscd.c; the sweep on body velocities in nscd_bodies.c) ----------------- */
 
 #include <gsl/gsl_rng.h>
@@ -98,6 +108,9 @@ typedef struct {
   gsl_rng rng;
   void *rng_state;
   nscd_local_stats lst;
+  int *sprev;                   /* nc: the statuses after the previous sweep (the status-set step) */
+  nscd_accel_info ai;           /* the last status-set step of the solve */
+  int accel_tries;
   nscd_params lp;               /* the parameters the local solvers see in this sweep */
   /* the sweep on body velocities (nscd_bodies.c), when the core gave no W: every contact joins
      rigid bodies and obstacles (doc/theory.md §8.6) */
@@ -109,6 +122,8 @@ typedef struct {
   double *Wd;                   /* nc d x d: W_aa = sum over sides G inv_k G^T */
   double *c;                    /* m: q - H^T v_free, so that U = c + sum G v */
   double *vb;                   /* nfree: v = v_free + What^-1 H r, kept up to date by the sweep */
+  int *bmark;                   /* per rigid block: touched by a closed contact (the count of (T84)) */
+  size_t bmcap;
   size_t bcap, vcap;
 } nscd_state;
 
@@ -126,5 +141,35 @@ void nscd_bodies_exact_U(nscd_state *S, const mo_contact_problem *P);
 int nscd_bodies_sweep(nscd_state *S, const mo_contact_problem *P, double *r, int *status);
 void nscd_bodies_dx(const nscd_state *S, const mo_contact_problem *P, double *dx);
 void nscd_bodies_free(nscd_state *S);
+/* The closed contacts' unknowns (1 per frictionless or sliding contact, d per sticking one) and
+   the dofs of the bodies they touch: more unknowns than dofs is redundancy (T84), the count
+   n - dofs a lower bound of it (the rank is not computed on the sweep on bodies). */
+int nscd_bodies_count(nscd_state *S, const mo_contact_problem *P, const double *r, int *unknowns, int *dofs,
+                      mo_ctx *ctx);
+
+/* --- the status-set step and the round-off floor (nscd_accel.c, doc/theory.md (T83)-(T85)) ------ */
+
+/* Largest status-set problem solved densely (unknowns), the relative singular value below which
+   a direction of it is taken as redundant, and the multiple of DBL_EPSILON |W| |r| taken as the
+   round-off of U. */
+#define NSCD_ACCEL_MAX 1500
+#define NSCD_RANK_TOL 1e-10
+#define NSCD_ROUNDOFF 64
+/* Status iterations of one status-set step (each a dense solve) */
+#define NSCD_STATUS_ITER 8
+/* A contact with no reaction is closed when its scaled velocity is below this fraction of the
+   reactions' scale (or 100 tol, what the sweeps' tolerance leaves) */
+#define NSCD_WEAK 1e-9
+
+
+/* The status-set step on W (not the sweep on bodies): from the statuses of r, solve the closed
+   contacts' linear problem (minimum-norm when it is rank-deficient); when its solution satisfies
+   the law (scaled residual <= tol or at round-off) r, status and *res take it (info->accepted);
+   otherwise r is kept and S->U is recomputed exactly. tol < 0: measure the rank only, never
+   accept. MO_OK or MO_ENOMEM. */
+int nscd_status_step(nscd_state *S, const mo_contact_problem *P, double *r, int *status, double tol,
+                     double *res, nscd_accel_info *info, mo_ctx *ctx);
+/* The round-off level of the scaled residual at r (T85): 0 on the sweep on bodies. */
+double nscd_roundoff_floor(const nscd_state *S, const mo_contact_problem *P, const double *r);
 
 #endif

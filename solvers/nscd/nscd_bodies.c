@@ -38,6 +38,7 @@ static int reserve(nscd_state *S, int nfree, mo_ctx *ctx)
 
 void nscd_bodies_free(nscd_state *S)
 {
+  mo_free(S->bmark);
   mo_free(S->nsd);
   mo_free(S->sblk);
   mo_free(S->G);
@@ -208,4 +209,38 @@ void nscd_bodies_dx(const nscd_state *S, const mo_contact_problem *P, double *dx
 {
   int i;
   for (i = 0; i < P->nfree; i++) dx[i] = S->vb[i] - P->xfree[i];
+}
+
+int nscd_bodies_count(nscd_state *S, const mo_contact_problem *P, const double *r, int *unknowns, int *dofs,
+                      mo_ctx *ctx)
+{
+  const mo_what_inverse *Wi = P->Wi;
+  const int d = S->d;
+  int k, i, s, nu = 0, nd = 0;
+  if ((size_t)Wi->nblk + 1 > S->bmcap) {
+    int *q = mo_realloc(ctx, S->bmark, ((size_t)Wi->nblk + 1) * sizeof *q);
+    if (!q) return MO_ENOMEM;
+    S->bmark = q;
+    S->bmcap = (size_t)Wi->nblk + 1;
+  }
+  memset(S->bmark, 0, ((size_t)Wi->nblk + 1) * sizeof *S->bmark);
+  for (k = 0; k < S->nact; k++) {
+    const int a = S->act[k];
+    const double *ra = r + (size_t)a * d;
+    double rt = 0;
+    if (!(ra[0] > 0)) continue;
+    for (i = 1; i < d; i++) rt += ra[i] * ra[i];
+    /* one unknown for a frictionless or sliding contact (r_t follows r_n), d for a sticking one */
+    nu += d == 1 || S->mu[a] == 0 || sqrt(rt) >= S->mu[a] * ra[0] * (1 - 1e-9) ? 1 : d;
+    for (s = 0; s < S->nsd[a]; s++) {
+      int b = S->sblk[2 * a + s];
+      if (!S->bmark[b]) {
+        S->bmark[b] = 1;
+        nd += Wi->off[b + 1] - Wi->off[b];
+      }
+    }
+  }
+  *unknowns = nu;
+  *dofs = nd;
+  return MO_OK;
 }

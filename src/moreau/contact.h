@@ -298,6 +298,12 @@ typedef struct mo_contact_report {
   int nopen, nstick, nslide; /* status counts (counted by the core) */
   int reason;                /* MO_CR_* */
   char message[256];         /* what went wrong, with the candidates involved */
+  /* redundancy (doc/theory.md (T84)), when the back end measured it (else constraints = -1):
+     the unknowns of the closed set's problem, how many of them the others determine (its
+     rank deficiency: the reactions are then not unique), its reciprocal condition */
+  int constraints, redundant;
+  double rcond;
+  int min_norm;              /* the reactions reported are the minimum-norm ones */
 } mo_contact_report;
 
 /* Typed options of a back end: the case keys contact.<name>.<option> and --set. */
@@ -398,6 +404,15 @@ void mo_contact_driver_free(mo_contact_driver *D);
    unless contact.on_failure = "continue". */
 int mo_contact_step(mo_contact_driver *D, mo_state *s, mo_ctx *ctx);
 const mo_contact_report *mo_contact_last_report(const mo_contact_driver *D);
+/* Redundancy of the closed contacts (doc/theory.md (T84)) as the back end measured it: the last
+   solve's unknowns, redundant ones and reciprocal condition, the largest redundancy and the
+   number of steps that had some, the smallest rcond, whether the last solve reported the
+   minimum-norm reactions. Returns 0 when no solve measured it. */
+int mo_contact_driver_redundancy(const mo_contact_driver *D, int *constraints, int *redundant, int *redundant_max,
+                                 int *redundant_steps, double *rcond, double *rcond_min, int *min_norm);
+/* The largest relative global equilibrium residual |f + H r - K u| of the run's quasi-static
+   linear steps (doc/theory.md (T82)); NaN for other scenes. */
+double mo_contact_driver_equilibrium(const mo_contact_driver *D);
 /* The step of the last solve (impulses are over it): the case's h, or a cut step's. */
 double mo_contact_driver_dt(const mo_contact_driver *D);
 /* Snapshots of the driver's state between steps, for step cutting: save before a step, restore
