@@ -77,7 +77,7 @@ static const mo_option_spec ls_options[] = {
   {"newton_tol", MO_OPT_DOUBLE, OFF(newton_tol), NULL, 0, 1, "1e-10",
    "Newton loop: stop when every equation's residual is below newton_tol times the size of its terms."},
   {"status_tol", MO_OPT_DOUBLE, OFF(status_tol), NULL, 0, 1, "1e-10",
-   "Relative tolerance of the sign tests (S_v, S_f), so that round-off at a status boundary does not flip it."},
+   "Relative tolerance of the sign tests (S_v, S_f), scaled by the problem's largest pressure, friction threshold and U' (doc/theory.md (T88)); a status changes only beyond it, and a solution satisfying the contact law within it ends the level-set loop (T89), so that round-off at a status boundary does not flip a sign."},
 };
 #undef OFF
 
