@@ -365,7 +365,7 @@ static double safe_inv(double x) { return x > 0 && isfinite(1 / x) ? 1 / x : 0; 
    themselves are known to threshold_tol of the largest pressure (the loop's stopping rule), and
    Lam = r_t / (c w mu p^g) carries that error: it is part of tol_f. */
 static void sign_tolerances(const ls_state *L, int d, int dt, double rho_n, double rho_t, double *tol_v,
-                            double *tol_f)
+                            double *tol_f, double *scale_v)
 {
   double psc = 0, usc = 0, fsc = 0, vsc = 0;
   int j, t;
@@ -380,7 +380,8 @@ static void sign_tolerances(const ls_state *L, int d, int dt, double rho_n, doub
       vsc = fmax(vsc, f * sqrt(ut));
     }
   }
-  *tol_v = L->par.status_tol * (psc + rho_n * usc);
+  *scale_v = psc + rho_n * usc;
+  *tol_v = L->par.status_tol * *scale_v;
   *tol_f = L->par.status_tol * (fsc + rho_t * vsc) + L->par.threshold_tol * fsc;
 }
 
@@ -438,7 +439,7 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
   const int velocity = P->scheme == MO_SCHEME_THETA && P->signorini == MO_SIGNORINI_VELOCITY;
   const int end_gap = velocity && L->par.su == LS_SU_END_GAP;
   int kkt = L->par.path == LS_PATH_KKT, st, j, t, thr, lsit, nhist, nls = 0, nnewt = 0, conv, safe;
-  double kn = 0, kt = 0, h_n, rho_n, rho_t = 0, h2_t = 0, h1_t = 0, tol_v, tol_f;
+  double kn = 0, kt = 0, h_n, rho_n, rho_t = 0, h2_t = 0, h1_t = 0, tol_v, tol_f, scale_v;
   int nkn = 0, nkt = 0;
   if (!P->W) return mo_error(ctx, MO_EINTERNAL, "levelset: the core did not build W");
   /* scales (T16): the contact stiffness 1 / (c w W_jj) in pressure per unit of U'; the step's
@@ -532,7 +533,7 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
       S->h2_t = h2_t;
       S->h1_t = h1_t;
       /* S_f from the current semi-multipliers and U', with the hysteresis of (T88) */
-      sign_tolerances(L, d, dt, rho_n, rho_t, &tol_v, &tol_f);
+      sign_tolerances(L, d, dt, rho_n, rho_t, &tol_v, &tol_f, &scale_v);
       for (j = 0; j < nc; j++) {
         double g = 0;
         for (t = 0; t < dt; t++) {
@@ -576,9 +577,9 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
       /* the sign fields from the new solution: (T14), (T15), BDZ07 (69), (70), (48), tested
          against the problem's scales with hysteresis (T88) */
       for (j = 0; j < nc; j++) L->ph[j] = L->su[j] ? ls_p_at(S, A, L->y, j) : 0;
-      sign_tolerances(L, d, dt, rho_n, rho_t, &tol_v, &tol_f);
+      sign_tolerances(L, d, dt, rho_n, rho_t, &tol_v, &tol_f, &scale_v);
       for (j = 0; j < nc; j++) {
-        double ph = L->ph[j], s, sc = tol_v / L->par.status_tol;
+        double ph = L->ph[j], s;
         L->nsu[j] = L->su[j];
         L->nsv[j] = L->sv[j];
         L->nsf[j] = L->sf[j];
@@ -592,7 +593,7 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
         /* closed stays closed down to -tol_v, open stays open up to +tol_v */
         s = ph - rho_n * L->U[j * d];
         L->nsv[j] = L->sv[j] ? s >= -tol_v : s > tol_v;
-        if (L->nsv[j] != L->sv[j]) L->viol[j] = fmax(L->viol[j], fabs(s) / (sc + 1e-300));
+        if (L->nsv[j] != L->sv[j]) L->viol[j] = fmax(L->viol[j], fabs(s) / (scale_v + 1e-300));
         if (dt) {
           double lam[2], g = 0;
           ls_lam_at(S, A, L->y, j, lam);
