@@ -77,7 +77,7 @@ static const mo_option_spec ls_options[] = {
   {"newton_tol", MO_OPT_DOUBLE, OFF(newton_tol), NULL, 0, 1, "1e-10",
    "Newton loop: stop when every equation's residual is below newton_tol times the size of its terms."},
   {"status_tol", MO_OPT_DOUBLE, OFF(status_tol), NULL, 0, 1, "1e-10",
-   "Relative tolerance of the sign tests (S_v, S_f), so that round-off at a status boundary does not flip it."},
+   "Relative tolerance of the sign tests (S_v, S_f), scaled by the problem's largest pressure, friction threshold and U' (doc/theory.md (T88)); a status changes only beyond it, and a solution satisfying the contact law within it ends the level-set loop (T89), so that round-off at a status boundary does not flip a sign."},
 };
 #undef OFF
 
@@ -357,6 +357,77 @@ static void one_sign(ls_state *L)
 
 static double safe_inv(double x) { return x > 0 && isfinite(1 / x) ? 1 / x : 0; }
 
+/* The tolerances of the sign tests, from the problem's scales (T88): pressures and rho_n U'_n for
+   S_v, in pressure; friction thresholds mu p^g and mu p^g rho_t U'_t for S_f, in pressure too (the
+   S_f test of candidate j divides it by its own mu_j p^g_j). U'_n and U'_t enter through their
+   magnitudes Umag (the size of the terms they are summed from, the free motion q included), so
+   that a velocity that is round-off of the problem's velocities counts as zero. The thresholds
+   themselves are known to threshold_tol of the largest pressure (the loop's stopping rule), and
+   Lam = r_t / (c w mu p^g) carries that error: it is part of tol_f. */
+static void sign_tolerances(const ls_state *L, int d, int dt, double rho_n, double rho_t, double *tol_v,
+                            double *tol_f, double *scale_v)
+{
+  double psc = 0, usc = 0, fsc = 0, vsc = 0;
+  int j, t;
+  for (j = 0; j < L->nc; j++) {
+    if (!L->su[j]) continue;
+    psc = fmax(psc, fabs(L->ph[j]));
+    usc = fmax(usc, L->Umag[j * d]);
+    if (dt && L->mu[j] > 0 && L->pg[j] > 0) {
+      double f = L->mu[j] * L->pg[j], ut = 0;
+      for (t = 0; t < dt; t++) ut += L->Umag[j * d + 1 + t] * L->Umag[j * d + 1 + t];
+      fsc = fmax(fsc, f);
+      vsc = fmax(vsc, f * sqrt(ut));
+    }
+  }
+  *scale_v = psc + rho_n * usc;
+  *tol_v = L->par.status_tol * *scale_v;
+  *tol_f = L->par.status_tol * (fsc + rho_t * vsc) + L->par.threshold_tol * fsc;
+}
+
+/* S_f of candidate j from g = |Lam + rho_t U'_t| with hysteresis (T88): a sticking candidate
+   starts to slide only beyond 1 + b, a sliding one sticks only below 1 - b, b the tolerance tol_f
+   of the problem's friction scale in units of the candidate's threshold mu p^g (status_tol at
+   least, and alone where no threshold acts). */
+static int stick_sign(const ls_state *L, int j, double g, int stick, double tol_f)
+{
+  double f = L->mu[j] * L->pg[j], b = L->par.status_tol;
+  if (f > 0 && tol_f / f > b) b = tol_f / f;
+  return stick ? g <= 1 + b : g < 1 - b;
+}
+
+/* The residual of the contact law at the frozen-status solution (T89): for every candidate of
+   S_u = 1, the natural map of Signorini min(p_h, rho_n U'_n) in pressure, and where a friction
+   threshold acts, mu p^g |Lam - P_B(Lam + rho_t U'_t)| (P_B the projection on the unit ball).
+   1 when every one is within the tolerances of the sign tests: the solution satisfies the law
+   whatever the signs of round-off say. */
+static int law_satisfied(const ls_state *L, const ls_system *S, const ls_space *A, int d, int dt,
+                         double rho_n, double rho_t, double tol_v, double tol_f)
+{
+  int j, t;
+  for (j = 0; j < L->nc; j++) {
+    double ph = L->ph[j], en;
+    if (!L->su[j]) continue;
+    en = fabs(fmin(ph, rho_n * L->U[j * d]));
+    if (!(en <= tol_v)) return 0;
+    if (dt && L->mu[j] > 0 && L->pg[j] > 0) {
+      double lam[2], z[2], g = 0, e = 0;
+      ls_lam_at(S, A, L->y, j, lam);
+      for (t = 0; t < dt; t++) {
+        z[t] = lam[t] + rho_t * L->U[j * d + 1 + t];
+        g += z[t] * z[t];
+      }
+      g = sqrt(g);
+      for (t = 0; t < dt; t++) {
+        double pz = g > 1 ? z[t] / g : z[t];
+        e += (lam[t] - pz) * (lam[t] - pz);
+      }
+      if (!(L->mu[j] * L->pg[j] * sqrt(e) <= tol_f)) return 0;
+    }
+  }
+  return 1;
+}
+
 static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x,
                     mo_contact_report *rep, mo_ctx *ctx)
 {
@@ -368,7 +439,7 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
   const int velocity = P->scheme == MO_SCHEME_THETA && P->signorini == MO_SIGNORINI_VELOCITY;
   const int end_gap = velocity && L->par.su == LS_SU_END_GAP;
   int kkt = L->par.path == LS_PATH_KKT, st, j, t, thr, lsit, nhist, nls = 0, nnewt = 0, conv, safe;
-  double kn = 0, kt = 0, h_n, rho_n, rho_t = 0, h2_t = 0, h1_t = 0;
+  double kn = 0, kt = 0, h_n, rho_n, rho_t = 0, h2_t = 0, h1_t = 0, tol_v, tol_f, scale_v;
   int nkn = 0, nkt = 0;
   if (!P->W) return mo_error(ctx, MO_EINTERNAL, "levelset: the core did not build W");
   /* scales (T16): the contact stiffness 1 / (c w W_jj) in pressure per unit of U'; the step's
@@ -413,7 +484,10 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
   /* the starting sign fields from the warm start: U'0 = W r_prev + q; the first Newton loop
      starts from r_prev (Schur) or from r = 0, dv = 0 (KKT, where dv would have to match it) */
   mo_delassus_mult(P->W, x->r, 0, L->U);
-  for (j = 0; j < m; j++) L->U[j] += P->b[j];
+  for (j = 0; j < m; j++) {
+    L->Umag[j] = fabs(P->b[j]) + fabs(L->U[j]);
+    L->U[j] += P->b[j];
+  }
   if (kkt) {
     memset(L->r, 0, (size_t)m * sizeof(double));
     memset(L->dv, 0, (size_t)P->nfree * sizeof(double));
@@ -421,6 +495,7 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
     memcpy(L->r, x->r, (size_t)m * sizeof(double));
   for (j = 0; j < nc; j++) {
     double p0 = L->have_prev ? L->ph_prev[j] : (P->w[j] > 0 ? x->r[j * d] / (c * P->w[j]) : 0);
+    L->ph[j] = p0;
     L->su[j] = P->active[j] != 0;
     L->sv[j] = L->su[j] && p0 - rho_n * L->U[j * d] >= 0;
     L->pg[j] = L->sv[j] && p0 > 0 ? p0 : 0;
@@ -457,14 +532,15 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
       h1_t = L->par.h1_t > 0 ? L->par.h1_t : rho_t;
       S->h2_t = h2_t;
       S->h1_t = h1_t;
-      /* S_f from the current semi-multipliers and U' */
+      /* S_f from the current semi-multipliers and U', with the hysteresis of (T88) */
+      sign_tolerances(L, d, dt, rho_n, rho_t, &tol_v, &tol_f, &scale_v);
       for (j = 0; j < nc; j++) {
         double g = 0;
         for (t = 0; t < dt; t++) {
           double v = L->lam[j * 2 + t] + rho_t * L->U[j * d + 1 + t];
           g += v * v;
         }
-        L->sf[j] = sqrt(g) <= 1 + L->par.status_tol;
+        L->sf[j] = (unsigned char)stick_sign(L, j, sqrt(g), L->sf[j], tol_f);
       }
     }
     /* the level-set loop */
@@ -498,10 +574,12 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
       if (kkt) mo_csc_gatxpy(P->H, 1, L->dv, 1, L->U);
       else mo_delassus_mult(P->W, L->r, 1, L->U);
       for (j = 0; j < m; j++) L->Umag[j] = fabs(P->b[j]) + fabs(L->U[j] - P->b[j]);
-      /* the sign fields from the new solution: (T14), (T15), BDZ07 (69), (70), (48) */
+      /* the sign fields from the new solution: (T14), (T15), BDZ07 (69), (70), (48), tested
+         against the problem's scales with hysteresis (T88) */
+      for (j = 0; j < nc; j++) L->ph[j] = L->su[j] ? ls_p_at(S, A, L->y, j) : 0;
+      sign_tolerances(L, d, dt, rho_n, rho_t, &tol_v, &tol_f, &scale_v);
       for (j = 0; j < nc; j++) {
-        double ph = L->su[j] ? ls_p_at(S, A, L->y, j) : 0, tol;
-        L->ph[j] = ph;
+        double ph = L->ph[j], s;
         L->nsu[j] = L->su[j];
         L->nsv[j] = L->sv[j];
         L->nsf[j] = L->sf[j];
@@ -512,10 +590,10 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
           if (L->nsu[j] != L->su[j]) L->viol[j] = HUGE_VAL;
         }
         if (!L->su[j]) { L->nsv[j] = 0; continue; }
-        tol = L->par.status_tol * (fabs(ph) + rho_n * L->Umag[j * d]);
-        L->nsv[j] = ph - rho_n * L->U[j * d] >= -tol;
-        if (L->nsv[j] != L->sv[j])
-          L->viol[j] = fmax(L->viol[j], fabs(ph - rho_n * L->U[j * d]) / (fabs(ph) + rho_n * L->Umag[j * d] + 1e-300));
+        /* closed stays closed down to -tol_v, open stays open up to +tol_v */
+        s = ph - rho_n * L->U[j * d];
+        L->nsv[j] = L->sv[j] ? s >= -tol_v : s > tol_v;
+        if (L->nsv[j] != L->sv[j]) L->viol[j] = fmax(L->viol[j], fabs(s) / (scale_v + 1e-300));
         if (dt) {
           double lam[2], g = 0;
           ls_lam_at(S, A, L->y, j, lam);
@@ -525,12 +603,22 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
             g += v * v;
           }
           /* a slip that reversed in the frozen solve went through zero: try sticking */
-          if (L->mu[j] > 0) L->nsf[j] = L->rev[j] || sqrt(g) <= 1 + L->par.status_tol;
+          if (L->mu[j] > 0) L->nsf[j] = L->rev[j] || stick_sign(L, j, sqrt(g), L->sf[j], tol_f);
           if (L->nsf[j] != L->sf[j]) L->viol[j] = fmax(L->viol[j], L->rev[j] ? 1 : fabs(sqrt(g) - 1));
         }
       }
       for (j = 0; j < nc; j++)
         same &= L->nsu[j] == L->su[j] && L->nsv[j] == L->sv[j] && L->nsf[j] == L->sf[j];
+      if (!same && conv && !memcmp(L->nsu, L->su, (size_t)nc) &&
+          law_satisfied(L, S, A, d, dt, rho_n, rho_t, tol_v, tol_f)) {
+        /* (T89): the frozen solution satisfies the contact law to the tolerances of the sign
+           tests; the signs that would change sit on their boundaries at round-off */
+        mo_log(ctx, 3, "levelset step %ld: the contact law holds to its tolerances; sign changes at "
+               "round-off ignored\n", P->step);
+        memcpy(L->nsv, L->sv, (size_t)nc);
+        memcpy(L->nsf, L->sf, (size_t)nc);
+        same = 1;
+      }
       if (same && !conv) {
         /* Newton failed on a status that the signs confirm: nothing left to change */
         rep->reason = MO_CR_MAXITER;
