@@ -260,6 +260,44 @@ static const char *scheme_name(mo_scheme s)
   return s == MO_SCHEME_NEWMARK ? "newmark" : s == MO_SCHEME_QUASISTATIC ? "quasistatic" : "theta";
 }
 
+/* The scheme a run took: "explicit" is the theta-scheme at theta = 1, theta_f = 0 (T100). */
+static const char *time_scheme_name(const mo_time_settings *T)
+{
+  return T->explicit_cd && T->scheme == MO_SCHEME_THETA ? "explicit" : scheme_name(T->scheme);
+}
+
+#define TIME_WARN_MAX 2
+/* A run stops when its mechanical energy exceeds this many times its initial value (minus the
+   work given to it): no physical scene gains that much, an unstable scheme does in a few steps */
+#define MO_BLOWUP_GROWTH 1e12
+/* Warnings on the stability of the time scheme (doc/theory.md (T101)-(T103)), for the log and
+   summary.json: a theta-scheme that is only conditionally stable (or not at all), and an
+   explicit step above the critical one. Returns how many were written into w. */
+static int time_warnings(const mo_scene *sc, char w[TIME_WARN_MAX][512])
+{
+  const mo_time_settings *T = &sc->time;
+  double wh, dtc;
+  int n = 0, b, e, stab;
+  if (T->scheme != MO_SCHEME_THETA) return 0;
+  dtc = mo_scene_dt_crit(sc, &b, &e);
+  stab = mo_theta_stability(T->theta, T->theta_f, &wh);
+  if (T->explicit_cd) {
+    if (isfinite(dtc) && T->dt > dtc * (1 + 1e-9))
+      snprintf(w[n++], 512, "dt = %.6g exceeds the critical time step dt_crit = %.6g of central differences (element %d "
+               "of body '%s', doc/theory.md (T102)): dt / dt_crit = %.4g, the explicit scheme is unstable",
+               T->dt, dtc, e, sc->body[b].name, T->dt / dtc);
+  } else if (stab == MO_STAB_UNSTABLE)
+    snprintf(w[n++], 512, "theta = %g, theta_f = %g: theta + theta_f < 1, the theta-scheme is unstable at every time "
+             "step (doc/theory.md (T101))", T->theta, T->theta_f);
+  else if (stab == MO_STAB_CONDITIONAL)
+    snprintf(w[n++], 512, "theta = %g, theta_f = %g: the theta-method is only conditionally stable, h omega_max <= %.4g "
+             "(doc/theory.md (T101))%s", T->theta, T->theta_f, wh,
+             isfinite(dtc) ? "; with omega_max near 2 / dt_crit (T103) that is dt <= about" : "");
+  if (stab == MO_STAB_CONDITIONAL && !T->explicit_cd && isfinite(dtc))
+    snprintf(w[n - 1] + strlen(w[n - 1]), 512 - strlen(w[n - 1]), " %.4g", 0.5 * wh * dtc);
+  return n;
+}
+
 static json_t *contact_json(const mo_contact *C, const mo_contact_driver *D);
 
 /* metrics.extents: the bounding box of each output.extents node set in the current
@@ -508,8 +546,30 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
     }
     json_object_set_new(scene, "bodies", bodies);
     json_object_set_new(root, "scene", scene);
-    json_object_set_new(time, "scheme", json_string(scheme_name(sc->time.scheme)));
+    json_object_set_new(time, "scheme", json_string(time_scheme_name(&sc->time)));
     json_object_set_new(time, "dt", json_real(sc->time.dt));
+    {
+      /* the critical step of central differences (T102) and the scheme's stability (T101) */
+      double dtc = mo_scene_dt_crit(sc, NULL, NULL), wh;
+      char w[TIME_WARN_MAX][512];
+      int nw = time_warnings(sc, w), stab, i;
+      if (isfinite(dtc)) {
+        json_object_set_new(time, "dt_crit", json_real(dtc));
+        json_object_set_new(scene, "dt_crit", json_real(dtc));
+        json_object_set_new(time, "dt_over_dt_crit", json_real(sc->time.dt / dtc));
+      }
+      if (sc->time.scheme == MO_SCHEME_THETA) {
+        stab = mo_theta_stability(sc->time.theta, sc->time.theta_f, &wh);
+        json_object_set_new(time, "stability", json_string(stab == MO_STAB_UNCONDITIONAL ? "unconditional"
+                                                           : stab == MO_STAB_CONDITIONAL ? "conditional" : "unstable"));
+        if (stab == MO_STAB_CONDITIONAL) json_object_set_new(time, "omega_h_max", json_real(wh));
+      }
+      if (nw) {
+        json_t *jw = json_array();
+        for (i = 0; i < nw; i++) json_array_append_new(jw, json_string(w[i]));
+        json_object_set_new(root, "warnings", jw);
+      }
+    }
     json_object_set_new(time, "steps", json_integer(sc->time.steps));
     json_object_set_new(time, "end", json_real(sc->time.end));
     if (sc->time.scheme == MO_SCHEME_THETA) {
@@ -838,6 +898,18 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   if ((st = mo_mkdir_p(outdir, ctx))) goto done;
   if (opt->dump_fclib && (st = mo_mkdir_p(opt->dump_fclib, ctx))) goto done;
   if (C && (st = mo_contact_time_scheme(sc, C, ctx))) goto done;
+  {
+    /* the critical time step (T102) in the log; the explicit scheme warns above it (the
+       theta-scheme's own warning was given when the case was read) */
+    char w[TIME_WARN_MAX][512];
+    int nw = time_warnings(sc, w), b, e, i;
+    double dtc = mo_scene_dt_crit(sc, &b, &e);
+    if (isfinite(dtc) && sc->time.scheme != MO_SCHEME_QUASISTATIC)
+      mo_log(ctx, 2, "critical time step of central differences dt_crit = %.6g (element %d of body '%s'); dt / dt_crit = %.4g\n",
+             dtc, e, sc->body[b].name, sc->time.dt / dtc);
+    for (i = 0; i < nw; i++)
+      if (sc->time.explicit_cd) mo_log(ctx, 1, "%s: warning: %s\n", mo_case_file(cs), w[i]);
+  }
   if ((st = mo_stepper_create(sc, &S, ctx))) goto done;
   if (C && (st = mo_contact_driver_create(sc, C, S, &drv, ctx))) goto done;
   if (drv && opt->dump_fclib) mo_contact_driver_keep_delassus(drv);
@@ -1009,6 +1081,14 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
     if (e0 > 0 && fabs(e1 - e0) / e0 > drift) drift = fabs(e1 - e0) / e0;
     if (eratio - 1 > emax_growth) emax_growth = eratio - 1;
     balance = e1 - e0 - s.wext - s.wsupport - s.wcontact;
+    if (eratio > MO_BLOWUP_GROWTH || !isfinite(e1)) {
+      /* a scheme past its stability limit (T101)-(T102): stop before the overflow, and say so */
+      st = mo_error(ctx, MO_ENAN, "blow-up at step %ld (t = %.6g): the energy reached %.3g times its initial value "
+                    "(more than %.0e): the time scheme is unstable at this step (dt = %.6g%s)", s.step, s.t, eratio,
+                    MO_BLOWUP_GROWTH, mo_stepper_dt(S), sc->time.explicit_cd ? "; see dt_crit, doc/theory.md (T102)"
+                    : "; doc/theory.md (T101)");
+      goto done;
+    }
     /* the probes with an exact value at every step (their errors), the others on the rows
        written; the nodal contact forces when a probe reads them */
     if (cv.need_R && drv && (write_row || nexact)) {
