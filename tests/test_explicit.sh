@@ -1,0 +1,40 @@
+#!/bin/sh
+# test_explicit.sh: the explicit scheme and theta < 1/2 from the command line: the critical time
+# step and the warnings in the log and summary.json (doc/theory.md (T101)-(T102)), a blow-up
+# reported (not a silent "complete"), and the explicit scheme with contact on bar-obstacle.
+. "$MOREAU_SRCDIR/tests/tap.sh"
+
+W="$MOREAU_SRCDIR/cases/wave-bar"
+t=$("$MOREAU" run "$W" --set 'time.scheme="explicit"' --set time.end=2 --out "$OUT/x1" 2>&1); ok $? "wave-bar, explicit at dt = dt_crit (Courant 1) runs"
+is "$(json "$OUT/x1/summary.json" "d['time']['scheme']")" "explicit" "summary.json: scheme explicit"
+is "$(json "$OUT/x1/summary.json" "'%.6g' % d['time']['dt_crit']")" "0.005" "summary.json: dt_crit = L / (n c) = 0.005"
+ok $(json "$OUT/x1/summary.json" "0 if d['metrics']['tip.ux']['l2_rel'] < 1e-10 else 1") \
+  "central differences at Courant 1 are exact at the nodes (tip.ux L2 $(json "$OUT/x1/summary.json" "d['metrics']['tip.ux']['l2_rel']"))"
+t=$("$MOREAU" run "$W" --set 'time.scheme="explicit"' --set time.dt=0.0055 --set time.end=2 --out "$OUT/x2" 2>&1); is $? 1 "at 1.1 dt_crit the run fails"
+contains "$t" "exceeds the critical time step dt_crit = 0.005" "the log warns that dt > dt_crit"
+contains "$t" "blow-up at step" "and reports the blow-up"
+is "$(json "$OUT/x2/summary.json" "d['status']")" "incomplete" "summary.json: incomplete"
+contains "$(json "$OUT/x2/summary.json" "d['reason']")" "blow-up" "summary.json: the reason says blow-up"
+contains "$(json "$OUT/x2/summary.json" "d['warnings'][0]")" "dt / dt_crit = 1.1" "summary.json: the warning"
+t=$("$MOREAU" run "$W" --set time.theta=0.3 --set time.theta_f=1.0 --set time.end=0.1 --out "$OUT/x3" 2>&1); ok $? "theta = 0.3 is accepted"
+contains "$t" "only conditionally stable, h omega_max <= 3.162" "the log warns: only conditionally stable (2 / sqrt(1 - 2 theta))"
+contains "$(json "$OUT/x3/summary.json" "d['warnings'][0]")" "only conditionally stable" "summary.json: the warning"
+is "$(json "$OUT/x3/summary.json" "d['time']['stability']")" "conditional" "summary.json: time.stability conditional"
+t=$("$MOREAU" run "$W" --set time.theta=0.3 --set time.end=0.1 --out "$OUT/x4" 2>&1)
+contains "$t" "unstable at every time step" "theta = theta_f = 0.3: unstable at every step, says the log"
+
+# contact: bar-obstacle (Doyen-Ern-Piperno 1) at dt = dt_crit / 2: the end follows the closed form,
+# the energy does not grow
+B="$MOREAU_SRCDIR/cases/bar-obstacle"
+for sig in position velocity; do
+  "$MOREAU" run "$B" --set 'time.scheme="explicit"' --set time.dt=0.005 --set "contact.signorini=\"$sig\"" --out "$OUT/b$sig" --quiet
+  ok $? "bar-obstacle, explicit, signorini $sig runs"
+  ok $(json "$OUT/b$sig/summary.json" "0 if d['metrics']['end.ux']['l2_rel'] < 0.04 else 1") \
+    "end displacement against the closed form: L2 $(json "$OUT/b$sig/summary.json" "'%.3g' % d['metrics']['end.ux']['l2_rel']") < 4 %"
+  ok $(json "$OUT/b$sig/summary.json" "0 if d['energy']['max_growth'] < 1e-3 and 0.95 < d['energy']['ratio'] <= 1 else 1") \
+    "energy does not grow (max growth $(json "$OUT/b$sig/summary.json" "'%.2g' % d['energy']['max_growth']"), final ratio $(json "$OUT/b$sig/summary.json" "'%.4f' % d['energy']['ratio']"))"
+done
+# the end leaves the obstacle with the closed form's velocity +1/2 (t = 2.4, between contacts)
+v=$(awk -F, 'NR == 1 { for (i = 1; i <= NF; i++) if ($i == "end.vx") c = i } $1 == "2.4" { print $c }' "$OUT/bposition/history.csv")
+ok $(/usr/bin/python3 -c "import sys; sys.exit(0 if abs(float(sys.argv[1]) - 0.5) < 0.05 else 1)" "$v"; echo $?) "end velocity after the impact $v (closed form 0.5)"
+done_testing
