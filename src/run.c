@@ -904,8 +904,8 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
     char w[TIME_WARN_MAX][512];
     int nw = time_warnings(sc, w), b, e, i;
     double dtc = mo_scene_dt_crit(sc, &b, &e);
-    if (isfinite(dtc) && sc->time.scheme != MO_SCHEME_QUASISTATIC)
-      mo_log(ctx, 2, "critical time step of central differences dt_crit = %.6g (element %d of body '%s'); dt / dt_crit = %.4g\n",
+    if (isfinite(dtc) && sc->time.scheme != MO_SCHEME_QUASISTATIC && (opt->log || ctx->verbosity >= 2))
+      mo_log(ctx, 1, "critical time step of central differences dt_crit = %.6g (element %d of body '%s'); dt / dt_crit = %.4g\n",
              dtc, e, sc->body[b].name, sc->time.dt / dtc);
     for (i = 0; i < nw; i++)
       if (sc->time.explicit_cd) mo_log(ctx, 1, "%s: warning: %s\n", mo_case_file(cs), w[i]);

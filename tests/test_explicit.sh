@@ -37,4 +37,18 @@ done
 # the end leaves the obstacle with the closed form's velocity +1/2 (t = 2.4, between contacts)
 v=$(awk -F, 'NR == 1 { for (i = 1; i <= NF; i++) if ($i == "end.vx") c = i } $1 == "2.4" { print $c }' "$OUT/bposition/history.csv")
 ok $(/usr/bin/python3 -c "import sys; sys.exit(0 if abs(float(sys.argv[1]) - 0.5) < 0.05 else 1)" "$v"; echo $?) "end velocity after the impact $v (closed form 0.5)"
+
+# stability maps that can fail: the explicit scheme over dt across dt_crit = 0.005 (unstable cells
+# exactly above it, the line on the map), and theta in {0.3, 0.5, 1} at theta_f = 1 over dt across
+# the theta = 0.3 limit 2 / (omega_max sqrt(0.4)) = 0.00456 (omega_max = 2 sqrt(3) 200 c / L with the
+# consistent mass of wave-bar, (T101))
+"$MOREAU" compare "$W" --set 'time.scheme="explicit"' --set time.end=1 --vary time.dt=0.004,0.0045,0.005,0.0055,0.006 \
+  --out "$OUT/cmpx" --quiet >/dev/null 2>&1
+is "$(awk -F, 'NR > 1 { printf "%s:%s ", $3, $4 }' "$OUT/cmpx/stability.csv")" \
+  "0.004:stable 0.0045:stable 0.005:stable 0.0055:unstable 0.006:unstable " "explicit map: unstable exactly above dt_crit"
+contains "$(cat "$OUT/cmpx/plots/stability-case.gp")" "set arrow from 0.005, graph 0 to 0.005, graph 1 nohead" "the map draws dt_crit"
+"$MOREAU" compare "$W" --set time.end=2 --set time.theta_f=1.0 --vary time.theta=0.3,0.5,1.0 --vary time.dt=0.004,0.0045,0.0047,0.005 \
+  --out "$OUT/cmpt" --quiet >/dev/null 2>&1
+is "$(awk -F, 'NR > 1 && $5 != "stable" { printf "%s:%s:%s ", $3, $4, $5 }' "$OUT/cmpt/stability.csv")" \
+  "0.3:0.0047:unstable 0.3:0.005:unstable " "theta map: unstable cells only at theta = 0.3 above its limit"
 done_testing
