@@ -267,7 +267,7 @@ static const char *time_scheme_name(const mo_time_settings *T)
 }
 
 #define TIME_WARN_MAX 2
-/* A run stops when its mechanical energy exceeds this many times its initial value (minus the
+/* A run warns when its mechanical energy exceeds this many times its initial value (minus the
    work given to it): no physical scene gains that much, an unstable scheme does in a few steps */
 #define MO_BLOWUP_GROWTH 1e12
 /* Warnings on the stability of the time scheme (doc/theory.md (T101)-(T103)), for the log and
@@ -481,7 +481,8 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
                          const mo_contact_driver *drv, const mo_metrics *met, const column *cols, int ncol,
                          const char *const *names, double e0, double e1, double drift,
                          double balance, double growth, int complete, const char *reason,
-                         double wall, const double *p0, long cuts, double dtmin, mo_ctx *ctx)
+                         double wall, const double *p0, long cuts, double dtmin, const char *blowup,
+                         mo_ctx *ctx)
 {
   double *pw = NULL, *p1 = NULL;
   int pw_fail = 0;
@@ -564,9 +565,10 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
                                                            : stab == MO_STAB_CONDITIONAL ? "conditional" : "unstable"));
         if (stab == MO_STAB_CONDITIONAL) json_object_set_new(time, "omega_h_max", json_real(wh));
       }
-      if (nw) {
+      if (nw || (blowup && blowup[0])) {
         json_t *jw = json_array();
         for (i = 0; i < nw; i++) json_array_append_new(jw, json_string(w[i]));
+        if (blowup && blowup[0]) json_array_append_new(jw, json_string(blowup));
         json_object_set_new(root, "warnings", jw);
       }
     }
@@ -878,7 +880,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   double emax_growth = 0;
   int st, ncol = 0, nprobecol = 0, nexact = 0, k, p, complete = 0, ecol0 = 0, ccol0 = 0, table = 0, x0col;
   int nl = 0, necol = 0, ncol0 = 0, cutcol = 0, nvalcol = 0, nrigcol = 0, agcol = 0, pfcol = 0;
-  char reason[MO_ERRMSG_MAX] = "";
+  char reason[MO_ERRMSG_MAX] = "", blowup[512] = "";
   progress prog;
   stepping stepper;
   memset(&s, 0, sizeof s);
@@ -1081,13 +1083,14 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
     if (e0 > 0 && fabs(e1 - e0) / e0 > drift) drift = fabs(e1 - e0) / e0;
     if (eratio - 1 > emax_growth) emax_growth = eratio - 1;
     balance = e1 - e0 - s.wext - s.wsupport - s.wcontact;
-    if (eratio > MO_BLOWUP_GROWTH || !isfinite(e1)) {
-      /* a scheme past its stability limit (T101)-(T102): stop before the overflow, and say so */
-      st = mo_error(ctx, MO_ENAN, "blow-up at step %ld (t = %.6g): the energy reached %.3g times its initial value "
-                    "(more than %.0e): the time scheme is unstable at this step (dt = %.6g%s)", s.step, s.t, eratio,
-                    MO_BLOWUP_GROWTH, mo_stepper_dt(S), sc->time.explicit_cd ? "; see dt_crit, doc/theory.md (T102)"
-                    : "; doc/theory.md (T101)");
-      goto done;
+    if (!blowup[0] && eratio > MO_BLOWUP_GROWTH) {
+      /* a scheme past its stability limit (T101)-(T102): said once, in the log and summary.json
+         (the run goes on until its end or the NaN the stepper refuses) */
+      snprintf(blowup, sizeof blowup, "blow-up at step %ld (t = %.6g): the energy reached %.3g times its initial "
+               "value (more than %.0e): the time scheme is unstable at this step (dt = %.6g%s)", s.step, s.t, eratio,
+               MO_BLOWUP_GROWTH, mo_stepper_dt(S), sc->time.explicit_cd ? "; see dt_crit, doc/theory.md (T102)"
+               : "; doc/theory.md (T101)");
+      mo_log(ctx, 1, "%s: warning: %s\n", mo_case_file(cs), blowup);
     }
     /* the probes with an exact value at every step (their errors), the others on the rows
        written; the nodal contact forces when a probe reads them */
@@ -1207,7 +1210,7 @@ done:
     mo_ctx_clear_error(ctx);
     st2 = write_summary(outdir, cs, sc, S, s.u ? &s : NULL, C, drv, met, cols, cols ? nvalcol : 0,
                         (const char *const *)names, e0, e1, drift, balance, emax_growth, complete, reason,
-                        res->wall, p0, stepper.cuts, stepper.hmin, ctx);
+                        res->wall, p0, stepper.cuts, stepper.hmin, blowup, ctx);
     if (!st2 && drv && s.u && s.step > 0) {
       snprintf(path, sizeof path, "%s/contact.csv", outdir);
       st2 = mo_contact_write_csv(path, sc, C, drv, &s, ctx);

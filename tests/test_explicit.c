@@ -122,10 +122,10 @@ int main(void)
     outcome a = bar_run(20, 0.025, 4.0, NULL, NULL, NULL), b = bar_run(40, 0.0125, 4.0, NULL, NULL, NULL),
             c = bar_run(80, 0.00625, 4.0, NULL, NULL, NULL);
     ok(a.st == 0 && b.st == 0 && c.st == 0 && a.steps == 160 && c.steps == 640, "explicit, Courant 1/2, 20/40/80 elements: runs complete");
-    ok(c.err < 2e-4, "explicit matches d'Alembert: max |u - u_exact| / A = %.3e (80 elements) < 2e-4", c.err);
+    ok(c.st == 0 && c.steps == 640 && c.err < 2e-4, "explicit matches d'Alembert: max |u - u_exact| / A = %.3e (80 elements) < 2e-4", c.err);
     ok(a.err / b.err > 3.6 && b.err / c.err > 3.6 && a.err / b.err < 4.4 && b.err / c.err < 4.4,
        "second order: error ratios %.3f, %.3f (4 expected)", a.err / b.err, b.err / c.err);
-    ok(c.emax < 1 + 1e-3, "energy bounded (max E/E0 = %.6f)", c.emax);
+    ok(c.st == 0 && c.steps == 640 && c.emax > 0.999 && c.emax < 1 + 1e-3, "energy bounded (max E/E0 = %.6f)", c.emax);
     free(a.u), free(b.u), free(c.u);
   }
   {
