@@ -558,6 +558,7 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
         json_object_set_new(time, "dt_crit", json_real(dtc));
         json_object_set_new(scene, "dt_crit", json_real(dtc));
         json_object_set_new(time, "dt_over_dt_crit", json_real(sc->time.dt / dtc));
+        if (isfinite(mo_scene_dt_bound(sc))) json_object_set_new(time, "dt_bound", json_real(mo_scene_dt_bound(sc)));
       }
       if (sc->time.scheme == MO_SCHEME_THETA) {
         stab = mo_theta_stability(sc->time.theta, sc->time.theta_f, &wh);

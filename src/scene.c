@@ -130,6 +130,32 @@ double mo_scene_dt_crit(const mo_scene *sc, int *body, int *elem)
   return best;
 }
 
+/* (T103a): a guaranteed bound. With a diagonal (lumped) mass, Gershgorin's theorem on the
+   free rows of M^-1 K bounds omega_max^2 <= max_i sum_j |K_ij| / M_ii, so central differences
+   are stable for dt <= 2 / sqrt of it. HUGE_VAL when there is no nodal free dof; NAN when a
+   nodal mass is not diagonal (consistent mass) or K is absent (finite-strain bodies). */
+double mo_scene_dt_bound(const mo_scene *sc)
+{
+  double lmax = 0;
+  int j, p, any = 0;
+  if (!sc->M || !sc->K) return NAN;
+  for (j = 0; j < sc->nfe_dof; j++) {
+    double mjj = 0, rs = 0;
+    if (sc->free_of[j] < 0) continue;
+    for (p = sc->M->p[j]; p < sc->M->p[j + 1]; p++) {
+      if (sc->M->i[p] == j) mjj += sc->M->x[p];
+      else if (sc->M->x[p] != 0) return NAN;
+    }
+    /* K symmetric: column j holds row j */
+    for (p = sc->K->p[j]; p < sc->K->p[j + 1]; p++) rs += fabs(sc->K->x[p]);
+    if (!(mjj > 0)) continue;
+    if (rs / mjj > lmax) lmax = rs / mjj;
+    any = 1;
+  }
+  if (!any || !(lmax > 0)) return HUGE_VAL;
+  return 2 / sqrt(lmax);
+}
+
 int mo_scene_body_index(const mo_scene *sc, const char *name)
 {
   int b;

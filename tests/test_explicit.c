@@ -26,6 +26,7 @@ typedef struct {
   double emax;      /* max over steps of E / E0 */
   double efinal;    /* E / E0 at the end */
   double dtc;       /* mo_scene_dt_crit */
+  double dtb;       /* mo_scene_dt_bound */
   double *u;        /* final displacements (caller frees) */
   int ndof;
 } outcome;
@@ -57,6 +58,7 @@ static outcome run(const char *text, const char *const *sets, int nset, double T
     goto out;
   }
   o.dtc = mo_scene_dt_crit(sc, NULL, NULL);
+  o.dtb = mo_scene_dt_bound(sc);
   w = malloc((size_t)sc->ndof * sizeof *w);
   e0 = mo_energy_kinetic(sc, &s, w) + mo_energy_elastic(sc, s.u, w);
   nsteps = (long)floor(T / sc->time.dt + 0.5);
@@ -114,6 +116,7 @@ int main(void)
     /* (T102): a uniform bar of n elements: dt_crit = L / (n c) exactly */
     outcome o = bar_run(50, 0.01, 0.01, NULL, NULL, NULL);
     ok(o.st == 0 && fabs(o.dtc - 0.02) < 1e-15, "dt_crit of a 50-element bar (c = 1) is 1/50 (%.17g)", o.dtc);
+    ok(o.st == 0 && fabs(o.dtb - 0.02) < 1e-12, "Gershgorin's dt_bound of the lumped bar is exact, 1/50 (%.17g)", o.dtb);
     free(o.u);
   }
   {

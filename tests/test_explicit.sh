@@ -25,6 +25,15 @@ is "$(json "$OUT/x3/summary.json" "d['time']['stability']")" "conditional" "summ
 t=$("$MOREAU" run "$W" --set time.theta=0.3 --set time.end=0.1 --out "$OUT/x4" 2>&1)
 contains "$t" "unstable at every time step" "theta = theta_f = 0.3: unstable at every step, says the log"
 
+# plate-vibration (Q4): the guaranteed step dt_bound (T103) lies below the CFL estimate and runs stable
+P="$MOREAU_SRCDIR/cases/plate-vibration"
+"$MOREAU" run "$P" --set time.scheme=explicit --set time.end=1e-9 --out "$OUT/p0" --quiet
+db=$(json "$OUT/p0/summary.json" "'%.6g' % d['time']['dt_bound']")
+ok $(json "$OUT/p0/summary.json" "0 if 0 < d['time']['dt_bound'] < d['time']['dt_crit'] else 1") "plate: dt_bound $db < dt_crit"
+"$MOREAU" run "$P" --set time.scheme=explicit --set time.dt="$db" --set time.end=0.01 --set output.vtk.every=100000 --out "$OUT/p1" --quiet
+ok $? "plate, explicit at dt_bound: runs"
+ok $(json "$OUT/p1/summary.json" "0 if d['energy']['max_growth'] < 1e-3 else 1") "and stays bounded (max growth $(json "$OUT/p1/summary.json" "'%.2g' % d['energy']['max_growth']"))"
+
 # contact: bar-obstacle (Doyen-Ern-Piperno 1) at dt = dt_crit / 2: the end follows the closed form,
 # the energy does not grow
 B="$MOREAU_SRCDIR/cases/bar-obstacle"

@@ -248,6 +248,10 @@ int mo_scene_body_index(const mo_scene *sc, const char *name);
    the elements of the deformable bodies of l_e / c_d (characteristic length over dilatational
    wave speed); with body and elem (may be NULL) where it is reached. HUGE_VAL without elements. */
 double mo_scene_dt_crit(const mo_scene *sc, int *body, int *elem);
+/* A guaranteed stable step of central differences (doc/theory.md (T103)): 2 / sqrt of
+   Gershgorin's bound on omega_max^2 over the free rows of M^-1 K; NAN unless every nodal mass is
+   diagonal (lumped) and the bodies linear, HUGE_VAL without nodal free dofs. */
+double mo_scene_dt_bound(const mo_scene *sc);
 
 #ifdef __cplusplus
 }
