@@ -25,6 +25,12 @@ is "$(json "$OUT/x3/summary.json" "d['time']['stability']")" "conditional" "summ
 t=$("$MOREAU" run "$W" --set time.theta=0.3 --set time.end=0.1 --out "$OUT/x4" 2>&1)
 contains "$t" "unstable at every time step" "theta = theta_f = 0.3: unstable at every step, says the log"
 
+# Moreau-Jean (theta_f = theta) at theta = 0.3: theta + theta_f < 1, unstable at every dt (T101)
+"$MOREAU" compare "$W" --set time.end=2 --vary time.theta=0.3,0.5,1.0 --vary time.dt=0.0025,0.005,0.01 \
+  --out "$OUT/cmpm" --quiet >/dev/null 2>&1
+is "$(awk -F, 'NR > 1 && $5 != "stable" { printf "%s:%s ", $3, $4 }' "$OUT/cmpm/stability.csv")" \
+  "0.3:0.0025 0.3:0.005 0.3:0.01 " "theta = theta_f map: every theta = 0.3 cell unstable, no other"
+
 # plate-vibration (Q4): the guaranteed step dt_bound (T103) lies below the CFL estimate and runs stable
 P="$MOREAU_SRCDIR/cases/plate-vibration"
 "$MOREAU" run "$P" --set time.scheme=explicit --set time.end=1e-9 --out "$OUT/p0" --quiet
