@@ -14,6 +14,7 @@
 #include "metrics.h"
 
 #include <jansson.h>
+#include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -1082,7 +1083,9 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
     mo_metrics_energies(met, &s, &ek, &ee, &eratio);
     e1 = ek + ee + s.wplastic; /* (T65): the plastic work is energy the body took */
     if (e0 > 0 && fabs(e1 - e0) / e0 > drift) drift = fabs(e1 - e0) / e0;
-    if (eratio - 1 > emax_growth) emax_growth = eratio - 1;
+    /* an infinite growth is kept as the largest double: JSON has no infinity, and a blow-up
+       must not read as "no growth" (doc/theory.md §1.6) */
+    if (eratio - 1 > emax_growth) emax_growth = fmin(eratio - 1, DBL_MAX);
     balance = e1 - e0 - s.wext - s.wsupport - s.wcontact;
     if (!blowup[0] && eratio > MO_BLOWUP_GROWTH) {
       /* a scheme past its stability limit (T101)-(T102): said once, in the log and summary.json
