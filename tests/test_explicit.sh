@@ -62,6 +62,16 @@ done
 v=$(awk -F, 'NR == 1 { for (i = 1; i <= NF; i++) if ($i == "end.vx") c = i } $1 == "2.4" { print $c }' "$OUT/bposition/history.csv")
 ok $(/usr/bin/python3 -c "import sys; sys.exit(0 if abs(float(sys.argv[1]) - 0.5) < 0.05 else 1)" "$v"; echo $?) "end velocity after the impact $v (closed form 0.5)"
 
+# rods-1d: two elastic rods, node-on-node contact between deformable bodies, at 0.5 dt_crit
+"$MOREAU" run "$MOREAU_SRCDIR/cases/rods-1d" --set time.scheme=explicit --set time.dt=1e-7 --out "$OUT/r1" --quiet
+ok $? "rods-1d, explicit at dt = 1e-7 (dt_crit = 1.97e-7) runs"
+ok $(json "$OUT/r1/summary.json" "0 if abs(d['metrics']['contact']['release_time'] / d['metrics']['contact']['release_time_exact'] - 1) < 2e-3 else 1") \
+  "release time $(json "$OUT/r1/summary.json" "d['metrics']['contact']['release_time']") (closed form $(json "$OUT/r1/summary.json" "'%.6g' % d['metrics']['contact']['release_time_exact']"))"
+ok $(json "$OUT/r1/summary.json" "0 if d['metrics']['cend.ux']['l2_rel'] < 0.01 and d['metrics']['cend.pn']['l2_rel'] < 0.05 else 1") \
+  "contact end displacement and pressure against the closed form (L2 $(json "$OUT/r1/summary.json" "'%.2g, %.2g' % (d['metrics']['cend.ux']['l2_rel'], d['metrics']['cend.pn']['l2_rel'])"))"
+ok $(json "$OUT/r1/summary.json" "0 if d['energy']['max_growth'] < 1e-6 and d['energy']['ratio'] > 0.999 else 1") \
+  "energy does not grow (final ratio $(json "$OUT/r1/summary.json" "'%.5f' % d['energy']['ratio']"))"
+
 # stability maps that can fail: the explicit scheme over dt across dt_crit = 0.005 (unstable cells
 # exactly above it, the line on the map), and theta in {0.3, 0.5, 1} at theta_f = 1 over dt across
 # the theta = 0.3 limit 2 / (omega_max sqrt(0.4)) = 0.00456 (omega_max = 2 sqrt(3) 200 c / L with the
