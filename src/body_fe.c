@@ -537,7 +537,18 @@ static int deformable_read(mo_body *B, int member, int dim, const mo_case *cs, c
     B->nl = 1;
     B->npoint = mo_elem_nl_npoint(B->mesh->type, B->mat.hyp);
   }
-  B->lumped = !strcmp(mo_cfg_string(bg, "mass", "consistent"), "lumped");
+  {
+    /* the explicit scheme is central differences with a lumped (row-sum) mass (T100) */
+    const char *scheme = NULL;
+    int cd = config_lookup_string(&cs->cfg, "time.scheme", &scheme) == CONFIG_TRUE && !strcmp(scheme, "explicit");
+    B->lumped = !strcmp(mo_cfg_string(bg, "mass", cd ? "lumped" : "consistent"), "lumped");
+    if (cd && B->nl)
+      return mo_case_error(cs, mo_cfg_member(mo_cfg_member(bg, "material"), "model"), ctx, "body '%s': scheme 'explicit' "
+                           "is implemented for linear elastic bodies only (model 'elastic')", B->name);
+    if (cd && !B->lumped)
+      return mo_case_error(cs, mo_cfg_member(bg, "mass"), ctx, "body '%s': scheme 'explicit' needs a lumped mass "
+                           "(central differences with a consistent mass solve a matrix at every step)", B->name);
+  }
   B->ndof = B->mesh->nnode * B->mesh->dim;
   B->orient = -1;
   return MO_OK;

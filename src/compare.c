@@ -27,6 +27,7 @@ typedef struct {
   double wall;
   long steps;
   double val[MAX_COLS];      /* flattened metrics, NaN when absent */
+  double dt_crit;            /* summary.json time.dt_crit (doc/theory.md (T102)), NaN when absent */
   double pen_landing;        /* penetration a landing may leave: (1 - theta) h max |U_n| at
                                 velocity level (doc/theory.md §5), 0 otherwise */
   char outdir[1024];
@@ -90,9 +91,12 @@ static void read_summary(run_row *r, colset *C, colset *H)
   int k;
   for (k = 0; k < MAX_COLS; k++) r->val[k] = NAN;
   r->pen_landing = 0;
+  r->dt_crit = NAN;
   snprintf(path, sizeof path, "%s/summary.json", r->outdir);
   root = json_load_file(path, 0, &err);
   if (!root) return;
+  if ((m = json_object_get(root, "time")) && json_is_number(json_object_get(m, "dt_crit")))
+    r->dt_crit = json_number_value(json_object_get(m, "dt_crit"));
   /* the step the run took, when the grid sets it (--vary time.dt=...) rather than --dt */
   if (isnan(r->dt) && (m = json_object_get(root, "time")) && json_is_number(json_object_get(m, "dt")))
     r->dt = json_number_value(json_object_get(m, "dt"));
@@ -961,6 +965,23 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
         if (two) axis_setup(&gp, &opt->vary[1], 'y');
         else sb_printf(&gp, "unset ytics\n");
         sb_printf(&gp, "set offsets graph 0.05, graph 0.05, graph 0.08, graph 0.08\n");
+        {
+          /* the critical step of central differences (T102) as a line across a dt axis */
+          double dtc = NAN, lo, hi;
+          int ax;
+          for (r = 0; r < nrun; r++)
+            if (!strcmp(rows[r].solver, rows[i * ndt * ngrid].solver) && isfinite(rows[r].dt_crit) &&
+                !(rows[r].dt_crit >= dtc)) dtc = rows[r].dt_crit;
+          for (ax = 0; ax < (two ? 2 : 1) && isfinite(dtc); ax++)
+            if (!strcmp(opt->vary[ax].key, "time.dt") && vary_numeric(&opt->vary[ax], &lo, &hi)) {
+              if (ax == 0)
+                sb_printf(&gp, "set arrow from %.6g, graph 0 to %.6g, graph 1 nohead dt 2 lw 2 lc rgb 'black'\n"
+                          "set label 'dt_crit' at %.6g, graph 1 offset 0.5, -1 left\n", dtc, dtc, dtc);
+              else
+                sb_printf(&gp, "set arrow from graph 0, first %.6g to graph 1, first %.6g nohead dt 2 lw 2 lc rgb 'black'\n"
+                          "set label 'dt_crit' at graph 0, first %.6g offset 1, 0.6 left\n", dtc, dtc, dtc);
+            }
+        }
         for (j = 0; j < 2; j++) {
           set_terminal(&gp, fig, j);
           sb_printf(&gp, "plot 'stability-%s.csv' using 1:($3==0?$2:1/0) with points pt 7 ps 2 lc rgb '#2a9d2a' title 'stable', "

@@ -228,10 +228,12 @@ int mo_contact_time_scheme(mo_scene *sc, const mo_contact *C, mo_ctx *ctx)
     if (sc->time.scheme != MO_SCHEME_QUASISTATIC && !sc->M)
       return mo_error(ctx, MO_EUNSUPPORTED, "contact back end %s runs a dynamic scheme, but the case is "
                       "quasi-static (no mass matrix)", T->name);
-    mo_note_skip(ctx, "the case's %s scheme: back end %s runs %s (beta = %g, gamma = %g)",
-                 old.scheme == MO_SCHEME_THETA ? "theta" : old.scheme == MO_SCHEME_NEWMARK ? "newmark" : "quasistatic",
+    mo_note_skip(ctx, "the case's %s scheme: back end %s runs %s (beta = %g, gamma = %g)%s",
+                 old.scheme == MO_SCHEME_THETA ? (old.explicit_cd ? "explicit" : "theta")
+                 : old.scheme == MO_SCHEME_NEWMARK ? "newmark" : "quasistatic",
                  T->name, sc->time.scheme == MO_SCHEME_NEWMARK ? "newmark" : "its own scheme",
-                 sc->time.beta, sc->time.gamma);
+                 sc->time.beta, sc->time.gamma, old.explicit_cd ? ", with the lumped mass the explicit scheme set" : "");
+    sc->time.explicit_cd = 0; /* (T100) is the theta-scheme's */
   }
   return MO_OK;
 }

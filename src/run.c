@@ -14,6 +14,7 @@
 #include "metrics.h"
 
 #include <jansson.h>
+#include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -252,6 +253,44 @@ static const char *scheme_name(mo_scheme s)
   return s == MO_SCHEME_NEWMARK ? "newmark" : s == MO_SCHEME_QUASISTATIC ? "quasistatic" : "theta";
 }
 
+/* The scheme a run took: "explicit" is the theta-scheme at theta = 1, theta_f = 0 (T100). */
+static const char *time_scheme_name(const mo_time_settings *T)
+{
+  return T->explicit_cd && T->scheme == MO_SCHEME_THETA ? "explicit" : scheme_name(T->scheme);
+}
+
+#define TIME_WARN_MAX 2
+/* A run warns when its mechanical energy exceeds this many times its initial value (minus the
+   work given to it): no physical scene gains that much, an unstable scheme does in a few steps */
+#define MO_BLOWUP_GROWTH 1e12
+/* Warnings on the stability of the time scheme (doc/theory.md (T101)-(T103)), for the log and
+   summary.json: a theta-scheme that is only conditionally stable (or not at all), and an
+   explicit step above the critical one. Returns how many were written into w. */
+static int time_warnings(const mo_scene *sc, char w[TIME_WARN_MAX][512])
+{
+  const mo_time_settings *T = &sc->time;
+  double wh, dtc;
+  int n = 0, b, e, stab;
+  if (T->scheme != MO_SCHEME_THETA) return 0;
+  dtc = mo_scene_dt_crit(sc, &b, &e);
+  stab = mo_theta_stability(T->theta, T->theta_f, &wh);
+  if (T->explicit_cd) {
+    if (isfinite(dtc) && T->dt > dtc * (1 + 1e-9))
+      snprintf(w[n++], 512, "dt = %.6g exceeds the critical time step dt_crit = %.6g of central differences (element %d "
+               "of body '%s', doc/theory.md (T102)): dt / dt_crit = %.4g, the explicit scheme is unstable",
+               T->dt, dtc, e, sc->body[b].name, T->dt / dtc);
+  } else if (stab == MO_STAB_UNSTABLE)
+    snprintf(w[n++], 512, "theta = %g, theta_f = %g: theta + theta_f < 1, the theta-scheme is unstable at every time "
+             "step (doc/theory.md (T101))", T->theta, T->theta_f);
+  else if (stab == MO_STAB_CONDITIONAL)
+    snprintf(w[n++], 512, "theta = %g, theta_f = %g: the theta-method is only conditionally stable, h omega_max <= %.4g "
+             "(doc/theory.md (T101))%s", T->theta, T->theta_f, wh,
+             isfinite(dtc) ? "; with omega_max near 2 / dt_crit (T103) that is dt <= about" : "");
+  if (stab == MO_STAB_CONDITIONAL && !T->explicit_cd && isfinite(dtc))
+    snprintf(w[n - 1] + strlen(w[n - 1]), 512 - strlen(w[n - 1]), " %.4g", 0.5 * wh * dtc);
+  return n;
+}
+
 static json_t *contact_json(const mo_contact *C, const mo_contact_driver *D);
 
 /* metrics.extents: the bounding box of each output.extents node set in the current
@@ -435,7 +474,8 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
                          const mo_contact_driver *drv, const mo_metrics *met, const column *cols, int ncol,
                          const char *const *names, double e0, double e1, double drift,
                          double balance, double growth, int complete, const char *reason,
-                         double wall, const double *p0, long cuts, double dtmin, mo_ctx *ctx)
+                         double wall, const double *p0, long cuts, double dtmin, const char *blowup,
+                         mo_ctx *ctx)
 {
   double *pw = NULL, *p1 = NULL;
   int pw_fail = 0;
@@ -500,8 +540,32 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
     }
     json_object_set_new(scene, "bodies", bodies);
     json_object_set_new(root, "scene", scene);
-    json_object_set_new(time, "scheme", json_string(scheme_name(sc->time.scheme)));
+    json_object_set_new(time, "scheme", json_string(time_scheme_name(&sc->time)));
     json_object_set_new(time, "dt", json_real(sc->time.dt));
+    {
+      /* the critical step of central differences (T102) and the scheme's stability (T101) */
+      double dtc = mo_scene_dt_crit(sc, NULL, NULL), wh;
+      char w[TIME_WARN_MAX][512];
+      int nw = time_warnings(sc, w), stab, i;
+      if (isfinite(dtc)) {
+        json_object_set_new(time, "dt_crit", json_real(dtc));
+        json_object_set_new(scene, "dt_crit", json_real(dtc));
+        json_object_set_new(time, "dt_over_dt_crit", json_real(sc->time.dt / dtc));
+        if (isfinite(mo_scene_dt_bound(sc))) json_object_set_new(time, "dt_bound", json_real(mo_scene_dt_bound(sc)));
+      }
+      if (sc->time.scheme == MO_SCHEME_THETA) {
+        stab = mo_theta_stability(sc->time.theta, sc->time.theta_f, &wh);
+        json_object_set_new(time, "stability", json_string(stab == MO_STAB_UNCONDITIONAL ? "unconditional"
+                                                           : stab == MO_STAB_CONDITIONAL ? "conditional" : "unstable"));
+        if (stab == MO_STAB_CONDITIONAL) json_object_set_new(time, "omega_h_max", json_real(wh));
+      }
+      if (nw || (blowup && blowup[0])) {
+        json_t *jw = json_array();
+        for (i = 0; i < nw; i++) json_array_append_new(jw, json_string(w[i]));
+        if (blowup && blowup[0]) json_array_append_new(jw, json_string(blowup));
+        json_object_set_new(root, "warnings", jw);
+      }
+    }
     json_object_set_new(time, "steps", json_integer(sc->time.steps));
     json_object_set_new(time, "end", json_real(sc->time.end));
     if (sc->time.scheme == MO_SCHEME_THETA) {
@@ -839,7 +903,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   double emax_growth = 0;
   int st, ncol = 0, nprobecol = 0, nexact = 0, k, p, complete = 0, ecol0 = 0, ccol0 = 0, table = 0, x0col;
   int nl = 0, necol = 0, ncol0 = 0, cutcol = 0, nvalcol = 0, nrigcol = 0, agcol = 0, pfcol = 0;
-  char reason[MO_ERRMSG_MAX] = "";
+  char reason[MO_ERRMSG_MAX] = "", blowup[512] = "";
   progress prog;
   stepping stepper;
   memset(&s, 0, sizeof s);
@@ -859,6 +923,18 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   if ((st = mo_mkdir_p(outdir, ctx))) goto done;
   if (opt->dump_fclib && (st = mo_mkdir_p(opt->dump_fclib, ctx))) goto done;
   if (C && (st = mo_contact_time_scheme(sc, C, ctx))) goto done;
+  {
+    /* the critical time step (T102) in the log; the explicit scheme warns above it (the
+       theta-scheme's own warning was given when the case was read) */
+    char w[TIME_WARN_MAX][512];
+    int nw = time_warnings(sc, w), b, e, i;
+    double dtc = mo_scene_dt_crit(sc, &b, &e);
+    if (isfinite(dtc) && sc->time.scheme != MO_SCHEME_QUASISTATIC && (opt->log || ctx->verbosity >= 2))
+      mo_log(ctx, 1, "critical time step of central differences dt_crit = %.6g (element %d of body '%s'); dt / dt_crit = %.4g\n",
+             dtc, e, sc->body[b].name, sc->time.dt / dtc);
+    for (i = 0; i < nw; i++)
+      if (sc->time.explicit_cd) mo_log(ctx, 1, "%s: warning: %s\n", mo_case_file(cs), w[i]);
+  }
   if ((st = mo_stepper_create(sc, &S, ctx))) goto done;
   if (C && (st = mo_contact_driver_create(sc, C, S, &drv, ctx))) goto done;
   if (drv && opt->dump_fclib) mo_contact_driver_keep_delassus(drv);
@@ -1028,8 +1104,19 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
     mo_metrics_energies(met, &s, &ek, &ee, &eratio);
     e1 = ek + ee + s.wplastic; /* (T65): the plastic work is energy the body took */
     if (e0 > 0 && fabs(e1 - e0) / e0 > drift) drift = fabs(e1 - e0) / e0;
-    if (eratio - 1 > emax_growth) emax_growth = eratio - 1;
+    /* an infinite growth is kept as the largest double: JSON has no infinity, and a blow-up
+       must not read as "no growth" (doc/theory.md §1.7) */
+    if (eratio - 1 > emax_growth) emax_growth = fmin(eratio - 1, DBL_MAX);
     balance = e1 - e0 - s.wext - s.wsupport - s.wcontact;
+    if (!blowup[0] && eratio > MO_BLOWUP_GROWTH) {
+      /* a scheme past its stability limit (T101)-(T102): said once, in the log and summary.json
+         (the run goes on until its end or the NaN the stepper refuses) */
+      snprintf(blowup, sizeof blowup, "blow-up at step %ld (t = %.6g): the energy reached %.3g times its initial "
+               "value (more than %.0e): the time scheme is unstable at this step (dt = %.6g%s)", s.step, s.t, eratio,
+               MO_BLOWUP_GROWTH, mo_stepper_dt(S), sc->time.explicit_cd ? "; see dt_crit, doc/theory.md (T102)"
+               : "; doc/theory.md (T101)");
+      mo_log(ctx, 1, "%s: warning: %s\n", mo_case_file(cs), blowup);
+    }
     /* the probes with an exact value at every step (their errors), the others on the rows
        written; the nodal contact forces when a probe reads them */
     if (cv.need_R && drv && (write_row || nexact)) {
@@ -1148,7 +1235,7 @@ done:
     mo_ctx_clear_error(ctx);
     st2 = write_summary(outdir, cs, sc, S, s.u ? &s : NULL, C, drv, met, cols, cols ? nvalcol : 0,
                         (const char *const *)names, e0, e1, drift, balance, emax_growth, complete, reason,
-                        res->wall, p0, stepper.cuts, stepper.hmin, ctx);
+                        res->wall, p0, stepper.cuts, stepper.hmin, blowup, ctx);
     if (!st2 && drv && s.u && s.step > 0) {
       snprintf(path, sizeof path, "%s/contact.csv", outdir);
       st2 = mo_contact_write_csv(path, sc, C, drv, &s, ctx);

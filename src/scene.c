@@ -18,6 +18,144 @@ const char *mo_quantity_name(mo_quantity q)
   return (unsigned)q < MO_Q_N ? n[q] : "?";
 }
 
+/* doc/theory.md (T101): the amplification matrix of (T1)-(T2) on a mode u'' + w^2 u = 0, with
+   Omega = h w, has det P = (1 + Omega^2 (1 - theta)(1 - theta_f)) / (1 + Omega^2 theta theta_f)
+   and trace T = (2 - Omega^2 (theta + theta_f - 2 theta theta_f)) / (1 + Omega^2 theta theta_f);
+   its roots stay in the unit disk iff P <= 1 (theta + theta_f >= 1) and T >= -(1 + P), i.e.
+   Omega^2 (1 - 2 theta)(2 theta_f - 1) <= 4. */
+int mo_theta_stability(double theta, double theta_f, double *omega_h)
+{
+  double c = (1 - 2 * theta) * (2 * theta_f - 1);
+  if (omega_h) *omega_h = HUGE_VAL;
+  if (theta + theta_f < 1 - 1e-12) {
+    if (omega_h) *omega_h = 0;
+    return MO_STAB_UNSTABLE;
+  }
+  if (c <= 0) return MO_STAB_UNCONDITIONAL;
+  if (omega_h) *omega_h = 2 / sqrt(c);
+  return MO_STAB_CONDITIONAL;
+}
+
+/* Dilatational (P-) wave speed of a linear elastic material (T102). */
+static double wave_speed(const mo_material *m)
+{
+  double E = m->E, nu = m->nu;
+  switch (m->hyp) {
+  case MO_HYP_BAR: return sqrt(E / m->rho);
+  case MO_HYP_PLANE_STRESS: return sqrt(E / (m->rho * (1 - nu * nu)));
+  default: return sqrt(E * (1 - nu) / (m->rho * (1 + nu) * (1 - 2 * nu)));
+  }
+}
+
+/* Measure of facet f of element e (a length in 2D, an area in 3D; 0 for a point). */
+static double facet_measure(const mo_mesh *m, const mo_eltype_info *T, int e, int f)
+{
+  const int *c = m->conn + (size_t)e * (size_t)m->nen, *fn = T->facet[f];
+  const double *x0 = m->x + (size_t)c[fn[0]] * (size_t)m->dim;
+  int i;
+  if (T->nfn == 2) {
+    const double *x1 = m->x + (size_t)c[fn[1]] * (size_t)m->dim;
+    double s = 0;
+    for (i = 0; i < m->dim; i++) s += (x1[i] - x0[i]) * (x1[i] - x0[i]);
+    return sqrt(s);
+  }
+  if (T->nfn >= 3 && m->dim == 3) {
+    /* a triangle: |ab x ac| / 2; a planar quad: |ac x bd| / 2 */
+    const double *a = x0, *b = m->x + (size_t)c[fn[1]] * 3, *cc = m->x + (size_t)c[fn[2]] * 3;
+    const double *d = T->nfn == 4 ? m->x + (size_t)c[fn[3]] * 3 : NULL;
+    double p[3], q[3], r[3];
+    for (i = 0; i < 3; i++) {
+      p[i] = d ? cc[i] - a[i] : b[i] - a[i];
+      q[i] = d ? d[i] - b[i] : cc[i] - a[i];
+    }
+    r[0] = p[1] * q[2] - p[2] * q[1];
+    r[1] = p[2] * q[0] - p[0] * q[2];
+    r[2] = p[0] * q[1] - p[1] * q[0];
+    return 0.5 * sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
+  }
+  return 0;
+}
+
+/* (T102): l_e = measure / largest facet (bar: its length; T3: twice, the smallest altitude;
+   Q4, H8: area over the longest side, volume over the largest face), dt_e = l_e / c_d. */
+double mo_scene_dt_crit(const mo_scene *sc, int *body, int *elem)
+{
+  double best = HUGE_VAL;
+  int b, e, f, q, i;
+  if (body) *body = -1;
+  if (elem) *elem = -1;
+  for (b = 0; b < sc->nbody; b++) {
+    const mo_body *B = &sc->body[b];
+    const mo_mesh *m = B->mesh;
+    const mo_eltype_info *T;
+    double c;
+    if (B->kind != MO_BODY_DEFORMABLE || !m) continue;
+    T = mo_eltype_get(m->type);
+    c = wave_speed(&B->mat);
+    if (!(c > 0) || !isfinite(c)) continue;
+    for (e = 0; e < m->nelem; e++) {
+      double meas = 0, fmax = 0, l;
+      if (m->type == MO_EL_BAR2 || m->type == MO_EL_T3) {
+        const int *cn = m->conn + (size_t)e * (size_t)m->nen;
+        const double *x0 = m->x + (size_t)cn[0] * (size_t)m->dim, *x1 = m->x + (size_t)cn[1] * (size_t)m->dim;
+        if (m->type == MO_EL_BAR2) meas = fabs(x1[0] - x0[0]);
+        else {
+          const double *x2 = m->x + (size_t)cn[2] * 2;
+          meas = 0.5 * fabs((x1[0] - x0[0]) * (x2[1] - x0[1]) - (x1[1] - x0[1]) * (x2[0] - x0[0]));
+        }
+      } else {
+        /* Q4, H8: the 2^dim Gauss points of weight 1 integrate det J exactly */
+        double xi[3], N[8], dNx[24], xq[3];
+        const double g = 1 / sqrt(3.0);
+        for (q = 0; q < (1 << m->dim); q++) {
+          for (i = 0; i < m->dim; i++) xi[i] = (q >> i) & 1 ? g : -g;
+          meas += mo_elem_geometry(m, e, xi, N, dNx, xq);
+        }
+      }
+      if (m->type == MO_EL_BAR2) l = meas;
+      else {
+        for (f = 0; f < T->nfacet; f++) {
+          double fm = facet_measure(m, T, e, f);
+          if (fm > fmax) fmax = fm;
+        }
+        l = fmax > 0 ? (m->type == MO_EL_T3 ? 2 : 1) * meas / fmax : 0;
+      }
+      if (l > 0 && l / c < best) {
+        best = l / c;
+        if (body) *body = b;
+        if (elem) *elem = e;
+      }
+    }
+  }
+  return best;
+}
+
+/* (T103a): a guaranteed bound. With a diagonal (lumped) mass, Gershgorin's theorem on the
+   free rows of M^-1 K bounds omega_max^2 <= max_i sum_j |K_ij| / M_ii, so central differences
+   are stable for dt <= 2 / sqrt of it. HUGE_VAL when there is no nodal free dof; NAN when a
+   nodal mass is not diagonal (consistent mass) or K is absent (finite-strain bodies). */
+double mo_scene_dt_bound(const mo_scene *sc)
+{
+  double lmax = 0;
+  int j, p, any = 0;
+  if (!sc->M || !sc->K) return NAN;
+  for (j = 0; j < sc->nfe_dof; j++) {
+    double mjj = 0, rs = 0;
+    if (sc->free_of[j] < 0) continue;
+    for (p = sc->M->p[j]; p < sc->M->p[j + 1]; p++) {
+      if (sc->M->i[p] == j) mjj += sc->M->x[p];
+      else if (sc->M->x[p] != 0) return NAN;
+    }
+    /* K symmetric: column j holds row j */
+    for (p = sc->K->p[j]; p < sc->K->p[j + 1]; p++) rs += fabs(sc->K->x[p]);
+    if (!(mjj > 0)) continue;
+    if (rs / mjj > lmax) lmax = rs / mjj;
+    any = 1;
+  }
+  if (!any || !(lmax > 0)) return HUGE_VAL;
+  return 2 / sqrt(lmax);
+}
+
 int mo_scene_body_index(const mo_scene *sc, const char *name)
 {
   int b;
@@ -291,10 +429,30 @@ static int build_time(mo_scene *sc, const mo_case *cs, mo_ctx *ctx)
   const char *scheme = mo_cfg_string(tg, "scheme", "theta");
   mo_time_settings *T = &sc->time;
   const config_setting_t *s;
+  double wh;
+  int stab;
   T->scheme = !strcmp(scheme, "newmark") ? MO_SCHEME_NEWMARK
               : !strcmp(scheme, "quasistatic") ? MO_SCHEME_QUASISTATIC : MO_SCHEME_THETA;
+  T->explicit_cd = !strcmp(scheme, "explicit");
   T->theta = mo_cfg_float(tg, "theta", 0.5);
   T->theta_f = mo_cfg_float(tg, "theta_f", T->theta);
+  if (T->explicit_cd) {
+    /* central differences = the theta-scheme at theta = 1, theta_f = 0 (T100) */
+    if (mo_cfg_member(tg, "theta") || mo_cfg_member(tg, "theta_f"))
+      mo_note_skip(ctx, "time.theta = %g, time.theta_f = %g of the case: scheme 'explicit' is central differences, "
+                   "theta = 1, theta_f = 0", T->theta, T->theta_f);
+    T->theta = 1;
+    T->theta_f = 0;
+  } else if (T->scheme == MO_SCHEME_THETA &&
+             (stab = mo_theta_stability(T->theta, T->theta_f, &wh)) != MO_STAB_UNCONDITIONAL) {
+    /* below 1/2 the theta-method is only conditionally stable, or not at all (T101) */
+    if (stab == MO_STAB_UNSTABLE)
+      mo_log(ctx, 1, "%s: warning: theta = %g, theta_f = %g: theta + theta_f < 1, the theta-scheme is unstable at "
+             "every time step (every mode grows, doc/theory.md (T101))\n", cs->file, T->theta, T->theta_f);
+    else
+      mo_log(ctx, 1, "%s: warning: theta = %g, theta_f = %g: the theta-scheme is only conditionally stable, "
+             "h omega_max <= %.4g (doc/theory.md (T101))\n", cs->file, T->theta, T->theta_f, wh);
+  }
   T->beta = mo_cfg_float(tg, "beta", 0.25);
   T->gamma = mo_cfg_float(tg, "gamma", 0.5);
   T->newton_tol = mo_cfg_float(mo_cfg_member(tg, "newton"), "tol", 1e-8);

@@ -113,12 +113,12 @@ static const mo_key core_keys[] = {
 
   /* --- time -------------------------------------------------------------------------------- */
   {"time", K_GROUP, NULL, NONE, 1, NULL, "Time integration.", NULL},
-  {"time.scheme", K_ENUM, "theta|newmark|quasistatic", NONE, 0, "\"theta\"", "theta: the velocity theta-scheme shared by nscd and levelset; newmark: Newmark (beta, gamma) on displacements; quasistatic: load steps without inertia.", NULL},
+  {"time.scheme", K_ENUM, "theta|explicit|newmark|quasistatic", NONE, 0, "\"theta\"", "theta: the velocity theta-scheme shared by nscd and levelset; explicit: central differences with lumped mass (the theta-scheme at theta = 1, theta_f = 0, contact by forward-increment impulses, doc/theory.md §1.7); newmark: Newmark (beta, gamma) on displacements; quasistatic: load steps without inertia.", NULL},
   {"time.dt", K_FLOAT, NULL, POS, 0, NULL, "Time step h (s). Required by the dynamic schemes.", "the time step must be positive"},
   {"time.end", K_FLOAT, NULL, POS, 0, NULL, "End time (s); or give `steps`.", "the end time must be positive"},
   {"time.steps", K_INT, NULL, R(1, 1e9, 0, 0), 0, "1 (quasistatic)", "Number of steps (load steps for quasistatic).", NULL},
-  {"time.theta", K_FLOAT, NULL, R(0.5, 1, 0, 0), 0, "0.5", "theta of u+ = u + h [theta v+ + (1 - theta) v-].", "theta must lie in [0.5, 1] for unconditional stability"},
-  {"time.theta_f", K_FLOAT, NULL, R(0.5, 1, 0, 0), 0, "theta", "Weight of f(t+) in the momentum balance: theta (Moreau-Jean) or 1 (Ben Dhia-Zammali).", "theta_f must lie in [0.5, 1]"},
+  {"time.theta", K_FLOAT, NULL, R(0, 1, 0, 0), 0, "0.5", "theta of u+ = u + h [theta v+ + (1 - theta) v-]; below 1/2 only conditionally stable (a warning gives the limit, doc/theory.md (T101)).", "theta must lie in [0, 1]"},
+  {"time.theta_f", K_FLOAT, NULL, R(0, 1, 0, 0), 0, "theta", "Weight of f(t+) in the momentum balance: theta (Moreau-Jean) or 1 (Ben Dhia-Zammali); below 1/2 only conditionally stable (T101).", "theta_f must lie in [0, 1]"},
   {"time.beta", K_FLOAT, NULL, R(0, 0.5, 1, 0), 0, "0.25", "Newmark beta.", "Newmark beta must lie in (0, 0.5]"},
   {"time.gamma", K_FLOAT, NULL, R(0.5, 1, 0, 0), 0, "0.5", "Newmark gamma.", "Newmark gamma must lie in [0.5, 1] (below 1/2 the scheme is unstable)"},
   {"time.max_cuts", K_INT, NULL, R(0, 12, 0, 0), 0, "0", "Step cutting: a step whose contact solve or Newton iterations do not converge, or that meets a NaN, an inverted element or an indefinite matrix, is taken again as two steps of h/2, and so on down to h / 2^max_cuts; 0 stops the run at the first failure (doc/theory.md §1.5).", "time.max_cuts lies in 0 .. 12 (at most 4096 substeps per step)"},

@@ -771,13 +771,16 @@ int mo_stepper_predict(mo_stepper *S, const mo_state *s, double *x, mo_ctx *ctx)
     /* J88 (3.3)_1 with the theta-scheme of ARCHITECTURE.md §2:
        What v+ = M v - h K (u + h theta_f (1 - theta) v) + h (theta_f f+ + (1 - theta_f) f)
                  - What_fp v+_p */
-    double tf = S->theta_f, c = h * tf * (1 - S->theta);
+    double tf = S->theta_f, c = h * tf * (1 - S->theta), hf = h;
+    /* central differences (T100): s->v is the velocity at t_k, the unknown v+ the one at
+       t_k+1/2, reached by half the step's kick: M v+ = M v_k + h/2 f(t_k, u_k) (+ H r) */
+    if (sc->time.explicit_cd) hf = 0.5 * h;
     for (i = 0; i < n; i++) {
       w[i] = s->u[i] + c * s->v[i];
-      f1[i] = h * (tf * f1[i] + (1 - tf) * s->f[i]);
+      f1[i] = hf * (tf * f1[i] + (1 - tf) * s->f[i]);
     }
     mo_csc_gaxpy(sc->M, 1, s->v, 1, f1);
-    mo_csc_gaxpy(sc->K, -h, w, 1, f1);
+    mo_csc_gaxpy(sc->K, -hf, w, 1, f1);
     memset(x, 0, (size_t)n * sizeof(double));
     presc_values(S, tn, NULL, x, NULL);
     if (S->Wfull) mo_csc_gaxpy(S->Wfull, -1, x, 1, f1);
@@ -866,7 +869,8 @@ static void reactions(const mo_stepper *S, mo_state *s)
 {
   const mo_scene *sc = S->sc;
   const mo_csc *K = sc->K, *M = sc->M;
-  double h = S->h, tf = S->theta_f;
+  /* central differences (T100): v_k+1 - v_k carries h/2 of the forces at both ends */
+  double h = S->h, tf = sc->time.explicit_cd ? 0.5 : S->theta_f;
   int k, p;
   for (k = 0; k < sc->npresc; k++) {
     int d = sc->presc[k].dof;
@@ -992,6 +996,18 @@ int mo_stepper_finish(mo_stepper *S, mo_state *s, const double *x, mo_ctx *ctx)
     mo_quat_rotate(s->orient + 4 * B->orient, phi);
   }
   mo_scene_fext(sc, tn, s->f);
+  if (S->scheme == MO_SCHEME_THETA && sc->time.explicit_cd) {
+    /* central differences (T100): the second half kick, v_k+1 = v+ + h/2 M^-1 f(t_k+1, u_k+1)
+       on free dofs, so that the state holds velocities at the time of its displacements */
+    int st;
+    double *r = S->w1;
+    memcpy(r, s->f, (size_t)n * sizeof(double));
+    mo_csc_gaxpy(sc->K, -1, s->u, 1, r);
+    mo_stepper_gather(S, r, S->rhs);
+    if ((st = mo_stepper_what_solve(S, 1, S->rhs, S->xf, ctx))) return st;
+    for (i = 0; i < sc->nfree; i++) S->xf[i] *= 0.5 * h;
+    for (i = 0; i < sc->nfree; i++) s->v[sc->full_of[i]] += S->xf[i];
+  }
   /* external work, trapezoidal in time, over the load patterns only */
   for (l = 0; l < sc->nload; l++) {
     const mo_load *L = &sc->load[l];

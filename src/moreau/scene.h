@@ -100,6 +100,9 @@ typedef struct {
   double dt, end;
   long steps;
   double theta, theta_f;  /* theta scheme */
+  /* time.scheme = "explicit": the theta-scheme at theta = 1, theta_f = 0 with lumped mass,
+     i.e. central differences (doc/theory.md §1.7, (T100)); scheme is MO_SCHEME_THETA */
+  int explicit_cd;
   double beta, gamma;     /* Newmark */
   /* Newton iterations of nonlinear scenes (doc/theory.md §11): the step ends when the
      residual of the momentum balance is at most newton_tol times its scale (T64) */
@@ -111,6 +114,13 @@ typedef struct {
 } mo_time_settings;
 
 #define MO_MAX_CUTS 12   /* the largest time.max_cuts */
+
+/* Linear stability of the theta-scheme (theta, theta_f) on an undamped mode of frequency w
+   (doc/theory.md (T101)): MO_STAB_UNCONDITIONAL (theta, theta_f >= 1/2), MO_STAB_CONDITIONAL
+   (stable iff h w <= *omega_h, e.g. 2 / sqrt(1 - 2 theta) at theta_f = 1, 2 for explicit
+   central differences), MO_STAB_UNSTABLE (theta + theta_f < 1: every mode grows at every h). */
+enum { MO_STAB_UNCONDITIONAL = 0, MO_STAB_CONDITIONAL, MO_STAB_UNSTABLE };
+int mo_theta_stability(double theta, double theta_f, double *omega_h);
 
 /* A node set whose extent (bounding box in the current configuration) summary.json reports. */
 typedef struct {
@@ -234,6 +244,14 @@ void mo_scene_presc_eval(const mo_scene *sc, int k, double t, double *u, double 
 int mo_reference_build(mo_reference *R, const mo_scene *sc, mo_ctx *ctx);
 /* Index of a body by name, or -1. */
 int mo_scene_body_index(const mo_scene *sc, const char *name);
+/* Critical time step of explicit central differences (doc/theory.md (T102)): the smallest over
+   the elements of the deformable bodies of l_e / c_d (characteristic length over dilatational
+   wave speed); with body and elem (may be NULL) where it is reached. HUGE_VAL without elements. */
+double mo_scene_dt_crit(const mo_scene *sc, int *body, int *elem);
+/* A guaranteed stable step of central differences (doc/theory.md (T103)): 2 / sqrt of
+   Gershgorin's bound on omega_max^2 over the free rows of M^-1 K; NAN unless every nodal mass is
+   diagonal (lumped) and the bodies linear, HUGE_VAL without nodal free dofs. */
+double mo_scene_dt_bound(const mo_scene *sc);
 
 #ifdef __cplusplus
 }
