@@ -695,6 +695,23 @@ static json_t *contact_json(const mo_contact *C, const mo_contact_driver *D)
     json_object_set_new(j, "delassus_blocks", json_integer(mo_delassus_nblocks(W)));
     json_object_set_new(j, "delassus_columns_kept", json_boolean(mo_delassus_has_columns(W)));
   }
+  {
+    /* the position correction of velocity-level theta steps (doc/theory.md (T95)) */
+    int on;
+    long pst, psw, pun;
+    double pmax, pleft, epaid, eadded;
+    json_t *pc = json_object();
+    mo_contact_driver_correction(D, &on, &pst, &pmax, &pleft, &psw, &pun, &epaid, &eadded);
+    json_object_set_new(pc, "method", json_string(on ? "project" : "none"));
+    json_object_set_new(pc, "steps", json_integer(pst));
+    json_object_set_new(pc, "max_removed", json_real(pmax));
+    json_object_set_new(pc, "max_left", json_real(pleft));
+    json_object_set_new(pc, "sweeps_max", json_integer(psw));
+    json_object_set_new(pc, "unconverged", json_integer(pun));
+    json_object_set_new(pc, "energy_from_kinetic", json_real(epaid));
+    json_object_set_new(pc, "energy_added", json_real(eadded));
+    json_object_set_new(j, "position_correction", pc);
+  }
   json_object_set_new(j, "last_iterations", json_integer(rep->iterations));
   json_object_set_new(j, "last_residual", json_real(rep->residual));
   json_object_set_new(j, "last_reason", json_string(mo_contact_reason_name(rep->reason)));
@@ -1138,6 +1155,18 @@ done:
       ctx->status = keep;
       snprintf(ctx->errmsg, sizeof ctx->errmsg, "%s", msg);
     }
+  }
+  if (met && C && s.step > 0) {
+    /* a persistent contact that chatters (doc/theory.md (T93)): the displacements may look
+       right while the contact velocity and pressure alternate every step */
+    mo_chatter ch;
+    mo_metrics_chatter(met, &ch);
+    if (ch.chatter)
+      mo_log(ctx, 1,
+             "%s: warning: the contact chatters: the normal velocity of a bearing candidate alternated %ld times "
+             "and reached %.3g of the impact speed %.3g while in contact (summary.json metrics.contact.chatter; "
+             "doc/theory.md (T93)). contact.signorini = \"velocity\" does not chatter\n",
+             opt->case_path, ch.alternations, ch.ratio, ch.vimpact);
   }
   /* the drawings of the frames taken, also after a failure (the error kept is the run's) */
   if (draw) {

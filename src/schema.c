@@ -126,7 +126,8 @@ static const mo_key core_keys[] = {
   /* --- contact ----------------------------------------------------------------------------- */
   {"contact", K_GROUP, NULL, NONE, 0, NULL, "Contact pairs and the back end that solves them.", NULL},
   {"contact.solver", K_STRING, NULL, NONE, 0, "\"nscd\"", "Contact back end (moreau list-solvers); --solver S overrides it.", NULL},
-  {"contact.signorini", K_ENUM, "position|velocity", NONE, 0, "\"position\"", "What the unilateral condition controls for back ends on the local problem: the end-of-step gap (J88 (3.2)_1) or the normal velocity of candidates predicted closed.", NULL},
+  {"contact.signorini", K_ENUM, "position|velocity", NONE, 0, "\"velocity\"", "What the unilateral condition controls for back ends on the local problem with the theta-scheme: the normal velocity of candidates predicted closed (Moreau; no chatter) or the end-of-step gap (J88 (3.2)_1; chatters at theta = 1/2, doc/theory.md (T93)).", NULL},
+  {"contact.position_correction", K_ENUM, "project|none", NONE, 0, "\"project\"", "Velocity-level Signorini with the theta-scheme: project the end-of-step positions onto the admissible set (g >= 0) in the norm of What, with the step's Delassus operator (doc/theory.md (T95)), or leave the drift of the landing steps.", NULL},
   {"contact.geometry", K_ENUM, "reference|step", NONE, 0, "\"reference\"", "Pairing: once in the reference configuration (small strains, small sliding) or again at the start of every step.", NULL},
   {"contact.reactions", K_ENUM, "concentrated|weighted", NONE, 0, NULL, "Short form setting the reactions of every pair (it overrides contact.pairs.[].reactions).", NULL},
   {"contact.alert", K_FLOAT, NULL, NONNEG, 0, "a tenth of the smallest rigid body", "Alert distance of the detection between rigid bodies (m): pairs closer than this (plus what they can travel in a step) are candidates of the step.", NULL},
