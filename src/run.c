@@ -262,6 +262,13 @@ static const char *scheme_name(mo_scheme s)
 
 static json_t *contact_json(const mo_contact *C, const mo_contact_driver *D);
 
+/* contact.signorini = "position" in the case (the default is velocity level). */
+static int position_level(const mo_case *cs)
+{
+  const char *v = NULL;
+  return config_lookup_string(&cs->cfg, "contact.signorini", &v) == CONFIG_TRUE && v && !strcmp(v, "position");
+}
+
 /* metrics.extents: the bounding box of each output.extents node set in the current
    configuration x = X + u. */
 static json_t *extents_json(const mo_scene *sc, const double *u)
@@ -1161,12 +1168,20 @@ done:
        right while the contact velocity and pressure alternate every step */
     mo_chatter ch;
     mo_metrics_chatter(met, &ch);
-    if (ch.chatter)
+    if (ch.chatter) {
+      const char *bk = drv ? mo_contact_driver_type(drv)->name : "";
       mo_log(ctx, 1,
              "%s: warning: the contact chatters: the normal velocity of a bearing candidate alternated %ld times "
              "and reached %.3g of the impact speed %.3g while in contact (summary.json metrics.contact.chatter; "
-             "doc/theory.md (T93)). contact.signorini = \"velocity\" does not chatter\n",
-             opt->case_path, ch.alternations, ch.ratio, ch.vimpact);
+             "doc/theory.md (T93)). %s\n",
+             opt->case_path, ch.alternations, ch.ratio, ch.vimpact,
+             !strcmp(bk, "newmark") ? "Newmark's displacement-level contact oscillates (BDZ07 Fig. 4); nscd and levelset "
+                                      "with velocity-level Signorini keep [v_n] = 0"
+             : sc->time.scheme == MO_SCHEME_THETA && position_level(cs)
+                 ? "Position-level Signorini at theta near 1/2 answers a landing by its opposite velocity every step; "
+                   "contact.signorini = \"velocity\" (the default) does not"
+                 : "A smaller time step, or a larger theta, damps it");
+    }
   }
   /* the drawings of the frames taken, also after a failure (the error kept is the run's) */
   if (draw) {
