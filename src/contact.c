@@ -278,6 +278,7 @@ struct mo_contact_driver {
   double pc_energy_paid;     /* energy the shifts would have added, taken from the kinetic energy (T96) */
   double pc_energy_added;    /* what the kinetic energy could not pay */
   double *pcwork;            /* 2 ndof */
+  double *pc_momentum;       /* 3 per body: the linear momentum the energy compensation took */
 };
 
 const mo_contact_report *mo_contact_last_report(const mo_contact_driver *D) { return &D->rep; }
@@ -478,11 +479,13 @@ long mo_contact_driver_failures(const mo_contact_driver *D) { return D->failures
 
 void mo_contact_driver_correction(const mo_contact_driver *D, int *on, long *steps, double *max_removed,
                                   double *max_left, long *sweeps_max, long *unconverged, double *energy_paid,
-                                  double *energy_added)
+                                  double *energy_added, double *momentum)
 {
+  int i;
+  for (i = 0; momentum && i < 3 * D->sc->nbody; i++) momentum[i] = D->pc_momentum ? D->pc_momentum[i] : 0;
   *energy_paid = D->pc_energy_paid;
   *energy_added = D->pc_energy_added;
-  *on = D->C->poscorr && D->C->signorini == MO_SIGNORINI_VELOCITY && D->sc->time.scheme == MO_SCHEME_THETA;
+  *on = D->C->signorini == MO_SIGNORINI_VELOCITY && D->sc->time.scheme == MO_SCHEME_THETA ? D->C->poscorr : 0;
   *steps = D->pc_steps;
   *max_removed = D->pc_max;
   *max_left = D->pc_left;
@@ -510,7 +513,7 @@ void mo_contact_driver_free(mo_contact_driver *D)
   mo_free(D->b); mo_free(D->q); mo_free(D->U); mo_free(D->Uprev); mo_free(D->r); mo_free(D->rprev);
   mo_free(D->xfull); mo_free(D->xf); mo_free(D->dx); mo_free(D->dxfull); mo_free(D->mu); mo_free(D->gk);
   mo_free(D->pforce);
-  mo_free(D->w); mo_free(D->ukin); mo_free(D->xnl); mo_free(D->gnl); mo_free(D->tmp); mo_free(D->pcwork); mo_free(D->itmp);
+  mo_free(D->w); mo_free(D->ukin); mo_free(D->xnl); mo_free(D->gnl); mo_free(D->tmp); mo_free(D->pcwork); mo_free(D->pc_momentum); mo_free(D->itmp);
   mo_keymap_free(&D->kmap);
   mo_free(D->active);
   mo_free(D->act);
@@ -957,11 +960,13 @@ static int position_correction(mo_contact_driver *D, mo_state *s, const double *
     double e0, e1, w0 = s->wext, dE, ek;
     mo_state sm;
     if (!D->pcwork && !(D->pcwork = mo_malloc(ctx, 2 * (size_t)n * sizeof(double) + 1))) return MO_ENOMEM;
+    if (!D->pc_momentum && !(D->pc_momentum = mo_calloc(ctx, 3 * (size_t)sc->nbody + 1, sizeof(double))))
+      return MO_ENOMEM;
     e0 = mo_energy_elastic(sc, s->u, D->pcwork);
     if ((st = mo_stepper_shift(D->S, s, D->dx, ctx))) return st;
     e1 = mo_energy_elastic(sc, s->u, D->pcwork);
     dE = (e1 - e0) - (s->wext - w0);
-    if (dE > 0) {
+    if (dE > 0 && C->poscorr == 1) {
       double *vm = D->pcwork + n;
       memset(vm, 0, (size_t)n * sizeof *vm);
       for (b = 0; b < sc->nbody; b++) {
@@ -976,15 +981,24 @@ static int position_correction(mo_contact_driver *D, mo_state *s, const double *
       }
       sm = *s;
       sm.v = vm;
-      ek = mo_energy_kinetic(sc, &sm, D->pcwork);
+      ek = mo_energy_kinetic(sc, &sm, D->pcwork);   /* leaves M vm in pcwork (deformable dofs) */
       if (ek > 0) {
         double lam = dE < ek ? sqrt(1 - dE / ek) : 0;
+        for (b = 0; b < sc->nbody; b++) {
+          /* the linear momentum the scaling takes, (lambda - 1) 1_i^T M v per direction */
+          const mo_body *B = &sc->body[b];
+          if (B->kind != MO_BODY_DEFORMABLE) continue;
+          for (i = B->dof0; i < B->dof0 + B->ndof; i++) /* M is block diagonal by body */
+            D->pc_momentum[3 * b + (i - B->dof0) % sc->dim] += (lam - 1) * D->pcwork[i];
+        }
         for (i = 0; i < n; i++)
           if (vm[i] != 0) s->v[i] = lam * vm[i];
+        fresh_uprev(D, s, 0, nc); /* U- of the next step from the scaled velocities */
       }
       D->pc_energy_paid += dE < ek ? dE : ek;
       if (dE > ek) D->pc_energy_added += dE - ek;
-    }
+    } else if (dE > 0)
+      D->pc_energy_added += dE; /* "shift": the velocities are left alone */
   }
   D->pc_steps++;
   if (worst > D->pc_max) D->pc_max = worst;

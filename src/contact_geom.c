@@ -1026,7 +1026,10 @@ int mo_contact_build(const mo_scene *sc, mo_contact **out, mo_ctx *ctx)
     for (i = 0; i < sc->ndof && C->h_alias; i++) C->h_alias = sc->free_of[i] == i;
   }
   C->on_failure_continue = !strcmp(mo_cfg_string(cg, "on_failure", "stop"), "continue");
-  C->poscorr = !strcmp(mo_cfg_string(cg, "position_correction", "project"), "project");
+  {
+    const char *pc = mo_cfg_string(cg, "position_correction", "project");
+    C->poscorr = !strcmp(pc, "project") ? 1 : !strcmp(pc, "shift") ? 2 : 0;
+  }
   for (k = 0; k < np; k++) {
     const config_setting_t *pg = config_setting_get_elem(pl, (unsigned)k);
     mo_contact_pair *P;

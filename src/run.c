@@ -452,7 +452,7 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
                          double balance, double growth, int complete, const char *reason,
                          double wall, const double *p0, long cuts, double dtmin, mo_ctx *ctx)
 {
-  double *pw = NULL, *p1 = NULL;
+  double *pw = NULL, *p1 = NULL, *pcm = NULL;
   int pw_fail = 0;
   json_t *root = json_object(), *scene = json_object(), *bodies = json_array(), *time = json_object();
   json_t *energy = json_object(), *metrics = json_object(), *skipped = json_array(), *ls = json_object();
@@ -478,6 +478,14 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
       p1 = mo_malloc(ctx, (3 * (size_t)sc->nbody + 1) * sizeof *p1);
       if (pw && p1) body_momenta(sc, s->v, pw, p1);
       else pw_fail = 1;
+      if (drv && pw && p1) {
+        int on;
+        long x1, x2, x3;
+        double y1, y2, y3, y4;
+        mo_contact_driver_correction(drv, &on, &x1, &y1, &y2, &x2, &x3, &y3, &y4, NULL);
+        if (on == 1 && (pcm = mo_malloc(ctx, (3 * (size_t)sc->nbody + 1) * sizeof *pcm)))
+          mo_contact_driver_correction(drv, &on, &x1, &y1, &y2, &x2, &x3, &y3, &y4, pcm);
+      }
     }
     for (b = 0; b < sc->nbody; b++) {
       const mo_body *B = &sc->body[b];
@@ -509,6 +517,14 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
           }
           json_object_set_new(jb, "momentum_initial", ji);
           json_object_set_new(jb, "momentum_final", jf);
+          if (pcm) {
+            /* what the position correction's energy compensation took (doc/theory.md (T96)):
+               momentum_final - momentum_initial = contact impulses + external and support
+               impulses + this */
+            json_t *jc = json_array();
+            for (i = 0; i < sc->dim; i++) json_array_append_new(jc, json_real(pcm[3 * b + i]));
+            json_object_set_new(jb, "momentum_position_correction", jc);
+          }
         }
       }
       json_array_append_new(bodies, jb);
@@ -623,6 +639,7 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
   }
   mo_free(pw);
   mo_free(p1);
+  mo_free(pcm);
   if (pw_fail) {
     json_decref(root);
     return mo_error(ctx, MO_ENOMEM, "cannot format summary.json");
@@ -708,8 +725,8 @@ static json_t *contact_json(const mo_contact *C, const mo_contact_driver *D)
     long pst, psw, pun;
     double pmax, pleft, epaid, eadded;
     json_t *pc = json_object();
-    mo_contact_driver_correction(D, &on, &pst, &pmax, &pleft, &psw, &pun, &epaid, &eadded);
-    json_object_set_new(pc, "method", json_string(on ? "project" : "none"));
+    mo_contact_driver_correction(D, &on, &pst, &pmax, &pleft, &psw, &pun, &epaid, &eadded, NULL);
+    json_object_set_new(pc, "method", json_string(on == 1 ? "project" : on == 2 ? "shift" : "none"));
     json_object_set_new(pc, "steps", json_integer(pst));
     json_object_set_new(pc, "max_removed", json_real(pmax));
     json_object_set_new(pc, "max_left", json_real(pleft));
