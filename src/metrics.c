@@ -38,6 +38,8 @@ struct mo_metrics {
   double final_pen;          /* the largest penetration of the last step measured */
   double vimpact;            /* the largest approach speed |U_n| of a step before a landing (T93) */
   double alt_max;            /* the most alternations of one candidate, including those gone (T93) */
+  double max_vn_watch, vscale_watch; /* max_vn_in_contact and velocity_scale over the watched laws */
+  double vfloor;             /* the round-off speed 1e-9 h_min / h of the last step (T93) */
   long flips;
   int closed_prev;           /* number of candidates in contact at the previous step */
   unsigned char *incontact;  /* per candidate, at the previous step */
@@ -243,6 +245,8 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
     const mo_contact *C = M->C;
     const double *g = mo_contact_gaps(C), *U0 = mo_contact_U0(C);
     const int *st = D ? mo_contact_statuses(D) : NULL;
+    const unsigned char *law = mo_contact_laws(C);
+    double vfloor;
     const double *r = D ? mo_contact_reactions(D) : NULL;
     int d = M->d;
     double h = D ? mo_contact_driver_dt(D) : sc->time.dt;
@@ -254,6 +258,10 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
     }
     mo_csc_gatxpy(mo_contact_H_full(C), 1, s->v, 0, M->Un);
     M->final_pen = 0;
+    /* below this a velocity moves a point by less than the gap tolerance (1e-9 h_min) in a step:
+       round-off, never an impact speed (T93) */
+    vfloor = h > 0 && isfinite(M->gtol) ? M->gtol / h : 0;
+    M->vfloor = vfloor;
     for (a = 0; a < M->nc; a++) {
       double un = M->Un[a * d] + U0[a * d];
       /* bearing: a compressive reaction. The jump of the normal velocity and its variation
@@ -261,6 +269,11 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
          release is the first step with no reaction and an open gap after bearing. Detected
          candidates (rigid shapes) carry their history from set to set by key. */
       int inc = s->step > 0 && r && r[a * d] > 0;
+      /* the chatter detector (T93) watches the position-level laws' candidates: Signorini pairs
+         (deformable; position or velocity level, and Newmark's) and the gap law, not Moreau's
+         impact law between rigid bodies, whose rattling grains are not this mode */
+      int watch = law && (law[a] == MO_LAW_SIGNORINI || law[a] == MO_LAW_GAP);
+      if (watch && fabs(un) > M->vscale_watch) M->vscale_watch = fabs(un);
       if (-g[a] > M->max_pen) M->max_pen = -g[a];
       if (-g[a] > M->final_pen) M->final_pen = -g[a];
       if (fabs(un) > M->vscale) M->vscale = fabs(un);
@@ -269,17 +282,18 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
         if (M->incontact[a]) {
           /* chatter (T93): the increments of U_n between bearing steps that exceed 1e-2 of the
              impact speed, and how often their sign alternates (period 2: every step) */
-          double du = un - M->Unprev[a], thr = 1e-2 * M->vimpact;
+          double du = un - M->Unprev[a], thr = 1e-2 * (M->vimpact > vfloor ? M->vimpact : vfloor);
           if (fabs(un) > M->max_vn_closed) M->max_vn_closed = fabs(un);
+          if (watch && fabs(un) > M->max_vn_watch) M->max_vn_watch = fabs(un);
           M->tv[a] += fabs(du);
-          if (thr > 0 && fabs(du) > thr) {
+          if (watch && fabs(du) > thr) {
             if (M->dUp[a] != 0 && (du > 0) != (M->dUp[a] > 0)) M->alt[a] += 1;
             M->dUp[a] = du;
           } else
             M->dUp[a] = 0;
         } else {
           /* a landing: the approach speed of the step before it */
-          if (fabs(M->Unprev[a]) > M->vimpact) M->vimpact = fabs(M->Unprev[a]);
+          if (watch && fabs(M->Unprev[a]) > M->vimpact) M->vimpact = fabs(M->Unprev[a]);
           M->dUp[a] = 0;
         }
       } else if (M->incontact[a] && g[a] > M->gtol && isnan(M->first_release))
@@ -317,9 +331,10 @@ void mo_metrics_chatter(const mo_metrics *M, mo_chatter *ch)
   if (!M->C) return;
   for (a = 0; a < M->nc; a++) if (M->alt[a] > alt) alt = M->alt[a];
   /* no landing seen (the run started in contact): the largest |U_n| stands for it */
-  ch->vimpact = M->vimpact > 0 ? M->vimpact : M->vscale;
+  ch->vimpact = M->vimpact > 0 ? M->vimpact : M->vscale_watch;
+  if (ch->vimpact < M->vfloor) ch->vimpact = M->vfloor;
   ch->alternations = (long)alt;
-  ch->ratio = ch->vimpact > 0 ? M->max_vn_closed / ch->vimpact : 0;
+  ch->ratio = ch->vimpact > 0 ? M->max_vn_watch / ch->vimpact : 0;
   ch->chatter = ch->alternations >= MO_CHATTER_ALTERNATIONS && ch->ratio >= MO_CHATTER_RATIO;
 }
 
