@@ -1,5 +1,6 @@
 /* test_chatter.c: issue 15, items 5 and 8.
-   1. Two identical bars meeting at +-1 m/s stay in persistent contact for 2 L / c: with the
+   1. Two identical bars meeting at +-1 m/s (and, the scene of the issue, a bar at -1 m/s
+      striking one at rest) stay in persistent contact for 2 L / c: with the
       program's defaults (theta = 1/2, contact.signorini left out: velocity level, doc/theory.md
       §5) the contact nodes are at rest while the contact is closed (the exact solution, T43-T44),
       to 1e-10 of the impact speed, the pressure is rho c v0 (Goldsmith), and no chatter is
@@ -20,22 +21,22 @@
 /* Two bars of length 1, 200 elements each, c = sqrt(E / rho) = 5063.7 m/s, at -+1 m/s, 2e-5 apart:
    they meet at t = 1e-5 and would part at 1e-5 + 2 L / c = 4.05e-4; the run stops at 3e-4, the
    contact closed throughout. EXTRA: more keys of the contact group. */
-static void bars_text(char *buf, size_t n, const char *solver, const char *extra)
+static void bars_text(char *buf, size_t n, const char *solver, const char *extra, double vl, double vr)
 {
   snprintf(buf, n,
            "title = \"two bars in persistent contact\";\n"
            "bodies = (\n"
            "  { name = \"left\"; mesh = { generator = \"bar\"; origin = -1.00001; length = 1.0; elements = 200; };\n"
-           "    material = { E = 2.0e11; rho = 7800.0; area = 4.0e-4; }; initial = { velocity = [1.0]; }; },\n"
+           "    material = { E = 2.0e11; rho = 7800.0; area = 4.0e-4; }; initial = { velocity = [%.17g]; }; },\n"
            "  { name = \"right\"; mesh = { generator = \"bar\"; origin = 0.00001; length = 1.0; elements = 200; };\n"
-           "    material = { E = 2.0e11; rho = 7800.0; area = 4.0e-4; }; initial = { velocity = [-1.0]; }; }\n"
+           "    material = { E = 2.0e11; rho = 7800.0; area = 4.0e-4; }; initial = { velocity = [%.17g]; }; }\n"
            ");\n"
            "time = { dt = 2.0e-6; end = 3.0e-4; };\n"
            "contact = { solver = \"%s\"; %s\n"
            "  pairs = ( { name = \"ends\"; slave = \"left\"; slave_set = \"right\"; master = \"right\"; master_set = \"left\"; } ); };\n"
            "output = { probes = ( { name = \"cend\"; body = \"left\"; set = \"right\"; quantities = [\"vx\", \"pn\"]; },\n"
            "                      { name = \"mend\"; body = \"right\"; set = \"left\"; quantities = [\"vx\"]; } ); };\n",
-           solver, extra);
+           vl, vr, solver, extra);
 }
 
 typedef struct {
@@ -46,7 +47,7 @@ typedef struct {
 } bars_run;
 
 /* Run the bars with the run's messages captured (stderr to a file, verbosity 1). */
-static void run_bars(const char *solver, const char *extra, const char *tag, bars_run *R)
+static void run_bars_v(const char *solver, const char *extra, const char *tag, double vl, double vr, bars_run *R)
 {
   char text[4096], out[512], cfg[600], errf[600], file[700];
   mo_ctx ctx;
@@ -55,7 +56,7 @@ static void run_bars(const char *solver, const char *extra, const char *tag, bar
   FILE *f;
   int saved, fd, st;
   memset(R, 0, sizeof *R);
-  bars_text(text, sizeof text, solver, extra);
+  bars_text(text, sizeof text, solver, extra, vl, vr);
   snprintf(out, sizeof out, "tests/out/chatter-%s-%s-%ld", solver, tag, (long)getpid());
   snprintf(cfg, sizeof cfg, "%s.cfg", out);
   snprintf(errf, sizeof errf, "%s.err", out);
@@ -91,6 +92,11 @@ static void run_bars(const char *solver, const char *extra, const char *tag, bar
   unlink(cfg);
   unlink(errf);
   tl_remove_dir(out);
+}
+
+static void run_bars(const char *solver, const char *extra, const char *tag, bars_run *R)
+{
+  run_bars_v(solver, extra, tag, 1.0, -1.0, R);
 }
 
 static void bars_free(bars_run *R)
@@ -187,6 +193,52 @@ static void test_bars(const char *solver)
   bars_free(&D);
 }
 
+/* --- 1b. the scene of issue 15: a bar at -1 m/s strikes an identical bar at rest (they meet
+   at t = 2e-5). Exact: both contact nodes at -1/2 m/s while closed. The old defaults made them
+   alternate between -1 and 0 every step. */
+
+static void test_struck_bar(const char *solver)
+{
+  bars_run D, P;
+  int cv, cm, i, n = 0;
+  double vmin = HUGE_VAL, vmax = -HUGE_VAL, jump = 0, pmin = HUGE_VAL, pmax = -HUGE_VAL;
+  run_bars_v(solver, "", "struck", 0.0, -1.0, &D);
+  if (ok(D.ok, "struck bar, %s, defaults: the run completes", solver)) {
+    cv = tl_col(&D.hist, "cend.vx");
+    cm = tl_col(&D.hist, "mend.vx");
+    for (i = 0; i < D.hist.nrow; i++) {
+      double v = tl_num(&D.hist, i, cv);
+      if (tl_num(&D.hist, i, 0) < 2.25e-5) continue; /* from the step after the landing */
+      n++;
+      if (v < vmin) vmin = v;
+      if (v > vmax) vmax = v;
+      if (fabs(v - tl_num(&D.hist, i, cm)) > jump) jump = fabs(v - tl_num(&D.hist, i, cm));
+    }
+    /* constant, and near the exact -1/2 (the discrete bars' landing: -0.49908 measured) */
+    ok(n >= 100 && vmax - vmin <= 1e-10 && jump <= 1e-10 && fabs(vmin + 0.5) <= 2e-3,
+       "struck bar, %s, defaults: contact-node velocity constant over %d closed steps (%.9f .. %.9f m/s, spread "
+       "%.1e <= 1e-10 of the 1 m/s impact; [v_n] %.1e)",
+       solver, n, vmin, vmax, vmax - vmin, jump);
+  }
+  run_bars_v(solver, "signorini = \"position\";", "struck-position", 0.0, -1.0, &P);
+  if (P.ok) {
+    cv = tl_col(&P.hist, "cend.vx");
+    for (i = 0; i < P.hist.nrow; i++) {
+      double v = tl_num(&P.hist, i, cv);
+      if (tl_num(&P.hist, i, 0) < 2.25e-5) continue;
+      if (v < pmin) pmin = v;
+      if (v > pmax) pmax = v;
+    }
+  }
+  ok(P.ok && pmin <= -1 + 1e-6 && pmax >= -1e-6 &&
+         json_is_true(json_object_get(json_object_get(json_object_get(P.summary, "metrics"), "contact"), "chatter")),
+     "struck bar, %s, position level (the old default): the contact node alternates between %.3g and %.3g m/s, "
+     "reported as chatter",
+     solver, pmin, pmax);
+  bars_free(&P);
+  bars_free(&D);
+}
+
 /* --- 3. the bouncing bar's drift ---------------------------------------------------------------- */
 
 static void test_drift(void)
@@ -228,6 +280,8 @@ int main(void)
   mo_mkdir_p("tests/out", &ctx);
   test_bars("nscd");
   test_bars("levelset");
+  test_struck_bar("nscd");
+  test_struck_bar("levelset");
   test_drift();
   return done_testing();
 }
