@@ -513,7 +513,8 @@ void mo_contact_driver_free(mo_contact_driver *D)
   mo_free(D->b); mo_free(D->q); mo_free(D->U); mo_free(D->Uprev); mo_free(D->r); mo_free(D->rprev);
   mo_free(D->xfull); mo_free(D->xf); mo_free(D->dx); mo_free(D->dxfull); mo_free(D->mu); mo_free(D->gk);
   mo_free(D->pforce);
-  mo_free(D->w); mo_free(D->ukin); mo_free(D->xnl); mo_free(D->gnl); mo_free(D->tmp); mo_free(D->pcwork); mo_free(D->pc_momentum); mo_free(D->itmp);
+  mo_free(D->w); mo_free(D->ukin); mo_free(D->xnl); mo_free(D->gnl); mo_free(D->tmp); mo_free(D->itmp);
+  mo_free(D->pcwork); mo_free(D->pc_momentum);
   mo_keymap_free(&D->kmap);
   mo_free(D->active);
   mo_free(D->act);
@@ -896,7 +897,7 @@ static int position_correction(mo_contact_driver *D, mo_state *s, const double *
   const mo_scene *sc = D->sc;
   const unsigned char *law = mo_contact_laws(C);
   int nc = D->nc, d = D->d, a, k, it, st, conv = 0;
-  double *p = D->tmp + nc, worst = 0, gmax = 0, left = 0;
+  double *p = D->tmp + nc, worst = 0, left = 0;
   const int maxit = 1000;
   if (D->ptol == 0) {
     /* 1e-9 of the smallest element edge: below this a gap is round-off of a resting contact */
@@ -947,7 +948,6 @@ static int position_correction(mo_contact_driver *D, mo_state *s, const double *
     nb = mo_delassus_row(D->W, a, &beta, &blk);
     for (k = 0; k < nb; k++) y += blk[(size_t)k * (size_t)(d * d)] * p[beta[k] * d];
     if (-y > left) left = -y;
-    if (p[a * d] > gmax) gmax = p[a * d];
   }
   if ((st = mo_delassus_apply_Cinv(D->W, C->H, mo_stepper_inverse(D->S), p, D->dx, ctx))) return st;
   {
