@@ -1027,7 +1027,7 @@ int mo_contact_build(const mo_scene *sc, mo_contact **out, mo_ctx *ctx)
   }
   C->on_failure_continue = !strcmp(mo_cfg_string(cg, "on_failure", "stop"), "continue");
   {
-    const char *pc = mo_cfg_string(cg, "position_correction", "project");
+    const char *pc = mo_cfg_string(cg, "position_correction", "none");
     C->poscorr = !strcmp(pc, "project") ? 1 : !strcmp(pc, "shift") ? 2 : 0;
   }
   for (k = 0; k < np; k++) {
