@@ -48,10 +48,9 @@ check grid "$OUT/grid"
 check finite "$OUT/grid"
 
 # 3. penetration: nscd limited to one sweep and told to go on (unconverged reactions let the
-#    cylinder sink), theta = 1 and 1/2 at velocity level, against converged runs; without the
-#    position correction (doc/theory.md (T95)), which would take the penetration away
+#    cylinder sink), theta = 1 and 1/2 at velocity level, against converged runs
 "$MOREAU" compare "$C/cylinder-wall" --solvers nscd --set time.end=4e-5 --set output.vtk.every=100000 \
-  --set contact.position_correction=none --set contact.on_failure=continue --vary contact.nscd.max_sweeps=1,1000 --vary time.theta=1,0.5 \
+  --set contact.on_failure=continue --vary contact.nscd.max_sweeps=1,1000 --vary time.theta=1,0.5 \
   --out "$OUT/pen" > "$OUT/pen.out" 2> "$OUT/pen.err"
 ran $? "$OUT/pen.err" "compare cylinder-wall with unconverged solves kept: exit 0"
 check penetration "$OUT/pen"

@@ -224,12 +224,8 @@ static void test_bouncing_bar(void)
       ok(E[b] <= 1 + 1e-9 && growth[b] <= 1e-9,
          "bouncing-bar, %s, theta = 1/2: never above the exact energy (E(T) %.4f, largest growth %.1e)", backends[b],
          E[b], growth[b]);
-  /* With the position correction (the default, doc/theory.md (T95)) the landed node ends its
-     steps at g = 0 to round-off, where the index set decides on round-off: the two back ends'
-     histories agree to 1e-9 until t = 17 and then part slowly (7.1e-6 in E(T) measured after
-     247 landings; without the correction they agree to 1e-12) */
   if (good[0] && good[1])
-    ok(fabs(E[0] - E[1]) <= 1e-4 && impacts[0] == impacts[1],
+    ok(fabs(E[0] - E[1]) <= 1e-9 && impacts[0] == impacts[1],
        "bouncing-bar: nscd and levelset agree (one candidate): E(T) %.12f and %.12f, %ld and %ld impact ends", E[0], E[1],
        (long)impacts[0], (long)impacts[1]);
   if (good[0] && good[2])
