@@ -122,14 +122,15 @@ static void read_summary(run_row *r, colset *C, colset *H)
     if (kk >= 0) r->val[kk] = json_number_value(json_object_get(m, "hmin"));
   }
   {
-    /* velocity-level Signorini never corrects a position: a theta-scheme landing step ends at
+    /* velocity-level Signorini (the default) corrects no position unless contact.
+       position_correction does: a theta-scheme landing step ends at
        g_k + h (1 - theta) U-_n with U+_n = 0, a penetration of order h that refinement removes,
        not an instability */
     json_t *tm = json_object_get(root, "time");
     json_t *sig = json_object_get(json_object_get(json_object_get(root, "settings"), "contact"), "signorini");
     json_t *vs = json_object_get(json_object_get(json_object_get(root, "metrics"), "contact"), "velocity_scale");
     const char *scheme = json_string_value(json_object_get(tm, "scheme"));
-    if (scheme && !strcmp(scheme, "theta") && json_is_string(sig) && !strcmp(json_string_value(sig), "velocity") &&
+    if (scheme && !strcmp(scheme, "theta") && (!sig || (json_is_string(sig) && !strcmp(json_string_value(sig), "velocity"))) &&
         json_is_number(vs))
       r->pen_landing = (1 - json_number_value(json_object_get(tm, "theta"))) *
                        json_number_value(json_object_get(tm, "dt")) * json_number_value(vs);

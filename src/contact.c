@@ -283,6 +283,15 @@ struct mo_contact_driver {
   int redundant_max, redundant_steps, constraints_last, redundant_last; /* (T84), when the back end measures it */
   double rcond_last, rcond_min;
   int min_norm_last;
+  /* the position correction (T95): steps corrected, the largest penetration it removed, the
+     largest left after it, sweeps of its projected Gauss-Seidel (most in a step), steps whose
+     sweeps ran out */
+  long pc_steps, pc_sweeps_max, pc_unconverged;
+  double pc_max, pc_left, ptol;
+  double pc_energy_paid;     /* energy the shifts would have added, taken from the kinetic energy (T96) */
+  double pc_energy_added;    /* what the kinetic energy could not pay */
+  double *pcwork;            /* 2 ndof */
+  double *pc_momentum;       /* 3 per body: the linear momentum the energy compensation took */
 };
 
 const mo_contact_report *mo_contact_last_report(const mo_contact_driver *D) { return &D->rep; }
@@ -496,6 +505,22 @@ int mo_contact_driver_redundancy(const mo_contact_driver *D, int *constraints, i
 
 double mo_contact_driver_equilibrium(const mo_contact_driver *D) { return D->eqf ? D->max_eq_residual : NAN; }
 
+void mo_contact_driver_correction(const mo_contact_driver *D, int *on, long *steps, double *max_removed,
+                                  double *max_left, long *sweeps_max, long *unconverged, double *energy_paid,
+                                  double *energy_added, double *momentum)
+{
+  int i;
+  for (i = 0; momentum && i < 3 * D->sc->nbody; i++) momentum[i] = D->pc_momentum ? D->pc_momentum[i] : 0;
+  *energy_paid = D->pc_energy_paid;
+  *energy_added = D->pc_energy_added;
+  *on = D->C->signorini == MO_SIGNORINI_VELOCITY && D->sc->time.scheme == MO_SCHEME_THETA ? D->C->poscorr : 0;
+  *steps = D->pc_steps;
+  *max_removed = D->pc_max;
+  *max_left = D->pc_left;
+  *sweeps_max = D->pc_sweeps_max;
+  *unconverged = D->pc_unconverged;
+}
+
 void mo_contact_driver_totals(const mo_contact_driver *D, long *steps, long *iterations,
                               long *max_iterations, long *wbuilds, double *max_residual)
 {
@@ -519,6 +544,7 @@ void mo_contact_driver_free(mo_contact_driver *D)
   mo_free(D->pforce);
   mo_free(D->sv_idx); mo_free(D->sv_mu); mo_free(D->sv_q); mo_free(D->sv_r); mo_free(D->sv_U);
   mo_free(D->w); mo_free(D->ukin); mo_free(D->xnl); mo_free(D->gnl); mo_free(D->tmp); mo_free(D->itmp);
+  mo_free(D->pcwork); mo_free(D->pc_momentum);
   mo_keymap_free(&D->kmap);
   mo_free(D->active);
   mo_free(D->act);
@@ -1010,6 +1036,127 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
   return MO_OK;
 }
 
+/* The position correction of velocity-level Signorini (doc/theory.md (T94)-(T95)): the end-of-step
+   gaps of the Signorini candidates, linear in the step, g_e = g_k + h (theta U+_n + (1 - theta)
+   U-_n) (ge, one per candidate), are projected onto g >= 0 in the norm of What: the normal
+   "position impulses" p >= 0 solve g_e + W_nn p >= 0 _|_ p >= 0 with the step's Delassus operator
+   (projected Gauss-Seidel), and u += What^-1 H p. Velocities are not touched. Called after the
+   stepper's finish, before the end-of-step geometry. */
+static int position_correction(mo_contact_driver *D, mo_state *s, const double *ge, mo_ctx *ctx)
+{
+  mo_contact *C = D->C;
+  const mo_scene *sc = D->sc;
+  const unsigned char *law = mo_contact_laws(C);
+  int nc = D->nc, d = D->d, a, k, it, st, conv = 0;
+  double *p = D->tmp + nc, worst = 0, left = 0;
+  const int maxit = 1000;
+  if (D->ptol == 0) {
+    /* 1e-9 of the smallest element edge: below this a gap is round-off of a resting contact */
+    double hmin = HUGE_VAL, hb;
+    int b;
+    for (b = 0; b < sc->nbody; b++)
+      if (sc->body[b].kind == MO_BODY_DEFORMABLE) {
+        mo_mesh_edge_range(sc->body[b].mesh, &hb, NULL);
+        if (hb < hmin) hmin = hb;
+      }
+    D->ptol = 1e-9 * (isfinite(hmin) ? hmin : 1);
+  }
+  for (a = 0; a < nc; a++)
+    if (law[a] == MO_LAW_SIGNORINI && -ge[a] > worst) worst = -ge[a];
+  if (worst <= D->ptol) return MO_OK;
+  memset(p, 0, (size_t)D->m * sizeof *p);
+  for (it = 0; it < maxit && !conv; it++) {
+    double change = 0;
+    for (a = 0; a < nc; a++) {
+      const int *beta;
+      const double *blk;
+      double y = ge[a], waa = 0, pn;
+      int nb;
+      if (law[a] != MO_LAW_SIGNORINI) continue;
+      nb = mo_delassus_row(D->W, a, &beta, &blk);
+      for (k = 0; k < nb; k++) {
+        double wn = blk[(size_t)k * (size_t)(d * d)];
+        if (beta[k] == a) waa = wn;
+        y += wn * p[beta[k] * d];
+      }
+      if (!(waa > 0)) continue;
+      pn = p[a * d] - y / waa;
+      if (pn < 0) pn = 0;
+      if (fabs(pn - p[a * d]) * waa > change) change = fabs(pn - p[a * d]) * waa;
+      p[a * d] = pn;
+    }
+    conv = change <= 1e-12 * worst;
+  }
+  if (!conv) D->pc_unconverged++;
+  if (it > D->pc_sweeps_max) D->pc_sweeps_max = it;
+  /* what is left: g_e + W_nn p over the Signorini candidates */
+  for (a = 0; a < nc; a++) {
+    const int *beta;
+    const double *blk;
+    double y = ge[a];
+    int nb;
+    if (law[a] != MO_LAW_SIGNORINI) continue;
+    nb = mo_delassus_row(D->W, a, &beta, &blk);
+    for (k = 0; k < nb; k++) y += blk[(size_t)k * (size_t)(d * d)] * p[beta[k] * d];
+    if (-y > left) left = -y;
+  }
+  if ((st = mo_delassus_apply_Cinv(D->W, C->H, mo_stepper_inverse(D->S), p, D->dx, ctx))) return st;
+  {
+    /* (T96): the shift changes the elastic energy and the work of the loads, dE = E_el(u + du) -
+       E_el(u) - f . du (the velocities are those of the step). A positive dE is taken from the
+       kinetic energy of the bodies the shift moved, v <- lambda v with lambda^2 = 1 - dE / E_kin
+       (the velocity-level constraints U+_n >= 0, = 0 against obstacles keep their signs), so that
+       the correction never creates energy; what the bodies' kinetic energy cannot pay is counted. */
+    int n = sc->ndof, b, i;
+    double e0, e1, w0 = s->wext, dE, ek;
+    mo_state sm;
+    if (!D->pcwork && !(D->pcwork = mo_malloc(ctx, 2 * (size_t)n * sizeof(double) + 1))) return MO_ENOMEM;
+    if (!D->pc_momentum && !(D->pc_momentum = mo_calloc(ctx, 3 * (size_t)sc->nbody + 1, sizeof(double))))
+      return MO_ENOMEM;
+    e0 = mo_energy_elastic(sc, s->u, D->pcwork);
+    if ((st = mo_stepper_shift(D->S, s, D->dx, ctx))) return st;
+    e1 = mo_energy_elastic(sc, s->u, D->pcwork);
+    dE = (e1 - e0) - (s->wext - w0);
+    if (dE > 0 && C->poscorr == 1) {
+      double *vm = D->pcwork + n;
+      memset(vm, 0, (size_t)n * sizeof *vm);
+      for (b = 0; b < sc->nbody; b++) {
+        const mo_body *B = &sc->body[b];
+        int moved = 0;
+        if (B->kind != MO_BODY_DEFORMABLE) continue;
+        for (i = B->dof0; i < B->dof0 + B->ndof && !moved; i++)
+          moved = sc->free_of[i] >= 0 && D->dx[sc->free_of[i]] != 0;
+        if (moved)
+          for (i = B->dof0; i < B->dof0 + B->ndof; i++)
+            if (sc->free_of[i] >= 0) vm[i] = s->v[i];
+      }
+      sm = *s;
+      sm.v = vm;
+      ek = mo_energy_kinetic(sc, &sm, D->pcwork);   /* leaves M vm in pcwork (deformable dofs) */
+      if (ek > 0) {
+        double lam = dE < ek ? sqrt(1 - dE / ek) : 0;
+        for (b = 0; b < sc->nbody; b++) {
+          /* the linear momentum the scaling takes, (lambda - 1) 1_i^T M v per direction */
+          const mo_body *B = &sc->body[b];
+          if (B->kind != MO_BODY_DEFORMABLE) continue;
+          for (i = B->dof0; i < B->dof0 + B->ndof; i++) /* M is block diagonal by body */
+            D->pc_momentum[3 * b + (i - B->dof0) % sc->dim] += (lam - 1) * D->pcwork[i];
+        }
+        for (i = 0; i < n; i++)
+          if (vm[i] != 0) s->v[i] = lam * vm[i];
+        fresh_uprev(D, s, 0, nc); /* U- of the next step from the scaled velocities */
+      }
+      D->pc_energy_paid += dE < ek ? dE : ek;
+      if (dE > ek) D->pc_energy_added += dE - ek;
+    } else if (dE > 0)
+      D->pc_energy_added += dE; /* "shift": the velocities are left alone */
+  }
+  D->pc_steps++;
+  if (worst > D->pc_max) D->pc_max = worst;
+  if (left > D->pc_left) D->pc_left = left;
+  return MO_OK;
+}
+
 /* The end of a step: the work of the contact impulses, impulse . mean local velocity (theta),
    force . increment (others), the local velocities U- of the next step, then the stepper's
    finish at x, the geometry of the end of the step (the detection of rigid shapes included) and
@@ -1017,7 +1164,7 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
    (r, b and W are those of that solve). */
 static int contact_finish(mo_contact_driver *D, mo_state *s, const double *x, mo_ctx *ctx)
 {
-  int m = D->m, i, st;
+  int m = D->m, i, st, corr;
   mo_scheme scheme = D->sc->time.scheme;
   double w = 0;
   /* U without the offsets of the laws (Signorini, restitution): W r + b, or the back end's U' - (q - b) */
@@ -1027,6 +1174,15 @@ static int contact_finish(mo_contact_driver *D, mo_state *s, const double *x, mo
   for (i = 0; i < m; i++)
     w += D->r[i] * (scheme == MO_SCHEME_THETA ? 0.5 * (Ukin[i] + D->Uprev[i]) : Ukin[i]);
   s->wcontact += w;
+  /* the end-of-step gaps of the Signorini candidates for the position correction (T94): g_k +
+     h (theta U+_n + (1 - theta) U-_n), before U- becomes U+ */
+  corr = D->C->poscorr && D->C->signorini == MO_SIGNORINI_VELOCITY && scheme == MO_SCHEME_THETA && D->wused &&
+         D->nc && !mo_stepper_nonlinear(D->S);
+  if (corr) {
+    double h = mo_stepper_dt(D->S), th = D->sc->time.theta;
+    for (i = 0; i < D->nc; i++)
+      D->tmp[i] = D->gk[i] + h * (th * Ukin[i * D->d] + (1 - th) * D->Uprev[i * D->d]);
+  }
   if (scheme == MO_SCHEME_THETA) memcpy(D->Uprev, Ukin, (size_t)m * sizeof(double));
   {
     /* the step's resultants, before the end-of-step geometry replaces the candidate set: per pair,
@@ -1044,6 +1200,7 @@ static int contact_finish(mo_contact_driver *D, mo_state *s, const double *x, mo
     }
   }
   if ((st = mo_stepper_finish(D->S, s, x, ctx))) return st;
+  if (corr && (st = position_correction(D, s, D->tmp, ctx))) return st;
   if ((st = mo_contact_geometry(D->C, s, s->t, D->C->repair, ctx))) return st;
   return follow_set(D, s, ctx);
 }

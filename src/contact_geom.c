@@ -1049,7 +1049,7 @@ int mo_contact_build(const mo_scene *sc, mo_contact **out, mo_ctx *ctx)
   C->pp = mo_calloc(ctx, (size_t)np, sizeof *C->pp);
   C->solver = mo_strdup(ctx, mo_cfg_string(cg, "solver", "nscd"));
   if (!C->pair || !C->pp || !C->solver) { st = MO_ENOMEM; goto fail; }
-  C->signorini = !strcmp(mo_cfg_string(cg, "signorini", "position"), "velocity") ? MO_SIGNORINI_VELOCITY : MO_SIGNORINI_POSITION;
+  C->signorini = !strcmp(mo_cfg_string(cg, "signorini", "velocity"), "velocity") ? MO_SIGNORINI_VELOCITY : MO_SIGNORINI_POSITION;
   C->repair = !strcmp(mo_cfg_string(cg, "geometry", "reference"), "step");
   C->delassus_always = !strcmp(mo_cfg_string(cg, "delassus", "auto"), "always");
   {
@@ -1059,6 +1059,10 @@ int mo_contact_build(const mo_scene *sc, mo_contact **out, mo_ctx *ctx)
     for (i = 0; i < sc->ndof && C->h_alias; i++) C->h_alias = sc->free_of[i] == i;
   }
   C->on_failure_continue = !strcmp(mo_cfg_string(cg, "on_failure", "stop"), "continue");
+  {
+    const char *pc = mo_cfg_string(cg, "position_correction", "none");
+    C->poscorr = !strcmp(pc, "project") ? 1 : !strcmp(pc, "shift") ? 2 : 0;
+  }
   for (k = 0; k < np; k++) {
     const config_setting_t *pg = config_setting_get_elem(pl, (unsigned)k);
     mo_contact_pair *P;

@@ -48,6 +48,7 @@ struct mo_contact {
   mo_signorini signorini;
   int repair;                 /* pair again at every step */
   int on_failure_continue;
+  int poscorr;               /* contact.position_correction: 0 none, 1 project (T95-T96), 2 shift (T95) */
   int delassus_always;       /* contact.delassus = "always": W at every step, no body sweep */
   int h_alias;               /* H is Hfull (every dof free, in order): one matrix built */
   char *solver;

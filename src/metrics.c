@@ -26,6 +26,8 @@ struct mo_metrics {
   double *Un, *Unprev;       /* normal relative velocities */
   int *prevstatus;           /* per candidate */
   double *tv;                /* total variation of U_n while closed, per candidate */
+  double *dUp;               /* the last increment of U_n between bearing steps (0: none) (T93) */
+  double *alt;               /* per candidate: alternations of the sign of that increment (T93) */
   long cset;                 /* the candidate set the arrays follow (mo_contact_set_version) */
   int *keys;                 /* its keys, to carry a detected candidate's history to the next set */
   mo_keymap kmap;
@@ -33,6 +35,11 @@ struct mo_metrics {
   double tv_gone;            /* the largest variation of the candidates that left the set */
   long unmeasured;           /* steps left out of the contact measures (no memory to follow the set) */
   double max_pen, max_vn_closed, vscale, impulse, first_release, t_prev;
+  double final_pen;          /* the largest penetration of the last step measured */
+  double vimpact;            /* the largest approach speed |U_n| of a step before a landing (T93) */
+  double alt_max;            /* the most alternations of one candidate, including those gone (T93) */
+  double max_vn_watch, vscale_watch; /* max_vn_in_contact and velocity_scale over the watched laws */
+  double vfloor;             /* the round-off speed 1e-9 h_min / h of the last step (T93) */
   long flips;
   int closed_prev;           /* number of candidates in contact at the previous step */
   unsigned char *incontact;  /* per candidate, at the previous step */
@@ -50,6 +57,8 @@ void mo_metrics_free(mo_metrics *M)
   mo_free(M->Unprev);
   mo_free(M->prevstatus);
   mo_free(M->tv);
+  mo_free(M->dUp);
+  mo_free(M->alt);
   mo_free(M->incontact);
   mo_free(M->keys);
   mo_free(M->tmp);
@@ -78,11 +87,14 @@ static int room(mo_metrics *M, int nc, mo_ctx *ctx)
   n = (size_t)(nc + nc / 2) + 1;
 #define GROW(ptr, k) if (!(p = mo_realloc(ctx, ptr, (k) * sizeof *(ptr)))) return 0; ptr = p
   GROW(M->Un, n * (size_t)M->d); GROW(M->Unprev, n); GROW(M->prevstatus, n); GROW(M->tv, n);
-  GROW(M->incontact, n); GROW(M->keys, n * MO_KEY); GROW(M->tmp, 4 * n);
+  GROW(M->dUp, n); GROW(M->alt, n);
+  GROW(M->incontact, n); GROW(M->keys, n * MO_KEY); GROW(M->tmp, 6 * n);
 #undef GROW
   memset(M->Unprev + M->cap, 0, (n - (size_t)M->cap) * sizeof *M->Unprev);
   memset(M->prevstatus + M->cap, 0, (n - (size_t)M->cap) * sizeof *M->prevstatus);
   memset(M->tv + M->cap, 0, (n - (size_t)M->cap) * sizeof *M->tv);
+  memset(M->dUp + M->cap, 0, (n - (size_t)M->cap) * sizeof *M->dUp);
+  memset(M->alt + M->cap, 0, (n - (size_t)M->cap) * sizeof *M->alt);
   memset(M->incontact + M->cap, 0, n - (size_t)M->cap);
   M->cap = (int)n - 1;
   return 1;
@@ -95,16 +107,21 @@ static int follow(mo_metrics *M)
 {
   const mo_contact *C = M->C;
   int nold = M->nc, nc = mo_contact_ncandidates(C), a, ok;
-  double *oUp, *otv, *ost, *oin;
+  double *oUp, *otv, *ost, *oin, *odU, *oalt;
   ok = room(M, nc > nold ? nc : nold, NULL) && !mo_keymap_build(&M->kmap, M->keys, nold, NULL);
   if (!ok) nold = 0;
   else {
-    /* the old values aside: tmp holds 4 values per candidate */
+    /* the old values aside: tmp holds 6 values per candidate */
     oUp = M->tmp;
     otv = oUp + nold;
     ost = otv + nold;
     oin = ost + nold;
+    odU = oin + nold;
+    oalt = odU + nold;
     for (a = 0; a < nold; a++) {
+      odU[a] = M->dUp[a];
+      oalt[a] = M->alt[a];
+      if (M->alt[a] > M->alt_max) M->alt_max = M->alt[a];
       oUp[a] = M->Unprev[a];
       otv[a] = M->tv[a];
       ost[a] = M->prevstatus[a];
@@ -117,6 +134,8 @@ static int follow(mo_metrics *M)
     int o = nold ? mo_keymap_find(&M->kmap, mo_contact_key(C, a)) : -1;
     M->Unprev[a] = o >= 0 ? oUp[o] : 0;
     M->tv[a] = o >= 0 ? otv[o] : 0;
+    M->dUp[a] = o >= 0 ? odU[o] : 0;
+    M->alt[a] = o >= 0 ? oalt[o] : 0;
     M->prevstatus[a] = o >= 0 ? (int)ost[o] : MO_CS_OPEN;
     M->incontact[a] = o >= 0 ? (unsigned char)oin[o] : 0;
   }
@@ -226,6 +245,8 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
     const mo_contact *C = M->C;
     const double *g = mo_contact_gaps(C), *U0 = mo_contact_U0(C);
     const int *st = D ? mo_contact_statuses(D) : NULL;
+    const unsigned char *law = mo_contact_laws(C);
+    double vfloor;
     const double *r = D ? mo_contact_reactions(D) : NULL;
     int d = M->d;
     double h = D ? mo_contact_driver_dt(D) : sc->time.dt;
@@ -236,6 +257,11 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
       return;
     }
     mo_csc_gatxpy(mo_contact_H_full(C), 1, s->v, 0, M->Un);
+    M->final_pen = 0;
+    /* below this a velocity moves a point by less than the gap tolerance (1e-9 h_min) in a step:
+       round-off, never an impact speed (T93) */
+    vfloor = h > 0 && isfinite(M->gtol) ? M->gtol / h : 0;
+    M->vfloor = vfloor;
     for (a = 0; a < M->nc; a++) {
       double un = M->Un[a * d] + U0[a * d];
       /* bearing: a compressive reaction. The jump of the normal velocity and its variation
@@ -243,13 +269,32 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
          release is the first step with no reaction and an open gap after bearing. Detected
          candidates (rigid shapes) carry their history from set to set by key. */
       int inc = s->step > 0 && r && r[a * d] > 0;
+      /* the chatter detector (T93) watches the position-level laws' candidates: Signorini pairs
+         (deformable; position or velocity level, and Newmark's) and the gap law, not Moreau's
+         impact law between rigid bodies, whose rattling grains are not this mode */
+      int watch = law && (law[a] == MO_LAW_SIGNORINI || law[a] == MO_LAW_GAP);
+      if (watch && fabs(un) > M->vscale_watch) M->vscale_watch = fabs(un);
       if (-g[a] > M->max_pen) M->max_pen = -g[a];
+      if (-g[a] > M->final_pen) M->final_pen = -g[a];
       if (fabs(un) > M->vscale) M->vscale = fabs(un);
       if (inc) {
         closed++;
         if (M->incontact[a]) {
+          /* chatter (T93): the increments of U_n between bearing steps that exceed 1e-2 of the
+             impact speed, and how often their sign alternates (period 2: every step) */
+          double du = un - M->Unprev[a], thr = 1e-2 * (M->vimpact > vfloor ? M->vimpact : vfloor);
           if (fabs(un) > M->max_vn_closed) M->max_vn_closed = fabs(un);
-          M->tv[a] += fabs(un - M->Unprev[a]);
+          if (watch && fabs(un) > M->max_vn_watch) M->max_vn_watch = fabs(un);
+          M->tv[a] += fabs(du);
+          if (watch && fabs(du) > thr) {
+            if (M->dUp[a] != 0 && (du > 0) != (M->dUp[a] > 0)) M->alt[a] += 1;
+            M->dUp[a] = du;
+          } else
+            M->dUp[a] = 0;
+        } else {
+          /* a landing: the approach speed of the step before it */
+          if (watch && fabs(M->Unprev[a]) > M->vimpact) M->vimpact = fabs(M->Unprev[a]);
+          M->dUp[a] = 0;
         }
       } else if (M->incontact[a] && g[a] > M->gtol && isnan(M->first_release))
         M->first_release = s->t;
@@ -278,6 +323,21 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
   }
 }
 
+void mo_metrics_chatter(const mo_metrics *M, mo_chatter *ch)
+{
+  double alt = M->alt_max;
+  int a;
+  memset(ch, 0, sizeof *ch);
+  if (!M->C) return;
+  for (a = 0; a < M->nc; a++) if (M->alt[a] > alt) alt = M->alt[a];
+  /* no landing seen (the run started in contact): the largest |U_n| stands for it */
+  ch->vimpact = M->vimpact > 0 ? M->vimpact : M->vscale_watch;
+  if (ch->vimpact < M->vfloor) ch->vimpact = M->vfloor;
+  ch->alternations = (long)alt;
+  ch->ratio = ch->vimpact > 0 ? M->max_vn_watch / ch->vimpact : 0;
+  ch->chatter = ch->alternations >= MO_CHATTER_ALTERNATIONS && ch->ratio >= MO_CHATTER_RATIO;
+}
+
 json_t *mo_metrics_json(const mo_metrics *M)
 {
   json_t *j = json_object();
@@ -299,7 +359,23 @@ json_t *mo_metrics_json(const mo_metrics *M)
     for (a = 0; a < M->nc; a++) if (M->tv[a] > osc_all) osc_all = M->tv[a];
     osc = osc_all;
     json_object_set_new(c, "max_penetration", json_real(M->max_pen));
+    json_object_set_new(c, "final_penetration", json_real(M->final_pen));
+    {
+      double hmin = mo_metrics_hmin(M->sc);
+      if (isfinite(hmin) && hmin > 0) {
+        json_object_set_new(c, "max_penetration_elements", json_real(M->max_pen / hmin));
+        json_object_set_new(c, "final_penetration_elements", json_real(M->final_pen / hmin));
+      }
+    }
     json_object_set_new(c, "max_vn_in_contact", json_real(M->max_vn_closed));
+    {
+      mo_chatter ch;
+      mo_metrics_chatter(M, &ch);
+      json_object_set_new(c, "impact_velocity", json_real(ch.vimpact));
+      json_object_set_new(c, "chatter_alternations", json_integer((json_int_t)ch.alternations));
+      json_object_set_new(c, "chatter_ratio", json_real(ch.ratio));
+      json_object_set_new(c, "chatter", json_boolean(ch.chatter));
+    }
     json_object_set_new(c, "velocity_scale", json_real(M->vscale));
     json_object_set_new(c, "oscillation_index", json_real(M->vscale > 0 ? osc / M->vscale : 0));
     json_object_set_new(c, "status_flips", json_integer(M->flips));

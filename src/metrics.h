@@ -25,6 +25,20 @@ double mo_metrics_energy_ratio(const mo_metrics *M, const mo_state *s);
    K (the run measures them at every step). */
 void mo_metrics_energies(const mo_metrics *M, const mo_state *s, double *ek, double *ee, double *ratio);
 json_t *mo_metrics_json(const mo_metrics *M);
+/* Chatter of a persistent contact (doc/theory.md (T93)), over the candidates of the Signorini
+   and gap laws: one whose increments of U_n between bearing steps, each above 1e-2 of the
+   impact speed (and of the round-off speed 1e-9 h_min / h), alternate in sign at least
+   MO_CHATTER_ALTERNATIONS times, while their largest |U_n| in contact reaches MO_CHATTER_RATIO
+   of the impact speed (the largest approach speed before a landing). */
+#define MO_CHATTER_ALTERNATIONS 10
+#define MO_CHATTER_RATIO 0.1
+typedef struct {
+  double vimpact;      /* impact speed (velocity_scale when no landing was seen) */
+  long alternations;   /* the most alternations of one candidate */
+  double ratio;        /* max_vn_in_contact / vimpact */
+  int chatter;         /* both thresholds reached */
+} mo_chatter;
+void mo_metrics_chatter(const mo_metrics *M, mo_chatter *ch);
 void mo_metrics_free(mo_metrics *M);
 
 #endif

@@ -293,6 +293,13 @@ static int time_warnings(const mo_scene *sc, char w[TIME_WARN_MAX][512])
 
 static json_t *contact_json(const mo_contact *C, const mo_contact_driver *D);
 
+/* contact.signorini = "position" in the case (the default is velocity level). */
+static int position_level(const mo_case *cs)
+{
+  const char *v = NULL;
+  return config_lookup_string(&cs->cfg, "contact.signorini", &v) == CONFIG_TRUE && v && !strcmp(v, "position");
+}
+
 /* metrics.extents: the bounding box of each output.extents node set in the current
    configuration x = X + u. */
 static json_t *extents_json(const mo_scene *sc, const double *u)
@@ -477,7 +484,7 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
                          double wall, const double *p0, long cuts, double dtmin, const char *blowup,
                          mo_ctx *ctx)
 {
-  double *pw = NULL, *p1 = NULL;
+  double *pw = NULL, *p1 = NULL, *pcm = NULL;
   int pw_fail = 0;
   json_t *root = json_object(), *scene = json_object(), *bodies = json_array(), *time = json_object();
   json_t *energy = json_object(), *metrics = json_object(), *skipped = json_array(), *ls = json_object();
@@ -503,6 +510,14 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
       p1 = mo_malloc(ctx, (3 * (size_t)sc->nbody + 1) * sizeof *p1);
       if (pw && p1) body_momenta(sc, s->v, pw, p1);
       else pw_fail = 1;
+      if (drv && pw && p1) {
+        int on;
+        long x1, x2, x3;
+        double y1, y2, y3, y4;
+        mo_contact_driver_correction(drv, &on, &x1, &y1, &y2, &x2, &x3, &y3, &y4, NULL);
+        if (on == 1 && (pcm = mo_malloc(ctx, (3 * (size_t)sc->nbody + 1) * sizeof *pcm)))
+          mo_contact_driver_correction(drv, &on, &x1, &y1, &y2, &x2, &x3, &y3, &y4, pcm);
+      }
     }
     for (b = 0; b < sc->nbody; b++) {
       const mo_body *B = &sc->body[b];
@@ -534,6 +549,14 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
           }
           json_object_set_new(jb, "momentum_initial", ji);
           json_object_set_new(jb, "momentum_final", jf);
+          if (pcm) {
+            /* what the position correction's energy compensation took (doc/theory.md (T96)):
+               momentum_final - momentum_initial = contact impulses + external and support
+               impulses + this */
+            json_t *jc = json_array();
+            for (i = 0; i < sc->dim; i++) json_array_append_new(jc, json_real(pcm[3 * b + i]));
+            json_object_set_new(jb, "momentum_position_correction", jc);
+          }
         }
       }
       json_array_append_new(bodies, jb);
@@ -672,6 +695,7 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
   }
   mo_free(pw);
   mo_free(p1);
+  mo_free(pcm);
   if (pw_fail) {
     json_decref(root);
     return mo_error(ctx, MO_ENOMEM, "cannot format summary.json");
@@ -756,6 +780,23 @@ static json_t *contact_json(const mo_contact *C, const mo_contact_driver *D)
   if (W) {
     json_object_set_new(j, "delassus_blocks", json_integer(mo_delassus_nblocks(W)));
     json_object_set_new(j, "delassus_columns_kept", json_boolean(mo_delassus_has_columns(W)));
+  }
+  {
+    /* the position correction of velocity-level theta steps (doc/theory.md (T95)) */
+    int on;
+    long pst, psw, pun;
+    double pmax, pleft, epaid, eadded;
+    json_t *pc = json_object();
+    mo_contact_driver_correction(D, &on, &pst, &pmax, &pleft, &psw, &pun, &epaid, &eadded, NULL);
+    json_object_set_new(pc, "method", json_string(on == 1 ? "project" : on == 2 ? "shift" : "none"));
+    json_object_set_new(pc, "steps", json_integer(pst));
+    json_object_set_new(pc, "max_removed", json_real(pmax));
+    json_object_set_new(pc, "max_left", json_real(pleft));
+    json_object_set_new(pc, "sweeps_max", json_integer(psw));
+    json_object_set_new(pc, "unconverged", json_integer(pun));
+    json_object_set_new(pc, "energy_from_kinetic", json_real(epaid));
+    json_object_set_new(pc, "energy_added", json_real(eadded));
+    json_object_set_new(j, "position_correction", pc);
   }
   json_object_set_new(j, "last_iterations", json_integer(rep->iterations));
   json_object_set_new(j, "last_residual", json_real(rep->residual));
@@ -1245,6 +1286,26 @@ done:
     else if (keep) {
       ctx->status = keep;
       snprintf(ctx->errmsg, sizeof ctx->errmsg, "%s", msg);
+    }
+  }
+  if (met && C && s.step > 0) {
+    /* a persistent contact that chatters (doc/theory.md (T93)): the displacements may look
+       right while the contact velocity and pressure alternate every step */
+    mo_chatter ch;
+    mo_metrics_chatter(met, &ch);
+    if (ch.chatter) {
+      const char *bk = drv ? mo_contact_driver_type(drv)->name : "";
+      mo_log(ctx, 1,
+             "%s: warning: the contact chatters: the normal velocity of a bearing candidate alternated %ld times "
+             "and reached %.3g of the impact speed %.3g while in contact (summary.json metrics.contact.chatter; "
+             "doc/theory.md (T93)). %s\n",
+             opt->case_path, ch.alternations, ch.ratio, ch.vimpact,
+             !strcmp(bk, "newmark") ? "Newmark's displacement-level contact oscillates (BDZ07 Fig. 4); nscd and levelset "
+                                      "with velocity-level Signorini keep [v_n] = 0"
+             : sc->time.scheme == MO_SCHEME_THETA && position_level(cs)
+                 ? "Position-level Signorini at theta near 1/2 answers a landing by its opposite velocity every step; "
+                   "contact.signorini = \"velocity\" (the default) does not"
+                 : "A smaller time step, or a larger theta, damps it");
     }
   }
   /* the drawings of the frames taken, also after a failure (the error kept is the run's) */

@@ -1036,3 +1036,27 @@ int mo_stepper_finish(mo_stepper *S, mo_state *s, const double *x, mo_ctx *ctx)
   mo_phase_add(ctx, MO_PH_SOLVE, t0);
   return MO_OK;
 }
+
+/* A position correction at the end of a step (doc/theory.md (T95)): u += du on the free dofs
+   (du given on them), v unchanged; the load patterns' work over du at t_k+1 joins the external
+   work and the support reactions follow u. Linear scenes only (a finite-strain body's committed
+   material state belongs to the u it was computed at). */
+int mo_stepper_shift(mo_stepper *S, mo_state *s, const double *du_free, mo_ctx *ctx)
+{
+  const mo_scene *sc = S->sc;
+  int i, l, k;
+  double dw = 0;
+  if (S->nl) return mo_error(ctx, MO_EUNSUPPORTED, "a position correction on a finite-strain scene");
+  for (i = 0; i < sc->nfree; i++) s->u[sc->full_of[i]] += du_free[i];
+  for (l = 0; l < sc->nload; l++) {
+    const mo_load *L = &sc->load[l];
+    double a1 = L->amp ? mo_expr_eval(L->amp, &s->t) : 1;
+    for (k = 0; k < L->n; k++) {
+      int f = sc->free_of[L->dof[k]];
+      if (f >= 0) dw += a1 * L->val[k] * du_free[f];
+    }
+  }
+  s->wext += dw;
+  if (sc->npresc) reactions(S, s);
+  return MO_OK;
+}

@@ -434,6 +434,16 @@ const double *mo_contact_local_velocity(const mo_contact_driver *D);
 const int *mo_contact_statuses(const mo_contact_driver *D);
 const mo_contact_solver_type *mo_contact_driver_type(const mo_contact_driver *D);
 const mo_delassus *mo_contact_driver_delassus(const mo_contact_driver *D);
+/* The position correction of velocity-level theta steps (contact.position_correction, doc/
+   theory.md (T95)): whether it is on, the steps it corrected, the largest penetration it removed,
+   the largest left after it, the most projected Gauss-Seidel sweeps of a step, the steps whose
+   sweeps ran out, the energy the shifts took from the kinetic energy (T96), the energy they
+   added that it could not pay (or all of it with "shift"), and the linear momentum the
+   compensation took from each body (momentum: 3 per body of the scene). *on: 0 none, 1 project,
+   2 shift. */
+void mo_contact_driver_correction(const mo_contact_driver *D, int *on, long *steps, double *max_removed,
+                                  double *max_left, long *sweeps_max, long *unconverged, double *energy_paid,
+                                  double *energy_added, double *momentum);
 /* Totals over the run: steps with contact, back-end iterations, rebuilds of W. */
 void mo_contact_driver_totals(const mo_contact_driver *D, long *steps, long *iterations,
                               long *max_iterations, long *w_builds, double *max_residual);

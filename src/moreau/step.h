@@ -72,6 +72,9 @@ int mo_stepper_correct(mo_stepper *S, const double *imp_full, double *dx_full, m
       reactions. Refuses a non-finite unknown (MO_ENAN naming the dof). For a nonlinear scene x
       must be the solution mo_stepper_solve returned: its material states are committed. */
 int mo_stepper_finish(mo_stepper *S, mo_state *s, const double *x_full, mo_ctx *ctx);
+/* 4. (optional) a position correction after finish: u += du on the free dofs, v unchanged, the
+      external work and the support reactions updated (linear scenes; doc/theory.md (T95)). */
+int mo_stepper_shift(mo_stepper *S, mo_state *s, const double *du_free, mo_ctx *ctx);
 /* One step without contact: predict + finish (linear scenes), solve + finish (nonlinear). */
 int mo_stepper_step(mo_stepper *S, mo_state *s, mo_ctx *ctx);
 
