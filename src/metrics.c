@@ -6,6 +6,7 @@
 
 #include <math.h>
 #include <stdlib.h>
+#include <stdio.h>
 #include <string.h>
 
 #define MAX_IMPACTS 64
@@ -26,6 +27,8 @@ struct mo_metrics {
   double *Un, *Unprev;       /* normal relative velocities */
   int *prevstatus;           /* per candidate */
   double *tv;                /* total variation of U_n while closed, per candidate */
+  int *nsign;                /* sign changes of U_n while closed, per candidate (T97) */
+  unsigned char *landed;     /* per candidate: it has borne once (its first landing is behind) */
   long cset;                 /* the candidate set the arrays follow (mo_contact_set_version) */
   int *keys;                 /* its keys, to carry a detected candidate's history to the next set */
   mo_keymap kmap;
@@ -33,6 +36,9 @@ struct mo_metrics {
   double tv_gone;            /* the largest variation of the candidates that left the set */
   long unmeasured;           /* steps left out of the contact measures (no memory to follow the set) */
   double max_pen, max_vn_closed, vscale, impulse, first_release, t_prev;
+  double vimpact;            /* the largest approach |U_n| of a candidate's first landing (the
+                                step before it bears) */
+  int nsign_gone;            /* the most sign changes of the candidates that left the set */
   long flips;
   int closed_prev;           /* number of candidates in contact at the previous step */
   unsigned char *incontact;  /* per candidate, at the previous step */
@@ -50,6 +56,8 @@ void mo_metrics_free(mo_metrics *M)
   mo_free(M->Unprev);
   mo_free(M->prevstatus);
   mo_free(M->tv);
+  mo_free(M->nsign);
+  mo_free(M->landed);
   mo_free(M->incontact);
   mo_free(M->keys);
   mo_free(M->tmp);
@@ -78,11 +86,13 @@ static int room(mo_metrics *M, int nc, mo_ctx *ctx)
   n = (size_t)(nc + nc / 2) + 1;
 #define GROW(ptr, k) if (!(p = mo_realloc(ctx, ptr, (k) * sizeof *(ptr)))) return 0; ptr = p
   GROW(M->Un, n * (size_t)M->d); GROW(M->Unprev, n); GROW(M->prevstatus, n); GROW(M->tv, n);
-  GROW(M->incontact, n); GROW(M->keys, n * MO_KEY); GROW(M->tmp, 4 * n);
+  GROW(M->incontact, n); GROW(M->keys, n * MO_KEY); GROW(M->tmp, 6 * n); GROW(M->nsign, n); GROW(M->landed, n);
 #undef GROW
   memset(M->Unprev + M->cap, 0, (n - (size_t)M->cap) * sizeof *M->Unprev);
   memset(M->prevstatus + M->cap, 0, (n - (size_t)M->cap) * sizeof *M->prevstatus);
   memset(M->tv + M->cap, 0, (n - (size_t)M->cap) * sizeof *M->tv);
+  memset(M->nsign + M->cap, 0, (n - (size_t)M->cap) * sizeof *M->nsign);
+  memset(M->landed + M->cap, 0, n - (size_t)M->cap);
   memset(M->incontact + M->cap, 0, n - (size_t)M->cap);
   M->cap = (int)n - 1;
   return 1;
@@ -95,21 +105,26 @@ static int follow(mo_metrics *M)
 {
   const mo_contact *C = M->C;
   int nold = M->nc, nc = mo_contact_ncandidates(C), a, ok;
-  double *oUp, *otv, *ost, *oin;
+  double *oUp, *otv, *ost, *oin, *ons, *ola;
   ok = room(M, nc > nold ? nc : nold, NULL) && !mo_keymap_build(&M->kmap, M->keys, nold, NULL);
   if (!ok) nold = 0;
   else {
-    /* the old values aside: tmp holds 4 values per candidate */
+    /* the old values aside: tmp holds 6 values per candidate */
     oUp = M->tmp;
     otv = oUp + nold;
     ost = otv + nold;
     oin = ost + nold;
+    ons = oin + nold;
+    ola = ons + nold;
     for (a = 0; a < nold; a++) {
       oUp[a] = M->Unprev[a];
       otv[a] = M->tv[a];
       ost[a] = M->prevstatus[a];
       oin[a] = M->incontact[a];
+      ons[a] = M->nsign[a];
+      ola[a] = M->landed[a];
       if (M->tv[a] > M->tv_gone) M->tv_gone = M->tv[a];
+      if (M->nsign[a] > M->nsign_gone) M->nsign_gone = M->nsign[a];
     }
   }
   nc = nc < M->cap ? nc : M->cap;
@@ -119,6 +134,8 @@ static int follow(mo_metrics *M)
     M->tv[a] = o >= 0 ? otv[o] : 0;
     M->prevstatus[a] = o >= 0 ? (int)ost[o] : MO_CS_OPEN;
     M->incontact[a] = o >= 0 ? (unsigned char)oin[o] : 0;
+    M->nsign[a] = o >= 0 ? (int)ons[o] : 0;
+    M->landed[a] = o >= 0 ? (unsigned char)ola[o] : 0;
   }
   if (nc) memcpy(M->keys, mo_contact_key(C, 0), (size_t)nc * MO_KEY * sizeof *M->keys);
   M->nc = nc;
@@ -248,9 +265,17 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
       if (inc) {
         closed++;
         if (M->incontact[a]) {
+          /* a sign change counts when both velocities stand above the floor: round-off about
+             [v_n] = 0 is no oscillation (T97) */
+          double floor = MO_CHATTER_VN_FLOOR * M->vimpact;
           if (fabs(un) > M->max_vn_closed) M->max_vn_closed = fabs(un);
           M->tv[a] += fabs(un - M->Unprev[a]);
-        }
+          if ((un > floor && M->Unprev[a] < -floor) || (un < -floor && M->Unprev[a] > floor)) M->nsign[a]++;
+        } else if (!M->landed[a] && -M->Unprev[a] > M->vimpact)
+          /* the candidate's first landing: the approach velocity of the step before (later
+             landings may be the chatter's own bounces) */
+          M->vimpact = -M->Unprev[a];
+        M->landed[a] = 1;
       } else if (M->incontact[a] && g[a] > M->gtol && isnan(M->first_release))
         M->first_release = s->t;
       if (s->step > 0 && st) {
@@ -302,6 +327,12 @@ json_t *mo_metrics_json(const mo_metrics *M)
     json_object_set_new(c, "max_vn_in_contact", json_real(M->max_vn_closed));
     json_object_set_new(c, "velocity_scale", json_real(M->vscale));
     json_object_set_new(c, "oscillation_index", json_real(M->vscale > 0 ? osc / M->vscale : 0));
+    json_object_set_new(c, "impact_velocity", json_real(M->vimpact));
+    {
+      int ns = M->nsign_gone;
+      for (a = 0; a < M->nc; a++) if (M->nsign[a] > ns) ns = M->nsign[a];
+      json_object_set_new(c, "vn_sign_changes", json_integer(ns));
+    }
     json_object_set_new(c, "status_flips", json_integer(M->flips));
     if (M->unmeasured) json_object_set_new(c, "steps_not_measured", json_integer(M->unmeasured));
     json_object_set_new(c, "release_time", json_real(M->first_release));
@@ -332,4 +363,45 @@ json_t *mo_metrics_json(const mo_metrics *M)
     json_object_set_new(j, "contact", c);
   }
   return j;
+}
+
+void mo_metrics_chatter_input(const mo_metrics *M, mo_chatter_input *in)
+{
+  double osc = M->tv_gone;
+  int a, ns = M->nsign_gone;
+  for (a = 0; a < M->nc; a++) {
+    if (M->tv[a] > osc) osc = M->tv[a];
+    if (M->nsign[a] > ns) ns = M->nsign[a];
+  }
+  in->impact_velocity = M->vimpact;
+  in->velocity_scale = M->vscale;
+  in->max_vn_in_contact = M->max_vn_closed;
+  in->oscillation_index = M->vscale > 0 ? osc / M->vscale : 0;
+  in->vn_sign_changes = ns;
+}
+
+/* (T97): the contact chatters when, between two bearing steps, the normal velocity reaches
+   MO_CHATTER_VN_REL of the impact velocity, or its total variation MO_CHATTER_OSC_REL of it, or
+   it changes sign MO_CHATTER_SIGN_CHANGES times (each side above MO_CHATTER_VN_FLOOR of it). The
+   exact solution of a bearing contact has [v_n] = 0: all three vanish. */
+int mo_chatter_verdict(const mo_chatter_input *in, char *why, size_t n)
+{
+  double V = in->impact_velocity > 0 ? in->impact_velocity : in->velocity_scale;
+  double vn, osc, ns = in->vn_sign_changes;
+  int chatter;
+  if (why && n) why[0] = '\0';
+  if (!(V > 0) || !isfinite(V)) return 0;   /* nothing moved toward a contact: no scale */
+  vn = in->max_vn_in_contact / V;
+  osc = in->oscillation_index * in->velocity_scale / V;
+  if (isnan(vn)) vn = 0;
+  if (isnan(osc)) osc = 0;
+  if (isnan(ns)) ns = 0;
+  chatter = vn > MO_CHATTER_VN_REL || osc > MO_CHATTER_OSC_REL || ns >= MO_CHATTER_SIGN_CHANGES;
+  if (why && n)
+    snprintf(why, n, "max |v_n| while closed %.3g of the %s %.3g m/s%s, variation %.3g%s, %.0f sign changes%s",
+             vn, in->impact_velocity > 0 ? "impact velocity" : "velocity scale", V,
+             vn > MO_CHATTER_VN_REL ? " (> " MO_STR(MO_CHATTER_VN_REL) ")" : "", osc,
+             osc > MO_CHATTER_OSC_REL ? " (> " MO_STR(MO_CHATTER_OSC_REL) ")" : "", ns,
+             ns >= MO_CHATTER_SIGN_CHANGES ? " (>= " MO_STR(MO_CHATTER_SIGN_CHANGES) ")" : "");
+  return chatter;
 }
