@@ -1560,7 +1560,7 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
         }
       }
       sb_printf(&b, "`time.theta` varies alone: `time.theta_f` stays at the case's value (%g) in every run, so a "
-                "run with theta != %g is a mixed scheme (doc/theory.md §4), not the theta-method with theta_f = theta; "
+                "run with theta != %g is a mixed scheme (doc/theory.md (T1)), not the theta-method with theta_f = theta; "
                 "vary `time.theta_f` too (or `--set time.theta_f=...`) for that.\n\n", thf, thf);
     }
   }
@@ -1629,7 +1629,7 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
       if (R->dup_of >= 0) continue;
       sb_printf(&b, "| %s | %s | %g |", R->label, R->solver, R->dt);
       if (R->nrep) sb_printf(&b, " %.3g (%.3g-%.3g, %d runs) |", R->tmed, R->tmin, R->tmax, R->nrep);
-      else if (r >= nown && R->wall > 0) sb_printf(&b, " %.3g (peer's wall) |", R->wall);
+      else if (r >= nown && R->wall > 0) sb_printf(&b, " %.3f (peer's wall) |", R->wall);
       else sb_printf(&b, " - |");
       {
         /* a bar inside a table cell is escaped */
