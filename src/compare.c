@@ -1384,7 +1384,7 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
                     "set xlabel 't [s]'\nset ylabel '%s'\nset title '%s'\n", probe,
                     any_exact ? ", and the closed form" : " (the case has no closed form)", qlabel[qk], probe);
           for (k = 0; k < 2; k++) {
-            int drawn_exact = 0;
+            int drawn_exact = 0, exact_run = 0, exact_col = 0;
             set_terminal(&gp, fig, k);
             sb_printf(&gp, "plot ");
             first = 1;
@@ -1399,11 +1399,15 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
               first = 0;
               ce = csv_column(h, ex);
               if (ce && !drawn_exact) {
-                sb_printf(&gp, ", '../runs/%s/history.csv' using 1:%d with lines lw 1 lc rgb 'black' title 'closed form'",
-                          rows[rb].label, ce);
+                exact_run = rb;
+                exact_col = ce;
                 drawn_exact = 1;
               }
             }
+            /* the closed form last, in black, under the back ends' curves in the key */
+            if (drawn_exact)
+              sb_printf(&gp, ", '../runs/%s/history.csv' using 1:%d with lines lw 1 lc rgb 'black' title 'closed form'",
+                        rows[exact_run].label, exact_col);
             sb_printf(&gp, "\n");
           }
           if (!first) {
