@@ -48,6 +48,8 @@ struct mo_metrics {
   int started;
 };
 
+static double restitution(const mo_metrics *M);
+
 void mo_metrics_free(mo_metrics *M)
 {
   if (!M) return;
@@ -267,7 +269,7 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
         if (M->incontact[a]) {
           /* a sign change counts when both velocities stand above the floor: round-off about
              [v_n] = 0 is no oscillation (T97) */
-          double floor = MO_CHATTER_VN_FLOOR * M->vimpact;
+          double floor = MO_CHATTER_VN_FLOOR * (M->vimpact > M->vscale ? M->vimpact : M->vscale);
           if (fabs(un) > M->max_vn_closed) M->max_vn_closed = fabs(un);
           M->tv[a] += fabs(un - M->Unprev[a]);
           if ((un > floor && M->Unprev[a] < -floor) || (un < -floor && M->Unprev[a] > floor)) M->nsign[a]++;
@@ -328,6 +330,7 @@ json_t *mo_metrics_json(const mo_metrics *M)
     json_object_set_new(c, "velocity_scale", json_real(M->vscale));
     json_object_set_new(c, "oscillation_index", json_real(M->vscale > 0 ? osc / M->vscale : 0));
     json_object_set_new(c, "impact_velocity", json_real(M->vimpact));
+    json_object_set_new(c, "restitution", json_real(restitution(M)));
     {
       int ns = M->nsign_gone;
       for (a = 0; a < M->nc; a++) if (M->nsign[a] > ns) ns = M->nsign[a];
@@ -365,6 +368,19 @@ json_t *mo_metrics_json(const mo_metrics *M)
   return j;
 }
 
+/* The largest restitution of the pairs under Newton's impact law (T71), 0 without one. */
+static double restitution(const mo_metrics *M)
+{
+  double e = 0;
+  int k;
+  if (!M->C) return 0;
+  for (k = 0; k < mo_contact_npairs(M->C); k++) {
+    const mo_contact_pair *p = mo_contact_pair_get(M->C, k);
+    if (p->law == MO_LAW_NEWTON && p->e > e) e = p->e;
+  }
+  return e;
+}
+
 void mo_metrics_chatter_input(const mo_metrics *M, mo_chatter_input *in)
 {
   double osc = M->tv_gone;
@@ -378,30 +394,41 @@ void mo_metrics_chatter_input(const mo_metrics *M, mo_chatter_input *in)
   in->max_vn_in_contact = M->max_vn_closed;
   in->oscillation_index = M->vscale > 0 ? osc / M->vscale : 0;
   in->vn_sign_changes = ns;
+  in->restitution = restitution(M);
 }
 
 /* (T97): the contact chatters when, between two bearing steps, the normal velocity reaches
-   MO_CHATTER_VN_REL of the impact velocity, or its total variation MO_CHATTER_OSC_REL of it, or
-   it changes sign MO_CHATTER_SIGN_CHANGES times (each side above MO_CHATTER_VN_FLOOR of it). The
-   exact solution of a bearing contact has [v_n] = 0: all three vanish. */
+   MO_CHATTER_VN_REL of the impact velocity, or changes sign MO_CHATTER_SIGN_CHANGES times (each
+   side above MO_CHATTER_VN_FLOOR of it). The exact solution of a bearing contact has [v_n] = 0:
+   both vanish. */
 int mo_chatter_verdict(const mo_chatter_input *in, char *why, size_t n)
 {
-  double V = in->impact_velocity > 0 ? in->impact_velocity : in->velocity_scale;
+  double V = in->impact_velocity;
   double vn, osc, ns = in->vn_sign_changes;
   int chatter;
   if (why && n) why[0] = '\0';
-  if (!(V > 0) || !isfinite(V)) return 0;   /* nothing moved toward a contact: no scale */
+  if (in->restitution > 0) {
+    if (why && n)
+      snprintf(why, n, "Newton's restitution e = %.3g: a bearing step leaves U_n = -e U_n- by the law, no chatter "
+               "verdict", in->restitution);
+    return 0;
+  }
+  if (!(in->impact_velocity > 0) || !isfinite(V)) {
+    /* no landing (a contact closed from the start, a quasi-static scene): no impact velocity
+       to judge the bearing steps against */
+    if (why && n) snprintf(why, n, "no landing: no chatter verdict");
+    return 0;
+  }
   vn = in->max_vn_in_contact / V;
   osc = in->oscillation_index * in->velocity_scale / V;
   if (isnan(vn)) vn = 0;
   if (isnan(osc)) osc = 0;
   if (isnan(ns)) ns = 0;
-  chatter = vn > MO_CHATTER_VN_REL || osc > MO_CHATTER_OSC_REL || ns >= MO_CHATTER_SIGN_CHANGES;
+  chatter = vn > MO_CHATTER_VN_REL || ns >= MO_CHATTER_SIGN_CHANGES;
   if (why && n)
-    snprintf(why, n, "max |v_n| while closed %.3g of the %s %.3g m/s%s, variation %.3g%s, %.0f sign changes%s",
-             vn, in->impact_velocity > 0 ? "impact velocity" : "velocity scale", V,
-             vn > MO_CHATTER_VN_REL ? " (> " MO_STR(MO_CHATTER_VN_REL) ")" : "", osc,
-             osc > MO_CHATTER_OSC_REL ? " (> " MO_STR(MO_CHATTER_OSC_REL) ")" : "", ns,
-             ns >= MO_CHATTER_SIGN_CHANGES ? " (>= " MO_STR(MO_CHATTER_SIGN_CHANGES) ")" : "");
+    snprintf(why, n, "max |v_n| while closed %.3g of the impact velocity %.3g m/s%s, %.0f sign changes%s, "
+             "variation %.3g", vn, V,
+             vn > MO_CHATTER_VN_REL ? " (> " MO_STR(MO_CHATTER_VN_REL) ")" : "", ns,
+             ns >= MO_CHATTER_SIGN_CHANGES ? " (>= " MO_STR(MO_CHATTER_SIGN_CHANGES) ")" : "", osc);
   return chatter;
 }

@@ -28,24 +28,27 @@ json_t *mo_metrics_json(const mo_metrics *M);
 void mo_metrics_free(mo_metrics *M);
 
 /* Chatter (doc/theory.md (T97)): the thresholds, relative to the impact velocity V (the
-   largest approach |U_n| of a candidate's first landing; the velocity scale when no landing
-   was seen). */
-#define MO_CHATTER_VN_FLOOR 1e-3     /* a sign change counts when both sides exceed this x V */
+   largest approach |U_n| of a candidate's first landing; no verdict when nothing landed). */
+#define MO_CHATTER_VN_FLOOR 1e-3     /* a sign change counts when both sides exceed this x the
+                                        largest |U_n| so far */
 #define MO_CHATTER_VN_REL 0.05       /* max |U_n| between two bearing steps above this x V */
-#define MO_CHATTER_OSC_REL 0.5       /* its total variation (per candidate) above this x V */
 #define MO_CHATTER_SIGN_CHANGES 2    /* this many sign changes of U_n while bearing */
 #define MO_STR_(x) #x
 #define MO_STR(x) MO_STR_(x)
 
-/* The measures the verdict reads, as summary.json's metrics.contact names them. */
+/* The measures the verdict reads, as summary.json's metrics.contact names them (the
+   oscillation index is reported with them, not judged: it also counts the landing that follows
+   a grazing step). */
 typedef struct {
   double impact_velocity, velocity_scale, max_vn_in_contact, oscillation_index, vn_sign_changes;
+  double restitution;        /* the largest Newton restitution e of the pairs (0: none) */
 } mo_chatter_input;
 
 /* A run's chatter measures (the values metrics.contact of summary.json holds). */
 void mo_metrics_chatter_input(const mo_metrics *M, mo_chatter_input *in);
 /* A pure function of the measures: 1 when the contact chatters (T97), else 0; why (n bytes,
-   may be NULL) says the measures against the thresholds. */
+   may be NULL) says the measures against the thresholds. Pairs with Newton's restitution
+   e > 0 bounce by their law: no verdict (0, and why says so). */
 int mo_chatter_verdict(const mo_chatter_input *in, char *why, size_t n);
 
 #endif
