@@ -304,8 +304,8 @@ static void csv_field(sbuf *b, const char *v)
   sb_printf(b, "\"");
 }
 
-/* Axes of a stability map. A numeric parameter spanning two decades or more (positive) gets a
-   log axis; a parameter with a non-numeric value (a scheme name, say) is plotted at the index
+/* Axes of a stability map. A time step, or a numeric parameter spanning a decade (positive),
+   gets a log axis; a parameter with a non-numeric value (a scheme name, say) is plotted at the index
    of its value, labelled. */
 static int vary_numeric(const mo_compare_vary *V, double *lo, double *hi)
 {
@@ -340,7 +340,8 @@ static void axis_setup(sbuf *gp, const mo_compare_vary *V, char axis)
   double lo, hi;
   int k;
   if (vary_numeric(V, &lo, &hi)) {
-    if (lo > 0 && hi >= 100 * lo) sb_printf(gp, "set logscale %c\nset format %c '%%.0e'\n", axis, axis);
+    /* a time step, or a positive parameter spanning a decade: a log axis */
+    if (lo > 0 && (hi >= 8 * lo || !strcmp(V->key, "time.dt"))) sb_printf(gp, "set logscale %c\nset format %c '%%.0e'\n", axis, axis);
     return;
   }
   sb_printf(gp, "set %ctics (", axis);
@@ -1486,9 +1487,18 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
                   two ? opt->vary[1].key : ydt ? "h [s]" : "", rows[i * ndt * ngrid].solver);
         axis_setup(&gp, &opt->vary[0], 'x');
         if (two) axis_setup(&gp, &opt->vary[1], 'y');
-        else if (ydt) sb_printf(&gp, "set logscale y\nset format y '%%.0e'\n");
+        else if (ydt) {
+          double lo = HUGE_VAL, hi = 0;
+          for (k = 0; k < ndt; k++) {
+            if (dts[k] < lo) lo = dts[k];
+            if (dts[k] > hi) hi = dts[k];
+          }
+          sb_printf(&gp, "set logscale y\nset yrange [%.6g:%.6g]\nset ytics (", lo / 1.6, hi * 1.6);
+          for (k = 0; k < ndt; k++) sb_printf(&gp, "%s'%g' %.6g", k ? ", " : "", dts[k], dts[k]);
+          sb_printf(&gp, ")\n");
+        }
         else sb_printf(&gp, "unset ytics\n");
-        sb_printf(&gp, "set offsets graph 0.08, graph 0.08, graph 0.1, graph 0.1\n");
+        sb_printf(&gp, ydt ? "set offsets graph 0.08, graph 0.08, 0, 0\n" : "set offsets graph 0.08, graph 0.08, graph 0.1, graph 0.1\n");
         for (j = 0; j < 2; j++) {
           set_terminal(&gp, fig, j);
           sb_printf(&gp, "plot ");
