@@ -5,6 +5,8 @@
 #include <moreau/output.h>
 #include <moreau/run.h>
 
+#include "metrics.h"
+
 #include <errno.h>
 #include <jansson.h>
 #include <math.h>
@@ -22,9 +24,14 @@ typedef struct {
   char vary[MO_COMPARE_MAX_VARY][128];  /* value of each varied key */
   int status;                /* MO_OK or the error code */
   char reason[512];
-  char cls[32];              /* stable, unstable, failure */
-  char why[256];
+  char cls[32];              /* stable, chatter, unstable, failed (doc/theory.md (T97)) */
+  char why[512];
   double wall;
+  double tmin, tmed, tmax;   /* step times over the repeats (s): setup and output left out (T99) */
+  int nrep;                  /* runs of this cell */
+  int dup_of;                /* a cell not run: the row whose run it shares (the back end ignores a
+                                varied key), -1 otherwise */
+  unsigned ignored;          /* bit k: the back end ignores varied key k */
   long steps;
   double val[MAX_COLS];      /* flattened metrics, NaN when absent */
   double dt_crit;            /* summary.json time.dt_crit (doc/theory.md (T102)), NaN when absent */
@@ -165,7 +172,7 @@ static void classify(run_row *r, const colset *C, double pen_rel)
       snprintf(r->cls, sizeof r->cls, "unstable");
       snprintf(r->why, sizeof r->why, "energy growth %.2g %%, then the run stopped: %s", 100 * growth, why);
     } else {
-      snprintf(r->cls, sizeof r->cls, "failure");
+      snprintf(r->cls, sizeof r->cls, "failed");
       snprintf(r->why, sizeof r->why, "%s", why);
     }
     return;
@@ -173,6 +180,21 @@ static void classify(run_row *r, const colset *C, double pen_rel)
   {
     double growth = colval(r, C, "energy.max_growth"), pen = colval(r, C, "contact.max_penetration");
     double hmin = colval(r, C, "scene.hmin");
+    mo_chatter_input ci;
+    char cwhy[300] = "";
+    int chatter = 0;
+    /* the contact measures of metrics.contact (T50), when the scene has contact */
+    ci.impact_velocity = colval(r, C, "contact.impact_velocity");
+    ci.velocity_scale = colval(r, C, "contact.velocity_scale");
+    ci.max_vn_in_contact = colval(r, C, "contact.max_vn_in_contact");
+    ci.oscillation_index = colval(r, C, "contact.oscillation_index");
+    ci.vn_sign_changes = colval(r, C, "contact.vn_sign_changes");
+    ci.restitution = colval(r, C, "contact.restitution");
+    if (isnan(ci.restitution)) ci.restitution = 0;
+    if (!isnan(ci.velocity_scale)) {
+      if (isnan(ci.impact_velocity)) ci.impact_velocity = 0;
+      chatter = mo_chatter_verdict(&ci, cwhy, sizeof cwhy);
+    }
     if (isnan(colval(r, C, "energy.final")) || isnan(growth)) {
       snprintf(r->cls, sizeof r->cls, "unstable");
       snprintf(r->why, sizeof r->why, "non-finite energy");
@@ -186,9 +208,14 @@ static void classify(run_row *r, const colset *C, double pen_rel)
                  pen, pen / hmin, r->pen_landing);
       else
         snprintf(r->why, sizeof r->why, "penetration %.3g (%.2g of the smallest element)", pen, pen / hmin);
+    } else if (chatter) {
+      snprintf(r->cls, sizeof r->cls, "chatter");
+      snprintf(r->why, sizeof r->why, "%s", cwhy);
     } else {
+      /* stable, and why: what was measured against the thresholds */
       snprintf(r->cls, sizeof r->cls, "stable");
-      r->why[0] = '\0';
+      snprintf(r->why, sizeof r->why, "energy growth %.2g %% (<= 1 %%)%s%s", 100 * (growth > 0 ? growth : 0),
+               cwhy[0] ? "; " : "", cwhy);
     }
   }
 }
@@ -213,10 +240,21 @@ static int pick_metric(const colset *C, const char *want)
   /* rigid bodies: the error of a position of the centre (BODY.x, .y, .z) */
   for (k = 0; k < C->n; k++) {
     size_t l = strlen(C->name[k]);
-    if (l > 9 && (!strcmp(C->name[k] + l - 9, ".x.l2_rel") || !strcmp(C->name[k] + l - 9, ".y.l2_rel") ||
-                  !strcmp(C->name[k] + l - 9, ".z.l2_rel")))
+    if (strncmp(C->name[k], "ref.", 4) && l > 9 &&
+        (!strcmp(C->name[k] + l - 9, ".x.l2_rel") || !strcmp(C->name[k] + l - 9, ".y.l2_rel") ||
+         !strcmp(C->name[k] + l - 9, ".z.l2_rel")))
       return k;
   }
+  /* no closed form: the distance to the finest run (T98), a displacement or position first */
+  for (k = 0; k < C->n; k++) {
+    size_t l = strlen(C->name[k]);
+    if (!strncmp(C->name[k], "ref.", 4) && l > 10 &&
+        (strstr(C->name[k], ".ux.l2_rel") || strstr(C->name[k], ".uy.l2_rel") || strstr(C->name[k], ".uz.l2_rel") ||
+         !strcmp(C->name[k] + l - 9, ".x.l2_rel") || !strcmp(C->name[k] + l - 9, ".y.l2_rel")))
+      return k;
+  }
+  for (k = 0; k < C->n; k++)
+    if (!strncmp(C->name[k], "ref.", 4) && strstr(C->name[k], ".l2_rel")) return k;
   return -1;
 }
 
@@ -271,8 +309,8 @@ static void csv_field(sbuf *b, const char *v)
   sb_printf(b, "\"");
 }
 
-/* Axes of a stability map. A numeric parameter spanning two decades or more (positive) gets a
-   log axis; a parameter with a non-numeric value (a scheme name, say) is plotted at the index
+/* Axes of a stability map. A time step, or a numeric parameter spanning a decade (positive),
+   gets a log axis; a parameter with a non-numeric value (a scheme name, say) is plotted at the index
    of its value, labelled. */
 static int vary_numeric(const mo_compare_vary *V, double *lo, double *hi)
 {
@@ -307,7 +345,8 @@ static void axis_setup(sbuf *gp, const mo_compare_vary *V, char axis)
   double lo, hi;
   int k;
   if (vary_numeric(V, &lo, &hi)) {
-    if (lo > 0 && hi >= 100 * lo) sb_printf(gp, "set logscale %c\nset format %c '%%.0e'\n", axis, axis);
+    /* a time step, or a positive parameter spanning a decade: a log axis */
+    if (lo > 0 && (hi >= 8 * lo || !strcmp(V->key, "time.dt"))) sb_printf(gp, "set logscale %c\nset format %c '%%.0e'\n", axis, axis);
     return;
   }
   sb_printf(gp, "set %ctics (", axis);
@@ -350,6 +389,13 @@ static void set_terminal(sbuf *gp, const char *name, int svg)
 {
   sb_printf(gp, svg ? "set terminal svg noenhanced size 900,600\nset output '%s.svg'\n"
                     : "set terminal pngcairo noenhanced size 900,600\nset output '%s.png'\n", name);
+}
+
+/* The colour of the i-th back end in every figure (with its own marker and dash pattern). */
+static const char *colour(int i)
+{
+  static const char *c[] = {"#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#17becf", "#7f7f7f"};
+  return c[i % 8];
 }
 
 /* Keep the script of figure `name` as plots/NAME.gp and render it: 1 when gnuplot drew it. */
@@ -605,9 +651,12 @@ static int peers_merge(const peer_set *P, colset *C, run_row *dst, double pen_re
       R->val[c] = P->row[r].val[k];
     }
     snprintf(R->label, sizeof R->label, "%s-dt%g (external)", R->solver, R->dt);
+    R->dup_of = -1;
+    R->nrep = 0;
+    R->tmin = R->tmed = R->tmax = NAN;
     R->outdir[0] = '\0';
     if (R->status) {
-      snprintf(R->cls, sizeof R->cls, "failure");
+      snprintf(R->cls, sizeof R->cls, "failed");
       snprintf(R->why, sizeof R->why, "%s", R->reason[0] ? R->reason : "failed (the peer gives no reason)");
     } else if (isnan(colval(R, C, "energy.final")) && isnan(colval(R, C, "energy.max_growth"))) {
       snprintf(R->cls, sizeof R->cls, "unclassified");
@@ -640,6 +689,311 @@ static void peers_plot(sbuf *gp, const run_row *rows, int n, int metric_col, con
   }
 }
 
+/* Whether back end `solver` ignores case key `key`, so that the cells of a grid that differ in
+   that key alone are one run: the options of another back end (contact.OTHER.*), and the
+   theta-scheme's keys for a back end that runs its own scheme (newmark's time_scheme). The
+   back end's name is the part of `solver` before a ':' or '[' (a preset, a labelled entry). */
+static int solver_ignores(const char *solver, const char *key)
+{
+  char base[64], other[64];
+  const mo_contact_solver_type *T;
+  size_t n = strcspn(solver, ":[");
+  if (n >= sizeof base) return 0;
+  memcpy(base, solver, n);
+  base[n] = '\0';
+  if (!(T = mo_contact_solver_find(base))) return 0;  /* "case", or a name the run will reject */
+  if (!strncmp(key, "contact.", 8)) {
+    size_t m = strcspn(key + 8, ".");
+    if (key[8 + m] != '.' || m >= sizeof other) return 0;
+    memcpy(other, key + 8, m);
+    other[m] = '\0';
+    return strcmp(other, base) && mo_contact_solver_find(other) != NULL;
+  }
+  if (!strcmp(key, "time.theta") || !strcmp(key, "time.theta_f")) {
+    mo_time_settings ts;
+    void *params;
+    int own = 0;
+    if (!T->time_scheme) return 0;
+    if (!(params = calloc(1, T->params_size ? T->params_size : 1))) return 0;
+    if (T->defaults) T->defaults(params);
+    memset(&ts, 0, sizeof ts);
+    ts.scheme = MO_SCHEME_THETA;
+    if (!T->time_scheme(params, &ts, NULL)) own = ts.scheme != MO_SCHEME_THETA;
+    free(params);
+    return own;
+  }
+  return 0;
+}
+
+/* Step times of the runs of a cell so far: another run when --repeat N asks for more, or (N = 0)
+   until the median is stable, (T99): at least 3 runs, at most MAX_REPEAT, stopping when the
+   last run moved the median by less than REPEAT_TOL of it, or when the cell's runs took
+   REPEAT_BUDGET seconds (a run that long has a small spread of its own). */
+#define MAX_REPEAT 5      /* adaptive */
+#define REPEAT_CAP 20     /* --repeat N */
+#define REPEAT_TOL 0.05
+#define REPEAT_BUDGET 5.0
+
+static double median(const double *x, int n)
+{
+  double y[REPEAT_CAP];
+  int i, j;
+  for (i = 0; i < n; i++) {
+    double v = x[i];
+    for (j = i; j > 0 && y[j - 1] > v; j--) y[j] = y[j - 1];
+    y[j] = v;
+  }
+  return n % 2 ? y[n / 2] : 0.5 * (y[n / 2 - 1] + y[n / 2]);
+}
+
+static int repeat_more(const double *t, int n, double spent, int want)
+{
+  double m, mprev;
+  if (want > 0) return n < (want < REPEAT_CAP ? want : REPEAT_CAP);
+  if (n >= MAX_REPEAT || spent >= REPEAT_BUDGET) return 0;
+  if (n < 3) return 1;
+  m = median(t, n);
+  mprev = median(t, n - 1);
+  return fabs(m - mprev) > REPEAT_TOL * m;
+}
+
+/* --- references without a closed form, and observed orders (doc/theory.md (T98)) ------------ */
+
+/* A run's history.csv as numbers: ncol names and nrow rows of ncol values. */
+typedef struct {
+  int ncol, nrow;
+  char (*name)[96];
+  double *v;
+} history;
+
+static void history_free(history *h)
+{
+  free(h->name);
+  free(h->v);
+  memset(h, 0, sizeof *h);
+}
+
+static int history_read(const char *outdir, history *h)
+{
+  char path[1200], *line = NULL, *cell[MAX_COLS];
+  size_t cap = 0, vcap = 0;
+  FILE *f;
+  int n, k;
+  memset(h, 0, sizeof *h);
+  snprintf(path, sizeof path, "%s/history.csv", outdir);
+  if (!(f = fopen(path, "r"))) return 0;
+  if (getline(&line, &cap, f) < 0 || (n = csv_split(line, cell, MAX_COLS)) < 2 || !(h->name = calloc((size_t)n, sizeof *h->name)))
+    goto fail;
+  h->ncol = n;
+  for (k = 0; k < n; k++) snprintf(h->name[k], sizeof h->name[k], "%s", cell[k]);
+  while (getline(&line, &cap, f) >= 0) {
+    if (csv_split(line, cell, MAX_COLS) != h->ncol) continue;
+    if ((size_t)(h->nrow + 1) * (size_t)h->ncol > vcap) {
+      size_t nc = vcap ? 2 * vcap : 1024 * (size_t)h->ncol;
+      double *p = realloc(h->v, nc * sizeof *p);
+      if (!p) goto fail;
+      h->v = p;
+      vcap = nc;
+    }
+    for (k = 0; k < h->ncol; k++) h->v[(size_t)h->nrow * (size_t)h->ncol + (size_t)k] = strtod(cell[k], NULL);
+    h->nrow++;
+  }
+  fclose(f);
+  free(line);
+  return h->nrow > 0;
+fail:
+  fclose(f);
+  free(line);
+  history_free(h);
+  return 0;
+}
+
+static int history_col(const history *h, const char *name)
+{
+  int k;
+  for (k = 1; k < h->ncol; k++)
+    if (!strcmp(h->name[k], name)) return k;
+  return -1;
+}
+
+/* Column c of h at time t, linear between rows (t within the rows' span), NaN outside. */
+static double history_at(const history *h, int c, double t)
+{
+  int lo = 0, hi = h->nrow - 1, m;
+  const double *v = h->v;
+  size_t nc = (size_t)h->ncol;
+  double t0 = v[0], t1 = v[(size_t)hi * nc], tol = 1e-9 * (fabs(t1) + fabs(t0) + 1e-300);
+  if (t < t0 - tol || t > t1 + tol) return NAN;
+  while (hi - lo > 1) {
+    m = (lo + hi) / 2;
+    if (v[(size_t)m * nc] <= t) lo = m;
+    else hi = m;
+  }
+  {
+    double ta = v[(size_t)lo * nc], tb = v[(size_t)hi * nc], w;
+    if (fabs(t - ta) <= tol || hi == lo) return v[(size_t)lo * nc + (size_t)c];
+    if (fabs(t - tb) <= tol) return v[(size_t)hi * nc + (size_t)c];
+    w = (t - ta) / (tb - ta);
+    return (1 - w) * v[(size_t)lo * nc + (size_t)c] + w * v[(size_t)hi * nc + (size_t)c];
+  }
+}
+
+/* The quantities a reference run is compared on: the probes' and rigid bodies' columns (not
+   their closed forms, energies, or the contact diagnostics of the step). */
+static int compared_column(const char *name)
+{
+  static const char *skip[] = {"energy.", "contact.", "newton.", "time.", "rigid."};
+  size_t k, l = strlen(name);
+  if (!strchr(name, '.') || (l > 6 && !strcmp(name + l - 6, ".exact"))) return 0;
+  for (k = 0; k < sizeof skip / sizeof skip[0]; k++)
+    if (!strncmp(name, skip[k], strlen(skip[k]))) return 0;
+  return 1;
+}
+
+#define MAX_REF_COLS 12
+
+/* The relative L2 distance of column ca of A and column cb of B over A's rows (B interpolated),
+   scaled by |B|; NaN when B vanishes there or they share no times. */
+static double history_distance(const history *A, int ca, const history *B, int cb)
+{
+  double e = 0, n = 0;
+  int i, m = 0;
+  for (i = 0; i < A->nrow; i++) {
+    double t = A->v[(size_t)i * (size_t)A->ncol], y = A->v[(size_t)i * (size_t)A->ncol + (size_t)ca];
+    double yr = history_at(B, cb, t);
+    if (!isfinite(yr) || !isfinite(y)) continue;
+    e += (y - yr) * (y - yr);
+    n += yr * yr;
+    m++;
+  }
+  return m && n > 0 ? sqrt(e / n) : NAN;
+}
+
+/* Richardson (T98): the order p with (h1^p - h2^p) / (h2^p - h3^p) = d12 / d23 (for h1/h2 =
+   h2/h3 = r, p = log(d12/d23) / log r); NaN when the differences do not shrink. */
+static double richardson(double h1, double h2, double h3, double d12, double d23)
+{
+  double q, lo = 1e-3, hi = 20, r1 = h1 / h2, r2 = h2 / h3;
+  int it;
+  if (!(d12 > 0) || !(d23 > 0) || !isfinite(d12) || !isfinite(d23) || !(r1 > 1) || !(r2 > 1)) return NAN;
+  q = d12 / d23;
+  if (fabs(r1 - r2) < 1e-9 * r1) return q > 1 ? log(q) / log(r1) : NAN;
+  /* f(p) = r2^p (r1^p - 1) / (r2^p - 1) increases with p */
+#define RF(p) (pow(r2, p) * (pow(r1, p) - 1) / (pow(r2, p) - 1))
+  if (q <= RF(lo) || q >= RF(hi)) return NAN;
+  for (it = 0; it < 200; it++) {
+    double m = 0.5 * (lo + hi);
+    if (RF(m) < q) lo = m;
+    else hi = m;
+  }
+#undef RF
+  return 0.5 * (lo + hi);
+}
+
+typedef struct {
+  int row;                 /* the run with the finest step of the triple */
+  char metric[96];         /* the history column */
+  double h[3], d12, d23, p;
+} order_rec;
+
+typedef struct {
+  int n, cap;
+  order_rec *o;
+} order_set;
+
+/* For every back end and grid point: the run with the smallest step is the reference of the
+   others (columns ref.COL.l2_rel and ref.dt), and every three successive steps give an observed
+   order per compared column. */
+static int references(run_row *rows, int nrun, int nsol, int ndt, int ngrid, colset *C, order_set *O, mo_ctx *ctx)
+{
+  int si, gi, st = MO_OK;
+  int *idx = mo_malloc(ctx, (size_t)ndt * sizeof *idx);
+  history *hs = mo_calloc(ctx, (size_t)ndt, sizeof *hs);
+  if (!idx || !hs) { mo_free(idx); mo_free(hs); return MO_ENOMEM; }
+  for (si = 0; si < nsol; si++)
+    for (gi = 0; gi < ngrid; gi++) {
+      int n = 0, di, a, bb, c, ncmp = 0, cols[MAX_REF_COLS];
+      const history *ref;
+      for (di = 0; di < ndt; di++) {
+        int r = si * ndt * ngrid + di * ngrid + gi;
+        if (r >= nrun || rows[r].dup_of >= 0 || rows[r].status || !(rows[r].dt > 0)) continue;
+        idx[n++] = r;
+      }
+      /* coarsest first */
+      for (a = 1; a < n; a++)
+        for (bb = a; bb > 0 && rows[idx[bb - 1]].dt < rows[idx[bb]].dt; bb--) {
+          int t = idx[bb];
+          idx[bb] = idx[bb - 1];
+          idx[bb - 1] = t;
+        }
+      if (n < 2) continue;
+      for (a = 0; a < n; a++)
+        if (!history_read(rows[idx[a]].outdir, &hs[a])) break;
+      if (a < n) {
+        for (bb = 0; bb < n; bb++) history_free(&hs[bb]);
+        continue;
+      }
+      ref = &hs[n - 1];
+      for (c = 1; c < ref->ncol && ncmp < MAX_REF_COLS; c++)
+        if (compared_column(ref->name[c])) cols[ncmp++] = c;
+      for (a = 0; a < n; a++) {
+        int kd = col_index(C, "ref.dt");
+        if (kd >= 0) rows[idx[a]].val[kd] = rows[idx[n - 1]].dt;
+        if (a == n - 1) continue;
+        for (c = 0; c < ncmp; c++) {
+          char name[96];
+          int ca = history_col(&hs[a], ref->name[cols[c]]), k;
+          if (ca < 0) continue;
+          snprintf(name, sizeof name, "ref.%s.l2_rel", ref->name[cols[c]]);
+          if ((k = col_index(C, name)) >= 0) rows[idx[a]].val[k] = history_distance(&hs[a], ca, ref, cols[c]);
+        }
+      }
+      for (a = 0; a + 2 < n; a++)
+        for (c = 0; c < ncmp; c++) {
+          const char *nm = ref->name[cols[c]];
+          int c1 = history_col(&hs[a], nm), c2 = history_col(&hs[a + 1], nm), c3 = history_col(&hs[a + 2], nm);
+          order_rec *o;
+          double n3 = 0, e12 = 0, e23 = 0;
+          int i;
+          if (c1 < 0 || c2 < 0 || c3 < 0) continue;
+          /* both differences on the coarsest run's times */
+          for (i = 0; i < hs[a].nrow; i++) {
+            double t = hs[a].v[(size_t)i * (size_t)hs[a].ncol], y1 = hs[a].v[(size_t)i * (size_t)hs[a].ncol + (size_t)c1];
+            double y2 = history_at(&hs[a + 1], c2, t), y3 = history_at(&hs[a + 2], c3, t);
+            if (!isfinite(y1) || !isfinite(y2) || !isfinite(y3)) continue;
+            e12 += (y1 - y2) * (y1 - y2);
+            e23 += (y2 - y3) * (y2 - y3);
+            n3 += y3 * y3;
+          }
+          if (!(n3 > 0)) continue;
+          if (O->n == O->cap) {
+            int nc = O->cap ? 2 * O->cap : 64;
+            order_rec *p = mo_realloc(ctx, O->o, (size_t)nc * sizeof *p);
+            if (!p) { st = MO_ENOMEM; goto out; }
+            O->o = p;
+            O->cap = nc;
+          }
+          o = &O->o[O->n++];
+          o->row = idx[a + 2];
+          snprintf(o->metric, sizeof o->metric, "%s", nm);
+          o->h[0] = rows[idx[a]].dt;
+          o->h[1] = rows[idx[a + 1]].dt;
+          o->h[2] = rows[idx[a + 2]].dt;
+          o->d12 = sqrt(e12 / n3);
+          o->d23 = sqrt(e23 / n3);
+          /* distances at round-off: no time error to measure (a quantity the scheme gets exactly) */
+          o->p = o->d12 < 1e-11 || o->d23 < 1e-11 ? NAN : richardson(o->h[0], o->h[1], o->h[2], o->d12, o->d23);
+        }
+    out:
+      for (a = 0; a < n; a++) history_free(&hs[a]);
+      if (st) goto done;
+    }
+done:
+  mo_free(idx);
+  mo_free(hs);
+  return st;
+}
+
 int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ctx)
 {
   int nsol = opt->nsolver ? opt->nsolver : 1, ndt = opt->ndt ? opt->ndt : 1, ngrid = 1, i, j, k, st = MO_OK;
@@ -648,11 +1002,30 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
   colset *C = NULL, *H = NULL;
   const char **sets = NULL;
   peer_set P;
+  order_set O = {0, 0, NULL};
   char dir[1024], path[1400], stopmsg[MO_ERRMSG_MAX];
+  double dtl[65];
+  const double *dts = opt->dt;
   sbuf b = {NULL, 0, 0, 0};
+  memset(res, 0, sizeof *res);
+  /* --reference DT: one more step, the finest (T98) */
+  if (opt->reference_dt > 0) {
+    if (!opt->ndt || opt->ndt >= 64)
+      return mo_error(ctx, MO_EINPUT, "compare: --reference needs the sweep's time steps (--dt h1,h2,..., at most 63)");
+    for (k = 0; k < opt->ndt; k++) {
+      if (!(opt->reference_dt < opt->dt[k]))
+        return mo_error(ctx, MO_EINPUT, "compare: --reference %g is not smaller than the step %g of --dt", opt->reference_dt,
+                        opt->dt[k]);
+      dtl[k] = opt->dt[k];
+    }
+    dtl[k] = opt->reference_dt;
+    ndt = opt->ndt + 1;
+    dts = dtl;
+  }
+  if (opt->repeat < 0 || opt->repeat > REPEAT_CAP)
+    return mo_error(ctx, MO_EINPUT, "compare: --repeat %d: 1 to %d runs per cell (0: adaptive)", opt->repeat, REPEAT_CAP);
   for (k = 0; k < opt->nvary; k++) ngrid *= opt->vary[k].nval;
   nrun = nsol * ndt * ngrid;
-  memset(res, 0, sizeof *res);
   if (nrun > 10000) return mo_error(ctx, MO_ELIMIT, "compare: %d runs (more than 10000): a smaller grid, please", nrun);
   if ((st = peers_read(opt, &P, ctx))) return st;
   snprintf(dir, sizeof dir, "%s", opt->outdir);
@@ -666,19 +1039,22 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
   sets = mo_calloc(ctx, (size_t)opt->nset + (size_t)opt->nvary + 2, sizeof *sets);
   if (!rows || !C || !H || !sets) { st = MO_ENOMEM; goto done; }
 
-  /* run every (solver, dt, grid point) */
+  /* run every (solver, dt, grid point); a cell that differs from another only in keys its back
+     end ignores shares that cell's run (dup_of), marked, not run twice */
   for (r = 0; r < nrun; r++) {
     run_row *R = &rows[r];
-    int si = r / (ndt * ngrid), di = (r / ngrid) % ndt, gi = r % ngrid, g = gi, nset = 0;
+    int si = r / (ndt * ngrid), di = (r / ngrid) % ndt, gi = r % ngrid, g = gi, nset = 0, stride = 1, g0 = 0;
     char dtset[64], varyset[MO_COMPARE_MAX_VARY][512], lab[512];
+    double times[REPEAT_CAP], spent = 0;
     mo_run_options ro;
     mo_run_result rr;
     mo_ctx rc;
     for (k = 0; k < opt->nset; k++) sets[nset++] = opt->sets[k];
     snprintf(R->solver, sizeof R->solver, "%s", opt->nsolver ? opt->solvers[si] : "case");
-    R->dt = opt->ndt ? opt->dt[di] : NAN;
+    R->dt = opt->ndt ? dts[di] : NAN;
+    R->dup_of = -1;
     if (opt->ndt) {
-      snprintf(dtset, sizeof dtset, "time.dt=%.17g", opt->dt[di]);
+      snprintf(dtset, sizeof dtset, "time.dt=%.17g", dts[di]);
       sets[nset++] = dtset;
     }
     snprintf(lab, sizeof lab, "%s", R->solver);
@@ -688,11 +1064,27 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
       g /= opt->vary[k].nval;
       snprintf(R->vary[k], sizeof R->vary[k], "%s", opt->vary[k].val[vi]);
       snprintf(varyset[k], sizeof varyset[k], "%s=%s", opt->vary[k].key, opt->vary[k].val[vi]);
+      if (solver_ignores(R->solver, opt->vary[k].key)) R->ignored |= 1u << k;
+      else g0 += vi * stride; /* the cell with every ignored key at its first value */
+      stride *= opt->vary[k].nval;
+    }
+    if (g0 != gi) {
+      /* the run of cell g0 stands for this one: nothing to run */
+      run_row *D = &rows[r - gi + g0];
+      R->dup_of = r - gi + g0;
+      R->status = D->status;
+      snprintf(R->cls, sizeof R->cls, "%s", D->cls);
+      snprintf(R->why, sizeof R->why, "%s", D->why);
+      snprintf(R->label, sizeof R->label, "%s", D->label);
+      snprintf(R->outdir, sizeof R->outdir, "%s", D->outdir);
+      R->dt = D->dt;
+      continue;
     }
     for (k = 0; k < opt->nvary; k++) {
       const char *dot = strrchr(opt->vary[k].key, '.');
       sets[nset++] = varyset[k];
-      snprintf(lab + strlen(lab), sizeof lab - strlen(lab), "-%s%s", dot ? dot + 1 : opt->vary[k].key, R->vary[k]);
+      if (!(R->ignored & 1u << k))
+        snprintf(lab + strlen(lab), sizeof lab - strlen(lab), "-%s%s", dot ? dot + 1 : opt->vary[k].key, R->vary[k]);
     }
     slug(lab, R->label, sizeof R->label);
     if (snprintf(R->outdir, sizeof R->outdir, "%s/runs/%s", dir, R->label) >= (int)sizeof R->outdir) {
@@ -706,18 +1098,35 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
     ro.nset = nset;
     ro.outdir = R->outdir;
     ro.no_draw = 1;
-    mo_ctx_init(&rc);
-    rc.verbosity = 0;
-    rc.interrupt = ctx->interrupt;
-    R->status = mo_run(&ro, &rr, &rc);
-    R->wall = rr.wall;
-    R->steps = rr.steps;
+    /* the run, again until its step time's median is known (T99): the runs are deterministic,
+       each one rewrites the same outputs */
+    R->nrep = 0;
+    do {
+      mo_ctx_init(&rc);
+      rc.verbosity = 0;
+      rc.interrupt = ctx->interrupt;
+      R->status = mo_run(&ro, &rr, &rc);
+      R->wall = rr.wall;
+      R->steps = rr.steps;
+      spent += rr.wall;
+      if (R->status) break;
+      times[R->nrep++] = rr.step_wall;
+    } while (repeat_more(times, R->nrep, spent, opt->repeat) && !(ctx->interrupt && *ctx->interrupt));
+    if (R->nrep) {
+      R->tmin = R->tmax = times[0];
+      for (k = 1; k < R->nrep; k++) {
+        if (times[k] < R->tmin) R->tmin = times[k];
+        if (times[k] > R->tmax) R->tmax = times[k];
+      }
+      R->tmed = median(times, R->nrep);
+    } else
+      R->tmin = R->tmed = R->tmax = NAN; /* a failed run has no step time of a whole run */
     if (R->status && snprintf(R->reason, sizeof R->reason, "%s", rc.errmsg) >= (int)sizeof R->reason)
       R->reason[sizeof R->reason - 1] = '\0';
     read_summary(R, C, H);
     classify(R, C, opt->penetration_tol > 0 ? opt->penetration_tol : 0.01);
     if (ctx->verbosity >= 1)
-      fprintf(stderr, "[%d/%d] %-40s %8.3f s  %s%s%s\n", r + 1, nrun, R->label, R->wall, R->cls,
+      fprintf(stderr, "[%d/%d] %-40s %8.3f s  %s%s%s\n", r + 1, nrun, R->label, R->nrep ? R->tmed : R->wall, R->cls,
               R->why[0] ? ": " : "", R->why);
     if (R->status == MO_EINPUT || R->status == MO_EIO) {
       /* a case that does not load fails every run the same way: stop here */
@@ -735,28 +1144,40 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
      runs done so far are written */
   stop = st;
   if (stop) snprintf(stopmsg, sizeof stopmsg, "%s", ctx->errmsg);
-  res->nrun = nrun;
+  /* the cells run: a marked cell shares another's run (and its class) */
   for (r = 0; r < nrun; r++) {
+    if (rows[r].dup_of >= 0) {
+      res->nmarked++;
+      continue;
+    }
+    res->nrun++;
     if (!strcmp(rows[r].cls, "stable")) res->nstable++;
+    else if (!strcmp(rows[r].cls, "chatter")) res->nchatter++;
     else if (!strcmp(rows[r].cls, "unstable")) res->nunstable++;
     else res->nfailed++;
   }
+  /* the errors of every run against the finest of its sweep, and the observed orders (T98) */
+  if ((st = references(rows, nrun, nsol, ndt, ngrid, C, &O, ctx))) goto done;
 
-  /* compare.csv */
+  /* compare.csv: one row per run (a marked cell has none: its back end ignores a varied key,
+     whose cell reads "ignored") */
   sb_printf(&b, "solver,dt");
   for (k = 0; k < opt->nvary; k++) sb_printf(&b, ",%s", opt->vary[k].key);
-  sb_printf(&b, ",wall_s,steps,status,class,reason");
+  sb_printf(&b, ",wall_s,steps,status,class,reason,time_min_s,time_median_s,time_max_s,repeats");
   for (k = 0; k < C->n; k++) sb_printf(&b, ",%s", C->name[k]);
   sb_printf(&b, "\n");
   for (r = 0; r < nrun; r++) {
     run_row *R = &rows[r];
-    char why[600];
+    char why[1100];
     size_t q;
+    if (R->dup_of >= 0) continue;
     snprintf(why, sizeof why, "%s%s%s", R->why, R->status && R->why[0] ? ": " : "", R->status ? R->reason : "");
     for (q = 0; why[q]; q++) if (why[q] == ',' || why[q] == '\n' || why[q] == '"') why[q] = ';';
     sb_printf(&b, "%s,%.10g", R->solver, R->dt);
-    for (k = 0; k < opt->nvary; k++) csv_field(&b, R->vary[k]);
+    for (k = 0; k < opt->nvary; k++) csv_field(&b, R->ignored & 1u << k ? "ignored" : R->vary[k]);
     sb_printf(&b, ",%.6g,%ld,%s,%s,%s", R->wall, R->steps, R->status ? "failed" : "complete", R->cls, why);
+    if (R->nrep) sb_printf(&b, ",%.6g,%.6g,%.6g,%d", R->tmin, R->tmed, R->tmax, R->nrep);
+    else sb_printf(&b, ",,,,0");
     for (k = 0; k < C->n; k++) {
       if (isnan(R->val[k])) sb_printf(&b, ",");
       else sb_printf(&b, ",%.10g", R->val[k]);
@@ -776,14 +1197,34 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
       run_row *R = &rows[r];
       char why[600];
       size_t q;
+      if (R->dup_of >= 0) continue;
       snprintf(why, sizeof why, "%s", R->why);
       for (q = 0; why[q]; q++) if (why[q] == ',' || why[q] == '\n') why[q] = ';';
       sb_printf(&b, "%s,%.10g", R->solver, R->dt);
-      for (k = 0; k < opt->nvary; k++) csv_field(&b, R->vary[k]);
+      for (k = 0; k < opt->nvary; k++) csv_field(&b, R->ignored & 1u << k ? "ignored" : R->vary[k]);
       sb_printf(&b, ",%s,%s,%.6g,%.6g,%.6g\n", R->cls, why, colval(R, C, "energy.max_growth"),
                 colval(R, C, "contact.max_penetration"), R->wall);
     }
     if ((st = write_text(path, b.s, ctx))) goto done;
+  }
+  /* orders.csv: the observed order of every three successive steps (T98) */
+  {
+    snprintf(path, sizeof path, "%s/orders.csv", dir);
+    b.n = 0;
+    sb_printf(&b, "solver");
+    for (k = 0; k < opt->nvary; k++) sb_printf(&b, ",%s", opt->vary[k].key);
+    sb_printf(&b, ",metric,dt1,dt2,dt3,diff12,diff23,order\n");
+    for (k = 0; k < O.n; k++) {
+      const order_rec *o = &O.o[k];
+      const run_row *R = &rows[o->row];
+      sb_printf(&b, "%s", R->solver);
+      for (j = 0; j < opt->nvary; j++) csv_field(&b, R->ignored & 1u << j ? "ignored" : R->vary[j]);
+      sb_printf(&b, ",%s,%.10g,%.10g,%.10g,%.6g,%.6g,", o->metric, o->h[0], o->h[1], o->h[2], o->d12, o->d23);
+      if (isnan(o->p)) sb_printf(&b, "\n");
+      else sb_printf(&b, "%.4f\n", o->p);
+    }
+    if (b.err) { st = mo_error(ctx, MO_ENOMEM, "orders.csv"); goto done; }
+    if ((st = write_text(path, b.s ? b.s : "", ctx))) goto done;
   }
 
   /* the peers' rows follow the runs' (every loop below takes them; the figures' per-solver
@@ -792,66 +1233,131 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
   res->npeer = peers_merge(&P, C, rows + nrun, opt->penetration_tol > 0 ? opt->penetration_tol : 0.01);
   nrun += res->npeer;
 
-  /* figures: data files and gnuplot scripts (kept so that users restyle them) */
+  /* figures: data files and gnuplot scripts (kept so that users restyle them); each back end
+     with its own colour, marker and dash pattern, so that coinciding curves stay visible */
   metric_col = pick_metric(C, opt->metric);
   {
     int rendered = 0, nfig = 0;
-    /* 1. error against run time, one line per back end */
+    int closed = metric_col >= 0 && strncmp(C->name[metric_col], "ref.", 4);
+    char ylab[300];
     if (metric_col >= 0) {
-      sbuf gp = {NULL, 0, 0, 0};
-      sb_printf(&gp, "# work-precision: %s against wall time, one line per back end\n"
-                "set datafile separator ','\nset logscale xy\nset grid\nset key below\n"
-                "set xlabel 'wall time (s)'\nset ylabel '%s'\nset title 'error against run time'\n",
-                C->name[metric_col], C->name[metric_col]);
+      if (closed) snprintf(ylab, sizeof ylab, "%s (relative, against the closed form)", C->name[metric_col]);
+      else snprintf(ylab, sizeof ylab, "%s (relative, against the finest run)", C->name[metric_col]);
+    }
+    /* 1. error against the median step time, one line per back end, and 2. against the step */
+    if (metric_col >= 0) {
+      double t0 = NAN, e0 = NAN, h0 = NAN;
       for (i = 0; i < nsol; i++) {
         char f[1400], nm[128];
         sbuf dat = {NULL, 0, 0, 0};
         slug(rows[i * ndt * ngrid].solver, nm, sizeof nm);
-        for (r = 0; r < nrun; r++)
-          if (!strcmp(rows[r].solver, rows[i * ndt * ngrid].solver) && !rows[r].status && !isnan(rows[r].val[metric_col]) &&
-              rows[r].val[metric_col] > 0)
-            sb_printf(&dat, "%.6g,%.6g,%.6g\n", rows[r].wall, rows[r].val[metric_col], rows[r].dt);
+        /* one line per grid point (a blank line between them) */
+        for (j = 0; j < ngrid; j++) {
+          int any = 0;
+          for (k = 0; k < ndt; k++) {
+            r = i * ndt * ngrid + k * ngrid + j;
+            if (r < nown && rows[r].dup_of < 0 && !rows[r].status && !isnan(rows[r].val[metric_col]) &&
+                rows[r].val[metric_col] > 0 && rows[r].tmed > 0) {
+              sb_printf(&dat, "%s%.6g,%.6g,%.6g\n", any || !dat.s ? "" : "\n", rows[r].tmed, rows[r].val[metric_col],
+                        rows[r].dt);
+              any = 1;
+              if (isnan(t0)) { t0 = rows[r].tmed; e0 = rows[r].val[metric_col]; h0 = rows[r].dt; }
+            }
+          }
+        }
         snprintf(f, sizeof f, "%s/plots/work-precision-%s.csv", dir, nm);
         if (dat.s) write_text(f, dat.s, ctx);
         free(dat.s);
       }
-      set_terminal(&gp, "work-precision", 0);
-      sb_printf(&gp, "plot ");
-      for (i = 0; i < nsol; i++) {
-        char nm[128];
-        slug(rows[i * ndt * ngrid].solver, nm, sizeof nm);
-        sb_printf(&gp, "%s'work-precision-%s.csv' using 1:2 with linespoints lw 2 title '%s'", i ? ", " : "", nm,
-                  rows[i * ndt * ngrid].solver);
+      for (j = 0; j < 2; j++) {
+        sbuf gp = {NULL, 0, 0, 0};
+        const char *fig = j ? "convergence" : "work-precision";
+        int first = 1;
+        if (j)
+          sb_printf(&gp, "# convergence: %s against the time step, one line per back end, with slopes 1 and 2\n"
+                    "set datafile separator ','\nset logscale xy\nset grid\nset key below\n"
+                    "set xlabel 'h [s]'\nset ylabel '%s'\nset title 'error against the time step'\n",
+                    C->name[metric_col], ylab);
+        else
+          sb_printf(&gp, "# work-precision: %s against the median step time (setup and output left out),\n"
+                    "# one line per back end, each point labelled with its h; the reference slopes are\n"
+                    "# orders 1 and 2 (the step time goes as 1/h)\n"
+                    "set datafile separator ','\nset logscale xy\nset grid\nset key below\n"
+                    "set xlabel 't_steps [s] (median of the repeats)'\nset ylabel '%s'\n"
+                    "set title 'error against run time'\n",
+                    C->name[metric_col], ylab);
+        for (k = 0; k < 2; k++) {
+          set_terminal(&gp, fig, k);
+          sb_printf(&gp, "plot ");
+          first = 1;
+          for (i = 0; i < nsol; i++) {
+            char nm[128], f[1400];
+            slug(rows[i * ndt * ngrid].solver, nm, sizeof nm);
+            snprintf(f, sizeof f, "%s/plots/work-precision-%s.csv", dir, nm);
+            if (access(f, R_OK)) continue;
+            sb_printf(&gp, "%s'work-precision-%s.csv' using %s:2 with linespoints lw 2 dt %d pt %d ps 1.5 lc rgb '%s' "
+                      "title '%s'", first ? "" : ", ", nm, j ? "3" : "1", i + 1, 4 + 2 * (i % 6), colour(i),
+                      rows[i * ndt * ngrid].solver);
+            if (!j)
+              sb_printf(&gp, ", 'work-precision-%s.csv' using 1:2:(sprintf('h=%%g', $3)) with labels offset char 1,%d "
+                        "font ',8' notitle", nm, 1 - i);
+            first = 0;
+          }
+          if (!first && !isnan(e0)) {
+            if (j)
+              sb_printf(&gp, ", %.6g * (x / %.6g) with lines lc rgb 'gray40' dt 3 title 'order 1', "
+                        "%.6g * (x / %.6g)**2 with lines lc rgb 'gray20' dt 4 title 'order 2'", e0, h0, e0, h0);
+            else
+              sb_printf(&gp, ", %.6g * (x / %.6g)**-1 with lines lc rgb 'gray40' dt 3 title 'order 1', "
+                        "%.6g * (x / %.6g)**-2 with lines lc rgb 'gray20' dt 4 title 'order 2'", e0, t0, e0, t0);
+          }
+          if (!j) peers_plot(&gp, rows + nown, nrun - nown, metric_col, dir, ctx);
+          if (first) sb_printf(&gp, "NaN notitle");
+          sb_printf(&gp, "\n");
+        }
+        rendered += render(dir, fig, &gp, ctx);
+        free(gp.s);
+        nfig++;
       }
-      peers_plot(&gp, rows + nown, nrun - nown, metric_col, dir, ctx);
-      sb_printf(&gp, "\n");
-      set_terminal(&gp, "work-precision", 1);
-      sb_printf(&gp, "replot\n");
-      rendered += render(dir, "work-precision", &gp, ctx);
-      free(gp.s);
-      nfig++;
     }
-    /* 2. histories of each back end (its run with the smallest dt at the first grid point)
-          against the exact solution, and 3. the energy; the probes are those of the first
-          run's history. Each history's header is read once. */
+    /* 3. histories of each back end (its run with the smallest dt at the first grid point),
+          with the closed form where the case has one, and 4. the energy; the probes are those
+          of the first run's history. Each history's header is read once. */
     {
       /* probe quantities (the first probe of each), then rigid bodies' columns (BODY.x ... BODY.vx
          ..., the first body of each that has an exact value) */
       static const char *quant[] = {"ux", "vx", "uy", "vy", "uz", "vz", "cx", "cy", "cz", "pn",
                                     "x", "y", "z", "vx", "vy", "vz", "omega"};
+      static const char *qlabel[] = {"u_x [m]", "v_x [m/s]", "u_y [m]", "v_y [m/s]", "u_z [m]", "v_z [m/s]",
+                                     "contact force F_x [N]", "contact force F_y [N]", "contact force F_z [N]",
+                                     "contact pressure sigma_n [Pa]", "x [m]", "y [m]", "z [m]", "v_x [m/s]",
+                                     "v_y [m/s]", "v_z [m/s]", "omega [rad/s]"};
       const size_t nprobeq = 10;
       size_t qk;
       int *best = mo_malloc(ctx, (size_t)nsol * sizeof *best);
+      long *nlines = mo_malloc(ctx, (size_t)nsol * sizeof *nlines);
       char *head = mo_malloc(ctx, ((size_t)nsol + 1) * HEADER_MAX), *first_head;
-      if (!best || !head) {
+      if (!best || !head || !nlines) {
         mo_free(best);
         mo_free(head);
+        mo_free(nlines);
         st = MO_ENOMEM;
         goto done;
       }
       for (i = 0; i < nsol; i++) {
         best[i] = finest_run(rows, nown, ngrid, rows[i * ndt * ngrid].solver);
-        if (best[i] >= 0) history_header(rows[best[i]].outdir, head + (size_t)i * HEADER_MAX, HEADER_MAX);
+        nlines[i] = 0;
+        if (best[i] >= 0) {
+          FILE *f;
+          history_header(rows[best[i]].outdir, head + (size_t)i * HEADER_MAX, HEADER_MAX);
+          snprintf(path, sizeof path, "%s/history.csv", rows[best[i]].outdir);
+          if ((f = fopen(path, "r"))) {
+            int ch;
+            while ((ch = getc(f)) != EOF) nlines[i] += ch == '\n';
+            fclose(f);
+          }
+        } else
+          head[(size_t)i * HEADER_MAX] = '\0';
       }
       first_head = head + (size_t)nsol * HEADER_MAX;
       history_header(rows[0].outdir, first_head, HEADER_MAX);
@@ -879,30 +1385,42 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
         {
           sbuf gp = {NULL, 0, 0, 0};
           char nm[200], ex[160], fig[220];
-          int first = 1;
+          int first = 1, any_exact = 0;
           slug(probe, nm, sizeof nm);
           snprintf(fig, sizeof fig, "history-%s", nm);
           snprintf(ex, sizeof ex, "%s.exact", probe);
-          sb_printf(&gp, "# history of %s: each back end at its smallest time step, and the exact solution\n"
-                    "set datafile separator ','\nset key autotitle columnhead outside right\nset grid\n"
-                    "set xlabel 't (s)'\nset ylabel '%s'\nset title '%s'\n", probe, probe, probe);
-          set_terminal(&gp, fig, 0);
-          sb_printf(&gp, "plot ");
-          for (i = 0; i < nsol; i++) {
-            int rb = best[i], cu, ce;
-            const char *h = head + (size_t)i * HEADER_MAX;
-            if (rb < 0 || !(cu = csv_column(h, probe))) continue;
-            sb_printf(&gp, "%s'../runs/%s/history.csv' using 1:%d with lines lw 2 title '%s (h = %g)'", first ? "" : ", ",
-                      rows[rb].label, cu, rows[rb].solver, rows[rb].dt);
-            first = 0;
-            ce = csv_column(h, ex);
-            if (ce && i == nsol - 1)
-              sb_printf(&gp, ", '../runs/%s/history.csv' using 1:%d with lines lw 1 dt 2 lc rgb 'black' title 'exact'",
-                        rows[rb].label, ce);
+          for (i = 0; i < nsol; i++) any_exact |= best[i] >= 0 && csv_column(head + (size_t)i * HEADER_MAX, ex);
+          sb_printf(&gp, "# history of %s: each back end at its smallest time step%s\n"
+                    "set datafile separator ','\nset key outside right\nset grid\n"
+                    "set xlabel 't [s]'\nset ylabel '%s'\nset title '%s'\n", probe,
+                    any_exact ? ", and the closed form" : " (the case has no closed form)", qlabel[qk], probe);
+          for (k = 0; k < 2; k++) {
+            int drawn_exact = 0, exact_run = 0, exact_col = 0;
+            set_terminal(&gp, fig, k);
+            sb_printf(&gp, "plot ");
+            first = 1;
+            for (i = 0; i < nsol; i++) {
+              int rb = best[i], cu, ce;
+              const char *h = head + (size_t)i * HEADER_MAX;
+              long pi = nlines[i] / 12 > 1 ? nlines[i] / 12 : 1;
+              if (rb < 0 || !(cu = csv_column(h, probe))) continue;
+              sb_printf(&gp, "%s'../runs/%s/history.csv' using 1:%d with linespoints lw 2 dt %d pt %d pi %ld "
+                        "lc rgb '%s' title '%s (h = %g)'", first ? "" : ", ", rows[rb].label, cu, i + 1, 4 + 2 * (i % 6),
+                        pi + i, colour(i), rows[rb].solver, rows[rb].dt);
+              first = 0;
+              ce = csv_column(h, ex);
+              if (ce && !drawn_exact) {
+                exact_run = rb;
+                exact_col = ce;
+                drawn_exact = 1;
+              }
+            }
+            /* the closed form last, in black, under the back ends' curves in the key */
+            if (drawn_exact)
+              sb_printf(&gp, ", '../runs/%s/history.csv' using 1:%d with lines lw 1 lc rgb 'black' title 'closed form'",
+                        rows[exact_run].label, exact_col);
+            sb_printf(&gp, "\n");
           }
-          sb_printf(&gp, "\n");
-          set_terminal(&gp, fig, 1);
-          sb_printf(&gp, "replot\n");
           if (!first) {
             rendered += render(dir, fig, &gp, ctx);
             nfig++;
@@ -915,20 +1433,23 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
         sbuf gp = {NULL, 0, 0, 0};
         int first = 1;
         sb_printf(&gp, "# energy ratio E(t)/E0 of each back end at its smallest time step\n"
-                  "set datafile separator ','\nset key outside right\nset grid\nset xlabel 't (s)'\n"
-                  "set ylabel 'E(t) / E0'\nset title 'energy'\n");
-        set_terminal(&gp, "energy", 0);
-        sb_printf(&gp, "plot ");
-        for (i = 0; i < nsol; i++) {
-          int rb = best[i], ce;
-          if (rb < 0 || !(ce = csv_column(head + (size_t)i * HEADER_MAX, "energy.ratio"))) continue;
-          sb_printf(&gp, "%s'../runs/%s/history.csv' using 1:%d with lines lw 2 title '%s (h = %g)'", first ? "" : ", ",
-                    rows[rb].label, ce, rows[rb].solver, rows[rb].dt);
-          first = 0;
+                  "set datafile separator ','\nset key outside right\nset grid\nset xlabel 't [s]'\n"
+                  "set ylabel 'E(t) / E_0 [-]'\nset title 'energy'\n");
+        for (k = 0; k < 2; k++) {
+          set_terminal(&gp, "energy", k);
+          sb_printf(&gp, "plot ");
+          first = 1;
+          for (i = 0; i < nsol; i++) {
+            int rb = best[i], ce;
+            long pi = nlines[i] / 12 > 1 ? nlines[i] / 12 : 1;
+            if (rb < 0 || !(ce = csv_column(head + (size_t)i * HEADER_MAX, "energy.ratio"))) continue;
+            sb_printf(&gp, "%s'../runs/%s/history.csv' using 1:%d with linespoints lw 2 dt %d pt %d pi %ld lc rgb '%s' "
+                      "title '%s (h = %g)'", first ? "" : ", ", rows[rb].label, ce, i + 1, 4 + 2 * (i % 6), pi + i, colour(i),
+                      rows[rb].solver, rows[rb].dt);
+            first = 0;
+          }
+          sb_printf(&gp, "\n");
         }
-        sb_printf(&gp, "\n");
-        set_terminal(&gp, "energy", 1);
-        sb_printf(&gp, "replot\n");
         if (!first) {
           rendered += render(dir, "energy", &gp, ctx);
           nfig++;
@@ -937,35 +1458,55 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
       }
       mo_free(best);
       mo_free(head);
+      mo_free(nlines);
     }
-    /* 4. stability map per back end */
+    /* 5. stability map per back end: a grid picture, one colour per class (T97); axes the first
+          two varied keys, or the varied key and the time step */
     if (opt->nvary >= 1) {
+      static const char *cname[] = {"stable", "unstable", "failed", "chatter"};
+      static const char *ccol[] = {"#2a9d2a", "#e69500", "#d62728", "#1f5fbf"};
+      int ydt = opt->nvary == 1 && ndt > 1;
       for (i = 0; i < nsol; i++) {
         sbuf gp = {NULL, 0, 0, 0}, dat = {NULL, 0, 0, 0};
         char nm[128], fig[200];
-        int two = opt->nvary >= 2, cls;
+        int two = opt->nvary >= 2, cls, c, ndup = 0;
         slug(rows[i * ndt * ngrid].solver, nm, sizeof nm);
         snprintf(fig, sizeof fig, "stability-%s", nm);
-        for (r = 0; r < nrun; r++) {
+        for (r = 0; r < nown; r++) {
           char xs[32], ys[32];
           if (strcmp(rows[r].solver, rows[i * ndt * ngrid].solver)) continue;
-          cls = !strcmp(rows[r].cls, "stable") ? 0 : !strcmp(rows[r].cls, "unstable") ? 1 : 2;
+          cls = !strcmp(rows[r].cls, "stable") ? 0 : !strcmp(rows[r].cls, "unstable") ? 1 : !strcmp(rows[r].cls, "chatter") ? 3 : 2;
           axis_coord(&opt->vary[0], rows[r].vary[0], xs, sizeof xs);
           if (two) axis_coord(&opt->vary[1], rows[r].vary[1], ys, sizeof ys);
+          else if (ydt) snprintf(ys, sizeof ys, "%.6g", rows[r].dt);
           else snprintf(ys, sizeof ys, "0");
-          sb_printf(&dat, "%s,%s,%d,%.6g\n", xs, ys, cls, rows[r].dt);
+          /* the fifth column marks a cell that shares another's run (a key its back end ignores) */
+          sb_printf(&dat, "%s,%s,%d,%.6g,%d\n", xs, ys, cls, rows[r].dt, rows[r].dup_of >= 0);
+          ndup += rows[r].dup_of >= 0;
         }
         snprintf(path, sizeof path, "%s/plots/stability-%s.csv", dir, nm);
         if (dat.s) write_text(path, dat.s, ctx);
         free(dat.s);
-        sb_printf(&gp, "# stability map of %s: green stable, orange unstable, red solver failure\n"
-                  "set datafile separator ','\nset grid\nset xlabel '%s'\nset ylabel '%s'\n"
+        sb_printf(&gp, "# stability map of %s: one square per cell, green stable, blue chatter, orange unstable,\n"
+                  "# red failed; an open square shares the run of its row's first value (a key %s ignores)\n"
+                  "set datafile separator ','\nset grid front\nset xlabel '%s'\nset ylabel '%s'\n"
                   "set title 'stability: %s'\nset key outside right\n",
-                  rows[i * ndt * ngrid].solver, opt->vary[0].key, two ? opt->vary[1].key : "", rows[i * ndt * ngrid].solver);
+                  rows[i * ndt * ngrid].solver, rows[i * ndt * ngrid].solver, opt->vary[0].key,
+                  two ? opt->vary[1].key : ydt ? "h [s]" : "", rows[i * ndt * ngrid].solver);
         axis_setup(&gp, &opt->vary[0], 'x');
         if (two) axis_setup(&gp, &opt->vary[1], 'y');
+        else if (ydt) {
+          double lo = HUGE_VAL, hi = 0;
+          for (k = 0; k < ndt; k++) {
+            if (dts[k] < lo) lo = dts[k];
+            if (dts[k] > hi) hi = dts[k];
+          }
+          sb_printf(&gp, "set logscale y\nset yrange [%.6g:%.6g]\nset ytics (", lo / 1.6, hi * 1.6);
+          for (k = 0; k < ndt; k++) sb_printf(&gp, "%s'%g' %.6g", k ? ", " : "", dts[k], dts[k]);
+          sb_printf(&gp, ")\n");
+        }
         else sb_printf(&gp, "unset ytics\n");
-        sb_printf(&gp, "set offsets graph 0.05, graph 0.05, graph 0.08, graph 0.08\n");
+        sb_printf(&gp, ydt ? "set offsets graph 0.08, graph 0.08, 0, 0\n" : "set offsets graph 0.08, graph 0.08, graph 0.1, graph 0.1\n");
         {
           /* the critical step of central differences (T102) as a line across a dt axis */
           double dtc = NAN, lo, hi;
@@ -985,9 +1526,17 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
         }
         for (j = 0; j < 2; j++) {
           set_terminal(&gp, fig, j);
-          sb_printf(&gp, "plot 'stability-%s.csv' using 1:($3==0?$2:1/0) with points pt 7 ps 2 lc rgb '#2a9d2a' title 'stable', "
-                    "'' using 1:($3==1?$2:1/0) with points pt 7 ps 2 lc rgb '#e69500' title 'unstable', "
-                    "'' using 1:($3==2?$2:1/0) with points pt 7 ps 2 lc rgb '#d62728' title 'failure'\n", nm);
+          sb_printf(&gp, "plot ");
+          for (c = 0; c < 4; c++)
+            sb_printf(&gp, "%s'stability-%s.csv' using 1:($3==%d && $5==0?$2:1/0) with points pt 5 ps 4 lc rgb '%s' title '%s'",
+                      c ? ", " : "", nm, c, ccol[c], cname[c]);
+          if (ndup) {
+            for (c = 0; c < 4; c++)
+              sb_printf(&gp, ", 'stability-%s.csv' using 1:($3==%d && $5==1?$2:1/0) with points pt 4 ps 4 lw 2 lc rgb '%s' "
+                        "notitle", nm, c, ccol[c]);
+            sb_printf(&gp, ", NaN with points pt 4 ps 2 lw 2 lc rgb 'black' title 'same run (key ignored)'");
+          }
+          sb_printf(&gp, "\n");
         }
         rendered += render(dir, fig, &gp, ctx);
         free(gp.s);
@@ -998,12 +1547,87 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
     res->rendered = rendered;
   }
 
-  /* report.md */
+  /* report.md: only what the runs measured */
   b.n = 0;
   sb_printf(&b, "# moreau compare: %s\n\n", opt->case_path);
-  sb_printf(&b, "%d runs: %d stable, %d unstable, %d failed. Every run's outputs are under `runs/`; "
-            "all metrics are in `compare.csv`%s; figures in `plots/` (gnuplot scripts kept).\n\n",
-            res->nrun, res->nstable, res->nunstable, res->nfailed, opt->nvary ? ", the classification in `stability.csv`" : "");
+  sb_printf(&b, "%d runs: %d stable, %d chatter, %d unstable, %d failed. Every run's outputs are under `runs/`; "
+            "all metrics are in `compare.csv`%s; observed orders in `orders.csv`; figures in `plots/` (gnuplot "
+            "scripts kept).\n\n",
+            res->nrun, res->nstable, res->nchatter, res->nunstable, res->nfailed,
+            opt->nvary ? ", the classification in `stability.csv`" : "");
+  sb_printf(&b, "Classes (doc/theory.md (T51), (T97)): *failed*, the run stopped on an error; *unstable*, the "
+            "energy grew by more than 1 %% or the penetration exceeded %g of the smallest element (beyond what a "
+            "velocity-level landing leaves); *chatter*, between two bearing steps the normal velocity reached "
+            "%g of the impact velocity, or it changed sign %d times (not judged for pairs with Newton's restitution "
+            "e > 0); *stable*, none of these. Each run's reason gives the measures.\n\n",
+            opt->penetration_tol > 0 ? opt->penetration_tol : 0.01, MO_CHATTER_VN_REL, MO_CHATTER_SIGN_CHANGES);
+  if (res->nmarked) {
+    sb_printf(&b, "%d grid cells were not run: their back end ignores the varied key", res->nmarked);
+    for (k = 0; k < opt->nvary; k++) {
+      int any = 0;
+      for (r = 0; r < nown; r++) any |= (rows[r].ignored >> k) & 1;
+      if (any) {
+        sb_printf(&b, " `%s` (", opt->vary[k].key);
+        for (i = 0, j = 0; i < nsol; i++)
+          if (solver_ignores(rows[i * ndt * ngrid].solver, opt->vary[k].key))
+            sb_printf(&b, "%s%s", j++ ? ", " : "", rows[i * ndt * ngrid].solver);
+        sb_printf(&b, ")");
+      }
+    }
+    sb_printf(&b, "; each shares the run of the key's first value, its column reads `ignored` in `compare.csv`, "
+              "and the stability maps draw it as an open square.\n\n");
+  }
+  {
+    /* varying theta alone leaves theta_f where the case puts it: a mixed scheme unless both vary */
+    int vt = -1, vtf = -1;
+    for (k = 0; k < opt->nvary; k++) {
+      if (!strcmp(opt->vary[k].key, "time.theta")) vt = k;
+      if (!strcmp(opt->vary[k].key, "time.theta_f")) vtf = k;
+    }
+    for (k = 0; k < opt->nset; k++)
+      if (!strncmp(opt->sets[k], "time.theta_f=", 13)) vtf = 99;
+    if (vt >= 0 && vtf < 0) {
+      double thf = NAN;
+      for (r = 0; r < nown && isnan(thf); r++) {
+        json_t *root;
+        json_error_t err;
+        if (rows[r].dup_of >= 0 || !rows[r].outdir[0]) continue;
+        snprintf(path, sizeof path, "%s/summary.json", rows[r].outdir);
+        if ((root = json_load_file(path, 0, &err))) {
+          json_t *v = json_object_get(json_object_get(root, "time"), "theta_f");
+          if (json_is_number(v)) thf = json_number_value(v);
+          json_decref(root);
+        }
+      }
+      sb_printf(&b, "`time.theta` varies alone: `time.theta_f` stays at the case's value (%g) in every run, so a "
+                "run with theta != %g is a mixed scheme (doc/theory.md (T1)), not the theta-method with theta_f = theta; "
+                "vary `time.theta_f` too (or `--set time.theta_f=...`) for that.\n\n", thf, thf);
+    }
+  }
+  {
+    double tmn = HUGE_VAL, tmx = 0;
+    int nr = 0;
+    for (r = 0; r < nown; r++)
+      if (rows[r].dup_of < 0 && rows[r].nrep) {
+        if (rows[r].nrep < tmn) tmn = rows[r].nrep;
+        if (rows[r].nrep > tmx) tmx = rows[r].nrep;
+        nr++;
+      }
+    if (nr)
+      sb_printf(&b, "Times (doc/theory.md (T99)): `t_steps` is the time of the steps alone (setup, the initial state and "
+                "every output left out: `time.setup_s` and `time.output_s` in `compare.csv`), the median of %g to %g "
+                "runs of each cell (%s), with its min and max in `compare.csv`.\n\n", tmn, tmx,
+                opt->repeat > 0 ? "--repeat" : "repeated until the median moved by less than 5 %, at most 5 runs "
+                "or 5 s of runs");
+  }
+  if (metric_col >= 0) {
+    if (strncmp(C->name[metric_col], "ref.", 4))
+      sb_printf(&b, "Error: `%s`, against the case's closed form.\n\n", C->name[metric_col]);
+    else
+      sb_printf(&b, "Error: `%s`, the relative L2 distance over the run's history rows to the run with the smallest "
+                "time step of the same back end and grid point (`ref.dt`; the case has no closed form for it, "
+                "doc/theory.md (T98)).\n\n", C->name[metric_col]);
+  }
   {
     /* the chosen error, then the measures the seeds' comparisons turn on (doc/theory.md §10),
        those the runs have */
@@ -1015,18 +1639,22 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
     int show[8 + MAX_COLS], ns = 0, kk, jj;
     if (metric_col >= 0) show[ns++] = metric_col;
     for (kk = 0; kk < (int)(sizeof key / sizeof key[0]); kk++) {
-      int c = col_index(C, key[kk]), any = 0;
+      int c = -1, any = 0;
+      for (jj = 0; jj < C->n; jj++)
+        if (!strcmp(C->name[jj], key[kk])) c = jj;
       if (c < 0 || c == metric_col) continue;
-      for (r = 0; r < nrun; r++) any |= !isnan(rows[r].val[c]);
+      for (r = 0; r < nrun; r++) any |= rows[r].dup_of < 0 && !isnan(rows[r].val[c]);
       if (any) show[ns++] = c;
     }
     /* then the columns the case asks for (output.report), those not shown already */
     for (kk = 0; kk < H->n; kk++) {
-      int c = col_index(C, H->name[kk]), seen = 0;
+      int c = -1, seen = 0;
+      for (jj = 0; jj < C->n; jj++)
+        if (!strcmp(C->name[jj], H->name[kk])) c = jj;
       for (jj = 0; jj < ns; jj++) seen |= show[jj] == c;
       if (c >= 0 && !seen) show[ns++] = c;
     }
-    sb_printf(&b, "| run | solver | dt | wall (s) | steps | class |");
+    sb_printf(&b, "| run | solver | dt | t_steps (s) | steps | class |");
     for (jj = 0; jj < ns; jj++) {
       const char *h = C->name[show[jj]];
       for (kk = 0; kk < (int)(sizeof key / sizeof key[0]); kk++)
@@ -1038,8 +1666,22 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
     sb_printf(&b, "\n");
     for (r = 0; r < nrun; r++) {
       run_row *R = &rows[r];
-      sb_printf(&b, "| %s | %s | %g | %.3f | %ld | %s%s%s |", R->label, R->solver, R->dt, R->wall, R->steps, R->cls,
-                R->why[0] ? ": " : "", R->why);
+      if (R->dup_of >= 0) continue;
+      sb_printf(&b, "| %s | %s | %g |", R->label, R->solver, R->dt);
+      if (R->nrep) sb_printf(&b, " %.3g (%.3g-%.3g, %d runs) |", R->tmed, R->tmin, R->tmax, R->nrep);
+      else if (r >= nown && R->wall > 0) sb_printf(&b, " %.3f (peer's wall) |", R->wall);
+      else sb_printf(&b, " - |");
+      {
+        /* a bar inside a table cell is escaped */
+        char why[1100];
+        size_t q, w = 0;
+        for (q = 0; R->why[q] && w + 2 < sizeof why; q++) {
+          if (R->why[q] == '|') why[w++] = '\\';
+          why[w++] = R->why[q];
+        }
+        why[w] = '\0';
+        sb_printf(&b, " %ld | %s%s%s |", R->steps, R->cls, why[0] ? ": " : "", why);
+      }
       for (jj = 0; jj < ns; jj++) {
         if (isnan(R->val[show[jj]])) sb_printf(&b, " |");
         else sb_printf(&b, " %.4g |", R->val[show[jj]]);
@@ -1049,16 +1691,45 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
   }
   sb_printf(&b, "\n");
   for (r = 0; r < nrun; r++)
-    if (rows[r].status) sb_printf(&b, "- `%s` failed: %s\n", rows[r].label, rows[r].reason);
+    if (rows[r].dup_of < 0 && rows[r].status) sb_printf(&b, "- `%s` failed: %s\n", rows[r].label, rows[r].reason);
   if (nrun > nown) {
     sb_printf(&b, "\nRows marked (external) are %d rows of", nrun - nown);
     for (k = 0; k < opt->npeer; k++) sb_printf(&b, "%s `%s`", k ? (k == opt->npeer - 1 ? " and" : ",") : "", opt->peers[k]);
     sb_printf(&b, " (--peer): measured by another program with its own clock, not run here and not in "
               "`compare.csv`; dashed lines in the work-precision figure.\n");
   }
+  /* observed orders: the finest triple of each back end, grid point and quantity */
+  if (O.n) {
+    sb_printf(&b, "\n## Observed order of convergence in h (Richardson, doc/theory.md (T98))\n\n"
+              "From three successive steps h1 > h2 > h3 of one back end: the distances d12 = |y(h1) - y(h2)| and "
+              "d23 = |y(h2) - y(h3)| (relative L2 over the coarsest run's history rows) give p with "
+              "(h1^p - h2^p) / (h2^p - h3^p) = d12 / d23; no closed form is used. The finest triple of each "
+              "quantity (every triple in `orders.csv`); an order holds only where the solution is smooth in time "
+              "over the run (no impact, release or chatter inside it).\n\n"
+              "| solver | grid point | quantity | h1, h2, h3 | d12 | d23 | order |\n| --- | --- | --- | --- | --- | --- | --- |\n");
+    for (k = 0; k < O.n; k++) {
+      const order_rec *o = &O.o[k];
+      const run_row *R = &rows[o->row];
+      int later = 0;
+      for (j = k + 1; j < O.n; j++)
+        later |= !strcmp(O.o[j].metric, o->metric) && !strcmp(rows[O.o[j].row].solver, R->solver) &&
+                 (O.o[j].row % ngrid) == (o->row % ngrid);
+      if (later) continue;
+      sb_printf(&b, "| %s | ", R->solver);
+      for (j = 0; j < opt->nvary; j++)
+        sb_printf(&b, "%s%s=%s", j ? ", " : "", opt->vary[j].key, R->ignored & 1u << j ? "ignored" : R->vary[j]);
+      if (!opt->nvary) sb_printf(&b, "-");
+      sb_printf(&b, " | %s | %g, %g, %g | %.3g | %.3g | ", o->metric, o->h[0], o->h[1], o->h[2], o->d12, o->d23);
+      if (o->d23 < 1e-11 || o->d12 < 1e-11) sb_printf(&b, "none (equal to round-off: no time error to measure) |\n");
+      else if (isnan(o->p)) sb_printf(&b, "none (the distances do not shrink) |\n");
+      else sb_printf(&b, "%.2f |\n", o->p);
+    }
+  }
   sb_printf(&b, "\n## Figures\n\n");
-  if (metric_col >= 0) sb_printf(&b, "![work-precision](plots/work-precision.png)\n\n");
-  sb_printf(&b, "Histories against the exact solution: `plots/history-*.png`; energy: `plots/energy.png`%s.\n",
+  if (metric_col >= 0)
+    sb_printf(&b, "![work-precision](plots/work-precision.png)\n\n![convergence](plots/convergence.png)\n\n");
+  sb_printf(&b, "Histories of each back end at its smallest step (with the closed form where the case has one): "
+            "`plots/history-*.png`; energy: `plots/energy.png`%s.\n",
             opt->nvary ? "; stability maps: `plots/stability-*.png`" : "");
   snprintf(path, sizeof path, "%s/report.md", dir);
   if (!b.err) st = write_text(path, b.s, ctx);
@@ -1068,6 +1739,7 @@ done:
   mo_free(rows);
   mo_free(C);
   peers_free(&P);
+  mo_free(O.o);
   mo_free(H);
   mo_free(sets);
   return st;

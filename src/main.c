@@ -41,8 +41,13 @@ static void usage(FILE *f)
           "            q, mu and the step's solution r, U = W r + q (the file's info says so)\n"
           "  compare CASE [--solvers a,b,...] [--dt h1,h2,...] [--vary KEY=v1,v2,...]...\n"
           "          [--set KEY=VALUE]... [--out DIR] [--metric NAME] [--penetration-tol F]\n"
+          "          [--repeat N] [--reference DT]\n"
           "            the same scene by several back ends and time steps (and parameter grids):\n"
-          "            compare.csv, stability.csv, report.md, plots/ (default out/compare-<case>)\n"
+          "            compare.csv, orders.csv, stability.csv, report.md, plots/ (default\n"
+          "            out/compare-<case>); classes stable, chatter, unstable, failed;\n"
+          "            --repeat N: runs per cell, timed by the median step time (default:\n"
+          "            until the median is stable, at most 5); --reference DT: one more run\n"
+          "            per back end at DT, the reference of the others (else the finest)\n"
           "          [--peer FILE.csv]...: another program's rows (compare.csv's columns) join the\n"
           "            work-precision figure and report.md\n"
           "  check CASE [--solver S] [--set KEY=VALUE]...\n"
@@ -202,6 +207,21 @@ static int cmd_compare(int argc, char **argv, mo_ctx *ctx)
       o.metric = argv[++i];
     } else if (!strcmp(a, "--peer") && i + 1 < argc) {
       peers[o.npeer++] = argv[++i];
+    } else if (!strcmp(a, "--repeat") && i + 1 < argc) {
+      char *end;
+      long n = strtol(argv[++i], &end, 10);
+      if (*end || n < 1 || n > 20) {
+        fprintf(stderr, "moreau compare: --repeat N: 1 to 20 runs per cell ('%s')\n", argv[i]);
+        goto out;
+      }
+      o.repeat = (int)n;
+    } else if (!strcmp(a, "--reference") && i + 1 < argc) {
+      char *end;
+      o.reference_dt = strtod(argv[++i], &end);
+      if (*end || !(o.reference_dt > 0)) {
+        fprintf(stderr, "moreau compare: --reference DT: '%s' is not a positive time step\n", argv[i]);
+        goto out;
+      }
     } else if (!strcmp(a, "--penetration-tol") && i + 1 < argc) {
       o.penetration_tol = atof(argv[++i]);
     } else if (!strcmp(a, "--quiet") || !strcmp(a, "-q")) {
@@ -236,7 +256,10 @@ static int cmd_compare(int argc, char **argv, mo_ctx *ctx)
     goto out;
   }
   if (ctx->verbosity >= 1) {
-    printf("%s: %d runs (%d stable, %d unstable, %d failed)\n", o.case_path, res.nrun, res.nstable, res.nunstable, res.nfailed);
+    printf("%s: %d runs (%d stable, %d chatter, %d unstable, %d failed)\n", o.case_path, res.nrun, res.nstable,
+           res.nchatter, res.nunstable, res.nfailed);
+    if (res.nmarked)
+      printf("  %d grid cells not run: their back end ignores the varied key (marked in report.md)\n", res.nmarked);
     printf("  outputs: %s/compare.csv, %s/report.md, %s/plots/ (%d figures, %d rendered)\n", o.outdir, o.outdir, o.outdir,
            res.nfigures, res.rendered);
     if (res.npeer) printf("  with %d external rows from the --peer files (report.md, work-precision figure)\n", res.npeer);

@@ -6,6 +6,7 @@
 
 #include <math.h>
 #include <stdlib.h>
+#include <stdio.h>
 #include <string.h>
 
 #define MAX_IMPACTS 64
@@ -28,6 +29,8 @@ struct mo_metrics {
   double *tv;                /* total variation of U_n while closed, per candidate */
   double *dUp;               /* the last increment of U_n between bearing steps (0: none) (T93) */
   double *alt;               /* per candidate: alternations of the sign of that increment (T93) */
+  int *nsign;                /* sign changes of U_n while closed, per candidate (T97) */
+  unsigned char *landed;     /* per candidate: it has borne once (its first landing is behind) */
   long cset;                 /* the candidate set the arrays follow (mo_contact_set_version) */
   int *keys;                 /* its keys, to carry a detected candidate's history to the next set */
   mo_keymap kmap;
@@ -36,10 +39,14 @@ struct mo_metrics {
   long unmeasured;           /* steps left out of the contact measures (no memory to follow the set) */
   double max_pen, max_vn_closed, vscale, impulse, first_release, t_prev;
   double final_pen;          /* the largest penetration of the last step measured */
-  double vimpact;            /* the largest approach speed |U_n| of a step before a landing (T93) */
+  double vland;              /* the largest approach speed |U_n| of a step before any landing of a watched
+                                candidate (T93); the chatter verdict's V is vimpact (T97) */
   double alt_max;            /* the most alternations of one candidate, including those gone (T93) */
   double max_vn_watch, vscale_watch; /* max_vn_in_contact and velocity_scale over the watched laws */
   double vfloor;             /* the round-off speed 1e-9 h_min / h of the last step (T93) */
+  double vimpact;            /* the largest approach |U_n| of a candidate's first landing (the
+                                step before it bears) */
+  int nsign_gone;            /* the most sign changes of the candidates that left the set */
   long flips;
   int closed_prev;           /* number of candidates in contact at the previous step */
   unsigned char *incontact;  /* per candidate, at the previous step */
@@ -48,6 +55,8 @@ struct mo_metrics {
   double impact_energy[MAX_IMPACTS], impact_time[MAX_IMPACTS], last_impact_energy, last_impact_time;
   int started;
 };
+
+static double restitution(const mo_metrics *M);
 
 void mo_metrics_free(mo_metrics *M)
 {
@@ -59,6 +68,8 @@ void mo_metrics_free(mo_metrics *M)
   mo_free(M->tv);
   mo_free(M->dUp);
   mo_free(M->alt);
+  mo_free(M->nsign);
+  mo_free(M->landed);
   mo_free(M->incontact);
   mo_free(M->keys);
   mo_free(M->tmp);
@@ -87,14 +98,16 @@ static int room(mo_metrics *M, int nc, mo_ctx *ctx)
   n = (size_t)(nc + nc / 2) + 1;
 #define GROW(ptr, k) if (!(p = mo_realloc(ctx, ptr, (k) * sizeof *(ptr)))) return 0; ptr = p
   GROW(M->Un, n * (size_t)M->d); GROW(M->Unprev, n); GROW(M->prevstatus, n); GROW(M->tv, n);
-  GROW(M->dUp, n); GROW(M->alt, n);
-  GROW(M->incontact, n); GROW(M->keys, n * MO_KEY); GROW(M->tmp, 6 * n);
+  GROW(M->dUp, n); GROW(M->alt, n); GROW(M->nsign, n); GROW(M->landed, n);
+  GROW(M->incontact, n); GROW(M->keys, n * MO_KEY); GROW(M->tmp, 8 * n);
 #undef GROW
   memset(M->Unprev + M->cap, 0, (n - (size_t)M->cap) * sizeof *M->Unprev);
   memset(M->prevstatus + M->cap, 0, (n - (size_t)M->cap) * sizeof *M->prevstatus);
   memset(M->tv + M->cap, 0, (n - (size_t)M->cap) * sizeof *M->tv);
   memset(M->dUp + M->cap, 0, (n - (size_t)M->cap) * sizeof *M->dUp);
   memset(M->alt + M->cap, 0, (n - (size_t)M->cap) * sizeof *M->alt);
+  memset(M->nsign + M->cap, 0, (n - (size_t)M->cap) * sizeof *M->nsign);
+  memset(M->landed + M->cap, 0, n - (size_t)M->cap);
   memset(M->incontact + M->cap, 0, n - (size_t)M->cap);
   M->cap = (int)n - 1;
   return 1;
@@ -107,7 +120,7 @@ static int follow(mo_metrics *M)
 {
   const mo_contact *C = M->C;
   int nold = M->nc, nc = mo_contact_ncandidates(C), a, ok;
-  double *oUp, *otv, *ost, *oin, *odU, *oalt;
+  double *oUp, *otv, *ost, *oin, *odU, *oalt, *ons, *ola;
   ok = room(M, nc > nold ? nc : nold, NULL) && !mo_keymap_build(&M->kmap, M->keys, nold, NULL);
   if (!ok) nold = 0;
   else {
@@ -118,6 +131,8 @@ static int follow(mo_metrics *M)
     oin = ost + nold;
     odU = oin + nold;
     oalt = odU + nold;
+    ons = oalt + nold;
+    ola = ons + nold;
     for (a = 0; a < nold; a++) {
       odU[a] = M->dUp[a];
       oalt[a] = M->alt[a];
@@ -126,7 +141,10 @@ static int follow(mo_metrics *M)
       otv[a] = M->tv[a];
       ost[a] = M->prevstatus[a];
       oin[a] = M->incontact[a];
+      ons[a] = M->nsign[a];
+      ola[a] = M->landed[a];
       if (M->tv[a] > M->tv_gone) M->tv_gone = M->tv[a];
+      if (M->nsign[a] > M->nsign_gone) M->nsign_gone = M->nsign[a];
     }
   }
   nc = nc < M->cap ? nc : M->cap;
@@ -138,6 +156,8 @@ static int follow(mo_metrics *M)
     M->alt[a] = o >= 0 ? oalt[o] : 0;
     M->prevstatus[a] = o >= 0 ? (int)ost[o] : MO_CS_OPEN;
     M->incontact[a] = o >= 0 ? (unsigned char)oin[o] : 0;
+    M->nsign[a] = o >= 0 ? (int)ons[o] : 0;
+    M->landed[a] = o >= 0 ? (unsigned char)ola[o] : 0;
   }
   if (nc) memcpy(M->keys, mo_contact_key(C, 0), (size_t)nc * MO_KEY * sizeof *M->keys);
   M->nc = nc;
@@ -280,9 +300,11 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
       if (inc) {
         closed++;
         if (M->incontact[a]) {
-          /* chatter (T93): the increments of U_n between bearing steps that exceed 1e-2 of the
-             impact speed, and how often their sign alternates (period 2: every step) */
-          double du = un - M->Unprev[a], thr = 1e-2 * (M->vimpact > vfloor ? M->vimpact : vfloor);
+          /* chatter measures: the increments of U_n between bearing steps that exceed 1e-2 of
+             the landing speed and how often their sign alternates (T93, reported); the sign
+             changes of U_n itself above a floor (T97, the verdict's) */
+          double du = un - M->Unprev[a], thr = 1e-2 * (M->vland > vfloor ? M->vland : vfloor);
+          double floor = MO_CHATTER_VN_FLOOR * (M->vimpact > M->vscale ? M->vimpact : M->vscale);
           if (fabs(un) > M->max_vn_closed) M->max_vn_closed = fabs(un);
           if (watch && fabs(un) > M->max_vn_watch) M->max_vn_watch = fabs(un);
           M->tv[a] += fabs(du);
@@ -291,11 +313,15 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
             M->dUp[a] = du;
           } else
             M->dUp[a] = 0;
+          if ((un > floor && M->Unprev[a] < -floor) || (un < -floor && M->Unprev[a] > floor)) M->nsign[a]++;
         } else {
-          /* a landing: the approach speed of the step before it */
-          if (watch && fabs(M->Unprev[a]) > M->vimpact) M->vimpact = fabs(M->Unprev[a]);
+          /* a landing: the approach speed of the step before it (any landing: T93; the
+             candidate's first landing: T97, later ones may be the chatter's own bounces) */
+          if (watch && fabs(M->Unprev[a]) > M->vland) M->vland = fabs(M->Unprev[a]);
+          if (!M->landed[a] && -M->Unprev[a] > M->vimpact) M->vimpact = -M->Unprev[a];
           M->dUp[a] = 0;
         }
+        M->landed[a] = 1;
       } else if (M->incontact[a] && g[a] > M->gtol && isnan(M->first_release))
         M->first_release = s->t;
       if (s->step > 0 && st) {
@@ -331,11 +357,17 @@ void mo_metrics_chatter(const mo_metrics *M, mo_chatter *ch)
   if (!M->C) return;
   for (a = 0; a < M->nc; a++) if (M->alt[a] > alt) alt = M->alt[a];
   /* no landing seen (the run started in contact): the largest |U_n| stands for it */
-  ch->vimpact = M->vimpact > 0 ? M->vimpact : M->vscale_watch;
+  ch->vimpact = M->vland > 0 ? M->vland : M->vscale_watch;
   if (ch->vimpact < M->vfloor) ch->vimpact = M->vfloor;
   ch->alternations = (long)alt;
   ch->ratio = ch->vimpact > 0 ? M->max_vn_watch / ch->vimpact : 0;
-  ch->chatter = ch->alternations >= MO_CHATTER_ALTERNATIONS && ch->ratio >= MO_CHATTER_RATIO;
+  {
+    /* the verdict is compare's (T97): one criterion for the warning of a run and the class of
+       a comparison */
+    mo_chatter_input in;
+    mo_metrics_chatter_input(M, &in);
+    ch->chatter = mo_chatter_verdict(&in, ch->why, sizeof ch->why);
+  }
 }
 
 json_t *mo_metrics_json(const mo_metrics *M)
@@ -371,13 +403,19 @@ json_t *mo_metrics_json(const mo_metrics *M)
     {
       mo_chatter ch;
       mo_metrics_chatter(M, &ch);
-      json_object_set_new(c, "impact_velocity", json_real(ch.vimpact));
       json_object_set_new(c, "chatter_alternations", json_integer((json_int_t)ch.alternations));
       json_object_set_new(c, "chatter_ratio", json_real(ch.ratio));
       json_object_set_new(c, "chatter", json_boolean(ch.chatter));
     }
     json_object_set_new(c, "velocity_scale", json_real(M->vscale));
     json_object_set_new(c, "oscillation_index", json_real(M->vscale > 0 ? osc / M->vscale : 0));
+    json_object_set_new(c, "impact_velocity", json_real(M->vimpact));
+    json_object_set_new(c, "restitution", json_real(restitution(M)));
+    {
+      int ns = M->nsign_gone;
+      for (a = 0; a < M->nc; a++) if (M->nsign[a] > ns) ns = M->nsign[a];
+      json_object_set_new(c, "vn_sign_changes", json_integer(ns));
+    }
     json_object_set_new(c, "status_flips", json_integer(M->flips));
     if (M->unmeasured) json_object_set_new(c, "steps_not_measured", json_integer(M->unmeasured));
     json_object_set_new(c, "release_time", json_real(M->first_release));
@@ -408,4 +446,69 @@ json_t *mo_metrics_json(const mo_metrics *M)
     json_object_set_new(j, "contact", c);
   }
   return j;
+}
+
+/* The largest restitution of the pairs under Newton's impact law (T71), 0 without one. */
+static double restitution(const mo_metrics *M)
+{
+  double e = 0;
+  int k;
+  if (!M->C) return 0;
+  for (k = 0; k < mo_contact_npairs(M->C); k++) {
+    const mo_contact_pair *p = mo_contact_pair_get(M->C, k);
+    if (p->law == MO_LAW_NEWTON && p->e > e) e = p->e;
+  }
+  return e;
+}
+
+void mo_metrics_chatter_input(const mo_metrics *M, mo_chatter_input *in)
+{
+  double osc = M->tv_gone;
+  int a, ns = M->nsign_gone;
+  for (a = 0; a < M->nc; a++) {
+    if (M->tv[a] > osc) osc = M->tv[a];
+    if (M->nsign[a] > ns) ns = M->nsign[a];
+  }
+  in->impact_velocity = M->vimpact;
+  in->velocity_scale = M->vscale;
+  in->max_vn_in_contact = M->max_vn_closed;
+  in->oscillation_index = M->vscale > 0 ? osc / M->vscale : 0;
+  in->vn_sign_changes = ns;
+  in->restitution = restitution(M);
+}
+
+/* (T97): the contact chatters when, between two bearing steps, the normal velocity reaches
+   MO_CHATTER_VN_REL of the impact velocity, or changes sign MO_CHATTER_SIGN_CHANGES times (each
+   side above MO_CHATTER_VN_FLOOR of it). The exact solution of a bearing contact has [v_n] = 0:
+   both vanish. */
+int mo_chatter_verdict(const mo_chatter_input *in, char *why, size_t n)
+{
+  double V = in->impact_velocity;
+  double vn, osc, ns = in->vn_sign_changes;
+  int chatter;
+  if (why && n) why[0] = '\0';
+  if (in->restitution > 0) {
+    if (why && n)
+      snprintf(why, n, "Newton's restitution e = %.3g: a bearing step leaves U_n = -e U_n- by the law, no chatter "
+               "verdict", in->restitution);
+    return 0;
+  }
+  if (!(in->impact_velocity > 0) || !isfinite(V)) {
+    /* no landing (a contact closed from the start, a quasi-static scene): no impact velocity
+       to judge the bearing steps against */
+    if (why && n) snprintf(why, n, "no landing: no chatter verdict");
+    return 0;
+  }
+  vn = in->max_vn_in_contact / V;
+  osc = in->oscillation_index * in->velocity_scale / V;
+  if (isnan(vn)) vn = 0;
+  if (isnan(osc)) osc = 0;
+  if (isnan(ns)) ns = 0;
+  chatter = vn > MO_CHATTER_VN_REL || ns >= MO_CHATTER_SIGN_CHANGES;
+  if (why && n)
+    snprintf(why, n, "max |v_n| while closed %.3g of the impact velocity %.3g m/s%s, %.0f sign changes%s, "
+             "variation %.3g", vn, V,
+             vn > MO_CHATTER_VN_REL ? " (> " MO_STR(MO_CHATTER_VN_REL) ")" : "", ns,
+             ns >= MO_CHATTER_SIGN_CHANGES ? " (>= " MO_STR(MO_CHATTER_SIGN_CHANGES) ")" : "", osc);
+  return chatter;
 }

@@ -25,20 +25,43 @@ double mo_metrics_energy_ratio(const mo_metrics *M, const mo_state *s);
    K (the run measures them at every step). */
 void mo_metrics_energies(const mo_metrics *M, const mo_state *s, double *ek, double *ee, double *ratio);
 json_t *mo_metrics_json(const mo_metrics *M);
-/* Chatter of a persistent contact (doc/theory.md (T93)), over the candidates of the Signorini
-   and gap laws: one whose increments of U_n between bearing steps, each above 1e-2 of the
-   impact speed (and of the round-off speed 1e-9 h_min / h), alternate in sign at least
-   MO_CHATTER_ALTERNATIONS times, while their largest |U_n| in contact reaches MO_CHATTER_RATIO
-   of the impact speed (the largest approach speed before a landing). */
-#define MO_CHATTER_ALTERNATIONS 10
-#define MO_CHATTER_RATIO 0.1
+/* Chatter of a persistent contact. The verdict is mo_chatter_verdict (T97), the one criterion of
+   a run's warning and of compare's class. Reported beside it (T93), over the candidates of the
+   Signorini and gap laws: the most alternations in sign of one candidate's increments of U_n
+   between bearing steps (each above 1e-2 of the landing speed and of the round-off speed
+   1e-9 h_min / h), and the largest |U_n| in contact over the landing speed. */
 typedef struct {
-  double vimpact;      /* impact speed (velocity_scale when no landing was seen) */
+  double vimpact;      /* landing speed of the watched laws (velocity_scale when no landing was seen) */
   long alternations;   /* the most alternations of one candidate */
-  double ratio;        /* max_vn_in_contact / vimpact */
-  int chatter;         /* both thresholds reached */
+  double ratio;        /* max |U_n| in contact (watched laws) / vimpact */
+  int chatter;         /* the verdict (T97) */
+  char why[256];       /* its reason */
 } mo_chatter;
 void mo_metrics_chatter(const mo_metrics *M, mo_chatter *ch);
 void mo_metrics_free(mo_metrics *M);
+
+/* Chatter (doc/theory.md (T97)): the thresholds, relative to the impact velocity V (the
+   largest approach |U_n| of a candidate's first landing; no verdict when nothing landed). */
+#define MO_CHATTER_VN_FLOOR 1e-3     /* a sign change counts when both sides exceed this x the
+                                        largest |U_n| so far */
+#define MO_CHATTER_VN_REL 0.05       /* max |U_n| between two bearing steps above this x V */
+#define MO_CHATTER_SIGN_CHANGES 2    /* this many sign changes of U_n while bearing */
+#define MO_STR_(x) #x
+#define MO_STR(x) MO_STR_(x)
+
+/* The measures the verdict reads, as summary.json's metrics.contact names them (the
+   oscillation index is reported with them, not judged: it also counts the landing that follows
+   a grazing step). */
+typedef struct {
+  double impact_velocity, velocity_scale, max_vn_in_contact, oscillation_index, vn_sign_changes;
+  double restitution;        /* the largest Newton restitution e of the pairs (0: none) */
+} mo_chatter_input;
+
+/* A run's chatter measures (the values metrics.contact of summary.json holds). */
+void mo_metrics_chatter_input(const mo_metrics *M, mo_chatter_input *in);
+/* A pure function of the measures: 1 when the contact chatters (T97), else 0; why (n bytes,
+   may be NULL) says the measures against the thresholds. Pairs with Newton's restitution
+   e > 0 bounce by their law: no verdict (0, and why says so). */
+int mo_chatter_verdict(const mo_chatter_input *in, char *why, size_t n);
 
 #endif

@@ -235,7 +235,7 @@ static void progress_draw(progress *p, long step, long steps, double t, int fina
 
 /* --- summary ------------------------------------------------------------------------------------ */
 
-static json_t *timings_json(const mo_ctx *ctx, double wall)
+static json_t *timings_json(const mo_ctx *ctx, double wall, double steps)
 {
   json_t *j = json_object(), *calls = json_object();
   int p;
@@ -244,6 +244,9 @@ static json_t *timings_json(const mo_ctx *ctx, double wall)
     json_object_set_new(calls, mo_phase_name((mo_phase)p), json_integer(ctx->phase_calls[p]));
   }
   json_object_set_new(j, "wall", json_real(wall));
+  /* the time of the steps alone (setup, the t = 0 state and every output left out): what
+     `moreau compare` times a run by (doc/theory.md (T99)) */
+  json_object_set_new(j, "steps", json_real(steps));
   json_object_set_new(j, "calls", calls);
   return j;
 }
@@ -481,8 +484,8 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
                          const mo_contact_driver *drv, const mo_metrics *met, const column *cols, int ncol,
                          const char *const *names, double e0, double e1, double drift,
                          double balance, double growth, int complete, const char *reason,
-                         double wall, const double *p0, long cuts, double dtmin, const char *blowup,
-                         mo_ctx *ctx)
+                         double wall, double steps_wall, const double *p0, long cuts, double dtmin,
+                         const char *blowup, mo_ctx *ctx)
 {
   double *pw = NULL, *p1 = NULL, *pcm = NULL;
   int pw_fail = 0;
@@ -685,7 +688,7 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
     json_object_set_new(root, "linear_solver", ls);
   } else
     json_decref(ls);
-  json_object_set_new(root, "timings", timings_json(ctx, wall));
+  json_object_set_new(root, "timings", timings_json(ctx, wall, steps_wall));
   for (k = 0; k < ctx->nskip; k++) json_array_append_new(skipped, json_string(ctx->skipped[k]));
   json_object_set_new(root, "skipped", skipped);
   {
@@ -1246,7 +1249,12 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
       st = mo_error(ctx, MO_EINTERRUPT, "interrupted at step %ld (t = %.6g)", s.step, s.t);
       goto done;
     }
-    if ((st = take_step(&stepper, &s, ctx))) goto done;
+    {
+      double ts = mo_clock();
+      st = take_step(&stepper, &s, ctx);
+      res->step_wall += mo_clock() - ts;
+      if (st) goto done;
+    }
   }
   complete = 1;
 
@@ -1276,7 +1284,7 @@ done:
     mo_ctx_clear_error(ctx);
     st2 = write_summary(outdir, cs, sc, S, s.u ? &s : NULL, C, drv, met, cols, cols ? nvalcol : 0,
                         (const char *const *)names, e0, e1, drift, balance, emax_growth, complete, reason,
-                        res->wall, p0, stepper.cuts, stepper.hmin, blowup, ctx);
+                        res->wall, res->step_wall, p0, stepper.cuts, stepper.hmin, blowup, ctx);
     if (!st2 && drv && s.u && s.step > 0) {
       snprintf(path, sizeof path, "%s/contact.csv", outdir);
       st2 = mo_contact_write_csv(path, sc, C, drv, &s, ctx);
@@ -1296,10 +1304,9 @@ done:
     if (ch.chatter) {
       const char *bk = drv ? mo_contact_driver_type(drv)->name : "";
       mo_log(ctx, 1,
-             "%s: warning: the contact chatters: the normal velocity of a bearing candidate alternated %ld times "
-             "and reached %.3g of the impact speed %.3g while in contact (summary.json metrics.contact.chatter; "
-             "doc/theory.md (T93)). %s\n",
-             opt->case_path, ch.alternations, ch.ratio, ch.vimpact,
+             "%s: warning: the contact chatters: %s; the normal velocity of a bearing candidate alternated %ld "
+             "times (summary.json metrics.contact.chatter; doc/theory.md (T97), (T93)). %s\n",
+             opt->case_path, ch.why, ch.alternations,
              !strcmp(bk, "newmark") ? "Newmark's displacement-level contact oscillates (BDZ07 Fig. 4); nscd and levelset "
                                       "with velocity-level Signorini keep [v_n] = 0"
              : sc->time.scheme == MO_SCHEME_THETA && position_level(cs)

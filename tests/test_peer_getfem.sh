@@ -25,8 +25,8 @@ EOF
 "$MOREAU" compare "$CASE" --solvers nscd --dt 0.05,0.025 $SMALL --peer "$OUT/peer.csv" --out "$OUT/c1" -q
 ok $? "compare --peer runs"
 r=$(cat "$OUT/c1/report.md")
-contains "$r" "| other-code-dt0.05 (external) | other-code | 0.05 | 0.500 | 60 | stable | 0.125 |" "report.md: a peer row, marked external, with its metric"
-contains "$r" "| other-code-dt0.025 (external) | other-code | 0.025 | 1.500 | 120 | stable | 0.0625 |" "report.md: the second peer row"
+contains "$r" "| other-code-dt0.05 (external) | other-code | 0.05 | 0.500 (peer's wall) | 60 | stable: energy growth 0 % (<= 1 %) | 0.125 |" "report.md: a peer row, marked external, its own clock, with its metric"
+contains "$r" "| other-code-dt0.025 (external) | other-code | 0.025 | 1.500 (peer's wall) | 120 | stable: energy growth 0 % (<= 1 %) | 0.0625 |" "report.md: the second peer row"
 contains "$r" "other-code-dt0.0125 (external)\` failed: diverged, at \"step\" 7" "report.md: a failed peer row with its reason (RFC 4180 quotes read)"
 contains "$r" "2 runs: " "report.md counts moreau's own runs only"
 contains "$r" "Rows marked (external) are 3 rows of \`$OUT/peer.csv\`" "report.md says where the external rows come from"

@@ -33,17 +33,26 @@ typedef struct {
   int npeer;
   const char *const *peers;    /* --peer FILE.csv: rows measured by another program, in
                                   compare.csv's columns (at least solver, dt, wall_s) */
+  int repeat;                  /* --repeat N: runs of each cell, timed by the median of their
+                                  step times; 0: adaptive, until the median is stable, up to 5 */
+  double reference_dt;         /* --reference DT: one more run per back end and grid point at
+                                  DT, the reference of the others (0: none; the finest run of
+                                  the sweep is the reference) */
 } mo_compare_options;
 
 typedef struct {
   int nrun, nstable, nunstable, nfailed;
+  int nchatter;                /* runs classed chatter (doc/theory.md (T97)) */
+  int nmarked;                 /* grid cells not run: the back end ignores a varied key */
   int nfigures, rendered;      /* figures scripted, and rendered by gnuplot */
   int npeer;                   /* rows read from the peer files */
 } mo_compare_result;
 
 /* Run every (back end, time step, grid point); write compare.csv (solver, dt, the varied keys,
-   wall_s, steps, status, class, reason, then every metric of summary.json flattened as
-   name.sub), stability.csv when keys vary, report.md, and plots/ (gnuplot scripts and their
+   wall_s, steps, status, class, reason, the step times (min, median, max over the repeats) and
+   the number of repeats, then every metric of summary.json flattened as name.sub, and the
+   errors against the finest run, ref.*), orders.csv (Richardson's observed orders, (T98)),
+   stability.csv when keys vary, report.md, and plots/ (gnuplot scripts and their
    PNG and SVG renderings when gnuplot is present). A failing run is recorded, not fatal; a
    case that does not load (or an interrupt) stops the comparison: what was run is written, and
    the error is returned. Rows of the peer files join the

@@ -24,6 +24,7 @@ typedef struct {
   long steps;                   /* steps completed */
   double t;                     /* time reached */
   double wall;                  /* wall time (s) */
+  double step_wall;             /* of which the steps alone (no setup, no output) */
   double energy0, energy1;      /* total mechanical energy at start and end */
   int complete;                 /* 1 when the run reached its end time */
   char outdir[4096];
