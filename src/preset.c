@@ -10,7 +10,7 @@
    per-scene parameters of a paper, e.g. the Newmark (beta, gamma) of each BDZ07 figure), which
    may also define new names. The order of application is: contact.solver, the preset, the run's
    --set (compare's time step and grid point among them), the bracketed overrides last: the
-   bracket is the entry's identity. doc/theory.md §10.5 says what each preset means. */
+   bracket is the entry's identity. doc/theory.md §10.2 says what each preset means. */
 #include "config.h"
 #include "case_internal.h"
 #include <moreau/contact.h>

@@ -1,5 +1,5 @@
 #!/bin/sh
-# test_presets.sh: formulations, not only solvers (src/preset.c, doc/theory.md §10.5): the papers'
+# test_presets.sh: formulations, not only solvers (src/preset.c, doc/theory.md §10.2): the papers'
 # presets set what their papers say, the bracket makes any --set a labelled entry of its own, and
 # the formulations differ where theory says they must.
 . "$MOREAU_SRCDIR/tests/tap.sh"
