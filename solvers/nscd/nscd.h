@@ -116,6 +116,8 @@ typedef struct {
      rigid bodies and obstacles (doc/theory.md §8.6) */
   int bodies;
   int *nsd, *sblk;              /* per contact: its rigid sides (0 to 2) and their blocks of What */
+  int *soff;                    /* per contact and side: the side's first velocity in vb, or -1
+                                   when its block has fewer dofs than a free body (a generic side) */
   double *G;                    /* per contact and side: the d x n_k rows of H on the block's dofs */
   double *MG;                   /* per contact and side: inv_k G^T (n_k x d), the velocity change
                                    of an impulse */
