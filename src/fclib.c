@@ -67,7 +67,7 @@ static int write_local(const char *path, int d, int nc, int *p, int *ii, double 
     return mo_error(ctx, MO_EIO, "path too long: %s", path);
   remove(tmp);
   if (!fclib_write_local(&pb, tmp)) {
-    st = mo_error(ctx, MO_EIO, "%s: libfclib could not write the local problem", path);
+    st = mo_error(ctx, MO_EOUTPUT, "%s: libfclib could not write the local problem", path);
     goto done;
   }
   if (r && U) {
@@ -75,11 +75,11 @@ static int write_local(const char *path, int d, int nc, int *p, int *ii, double 
     sol.r = (double *)r;
     sol.u = (double *)U;
     if (!fclib_write_solution(&sol, tmp)) {
-      st = mo_error(ctx, MO_EIO, "%s: libfclib could not write the solution", path);
+      st = mo_error(ctx, MO_EOUTPUT, "%s: libfclib could not write the solution", path);
       goto done;
     }
   }
-  if (rename(tmp, path) != 0) st = mo_error(ctx, MO_EIO, "cannot replace '%s'", path);
+  if (rename(tmp, path) != 0) st = mo_error(ctx, MO_EOUTPUT, "cannot replace '%s'", path);
 done:
   if (st) remove(tmp);
   return st;

@@ -58,7 +58,8 @@ static void usage(FILE *f)
           "S is a back end, or a formulation BACKEND[:PRESET][[KEY=VALUE;...]]: levelset:bdz07,\n"
           "nscd:jean88, nscd[theta=0.5] (moreau list-solvers).\n"
           "\n"
-          "Exit status: 0 success, 1 the run failed (the outputs say how far it got),\n"
+          "Exit status: 0 success, 1 the run failed (the outputs say how far it got; also an\n"
+          "output that could not be written, a full disk),\n"
           "2 bad command line or case file. See moreau(1) and doc/case-format.md.\n");
 }
 
@@ -390,9 +391,12 @@ int main(int argc, char **argv)
     free(c.sets);
     if (st) {
       fprintf(stderr, "moreau: %s\n", ctx.errmsg);
-      if (res.outdir[0] && res.steps > 0)
+      if (res.outdir[0] && res.steps > 0 && res.summary)
         fprintf(stderr, "moreau: outputs up to step %ld (t = %.6g) are in %s (summary.json says "
                         "\"incomplete\")\n", res.steps, res.t, res.outdir);
+      else if (res.outdir[0] && res.steps > 0)
+        fprintf(stderr, "moreau: the partial outputs in %s have no summary.json (it could not be "
+                        "written): no reader takes them for complete\n", res.outdir);
       return exit_code(st);
     }
     if (!c.quiet) {

@@ -612,16 +612,20 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
     json_decref(root);
     return mo_error(ctx, MO_ENOMEM, "cannot format summary.json");
   }
+  /* bodies.csv first: summary.json is the last file a run writes */
+  if (sc && sc->nrigid && (st = write_bodies_csv(dir, sc, s, ctx))) {
+    json_decref(root);
+    return st;
+  }
   /* streamed to the file: a scene of 10^5 grains has a large summary */
   snprintf(path, sizeof path, "%s/summary.json", dir);
   if (!(st = mo_atomic_open(&A, path, ctx))) {
     int ok = json_dumpf(root, A.f, JSON_INDENT(2) | JSON_PRESERVE_ORDER | JSON_REAL_PRECISION(12)) == 0;
     if (ok) fputc('\n', A.f);
     st = mo_atomic_commit(&A, ok, ctx);
-    if (!st && !ok) st = mo_error(ctx, MO_EIO, "cannot write '%s'", path);
+    if (!st && !ok) st = mo_error(ctx, MO_EOUTPUT, "cannot write '%s'", path);
   }
   json_decref(root);
-  if (!st && sc && sc->nrigid) st = write_bodies_csv(dir, sc, s, ctx);
   return st;
 }
 
@@ -819,6 +823,8 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   char reason[MO_ERRMSG_MAX] = "";
   progress prog;
   stepping stepper;
+  mo_outdir od;
+  od.fd = -1;
   memset(&s, 0, sizeof s);
   memset(&stepper, 0, sizeof stepper);
   memset(res, 0, sizeof *res);
@@ -833,7 +839,8 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   if ((st = mo_scene_build(cs, &sc, ctx))) goto done;
   if ((st = mo_contact_build(sc, &C, ctx))) goto done;
   if (opt->solver && !C) mo_note_skip(ctx, "contact solve (--solver given, but the case has no contact pairs)");
-  if ((st = mo_mkdir_p(outdir, ctx))) goto done;
+  /* from here on the folder is this run's: locked, its old summary replaced by "running" */
+  if ((st = mo_outdir_claim(&od, outdir, mo_case_file(cs), ctx))) goto done;
   if (opt->dump_fclib && (st = mo_mkdir_p(opt->dump_fclib, ctx))) goto done;
   if (C && (st = mo_contact_time_scheme(sc, C, ctx))) goto done;
   if ((st = mo_stepper_create(sc, &S, ctx))) goto done;
@@ -1115,33 +1122,51 @@ done:
       res->metric_linf[res->nmetric] = cols[k].rmax > 0 ? cols[k].emax / cols[k].rmax : NAN;
       res->nmetric++;
     }
-  if (st) snprintf(reason, sizeof reason, "%s", ctx->errmsg);
-  /* the summary (and the contact table) are written whenever the output folder exists, also
-     after a failure: they describe the last good step */
-  if (cs && sc && access(outdir, W_OK) == 0) {
-    int keep = ctx->status, st2;
+  /* the summary (and the contact table) are written whenever this run holds the output folder,
+     also after a failure: they describe the last good step. summary.json comes last: until it
+     is in place the folder's summary says "running" (mo_outdir_claim); when it cannot be
+     written (a full disk) the folder is left without one, never with an old "complete". */
+  if (cs && sc && od.fd >= 0) {
+    int keep = ctx->status, st2 = MO_OK;
     char msg[MO_ERRMSG_MAX];
     snprintf(msg, sizeof msg, "%s", ctx->errmsg);
     mo_ctx_clear_error(ctx);
-    st2 = write_summary(outdir, cs, sc, S, s.u ? &s : NULL, C, drv, met, cols, cols ? nvalcol : 0,
-                        (const char *const *)names, e0, e1, drift, balance, emax_growth, complete, reason,
-                        res->wall, p0, stepper.cuts, stepper.hmin, ctx);
-    if (!st2 && drv && s.u && s.step > 0) {
+    if (drv && s.u && s.step > 0) {
       snprintf(path, sizeof path, "%s/contact.csv", outdir);
       st2 = mo_contact_write_csv(path, sc, C, drv, &s, ctx);
       if (!st2 && table && ctx->verbosity >= 1) mo_contact_print_table(stdout, sc, C, drv, &s, ctx);
     }
-    if (st2 && !st) st = st2;
-    else if (keep) {
+    /* the drawings of the frames taken, also after a failure (the error kept is the run's) */
+    if (draw) {
+      int st3 = mo_draw_finish(draw, sc, ctx);
+      if (st3 && !st2) st2 = st3;
+    }
+    if (st2 && !keep) {
+      keep = st2;
+      complete = res->complete = 0;
+      snprintf(msg, sizeof msg, "%s", ctx->errmsg);
+    }
+    snprintf(reason, sizeof reason, "%s", msg);
+    mo_ctx_clear_error(ctx);
+    st2 = write_summary(outdir, cs, sc, S, s.u ? &s : NULL, C, drv, met, cols, cols ? nvalcol : 0,
+                        (const char *const *)names, e0, e1, drift, balance, emax_growth, complete, reason,
+                        res->wall, p0, stepper.cuts, stepper.hmin, ctx);
+    if (st2) {
+      /* the "running" summary must not outlive the run */
+      snprintf(path, sizeof path, "%s/summary.json", outdir);
+      remove(path);
+    } else
+      res->summary = 1;
+    if (keep) {
+      st = keep;
       ctx->status = keep;
       snprintf(ctx->errmsg, sizeof ctx->errmsg, "%s", msg);
+    } else if (st2) {
+      st = st2;
+      res->complete = 0;
     }
   }
-  /* the drawings of the frames taken, also after a failure (the error kept is the run's) */
-  if (draw) {
-    int st2 = mo_draw_finish(draw, sc, ctx);
-    if (st2 && !st) st = st2;
-  }
+  mo_outdir_release(&od);
   if (opt->log && sc) print_log(ctx, res->wall);
   mo_vtk_close(vtk);
   mo_vtk_contacts_release(&net);

@@ -23,7 +23,8 @@ enum {
   MO_ELIMIT = 7,     /* a size limit was exceeded (refused before allocating) */
   MO_EINTERRUPT = 8, /* SIGINT or SIGTERM */
   MO_EUNSUPPORTED = 9, /* the scene asks for something this build or back end cannot do */
-  MO_EINTERNAL = 10  /* a broken invariant: a bug */
+  MO_EINTERNAL = 10, /* a broken invariant: a bug */
+  MO_EOUTPUT = 11    /* an output could not be written (a full disk): the run failed, exit 1 */
 };
 
 /* Phases timed by the core; `moreau run --log` prints them as a table. */
