@@ -27,4 +27,13 @@ void mo_metrics_energies(const mo_metrics *M, const mo_state *s, double *ek, dou
 json_t *mo_metrics_json(const mo_metrics *M);
 void mo_metrics_free(mo_metrics *M);
 
+/* finite.c: no NaN or infinity in a run's outputs (doc/theory.md §10.8). The likely cause of a
+   non-finite value at time t, naming its case key, into buf; the MO_ENAN error naming the
+   quantity, the step and that cause; the checks of a state (u, v) and of a history row. */
+void mo_finite_cause(const mo_scene *sc, double t, char *buf, size_t n);
+int mo_finite_error(const mo_scene *sc, long step, double t, const char *what, double value, mo_ctx *ctx);
+int mo_finite_state(const mo_scene *sc, const mo_state *s, mo_ctx *ctx);
+int mo_finite_row(const mo_scene *sc, const mo_state *s, const double *row, const char *const *names, int ncol,
+                  mo_ctx *ctx);
+
 #endif
