@@ -140,6 +140,9 @@ static mo_case *case_new(const char *file, mo_ctx *ctx)
   return cs;
 }
 
+/* The largest case file read (bytes). */
+#define MO_CASE_FILE_MAX (1 << 20)
+
 int mo_case_load(const char *path, mo_case **out, mo_ctx *ctx)
 {
   struct stat sb;
@@ -156,6 +159,13 @@ int mo_case_load(const char *path, mo_case **out, mo_ctx *ctx)
       return mo_error(ctx, MO_EIO, "%s: this folder holds no case.cfg", path);
   } else
     snprintf(file, sizeof file, "%s", path);
+  /* a bounded input: libconfig's scanner takes time quadratic in a string's length (1 MB:
+     0.5 s, 4 MB: 29 s), and a case is a page of settings, its data in mesh files */
+  if (stat(file, &sb) != 0 || !S_ISREG(sb.st_mode))
+    return mo_error(ctx, MO_EINPUT, "%s: not a regular file (a case file is read whole)", file);
+  if (sb.st_size > MO_CASE_FILE_MAX)
+    return mo_error(ctx, MO_EINPUT, "%s: %lld bytes, more than the %d bytes a case file may hold (large data "
+                    "belong in mesh files)", file, (long long)sb.st_size, MO_CASE_FILE_MAX);
   cs = case_new(file, ctx);
   if (!cs) return MO_ENOMEM;
   if (cs->dir) config_set_include_dir(&cs->cfg, cs->dir);

@@ -377,6 +377,7 @@ int main(int argc, char **argv)
     }
     if (c.quiet) ctx.verbosity = 0;
     if (!strcmp(cmd, "check")) {
+      catch_signals(&ctx);
       st = mo_check(&c.o, &ctx);
       free(c.sets);
       if (st) {

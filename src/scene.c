@@ -261,6 +261,11 @@ static int assemble(mo_scene *sc, int with_mass, mo_ctx *ctx)
     nd = m->nen * D;
     B->mass = 0;
     for (e = 0; e < m->nelem && !st; e++) {
+      if (!(e & 0xffff) && MO_INTERRUPTED(ctx)) {
+        st = mo_error(ctx, MO_EINTERRUPT, "interrupted while assembling body '%s' (element %d of %d)", B->name, e,
+                      m->nelem);
+        break;
+      }
       for (a = 0; a < m->nen; a++)
         for (c = 0; c < D; c++) dofs[a * D + c] = B->dof0 + m->conn[e * m->nen + a] * D + c;
       /* finite-strain bodies have no constant stiffness: their forces and tangents are

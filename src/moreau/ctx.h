@@ -69,6 +69,10 @@ typedef struct mo_ctx {
   long max_dofs;
 } mo_ctx;
 
+/* 1 when the program was asked to stop (SIGINT, SIGTERM): the long loops of loading and
+   building poll it every few thousand items and return MO_EINTERRUPT. */
+#define MO_INTERRUPTED(ctx) ((ctx)->interrupt && *(ctx)->interrupt)
+
 /* Initialise a context with defaults (verbosity 1, seed 1, no injection). */
 void mo_ctx_init(mo_ctx *ctx);
 
