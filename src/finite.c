@@ -127,3 +127,32 @@ int mo_finite_row(const mo_scene *sc, const mo_state *s, const double *row, cons
     }
   return MO_OK;
 }
+
+/* Why an iteration matrix M + c K failed to factor, when the data say (T106): a stiffness
+   term that outweighs the mass past what a double resolves, c E / (rho h^2) > 1e15 (h the
+   shortest edge, c = (theta dt)^2 or beta dt^2), or an extreme constant. Empty otherwise. */
+void mo_matrix_cause(const mo_scene *sc, char *buf, size_t n)
+{
+  double h = mo_metrics_hmin(sc), dt = sc->time.dt, c;
+  int b;
+  buf[0] = '\0';
+  c = sc->time.scheme == MO_SCHEME_NEWMARK ? sc->time.beta * dt * dt
+      : sc->time.scheme == MO_SCHEME_THETA  ? sc->time.theta * sc->time.theta * dt * dt
+                                            : 0;
+  if (extreme(dt) || extreme(1 / dt)) {
+    snprintf(buf, n, "; the likely cause: time.dt = %g", dt);
+    return;
+  }
+  for (b = 0; b < sc->nbody; b++) {
+    const mo_body *B = &sc->body[b];
+    double E = B->mat.E, rho = B->mat.rho, r;
+    if (B->kind != MO_BODY_DEFORMABLE) continue;
+    r = c > 0 && rho > 0 && h > 0 && isfinite(h) ? c * E / (rho * h * h) : 0;
+    if (extreme(E) || extreme(rho) || extreme(1 / rho) || !isfinite(r) || r > 1e15) {
+      snprintf(buf, n, "; the likely cause: bodies.%s.material: E = %g, rho = %g with time.dt = %g and elements "
+               "of %g make the stiffness term outweigh the mass %.3g times, past the 1e15 a double resolves "
+               "(a material in consistent units, a smaller time.dt)", entry_name(sc, b), E, rho, dt, h, r);
+      return;
+    }
+  }
+}

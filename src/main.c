@@ -159,8 +159,12 @@ static int cmd_compare(int argc, char **argv, mo_ctx *ctx)
     if (!strcmp(a, "--solvers") && i + 1 < argc) {
       o.nsolver = split_list(argv[++i], solvers, 16);
       o.solvers = (const char *const *)solvers;
-      if (o.nsolver <= 0) {
-        fprintf(stderr, "moreau compare: --solvers a,b,...: at most 16 back ends\n");
+      if (o.nsolver == 0) {
+        fprintf(stderr, "moreau compare: --solvers names no back end, only commas (a,b,...: see moreau list-solvers)\n");
+        goto out;
+      }
+      if (o.nsolver < 0) {
+        fprintf(stderr, "moreau compare: --solvers a,b,...: at most 16 back ends, brackets matched\n");
         goto out;
       }
     } else if (!strcmp(a, "--dt") && i + 1 < argc) {

@@ -33,6 +33,7 @@ void mo_metrics_free(mo_metrics *M);
 void mo_finite_cause(const mo_scene *sc, double t, char *buf, size_t n);
 int mo_finite_error(const mo_scene *sc, long step, double t, const char *what, double value, mo_ctx *ctx);
 int mo_finite_state(const mo_scene *sc, const mo_state *s, mo_ctx *ctx);
+void mo_matrix_cause(const mo_scene *sc, char *buf, size_t n);
 int mo_finite_row(const mo_scene *sc, const mo_state *s, const double *row, const char *const *names, int ncol,
                   mo_ctx *ctx);
 

@@ -331,6 +331,11 @@ static int build_time(mo_scene *sc, const mo_case *cs, mo_ctx *ctx)
     return mo_case_error(cs, tg, ctx, "give 'end' or 'steps', not both");
   if (mo_cfg_member(tg, "end")) {
     double n = mo_cfg_float(tg, "end", 0) / T->dt;
+    /* one step rounds the run up to dt: refused when that more than doubles it (dt = 1e300
+       would run to t = 1e300 and overflow M + c K) */
+    if (n < 0.5)
+      return mo_case_error(cs, mo_cfg_member(tg, "dt"), ctx, "the time step %g is longer than the run (time.end = %g): "
+                           "the one step would end at t = %g", T->dt, mo_cfg_float(tg, "end", 0), T->dt);
     if (n > 1e9) return mo_case_error(cs, mo_cfg_member(tg, "end"), ctx, "end / dt = %.3g steps exceed the limit of 10^9", n);
     T->steps = (long)ceil(n - 1e-9);
     if (T->steps < 1) T->steps = 1;
@@ -339,6 +344,9 @@ static int build_time(mo_scene *sc, const mo_case *cs, mo_ctx *ctx)
   else
     return mo_case_error(cs, tg, ctx, "needs 'end' or 'steps'");
   T->end = (double)T->steps * T->dt;
+  if (!isfinite(T->end) || T->end > 1e100)
+    return mo_case_error(cs, mo_cfg_member(tg, "dt"), ctx, "%ld steps of %g make the run end at t = %g: check the units",
+                         T->steps, T->dt, T->end);
   return MO_OK;
 }
 
@@ -731,12 +739,14 @@ static int estimate_size(const mo_case *cs, const config_setting_t *bl, int nent
     dofs += c * nn * d;
     bytes += c * nn * d * bytes_per_dof[d];
     if (c * ne > 1e7 || dofs > limit || bytes > mem) {
-      mo_case_error(cs, key, ctx, "body '%s' makes an estimated %.3g nodes, %.3g elements, %.3g dofs (the scene "
-                    "%.3g dofs, about %.3g GB), more than the limits of 10^7 elements, %.3g dofs and %.3g GB of "
-                    "memory: refused before building anything (a coarser mesh, please)",
-                    mo_cfg_string(bg, "name", "?"), c * nn, c * ne, c * nn * d, dofs, bytes / 1e9, limit, mem / 1e9);
-      ctx->status = MO_ELIMIT;
-      return MO_ELIMIT;
+      char why[160];
+      if (c * ne > 1e7) snprintf(why, sizeof why, "more than the limit of 10^7 elements");
+      else if (dofs > limit) snprintf(why, sizeof why, "the scene's %.3g dofs pass the limit of %.3g", dofs, limit);
+      else snprintf(why, sizeof why, "the scene's %.3g GB pass the %.3g GB of memory there are", bytes / 1e9, mem / 1e9);
+      return mo_case_error(cs, key, ctx, "body '%s' makes an estimated %.3g nodes, %.3g elements, %.3g dofs (about "
+                           "%.3g GB): %s; refused before anything is built (a coarser mesh, please)",
+                           mo_cfg_string(bg, "name", "?"), c * nn, c * ne, c * nn * d, c * nn * d * bytes_per_dof[d] / 1e9,
+                           why);
     }
   }
   (void)nodes;

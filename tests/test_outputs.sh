@@ -111,7 +111,7 @@ big() { # big NAME KEY ARGS...: refused, fast and small
   # under a 4 GB address-space limit: a refusal that came too late fails here rather than swap
   /usr/bin/time -v -o "$OUT/$name.time" sh -c 'ulimit -v 4000000; exec "$0" check "$@"' "$MOREAU" "$@" \
     > /dev/null 2> "$OUT/$name.err"
-  is "$?" "1" "$name: refused (exit 1)"
+  is "$?" "2" "$name: refused as a bad case (exit 2)"
   contains "$(cat "$OUT/$name.err")" "$key" "$name: the message names the key"
   contains "$(cat "$OUT/$name.err")" "estimated" "$name: and prints the estimate"
   kb=$(awk -F: '/Maximum resident/ { print $2 + 0 }' "$OUT/$name.time")
