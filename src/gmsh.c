@@ -1234,6 +1234,13 @@ static int build(msh *R, const mo_gmsh_options *opt, mo_mesh **out, mo_gmsh_repo
       for (d = 0; d < D; d++)
         m->x[(size_t)newid[i] * (size_t)D + (size_t)d] =
             scale * R->nx[3 * i + (size_t)d] + (opt ? opt->translate[d] : 0);
+  /* a scale that overflows (or squares past the range, as element Jacobians do) */
+  for (i = 0; i < (size_t)nused * (size_t)D; i++)
+    if (!(fabs(m->x[i]) < 1e150)) {
+      st = mo_error(ctx, MO_EINPUT, "%s: the scale %g and translation take a coordinate to %g: past 1e150, where "
+                    "lengths squared overflow (a scale in metres, please)", R->file, scale, m->x[i]);
+      goto done;
+    }
   for (e = 0, k = 0; e < R->nel; e++)
     if (gtype[R->etype[e]].dim == D) {
       body[k] = (int)e;
