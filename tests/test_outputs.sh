@@ -128,4 +128,40 @@ if [ -x /usr/bin/time ]; then
 else
   ok 0 "# SKIP no /usr/bin/time"
 fi
+# --- 5. bounded inputs, interrupts ---------------------------------------------------------------------
+python3 -c "import sys; open(sys.argv[1], 'w').write('title = \"' + 'x' * 4000000 + '\";\n')" "$OUT/huge.cfg"
+start=$(date +%s)
+e=$("$MOREAU" check "$OUT/huge.cfg" 2>&1)
+is "$?" "2" "a 4 MB case file: refused (exit 2)"
+contains "$e" "more than the 1048576 bytes a case file may hold" "a 4 MB case file: the message says why"
+ok $([ $(($(date +%s) - start)) -le 2 ] && echo 0 || echo 1) "a 4 MB case file: refused at once (was 29 s in the parser)"
+e=$("$MOREAU" check /dev/zero 2>&1)
+is "$?" "2" "/dev/zero as a case: refused (exit 2)"
+contains "$e" "not a regular file" "/dev/zero as a case: not a regular file"
+# SIGINT while a 4e6-element bar is built: out in about a second, saying so
+"$MOREAU" run "$W" --out "$OUT/intbuild" --quiet --set 'bodies.bar.mesh.elements=4000000' 2> "$OUT/intbuild.err" &
+pid=$!
+sleep 1
+kill -INT $pid
+t0=$(date +%s)
+wait $pid
+rc=$?
+is "$rc" "1" "SIGINT while building: exit 1"
+ok $([ $(($(date +%s) - t0)) -le 3 ] && echo 0 || echo 1) "SIGINT while building: honoured within 3 s (was 12 s, the end of the phase)"
+contains "$(cat "$OUT/intbuild.err")" "interrupted" "SIGINT while building: the message says interrupted"
+
+# --- 6, 7. the command line ------------------------------------------------------------------------------
+e=$("$MOREAU" compare "$W" --metric nosuch --dt 0.01 --set time.end=0.1 --out "$OUT/cmp" --quiet 2>&1)
+is "$?" "2" "compare --metric nosuch: exit 2 (was 0)"
+contains "$e" "no run reported such a metric" "compare --metric nosuch: says so, with the metrics there are"
+e=$("$MOREAU" compare "$W" --solvers ,,, --out "$OUT/cmp2" --quiet 2>&1)
+is "$?" "2" "--solvers ,,,: exit 2"
+contains "$e" "names no back end" "--solvers ,,,: the message says no back end is named (was 'at most 16')"
+e=$("$MOREAU" run "$W" --out "$(python3 -c "print('a/' * 2100)")" --quiet 2>&1)
+is "$?" "2" "an over-long --out: exit 2"
+contains "$e" "characters, more than the" "an over-long --out: the message gives the reason"
+e=$("$MOREAU" run "$MOREAU_SRCDIR/cases/cylinder-wall" --out "$OUT/e30" --quiet --set time.end=1e-5 \
+  --set bodies.cylinder.material.E=1e30 2>&1)
+contains "$e" "the likely cause: bodies.cylinder.material: E = 1e+30" "E = 1e30: the failed factorization names the material"
+case "$e" in *"zero mass"*) ok 1 "E = 1e30: not blamed on zero mass" ;; *) ok 0 "E = 1e30: not blamed on zero mass" ;; esac
 done_testing
