@@ -1510,10 +1510,12 @@ int mo_mesh_read_gmsh(const char *path, const mo_gmsh_options *opt, mo_mesh **ou
   int st;
   struct stat sb;
   *out = NULL;
+  /* a bounded input: a regular file (a FIFO would block the open) of at most MO_MESH_FILE_MAX
+     bytes (10^7 elements of text take about 600 MB) */
+  if (stat(path, &sb) == 0 && !S_ISREG(sb.st_mode))
+    return mo_error(ctx, MO_EINPUT, "%s: not a regular file (a mesh file is read whole)", path);
   f = fopen(path, "r");
   if (!f) return mo_error(ctx, MO_EIO, "cannot read the mesh file %s (%s)", path, strerror(errno));
-  /* a bounded input: a regular file of at most MO_MESH_FILE_MAX bytes (10^7 elements of text
-     take about 600 MB) */
   if (fstat(fileno(f), &sb) != 0 || !S_ISREG(sb.st_mode)) {
     fclose(f);
     return mo_error(ctx, MO_EINPUT, "%s: not a regular file (a mesh file is read whole)", path);
