@@ -140,6 +140,9 @@ static mo_case *case_new(const char *file, mo_ctx *ctx)
   return cs;
 }
 
+/* The largest case file read (bytes). */
+#define MO_CASE_FILE_MAX (1 << 20)
+
 int mo_case_load(const char *path, mo_case **out, mo_ctx *ctx)
 {
   struct stat sb;
@@ -156,6 +159,13 @@ int mo_case_load(const char *path, mo_case **out, mo_ctx *ctx)
       return mo_error(ctx, MO_EIO, "%s: this folder holds no case.cfg", path);
   } else
     snprintf(file, sizeof file, "%s", path);
+  /* a bounded input: libconfig's scanner takes time quadratic in a string's length (1 MB:
+     0.5 s, 4 MB: 29 s), and a case is a page of settings, its data in mesh files */
+  if (stat(file, &sb) != 0 || !S_ISREG(sb.st_mode))
+    return mo_error(ctx, MO_EINPUT, "%s: not a regular file (a case file is read whole)", file);
+  if (sb.st_size > MO_CASE_FILE_MAX)
+    return mo_error(ctx, MO_EINPUT, "%s: %lld bytes, more than the %d bytes a case file may hold (large data "
+                    "belong in mesh files)", file, (long long)sb.st_size, MO_CASE_FILE_MAX);
   cs = case_new(file, ctx);
   if (!cs) return MO_ENOMEM;
   if (cs->dir) config_set_include_dir(&cs->cfg, cs->dir);
@@ -400,6 +410,10 @@ static int check_number(const mo_case *cs, const config_setting_t *s, const mo_k
   char r[128];
   int bad = 0;
   if (!isfinite(v)) bad = 1;
+  /* a subnormal number (|v| < 2.2e-308) is no physical quantity: its reciprocal overflows */
+  if (fpclassify(v) == FP_SUBNORMAL)
+    return mo_case_error(cs, s, ctx, "value %g is subnormal (below 2.2e-308 in magnitude): its reciprocal "
+                         "overflows; check the units", v);
   if (!isnan(K->lo) && (K->lo_open ? !(v > K->lo) : !(v >= K->lo))) bad = 1;
   if (!isnan(K->hi) && (K->hi_open ? !(v < K->hi) : !(v <= K->hi))) bad = 1;
   if (!bad) return MO_OK;
@@ -586,9 +600,52 @@ static int validate_group(const mo_case *cs, const config_setting_t *g, const ch
   return R.st;
 }
 
+/* The offset of the first byte of s that is not valid UTF-8 (RFC 3629: no overlong forms,
+   no surrogates, at most U+10FFFF), or -1. */
+static long utf8_bad(const char *str)
+{
+  const unsigned char *s = (const unsigned char *)str;
+  long i = 0;
+  while (s[i]) {
+    unsigned c = s[i];
+    int n = c < 0x80 ? 0 : (c & 0xe0) == 0xc0 ? 1 : (c & 0xf0) == 0xe0 ? 2 : (c & 0xf8) == 0xf0 ? 3 : -1, k;
+    unsigned long cp;
+    if (n < 0 || (n == 1 && c < 0xc2)) return i;
+    cp = n == 0 ? c : c & (0x3fu >> n);
+    for (k = 1; k <= n; k++) {
+      if ((s[i + k] & 0xc0) != 0x80) return i;
+      cp = cp << 6 | (s[i + k] & 0x3f);
+    }
+    if ((n == 2 && (cp < 0x800 || (cp >= 0xd800 && cp <= 0xdfff))) || (n == 3 && (cp < 0x10000 || cp > 0x10ffff)))
+      return i;
+    i += n + 1;
+  }
+  return -1;
+}
+
+/* Every string of the case is UTF-8 (summary.json and the VTK files are; a title in another
+   encoding was dropped from summary.json). */
+static int check_utf8(const mo_case *cs, const config_setting_t *g, mo_ctx *ctx)
+{
+  int t = config_setting_type(g), i, n, st;
+  if (t == CONFIG_TYPE_STRING) {
+    long at = utf8_bad(config_setting_get_string(g));
+    if (at >= 0)
+      return mo_case_error(cs, g, ctx, "is not valid UTF-8 (byte 0x%02x at offset %ld): save the case file as UTF-8",
+                           (unsigned char)config_setting_get_string(g)[at], at);
+    return MO_OK;
+  }
+  if (t != CONFIG_TYPE_GROUP && t != CONFIG_TYPE_LIST && t != CONFIG_TYPE_ARRAY) return MO_OK;
+  n = config_setting_length(g);
+  for (i = 0; i < n; i++)
+    if ((st = check_utf8(cs, config_setting_get_elem(g, (unsigned)i), ctx))) return st;
+  return MO_OK;
+}
+
 int mo_case_validate(mo_case *cs, mo_ctx *ctx)
 {
-  return validate_group(cs, config_root_setting(&cs->cfg), "", ctx);
+  int st = check_utf8(cs, config_root_setting(&cs->cfg), ctx);
+  return st ? st : validate_group(cs, config_root_setting(&cs->cfg), "", ctx);
 }
 
 /* --- overrides ------------------------------------------------------------------------------- */

@@ -1236,6 +1236,17 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
   /* figures: data files and gnuplot scripts (kept so that users restyle them); each back end
      with its own colour, marker and dash pattern, so that coinciding curves stay visible */
   metric_col = pick_metric(C, opt->metric);
+  if (opt->metric && metric_col < 0) {
+    /* a metric asked for by name that no run reported: say so, with the ones there are */
+    char have[600] = "";
+    size_t l = 0;
+    for (k = 0; k < C->n && l < sizeof have - 80; k++)
+      if (strstr(C->name[k], "_rel"))
+        l += (size_t)snprintf(have + l, sizeof have - l, "%s%s", l ? ", " : "", C->name[k]);
+    st = mo_error(ctx, MO_EINPUT, "compare --metric '%s': no run reported such a metric (%s%s)", opt->metric,
+                  l ? "the relative errors are: " : "the case has no reference to measure errors against", have);
+    goto done;
+  }
   {
     int rendered = 0, nfig = 0;
     int closed = metric_col >= 0 && strncmp(C->name[metric_col], "ref.", 4);

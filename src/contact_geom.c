@@ -1115,6 +1115,14 @@ int mo_contact_build(const mo_scene *sc, mo_contact **out, mo_ctx *ctx)
     }
     P->sbody = P->sb[0];
     P->mbody = P->mb[0];
+    if (P->ns == 1 && P->nm == 1 && P->sbody == P->mbody && (sc->body[P->sbody].type->flags & MO_BODY_F_MESH) &&
+        !strcmp(mo_cfg_string(pg, "slave_set", ""), mo_cfg_string(pg, "master_set", ""))) {
+      /* every slave point lies on its own master facet: gap 0 everywhere, contact closed from the start */
+      st = mo_case_error(cs, mo_cfg_member(pg, "master_set") ? mo_cfg_member(pg, "master_set") : mo_cfg_member(pg, "master"),
+                         ctx, "the pair puts set '%s' of body '%s' against itself: a contact pair joins two surfaces",
+                         mo_cfg_string(pg, "slave_set", ""), sc->body[P->sbody].name);
+      goto fail;
+    }
     P->e = mo_cfg_float(pg, "e", 0);
     {
       const mo_body *SB = &sc->body[P->sbody], *MB = &sc->body[P->mbody];

@@ -64,6 +64,7 @@ const char *mo_strerror(int code)
   case MO_ENOMEM: return "out of memory";
   case MO_EINPUT: return "invalid input";
   case MO_EIO: return "input/output error";
+  case MO_EOUTPUT: return "output not written";
   case MO_ESINGULAR: return "singular matrix";
   case MO_ENOCONV: return "no convergence";
   case MO_ENAN: return "NaN or infinity";

@@ -229,7 +229,7 @@ int mo_draw_open(const char *outdir, const mo_scene *sc, const mo_case *cs, mo_d
   if ((st = mo_mkdir_p(d->dir, ctx))) goto fail;
   snprintf(path, sizeof path, "%s/draw.dat", d->dir);
   if (!(d->f = fopen(path, "w"))) {
-    st = mo_error(ctx, MO_EIO, "cannot write '%s': %s", path, strerror(errno));
+    st = mo_error(ctx, MO_EOUTPUT, "cannot write '%s': %s", path, strerror(errno));
     goto fail;
   }
   fprintf(d->f, "# draw.dat: the frames moreau drew of '%s' (plots/draw.gp renders them).\n"
@@ -377,7 +377,7 @@ int mo_draw_frame(mo_draw *d, const mo_scene *sc, const mo_state *s, const mo_vt
   fputs("\n\n# contact network\nNaN NaN NaN NaN NaN\n", d->f);
   if (d->forces && net) frame_network(d, sc, net);
   fputs("\n\n", d->f);
-  if (ferror(d->f)) return mo_error(ctx, MO_EIO, "cannot write '%s/draw.dat'", d->dir);
+  if (ferror(d->f)) return mo_error(ctx, MO_EOUTPUT, "cannot write '%s/draw.dat'", d->dir);
   d->nframe++;
   return MO_OK;
 }
@@ -669,7 +669,7 @@ int mo_draw_finish(mo_draw *d, const mo_scene *sc, mo_ctx *ctx)
   bad = ferror(d->f);
   bad |= fclose(d->f);
   d->f = NULL;
-  if (bad) return mo_error(ctx, MO_EIO, "cannot write '%s/draw.dat'", d->dir);
+  if (bad) return mo_error(ctx, MO_EOUTPUT, "cannot write '%s/draw.dat'", d->dir);
   if ((st = write_script(d, sc, v, ctx))) return st;
   nfig = d->nframe ? 1 + d->gif : 0;
   if (nfig && d->gnuplot[0] && ctx->interrupt && *ctx->interrupt)

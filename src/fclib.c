@@ -2,6 +2,7 @@
 #include "config.h"
 #include <moreau/contact.h>
 
+#include <math.h>
 #include <stdio.h>
 #include <string.h>
 #include <unistd.h>
@@ -67,7 +68,7 @@ static int write_local(const char *path, int d, int nc, int *p, int *ii, double 
     return mo_error(ctx, MO_EIO, "path too long: %s", path);
   remove(tmp);
   if (!fclib_write_local(&pb, tmp)) {
-    st = mo_error(ctx, MO_EIO, "%s: libfclib could not write the local problem", path);
+    st = mo_error(ctx, MO_EOUTPUT, "%s: libfclib could not write the local problem", path);
     goto done;
   }
   if (r && U) {
@@ -75,11 +76,11 @@ static int write_local(const char *path, int d, int nc, int *p, int *ii, double 
     sol.r = (double *)r;
     sol.u = (double *)U;
     if (!fclib_write_solution(&sol, tmp)) {
-      st = mo_error(ctx, MO_EIO, "%s: libfclib could not write the solution", path);
+      st = mo_error(ctx, MO_EOUTPUT, "%s: libfclib could not write the solution", path);
       goto done;
     }
   }
-  if (rename(tmp, path) != 0) st = mo_error(ctx, MO_EIO, "cannot replace '%s'", path);
+  if (rename(tmp, path) != 0) st = mo_error(ctx, MO_EOUTPUT, "cannot replace '%s'", path);
 done:
   if (st) remove(tmp);
   return st;
@@ -123,6 +124,89 @@ int mo_fclib_write_csc(const char *path, int d, int nc, const mo_csc *W, const d
 }
 
 /* An fclib_matrix (triplets, compressed columns or rows) as CSC. */
+/* A matrix of a file, checked before it is read: sizes, pointers and indices in range, values
+   finite (a corrupt file names itself and what is wrong, never an out-of-range read). */
+static int fclib_check_matrix(const char *path, const char *what, const struct fclib_matrix *M, mo_ctx *ctx)
+{
+  long k, j, np;
+  if (!M) return mo_error(ctx, MO_EINPUT, "%s: the matrix %s is missing", path, what);
+  if (M->m < 0 || M->n < 0 || M->nzmax < 0 || M->nz < -2)
+    return mo_error(ctx, MO_EINPUT, "%s: the matrix %s has sizes %d x %d, nzmax %d, nz %d", path, what, M->m, M->n,
+                    M->nzmax, M->nz);
+  if (M->nz >= 0) {
+    if (M->nz > M->nzmax) return mo_error(ctx, MO_EINPUT, "%s: the matrix %s holds nz = %d > nzmax = %d", path, what, M->nz, M->nzmax);
+    for (k = 0; k < M->nz; k++) {
+      if (M->i[k] < 0 || M->i[k] >= M->m || M->p[k] < 0 || M->p[k] >= M->n)
+        return mo_error(ctx, MO_EINPUT, "%s: the matrix %s: entry %ld at (%d, %d), outside %d x %d", path, what, k,
+                        M->i[k], M->p[k], M->m, M->n);
+      if (!isfinite(M->x[k]))
+        return mo_error(ctx, MO_EINPUT, "%s: the matrix %s: entry %ld is not finite (%g)", path, what, k, M->x[k]);
+    }
+    return MO_OK;
+  }
+  np = M->nz == -1 ? M->n : M->m;
+  if (M->p[0] != 0) return mo_error(ctx, MO_EINPUT, "%s: the matrix %s: its first pointer is %d, not 0", path, what, M->p[0]);
+  for (j = 0; j < np; j++)
+    if (M->p[j + 1] < M->p[j] || M->p[j + 1] > M->nzmax)
+      return mo_error(ctx, MO_EINPUT, "%s: the matrix %s: corrupt %s pointers (p[%ld] = %d after p[%ld] = %d, nzmax %d)",
+                      path, what, M->nz == -1 ? "column" : "row", j + 1, M->p[j + 1], j, M->p[j], M->nzmax);
+  for (k = 0; k < M->p[np]; k++) {
+    if (M->i[k] < 0 || M->i[k] >= (M->nz == -1 ? M->m : M->n))
+      return mo_error(ctx, MO_EINPUT, "%s: the matrix %s: index %d of entry %ld is out of range", path, what, M->i[k], k);
+    if (!isfinite(M->x[k]))
+      return mo_error(ctx, MO_EINPUT, "%s: the matrix %s: entry %ld is not finite (%g)", path, what, k, M->x[k]);
+  }
+  return MO_OK;
+}
+
+/* A vector of a file: finite values, and for friction coefficients non-negative ones. */
+static int fclib_check_vector(const char *path, const char *what, const double *v, long n, int nonneg, mo_ctx *ctx)
+{
+  long k;
+  if (!v && n > 0) return mo_error(ctx, MO_EINPUT, "%s: the vector %s is missing", path, what);
+  for (k = 0; k < n; k++) {
+    if (!isfinite(v[k])) return mo_error(ctx, MO_EINPUT, "%s: %s[%ld] is not finite (%g)", path, what, k, v[k]);
+    if (nonneg && v[k] < 0)
+      return mo_error(ctx, MO_EINPUT, "%s: %s[%ld] = %g: a friction coefficient is not negative", path, what, k, v[k]);
+  }
+  return MO_OK;
+}
+
+/* libfclib and HDF5 print their complaints on stderr: they are kept aside during a call and
+   printed after it with the file's name. */
+typedef struct {
+  int saved;
+  FILE *tmp;
+} err_capture;
+
+static void capture_begin(err_capture *c)
+{
+  fflush(stderr);
+  c->saved = -1;
+  c->tmp = tmpfile();
+  if (!c->tmp) return;
+  c->saved = dup(2);
+  if (c->saved < 0 || dup2(fileno(c->tmp), 2) < 0) {
+    if (c->saved >= 0) close(c->saved);
+    c->saved = -1;
+    fclose(c->tmp);
+    c->tmp = NULL;
+  }
+}
+
+static void capture_end(err_capture *c, const char *path)
+{
+  char line[1024];
+  if (!c->tmp) return;
+  fflush(stderr);
+  dup2(c->saved, 2);
+  close(c->saved);
+  rewind(c->tmp);
+  while (fgets(line, sizeof line, c->tmp)) fprintf(stderr, "%s: libfclib: %s", path, line);
+  fclose(c->tmp);
+  c->tmp = NULL;
+}
+
 static int fclib_to_csc(const struct fclib_matrix *M, mo_csc **out, mo_ctx *ctx)
 {
   mo_triplet T;
@@ -154,10 +238,17 @@ static int reduce_global(const char *path, struct fclib_global *G, int *d, int *
   memset(&T, 0, sizeof T);
   if (G->G || G->b)
     return mo_error(ctx, MO_EUNSUPPORTED, "%s: global problem with equality constraints (G, b): not supported", path);
+  if ((st = fclib_check_matrix(path, "M", G->M, ctx)) || (st = fclib_check_matrix(path, "H", G->H, ctx)))
+    return st;
   if ((st = fclib_to_csc(G->M, &M, ctx)) || (st = fclib_to_csc(G->H, &H, ctx))) goto done;
   n = M->nrow;
   m = H->ncol;
   *d = G->spacedim;
+  if (*d == 2 || *d == 3) {
+    if ((st = fclib_check_vector(path, "f", G->f, n, 0, ctx)) || (st = fclib_check_vector(path, "mu", G->mu, m / *d, 1, ctx)) ||
+        (G->w && (st = fclib_check_vector(path, "w", G->w, m, 0, ctx))))
+      goto done;
+  }
   if ((*d != 2 && *d != 3) || H->nrow != n || m % *d) {
     st = mo_error(ctx, MO_EINPUT, "%s: M is %d x %d, H is %d x %d, local dimension %d", path, M->nrow, M->ncol, H->nrow, H->ncol, *d);
     goto done;
@@ -220,7 +311,10 @@ int mo_fclib_read(const char *path, int *d, int *nc, mo_csc **Wout, double **q, 
   fclose(f);
   /* libfclib prints to stderr when a group is missing: ask for the kind the file holds */
   if (mo_fclib_kind(path) == 2) {
+    err_capture ec;
+    capture_begin(&ec);
     G = fclib_read_global(path);
+    capture_end(&ec, path);
     if (!G) return mo_error(ctx, MO_EINPUT, "%s: libfclib could not read the global problem", path);
     st = reduce_global(path, G, d, nc, Wout, q, mu, ctx);
     fclib_delete_global(G);
@@ -230,7 +324,12 @@ int mo_fclib_read(const char *path, int *d, int *nc, mo_csc **Wout, double **q, 
     }
     return st;
   }
-  pb = fclib_read_local(path);
+  {
+    err_capture ec;
+    capture_begin(&ec);
+    pb = fclib_read_local(path);
+    capture_end(&ec, path);
+  }
   if (!pb || !pb->W) {
     if (pb) fclib_delete_local(pb);
     return mo_error(ctx, MO_EINPUT, "%s: not an FCLIB local problem (libfclib could not read it)", path);
@@ -244,6 +343,9 @@ int mo_fclib_read(const char *path, int *d, int *nc, mo_csc **Wout, double **q, 
   if (pb->V || pb->R)
     mo_log(ctx, 1, "%s: the equality constraints (V, R) of this mixed problem are ignored\n", path);
   *nc = m / *d;
+  if ((st = fclib_check_matrix(path, "W", pb->W, ctx)) || (st = fclib_check_vector(path, "q", pb->q, m, 0, ctx)) ||
+      (st = fclib_check_vector(path, "mu", pb->mu, *nc, 1, ctx)))
+    goto done;
   if ((st = fclib_to_csc(pb->W, Wout, ctx))) goto done;
   *q = mo_malloc(ctx, (size_t)m * sizeof(double));
   *mu = mo_malloc(ctx, (size_t)*nc * sizeof(double));

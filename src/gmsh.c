@@ -11,11 +11,14 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 /* Longest token (Gmsh's names are at most 127 characters, within quotes). */
 #define MSH_TOKEN_MAX 256
 /* Bounds on the small tables: physical names, entities, physical tags per entity and in all. */
 #define MSH_MAX_TABLE 1000000
+/* The largest mesh file read (bytes). */
+#define MO_MESH_FILE_MAX 1e9
 #define MSH_MAX_PHYS_PER_ENTITY 1024
 /* An element is degenerate when its measure over its longest edge to the power dim, or the sine
    of its sharpest corner (2D: cross product of the two edges at the corner over their lengths;
@@ -210,7 +213,10 @@ static int msh_next(msh *R)
       return 0;
     }
     R->nl_last = c == '\n';
-    if (c == '\n') R->at++;
+    if (c == '\n' && !(++R->at & 0xffff) && R->ctx->interrupt && *R->ctx->interrupt) {
+      mo_error(R->ctx, MO_EINTERRUPT, "%s: interrupted while reading line %ld", R->file, R->at);
+      return -1;
+    }
     else if (!is_blank(c)) break;
   }
   R->line = R->at;
@@ -752,6 +758,15 @@ static int cmp_pname(const void *a, const void *b)
   return (p->line > q->line) - (p->line < q->line);
 }
 
+/* Physical names in order of dimension and name (the same name twice in one dimension). */
+static int cmp_pname_name(const void *a, const void *b)
+{
+  const msh_pname *p = *(const msh_pname *const *)a, *q = *(const msh_pname *const *)b;
+  int c = strcmp(p->name, q->name);
+  if (p->dim != q->dim) return (p->dim > q->dim) - (p->dim < q->dim);
+  return c ? c : (p->line > q->line) - (p->line < q->line);
+}
+
 /* Element keys for finding repeated elements: sorted node numbers, then the element. */
 typedef struct {
   int key[8];
@@ -1119,6 +1134,20 @@ static int build(msh *R, const mo_gmsh_options *opt, mo_mesh **out, mo_gmsh_repo
                      dim_word(R->pn[i].dim), R->pn[i].tag, R->pn[i - 1].line);
       goto done;
     }
+  if (R->npn > 1) {
+    /* two groups of one name: a set is found by name, so their nodes and facets would merge */
+    const msh_pname **by = mo_malloc(ctx, R->npn * sizeof *by);
+    if (!by) { st = MO_ENOMEM; goto done; }
+    for (i = 0; i < R->npn; i++) by[i] = &R->pn[i];
+    qsort(by, R->npn, sizeof *by, cmp_pname_name);
+    for (i = 1; i < R->npn && !st; i++)
+      if (by[i]->dim == by[i - 1]->dim && !strcmp(by[i]->name, by[i - 1]->name))
+        st = msh_error(R, MO_EINPUT, by[i]->line, "physical %ss %d and %d are both named %s (first at line %ld): "
+                       "the set of that name would merge them; give each group its own name",
+                       dim_word(by[i]->dim), by[i - 1]->tag, by[i]->tag, by[i]->name, by[i - 1]->line);
+    mo_free(by);
+    if (st) goto done;
+  }
   if (R->version == 41 && R->npn && !R->sec_line[S_ENTITIES]) {
     st = msh_error(R, MO_EINPUT, R->sec_line[S_NAMES], "physical names, but no $Entities section to "
                    "attach the groups to elements");
@@ -1205,6 +1234,13 @@ static int build(msh *R, const mo_gmsh_options *opt, mo_mesh **out, mo_gmsh_repo
       for (d = 0; d < D; d++)
         m->x[(size_t)newid[i] * (size_t)D + (size_t)d] =
             scale * R->nx[3 * i + (size_t)d] + (opt ? opt->translate[d] : 0);
+  /* a scale that overflows (or squares past the range, as element Jacobians do) */
+  for (i = 0; i < (size_t)nused * (size_t)D; i++)
+    if (!(fabs(m->x[i]) < 1e150)) {
+      st = mo_error(ctx, MO_EINPUT, "%s: the scale %g and translation take a coordinate to %g: past 1e150, where "
+                    "lengths squared overflow (a scale in metres, please)", R->file, scale, m->x[i]);
+      goto done;
+    }
   for (e = 0, k = 0; e < R->nel; e++)
     if (gtype[R->etype[e]].dim == D) {
       body[k] = (int)e;
@@ -1472,9 +1508,23 @@ int mo_mesh_read_gmsh(const char *path, const mo_gmsh_options *opt, mo_mesh **ou
 {
   FILE *f;
   int st;
+  struct stat sb;
   *out = NULL;
+  /* a bounded input: a regular file (a FIFO would block the open) of at most MO_MESH_FILE_MAX
+     bytes (10^7 elements of text take about 600 MB) */
+  if (stat(path, &sb) == 0 && !S_ISREG(sb.st_mode))
+    return mo_error(ctx, MO_EINPUT, "%s: not a regular file (a mesh file is read whole)", path);
   f = fopen(path, "r");
   if (!f) return mo_error(ctx, MO_EIO, "cannot read the mesh file %s (%s)", path, strerror(errno));
+  if (fstat(fileno(f), &sb) != 0 || !S_ISREG(sb.st_mode)) {
+    fclose(f);
+    return mo_error(ctx, MO_EINPUT, "%s: not a regular file (a mesh file is read whole)", path);
+  }
+  if ((double)sb.st_size > MO_MESH_FILE_MAX) {
+    fclose(f);
+    return mo_error(ctx, MO_ELIMIT, "%s: %.3g bytes, more than the %.3g bytes a mesh file may hold", path,
+                    (double)sb.st_size, MO_MESH_FILE_MAX);
+  }
   st = read_stream(f, path, opt, out, rep, ctx);
   fclose(f);
   return st;

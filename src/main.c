@@ -63,7 +63,8 @@ static void usage(FILE *f)
           "S is a back end, or a formulation BACKEND[:PRESET][[KEY=VALUE;...]]: levelset:bdz07,\n"
           "nscd:jean88, nscd[theta=0.5] (moreau list-solvers).\n"
           "\n"
-          "Exit status: 0 success, 1 the run failed (the outputs say how far it got),\n"
+          "Exit status: 0 success, 1 the run failed (the outputs say how far it got; also an\n"
+          "output that could not be written, a full disk),\n"
           "2 bad command line or case file. See moreau(1) and doc/case-format.md.\n");
 }
 
@@ -163,8 +164,12 @@ static int cmd_compare(int argc, char **argv, mo_ctx *ctx)
     if (!strcmp(a, "--solvers") && i + 1 < argc) {
       o.nsolver = split_list(argv[++i], solvers, 16);
       o.solvers = (const char *const *)solvers;
-      if (o.nsolver <= 0) {
-        fprintf(stderr, "moreau compare: --solvers a,b,...: at most 16 back ends\n");
+      if (o.nsolver == 0) {
+        fprintf(stderr, "moreau compare: --solvers names no back end, only commas (a,b,...: see moreau list-solvers)\n");
+        goto out;
+      }
+      if (o.nsolver < 0) {
+        fprintf(stderr, "moreau compare: --solvers a,b,...: at most 16 back ends, brackets matched\n");
         goto out;
       }
     } else if (!strcmp(a, "--dt") && i + 1 < argc) {
@@ -399,6 +404,7 @@ int main(int argc, char **argv)
     }
     if (c.quiet) ctx.verbosity = 0;
     if (!strcmp(cmd, "check")) {
+      catch_signals(&ctx);
       st = mo_check(&c.o, &ctx);
       free(c.sets);
       if (st) {
@@ -413,9 +419,12 @@ int main(int argc, char **argv)
     free(c.sets);
     if (st) {
       fprintf(stderr, "moreau: %s\n", ctx.errmsg);
-      if (res.outdir[0] && res.steps > 0)
+      if (res.outdir[0] && res.steps > 0 && res.summary)
         fprintf(stderr, "moreau: outputs up to step %ld (t = %.6g) are in %s (summary.json says "
                         "\"incomplete\")\n", res.steps, res.t, res.outdir);
+      else if (res.outdir[0] && res.steps > 0)
+        fprintf(stderr, "moreau: the partial outputs in %s have no summary.json (it could not be "
+                        "written): no reader takes them for complete\n", res.outdir);
       return exit_code(st);
     }
     if (!c.quiet) {

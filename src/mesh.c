@@ -88,6 +88,7 @@ int mo_mesh_add_nodeset(mo_mesh *m, const char *name, const int *ids, int n, mo_
 {
   mo_nodeset *ns;
   int i, k;
+  if (MO_INTERRUPTED(ctx)) return mo_error(ctx, MO_EINTERRUPT, "interrupted while building the mesh (set '%s')", name);
   if (mo_mesh_find_nodeset(m, name))
     return mo_error(ctx, MO_EINPUT, "node set '%s' is defined twice", name);
   for (i = 0; i < n; i++)
@@ -148,8 +149,10 @@ int mo_mesh_all_facets(const mo_mesh *m, mo_facet **out, size_t *nout, mo_ctx *c
 {
   const mo_eltype_info *T = &eltypes[m->type];
   size_t nf = (size_t)m->nelem * (size_t)T->nfacet, i;
-  mo_facet *F = mo_malloc(ctx, (nf ? nf : 1) * sizeof *F);
+  mo_facet *F;
   int e, f, a;
+  if (MO_INTERRUPTED(ctx)) return mo_error(ctx, MO_EINTERRUPT, "interrupted while building the mesh (its facets)");
+  F = mo_malloc(ctx, (nf ? nf : 1) * sizeof *F);
   *out = NULL;
   *nout = 0;
   if (!F) return MO_ENOMEM;
@@ -230,6 +233,7 @@ int mo_mesh_add_facetset(mo_mesh *m, const char *name, const int *elem, const in
   const mo_eltype_info *T = &eltypes[m->type];
   mo_facetset *fs;
   int *P, i, a, cnt = 0;
+  if (MO_INTERRUPTED(ctx)) return mo_error(ctx, MO_EINTERRUPT, "interrupted while building the mesh (set '%s')", name);
   if (mo_mesh_find_facetset(m, name))
     return mo_error(ctx, MO_EINPUT, "facet set '%s' is defined twice", name);
   for (i = 0; i < n; i++)
@@ -494,6 +498,14 @@ int mo_mesh_check(const mo_mesh *m, mo_ctx *ctx)
                       i / m->nen, m->conn[i]);
   for (e = 0; e < m->nelem; e++) {
     double j = min_corner_jacobian(m, e);
+    if (!(e & 0xffff) && MO_INTERRUPTED(ctx))
+      return mo_error(ctx, MO_EINTERRUPT, "interrupted while checking the mesh (element %d of %d)", e, m->nelem);
+    if (!isfinite(j)) {
+      double xmax = 0;
+      for (i = 0; i < m->nnode * m->dim; i++) xmax = fmax(xmax, fabs(m->x[i]));
+      return mo_error(ctx, MO_EINPUT, "element %d (%s): its Jacobian overflows (%g), the coordinates reach %g: "
+                      "check the mesh's scale and size (lengths in metres)", e, eltypes[m->type].name, j, xmax);
+    }
     if (!(j > 0))
       return mo_error(ctx, MO_EINPUT,
                       "element %d (%s) is %s (corner Jacobian %g): check node order and "

@@ -64,4 +64,14 @@ void mo_metrics_chatter_input(const mo_metrics *M, mo_chatter_input *in);
    e > 0 bounce by their law: no verdict (0, and why says so). */
 int mo_chatter_verdict(const mo_chatter_input *in, char *why, size_t n);
 
+/* finite.c: no NaN or infinity in a run's outputs (doc/theory.md §10.3). The likely cause of a
+   non-finite value at time t, naming its case key, into buf; the MO_ENAN error naming the
+   quantity, the step and that cause; the checks of a state (u, v) and of a history row. */
+void mo_finite_cause(const mo_scene *sc, double t, char *buf, size_t n);
+int mo_finite_error(const mo_scene *sc, long step, double t, const char *what, double value, mo_ctx *ctx);
+int mo_finite_state(const mo_scene *sc, const mo_state *s, mo_ctx *ctx);
+void mo_matrix_cause(const mo_scene *sc, char *buf, size_t n);
+int mo_finite_row(const mo_scene *sc, const mo_state *s, const double *row, const char *const *names, int ncol,
+                  mo_ctx *ctx);
+
 #endif

@@ -1,17 +1,23 @@
 /* output.c: CSV histories, VTK XML series (fields, rigid bodies, contact network), atomic file
    replacement. */
+#ifndef _GNU_SOURCE
+#define _GNU_SOURCE 1 /* O_TMPFILE, linkat */
+#endif
 #include "config.h"
 #include <moreau/body.h>
 #include <moreau/material.h>
 #include <moreau/output.h>
 
+#include <dirent.h>
 #include <errno.h>
+#include <fcntl.h>
 #include <limits.h>
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -20,7 +26,10 @@ int mo_mkdir_p(const char *dir, mo_ctx *ctx)
   char buf[4096];
   size_t n = strlen(dir), i;
   struct stat sb;
-  if (n == 0 || n >= sizeof buf) return mo_error(ctx, MO_EIO, "invalid output folder '%s'", dir);
+  if (n == 0) return mo_error(ctx, MO_EIO, "the output folder's name is empty");
+  if (n >= sizeof buf - 64)
+    return mo_error(ctx, MO_EIO, "the output folder's path has %zu characters, more than the %zu this program "
+                    "takes (a shorter --out, please): '%.60s...'", n, sizeof buf - 64, dir);
   memcpy(buf, dir, n + 1);
   for (i = 1; i <= n; i++) {
     if (buf[i] == '/' || buf[i] == '\0') {
@@ -28,7 +37,8 @@ int mo_mkdir_p(const char *dir, mo_ctx *ctx)
       buf[i] = '\0';
       if (stat(buf, &sb) != 0) {
         if (mkdir(buf, 0777) != 0 && errno != EEXIST)
-          return mo_error(ctx, MO_EIO, "cannot create folder '%s': %s", buf, strerror(errno));
+          return mo_error(ctx, errno == ENAMETOOLONG ? MO_EIO : MO_EOUTPUT, "cannot create folder '%s': %s", buf,
+                        strerror(errno));
       } else if (!S_ISDIR(sb.st_mode))
         return mo_error(ctx, MO_EIO, "'%s' exists and is not a folder", buf);
       buf[i] = c;
@@ -37,13 +47,33 @@ int mo_mkdir_p(const char *dir, mo_ctx *ctx)
   return MO_OK;
 }
 
+/* A file replaced atomically. Its bytes go to an anonymous file of the destination's folder
+   (O_TMPFILE) that gets a name only once complete: linked as PATH.tmp.PID and renamed onto
+   PATH at once, so that a run killed while it writes (SIGKILL, a full disk) leaves no
+   temporary behind (the window is one linkat and one rename; mo_outdir_claim removes what a
+   killed run may still have left). Where the file system has no O_TMPFILE, the named
+   temporary from the start. */
 int mo_atomic_open(mo_atomic_file *A, const char *path, mo_ctx *ctx)
 {
+  char dir[4200];
+  const char *slash;
+  int fd = -1;
   A->f = NULL;
+  A->anon = 0;
   if (snprintf(A->path, sizeof A->path, "%s", path) >= (int)sizeof A->path ||
       snprintf(A->tmp, sizeof A->tmp, "%s.tmp.%ld", path, (long)getpid()) >= (int)sizeof A->tmp)
-    return mo_error(ctx, MO_EIO, "path too long: '%s'", path);
-  if (!(A->f = fopen(A->tmp, "wb"))) return mo_error(ctx, MO_EIO, "cannot write '%s': %s", A->tmp, strerror(errno));
+    return mo_error(ctx, MO_EIO, "path too long (%zu characters): '%.200s...'", strlen(path), path);
+  slash = strrchr(path, '/');
+  if (slash) snprintf(dir, sizeof dir, "%.*s", (int)(slash - path ? slash - path : 1), path);
+  else snprintf(dir, sizeof dir, ".");
+#ifdef O_TMPFILE
+  fd = open(dir, O_TMPFILE | O_WRONLY | O_CLOEXEC, 0666);
+  if (fd >= 0 && !(A->f = fdopen(fd, "wb"))) close(fd);
+  if (A->f) A->anon = 1;
+#endif
+  (void)fd;
+  if (!A->f && !(A->f = fopen(A->tmp, "wb")))
+    return mo_error(ctx, MO_EOUTPUT, "cannot write '%s': %s", A->tmp, strerror(errno));
   return MO_OK;
 }
 
@@ -51,18 +81,25 @@ int mo_atomic_commit(mo_atomic_file *A, int ok, mo_ctx *ctx)
 {
   int e = 0, st = MO_OK;
   if (!A->f) return MO_OK;
-  if (ok && (ferror(A->f) || fflush(A->f) != 0 || fsync(fileno(A->f)) != 0)) e = errno ? errno : EIO;
+  errno = 0;
+  if (ok && (fflush(A->f) != 0 || ferror(A->f) || (!A->nosync && fsync(fileno(A->f)) != 0))) e = errno ? errno : EIO;
+  if (ok && !e && A->anon) {
+    char proc[64];
+    snprintf(proc, sizeof proc, "/proc/self/fd/%d", fileno(A->f));
+    remove(A->tmp); /* a leftover of an earlier process of the same id */
+    if (linkat(AT_FDCWD, proc, AT_FDCWD, A->tmp, AT_SYMLINK_FOLLOW) != 0) e = errno ? errno : EIO;
+  }
   if (fclose(A->f) != 0 && ok && !e) e = errno;
   A->f = NULL;
   if (!ok || e) {
-    remove(A->tmp);
-    if (e) st = mo_error(ctx, MO_EIO, "cannot write '%s': %s", A->tmp, strerror(e));
+    if (!A->anon || e) remove(A->tmp);
+    if (e) st = mo_error(ctx, MO_EOUTPUT, "cannot write '%s': %s", A->path, strerror(e));
     return st;
   }
   if (rename(A->tmp, A->path) != 0) {
     e = errno;
     remove(A->tmp);
-    return mo_error(ctx, MO_EIO, "cannot replace '%s': %s", A->path, strerror(e));
+    return mo_error(ctx, MO_EOUTPUT, "cannot replace '%s': %s", A->path, strerror(e));
   }
   return MO_OK;
 }
@@ -75,9 +112,93 @@ int mo_write_file_atomic(const char *path, const char *data, size_t len, mo_ctx 
   if (fwrite(data, 1, len, A.f) != len) {
     int e = errno ? errno : EIO;
     mo_atomic_commit(&A, 0, ctx);
-    return mo_error(ctx, MO_EIO, "cannot write '%s': %s", A.tmp, strerror(e));
+    return mo_error(ctx, MO_EOUTPUT, "cannot write '%s': %s", path, strerror(e));
   }
   return mo_atomic_commit(&A, 1, ctx);
+}
+
+/* --- the output folder ------------------------------------------------------------------------ */
+
+/* A temporary of mo_atomic_open: NAME.tmp.DIGITS. */
+static int is_leftover(const char *name)
+{
+  const char *p = strstr(name, ".tmp."), *q;
+  if (!p) return 0;
+  for (q = p + 5; *q; q++)
+    if (*q < '0' || *q > '9') return is_leftover(p + 1);
+  return q > p + 5;
+}
+
+int mo_outdir_claim(mo_outdir *O, const char *dir, const char *case_file, mo_ctx *ctx)
+{
+  char path[4200], buf[512];
+  int st, n;
+  DIR *d;
+  O->fd = -1;
+  if ((st = mo_mkdir_p(dir, ctx))) return st;
+  snprintf(O->dir, sizeof O->dir, "%s", dir);
+  snprintf(path, sizeof path, "%s/.lock", dir);
+  O->fd = open(path, O_RDWR | O_CREAT | O_CLOEXEC, 0666);
+  if (O->fd < 0) return mo_error(ctx, MO_EOUTPUT, "cannot write '%s': %s", path, strerror(errno));
+  if (flock(O->fd, LOCK_EX | LOCK_NB) != 0) {
+    int e = errno;
+    long pid = 0;
+    n = (int)pread(O->fd, buf, sizeof buf - 1, 0);
+    if (n > 0) {
+      buf[n] = '\0';
+      pid = strtol(buf, NULL, 10);
+    }
+    close(O->fd);
+    O->fd = -1;
+    if (e == EWOULDBLOCK)
+      return mo_error(ctx, MO_EINPUT, "'%s' is the output folder of another run in progress (pid %ld holds "
+                      "'%s'): wait for it to end, or give this run another --out", dir, pid, path);
+    return mo_error(ctx, MO_EOUTPUT, "cannot lock '%s': %s", path, strerror(e));
+  }
+  n = snprintf(buf, sizeof buf, "%ld\n", (long)getpid());
+  if (ftruncate(O->fd, 0) != 0 || pwrite(O->fd, buf, (size_t)n, 0) != n) {
+    /* a full disk: the lock holds without the pid */
+  }
+  /* the temporaries of a run killed while it wrote (no other run holds the folder) */
+  if ((d = opendir(dir))) {
+    struct dirent *de;
+    while ((de = readdir(d)))
+      if (is_leftover(de->d_name)) {
+        snprintf(path, sizeof path, "%s/%s", dir, de->d_name);
+        remove(path);
+      }
+    closedir(d);
+  }
+  /* the old summary is stale from here on: replaced by "running" (atomically), or removed
+     when even that cannot be written (a full disk) */
+  snprintf(path, sizeof path, "%s/summary.json", dir);
+  {
+    char js[4600];
+    const char *c = case_file ? case_file : "";
+    size_t k, m = 0;
+    m += (size_t)snprintf(js, sizeof js, "{\n  \"moreau\": \"%s\",\n  \"case\": \"", PACKAGE_VERSION);
+    for (k = 0; c[k] && m < sizeof js - 200; k++) {
+      unsigned char ch = (unsigned char)c[k];
+      if (ch == '"' || ch == '\\') js[m++] = '\\';
+      js[m++] = ch < 0x20 || ch >= 0x80 ? '?' : (char)ch;
+    }
+    m += (size_t)snprintf(js + m, sizeof js - m,
+                          "\",\n  \"status\": \"running\",\n  \"pid\": %ld,\n  \"reason\": \"the run has not ended "
+                          "(or was killed): the files beside this one are partial\"\n}\n", (long)getpid());
+    st = mo_write_file_atomic(path, js, m, ctx);
+  }
+  if (st) {
+    remove(path);
+    mo_outdir_release(O);
+    return st;
+  }
+  return MO_OK;
+}
+
+void mo_outdir_release(mo_outdir *O)
+{
+  if (O->fd >= 0) close(O->fd);
+  O->fd = -1;
 }
 
 /* --- CSV --------------------------------------------------------------------------------------- */
@@ -101,7 +222,7 @@ int mo_csv_open(const char *path, const char *const *names, int ncol, int precis
   if (!c->f) {
     mo_free(c->path);
     mo_free(c);
-    return mo_error(ctx, MO_EIO, "cannot write '%s': %s", path, strerror(errno));
+    return mo_error(ctx, MO_EOUTPUT, "cannot write '%s': %s", path, strerror(errno));
   }
   c->ncol = ncol;
   c->prec = precision;
@@ -109,7 +230,7 @@ int mo_csv_open(const char *path, const char *const *names, int ncol, int precis
   fputc('\n', c->f);
   if (fflush(c->f) != 0) {
     mo_csv_close(c, ctx);
-    return mo_error(ctx, MO_EIO, "cannot write '%s': %s", path, strerror(errno));
+    return mo_error(ctx, MO_EOUTPUT, "cannot write '%s': %s", path, strerror(errno));
   }
   *out = c;
   return MO_OK;
@@ -121,7 +242,7 @@ int mo_csv_row(mo_csv *c, const double *vals, mo_ctx *ctx)
   for (k = 0; k < c->ncol; k++) fprintf(c->f, "%s%.*g", k ? "," : "", c->prec, vals[k]);
   fputc('\n', c->f);
   if (fflush(c->f) != 0)
-    return mo_error(ctx, MO_EIO, "cannot write '%s': %s", c->path, strerror(errno));
+    return mo_error(ctx, MO_EOUTPUT, "cannot write '%s': %s", c->path, strerror(errno));
   return MO_OK;
 }
 
@@ -129,7 +250,7 @@ int mo_csv_close(mo_csv *c, mo_ctx *ctx)
 {
   int st = MO_OK;
   if (!c) return MO_OK;
-  if (c->f && fclose(c->f) != 0) st = mo_error(ctx, MO_EIO, "cannot close '%s'", c->path);
+  if (c->f && fclose(c->f) != 0) st = mo_error(ctx, MO_EOUTPUT, "cannot write '%s': %s", c->path, strerror(errno));
   mo_free(c->path);
   mo_free(c);
   return st;
@@ -322,12 +443,12 @@ static int write_vtu(const char *path, const mo_scene *sc, const mo_body *B, con
 {
   const mo_mesh *m = B->mesh;
   int D = sc->dim, a, c, e, nc = mo_hyp_ncomp(B->mat.hyp);
-  char tmp[4200];
+  mo_atomic_file A;
   FILE *f;
-  if (snprintf(tmp, sizeof tmp, "%s.tmp.%ld", path, (long)getpid()) >= (int)sizeof tmp)
-    return mo_error(ctx, MO_EIO, "path too long: '%s'", path);
-  f = fopen(tmp, "w");
-  if (!f) return mo_error(ctx, MO_EIO, "cannot write '%s': %s", tmp, strerror(errno));
+  int st = mo_atomic_open(&A, path, ctx);
+  if (st) return st;
+  A.nosync = 1;
+  f = A.f;
   fprintf(f, "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"0.1\" "
              "byte_order=\"LittleEndian\">\n<UnstructuredGrid>\n"
              "<Piece NumberOfPoints=\"%d\" NumberOfCells=\"%d\">\n<Points>\n"
@@ -371,8 +492,7 @@ static int write_vtu(const char *path, const mo_scene *sc, const mo_body *B, con
     double *ep = mo_calloc(ctx, (size_t)(m->nelem ? m->nelem : 1), sizeof(double));
     if (!eps || !sig || !vm || !ep) {
       mo_free(eps); mo_free(sig); mo_free(vm); mo_free(ep);
-      fclose(f);
-      remove(tmp);
+      mo_atomic_commit(&A, 0, ctx);
       return MO_ENOMEM;
     }
     for (e = 0; e < m->nelem; e++) {
@@ -421,15 +541,7 @@ static int write_vtu(const char *path, const mo_scene *sc, const mo_body *B, con
     mo_free(eps); mo_free(sig); mo_free(vm); mo_free(ep);
   }
   fprintf(f, "</CellData>\n</Piece>\n</UnstructuredGrid>\n</VTKFile>\n");
-  if (ferror(f) || fclose(f) != 0) {
-    remove(tmp);
-    return mo_error(ctx, MO_EIO, "cannot write '%s'", tmp);
-  }
-  if (rename(tmp, path) != 0) {
-    remove(tmp);
-    return mo_error(ctx, MO_EIO, "cannot replace '%s': %s", path, strerror(errno));
-  }
-  return MO_OK;
+  return mo_atomic_commit(&A, 1, ctx);
 }
 
 /* fields.pvd, rewritten whole so that it always lists complete frames only. */
@@ -472,7 +584,7 @@ static int write_fields_pvd(const mo_vtk *v, const mo_scene *sc, mo_ctx *ctx)
    stream). */
 typedef struct {
   FILE *f;
-  char path[4200], tmp[4200];
+  mo_atomic_file A;
   unsigned char in[3];
   int nin, nout;
   char out[4096];
@@ -548,14 +660,16 @@ static const char *byte_order(void)
 /* Open DIR/NAME_NNNNN.vtu of frame k under a temporary name and write its header. */
 static int vtu_open(vtu *w, const mo_vtk *v, const char *name, int k, long npoint, long ncell, mo_ctx *ctx)
 {
+  char path[4200];
+  int st;
   memset(w, 0, sizeof *w);
-  if (snprintf(w->path, sizeof w->path, "%s/%s_%05d.vtu", v->dir, name, k) >= (int)sizeof w->path ||
-      snprintf(w->tmp, sizeof w->tmp, "%s.tmp.%ld", w->path, (long)getpid()) >= (int)sizeof w->tmp)
+  if (snprintf(path, sizeof path, "%s/%s_%05d.vtu", v->dir, name, k) >= (int)sizeof path)
     return mo_error(ctx, MO_EIO, "path too long: '%s/%s'", v->dir, name);
   if (npoint > INT_MAX || ncell > INT_MAX)
-    return mo_error(ctx, MO_ELIMIT, "'%s': more than %d points or cells", w->path, INT_MAX);
-  w->f = fopen(w->tmp, "w");
-  if (!w->f) return mo_error(ctx, MO_EIO, "cannot write '%s': %s", w->tmp, strerror(errno));
+    return mo_error(ctx, MO_ELIMIT, "'%s': more than %d points or cells", path, INT_MAX);
+  if ((st = mo_atomic_open(&w->A, path, ctx))) return st;
+  w->A.nosync = 1;
+  w->f = w->A.f;
   fprintf(w->f, "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" "
                 "byte_order=\"%s\" header_type=\"UInt64\">\n<UnstructuredGrid>\n"
                 "<Piece NumberOfPoints=\"%ld\" NumberOfCells=\"%ld\">\n",
@@ -567,15 +681,8 @@ static int vtu_open(vtu *w, const mo_vtk *v, const char *name, int k, long npoin
 static int vtu_close(vtu *w, mo_ctx *ctx)
 {
   fputs("</Piece>\n</UnstructuredGrid>\n</VTKFile>\n", w->f);
-  if (ferror(w->f) | fclose(w->f)) {
-    remove(w->tmp);
-    return mo_error(ctx, MO_EIO, "cannot write '%s'", w->tmp);
-  }
-  if (rename(w->tmp, w->path) != 0) {
-    remove(w->tmp);
-    return mo_error(ctx, MO_EIO, "cannot replace '%s': %s", w->path, strerror(errno));
-  }
-  return MO_OK;
+  w->f = NULL;
+  return mo_atomic_commit(&w->A, 1, ctx);
 }
 
 /* The offsets and types of ncell cells of one type with nv vertices each (vertices, lines). */

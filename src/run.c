@@ -202,6 +202,31 @@ static void rigid_aggregates(const mo_scene *sc, const mo_state *s, const contac
   for (i = 0; i < D; i++) out[3 + i] = n ? ext[i] : 0;
 }
 
+/* The energies of a step, finite or the run stops (finite.c). */
+static int check_energies(const mo_scene *sc, const mo_state *s, double ek, double ee, mo_ctx *ctx)
+{
+  const char *what[] = {"energy.kinetic", "energy.elastic", "energy.external_work", "energy.support_work",
+                        "energy.contact_work", "energy.plastic"};
+  double v[6];
+  int k;
+  v[0] = ek;
+  v[1] = ee;
+  v[2] = s->wext;
+  v[3] = s->wsupport;
+  v[4] = s->wcontact;
+  v[5] = s->wplastic;
+  for (k = 0; k < 6; k++)
+    if (!isfinite(v[k])) return mo_finite_error(sc, s->step, s->t, what[k], v[k], ctx);
+  return MO_OK;
+}
+
+/* A number for summary.json: null when it is not finite (an undefined ratio; jansson would
+   drop the key) */
+static json_t *jnum(double x)
+{
+  return isfinite(x) ? json_real(x) : json_null();
+}
+
 /* --- progress ---------------------------------------------------------------------------------- */
 
 typedef struct {
@@ -240,13 +265,13 @@ static json_t *timings_json(const mo_ctx *ctx, double wall, double steps)
   json_t *j = json_object(), *calls = json_object();
   int p;
   for (p = 0; p < MO_PH_N; p++) {
-    json_object_set_new(j, mo_phase_name((mo_phase)p), json_real(ctx->phase_time[p]));
+    json_object_set_new(j, mo_phase_name((mo_phase)p), jnum(ctx->phase_time[p]));
     json_object_set_new(calls, mo_phase_name((mo_phase)p), json_integer(ctx->phase_calls[p]));
   }
-  json_object_set_new(j, "wall", json_real(wall));
+  json_object_set_new(j, "wall", jnum(wall));
   /* the time of the steps alone (setup, the t = 0 state and every output left out): what
      `moreau compare` times a run by (doc/theory.md (T99)) */
-  json_object_set_new(j, "steps", json_real(steps));
+  json_object_set_new(j, "steps", jnum(steps));
   json_object_set_new(j, "calls", calls);
   return j;
 }
@@ -322,8 +347,8 @@ static json_t *extents_json(const mo_scene *sc, const double *u)
         if (x > mx[i]) mx[i] = x;
       }
     for (i = 0; i < D; i++) {
-      json_object_set_new(e, lo[i], json_real(mn[i]));
-      json_object_set_new(e, hi[i], json_real(mx[i]));
+      json_object_set_new(e, lo[i], jnum(mn[i]));
+      json_object_set_new(e, hi[i], jnum(mx[i]));
     }
     json_object_set_new(j, X->name, e);
   }
@@ -353,9 +378,9 @@ static json_t *plasticity_json(const mo_scene *sc, const mo_state *s)
       }
     }
     o = json_object();
-    json_object_set_new(o, "max_eps_p", json_real(epmax));
-    json_object_set_new(o, "plastic_work", json_real(wp));
-    json_object_set_new(o, "stored_energy", json_real(psi));
+    json_object_set_new(o, "max_eps_p", jnum(epmax));
+    json_object_set_new(o, "plastic_work", jnum(wp));
+    json_object_set_new(o, "stored_energy", jnum(psi));
     json_object_set_new(j, B->name, o);
   }
   return j;
@@ -387,17 +412,17 @@ static void rigid_json(json_t *jb, const mo_scene *sc, const mo_body *B, const m
   json_t *J = json_array(), *x = json_array(), *v = json_array(), *w = json_array();
   int i, nr = sc->dim == 2 ? 1 : 3;
   double xc[3];
-  json_object_set_new(jb, "mass", json_real(B->mass));
-  if (sc->dim == 2) json_array_append_new(J, json_real(B->J[0]));
-  else for (i = 0; i < 9; i++) json_array_append_new(J, json_real(B->J[i]));
+  json_object_set_new(jb, "mass", jnum(B->mass));
+  if (sc->dim == 2) json_array_append_new(J, jnum(B->J[0]));
+  else for (i = 0; i < 9; i++) json_array_append_new(J, jnum(B->J[i]));
   json_object_set_new(jb, "inertia", J);
   json_object_set_new(jb, "fixed", json_boolean(B->fixed));
   mo_rigid_center(sc, B, s, xc);
   for (i = 0; i < sc->dim; i++) {
-    json_array_append_new(x, json_real(xc[i]));
-    json_array_append_new(v, json_real(s ? s->v[B->dof0 + i] : 0));
+    json_array_append_new(x, jnum(xc[i]));
+    json_array_append_new(v, jnum(s ? s->v[B->dof0 + i] : 0));
   }
-  for (i = 0; i < nr; i++) json_array_append_new(w, json_real(s ? s->v[B->dof0 + sc->dim + i] : 0));
+  for (i = 0; i < nr; i++) json_array_append_new(w, jnum(s ? s->v[B->dof0 + sc->dim + i] : 0));
   json_object_set_new(jb, "center_final", x);
   json_object_set_new(jb, "velocity_final", v);
   json_object_set_new(jb, "omega_final", w);
@@ -437,16 +462,16 @@ static json_t *group_json(const mo_scene *sc, const mo_body *B, int n, const mo_
     vmax = fmax(vmax, sqrt(v2));
   }
   for (i = 0; i < sc->dim; i++) {
-    json_array_append_new(lo, json_real(xmin[i]));
-    json_array_append_new(hi, json_real(xmax[i]));
+    json_array_append_new(lo, jnum(xmin[i]));
+    json_array_append_new(hi, jnum(xmax[i]));
   }
   json_object_set_new(jb, "name", json_string(B->group));
   json_object_set_new(jb, "type", json_string(B->type->name));
   json_object_set_new(jb, "count", json_integer(n));
-  json_object_set_new(jb, "mass", json_real(mass));
+  json_object_set_new(jb, "mass", jnum(mass));
   json_object_set_new(jb, "center_min_final", lo);
   json_object_set_new(jb, "center_max_final", hi);
-  json_object_set_new(jb, "speed_max_final", json_real(vmax));
+  json_object_set_new(jb, "speed_max_final", jnum(vmax));
   json_object_set_new(jb, "table", json_string("bodies.csv"));
   return jb;
 }
@@ -505,8 +530,8 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
     json_object_set_new(scene, "dim", json_integer(sc->dim));
     json_object_set_new(scene, "dofs", json_integer(sc->ndof));
     json_object_set_new(scene, "free_dofs", json_integer(sc->nfree));
-    json_object_set_new(scene, "mass", json_real(sc->mass_total));
-    json_object_set_new(scene, "hmin", json_real(mo_metrics_hmin(sc)));
+    json_object_set_new(scene, "mass", jnum(sc->mass_total));
+    json_object_set_new(scene, "hmin", jnum(mo_metrics_hmin(sc)));
     if (p0 && s && sc->M) {
       /* the bodies' momenta at the end, beside p0 at the start */
       pw = mo_malloc(ctx, ((size_t)sc->ndof + 1) * sizeof *pw);
@@ -542,13 +567,13 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
         json_object_set_new(jb, "nodes", json_integer(B->mesh->nnode));
         json_object_set_new(jb, "elements", json_integer(B->mesh->nelem));
         json_object_set_new(jb, "hypothesis", json_string(mo_hyp_name(B->mat.hyp)));
-        json_object_set_new(jb, "mass", json_real(B->mass));
+        json_object_set_new(jb, "mass", jnum(B->mass));
         if (pw && p1) {
           json_t *ji = json_array(), *jf = json_array();
           int i;
           for (i = 0; i < sc->dim; i++) {
-            json_array_append_new(ji, json_real(p0[3 * b + i]));
-            json_array_append_new(jf, json_real(p1[3 * b + i]));
+            json_array_append_new(ji, jnum(p0[3 * b + i]));
+            json_array_append_new(jf, jnum(p1[3 * b + i]));
           }
           json_object_set_new(jb, "momentum_initial", ji);
           json_object_set_new(jb, "momentum_final", jf);
@@ -567,7 +592,7 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
     json_object_set_new(scene, "bodies", bodies);
     json_object_set_new(root, "scene", scene);
     json_object_set_new(time, "scheme", json_string(time_scheme_name(&sc->time)));
-    json_object_set_new(time, "dt", json_real(sc->time.dt));
+    json_object_set_new(time, "dt", jnum(sc->time.dt));
     {
       /* the critical step of central differences (T102) and the scheme's stability (T101) */
       double dtc = mo_scene_dt_crit(sc, NULL, NULL), wh;
@@ -593,41 +618,44 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
       }
     }
     json_object_set_new(time, "steps", json_integer(sc->time.steps));
-    json_object_set_new(time, "end", json_real(sc->time.end));
+    json_object_set_new(time, "end", jnum(sc->time.end));
     if (sc->time.scheme == MO_SCHEME_THETA) {
-      json_object_set_new(time, "theta", json_real(sc->time.theta));
-      json_object_set_new(time, "theta_f", json_real(sc->time.theta_f));
+      json_object_set_new(time, "theta", jnum(sc->time.theta));
+      json_object_set_new(time, "theta_f", jnum(sc->time.theta_f));
     } else if (sc->time.scheme == MO_SCHEME_NEWMARK) {
-      json_object_set_new(time, "beta", json_real(sc->time.beta));
-      json_object_set_new(time, "gamma", json_real(sc->time.gamma));
+      json_object_set_new(time, "beta", jnum(sc->time.beta));
+      json_object_set_new(time, "gamma", jnum(sc->time.gamma));
     }
     json_object_set_new(time, "steps_done", json_integer(s ? s->step : 0));
     if (sc->time.max_cuts > 0) {
       /* step cutting: how many steps were taken again in halves, and the smallest step */
       json_object_set_new(time, "cuts", json_integer(cuts));
-      json_object_set_new(time, "smallest_dt", json_real(dtmin));
+      json_object_set_new(time, "smallest_dt", jnum(dtmin));
     }
-    json_object_set_new(time, "t_reached", json_real(s ? s->t : 0));
+    json_object_set_new(time, "t_reached", jnum(s ? s->t : 0));
     json_object_set_new(root, "time", time);
   } else {
     json_decref(scene);
     json_decref(bodies);
     json_decref(time);
   }
-  json_object_set_new(energy, "initial", json_real(e0));
-  json_object_set_new(energy, "final", json_real(e1));
-  json_object_set_new(energy, "ratio", json_real(e0 != 0 ? e1 / e0 : NAN));
-  json_object_set_new(energy, "max_relative_drift", json_real(drift));
-  json_object_set_new(energy, "balance_error", json_real(balance));
-  json_object_set_new(energy, "balance_relative", json_real(e0 != 0 ? balance / e0 : NAN));
-  json_object_set_new(energy, "max_growth", json_real(growth));
+  json_object_set_new(energy, "initial", jnum(e0));
+  json_object_set_new(energy, "final", jnum(e1));
+  json_object_set_new(energy, "ratio", jnum(e0 != 0 ? e1 / e0 : NAN));
+  if (!(e0 != 0))
+    json_object_set_new(energy, "ratios", json_string("undefined: the initial energy is 0 (ratio and "
+                                                      "balance_relative are null)"));
+  json_object_set_new(energy, "max_relative_drift", jnum(drift));
+  json_object_set_new(energy, "balance_error", jnum(balance));
+  json_object_set_new(energy, "balance_relative", jnum(e0 != 0 ? balance / e0 : NAN));
+  json_object_set_new(energy, "max_growth", jnum(growth));
   if (s) {
-    json_object_set_new(energy, "external_work", json_real(s->wext));
-    json_object_set_new(energy, "support_work", json_real(s->wsupport));
-    json_object_set_new(energy, "contact_work", json_real(s->wcontact));
+    json_object_set_new(energy, "external_work", jnum(s->wext));
+    json_object_set_new(energy, "support_work", jnum(s->wsupport));
+    json_object_set_new(energy, "contact_work", jnum(s->wcontact));
     if (sc && sc->nonlinear) {
-      json_object_set_new(energy, "plastic", json_real(s->wplastic));
-      json_object_set_new(energy, "stored", json_real(s->psi));
+      json_object_set_new(energy, "plastic", jnum(s->wplastic));
+      json_object_set_new(energy, "stored", jnum(s->psi));
     }
   }
   json_object_set_new(root, "energy", energy);
@@ -636,9 +664,9 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
     json_t *m;
     if (!cols[k].has_ref || cols[k].n == 0) continue;
     m = json_object();
-    json_object_set_new(m, "l2_rel", json_real(cols[k].sr2 > 0 ? sqrt(cols[k].se2 / cols[k].sr2) : NAN));
-    json_object_set_new(m, "linf_rel", json_real(cols[k].rmax > 0 ? cols[k].emax / cols[k].rmax : NAN));
-    json_object_set_new(m, "linf_abs", json_real(cols[k].emax));
+    json_object_set_new(m, "l2_rel", jnum(cols[k].sr2 > 0 ? sqrt(cols[k].se2 / cols[k].sr2) : NAN));
+    json_object_set_new(m, "linf_rel", jnum(cols[k].rmax > 0 ? cols[k].emax / cols[k].rmax : NAN));
+    json_object_set_new(m, "linf_abs", jnum(cols[k].emax));
     json_object_set_new(m, "samples", json_integer(cols[k].n));
     json_object_set_new(metrics, names[k + 1], m);
   }
@@ -647,7 +675,7 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
     json_t *mj = mo_metrics_json(met);
     json_object_update(metrics, mj);
     json_decref(mj);
-    if (s) json_object_set_new(energy, "ratio_mechanical", json_real(mo_metrics_energy_ratio(met, s)));
+    if (s) json_object_set_new(energy, "ratio_mechanical", jnum(mo_metrics_energy_ratio(met, s)));
   }
   if (sc && s && sc->out.nextent) json_object_set_new(metrics, "extents", extents_json(sc, s->u));
   if (sc && s && sc->nonlinear) json_object_set_new(metrics, "plasticity", plasticity_json(sc, s));
@@ -667,12 +695,12 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
   if (S && sc && sc->nonlinear) {
     const mo_newton_report *nr = mo_stepper_newton_report(S);
     json_t *nj = json_object();
-    json_object_set_new(nj, "tol", json_real(sc->time.newton_tol));
+    json_object_set_new(nj, "tol", jnum(sc->time.newton_tol));
     json_object_set_new(nj, "max_iter", json_integer(sc->time.newton_max));
     json_object_set_new(nj, "steps", json_integer(nr->steps));
     json_object_set_new(nj, "iterations_total", json_integer(nr->total));
     json_object_set_new(nj, "iterations_max", json_integer(nr->max));
-    json_object_set_new(nj, "iterations_mean", json_real(nr->steps ? (double)nr->total / (double)nr->steps : 0));
+    json_object_set_new(nj, "iterations_mean", jnum(nr->steps ? (double)nr->total / (double)nr->steps : 0));
     json_object_set_new(nj, "damped", json_integer(nr->damped));
     json_object_set_new(root, "newton", nj);
   }
@@ -703,16 +731,20 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
     json_decref(root);
     return mo_error(ctx, MO_ENOMEM, "cannot format summary.json");
   }
+  /* bodies.csv first: summary.json is the last file a run writes */
+  if (sc && sc->nrigid && (st = write_bodies_csv(dir, sc, s, ctx))) {
+    json_decref(root);
+    return st;
+  }
   /* streamed to the file: a scene of 10^5 grains has a large summary */
   snprintf(path, sizeof path, "%s/summary.json", dir);
   if (!(st = mo_atomic_open(&A, path, ctx))) {
     int ok = json_dumpf(root, A.f, JSON_INDENT(2) | JSON_PRESERVE_ORDER | JSON_REAL_PRECISION(12)) == 0;
     if (ok) fputc('\n', A.f);
     st = mo_atomic_commit(&A, ok, ctx);
-    if (!st && !ok) st = mo_error(ctx, MO_EIO, "cannot write '%s'", path);
+    if (!st && !ok) st = mo_error(ctx, MO_EOUTPUT, "cannot write '%s'", path);
   }
   json_decref(root);
-  if (!st && sc && sc->nrigid) st = write_bodies_csv(dir, sc, s, ctx);
   return st;
 }
 
@@ -770,13 +802,13 @@ static json_t *contact_json(const mo_contact *C, const mo_contact_driver *D)
   if (mo_contact_ncandidates(C) > mo_contact_nstatic(C) || mo_contact_alert(C) > 0) {
     /* detected candidates (rigid shapes): the last step's, and the alert distance */
     json_object_set_new(j, "candidates_detected", json_integer(mo_contact_ncandidates(C) - mo_contact_nstatic(C)));
-    json_object_set_new(j, "alert", json_real(mo_contact_alert(C)));
+    json_object_set_new(j, "alert", jnum(mo_contact_alert(C)));
   }
   json_object_set_new(j, "steps_with_contact", json_integer(steps));
   json_object_set_new(j, "iterations_total", json_integer(it));
   json_object_set_new(j, "iterations_max", json_integer(maxit));
-  json_object_set_new(j, "iterations_mean", json_real(steps ? (double)it / (double)steps : 0));
-  json_object_set_new(j, "residual_max", json_real(maxres));
+  json_object_set_new(j, "iterations_mean", jnum(steps ? (double)it / (double)steps : 0));
+  json_object_set_new(j, "residual_max", jnum(maxres));
   json_object_set_new(j, "delassus_builds", json_integer(wb));
   /* solves that did not converge and that contact.on_failure = "continue" let the run go on */
   json_object_set_new(j, "failed_solves", json_integer(mo_contact_driver_failures(D)));
@@ -802,7 +834,7 @@ static json_t *contact_json(const mo_contact *C, const mo_contact_driver *D)
     json_object_set_new(j, "position_correction", pc);
   }
   json_object_set_new(j, "last_iterations", json_integer(rep->iterations));
-  json_object_set_new(j, "last_residual", json_real(rep->residual));
+  json_object_set_new(j, "last_residual", jnum(rep->residual));
   json_object_set_new(j, "last_reason", json_string(mo_contact_reason_name(rep->reason)));
   json_object_set_new(j, "last_open", json_integer(rep->nopen));
   json_object_set_new(j, "last_stick", json_integer(rep->nstick));
@@ -944,12 +976,15 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   contact_view cv;
   char **names = NULL, *namebuf = NULL, outdir[4096], path[4200];
   double *row = NULL, *work = NULL, *p0 = NULL, start = mo_clock(), e0 = 0, e1 = 0, drift = 0, balance = 0;
-  double emax_growth = 0;
+  double emax_growth = 0, eratio0 = 0;
+  int ratio_col = 1;
   int st, ncol = 0, nprobecol = 0, nexact = 0, k, p, complete = 0, ecol0 = 0, ccol0 = 0, table = 0, x0col;
   int nl = 0, necol = 0, ncol0 = 0, cutcol = 0, nvalcol = 0, nrigcol = 0, agcol = 0, pfcol = 0;
   char reason[MO_ERRMSG_MAX] = "", blowup[512] = "";
   progress prog;
   stepping stepper;
+  mo_outdir od;
+  od.fd = -1;
   memset(&s, 0, sizeof s);
   memset(&stepper, 0, sizeof stepper);
   memset(res, 0, sizeof *res);
@@ -964,7 +999,8 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   if ((st = mo_scene_build(cs, &sc, ctx))) goto done;
   if ((st = mo_contact_build(sc, &C, ctx))) goto done;
   if (opt->solver && !C) mo_note_skip(ctx, "contact solve (--solver given, but the case has no contact pairs)");
-  if ((st = mo_mkdir_p(outdir, ctx))) goto done;
+  /* from here on the folder is this run's: locked, its old summary replaced by "running" */
+  if ((st = mo_outdir_claim(&od, outdir, mo_case_file(cs), ctx))) goto done;
   if (opt->dump_fclib && (st = mo_mkdir_p(opt->dump_fclib, ctx))) goto done;
   if (C && (st = mo_contact_time_scheme(sc, C, ctx))) goto done;
   {
@@ -1037,7 +1073,15 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   }
   /* finite-strain scenes add energy.plastic and the Newton columns */
   nl = sc->nonlinear;
-  necol = sc->out.energy ? 7 + nl : 0;
+  /* energy.ratio only where it is defined: E0 != 0 (doc/case-format.md) */
+  mo_metrics_step(met, &s, NULL);
+  {
+    double ek0, ee0;
+    mo_metrics_energies(met, &s, &ek0, &ee0, &eratio0);
+    ratio_col = isfinite(eratio0);
+  }
+  if (sc->out.energy && !ratio_col) mo_note_skip(ctx, "energy.ratio column (the initial energy is 0: no ratio)");
+  necol = sc->out.energy ? 6 + ratio_col + nl : 0;
   ncol = 1 + nvalcol + nexact + necol + (C ? 8 : 0) + (nl ? 2 : 0);
   /* pairs with a rigid body: the force of each master on its slaves (a silo's walls, a floor) */
   if (C) {
@@ -1094,8 +1138,8 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
     snprintf(names[ecol0 + 3], 80, "energy.external_work");
     snprintf(names[ecol0 + 4], 80, "energy.support_work");
     snprintf(names[ecol0 + 5], 80, "energy.contact_work");
-    snprintf(names[ecol0 + 6], 80, "energy.ratio");
-    if (nl) snprintf(names[ecol0 + 7], 80, "energy.plastic");
+    if (ratio_col) snprintf(names[ecol0 + 6], 80, "energy.ratio");
+    if (nl) snprintf(names[ecol0 + 6 + ratio_col], 80, "energy.plastic");
   }
   if (C) {
     ccol0 = 1 + nvalcol + nexact + necol;
@@ -1132,7 +1176,6 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
 
   prog.on = opt->progress && isatty(2) && ctx->verbosity >= 1;
   prog.start = prog.last = mo_clock();
-  mo_metrics_step(met, &s, NULL);
   e0 = mo_energy_kinetic(sc, &s, work) + mo_energy_stored(sc, &s, work) + s.wplastic;
   if (!(p0 = mo_malloc(ctx, (3 * (size_t)sc->nbody + 1) * sizeof *p0))) {
     st = MO_ENOMEM;
@@ -1146,6 +1189,11 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
     /* energies at every step, not only on the rows written: the growth and drift the summary
        reports (and `moreau compare` classifies runs on) must not depend on output.every */
     mo_metrics_energies(met, &s, &ek, &ee, &eratio);
+    /* no NaN or infinity in the outputs: the state and the energies at every step, the row
+       before it is written (finite.c, doc/theory.md §10.3) */
+    if ((st = mo_finite_state(sc, &s, ctx)) ||
+        (st = check_energies(sc, &s, ek, ee, ctx)))
+      goto done;
     e1 = ek + ee + s.wplastic; /* (T65): the plastic work is energy the body took */
     if (e0 > 0 && fabs(e1 - e0) / e0 > drift) drift = fabs(e1 - e0) / e0;
     /* an infinite growth is kept as the largest double: JSON has no infinity, and a blow-up
@@ -1205,8 +1253,8 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
         row[ecol0 + 3] = s.wext;
         row[ecol0 + 4] = s.wsupport;
         row[ecol0 + 5] = s.wcontact;
-        row[ecol0 + 6] = eratio;
-        if (nl) row[ecol0 + 7] = s.wplastic;
+        if (ratio_col) row[ecol0 + 6] = eratio;
+        if (nl) row[ecol0 + 6 + ratio_col] = s.wplastic;
       }
       if (nl) {
         const mo_newton_report *nr = mo_stepper_newton_report(S);
@@ -1232,6 +1280,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
       }
       if (cutcol) row[cutcol] = (double)stepper.cuts;
       if (agcol) rigid_aggregates(sc, &s, &cv, row + agcol);
+      if ((st = mo_finite_row(sc, &s, row, (const char *const *)names, ncol, ctx))) goto done;
       if ((st = mo_csv_row(csv, row, ctx))) goto done;
     }
     {
@@ -1274,26 +1323,48 @@ done:
       res->metric_linf[res->nmetric] = cols[k].rmax > 0 ? cols[k].emax / cols[k].rmax : NAN;
       res->nmetric++;
     }
-  if (st) snprintf(reason, sizeof reason, "%s", ctx->errmsg);
-  /* the summary (and the contact table) are written whenever the output folder exists, also
-     after a failure: they describe the last good step */
-  if (cs && sc && access(outdir, W_OK) == 0) {
-    int keep = ctx->status, st2;
+  /* the summary (and the contact table) are written whenever this run holds the output folder,
+     also after a failure: they describe the last good step. summary.json comes last: until it
+     is in place the folder's summary says "running" (mo_outdir_claim); when it cannot be
+     written (a full disk) the folder is left without one, never with an old "complete". */
+  if (cs && sc && od.fd >= 0) {
+    int keep = ctx->status, st2 = MO_OK;
     char msg[MO_ERRMSG_MAX];
     snprintf(msg, sizeof msg, "%s", ctx->errmsg);
     mo_ctx_clear_error(ctx);
-    st2 = write_summary(outdir, cs, sc, S, s.u ? &s : NULL, C, drv, met, cols, cols ? nvalcol : 0,
-                        (const char *const *)names, e0, e1, drift, balance, emax_growth, complete, reason,
-                        res->wall, res->step_wall, p0, stepper.cuts, stepper.hmin, blowup, ctx);
-    if (!st2 && drv && s.u && s.step > 0) {
+    if (drv && s.u && s.step > 0) {
       snprintf(path, sizeof path, "%s/contact.csv", outdir);
       st2 = mo_contact_write_csv(path, sc, C, drv, &s, ctx);
       if (!st2 && table && ctx->verbosity >= 1) mo_contact_print_table(stdout, sc, C, drv, &s, ctx);
     }
-    if (st2 && !st) st = st2;
-    else if (keep) {
+    /* the drawings of the frames taken, also after a failure (the error kept is the run's) */
+    if (draw) {
+      int st3 = mo_draw_finish(draw, sc, ctx);
+      if (st3 && !st2) st2 = st3;
+    }
+    if (st2 && !keep) {
+      keep = st2;
+      complete = res->complete = 0;
+      snprintf(msg, sizeof msg, "%s", ctx->errmsg);
+    }
+    snprintf(reason, sizeof reason, "%s", msg);
+    mo_ctx_clear_error(ctx);
+    st2 = write_summary(outdir, cs, sc, S, s.u ? &s : NULL, C, drv, met, cols, cols ? nvalcol : 0,
+                        (const char *const *)names, e0, e1, drift, balance, emax_growth, complete, reason,
+                        res->wall, res->step_wall, p0, stepper.cuts, stepper.hmin, blowup, ctx);
+    if (st2) {
+      /* the "running" summary must not outlive the run */
+      snprintf(path, sizeof path, "%s/summary.json", outdir);
+      remove(path);
+    } else
+      res->summary = 1;
+    if (keep) {
+      st = keep;
       ctx->status = keep;
       snprintf(ctx->errmsg, sizeof ctx->errmsg, "%s", msg);
+    } else if (st2) {
+      st = st2;
+      res->complete = 0;
     }
   }
   if (met && C && s.step > 0) {
@@ -1315,11 +1386,7 @@ done:
                  : "A smaller time step, or a larger theta, damps it");
     }
   }
-  /* the drawings of the frames taken, also after a failure (the error kept is the run's) */
-  if (draw) {
-    int st2 = mo_draw_finish(draw, sc, ctx);
-    if (st2 && !st) st = st2;
-  }
+  mo_outdir_release(&od);
   if (opt->log && sc) print_log(ctx, res->wall);
   mo_vtk_close(vtk);
   mo_vtk_contacts_release(&net);

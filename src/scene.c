@@ -9,6 +9,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/resource.h>
+#include <unistd.h>
 
 
 const char *mo_quantity_name(mo_quantity q)
@@ -397,6 +399,11 @@ static int assemble(mo_scene *sc, int with_mass, mo_ctx *ctx)
     nd = m->nen * D;
     B->mass = 0;
     for (e = 0; e < m->nelem && !st; e++) {
+      if (!(e & 0xffff) && MO_INTERRUPTED(ctx)) {
+        st = mo_error(ctx, MO_EINTERRUPT, "interrupted while assembling body '%s' (element %d of %d)", B->name, e,
+                      m->nelem);
+        break;
+      }
       for (a = 0; a < m->nen; a++)
         for (c = 0; c < D; c++) dofs[a * D + c] = B->dof0 + m->conn[e * m->nen + a] * D + c;
       /* finite-strain bodies have no constant stiffness: their forces and tangents are
@@ -482,6 +489,11 @@ static int build_time(mo_scene *sc, const mo_case *cs, mo_ctx *ctx)
     return mo_case_error(cs, tg, ctx, "give 'end' or 'steps', not both");
   if (mo_cfg_member(tg, "end")) {
     double n = mo_cfg_float(tg, "end", 0) / T->dt;
+    /* one step rounds the run up to dt: refused when that more than doubles it (dt = 1e300
+       would run to t = 1e300 and overflow M + c K) */
+    if (n < 0.5)
+      return mo_case_error(cs, mo_cfg_member(tg, "dt"), ctx, "the time step %g is longer than the run (time.end = %g): "
+                           "the one step would end at t = %g", T->dt, mo_cfg_float(tg, "end", 0), T->dt);
     if (n > 1e9) return mo_case_error(cs, mo_cfg_member(tg, "end"), ctx, "end / dt = %.3g steps exceed the limit of 10^9", n);
     T->steps = (long)ceil(n - 1e-9);
     if (T->steps < 1) T->steps = 1;
@@ -490,6 +502,9 @@ static int build_time(mo_scene *sc, const mo_case *cs, mo_ctx *ctx)
   else
     return mo_case_error(cs, tg, ctx, "needs 'end' or 'steps'");
   T->end = (double)T->steps * T->dt;
+  if (!isfinite(T->end) || T->end > 1e100)
+    return mo_case_error(cs, mo_cfg_member(tg, "dt"), ctx, "%ld steps of %g make the run end at t = %g: check the units",
+                         T->steps, T->dt, T->end);
   return MO_OK;
 }
 
@@ -808,6 +823,95 @@ static int loads(mo_scene *sc, const config_setting_t *bl, int nentry, double *f
   return MO_OK;
 }
 
+/* Bytes per dof of a run, measured (peak RSS over dofs, FE assembly, CHOLMOD factor, state,
+   outputs: doc/theory.md (T105)): 1D bars 315 B (wave-bar, 10^6 elements), 2D Q4 2.0 kB
+   (plate-vibration 200 x 200); 3D taken as 4 times 2D (more neighbours, more fill). */
+static const double bytes_per_dof[4] = {300, 320, 2000, 8000};
+
+/* The memory a run may take: the physical memory, or the address-space limit when lower. */
+static double memory_limit(void)
+{
+  double mem = (double)sysconf(_SC_PHYS_PAGES) * (double)sysconf(_SC_PAGE_SIZE);
+  struct rlimit rl;
+  if (!(mem > 0)) mem = 8e9;
+  if (getrlimit(RLIMIT_AS, &rl) == 0 && rl.rlim_cur != RLIM_INFINITY && (double)rl.rlim_cur < mem)
+    mem = (double)rl.rlim_cur;
+  return mem;
+}
+
+/* The scene's size from the case alone, before anything is built (T105): nodes, elements and
+   dofs of each mesh generator and of the rigid bodies, and the bytes they will take; past the
+   limits (10^7 elements, ctx->max_dofs dofs, the memory) refused with MO_ELIMIT naming the key
+   and printing the estimate. Mesh files are bounded by their size and the reader's limits. */
+static int estimate_size(const mo_case *cs, const config_setting_t *bl, int nentry, mo_ctx *ctx)
+{
+  double limit = ctx->max_dofs > 0 ? (double)ctx->max_dofs : 2e7, mem = memory_limit();
+  double nodes = 0, elems = 0, dofs = 0, bytes = 0;
+  int e;
+  for (e = 0; e < nentry; e++) {
+    const config_setting_t *bg = config_setting_get_elem(bl, (unsigned)e), *mg, *key;
+    const mo_body_type *T = mo_body_type_find(mo_cfg_string(bg, "type", "deformable"));
+    double c, nn = 0, ne = 0, n[3];
+    const char *gen;
+    int d = 0, k;
+    if (!T) continue;
+    c = T->count ? T->count(bg) : 1;
+    if (c < 1) c = 1;
+    if (T->kind != MO_BODY_DEFORMABLE) {
+      dofs += c * (T->kind == MO_BODY_SPHERE ? 6 : T->flags & MO_BODY_F_RIGID ? 3 : 0);
+      bytes += c * (2000 + sizeof(mo_body)); /* a rigid body: its shape, contact lists, history */
+      continue;
+    }
+    if (!(mg = mo_cfg_member(bg, "mesh")) || mo_cfg_member(mg, "file")) continue;
+    gen = mo_cfg_string(mg, "generator", "");
+    key = mo_cfg_member(mg, "elements");
+    for (k = 0; k < 3; k++) {
+      n[k] = mo_cfg_num_at(mg, "elements", k);
+      if (!(n[k] >= 1)) n[k] = 1;
+    }
+    if (!strcmp(gen, "bar")) {
+      d = 1;
+      ne = n[0];
+      nn = n[0] + 1;
+    } else if (!strcmp(gen, "rectangle")) {
+      int t3 = !strcmp(mo_cfg_string(mg, "element", "Q4"), "T3"), uj = !strcmp(mo_cfg_string(mg, "diagonal", ""), "union_jack");
+      d = 2;
+      ne = n[0] * n[1] * (uj ? 4 : t3 ? 2 : 1);
+      nn = (n[0] + 1) * (n[1] + 1) + (uj ? n[0] * n[1] : 0);
+    } else if (!strcmp(gen, "box")) {
+      d = 3;
+      ne = n[0] * n[1] * n[2];
+      nn = (n[0] + 1) * (n[1] + 1) * (n[2] + 1);
+    } else if (!strcmp(gen, "disk")) {
+      double core = mo_cfg_float(mg, "core", 8), rings = mo_cfg_float(mg, "rings", 4);
+      d = 2;
+      ne = core * core + 4 * core * rings;
+      nn = (core + 1) * (core + 1) + 4 * core * rings;
+      key = mo_cfg_member(mg, rings > core ? "rings" : "core");
+      if (!key) key = mo_cfg_member(mg, "core");
+    } else
+      continue;
+    if (!key) key = mg;
+    nodes += c * nn;
+    elems += c * ne;
+    dofs += c * nn * d;
+    bytes += c * nn * d * bytes_per_dof[d];
+    if (c * ne > 1e7 || dofs > limit || bytes > mem) {
+      char why[160];
+      if (c * ne > 1e7) snprintf(why, sizeof why, "more than the limit of 10^7 elements");
+      else if (dofs > limit) snprintf(why, sizeof why, "the scene's %.3g dofs pass the limit of %.3g", dofs, limit);
+      else snprintf(why, sizeof why, "the scene's %.3g GB pass the %.3g GB of memory there are", bytes / 1e9, mem / 1e9);
+      return mo_case_error(cs, key, ctx, "body '%s' makes an estimated %.3g nodes, %.3g elements, %.3g dofs (about "
+                           "%.3g GB): %s; refused before anything is built (a coarser mesh, please)",
+                           mo_cfg_string(bg, "name", "?"), c * nn, c * ne, c * nn * d, c * nn * d * bytes_per_dof[d] / 1e9,
+                           why);
+    }
+  }
+  (void)nodes;
+  (void)elems;
+  return MO_OK;
+}
+
 int mo_scene_build(const mo_case *cs, mo_scene **out, mo_ctx *ctx)
 {
   const config_setting_t *bl = config_lookup(&cs->cfg, "bodies");
@@ -826,6 +930,7 @@ int mo_scene_build(const mo_case *cs, mo_scene **out, mo_ctx *ctx)
     ctx->status = MO_ELIMIT;
     goto fail;
   }
+  if ((st = estimate_size(cs, bl, nentry, ctx))) goto fail;
   sc->body = mo_calloc(ctx, (size_t)(total ? total : 1), sizeof *sc->body);
   if (!sc->title || !sc->case_file || !sc->body) { st = MO_ENOMEM; goto fail; }
   sc->nbody = total;

@@ -5,6 +5,7 @@
 #include <moreau/material.h>
 #include <moreau/step.h>
 #include "step_internal.h"
+#include "metrics.h"
 
 #include <gsl/gsl_eigen.h>
 #include <math.h>
@@ -550,8 +551,17 @@ int mo_stepper_create(const mo_scene *sc, mo_stepper **out, mo_ctx *ctx)
   if (!st) st = mo_linsolver_factor(S->ls, S->W, ctx);
   mo_phase_add(ctx, MO_PH_FACTOR, t0);
   if (st) {
+    char cause[600];
     mo_error_prefix(ctx, "iteration matrix (%s)",
                     S->scheme == MO_SCHEME_QUASISTATIC ? "stiffness K" : "M + c K");
+    /* the case key behind it, when the data say (finite.c) */
+    mo_matrix_cause(sc, cause, sizeof cause);
+    if (cause[0]) {
+      /* the data explain it: not the generic guess of the factorization */
+      char *g = strstr(ctx->errmsg, ": a body free to move rigidly");
+      if (g) *g = '\0';
+      if (strlen(ctx->errmsg) + strlen(cause) < sizeof ctx->errmsg) strcat(ctx->errmsg, cause);
+    }
     mo_stepper_free(S);
     return st;
   }

@@ -273,7 +273,8 @@ int mo_bench_local(const char *const *files, int nfiles, const mo_bench_options 
     }
 #endif
   next:
-    if (st) mo_error_prefix(ctx, "%s", files[k]);
+    /* the file's name, once (the reader's messages begin with it) */
+    if (st && strncmp(ctx->errmsg, files[k], strlen(files[k]))) mo_error_prefix(ctx, "%s", files[k]);
     mo_local_solver_free(L);
     mo_delassus_free(W);
     mo_csc_free(Wc);

@@ -367,11 +367,15 @@ static int name_candidate(const mo_contact_problem *P, int a, char *buf, size_t 
 static void worst_candidates(const nscd_state *S, const mo_contact_problem *P, const double *r,
                              mo_contact_report *rep, double res, int scaled)
 {
-  int worst[3] = {-1, -1, -1}, k, i, len;
+  int worst[3] = {-1, -1, -1}, k, i, len, nbad = 0, bad = -1;
   double we[3] = {-1, -1, -1};
   for (k = 0; k < S->nact; k++) {
     int a = S->act[k];
     double e = sqrt(mo_fc_natural_map_unit(S->d, S->mu[a], r + a * S->d, S->U + a * S->d));
+    if (!isfinite(e)) { /* a NaN or an infinity: the culprit before any finite residual */
+      if (!nbad++) bad = a;
+      continue;
+    }
     if (!(e > 0)) continue; /* on the law: not among the culprits */
     for (i = 0; i < 3; i++)
       if (e > we[i]) {
@@ -381,6 +385,17 @@ static void worst_candidates(const nscd_state *S, const mo_contact_problem *P, c
         worst[i] = a;
         break;
       }
+  }
+  if (nbad) {
+    char nm[64];
+    name_candidate(P, bad, nm, sizeof nm);
+    snprintf(rep->message, sizeof rep->message, "local residuals not finite at %d contact%s, the first %s (the "
+             "problem's data W, q or the reactions overflowed)", nbad, nbad > 1 ? "s" : "", nm);
+    return;
+  }
+  if (worst[0] < 0) {
+    snprintf(rep->message, sizeof rep->message, "no local residual stands out");
+    return;
   }
   /* the stopping rule's own measure first: the core's (T10) depends on the units */
   len = snprintf(rep->message, sizeof rep->message, "%s residual %.2e against tol %.0e; largest local residuals at",

@@ -23,7 +23,8 @@ enum {
   MO_ELIMIT = 7,     /* a size limit was exceeded (refused before allocating) */
   MO_EINTERRUPT = 8, /* SIGINT or SIGTERM */
   MO_EUNSUPPORTED = 9, /* the scene asks for something this build or back end cannot do */
-  MO_EINTERNAL = 10  /* a broken invariant: a bug */
+  MO_EINTERNAL = 10, /* a broken invariant: a bug */
+  MO_EOUTPUT = 11    /* an output could not be written (a full disk): the run failed, exit 1 */
 };
 
 /* Phases timed by the core; `moreau run --log` prints them as a table. */
@@ -67,6 +68,10 @@ typedef struct mo_ctx {
   /* size limits, refused with MO_ELIMIT before allocating (0: the defaults, 2e7 dofs) */
   long max_dofs;
 } mo_ctx;
+
+/* 1 when the program was asked to stop (SIGINT, SIGTERM): the long loops of loading and
+   building poll it every few thousand items and return MO_EINTERRUPT. */
+#define MO_INTERRUPTED(ctx) ((ctx)->interrupt && *(ctx)->interrupt)
 
 /* Initialise a context with defaults (verbosity 1, seed 1, no injection). */
 void mo_ctx_init(mo_ctx *ctx);

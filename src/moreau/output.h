@@ -24,9 +24,24 @@ int mo_write_file_atomic(const char *path, const char *data, size_t len, mo_ctx 
 typedef struct mo_atomic_file {
   FILE *f;
   char path[4200], tmp[4240];
+  int anon;   /* the bytes are in an anonymous file (O_TMPFILE) until the commit */
+  int nosync; /* set after open: commit without fsync (the frames of a series) */
 } mo_atomic_file;
 int mo_atomic_open(mo_atomic_file *A, const char *path, mo_ctx *ctx);
 int mo_atomic_commit(mo_atomic_file *A, int ok, mo_ctx *ctx);
+
+/* A run's claim on its output folder (doc/case-format.md, "Output folder"): created if
+   needed, locked (DIR/.lock, flock: a second run on the same folder is refused with
+   MO_EINPUT, and the lock goes with the process, also on SIGKILL), the temporaries a killed
+   run left removed, and the old summary.json replaced by one saying "running" before any
+   other byte is written, so that no reader takes the folder for complete until the run says
+   so. */
+typedef struct mo_outdir {
+  int fd;
+  char dir[4096];
+} mo_outdir;
+int mo_outdir_claim(mo_outdir *O, const char *dir, const char *case_file, mo_ctx *ctx);
+void mo_outdir_release(mo_outdir *O);
 
 typedef struct mo_csv mo_csv;
 /* Open a CSV file with a header row; rows are flushed as written, so that a crash leaves every

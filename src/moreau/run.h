@@ -27,6 +27,7 @@ typedef struct {
   double step_wall;             /* of which the steps alone (no setup, no output) */
   double energy0, energy1;      /* total mechanical energy at start and end */
   int complete;                 /* 1 when the run reached its end time */
+  int summary;                  /* 1 when summary.json was written (complete or not) */
   char outdir[4096];
   int nmetric;                  /* errors against the reference */
   char metric_name[32][64];
