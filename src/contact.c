@@ -269,6 +269,7 @@ struct mo_contact_driver {
   mo_keymap kmap;            /* fit: the old keys' positions */
   int any_step, it_step, loops_step[4]; /* nonlinear steps: totals over the Newton iterations */
   long steps, iterations, max_iterations, wbuilds, failures;
+  long factorizations, factor_reuses;
   double max_residual;
 };
 
@@ -467,6 +468,12 @@ static int bodies_only(const mo_contact_driver *D, const mo_what_inverse *Wi)
   return 1;
 }
 long mo_contact_driver_failures(const mo_contact_driver *D) { return D->failures; }
+
+void mo_contact_driver_factor_totals(const mo_contact_driver *D, long *factorizations, long *reuses)
+{
+  if (factorizations) *factorizations = D->factorizations;
+  if (reuses) *reuses = D->factor_reuses;
+}
 
 void mo_contact_driver_totals(const mo_contact_driver *D, long *steps, long *iterations,
                               long *max_iterations, long *wbuilds, double *max_residual)
@@ -786,6 +793,8 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
     return mo_error_prefix(ctx, "step %ld (t = %.6g): contact back end %s", P->step, s->t + h, D->T->name);
   }
   mo_phase_add(ctx, MO_PH_CONTACT, t0);
+  D->factorizations += rep->factorizations;
+  D->factor_reuses += rep->factor_reuses;
   for (i = 0; i < m; i++)
     if (!isfinite(D->r[i])) {
       char who[200];

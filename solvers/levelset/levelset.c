@@ -34,6 +34,7 @@ typedef struct {
   double *y, *dy, *D, *WCC, *J, *Uc, *Umc;
   int *ipiv;
   size_t cap_y, cap_u;
+  ls_lu_cache lu;            /* the factors of the last Newton matrix (T86) */
   double *dv, *ddv;          /* KKT path: velocity correction over the free dofs */
   /* status history of the level-set loop (cycling detection) */
   unsigned char *hist;
@@ -106,6 +107,7 @@ static void ls_free(void *state)
   ls_space_free(&L->A);
   ls_system_free(&L->S);
   ls_kkt_free(&L->K);
+  ls_lu_cache_free(&L->lu);
   mo_free(L->su); mo_free(L->sv); mo_free(L->sf); mo_free(L->nsu); mo_free(L->nsv); mo_free(L->nsf);
   mo_free(L->pg); mo_free(L->ph); mo_free(L->lam); mo_free(L->U); mo_free(L->Umag); mo_free(L->r);
   mo_free(L->ph_prev); mo_free(L->lam_prev); mo_free(L->pm); mo_free(L->lm);
@@ -247,7 +249,7 @@ static int ls_newton(ls_state *L, const mo_contact_problem *P, int kkt, int *its
 {
   ls_system *S = &L->S;
   const ls_space *A = &L->A;
-  int ny = S->ny, nu = S->nC * S->nr, it, e, k, col, st, mi, t;
+  int ny = S->ny, nu = S->nC * S->nr, it, e, k, col, st, mi, t, hit;
   *its = 0;
   *conv = 0;
   memset(L->rev, 0, (size_t)L->nc);
@@ -271,6 +273,7 @@ static int ls_newton(ls_state *L, const mo_contact_problem *P, int kkt, int *its
     if (it == L->par.newton_max) break;
     if (slide_reversed(L, L->y, L->Uc, it < 2) && it >= 2) break;
     if (kkt) {
+      L->lu.factorizations++; /* UMFPACK factors the saddle-point matrix at every step */
       if ((st = ls_kkt_step(&L->K, S, P, L->dv, L->y, L->ddv, L->dy, ctx))) return st;
       for (k = 0; k < P->nfree; k++) L->dv[k] += L->ddv[k];
     } else {
@@ -287,8 +290,11 @@ static int ls_newton(ls_state *L, const mo_contact_problem *P, int kkt, int *its
         }
       }
       for (e = 0; e < ny; e++) L->dy[e] = -S->F[e];
-      newton_scales(L, L->J, L->D);
-      if ((st = ls_dense_solve(ny, L->J, L->dy, L->y, L->D, L->ipiv, ctx))) return st;
+      if ((st = ls_lu_lookup(&L->lu, ny, L->J, L->dy, &hit, ctx))) return st;
+      if (!hit) {
+        newton_scales(L, L->J, L->D);
+        if ((st = ls_dense_solve(ny, L->J, L->dy, L->y, L->D, L->ipiv, &L->lu, ctx))) return st;
+      }
     }
     for (e = 0; e < ny; e++) L->y[e] += L->dy[e];
     (*its)++;
@@ -370,6 +376,7 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
   int kkt = L->par.path == LS_PATH_KKT, st, j, t, thr, lsit, nhist, nls = 0, nnewt = 0, conv, safe;
   double kn = 0, kt = 0, h_n, rho_n, rho_t = 0, h2_t = 0, h1_t = 0;
   int nkn = 0, nkt = 0;
+  const long nfact0 = L->lu.factorizations, nreuse0 = L->lu.reuses;
   if (!P->W) return mo_error(ctx, MO_EINTERNAL, "levelset: the core did not build W");
   /* scales (T16): the contact stiffness 1 / (c w W_jj) in pressure per unit of U'; the step's
      friction coefficients, 0 for a candidate that no free dof moves tangentially */
@@ -621,6 +628,8 @@ finish_zero:
 done:
   rep->loops[2] = nls;
   rep->loops[3] = nnewt;
+  rep->factorizations = (int)(L->lu.factorizations - nfact0);
+  rep->factor_reuses = (int)(L->lu.reuses - nreuse0);
   rep->iterations = nnewt;
   if (rep->loops[1] == 0) rep->loops[1] = 1;
   mo_log(ctx, 3, "levelset step %ld: loops geometry %d, threshold %d, level-set %d, Newton %d (%s)\n",

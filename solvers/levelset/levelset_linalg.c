@@ -7,9 +7,9 @@
 #include <math.h>
 #include <string.h>
 
-extern void dgesv_(const int *n, const int *nrhs, double *a, const int *lda, int *ipiv,
-                   double *b, const int *ldb, int *info);
 extern void dgetrf_(const int *m, const int *n, double *a, const int *lda, int *ipiv, int *info);
+extern void dgetrs_(const char *trans, const int *n, const int *nrhs, const double *a, const int *lda,
+                    const int *ipiv, double *b, const int *ldb, int *info);
 extern void dgecon_(const char *norm, const int *n, const double *a, const int *lda, const double *anorm,
                     double *rcond, double *work, int *iwork, int *info);
 extern void dgelsd_(const int *m, const int *n, const int *nrhs, double *a, const int *lda, double *b,
@@ -79,11 +79,80 @@ done:
   return rc;
 }
 
-int ls_dense_solve(int n, double *J, double *b, const double *y, const double *D, int *ipiv, mo_ctx *ctx)
+void ls_lu_cache_free(ls_lu_cache *C)
+{
+  if (!C) return;
+  mo_free(C->key);
+  mo_free(C->lu);
+  mo_free(C->piv);
+  C->key = C->lu = NULL;
+  C->piv = NULL;
+  C->cap = 0;
+  C->valid = 0;
+}
+
+static int finite_or_error(int n, const double *b, mo_ctx *ctx)
+{
+  int i;
+  for (i = 0; i < n; i++)
+    if (!isfinite(b[i]))
+      return mo_error(ctx, MO_ENAN, "levelset: the frozen-status system gave a non-finite value "
+                      "(unknown %d of %d)", i, n);
+  return MO_OK;
+}
+
+int ls_lu_lookup(ls_lu_cache *C, int n, const double *J, double *b, int *hit, mo_ctx *ctx)
+{
+  int nrhs = 1, info = 0;
+  *hit = 0;
+  if (!C || !C->valid || C->n != n || n == 0 ||
+      memcmp(C->key, J, (size_t)n * (size_t)n * sizeof *J) != 0)
+    return MO_OK;
+  dgetrs_("N", &n, &nrhs, C->lu, &n, C->piv, b, &n, &info);
+  if (info != 0) return mo_error(ctx, MO_EINTERNAL, "levelset: dgetrs argument %d", -info);
+  C->reuses++;
+  *hit = 1;
+  return finite_or_error(n, b, ctx);
+}
+
+/* Keep the row-major matrix J (before the transposition) and the LU factors of its transpose. */
+static int lu_store(ls_lu_cache *C, int n, const double *key, const double *lu, const int *ipiv,
+                    mo_ctx *ctx)
+{
+  size_t nn = (size_t)n * (size_t)n;
+  if (nn + 1 > C->cap) {
+    double *a = mo_realloc(ctx, C->key, (nn + 1) * sizeof *a);
+    if (!a) return MO_ENOMEM;
+    C->key = a;
+    if (!(a = mo_realloc(ctx, C->lu, (nn + 1) * sizeof *a))) return MO_ENOMEM;
+    C->lu = a;
+    {
+      int *p = mo_realloc(ctx, C->piv, ((size_t)n + 1) * sizeof *p);
+      if (!p) return MO_ENOMEM;
+      C->piv = p;
+    }
+    C->cap = nn + 1;
+  }
+  memcpy(C->key, key, nn * sizeof *key);
+  memcpy(C->lu, lu, nn * sizeof *lu);
+  memcpy(C->piv, ipiv, (size_t)n * sizeof *ipiv);
+  C->n = n;
+  C->valid = 1;
+  return MO_OK;
+}
+
+int ls_dense_solve(int n, double *J, double *b, const double *y, const double *D, int *ipiv,
+                   ls_lu_cache *C, mo_ctx *ctx)
 {
   int nrhs = 1, info = 0, i, j, st = MO_OK, rank = 0;
-  double *A = NULL, *b0 = NULL, rc;
+  double *A = NULL, *b0 = NULL, *key = NULL, rc;
   if (n == 0) return MO_OK;
+  if (C) {
+    C->valid = 0;
+    C->factorizations++;
+    if (!(key = mo_malloc(ctx, (size_t)n * (size_t)n * sizeof *key))) return MO_ENOMEM;
+    memcpy(key, J, (size_t)n * (size_t)n * sizeof *key);
+  }
   /* LAPACK is column-major: transpose in place (J is square) */
   for (i = 0; i < n; i++)
     for (j = i + 1; j < n; j++) {
@@ -91,11 +160,17 @@ int ls_dense_solve(int n, double *J, double *b, const double *y, const double *D
       J[(size_t)i * n + j] = J[(size_t)j * n + i];
       J[(size_t)j * n + i] = t;
     }
-  if ((rc = scaled_rcond(n, J, ctx)) < 0) return MO_ENOMEM;
+  if ((rc = scaled_rcond(n, J, ctx)) < 0) { st = MO_ENOMEM; goto done; }
   if (rc >= 1e-13) {
-    dgesv_(&n, &nrhs, J, &n, ipiv, b, &n, &info);
-    if (info > 0) return mo_error(ctx, MO_ESINGULAR, "levelset: the frozen-status system is singular (zero pivot %d of %d "
-                                  "in LAPACK dgesv)", info, n);
+    /* dgesv's two halves, so that the factors can serve the next solves of the same J */
+    dgetrf_(&n, &n, J, &n, ipiv, &info);
+    if (info > 0) {
+      st = mo_error(ctx, MO_ESINGULAR, "levelset: the frozen-status system is singular (zero pivot %d of %d "
+                    "in LAPACK dgetrf)", info, n);
+      goto done;
+    }
+    if (info == 0) dgetrs_("N", &n, &nrhs, J, &n, ipiv, b, &n, &info);
+    if (info == 0 && C && (st = lu_store(C, n, key, J, ipiv, ctx))) goto done;
   } else {
     /* redundant constraints: the iterate y + dx of smallest |D^-1 (y + dx)| among the solutions of
        J (y + dx) = J y + b (least squares when the frozen status admits none) */
@@ -113,12 +188,10 @@ int ls_dense_solve(int n, double *J, double *b, const double *y, const double *D
     for (i = 0; i < n; i++) b[i] = D[i] * b0[i] - y[i];
     mo_log(ctx, 3, "levelset: the frozen-status system has rank %d of %d: the iterate of smallest scaled norm\n", rank, n);
   }
-  if (info < 0) st = mo_error(ctx, MO_EINTERNAL, "levelset: dgesv argument %d", -info);
-  for (i = 0; !st && i < n; i++)
-    if (!isfinite(b[i]))
-      st = mo_error(ctx, MO_ENAN, "levelset: the frozen-status system gave a non-finite value "
-                    "(unknown %d of %d)", i, n);
+  if (info < 0) st = mo_error(ctx, MO_EINTERNAL, "levelset: dgetrf/dgetrs argument %d", -info);
+  if (!st) st = finite_or_error(n, b, ctx);
 done:
+  mo_free(key);
   mo_free(A);
   mo_free(b0);
   return st;
