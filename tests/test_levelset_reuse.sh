@@ -1,6 +1,6 @@
 #!/bin/sh
 # test_levelset_reuse.sh: levelset keeps the factors of its Newton matrix while the frozen status
-# leaves it unchanged (doc/theory.md (T86)); counted in
+# leaves it unchanged (doc/theory.md (T86)) and solves an open step without one (T87); counted in
 # summary.json (contact.factorizations, contact.factor_reuses), never by the clock. The answers
 # are checked against nscd's (another back end on the same scene).
 . "$MOREAU_SRCDIR/tests/tap.sh"
@@ -47,8 +47,8 @@ PY
 w=$(cat "$OUT/cmp")
 ok $(/usr/bin/python3 -c "import sys; sys.exit(0 if float('$w') < 1e-6 else 1)"; echo $?) "resting block: levelset's base reaction is nscd's at every output to $w (< 1e-6)"
 
-# 2. the block dropped sliding (cases/block-drop): most of the 2000 steps are open (one matrix for
-#    them all), and the landing's statuses repeat over Newton iterations
+# 2. the block dropped sliding (cases/block-drop): most of the 2000 steps are open (no
+#    factorization: the zero solution), and the landing's statuses repeat over Newton iterations
 "$MOREAU" run "$MOREAU_SRCDIR/cases/block-drop" --solver levelset --out "$OUT/drop" --quiet 2>"$OUT/err"
 ok $? "block-drop runs with levelset $(head -c 200 "$OUT/err")"
 S=$OUT/drop/summary.json
