@@ -100,7 +100,9 @@ int ls_dense_solve(int n, double *J, double *b, const double *y, const double *D
 typedef struct ls_lu_cache {
   int n, valid;
   double *key;             /* the matrix factored, row-major as built (n x n) */
-  double *lu;              /* its LU factors (LAPACK dgetrf, column-major) */
+  double *lu;              /* the LU factors (LAPACK dgetrf, column-major) of its transpose
+                              scaled to unit rows and columns, R^-1 J^T C^-1 */
+  double *rs, *cs;         /* the scales R and C */
   int *piv;
   size_t cap;
   long factorizations, reuses; /* over the run: LU or SVD solves of a new matrix, reuses */
