@@ -44,9 +44,13 @@ try:
 except Exception:
     print("- missing -"); sys.exit()
 c = d.get("contact", {})
-print("%.6f %s %s" % (d.get("timings", {}).get("contact", float("nan")), d.get("status", "?"),
-                      c.get("last_reason", "?").replace(" ", "_") if c.get("failed_solves", 0) == 0 else
-                      "failed_solves=%d" % c["failed_solves"]))
+t = d.get("time", {})
+why = c.get("last_reason", "?").replace(" ", "_")
+if c.get("failed_solves", 0):
+    why = "failed_solves=%d" % c["failed_solves"]
+if d.get("status") != "complete":
+    why += ",t_reached=%g" % t.get("t_reached", float("nan"))
+print("%.6f %s %s" % (d.get("timings", {}).get("contact", float("nan")), d.get("status", "?"), why))
 PY
 }
 
@@ -91,8 +95,11 @@ for name in "$@"; do
 try: print('%.2f' % (float(b)/float(a)))
 except Exception: print('-')")
   note="$stl $why"
-  if [ "$stl" = missing ] || [ "$stl" = interrupted ]; then
-    note="levelset: killed after LIMIT = $LIMIT s (no result)"
+  if [ "$stl" = missing ]; then
+    note="levelset: killed after LIMIT = $LIMIT s (no summary)"
+    ratio=-
+  elif [ "$stl" = incomplete ] && ! grep -qiE 'error|cannot|stopped on' "$OUT/$name-levelset.log"; then
+    note="levelset: stopped at LIMIT = $LIMIT s ($why)"
     ratio=-
   elif [ "$stl" != complete ]; then
     note="levelset: $(grep -m1 -iE 'error|refuse|cannot|redundan|fail' "$OUT/$name-levelset.log" | cut -c1-90)"
