@@ -89,7 +89,7 @@ struct ls_lu_cache;
 /* Dense LU solve of the n x n row-major Newton system J dx = b at iterate y (J overwritten, dx
    into b). A singular J (redundant constraints: two points of an edge resting on an edge leave
    their tangential impulses non-unique) takes the iterate y + dx of smallest norm |D^-1 (y +
-   dx)| (LAPACK's SVD least squares), D > 0 the scales of the unknowns. */
+   dx)| (LAPACK's least squares, dgelsy), D > 0 the scales of the unknowns. */
 int ls_dense_solve(int n, double *J, double *b, const double *y, const double *D, int *ipiv,
                    struct ls_lu_cache *C, mo_ctx *ctx);
 
@@ -105,7 +105,7 @@ typedef struct ls_lu_cache {
   double *rs, *cs;         /* the scales R and C */
   int *piv;
   size_t cap;
-  long factorizations, reuses; /* over the run: LU or SVD solves of a new matrix, reuses */
+  long factorizations, reuses; /* over the run: LU or least-squares solves of a new matrix, reuses */
 } ls_lu_cache;
 
 /* Solve J dx = b (dx into b) with the cached factors when J is the matrix they factor (*hit =

@@ -12,34 +12,33 @@ extern void dgetrs_(const char *trans, const int *n, const int *nrhs, const doub
                     const int *ipiv, double *b, const int *ldb, int *info);
 extern void dgecon_(const char *norm, const int *n, const double *a, const int *lda, const double *anorm,
                     double *rcond, double *work, int *iwork, int *info);
-extern void dgelsd_(const int *m, const int *n, const int *nrhs, double *a, const int *lda, double *b,
-                    const int *ldb, double *s, const double *rcond, int *rank, double *work,
-                    const int *lwork, int *iwork, int *info);
+extern void dgelsy_(const int *m, const int *n, const int *nrhs, double *a, const int *lda, double *b,
+                    const int *ldb, int *jpvt, const double *rcond, int *rank, double *work,
+                    const int *lwork, int *info);
 
 /* The minimum-norm least-squares solution of a singular J x = b (J column-major, overwritten) by
-   LAPACK's SVD solver: redundant constraints (two points of one edge on an edge, both sticking,
-   leave the tangential impulses non-unique) have many solutions, all giving the same
-   velocities; this one is the smallest. */
+   LAPACK's complete orthogonal factorization (dgelsy: QR with column pivoting, rank where the
+   condition estimate of R passes 1e14; on these small systems cheaper than the SVD solver
+   dgelsd, the same solution to round-off): redundant constraints (two points of one edge on an
+   edge, both sticking, leave the tangential impulses non-unique) have many solutions, all giving
+   the same velocities; this one is the smallest. */
 static int min_norm_solve(int n, double *J, double *b, int *rank, mo_ctx *ctx)
 {
-  int nrhs = 1, info = 0, lwork = -1, liwork = 0, *iwork = NULL;
-  double rcond = 1e-14, wq = 0, *sv = NULL, *work = NULL;
-  dgelsd_(&n, &n, &nrhs, J, &n, b, &n, &wq, &rcond, rank, &wq, &lwork, &liwork, &info);
+  int nrhs = 1, info = 0, lwork = -1, *jpvt = NULL;
+  double rcond = 1e-14, wq = 0, *work = NULL;
+  dgelsy_(&n, &n, &nrhs, J, &n, b, &n, &info, &rcond, rank, &wq, &lwork, &info);
   lwork = (int)wq + 1;
-  /* LAPACK's bound on the integer workspace: 3 n nlvl + 11 n, nlvl <= log2(n) + 1 */
-  liwork = 3 * n * (int)(log2((double)n + 1) + 2) + 11 * n + 1;
-  sv = mo_malloc(ctx, ((size_t)n + 1) * sizeof *sv);
+  jpvt = mo_calloc(ctx, (size_t)n + 1, sizeof *jpvt);
   work = mo_malloc(ctx, (size_t)lwork * sizeof *work);
-  iwork = mo_malloc(ctx, (size_t)liwork * sizeof *iwork);
-  if (!sv || !work || !iwork) {
-    mo_free(sv); mo_free(work); mo_free(iwork);
+  if (!jpvt || !work) {
+    mo_free(jpvt); mo_free(work);
     return MO_ENOMEM;
   }
-  dgelsd_(&n, &n, &nrhs, J, &n, b, &n, sv, &rcond, rank, work, &lwork, iwork, &info);
-  mo_free(sv); mo_free(work); mo_free(iwork);
+  dgelsy_(&n, &n, &nrhs, J, &n, b, &n, jpvt, &rcond, rank, work, &lwork, &info);
+  mo_free(jpvt); mo_free(work);
   if (info != 0)
-    return mo_error(ctx, MO_ESINGULAR, "levelset: the frozen-status system is singular and its SVD did not "
-                    "converge (LAPACK dgelsd info %d)", info);
+    return mo_error(ctx, MO_ESINGULAR, "levelset: the frozen-status system is singular and its complete "
+                    "orthogonal factorization failed (LAPACK dgelsy info %d)", info);
   return MO_OK;
 }
 
