@@ -18,6 +18,7 @@ MOREAU=${MOREAU:-$here/build/moreau}
 REPEAT=${REPEAT:-3}  # runs of each scene and back end; the table shows the least contact time
 LIMIT=${LIMIT:-120}   # seconds a run may take; a levelset run past it is reported as such
 OUT=${OUT:-$(mktemp -d /tmp/levelset_cost.XXXXXX)}
+mkdir -p "$OUT"
 [ -x "$MOREAU" ] || { echo "levelset_cost.sh: no moreau at $MOREAU (set MOREAU=...)" >&2; exit 2; }
 
 # end times for the scenes whose full run is long (seconds of simulated time)
