@@ -277,6 +277,7 @@ struct mo_contact_driver {
   int *sv_idx;
   double *sv_q, *sv_mu, *sv_r, *sv_U, sv_residual;
   long steps, iterations, max_iterations, wbuilds, failures;
+  long factorizations, factor_reuses;
   double max_residual;
   double *eqf, *eqk;         /* quasi-static linear scenes: f + H r and K u (the equilibrium check, T82) */
   double eq_residual, max_eq_residual;
@@ -519,6 +520,12 @@ void mo_contact_driver_correction(const mo_contact_driver *D, int *on, long *ste
   *max_left = D->pc_left;
   *sweeps_max = D->pc_sweeps_max;
   *unconverged = D->pc_unconverged;
+}
+
+void mo_contact_driver_factor_totals(const mo_contact_driver *D, long *factorizations, long *reuses)
+{
+  if (factorizations) *factorizations = D->factorizations;
+  if (reuses) *reuses = D->factor_reuses;
 }
 
 void mo_contact_driver_totals(const mo_contact_driver *D, long *steps, long *iterations,
@@ -946,6 +953,8 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
     return mo_error_prefix(ctx, "step %ld (t = %.6g): contact back end %s", P->step, s->t + h, D->T->name);
   }
   mo_phase_add(ctx, MO_PH_CONTACT, t0);
+  D->factorizations += rep->factorizations;
+  D->factor_reuses += rep->factor_reuses;
   for (i = 0; i < m; i++)
     if (!isfinite(D->r[i])) {
       char who[200];

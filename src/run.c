@@ -810,6 +810,16 @@ static json_t *contact_json(const mo_contact *C, const mo_contact_driver *D)
   json_object_set_new(j, "iterations_mean", jnum(steps ? (double)it / (double)steps : 0));
   json_object_set_new(j, "residual_max", jnum(maxres));
   json_object_set_new(j, "delassus_builds", json_integer(wb));
+  {
+    /* the back end's own factorizations (levelset's Newton matrices) and the solves that
+       reused kept factors (T86); absent for a back end that factors nothing */
+    long nf, nreuse;
+    mo_contact_driver_factor_totals(D, &nf, &nreuse);
+    if (nf + nreuse > 0) {
+      json_object_set_new(j, "factorizations", json_integer(nf));
+      json_object_set_new(j, "factor_reuses", json_integer(nreuse));
+    }
+  }
   /* solves that did not converge and that contact.on_failure = "continue" let the run go on */
   json_object_set_new(j, "failed_solves", json_integer(mo_contact_driver_failures(D)));
   if (W) {

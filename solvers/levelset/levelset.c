@@ -34,6 +34,10 @@ typedef struct {
   double *y, *dy, *D, *WCC, *J, *Uc, *Umc;
   int *ipiv;
   size_t cap_y, cap_u;
+  ls_lu_cache lu;            /* the factors of the last Newton matrix (T86) */
+  const mo_delassus *wcc_W;  /* what WCC holds: W, its version, the contact set (nC, cset) */
+  long wcc_version;
+  int wcc_nC, wcc_nr, *wcc_cset;
   double *dv, *ddv;          /* KKT path: velocity correction over the free dofs */
   /* status history of the level-set loop (cycling detection) */
   unsigned char *hist;
@@ -106,6 +110,8 @@ static void ls_free(void *state)
   ls_space_free(&L->A);
   ls_system_free(&L->S);
   ls_kkt_free(&L->K);
+  ls_lu_cache_free(&L->lu);
+  mo_free(L->wcc_cset);
   mo_free(L->su); mo_free(L->sv); mo_free(L->sf); mo_free(L->nsu); mo_free(L->nsv); mo_free(L->nsf);
   mo_free(L->pg); mo_free(L->ph); mo_free(L->lam); mo_free(L->U); mo_free(L->Umag); mo_free(L->r);
   mo_free(L->ph_prev); mo_free(L->lam_prev); mo_free(L->pm); mo_free(L->lm);
@@ -124,6 +130,7 @@ static int ls_init(void *state, const void *params, const mo_contact_problem *P,
   L->d = d;
   L->m = m;
   L->friction = 0;
+  L->wcc_nC = -1;
   for (j = 0; j < nc; j++) L->friction |= d > 1 && P->mu[j] > 0;
   if (L->par.path == LS_PATH_KKT && (!P->H || !P->What || P->nfree <= 0))
     return mo_error(ctx, MO_EINTERNAL, "levelset: the kkt path needs the global system (H, What)");
@@ -235,6 +242,51 @@ static void newton_scales(const ls_state *L, const double *J, double *D)
   }
 }
 
+/* 1 when y = 0 and F(y) = 0 exactly: the Newton step from there is 0 (whatever J). */
+static int zero_start(const ls_system *S, const double *y)
+{
+  int e;
+  for (e = 0; e < S->ny; e++)
+    if (S->F[e] != 0 || y[e] != 0) return 0;
+  return 1;
+}
+
+/* 1 when no candidate of Cset is closed (S_v = 0) and y = 0: then F(0) = 0 exactly ((T17)-(T20):
+   an open candidate's rows are r = 0 and p / h_n = 0, and without a threshold, p^g = 0 off the
+   closed set, Lam = 0). */
+static int all_open_at_zero(const ls_system *S, const double *y)
+{
+  int e;
+  for (e = 0; e < S->nC; e++)
+    if (S->sv[S->cset[e]]) return 0;
+  for (e = 0; e < S->ny; e++)
+    if (y[e] != 0) return 0;
+  return 1;
+}
+
+/* W_CC is rebuilt only when the contact set or W changed since it was built (T86). */
+static int wcc_current(const ls_state *L, const mo_delassus *W)
+{
+  const ls_system *S = &L->S;
+  return L->wcc_nC >= 0 && L->wcc_W == W && L->wcc_version == mo_delassus_version(W) &&
+         L->wcc_nC == S->nC && L->wcc_nr == S->nr &&
+         !memcmp(L->wcc_cset, S->cset, (size_t)S->nC * sizeof *S->cset);
+}
+
+static int wcc_remember(ls_state *L, const mo_delassus *W, mo_ctx *ctx)
+{
+  const ls_system *S = &L->S;
+  int *a = mo_realloc(ctx, L->wcc_cset, ((size_t)L->nc + 1) * sizeof *a);
+  if (!a) return MO_ENOMEM;
+  L->wcc_cset = a;
+  memcpy(a, S->cset, (size_t)S->nC * sizeof *a);
+  L->wcc_W = W;
+  L->wcc_version = mo_delassus_version(W);
+  L->wcc_nC = S->nC;
+  L->wcc_nr = S->nr;
+  return MO_OK;
+}
+
 /* Solve F(y, U') = 0 for the frozen sign fields and threshold (T17)-(T20), by (generalized)
    Newton: U' = W_CC r + q on the Schur path, U' = q + H_C^T dv with What dv = H_C r on the KKT
    path. The system is linear except for the sliding directions: one step, plus the check, unless
@@ -247,7 +299,7 @@ static int ls_newton(ls_state *L, const mo_contact_problem *P, int kkt, int *its
 {
   ls_system *S = &L->S;
   const ls_space *A = &L->A;
-  int ny = S->ny, nu = S->nC * S->nr, it, e, k, col, st, mi, t;
+  int ny = S->ny, nu = S->nC * S->nr, it, e, k, col, st, mi, t, hit;
   *its = 0;
   *conv = 0;
   memset(L->rev, 0, (size_t)L->nc);
@@ -262,7 +314,17 @@ static int ls_newton(ls_state *L, const mo_contact_problem *P, int kkt, int *its
     L->y[nu + mi] = L->pm[S->mset[mi]];
     for (t = 0; t < S->dt; t++) L->y[nu + S->nM + mi * S->dt + t] = L->lm[S->mset[mi] * 2 + t];
   }
-  if (!kkt && (st = ls_schur_wcc(S, P->W, L->WCC))) return st;
+  if (!kkt && all_open_at_zero(S, L->y)) {
+    /* no closed candidate and y = 0: every equation reads 0 = 0 (r = 0, p / h_n = 0, Lam = 0
+       without a threshold); Newton would take the zero step once and stop */
+    *its = 1;
+    *conv = 1;
+    return MO_OK;
+  }
+  if (!kkt && !wcc_current(L, P->W)) {
+    if ((st = ls_schur_wcc(S, P->W, L->WCC))) return st;
+    if ((st = wcc_remember(L, P->W, ctx))) return st;
+  }
   for (it = 0;; it++) {
     if (kkt) ls_kkt_velocity(S, P, L->dv, L->Uc, L->Umc);
     else ls_schur_velocity(S, L->WCC, P->b, L->y, L->Uc, L->Umc);
@@ -270,7 +332,15 @@ static int ls_newton(ls_state *L, const mo_contact_problem *P, int kkt, int *its
     if (it > 0 && ls_system_converged(S, L->par.newton_tol)) { *conv = 1; break; }
     if (it == L->par.newton_max) break;
     if (slide_reversed(L, L->y, L->Uc, it < 2) && it >= 2) break;
+    if (it == 0 && !kkt && zero_start(S, L->y)) {
+      /* y = 0 solves the frozen system (an all-open step from an open one: r = 0, p = 0,
+         Lam = 0): the Newton step J^-1 0 is 0, and the next evaluation would repeat this one */
+      (*its)++;
+      *conv = 1;
+      break;
+    }
     if (kkt) {
+      L->lu.factorizations++; /* UMFPACK factors the saddle-point matrix at every step */
       if ((st = ls_kkt_step(&L->K, S, P, L->dv, L->y, L->ddv, L->dy, ctx))) return st;
       for (k = 0; k < P->nfree; k++) L->dv[k] += L->ddv[k];
     } else {
@@ -287,8 +357,11 @@ static int ls_newton(ls_state *L, const mo_contact_problem *P, int kkt, int *its
         }
       }
       for (e = 0; e < ny; e++) L->dy[e] = -S->F[e];
-      newton_scales(L, L->J, L->D);
-      if ((st = ls_dense_solve(ny, L->J, L->dy, L->y, L->D, L->ipiv, ctx))) return st;
+      if ((st = ls_lu_lookup(&L->lu, ny, L->J, L->dy, &hit, ctx))) return st;
+      if (!hit) {
+        newton_scales(L, L->J, L->D);
+        if ((st = ls_dense_solve(ny, L->J, L->dy, L->y, L->D, L->ipiv, &L->lu, ctx))) return st;
+      }
     }
     for (e = 0; e < ny; e++) L->y[e] += L->dy[e];
     (*its)++;
@@ -441,6 +514,7 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
   int kkt = L->par.path == LS_PATH_KKT, st, j, t, thr, lsit, nhist, nls = 0, nnewt = 0, conv, safe;
   double kn = 0, kt = 0, h_n, rho_n, rho_t = 0, h2_t = 0, h1_t = 0, tol_v, tol_f, scale_v;
   int nkn = 0, nkt = 0;
+  const long nfact0 = L->lu.factorizations, nreuse0 = L->lu.reuses;
   if (!P->W) return mo_error(ctx, MO_EINTERNAL, "levelset: the core did not build W");
   /* scales (T16): the contact stiffness 1 / (c w W_jj) in pressure per unit of U'; the step's
      friction coefficients, 0 for a candidate that no free dof moves tangentially */
@@ -483,11 +557,18 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
   S->projected = L->par.stabilization == LS_STAB_PROJECTED;
   /* the starting sign fields from the warm start: U'0 = W r_prev + q; the first Newton loop
      starts from r_prev (Schur) or from r = 0, dv = 0 (KKT, where dv would have to match it) */
-  mo_delassus_mult(P->W, x->r, 0, L->U);
-  for (j = 0; j < m; j++) {
-    L->Umag[j] = fabs(P->b[j]) + fabs(L->U[j]);
-    L->U[j] += P->b[j];
-  }
+  for (j = 0; j < m && x->r[j] == 0; j++) continue;
+  if (j < m) {
+    mo_delassus_mult(P->W, x->r, 0, L->U);
+    for (j = 0; j < m; j++) {
+      L->Umag[j] = fabs(P->b[j]) + fabs(L->U[j]);
+      L->U[j] += P->b[j];
+    }
+  } else /* r_prev = 0 (an open step before): W 0 = 0 */
+    for (j = 0; j < m; j++) {
+      L->Umag[j] = fabs(P->b[j]);
+      L->U[j] = P->b[j];
+    }
   if (kkt) {
     memset(L->r, 0, (size_t)m * sizeof(double));
     memset(L->dv, 0, (size_t)P->nfree * sizeof(double));
@@ -572,7 +653,10 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
         for (t = 0; t < S->nr; t++) L->r[S->cset[k] * d + t] = L->y[k * S->nr + t];
       memcpy(L->U, P->b, (size_t)m * sizeof(double));
       if (kkt) mo_csc_gatxpy(P->H, 1, L->dv, 1, L->U);
-      else mo_delassus_mult(P->W, L->r, 1, L->U);
+      else {
+        for (j = 0; j < m && L->r[j] == 0; j++) continue;
+        if (j < m) mo_delassus_mult(P->W, L->r, 1, L->U); /* (r = 0: U' = q) */
+      }
       for (j = 0; j < m; j++) L->Umag[j] = fabs(P->b[j]) + fabs(L->U[j] - P->b[j]);
       /* the sign fields from the new solution: (T14), (T15), BDZ07 (69), (70), (48), tested
          against the problem's scales with hysteresis (T88) */
@@ -709,6 +793,8 @@ finish_zero:
 done:
   rep->loops[2] = nls;
   rep->loops[3] = nnewt;
+  rep->factorizations = (int)(L->lu.factorizations - nfact0);
+  rep->factor_reuses = (int)(L->lu.reuses - nreuse0);
   rep->iterations = nnewt;
   if (rep->loops[1] == 0) rep->loops[1] = 1;
   mo_log(ctx, 3, "levelset step %ld: loops geometry %d, threshold %d, level-set %d, Newton %d (%s)\n",

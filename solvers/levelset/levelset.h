@@ -84,11 +84,34 @@ void ls_lam_at(const ls_system *S, const ls_space *A, const double *y, int j, do
 
 /* --- linear algebra paths (levelset_linalg.c) ------------------------------------------------- */
 
+struct ls_lu_cache;
+
 /* Dense LU solve of the n x n row-major Newton system J dx = b at iterate y (J overwritten, dx
    into b). A singular J (redundant constraints: two points of an edge resting on an edge leave
    their tangential impulses non-unique) takes the iterate y + dx of smallest norm |D^-1 (y +
-   dx)| (LAPACK's SVD least squares), D > 0 the scales of the unknowns. */
-int ls_dense_solve(int n, double *J, double *b, const double *y, const double *D, int *ipiv, mo_ctx *ctx);
+   dx)| (LAPACK's least squares, dgelsy), D > 0 the scales of the unknowns. */
+int ls_dense_solve(int n, double *J, double *b, const double *y, const double *D, int *ipiv,
+                   struct ls_lu_cache *C, mo_ctx *ctx);
+
+/* The LU factors of the last Newton matrix that LU solved (doc/theory.md (T86)): while the
+   frozen status, the thresholds and W leave J bit for bit the same (every Newton iterate of a
+   frozen status in 2D and without sliding points in 3D; the steps whose statuses repeat), the
+   next solve is two triangular solves on these factors, giving what a new factorization would. */
+typedef struct ls_lu_cache {
+  int n, valid;
+  double *key;             /* the matrix factored, row-major as built (n x n) */
+  double *lu;              /* the LU factors (LAPACK dgetrf, column-major) of its transpose
+                              scaled to unit rows and columns, R^-1 J^T C^-1 */
+  double *rs, *cs;         /* the scales R and C */
+  int *piv;
+  size_t cap;
+  long factorizations, reuses; /* over the run: LU or least-squares solves of a new matrix, reuses */
+} ls_lu_cache;
+
+/* Solve J dx = b (dx into b) with the cached factors when J is the matrix they factor (*hit =
+   1), else leave b untouched (*hit = 0). */
+int ls_lu_lookup(ls_lu_cache *C, int n, const double *J, double *b, int *hit, mo_ctx *ctx);
+void ls_lu_cache_free(ls_lu_cache *C);
 
 /* Schur path: the local velocities U' = W_CC r + q over Cset and their magnitudes. */
 void ls_schur_velocity(const ls_system *S, const double *WCC, const double *q, const double *y,

@@ -304,6 +304,8 @@ typedef struct mo_contact_report {
   int constraints, redundant;
   double rcond;
   int min_norm;              /* the reactions reported are the minimum-norm ones */
+  int factorizations;        /* matrices the back end factored in the solve (levelset: Newton */
+  int factor_reuses;         /*   matrices), and solves on factors kept from an earlier one */
 } mo_contact_report;
 
 /* Typed options of a back end: the case keys contact.<name>.<option> and --set. */
@@ -450,6 +452,8 @@ void mo_contact_driver_totals(const mo_contact_driver *D, long *steps, long *ite
 /* Build the Delassus operator at every step even where the back end works without it (every
    contact between rigid bodies, MO_NEEDS_BODIES): FCLIB dumps of the steps' problems. */
 void mo_contact_driver_keep_delassus(mo_contact_driver *D);
+/* Totals over the run of the back end's factorizations and of its solves on kept factors. */
+void mo_contact_driver_factor_totals(const mo_contact_driver *D, long *factorizations, long *reuses);
 /* Solves that did not converge over the run (non-zero only with contact.on_failure = "continue"). */
 long mo_contact_driver_failures(const mo_contact_driver *D);
 /* The last step's local problem over every candidate (W dense, q, mu), the inactive ones
