@@ -60,6 +60,7 @@ int mo_atomic_open(mo_atomic_file *A, const char *path, mo_ctx *ctx)
   int fd = -1;
   A->f = NULL;
   A->anon = 0;
+  A->nosync = 0;
   if (snprintf(A->path, sizeof A->path, "%s", path) >= (int)sizeof A->path ||
       snprintf(A->tmp, sizeof A->tmp, "%s.tmp.%ld", path, (long)getpid()) >= (int)sizeof A->tmp)
     return mo_error(ctx, MO_EIO, "path too long (%zu characters): '%.200s...'", strlen(path), path);

@@ -108,16 +108,27 @@ EOF
 big() { # big NAME KEY ARGS...: refused, fast and small
   name=$1 key=$2
   shift 2
-  # under a 4 GB address-space limit: a refusal that came too late fails here rather than swap
-  /usr/bin/time -v -o "$OUT/$name.time" sh -c 'ulimit -v 4000000; exec "$0" check "$@"' "$MOREAU" "$@" \
+  # under a 4 GB address-space limit: a refusal that came too late fails here rather than swap.
+  # A sanitizer build reserves terabytes of address space for its shadow memory and cannot run
+  # under such a limit, and its memory and time are not the program's: there only the refusal
+  # and its message are checked.
+  lim='ulimit -v 4000000; '
+  [ -n "${MOREAU_SANITIZERS:-}" ] && lim=''
+  /usr/bin/time -v -o "$OUT/$name.time" sh -c "${lim}"'exec "$0" check "$@"' "$MOREAU" "$@" \
     > /dev/null 2> "$OUT/$name.err"
   is "$?" "2" "$name: refused as a bad case (exit 2)"
   contains "$(cat "$OUT/$name.err")" "$key" "$name: the message names the key"
   contains "$(cat "$OUT/$name.err")" "estimated" "$name: and prints the estimate"
   kb=$(awk -F: '/Maximum resident/ { print $2 + 0 }' "$OUT/$name.time")
   s=$(awk '/Elapsed \(wall clock\)/ { n = split($NF, a, ":"); print a[n] + 60 * a[n - 1] }' "$OUT/$name.time")
-  ok $([ "$kb" -lt 100000 ] && echo 0 || echo 1) "$name: under 100 MB ($kb kB)"
-  ok $(awk -v s="$s" 'BEGIN { exit !(s < 1) }'; echo $?) "$name: under a second ($s s)"
+  if [ -n "${MOREAU_SANITIZERS:-}" ]; then
+    for w in "under 100 MB" "under a second"; do
+      tap_n=$((tap_n + 1)); echo "ok $tap_n # SKIP $name: $w: a sanitizer build's memory and time are not the program's"
+    done
+  else
+    ok $([ "$kb" -lt 100000 ] && echo 0 || echo 1) "$name: under 100 MB ($kb kB)"
+    ok $(awk -v s="$s" 'BEGIN { exit !(s < 1) }'; echo $?) "$name: under a second ($s s)"
+  fi
 }
 if [ -x /usr/bin/time ]; then
   big disk "mesh.core" "$OUT/disk.cfg"
