@@ -19,3 +19,18 @@ mkdir -p "$OUT"
 trap 'rm -rf "$OUT"' EXIT
 # a JSON field: json FILE EXPR (python3 from Debian, always present with the toolchain)
 json() { /usr/bin/python3 -c "import json,sys; d=json.load(open(sys.argv[1])); print($2)" "$1"; }
+# the comparison tests (test_compare.sh, test_compare_verdict.sh):
+ran() { # ran STATUS ERRFILE DESCRIPTION: the command's standard error only when it failed
+  ok "$1" "$3"
+  [ "$1" -eq 0 ] || sed 's/^/#   /' "$2" | head -20
+}
+check() { # check ARGS...: each line of compare_check.py becomes one TAP result
+  /usr/bin/python3 "$MOREAU_SRCDIR/tests/compare_check.py" "$@" > "$OUT/check" 2>&1 || echo "1	compare_check.py $1 crashed: $(tail -1 "$OUT/check")" >> "$OUT/check"
+  while IFS= read -r line; do
+    case "$line" in
+      '#'*) echo "$line" ;;
+      [01]'	'*) ok "${line%%	*}" "${line#*	}" ;;
+      *) echo "# $line" ;;
+    esac
+  done < "$OUT/check"
+}

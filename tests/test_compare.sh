@@ -6,20 +6,6 @@
 # sink; a run that blows up until a NaN stops it. The checks are in tests/compare_check.py.
 . "$MOREAU_SRCDIR/tests/tap.sh"
 C="$MOREAU_SRCDIR/cases"
-ran() { # ran STATUS ERRFILE DESCRIPTION: the command's standard error only when it failed
-  ok "$1" "$3"
-  [ "$1" -eq 0 ] || sed 's/^/#   /' "$2" | head -20
-}
-check() { # check ARGS...: each line of compare_check.py becomes one TAP result
-  /usr/bin/python3 "$MOREAU_SRCDIR/tests/compare_check.py" "$@" > "$OUT/check" 2>&1 || echo "1	compare_check.py $1 crashed: $(tail -1 "$OUT/check")" >> "$OUT/check"
-  while IFS= read -r line; do
-    case "$line" in
-      '#'*) echo "$line" ;;
-      [01]'	'*) ok "${line%%	*}" "${line#*	}" ;;
-      *) echo "# $line" ;;
-    esac
-  done < "$OUT/check"
-}
 
 # 1. three back ends, two steps, bar-obstacle on 25 elements over one period
 "$MOREAU" compare "$C/bar-obstacle" --solvers nscd,levelset,newmark --dt 0.04,0.02 \

@@ -12,47 +12,13 @@
 #include <moreau/moreau.h>
 #include "testlib.h"
 
-typedef struct {
-  mo_ctx ctx;
-  mo_case *cs;
-  mo_scene *sc;
-  mo_contact *C;
-  mo_stepper *S;
-  mo_contact_driver *D;
-  mo_state s;
-} run_t;
-
-static void run_free(run_t *R)
-{
-  mo_contact_driver_free(R->D);
-  mo_state_release(&R->s);
-  mo_stepper_free(R->S);
-  mo_contact_free(R->C);
-  mo_scene_free(R->sc);
-  mo_case_free(R->cs);
-  memset(R, 0, sizeof *R);
-}
+typedef tl_steps run_t;
+#define run_free tl_steps_free
 
 static int run_open(run_t *R, const char *text, const char *const *sets, int nset)
 {
-  int st, k;
-  memset(R, 0, sizeof *R);
-  mo_ctx_init(&R->ctx);
-  R->ctx.verbosity = 0;
-  st = mo_case_load_string(text, "patch.cfg", &R->cs, &R->ctx);
-  if (!st) st = mo_case_validate(R->cs, &R->ctx);
-  for (k = 0; !st && k < nset; k++) st = mo_case_set(R->cs, sets[k], &R->ctx);
-  if (!st) st = mo_case_validate(R->cs, &R->ctx);
-  if (!st) st = mo_scene_build(R->cs, &R->sc, &R->ctx);
-  if (!st) st = mo_contact_build(R->sc, &R->C, &R->ctx);
-  if (!st) st = mo_stepper_create(R->sc, &R->S, &R->ctx);
-  if (!st) st = mo_contact_driver_create(R->sc, R->C, R->S, &R->D, &R->ctx);
-  if (!st) st = mo_state_alloc(R->sc, &R->s, &R->ctx);
-  if (!st) st = mo_stepper_init_state(R->S, &R->s, &R->ctx);
-  if (st) {
-    diag("setup: %s", R->ctx.errmsg);
-    run_free(R);
-  }
+  int st = tl_steps_open(R, text, "patch.cfg", sets, nset);
+  if (st) diag("setup: %s", R->ctx.errmsg);
   return st;
 }
 

@@ -114,43 +114,15 @@ static void test_box(const char *solver, int max_iter)
 
 /* --- 3. the patch test by nscd, step by step: its reactions against a dense solve ------------------- */
 
-typedef struct {
-  mo_ctx ctx;
-  mo_case *cs;
-  mo_scene *sc;
-  mo_contact *C;
-  mo_stepper *S;
-  mo_contact_driver *D;
-  mo_state s;
-} run_t;
-
-static void run_free(run_t *R)
-{
-  mo_contact_driver_free(R->D);
-  mo_state_release(&R->s);
-  mo_stepper_free(R->S);
-  mo_contact_free(R->C);
-  mo_scene_free(R->sc);
-  mo_case_free(R->cs);
-}
+typedef tl_steps run_t;
+#define run_free tl_steps_free
 
 static int run_open_case(run_t *R, const char *name, const char *const *sets, int nset, int step)
 {
   char path[1024];
-  int st, k;
-  memset(R, 0, sizeof *R);
-  mo_ctx_init(&R->ctx);
-  R->ctx.verbosity = 0;
+  int st;
   tl_case_path(path, sizeof path, name);
-  st = mo_case_load(path, &R->cs, &R->ctx);
-  for (k = 0; !st && k < nset; k++) st = mo_case_set(R->cs, sets[k], &R->ctx);
-  if (!st) st = mo_case_validate(R->cs, &R->ctx);
-  if (!st) st = mo_scene_build(R->cs, &R->sc, &R->ctx);
-  if (!st) st = mo_contact_build(R->sc, &R->C, &R->ctx);
-  if (!st) st = mo_stepper_create(R->sc, &R->S, &R->ctx);
-  if (!st) st = mo_contact_driver_create(R->sc, R->C, R->S, &R->D, &R->ctx);
-  if (!st) st = mo_state_alloc(R->sc, &R->s, &R->ctx);
-  if (!st) st = mo_stepper_init_state(R->S, &R->s, &R->ctx);
+  st = tl_steps_open(R, path, NULL, sets, nset);
   if (!st && step) st = mo_contact_step(R->D, &R->s, &R->ctx);
   if (st) diag("%s: %s", name, R->ctx.errmsg);
   return st;

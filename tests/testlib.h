@@ -10,9 +10,58 @@
 #include <dirent.h>
 #include <jansson.h>
 #include <stdarg.h>
+#include <string.h>
 #include <unistd.h>
 
 #define TL_UNUSED __attribute__((unused))
+
+/* A scene stepped by the test itself (the stepper and the contact driver driven directly): the
+   case, its scene, contact set, stepper, contact driver and state. tl_steps_open loads the case (a
+   path, or the text itself when text is set, read as file name), applies the overrides, builds
+   everything and sets the initial state; on failure everything is freed and R->ctx.errmsg says
+   why. */
+typedef struct {
+  mo_ctx ctx;
+  mo_case *cs;
+  mo_scene *sc;
+  mo_contact *C;
+  mo_stepper *S;
+  mo_contact_driver *D;
+  mo_state s;
+} tl_steps;
+
+static void tl_steps_free(tl_steps *R) TL_UNUSED;
+static void tl_steps_free(tl_steps *R)
+{
+  mo_contact_driver_free(R->D);
+  mo_state_release(&R->s);
+  mo_stepper_free(R->S);
+  mo_contact_free(R->C);
+  mo_scene_free(R->sc);
+  mo_case_free(R->cs);
+  R->D = NULL; R->S = NULL; R->C = NULL; R->sc = NULL; R->cs = NULL;
+}
+
+static int tl_steps_open(tl_steps *R, const char *src, const char *text_name, const char *const *sets, int nset) TL_UNUSED;
+static int tl_steps_open(tl_steps *R, const char *src, const char *text_name, const char *const *sets, int nset)
+{
+  int st, k;
+  memset(R, 0, sizeof *R);
+  mo_ctx_init(&R->ctx);
+  R->ctx.verbosity = 0;
+  st = text_name ? mo_case_load_string(src, text_name, &R->cs, &R->ctx) : mo_case_load(src, &R->cs, &R->ctx);
+  if (!st) st = mo_case_validate(R->cs, &R->ctx);
+  for (k = 0; !st && k < nset; k++) st = mo_case_set(R->cs, sets[k], &R->ctx);
+  if (!st) st = mo_case_validate(R->cs, &R->ctx);
+  if (!st) st = mo_scene_build(R->cs, &R->sc, &R->ctx);
+  if (!st) st = mo_contact_build(R->sc, &R->C, &R->ctx);
+  if (!st) st = mo_stepper_create(R->sc, &R->S, &R->ctx);
+  if (!st) st = mo_contact_driver_create(R->sc, R->C, R->S, &R->D, &R->ctx);
+  if (!st) st = mo_state_alloc(R->sc, &R->s, &R->ctx);
+  if (!st) st = mo_stepper_init_state(R->S, &R->s, &R->ctx);
+  if (st) tl_steps_free(R);
+  return st;
+}
 
 /* The source tree: $MOREAU_SRCDIR (make check sets it), else the one the program was built
    with when it was told (MOREAU_TOP_SRCDIR), else "..". */
