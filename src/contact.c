@@ -278,6 +278,7 @@ struct mo_contact_driver {
   double *sv_q, *sv_mu, *sv_r, *sv_U, sv_residual;
   long steps, iterations, max_iterations, wbuilds, failures;
   long factorizations, factor_reuses;
+  long index_added;          /* candidates added to velocity-level index sets after a solve (§5) */
   double max_residual;
   double *eqf, *eqk;         /* quasi-static linear scenes: f + H r and K u (the equilibrium check, T82) */
   double eq_residual, max_eq_residual;
@@ -490,6 +491,7 @@ static int bodies_only(const mo_contact_driver *D, const mo_what_inverse *Wi)
   return 1;
 }
 long mo_contact_driver_failures(const mo_contact_driver *D) { return D->failures; }
+long mo_contact_driver_index_added(const mo_contact_driver *D) { return D->index_added; }
 
 int mo_contact_driver_redundancy(const mo_contact_driver *D, int *constraints, int *redundant, int *redundant_max,
                                  int *redundant_steps, double *rcond, double *rcond_min, int *min_norm)
@@ -860,6 +862,7 @@ static int equilibrium_check(mo_contact_driver *D, const mo_state *s, mo_ctx *ct
    solve, the core's measure, and the correction dx (free dofs) added to D->xfull. rstep: the
    reactions of the previous step (the velocity-level index set). newton: the Newton iterate of a
    nonlinear step (-1 for a linear one), for diagnoses. *any: some candidate was active. */
+#define MO_INDEX_ROUNDS 4 /* solves added to a step for candidates its index set missed */
 static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *rstep, int newton,
                          int *any_out, mo_ctx *ctx)
 {
@@ -869,7 +872,7 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
   mo_contact_problem *P = &D->P;
   mo_contact_report *rep = &D->rep;
   const mo_what_inverse *Wi = mo_stepper_inverse(S);
-  int d = D->d, m = D->m, nc = D->nc, n = sc->ndof, st, a, i, any = 0, rebuilt = 0;
+  int d = D->d, m = D->m, nc = D->nc, n = sc->ndof, st, a, i, any = 0, rebuilt = 0, rounds = 0;
   double h = mo_stepper_dt(S), t0, c;
   mo_scheme scheme = sc->time.scheme;
 
@@ -940,6 +943,10 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
     }
     D->reinit = 0;
   }
+  /* a velocity-level index set predicted without contact impulse can miss a candidate that
+     the impulses of its neighbours push into the obstacle within the step (a bulging contact
+     zone): such a candidate joins the set and the step is solved again (doc/theory.md §5) */
+resolve:
   D->sv_valid = 0;
   if (!any) {
     memset(D->r, 0, (size_t)m * sizeof(double));
@@ -967,6 +974,25 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
   if (D->wused) {
     mo_delassus_mult(D->W, D->r, 0, D->ukin);
     for (i = 0; i < m; i++) D->U[i] = D->ukin[i] + D->q[i];
+  }
+  if (any && scheme == MO_SCHEME_THETA && C->signorini == MO_SIGNORINI_VELOCITY && rounds < MO_INDEX_ROUNDS) {
+    const unsigned char *law = mo_contact_laws(C);
+    const double theta = sc->time.theta;
+    int added = 0;
+    for (a = 0; a < nc; a++)
+      if (!D->active[a] && law[a] == MO_LAW_SIGNORINI &&
+          D->gk[a] + h * (theta * D->U[a * d] + (1 - theta) * D->Uprev[a * d]) < -C->gtol) {
+        D->active[a] = 1;
+        D->act[D->nact++] = a;
+        added++;
+      }
+    if (added) {
+      rounds++;
+      D->index_added += added;
+      mo_log(ctx, 3, "step %ld: %d candidate%s outside the index set would end inside the obstacle: solved again\n",
+             P->step, added, added > 1 ? "s" : "");
+      goto resolve;
+    }
   }
   {
     /* over the active candidates only (the others are out of the problem this step) */

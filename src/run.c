@@ -822,6 +822,7 @@ static json_t *contact_json(const mo_contact *C, const mo_contact_driver *D)
   }
   /* solves that did not converge and that contact.on_failure = "continue" let the run go on */
   json_object_set_new(j, "failed_solves", json_integer(mo_contact_driver_failures(D)));
+  json_object_set_new(j, "index_set_additions", json_integer(mo_contact_driver_index_added(D)));
   if (W) {
     json_object_set_new(j, "delassus_blocks", json_integer(mo_delassus_nblocks(W)));
     json_object_set_new(j, "delassus_columns_kept", json_boolean(mo_delassus_has_columns(W)));

@@ -456,6 +456,8 @@ void mo_contact_driver_keep_delassus(mo_contact_driver *D);
 void mo_contact_driver_factor_totals(const mo_contact_driver *D, long *factorizations, long *reuses);
 /* Solves that did not converge over the run (non-zero only with contact.on_failure = "continue"). */
 long mo_contact_driver_failures(const mo_contact_driver *D);
+/* Candidates added to velocity-level index sets after a solve found them ending inside (§5). */
+long mo_contact_driver_index_added(const mo_contact_driver *D);
 /* The last step's local problem over every candidate (W dense, q, mu), the inactive ones
    included: what the step solved only when every candidate was in its index set (quasi-static
    and position-level steps with every candidate active). Tests. */
