@@ -172,10 +172,8 @@ static int name_cmp(const void *a, const void *b) { return strcmp(*(char *const 
 static void round_trip(const char *casename, const char *tag, const char *const *sets, int nset, int maxf,
                        const char *must, double tol, double rtol)
 {
-  char casepath[1024], out[1200], dump[1300], path[1600];
-  mo_ctx ctx;
+  char casepath[1024], out[1200], dump[1300], path[1600], err[MO_ERRMSG_MAX];
   mo_run_options o;
-  mo_run_result res;
   tally T;
   DIR *dir;
   struct dirent *ent;
@@ -186,8 +184,6 @@ static void round_trip(const char *casename, const char *tag, const char *const 
   tl_case_path(casepath, sizeof casepath, casename);
   snprintf(out, sizeof out, "tests/out/fclib-dump-%s-%ld", tag, (long)getpid());
   snprintf(dump, sizeof dump, "%s/fclib", out);
-  mo_ctx_init(&ctx);
-  ctx.verbosity = 0;
   memset(&o, 0, sizeof o);
   o.case_path = casepath;
   o.sets = sets;
@@ -195,8 +191,8 @@ static void round_trip(const char *casename, const char *tag, const char *const 
   o.outdir = out;
   o.dump_fclib = dump;
   o.no_draw = 1;
-  st = mo_run(&o, &res, &ctx);
-  if (!ok(st == MO_OK, "%s: the run with --dump-fclib %s", tag, st ? ctx.errmsg : "")) return;
+  st = tl_run_options(&o, NULL, err, sizeof err);
+  if (!ok(st == MO_OK, "%s: the run with --dump-fclib %s", tag, err)) return;
   if (!(dir = opendir(dump))) {
     ok(0, "%s: %s written", tag, dump);
     return;

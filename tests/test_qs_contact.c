@@ -21,23 +21,16 @@ static int run(const char *name, const char *solver, const char *const *sets, in
                size_t n, char *err, size_t nerr)
 {
   char path[1024];
-  mo_ctx ctx;
   mo_run_options o;
-  mo_run_result r;
-  int st;
   tl_case_path(path, sizeof path, name);
   snprintf(outdir, n, "tests/out/qs-%s-%ld", tag, (long)getpid());
-  mo_ctx_init(&ctx);
-  ctx.verbosity = 0;
   memset(&o, 0, sizeof o);
   o.case_path = path;
   o.solver = solver;
   o.sets = sets;
   o.nset = nset;
   o.outdir = outdir;
-  st = mo_run(&o, &r, &ctx);
-  snprintf(err, nerr, "%s", st ? ctx.errmsg : "");
-  return st;
+  return tl_run_options(&o, NULL, err, nerr);
 }
 
 /* --- 1. the box held only by the plane: refused -------------------------------------------------- */

@@ -93,6 +93,23 @@ static int tl_scene(const char *text, const char *name, mo_case **cs, mo_scene *
   return st;
 }
 
+/* mo_run with a quiet context: the options as given, the result in *res when given, the error
+   message in err (empty on success) when given. Returns mo_run's status. */
+static int tl_run_options(const mo_run_options *o, mo_run_result *res, char *err, size_t nerr) TL_UNUSED;
+static int tl_run_options(const mo_run_options *o, mo_run_result *res, char *err, size_t nerr)
+{
+  mo_ctx ctx;
+  mo_run_result r;
+  int st;
+  mo_ctx_init(&ctx);
+  ctx.verbosity = 0;
+  memset(&r, 0, sizeof r);
+  st = mo_run(o, &r, &ctx);
+  if (err && nerr) snprintf(err, nerr, "%s", st ? ctx.errmsg : "");
+  if (res) *res = r;
+  return st;
+}
+
 /* Run a case (a folder or a file) with a back end (NULL: the case's own) and overrides into
    outdir, quietly; on failure the message goes to a diagnostic, after "who: " when who is given.
    The result in *res when res is given. Returns mo_run's status. */
@@ -101,23 +118,18 @@ static int tl_run(const char *case_path, const char *solver, const char *const *
 static int tl_run(const char *case_path, const char *solver, const char *const *sets, int nset, const char *outdir,
                   const char *who, mo_run_result *res)
 {
-  mo_ctx ctx;
   mo_run_options o;
-  mo_run_result r;
+  char err[MO_ERRMSG_MAX];
   int st;
-  mo_ctx_init(&ctx);
-  ctx.verbosity = 0;
   memset(&o, 0, sizeof o);
-  memset(&r, 0, sizeof r);
   o.case_path = case_path;
   o.solver = solver;
   o.sets = sets;
   o.nset = nset;
   o.outdir = outdir;
-  st = mo_run(&o, &r, &ctx);
-  if (st && who) diag("%s: %s", who, ctx.errmsg);
-  else if (st) diag("%s", ctx.errmsg);
-  if (res) *res = r;
+  st = tl_run_options(&o, res, err, sizeof err);
+  if (st && who) diag("%s: %s", who, err);
+  else if (st) diag("%s", err);
   return st;
 }
 
