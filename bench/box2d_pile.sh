@@ -20,18 +20,15 @@ moreau=${3:-$root/build/moreau}
 tmp=$(mktemp -d /tmp/box2d_pile.XXXXXX)
 trap 'rm -rf "$tmp"' EXIT
 g++ -O2 -o "$tmp/box2d_pile" "$here/box2d_pile.cc" -lbox2d
-cols=$(awk -v n="$n" 'BEGIN { printf "%d", 33 * sqrt(n / 1000) + 0.5 }')
-w=$(awk -v c="$cols" 'BEGIN { printf "%.6g", c * 0.0132 }')
-hbox=$(awk -v n="$n" -v c="$cols" 'BEGIN { printf "%.6g", 0.0132 * (int(n / c) + 2) }')
+. "$here/pile_scene.sh"
+pile_geometry "$n"
 t=$(awk -v s="$steps" 'BEGIN { printf "%.6g", s * 1e-3 }')
 bline=$("$tmp/box2d_pile" "$n" "$cols" "$steps" 8)
 echo "$bline"
 run() { # run LABEL SETS...: moreau on the scene, its line
   label=$1
   shift
-  "$moreau" run "$root/cases/disk-pile" --set "bodies.grains.pack.count=$n" \
-    --set "bodies.grains.pack.box=[0.0,$w,0.0,$hbox]" --set "bodies.right.point=[$w,0.0]" --set "time.end=$t" \
-    --set output.vtk.every=1000000 --set output.draw.frames=1 "$@" --out "$tmp/$label" --quiet
+  pile_run "$moreau" "$root" "$n" "$t" "$tmp/$label" "$@"
   python3 - "$tmp/$label" "$label" <<'PY'
 import csv, json, sys
 d, label = sys.argv[1], sys.argv[2]

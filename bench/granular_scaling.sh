@@ -19,17 +19,12 @@ trap 'rm -rf "$tmp"' EXIT
 have_box2d=0
 if [ -f /usr/include/box2d/box2d.h ] && g++ -O2 -o "$tmp/box2d_pile" "$here/box2d_pile.cc" -lbox2d 2>/dev/null; then have_box2d=1; fi
 t=$(awk -v s="$steps" 'BEGIN { printf "%.6g", s * 1e-3 }')
+. "$here/pile_scene.sh"
 # run N END LABEL [SETS...]: moreau on the scene of N grains to END
 run() {
   n=$1; end=$2; label=$3
   shift 3
-  cols=$(awk -v n="$n" 'BEGIN { c = int(33 * sqrt(n / 1000) + 0.5); print (c < 1 ? 1 : c) }')
-  w=$(awk -v c="$cols" 'BEGIN { printf "%.6g", c * 0.0132 }')
-  hbox=$(awk -v n="$n" -v c="$cols" 'BEGIN { printf "%.6g", 0.0132 * (int(n / c) + 2) }')
-  "$moreau" run "$root/cases/disk-pile" --set "bodies.grains.pack.count=$n" \
-    --set "bodies.grains.pack.box=[0.0,$w,0.0,$hbox]" --set "bodies.right.point=[$w,0.0]" --set "time.end=$end" \
-    --set output.vtk.every=100000000 --set output.draw.frames=1 --set output.draw.gif=false "$@" \
-    --out "$tmp/$label" --quiet
+  pile_run "$moreau" "$root" "$n" "$end" "$tmp/$label" "$@"
 }
 field() { python3 -c "import json,sys; s=json.load(open(sys.argv[1])); print(eval(sys.argv[2]))" "$tmp/$1/summary.json" "$2"; }
 run 1 0.001 empty
@@ -58,7 +53,7 @@ PY
   echo "moreau N=$1 steps=$steps contacts=$2 time_per_step_ms=$3 broad_share=$4 bytes_per_grain=$5 bytes_per_contact=$6 candidates_end=$7"
   tb=nan
   if [ "$have_box2d" = 1 ]; then
-    cols=$(awk -v n="$n" 'BEGIN { c = int(33 * sqrt(n / 1000) + 0.5); print (c < 1 ? 1 : c) }')
+    pile_geometry "$n"
     bline=$("$tmp/box2d_pile" "$n" "$cols" "$steps" 8)
     echo "$bline"
     tb=$(echo "$bline" | sed 's/.*time_per_step_ms=\([^ ]*\).*/\1/')
