@@ -523,6 +523,34 @@ def read_history(path):
     return head, data
 
 
+def read_vtu(np, path):
+    """The arrays of one of moreau's .vtu files: {name: values (n x components)}, 'points' among
+    them. moreau appends them raw (format="appended", encoding="raw", UInt64 byte counts); an
+    ASCII file (older runs) is read too."""
+    import xml.etree.ElementTree as ET
+    with open(path, "rb") as f:
+        raw = f.read()
+    cut = raw.find(b"<AppendedData")
+    if cut < 0:
+        root, data = ET.fromstring(raw.decode()), b""
+    else:
+        root = ET.fromstring(raw[:cut].decode() + "</VTKFile>")
+        data = raw[raw.index(b"_", cut) + 1:]
+    order = "<" if root.get("byte_order", "LittleEndian") == "LittleEndian" else ">"
+    kinds = {"Float64": "f8", "Int32": "i4", "UInt8": "u1"}
+    out = {}
+    for da in root.iter("DataArray"):
+        name, ncomp = da.get("Name"), int(da.get("NumberOfComponents", "1"))
+        if da.get("format") == "appended":
+            off = int(da.get("offset"))
+            nbytes = int(np.frombuffer(data[off:off + 8], dtype=order + "u8")[0])
+            vals = np.frombuffer(data[off + 8:off + 8 + nbytes], dtype=order + kinds[da.get("type")])
+        else:
+            vals = np.array([float(s) for s in da.text.split()]) if da.text else np.array([])
+        out[name if name is not None else "points"] = vals.reshape(-1, ncomp) if ncomp > 1 else vals
+    return out
+
+
 def read_fields(np, run_dir):
     """The displacement and velocity of every frame of fields.pvd (nodes sorted by x)."""
     import xml.etree.ElementTree as ET
@@ -532,17 +560,10 @@ def read_fields(np, run_dir):
     frames = []
     for ds in ET.parse(pvd).getroot().iter("DataSet"):
         t = float(ds.get("timestep"))
-        root = ET.parse(os.path.join(run_dir, ds.get("file"))).getroot()
-        pts = None
-        arrays = {}
-        for da in root.iter("DataArray"):
-            vals = np.array([float(s) for s in da.text.split()]) if da.text else np.array([])
-            if pts is None and da.get("Name") is None and da.get("NumberOfComponents") == "3":
-                pts = vals.reshape(-1, 3)[:, 0]
-            elif da.get("Name") in ("displacement", "velocity"):
-                arrays[da.get("Name")] = vals.reshape(-1, 3)[:, 0]
+        arrays = read_vtu(np, os.path.join(run_dir, ds.get("file")))
+        pts = arrays["points"][:, 0]
         order = np.argsort(pts)
-        frames.append((t, pts[order], arrays["displacement"][order], arrays["velocity"][order]))
+        frames.append((t, pts[order], arrays["displacement"][:, 0][order], arrays["velocity"][:, 0][order]))
     return frames
 
 
