@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 # getfem_bar_obstacle.py: the bar-obstacle benchmark (Doyen-Ern-Piperno 2011, benchmark 1;
-# ../shared/design/CASES.md §2; cases/bar-obstacle) solved by GetFEM, measured the way moreau
+# doc/architecture.md §11; cases/bar-obstacle) solved by GetFEM, measured the way moreau
 # measures its own runs, and written as rows of `moreau compare`'s CSV so that
 # `moreau compare CASE --peer FILE.csv` puts them on the same error-against-run-time figure.
 #
@@ -36,7 +36,7 @@ EXIT_FAILED = 1      # a run failed or --verify found a disagreement
 EXIT_USAGE = 2       # bad command line
 EXIT_NO_GETFEM = 3   # GetFEM (or numpy) cannot be imported: callers skip
 
-# The benchmark (CASES.md §2): bar on [0, L], E = rho = A = 1 (wave speed c = 1), clamped at
+# The benchmark (doc/architecture.md §11, doc/theory.md §3.4): bar on [0, L], E = rho = A = 1 (wave speed c = 1), clamped at
 # x = L, Signorini u(0, t) >= 0, u0 = a (1 - x / L) with a = 1/2, v0 = 0; period 3, T = 12.
 LENGTH = 1.0
 YOUNG = 1.0
@@ -86,7 +86,7 @@ class RunFailed(Exception):
 
 # --- the closed form -----------------------------------------------------------------------------
 #
-# Derived from the description in CASES.md §2 (not from moreau's code): d'Alembert's
+# Derived from the description in doc/theory.md §3.4 (not from moreau's code): d'Alembert's
 # construction, one phase at a time, in the benchmark's units (L = c = 1, a = 1/2); p = t mod 3.
 #
 #  Phase 1, 0 <= p <= 1, the end released: a release wave leaves x = 0 at speed 1. Behind it

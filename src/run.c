@@ -141,7 +141,7 @@ static double probe_value(const mo_scene *sc, const mo_probe *P, mo_quantity q, 
   return kind >= 2 ? acc : acc / P->nnode;
 }
 
-/* The rigid bodies' columns (DEM.md §3): 2D x, y, theta, vx, vy, omega; 3D x, y, z, q0..q3, vx,
+/* The rigid bodies' columns (doc/case-format.md, "Output"): 2D x, y, theta, vx, vy, omega; 3D x, y, z, q0..q3, vx,
    vy, vz, wx, wy, wz. At most this many moving rigid bodies get them; larger scenes write the
    aggregate columns (rigid.*). */
 #define MO_RIGID_COLUMNS_MAX 32
@@ -389,7 +389,7 @@ static json_t *plasticity_json(const mo_scene *sc, const mo_state *s)
 /* Linear momentum of every body, p_b = sum over its dofs of (M v) per direction, into
    p[3 b + i] (zero for rigid planes and quasi-static scenes). work: ndof. The balance
    p(T) - p(0) = external impulse + contact impulse + support reactions is the check of a
-   scene without a closed form (CASES.md §4). */
+   scene without a closed form (doc/architecture.md §11). */
 static void body_momenta(const mo_scene *sc, const double *v, double *work, double *p)
 {
   int b, a, i;

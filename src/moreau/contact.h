@@ -1,6 +1,6 @@
 /* moreau/contact.h: the core's half of contact: candidates, frames, gaps, the H operators
    (concentrated and P-weighted reactions), the Delassus operator, the contact problem handed to
-   a back end, and the back-end type (the seam of ARCHITECTURE.md §3). */
+   a back end, and the back-end type (the seam of doc/architecture.md §5). */
 #ifndef MOREAU_CONTACT_H
 #define MOREAU_CONTACT_H
 
@@ -35,7 +35,7 @@ typedef enum { MO_MASTER_PLANE = 0, MO_MASTER_FACETS } mo_master_kind;
 typedef enum { MO_OFF_NEAREST = 0, MO_OFF_INACTIVE } mo_off_master;
 /* The unilateral law of a candidate: Signorini as contact.signorini says (position or velocity
    level), or Moreau's form of Newton's impact law at velocity level with restitution e (pairs
-   with a rigid body, DEM.md §2, doc/theory.md (T71)). */
+   with a rigid body, doc/theory.md §12.4, (T71)). */
 /* SIGNORINI: deformable pairs (contact.signorini); NEWTON: pairs with a rigid body, Moreau's
    impact law (T71); GAP: pairs with a rigid body, Signorini on the end-of-step gap (no
    restitution, no penetration left: contact.pairs.[].law = "gap", (T78)). */
