@@ -391,7 +391,7 @@ static void print_outputs(const mo_run_result *res)
     {MO_OUT_FIELDS, "fields.pvd", ""},
     {MO_OUT_CONTACT_POINTS, "contact_points.pvd", ""},
     {MO_OUT_PLANES, "planes.pvd", ""},
-    {MO_OUT_RIGID, "particles.py", " (pvpython particles.py: the rigid series, contacts.pvd)"},
+    {MO_OUT_RIGID, "particles.py", " (the rigid series: particles.pvd, polygons.pvd, contacts.pvd)"},
     {MO_OUT_DRAW, "plots/", " (drawings)"}};
   size_t k;
   int n = 0;
@@ -399,10 +399,12 @@ static void print_outputs(const mo_run_result *res)
   for (k = 0; k < sizeof out / sizeof out[0]; k++)
     if (res->outputs & out[k].bit) printf("%s %s/%s%s", n++ ? "," : "", res->outdir, out[k].file, out[k].what);
   printf("\n");
-  if (res->outputs & (MO_OUT_FIELDS | MO_OUT_CONTACT_POINTS | MO_OUT_PLANES | MO_OUT_RIGID))
+  if (res->outputs & MO_OUT_RIGID)
+    printf("  ParaView: %d frames (pvpython %s/particles.py)\n", res->vtk_frames, res->outdir);
+  else if (res->outputs & (MO_OUT_FIELDS | MO_OUT_CONTACT_POINTS | MO_OUT_PLANES))
     printf("  ParaView: %d frames (paraview %s/%s)\n", res->vtk_frames, res->outdir,
            res->outputs & MO_OUT_FIELDS ? "fields.pvd" : res->outputs & MO_OUT_CONTACT_POINTS ? "contact_points.pvd"
-                                                                                            : "particles.pvd");
+                                                                                            : "planes.pvd");
 }
 
 static int cmd_run(const cli_command *cmd, int argc, char **argv, mo_ctx *ctx)
