@@ -652,6 +652,9 @@ int mo_contact_driver_create(const mo_scene *sc, mo_contact *C, mo_stepper *S,
       return st;
     }
     fresh_uprev(D, &s0, 0, D->nc);
+    /* U before the first step is U- (the outputs of t = 0 show it; fit took the mesh points' from
+       Uprev before it was computed) */
+    memcpy(D->U, D->Uprev, (size_t)D->nc * D->d * sizeof *D->U);
   }
   *out = D;
   return MO_OK;

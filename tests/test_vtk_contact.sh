@@ -28,6 +28,8 @@ every='--set output.contact_history={}'
 ok $? "run: cylinder-wall to 30 us, VTK every 3 steps, contact_history every step"
 vcheck "$OUT/cw" "cylinder-wall"
 is "$(ls "$OUT/cw"/contact_points_*.vtu | wc -l)" "11" "cylinder-wall: 11 frames of contact points (steps 0, 3, ..., 30)"
+is "$("$PY" -c "import sys; sys.path.insert(0, '$MOREAU_SRCDIR/tests'); import vtkread; p, c, a = vtkread.read('$OUT/cw/contact_points_00000.vtu'); print(p, set(vtkread.tuples(a, 'U')), set(a['R'][1]))")" \
+   "32 {(-500.0, 0.0)} {0.0}" "cylinder-wall at t = 0: every candidate approaches at U = (-500, 0) m/s, the initial velocity, without reaction"
 # the same with the closed candidates only
 "$MOREAU" run "$MOREAU_SRCDIR/cases/cylinder-wall" --quiet --out "$OUT/cwc" --set time.end=3e-5 \
   --set output.vtk.every=3 --set output.vtk.contacts=closed $every
