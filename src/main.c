@@ -335,8 +335,8 @@ static int cli_parse(const cli_command *cmd, int argc, char **argv, cli_handler 
       }
     }
     if (c == '?') {
-      o = optopt ? find_option(cmd, optopt) : NULL;
-      if (o && o->key >= 256) return cli_refuse(cmd, "--%s takes no value ('%s')", o->name, bad);
+      o = optopt == 'h' ? &help_option : optopt ? find_option(cmd, optopt) : NULL;
+      if (o && !strncmp(bad, "--", 2)) return cli_refuse(cmd, "--%s takes no value ('%s')", o->name, bad);
       if (optopt > 0 && optopt < 256)
         return cli_refuse(cmd, "unknown option '-%c' (moreau %s --help lists the options)", optopt, cmd->name);
       return unknown_option(cmd, bad);

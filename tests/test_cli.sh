@@ -85,6 +85,7 @@ e=$("$MOREAU" run "$MOREAU_SRCDIR/cases/wave-bar" --solver 2>&1); is $? 2 "a mis
 contains "$e" "moreau run: --solver needs S: contact back end" "a missing value: the option and what it takes"
 e=$("$MOREAU" run "$MOREAU_SRCDIR/cases/wave-bar" --log=yes 2>&1); is $? 2 "a value given to a flag: exit 2"
 contains "$e" "--log takes no value ('--log=yes')" "a value given to a flag: said"
+contains "$("$MOREAU" run "$MOREAU_SRCDIR/cases/wave-bar" --quiet=1 2>&1)" "--quiet takes no value ('--quiet=1')" "the same for a flag with a short letter"
 e=$("$MOREAU" run "$MOREAU_SRCDIR/cases/wave-bar" --bogus 2>&1); is $? 2 "an unknown option: exit 2"
 contains "$e" "unknown option '--bogus' (moreau run --help lists the options)" "an unknown option: named, and where to look"
 e=$("$MOREAU" compare "$MOREAU_SRCDIR/cases/wave-bar" --s nscd 2>&1); is $? 2 "an ambiguous prefix: exit 2"
