@@ -60,6 +60,11 @@ static void usage(FILE *f)
           "  keys           every case-file key with its type, range and default\n"
           "  --version, --help\n"
           "\n"
+          "Every command takes --plugin FILE.so or --plugin NAME (repeatable): a contact back end\n"
+          "built outside moreau (doc/backends.md), then named like the others (--solver NAME);\n"
+          "NAME is NAME.so in the plug-in folders, which are also loaded whole: MOREAU_PLUGIN_PATH\n"
+          "(DIR:DIR...), else the installed folder.\n"
+          "\n"
           "S is a back end, or a formulation BACKEND[:PRESET][[KEY=VALUE;...]]: levelset:bdz07,\n"
           "nscd:jean88, nscd[theta=0.5] (moreau list-solvers).\n"
           "\n"
@@ -340,6 +345,40 @@ static int exit_code(int st)
   return st == MO_EINPUT || st == MO_EIO ? 2 : 1;
 }
 
+/* --plugin FILE|NAME, anywhere after the command and repeatable: the back ends of plug-ins
+   (moreau/backend.h), loaded before those of the plug-in folders and before the command reads
+   its options, and taken out of argv so that no command's parser sees them. */
+static int load_plugins(int *argc, char **argv, mo_ctx *ctx)
+{
+  int i, j;
+  for (i = j = 2; i < *argc; i++) {
+    const char *spec;
+    if (!strcmp(argv[i], "--plugin")) {
+      if (i + 1 >= *argc) {
+        fprintf(stderr, "moreau: --plugin needs a plug-in file (.so) or name\n");
+        return 2;
+      }
+      spec = argv[++i];
+    } else if (!strncmp(argv[i], "--plugin=", 9)) {
+      spec = argv[i] + 9;
+    } else {
+      argv[j++] = argv[i];
+      continue;
+    }
+    if (mo_plugin_load(ctx, spec)) {
+      fprintf(stderr, "moreau: %s\n", ctx->errmsg);
+      return 2;
+    }
+  }
+  *argc = j;
+  argv[j] = NULL;
+  if (mo_plugin_scan(ctx, NULL, NULL)) {
+    fprintf(stderr, "moreau: %s\n", ctx->errmsg);
+    return 1;
+  }
+  return 0;
+}
+
 
 static void print_key(const char *path, const char *type, const char *range, const char *deflt,
                       const char *doc, void *data)
@@ -353,7 +392,7 @@ extern void openblas_set_num_threads(int n) __attribute__((weak));
 
 int main(int argc, char **argv)
 {
-  mo_ctx ctx;
+  mo_ctx ctx __attribute__((cleanup(mo_ctx_release))); /* unloads the plug-ins at every return */
   cli c;
   int st, rc;
   const char *cmd;
@@ -384,6 +423,7 @@ int main(int argc, char **argv)
     printf("moreau %s\n", PACKAGE_VERSION);
     return 0;
   }
+  if ((rc = load_plugins(&argc, argv, &ctx))) return rc;
   if (!strcmp(cmd, "keys")) {
     mo_case_schema_visit(print_key, NULL);
     return 0;
@@ -394,7 +434,12 @@ int main(int argc, char **argv)
   }
   if (!strcmp(cmd, "bench-local")) return bench_local(argc, argv, &ctx);
   if (!strcmp(cmd, "list-solvers")) {
-    return mo_cli_list_solvers(stdout);
+    rc = mo_cli_list_solvers(stdout);
+    if (mo_plugin_count(&ctx) || mo_plugin_failures(&ctx)[0]) {
+      printf("\nplug-ins (--plugin, MOREAU_PLUGIN_PATH):\n");
+      mo_plugin_print(stdout, &ctx);
+    }
+    return rc;
   }
   if (!strcmp(cmd, "run") || !strcmp(cmd, "check")) {
     mo_run_result res;

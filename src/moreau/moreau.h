@@ -19,6 +19,7 @@
 #include <moreau/contact.h>
 #include <moreau/compare.h>
 #include <moreau/bench.h>
+#include <moreau/backend.h>
 
 #ifdef __cplusplus
 extern "C" {
