@@ -57,6 +57,25 @@ out=$("$MOREAU" list-solvers --plugin "$J" 2>&1)
 contains "$out" "jacobi     example plug-in: projected block Jacobi" "list-solvers --plugin FILE lists the back end"
 contains "$out" "contact.jacobi.omega = 0" "and its options with their defaults"
 
+# 2b. the Python module installed next to the library, with the installed library's folder
+py=$(find "$W/dest" -name __init__.py -path '*/moreau/__init__.py' | head -1)
+if [ -n "$MOREAU_PYTHON" ] && [ "$MOREAU_PYTHON" != ":" ]; then
+  ok $(test -n "$py" && test -f "$(dirname "$py")/_lib.py" && test -f "$(dirname "$py")/readers.py"; echo $?) \
+    "make install puts the Python module under the prefix (${py#$W/dest})"
+  libdir=$(sed -n 's/^LIBDIR = "\(.*\)"$/\1/p' "$(dirname "$py")/_paths.py")
+  ok $(test -n "$libdir" && test -f "$W/dest$libdir/libmoreau.so.0"; echo $?) "its _paths.py names the installed library's folder ($libdir)"
+  if [ -z "$MOREAU_SANITIZERS" ] && "$MOREAU_PYTHON" -c 'import numpy' 2> /dev/null; then
+    out=$(PYTHONPATH="$(dirname "$(dirname "$py")")" PYTHONDONTWRITEBYTECODE=1 MOREAU_LIBRARY="$W/dest$libdir/libmoreau.so.0" \
+          "$MOREAU_PYTHON" -c 'import moreau, sys; print(moreau.__file__); print(" ".join(n for n, s in moreau.solvers(plugins=[sys.argv[1]])))' "$J" 2>&1)
+    contains "$out" "$(dirname "$py")" "the installed module imports from the prefix"
+    contains "$out" "nscd levelset newmark jacobi" "and lists the installed library's back ends and the plug-in"
+  else
+    echo "ok $((tap_n + 1)) - # SKIP the installed module is imported by test_python.sh's build (sanitizers or no numpy here)"; tap_n=$((tap_n + 1))
+  fi
+else
+  echo "ok $((tap_n + 1)) - # SKIP configure found no Python: no module installed"; tap_n=$((tap_n + 1))
+fi
+
 # 3. two scenes against nscd and the closed forms
 #    newton-cradle: touching disks, Moreau's law on both contacts at once: (-1/3, 2/3, 2/3) v0
 for s in nscd jacobi; do
