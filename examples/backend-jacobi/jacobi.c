@@ -10,12 +10,13 @@
    which this back end iterates for every contact at once from the same U (Jacobi; nscd updates
    them one after the other, Gauss-Seidel):
 
-     r_a <- P_K(r_a - omega / W_a,nn (U_a + mu_a |U_a,t| e_n)),   U = W r + q.
+     r_a <- P_K(r_a - omega / W_a,nn (U_a + mu_a |U_a,t| e_n)),   U = W r + q      (T170)
 
    Without friction this is a projected gradient step on 1/2 r.W r + q.r scaled by the diagonal
    D of W, which converges for omega < 2 / lambda_max(D^-1 W); omega = 0 (the default) takes
-   1 / lambda_max, estimated by power iterations on D^-1/2 W D^-1/2. The iteration stops on the
-   natural-map residual the core measures for every back end (mo_fc_natural_map_subset). */
+   1 / lambda_max, estimated by power iterations on D^-1/2 W D^-1/2 (T171). The iteration stops
+   on the natural-map residual the core measures for every back end (T10). Equations: moreau's
+   doc/theory.md §10.4. */
 #include <moreau/backend.h>
 
 #include <math.h>
@@ -88,7 +89,7 @@ static void local_velocity(const mo_contact_problem *P, const double *r, double 
 }
 
 /* lambda_max of D^-1/2 W D^-1/2 over the active contacts (D = W_a,nn on each of a's rows), by
-   power iterations from a vector of ones: a lower bound that is close after a few tens. */
+   power iterations from a vector of ones: a lower bound that is close after a few tens (T171). */
 static double lambda_max(jacobi_state *S, const mo_contact_problem *P)
 {
   int d = S->d, k, i, it;
@@ -121,7 +122,7 @@ static double lambda_max(jacobi_state *S, const mo_contact_problem *P)
   return lam > 0 && isfinite(lam) ? lam : 1;
 }
 
-/* One Jacobi step at every active contact from U: y = P_K(r - omega rho (U + mu |U_t| e_n)). */
+/* One Jacobi step at every active contact from U: y = P_K(r - omega rho (U + mu |U_t| e_n)) (T170). */
 static void jacobi_step(jacobi_state *S, const mo_contact_problem *P, const double *r, double omega)
 {
   int d = S->d, k, i;
@@ -172,7 +173,7 @@ static int jacobi_solve(void *state, const mo_contact_problem *P, mo_contact_var
   omega = S->p.omega > 0 ? S->p.omega : 1 / lambda_max(S, P);
   for (;;) {
     local_velocity(P, r, S->U);
-    res = mo_fc_natural_map_subset(d, S->nact, S->act, P->mu, NULL, r, S->U, sqrt(qn));
+    res = mo_fc_natural_map_subset(d, S->nact, S->act, P->mu, NULL, r, S->U, sqrt(qn)); /* (T10) */
     if (!(res > S->p.tol) || it == S->p.max_iter || (ctx->interrupt && *ctx->interrupt)) break;
     jacobi_step(S, P, r, omega);
     for (k = 0; k < S->nact; k++)
