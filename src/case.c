@@ -296,7 +296,7 @@ static const char *suggest(const char *parent, const char *name, char *buf, size
   S.parent = parent;
   S.name = name;
   S.bestd = 1000;
-  mo_case_schema_visit(suggest_visit, &S);
+  mo_case_schema_visit_ctx(suggest_visit, &S, ctx);
   limit = (int)strlen(name) <= 4 ? 1 : (int)strlen(name) / 3 + 1;
   if (S.best && S.bestd <= limit) {
     snprintf(buf, n, "%s", S.best);
@@ -597,7 +597,7 @@ static int validate_group(const mo_case *cs, const config_setting_t *g, const ch
   R.cs = cs;
   R.ctx = ctx;
   R.st = 0;
-  mo_case_schema_visit(required_visit, &R);
+  mo_case_schema_visit_ctx(required_visit, &R, ctx);
   return R.st;
 }
 

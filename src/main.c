@@ -425,7 +425,7 @@ int main(int argc, char **argv)
   }
   if ((rc = load_plugins(&argc, argv, &ctx))) return rc;
   if (!strcmp(cmd, "keys")) {
-    mo_case_schema_visit(print_key, NULL);
+    mo_case_schema_visit_ctx(print_key, NULL, &ctx); /* with the plug-ins' options */
     return 0;
   }
   if (!strcmp(cmd, "compare")) {

@@ -299,20 +299,25 @@ static void visit_one(const mo_key *K, mo_key_visit fn, void *data)
      K->doc, data);
 }
 
-void mo_case_schema_visit(mo_key_visit fn, void *data)
+void mo_case_schema_visit_ctx(mo_key_visit fn, void *data, const mo_ctx *ctx)
 {
   size_t k;
   int b, o;
   for (k = 0; k < MO_COUNT(core_keys); k++) visit_one(&core_keys[k], fn, data);
-  for (b = 0; b < mo_contact_solver_count(); b++) {
-    const mo_contact_solver_type *T = mo_contact_solver_at(b);
+  for (b = 0; b < mo_contact_solver_total(ctx); b++) {
+    const mo_contact_solver_type *T = mo_contact_solver_nth(b, ctx);
     char path[160];
     mo_key K;
     snprintf(path, sizeof path, "contact.%s", T->name);
-    if (backend_key(path, &K, NULL)) visit_one(&K, fn, data);
+    if (backend_key(path, &K, ctx)) visit_one(&K, fn, data);
     for (o = 0; o < T->noptions; o++) {
       snprintf(path, sizeof path, "contact.%s.%s", T->name, T->options[o].name);
-      if (backend_key(path, &K, NULL)) visit_one(&K, fn, data);
+      if (backend_key(path, &K, ctx)) visit_one(&K, fn, data);
     }
   }
+}
+
+void mo_case_schema_visit(mo_key_visit fn, void *data)
+{
+  mo_case_schema_visit_ctx(fn, data, NULL);
 }

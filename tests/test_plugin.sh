@@ -118,9 +118,10 @@ MOREAU_PLUGIN_PATH="$W/bad" "$MOREAU" run "$C/ball-bounce" --solver bad-open --o
 is $? 2 "--solver naming a back end no plug-in provides: exit 2"
 contains "$(cat "$W/scan2.err")" "plug-ins refused:" "and the message repeats why the folder's plug-ins were refused"
 "$MOREAU" check "$C/ball-bounce" --plugin "$J" --set contact.jacobi.omeg=1 2> "$W/key.err"
-contains "$(cat "$W/key.err")" "unknown key 'omeg'" "a plug-in's options are validated like the shipped ones'"
+contains "$(cat "$W/key.err")" "unknown key 'omeg' in 'contact.jacobi' (did you mean 'omega'?)" "a plug-in's options are validated like the shipped ones', with suggestions"
 "$MOREAU" check "$C/ball-bounce" --plugin "$J" --solver "jacobi[omega=3]" 2> "$W/key.err"
-contains "$(cat "$W/key.err")" "omega" "and their ranges (omega = 3 refused)"
+contains "$(cat "$W/key.err")" "value 3 is out of range [0, 2]" "and their ranges (omega = 3 refused)"
+contains "$("$MOREAU" keys --plugin "$J")" "contact.jacobi.max_iter" "moreau keys --plugin lists the plug-in's keys"
 
 # 6. refused plug-ins, each with its reason
 refused() { # refused FILE WORDS DESCRIPTION
