@@ -25,7 +25,7 @@ if [ -n "$MOREAU_SANITIZERS" ]; then
   asan=$(${CC:-cc} -print-file-name=libasan.so)
   ubsan=$(${CC:-cc} -print-file-name=libubsan.so)
   export LD_PRELOAD="$asan $ubsan"
-  export ASAN_OPTIONS="detect_leaks=0${ASAN_OPTIONS:+:$ASAN_OPTIONS}"
+  export ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}detect_leaks=0"   # the interpreter's own allocations
 fi
 PYTHONPATH="$MOREAU_SRCDIR/python" PYTHONDONTWRITEBYTECODE=1 MOREAU_LIBRARY="$lib" MOREAU_PLUGIN_PATH="" \
   WORK="$WORK" JACOBI="$JACOBI" MOREAU_VERSION="$("$MOREAU" --version | cut -d' ' -f2)" \
