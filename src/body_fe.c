@@ -405,7 +405,7 @@ static int build_loads(mo_scene *sc, const mo_case *cs, const config_setting_t *
     } else { /* pressure, traction on facets */
       const mo_facetset *fs = mo_mesh_find_facetset(m, set);
       traction_data T;
-      double fe[12], *vals = NULL;
+      double fe[3 * MO_FNODE_MAX], *vals = NULL;
       memset(&T, 0, sizeof T);
       if (!fs || fs->n == 0) {
         mo_expr_free(amp);
