@@ -3,7 +3,7 @@
 #include "config.h"
 #include <moreau/fe.h>
 #include <moreau/mesh.h>
-#include "tap.h"
+#include "testlib.h"
 
 /* LAPACK: generalized symmetric-definite eigenproblem A x = lambda B x */
 extern void dsygv_(const int *itype, const char *jobz, const char *uplo, const int *n, double *a,
@@ -141,6 +141,59 @@ static void prism_convergence(void)
   }
 }
 
+/* The critical step of central differences estimated at setup (T102, T192) against the true limit
+   2 / omega_max of the lumped mass (free-free, dense eigenproblem) on uniform meshes: the estimate
+   is the classical one, not a bound; within [0.85, 1.1] of the truth for every type. */
+static void dt_crit_check(void)
+{
+  static const char *fmt =
+    "bodies = ( { name = \"b\"; mesh = { generator = \"%s\"; size = %s; elements = %s; element = \"%s\"; %s };\n"
+    "  material = { E = 1.0; nu = 0.3; rho = 1.0; }; mass = \"lumped\"; } );\n"
+    "time = { scheme = \"explicit\"; dt = 0.001; steps = 1; };\n";
+  static const char *els[4] = {"T3", "T6", "T4", "T10"};
+  int k;
+  for (k = 0; k < 4; k++) {
+    char text[1024];
+    mo_ctx ctx;
+    mo_case *cs = NULL;
+    mo_scene *sc = NULL;
+    int d3 = k >= 2, st;
+    snprintf(text, sizeof text, fmt, d3 ? "box" : "rectangle", d3 ? "[1.0, 1.0, 1.0]" : "[1.0, 1.0]",
+             d3 ? "[2, 2, 2]" : "[3, 3]", els[k], d3 ? "" : "diagonal = \"alternate\";");
+    mo_ctx_init(&ctx);
+    ctx.verbosity = 0;
+    st = tl_scene(text, "dt.cfg", &cs, &sc, &ctx);
+    if (st) {
+      ok(0, "%s: dt_crit scene (%s)", els[k], ctx.errmsg);
+    } else {
+      const mo_mesh *m = sc->body[0].mesh;
+      int D = m->dim, N = m->nnode * D, e, a, b, one = 1, lwork = 64 * N, info;
+      double *K = calloc((size_t)N * N, sizeof *K), *M = calloc((size_t)N * N, sizeof *M);
+      double *w = malloc((size_t)N * sizeof *w), *work = malloc((size_t)lwork * sizeof *work), dtc, ratio;
+      for (e = 0; e < m->nelem; e++) {
+        double Ke[MO_ND_MAX * MO_ND_MAX], Me[MO_ND_MAX * MO_ND_MAX];
+        int nd = m->nen * D;
+        mo_elem_stiffness(m, e, &sc->body[0].mat, Ke, &ctx);
+        mo_elem_mass(m, e, &sc->body[0].mat, 1, Me, &ctx);
+        for (a = 0; a < nd; a++)
+          for (b = 0; b < nd; b++) {
+            int i = m->conn[e * m->nen + a / D] * D + a % D, j = m->conn[e * m->nen + b / D] * D + b % D;
+            K[(size_t)j * N + i] += Ke[a * nd + b];
+            M[(size_t)j * N + i] += Me[a * nd + b];
+          }
+      }
+      dsygv_(&one, "N", "U", &N, K, &N, M, &N, w, work, &lwork, &info);
+      dtc = mo_scene_dt_crit(sc, NULL, NULL);
+      ratio = 2 / sqrt(w[N - 1]) / dtc;
+      ok(info == 0 && ratio > 0.85 && ratio < 1.1, "%s (%s lumped mass): the true limit 2 / omega_max is %.4f dt_crit "
+         "(dt_crit %.5g)", els[k], k % 2 ? "HRZ" : "row-sum", ratio, dtc);
+      free(K); free(M); free(w); free(work);
+    }
+    mo_scene_free(sc);
+    mo_case_free(cs);
+  }
+}
+
 int main(void)
 {
   double L = 2.0, E = 2e11, rho = 7800, c = sqrt(E / rho), omega[400];
@@ -167,5 +220,6 @@ int main(void)
        "%s mass: first frequency is a %s bound", lumped ? "lumped" : "consistent", lumped ? "lower" : "upper");
   }
   prism_convergence();
+  dt_crit_check();
   return done_testing();
 }
