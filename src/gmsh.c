@@ -37,19 +37,19 @@
 enum { G_POINT = 0, G_LINE, G_TRI, G_QUAD, G_HEX, G_TET, G_TET10, G_TRI6, G_LINE3, G_NTYPES };
 static const struct {
   int gmsh, dim, nen, nvert;
-  const char *name;
+  const char *name, *names;
   mo_eltype mo;
   int perm[MO_NEN_MAX];
 } gtype[G_NTYPES] = {
-  {15, 0, 1, 1, "point", MO_EL_NTYPES, {0}},
-  {1, 1, 2, 2, "line", MO_EL_BAR2, {0, 1}},
-  {2, 2, 3, 3, "triangle", MO_EL_T3, {0, 1, 2}},
-  {3, 2, 4, 4, "quadrangle", MO_EL_Q4, {0, 1, 2, 3}},
-  {5, 3, 8, 8, "hexahedron", MO_EL_H8, {0, 1, 2, 3, 4, 5, 6, 7}},
-  {4, 3, 4, 4, "tetrahedron", MO_EL_T4, {0, 1, 2, 3}},
-  {11, 3, 10, 4, "10-node tetrahedron", MO_EL_T10, {0, 1, 2, 3, 4, 5, 6, 7, 9, 8}},
-  {9, 2, 6, 3, "6-node triangle", MO_EL_T6, {0, 1, 2, 3, 4, 5}},
-  {8, 1, 3, 2, "3-node line", MO_EL_NTYPES, {0, 1, 2}},
+  {15, 0, 1, 1, "point", "points", MO_EL_NTYPES, {0}},
+  {1, 1, 2, 2, "line", "lines", MO_EL_BAR2, {0, 1}},
+  {2, 2, 3, 3, "triangle", "triangles", MO_EL_T3, {0, 1, 2}},
+  {3, 2, 4, 4, "quadrangle", "quadrangles", MO_EL_Q4, {0, 1, 2, 3}},
+  {5, 3, 8, 8, "hexahedron", "hexahedra", MO_EL_H8, {0, 1, 2, 3, 4, 5, 6, 7}},
+  {4, 3, 4, 4, "tetrahedron", "tetrahedra", MO_EL_T4, {0, 1, 2, 3}},
+  {11, 3, 10, 4, "10-node tetrahedron", "10-node tetrahedra", MO_EL_T10, {0, 1, 2, 3, 4, 5, 6, 7, 9, 8}},
+  {9, 2, 6, 3, "6-node triangle", "6-node triangles", MO_EL_T6, {0, 1, 2, 3, 4, 5}},
+  {8, 1, 3, 2, "3-node line", "3-node lines", MO_EL_NTYPES, {0, 1, 2}},
 };
 
 static const char *gmsh_type_name(long long t)
@@ -795,7 +795,7 @@ static int read_elements(msh *R)
     if ((st = msh_int(R, "the element type of a block", 1, INT_MAX, &type))) return st;
     if ((st = type_of(R, type, &g))) return st;
     if (gtype[g].dim != edim)
-      return msh_bad(R, "a block of %ss (dimension %d) on a %s (dimension %lld)", gtype[g].name,
+      return msh_bad(R, "a block of %s (dimension %d) on a %s (dimension %lld)", gtype[g].names,
                      gtype[g].dim, dim_word((int)edim), edim);
     if ((st = msh_size(R, "the number of elements in a block", 0, LLONG_MAX, &nb))) return st;
     if (nb > left)
@@ -1412,9 +1412,9 @@ static int build(msh *R, const mo_gmsh_options *opt, mo_mesh **out, mo_gmsh_repo
         for (d = D; d < 3; d++)
           if (fabs(R->nx[3 * i + (size_t)d]) > 1e-10 * ext) {
             st = msh_error(R, MO_EINPUT, R->nline[i], "node %lld has %c = %g, but a %s body lies %s: the "
-                           "file's highest-dimensional elements are %ss%s", R->ntag[i], "xyz"[d],
+                           "file's highest-dimensional elements are %s%s", R->ntag[i], "xyz"[d],
                            R->nx[3 * i + (size_t)d], D == 1 ? "1D" : "2D",
-                           D == 1 ? "on the x axis" : "in the plane z = 0", gtype[gb].name,
+                           D == 1 ? "on the x axis" : "in the plane z = 0", gtype[gb].names,
                            D < 3 ? " (Gmsh saves only the elements of physical groups once there are "
                                    "some: add a physical group for the body, or set Mesh.SaveAll = 1)" : "");
             goto done;
@@ -1493,8 +1493,8 @@ static int build(msh *R, const mo_gmsh_options *opt, mo_mesh **out, mo_gmsh_repo
   if ((st = check_shapes(R, m, body, fileof, gb, &nreor))) goto done;
   if ((st = check_folds(R, m, body, fileof, gb))) goto done;
   if (nreor)
-    mo_log(ctx, 1, "%s: note: %d of %d %ss were written clockwise (negative Jacobian) and were "
-           "reoriented\n", R->file, nreor, m->nelem, gtype[gb].name);
+    mo_log(ctx, 1, "%s: note: %d of %d %s were written clockwise (negative Jacobian) and were "
+           "reoriented\n", R->file, nreor, m->nelem, gtype[gb].names);
 
   /* physical groups: (dim, tag) pairs, each with a set name (groups sharing a name merge) */
   for (e = 0; e < R->nel; e++) {
@@ -1635,10 +1635,10 @@ static int build(msh *R, const mo_gmsh_options *opt, mo_mesh **out, mo_gmsh_repo
       }
       if (nb && nin) {
         st = msh_error(R, MO_EINPUT, R->eline[first_in], "physical group '%s' has %s %lld inside the body and "
-                       "%s %lld (%s) on its boundary: a group of %ss lies on the boundary (a facet "
+                       "%s %lld (%s) on its boundary: a group of %s lies on the boundary (a facet "
                        "set for loads and contact) or inside (a node set)", S->name,
                        gtype[R->etype[first_in]].name, R->etag[first_in], gtype[R->etype[first_b]].name,
-                       R->etag[first_b], W(R, R->eline[first_b]), gtype[R->etype[first_b]].name);
+                       R->etag[first_b], W(R, R->eline[first_b]), gtype[R->etype[first_b]].names);
         goto done;
       }
       if (nb && (st = mo_mesh_add_facetset(m, S->name, se, sl, (int)nb, ctx))) goto done;
