@@ -1194,7 +1194,7 @@ static int check_shapes(msh *R, mo_mesh *m, const int *body, const int *fileof, 
    through it in opposite senses unless the mesh folds over itself there. */
 static int facet_sense(const mo_mesh *m, const mo_eltype_info *T, int e, int f)
 {
-  int v[4], a, lo = 0, n = T->nfv; /* the facet's corners */
+  int v[4] = {0, 0, 0, 0}, a, lo = 0, n = T->nfv; /* the facet's corners */
   for (a = 0; a < n; a++) {
     v[a] = m->conn[(size_t)e * (size_t)m->nen + (size_t)T->facet[f][a]];
     if (v[a] < v[lo]) lo = a;
