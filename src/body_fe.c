@@ -93,12 +93,22 @@ int mo_body_build_mesh(const mo_case *cs, const config_setting_t *mg, mo_mesh **
     if (!strcmp(dg, "left")) d = MO_DIAG_LEFT;
     else if (!strcmp(dg, "alternate")) d = MO_DIAG_ALTERNATE;
     else if (!strcmp(dg, "union_jack")) d = MO_DIAG_UNION_JACK;
-    if (mo_cfg_member(mg, "diagonal") && strcmp(el, "T3"))
-      return mo_case_error(cs, mo_cfg_member(mg, "diagonal"), ctx, "only T3 meshes have diagonals");
-    st = mo_mesh_rectangle(o, s, n, !strcmp(el, "T3") ? MO_EL_T3 : MO_EL_Q4, d, &m, ctx);
+    if (strcmp(el, "Q4") && strcmp(el, "T3") && strcmp(el, "T6"))
+      return mo_case_error(cs, mo_cfg_member(mg, "element"), ctx, "a rectangle is meshed with Q4, T3 or T6 (%s is a "
+                           "3D element)", el);
+    if (mo_cfg_member(mg, "diagonal") && !strcmp(el, "Q4"))
+      return mo_case_error(cs, mo_cfg_member(mg, "diagonal"), ctx, "only T3 and T6 meshes have diagonals");
+    st = mo_mesh_rectangle(o, s, n, !strcmp(el, "T3") ? MO_EL_T3 : !strcmp(el, "T6") ? MO_EL_T6 : MO_EL_Q4, d, &m, ctx);
   } else if (!strcmp(gen, "box")) {
     double o[3] = {0, 0, 0}, s[3];
     int n[3];
+    const char *el = mo_cfg_string(mg, "element", "H8");
+    if (strcmp(el, "H8") && strcmp(el, "T4") && strcmp(el, "T10"))
+      return mo_case_error(cs, mo_cfg_member(mg, "element"), ctx, "a box is meshed with H8, T4 or T10 (%s is a 2D "
+                           "element)", el);
+    if (mo_cfg_member(mg, "diagonal"))
+      return mo_case_error(cs, mo_cfg_member(mg, "diagonal"), ctx, "a box's tetrahedra follow Kuhn's split; 'diagonal' is "
+                           "the rectangle's");
     if ((st = mo_scene_need_len(cs, mg, "size", 3, "a box mesh", ctx)) ||
         (st = mo_scene_need_len(cs, mg, "elements", 3, "a box mesh", ctx)))
       return st;
@@ -109,10 +119,10 @@ int mo_body_build_mesh(const mo_case *cs, const config_setting_t *mg, mo_mesh **
       s[k] = mo_cfg_num_at(mg, "size", k);
       n[k] = (int)mo_cfg_num_at(mg, "elements", k);
     }
-    if ((double)n[0] * n[1] * n[2] > 1e7)
-      return mo_case_error(cs, mo_cfg_member(mg, "elements"), ctx,
-                           "%d x %d x %d elements exceed the limit of 10^7", n[0], n[1], n[2]);
-    st = mo_mesh_box(o, s, n, &m, ctx);
+    if ((double)n[0] * n[1] * n[2] * (strcmp(el, "H8") ? 6 : 1) > 1e7)
+      return mo_case_error(cs, mo_cfg_member(mg, "elements"), ctx, "%d x %d x %d cells%s exceed the limit of 10^7 "
+                           "elements", n[0], n[1], n[2], strcmp(el, "H8") ? " of 6 tetrahedra" : "");
+    st = mo_mesh_box_elements(o, s, n, !strcmp(el, "T4") ? MO_EL_T4 : !strcmp(el, "T10") ? MO_EL_T10 : MO_EL_H8, &m, ctx);
   } else if (!strcmp(gen, "disk")) {
     double c[2] = {0, 0};
     int core = mo_cfg_int(mg, "core", 8);
@@ -395,7 +405,7 @@ static int build_loads(mo_scene *sc, const mo_case *cs, const config_setting_t *
     } else { /* pressure, traction on facets */
       const mo_facetset *fs = mo_mesh_find_facetset(m, set);
       traction_data T;
-      double fe[12], *vals = NULL;
+      double fe[3 * MO_FNODE_MAX], *vals = NULL;
       memset(&T, 0, sizeof T);
       if (!fs || fs->n == 0) {
         mo_expr_free(amp);
@@ -454,18 +464,20 @@ static int build_body_force(mo_scene *sc, const mo_case *cs, const config_settin
     return mo_case_error(cs, mo_cfg_member(bg, "body_force"), ctx, "needs %d components", D);
   for (c = 0; c < D && !st; c++) st = mo_scene_compile(cs, bg, "body_force", c, xyz_vars, D, &e[c], ctx);
   memset(f, 0, (size_t)sc->ndof * sizeof *f);
-  /* f_a = b(x_e) * sum_b int rho N_a N_b: exact for a constant b (gravity), b taken at the
-     element centroid otherwise */
+  /* f_a = b(x_e) * sum_b int rho N_a N_b (the row sums of the consistent mass, whatever mass the
+     body steps with: HRZ's lumped diagonal is not the load of T6 and T10): exact for a constant b
+     (gravity), b taken at the element's mean node position otherwise */
   for (el = 0; !st && el < m->nelem; el++) {
-    double Me[24 * 24], ctr[3] = {0, 0, 0}, bv[3];
-    int nen = m->nen, nd = nen * D;
+    double Me[MO_ND_MAX * MO_ND_MAX], ctr[3] = {0, 0, 0}, bv[3];
+    int nen = m->nen, nd = nen * D, b2;
     const int *cn = &m->conn[el * nen];
-    if ((st = mo_elem_mass(m, el, &B->mat, 1, Me, ctx))) break;
+    if ((st = mo_elem_mass(m, el, &B->mat, 0, Me, ctx))) break;
     for (a = 0; a < nen; a++)
       for (c = 0; c < D; c++) ctr[c] += m->x[cn[a] * D + c] / nen;
     for (c = 0; c < D; c++) bv[c] = mo_expr_eval(e[c], ctr);
     for (a = 0; a < nen; a++)
-      for (c = 0; c < D; c++) f[B->dof0 + cn[a] * D + c] += Me[(a * D + c) * nd + a * D + c] * bv[c];
+      for (c = 0; c < D; c++)
+        for (b2 = 0; b2 < nen; b2++) f[B->dof0 + cn[a] * D + c] += Me[(a * D + c) * nd + b2 * D + c] * bv[c];
   }
   for (c = 0; c < 3; c++) mo_expr_free(e[c]);
   if (st) return st;

@@ -317,7 +317,7 @@ static int mesh_mass(mo_body *B, double rho, mo_ctx *ctx)
   const mo_mesh *m = B->mesh;
   mo_material mat;
   int D = m->dim, e, a, b, i, j, st, nen = m->nen, nd = nen * D;
-  double S0 = 0, S1[3] = {0, 0, 0}, S2[9] = {0}, Me[24 * 24], r2max = 0;
+  double S0 = 0, S1[3] = {0, 0, 0}, S2[9] = {0}, Me[MO_ND_MAX * MO_ND_MAX], r2max = 0;
   memset(&mat, 0, sizeof mat);
   mat.model = MO_MAT_ELASTIC;
   mat.E = 1;

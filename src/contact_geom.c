@@ -213,23 +213,23 @@ double mo_contact_facet_factor(const mo_material *mat, const double *x)
 double mo_contact_facet_eval(const mo_scene *sc, int b, const mo_facetset *fs, int f, const double *s,
                              const mo_state *u, double *N, double *x, double *n)
 {
-  int D = sc->dim, nfn = fs->nfn, a, i;
-  double dN[8], t1[3] = {0, 0, 0}, t2[3] = {0, 0, 0}, y[3], len = 1;
-  mo_facet_shape(nfn, s, N, dN);
+  int D = sc->dim, nfn = fs->nfn, fd = mo_facet_kind_dim(fs->kind), a, i;
+  double dN[2 * MO_FNODE_MAX], t1[3] = {0, 0, 0}, t2[3] = {0, 0, 0}, y[3], len = 1;
+  mo_facet_shape_kind(fs->kind, s, N, dN);
   for (i = 0; i < D; i++) x[i] = 0;
   for (a = 0; a < nfn; a++) {
     node_pos(sc, b, fs->node[f * nfn + a], u, y);
     for (i = 0; i < D; i++) {
       x[i] += N[a] * y[i];
-      if (nfn == 2) t1[i] += dN[a] * y[i];
-      if (nfn == 4) { t1[i] += dN[2 * a] * y[i]; t2[i] += dN[2 * a + 1] * y[i]; }
+      if (fd >= 1) t1[i] += dN[a * fd] * y[i];
+      if (fd == 2) t2[i] += dN[2 * a + 1] * y[i];
     }
   }
-  if (nfn == 1) {
+  if (fd == 0) {
     if (n) n[0] = fs->lface[f] == 0 ? -1 : 1;
     return 1;
   }
-  if (nfn == 2) {
+  if (fd == 1) {
     len = sqrt(t1[0] * t1[0] + t1[1] * t1[1]);
     if (n) { n[0] = t1[1] / len; n[1] = -t1[0] / len; }
     return len;
@@ -245,66 +245,290 @@ double mo_contact_facet_eval(const mo_scene *sc, int b, const mo_facetset *fs, i
 
 /* --- pairing ---------------------------------------------------------------------------------- */
 
+/* The closest point of x on segment a-b: its parameter t in [0, 1] (clamped). */
+static double segment_param(int D, const double *xa, const double *xb, const double *x)
+{
+  double tt = 0, s = 0;
+  int i;
+  for (i = 0; i < D; i++) {
+    tt += (xb[i] - xa[i]) * (xb[i] - xa[i]);
+    s += (x[i] - xa[i]) * (xb[i] - xa[i]);
+  }
+  s = tt > 0 ? s / tt : 0;
+  return s < 0 ? 0 : s > 1 ? 1 : s;
+}
+
+/* Closest point of x on the flat triangle X[0..2] (T193): the barycentric solution of the normal
+   equations (s0, s1) when it lies on the triangle (inside within 1e-9), else the nearest of the
+   closest points on its three edges. Returns whether the unclamped projection lies on it. */
+static int triangle_closest(const double X[3][3], const double *x, double *s)
+{
+  double t1[3], t2[3], r[3], A11 = 0, A12 = 0, A22 = 0, b1 = 0, b2 = 0, det, best = HUGE_VAL;
+  int i, k;
+  for (i = 0; i < 3; i++) {
+    t1[i] = X[1][i] - X[0][i];
+    t2[i] = X[2][i] - X[0][i];
+    r[i] = x[i] - X[0][i];
+    A11 += t1[i] * t1[i];
+    A12 += t1[i] * t2[i];
+    A22 += t2[i] * t2[i];
+    b1 += r[i] * t1[i];
+    b2 += r[i] * t2[i];
+  }
+  det = A11 * A22 - A12 * A12;
+  s[0] = (A22 * b1 - A12 * b2) / det;
+  s[1] = (A11 * b2 - A12 * b1) / det;
+  if (s[0] >= -1e-9 && s[1] >= -1e-9 && s[0] + s[1] <= 1 + 1e-9) return 1;
+  for (k = 0; k < 3; k++) { /* edges 01, 12, 20 */
+    double t = segment_param(3, X[k], X[(k + 1) % 3], x), q[3], d = 0, L[3] = {0, 0, 0};
+    for (i = 0; i < 3; i++) {
+      q[i] = (1 - t) * X[k][i] + t * X[(k + 1) % 3][i];
+      d += (x[i] - q[i]) * (x[i] - q[i]);
+    }
+    if (d < best) {
+      best = d;
+      L[k] = 1 - t;
+      L[(k + 1) % 3] = t;
+      s[0] = L[1];
+      s[1] = L[2];
+    }
+  }
+  return 0;
+}
+
+/* The facet's point y(s), its tangents dy/ds_i and second derivatives d2y/ds_i ds_j (00, 01, 11)
+   at reference coordinates s (the shape functions' second derivatives are constant on T6 faces
+   and 3-node lines, d2/ds0 ds1 = +-1/4 on the bilinear face). */
+static void facet_jet(const mo_scene *sc, int b, const mo_facetset *fs, int f, const mo_state *u, const double *s,
+                      double *y, double t[2][3], double h[3][3])
+{
+  static const double sx[4] = {-1, 1, 1, -1}, sy[4] = {-1, -1, 1, 1};
+  static const int mid[3][2] = {{0, 1}, {1, 2}, {2, 0}};
+  static const double dL[3][2] = {{-1, -1}, {1, 0}, {0, 1}};
+  int D = sc->dim, fd = mo_facet_kind_dim(fs->kind), nfn = fs->nfn, a, i;
+  double N[MO_FNODE_MAX], dN[2 * MO_FNODE_MAX], x[3];
+  mo_facet_shape_kind(fs->kind, s, N, dN);
+  memset(t, 0, 6 * sizeof(double));
+  memset(h, 0, 9 * sizeof(double));
+  for (i = 0; i < 3; i++) y[i] = 0;
+  for (a = 0; a < nfn; a++) {
+    double d2[3] = {0, 0, 0};
+    if (fs->kind == MO_FK_LINE3) d2[0] = a < 2 ? 1 : -2;
+    else if (fs->kind == MO_FK_QUAD4) d2[1] = 0.25 * sx[a] * sy[a];
+    else if (fs->kind == MO_FK_TRI6) {
+      if (a < 3) {
+        d2[0] = 4 * dL[a][0] * dL[a][0];
+        d2[1] = 4 * dL[a][0] * dL[a][1];
+        d2[2] = 4 * dL[a][1] * dL[a][1];
+      } else {
+        const double *P = dL[mid[a - 3][0]], *Q = dL[mid[a - 3][1]];
+        d2[0] = 8 * P[0] * Q[0];
+        d2[1] = 4 * (P[0] * Q[1] + P[1] * Q[0]);
+        d2[2] = 8 * P[1] * Q[1];
+      }
+    }
+    node_pos(sc, b, fs->node[f * nfn + a], u, x);
+    for (i = 0; i < D; i++) {
+      y[i] += N[a] * x[i];
+      t[0][i] += dN[a * fd] * x[i];
+      if (fd == 2) t[1][i] += dN[2 * a + 1] * x[i];
+      h[0][i] += d2[0] * x[i];
+      h[1][i] += d2[1] * x[i];
+      h[2][i] += d2[2] * x[i];
+    }
+  }
+}
+
+static double half_dist2(int D, const double *y, const double *x)
+{
+  double r = 0;
+  int i;
+  for (i = 0; i < D; i++) r += (y[i] - x[i]) * (y[i] - x[i]);
+  return 0.5 * r;
+}
+
+/* Newton on f(s) = |y(s) - x|^2 / 2 over the parameters of a curved facet (a 3-node line, a T6
+   face; the bilinear face keeps Gauss-Newton, as before), its Hessian J^T J - (x - y).y'' (its
+   Gauss-Newton part where that is not positive definite), with backtracking so that f decreases:
+   the foot of the perpendicular nearest the start (T193). With lo < hi the parameters move along
+   the segment s = A + tau (B - A), tau in [lo, hi] (projected onto it): an edge of the reference
+   triangle. xi holds the start and receives the result; returns f there. */
+static double facet_newton(const mo_scene *sc, int b, const mo_facetset *fs, int f, const double *x, const mo_state *u,
+                           double *xi, const double *A, const double *B)
+{
+  int D = sc->dim, fd = mo_facet_kind_dim(fs->kind), it, i, edge = A != NULL, n = edge ? 1 : fd;
+  double y[3], t[2][3], h[3][3], fcur;
+  facet_jet(sc, b, fs, f, u, xi, y, t, h);
+  fcur = half_dist2(D, y, x);
+  for (it = 0; it < 60; it++) {
+    double g[2] = {0, 0}, H[3] = {0, 0, 0}, d[2] = {0, 0}, r[3], Jt[2][3], Hd[3] = {0, 0, 0}, step = 1;
+    int k, full = 0;
+    for (i = 0; i < D; i++) r[i] = y[i] - x[i];
+    if (edge) { /* d y / d tau along the edge, and its second derivative */
+      double e0 = B[0] - A[0], e1 = B[1] - A[1];
+      for (i = 0; i < D; i++) {
+        Jt[0][i] = t[0][i] * e0 + (fd == 2 ? t[1][i] * e1 : 0);
+        Hd[0] += r[i] * (h[0][i] * e0 * e0 + 2 * h[1][i] * e0 * e1 + h[2][i] * e1 * e1);
+      }
+    } else
+      for (i = 0; i < D; i++) {
+        Jt[0][i] = t[0][i];
+        Jt[1][i] = t[1][i];
+        Hd[0] += r[i] * h[0][i];
+        Hd[1] += r[i] * h[1][i];
+        Hd[2] += r[i] * h[2][i];
+      }
+    for (i = 0; i < D; i++) {
+      g[0] += Jt[0][i] * r[i];
+      H[0] += Jt[0][i] * Jt[0][i];
+      if (n == 2) {
+        g[1] += Jt[1][i] * r[i];
+        H[1] += Jt[0][i] * Jt[1][i];
+        H[2] += Jt[1][i] * Jt[1][i];
+      }
+    }
+    if (fs->kind != MO_FK_QUAD4) { /* the full Hessian when positive definite */
+      double F0 = H[0] + Hd[0], F1 = H[1] + Hd[1], F2 = H[2] + Hd[2];
+      if (n == 1 ? F0 > 0 : F0 > 0 && F0 * F2 - F1 * F1 > 0) { H[0] = F0; H[1] = F1; H[2] = F2; full = 1; }
+    }
+    if (n == 1) {
+      if (!(H[0] > 0)) break;
+      d[0] = -g[0] / H[0];
+    } else {
+      double det = H[0] * H[2] - H[1] * H[1];
+      if (!(det > 0)) break;
+      d[0] = -(H[2] * g[0] - H[1] * g[1]) / det;
+      d[1] = -(H[0] * g[1] - H[1] * g[0]) / det;
+    }
+    if (fs->kind == MO_FK_QUAD4 && !edge) { /* Gauss-Newton without a line search, as before */
+      xi[0] += d[0];
+      xi[1] += d[1];
+      facet_jet(sc, b, fs, f, u, xi, y, t, h);
+      fcur = half_dist2(D, y, x);
+      if (fabs(d[0]) + fabs(d[1]) < 1e-13 || fabs(xi[0]) > 10 || fabs(xi[1]) > 10) break;
+      continue;
+    }
+    for (k = 0; k < 40; k++, step *= 0.5) {
+      double s2[2], y2[3], t2[2][3], h2[3][3], f2, tau = 0;
+      /* near the foot a Newton step on the exact Hessian is taken whole: its decrease of f is
+         below f's round-off there, and the line search would stop short of it */
+      int near = full && k == 0 && fabs(d[0]) + fabs(d[1]) < 1e-6;
+      if (edge) {
+        /* tau of the current point, stepped and kept on [0, 1] */
+        double e0 = B[0] - A[0], e1 = B[1] - A[1], ee = e0 * e0 + e1 * e1;
+        tau = ((xi[0] - A[0]) * e0 + (xi[1] - A[1]) * e1) / ee + step * d[0];
+        tau = fmax(0, fmin(1, tau));
+        s2[0] = A[0] + tau * e0;
+        s2[1] = A[1] + tau * e1;
+      } else {
+        s2[0] = xi[0] + step * d[0];
+        s2[1] = xi[1] + step * d[1];
+      }
+      facet_jet(sc, b, fs, f, u, s2, y2, t2, h2);
+      f2 = half_dist2(D, y2, x);
+      if (near || f2 <= fcur + 1e-4 * step * (g[0] * d[0] + g[1] * d[1]) || k == 39) {
+        double moved = fabs(s2[0] - xi[0]) + fabs(s2[1] - xi[1]);
+        if (!near && f2 > fcur) { step = 0; break; } /* no descent left: at round-off */
+        xi[0] = s2[0];
+        xi[1] = s2[1];
+        memcpy(y, y2, sizeof y2);
+        memcpy(t, t2, sizeof t2);
+        memcpy(h, h2, sizeof h2);
+        fcur = f2;
+        if (moved < 1e-14) step = 0;
+        break;
+      }
+    }
+    if (step == 0 || fabs(d[0]) + fabs(d[1]) < 1e-14) break;
+    if (fabs(xi[0]) > 10 || fabs(xi[1]) > 10) break;
+  }
+  return fcur;
+}
+
+/* The nearest point of a curved triangle (T6) to x when the foot of the perpendicular is off it:
+   Newton along each of its three edges (T193). */
+static void tri6_boundary(const mo_scene *sc, int b, const mo_facetset *fs, int f, const double *x, const mo_state *u,
+                          double *xi)
+{
+  static const double V[3][2] = {{0, 0}, {1, 0}, {0, 1}};
+  double best = HUGE_VAL, s[2];
+  int k, j;
+  for (k = 0; k < 3; k++)
+    for (j = 0; j < 3; j++) { /* three starts per edge: its ends and its middle */
+      double fk;
+      s[0] = V[k][0] + 0.5 * j * (V[(k + 1) % 3][0] - V[k][0]);
+      s[1] = V[k][1] + 0.5 * j * (V[(k + 1) % 3][1] - V[k][1]);
+      fk = facet_newton(sc, b, fs, f, x, u, s, V[k], V[(k + 1) % 3]);
+      if (fk < best) {
+        best = fk;
+        xi[0] = s[0];
+        xi[1] = s[1];
+      }
+    }
+}
+
 /* Closest point of x on master facet f: facet coordinates xi, shape values, distance,
-   and whether the unclamped projection lies on the facet. */
+   and whether the unclamped projection lies on the facet (doc/theory.md §4.1, (T193)). */
 double mo_contact_project_facet(const mo_scene *sc, int b, const mo_facetset *fs, int f,
                             const double *x, const mo_state *u, double *xi, double *N, double *q,
                             double *n, int *inside)
 {
-  int D = sc->dim, nfn = fs->nfn, i, it;
+  int D = sc->dim, nfn = fs->nfn, i;
   double d2 = 0;
-  if (nfn == 1) {
+  switch (fs->kind) {
+  case MO_FK_POINT:
     facet_eval(sc, b, fs, f, xi, u, N, q, n);
     xi[0] = xi[1] = 0;
     *inside = 1;
-  } else if (nfn == 2) {
-    double xa[3], xb[3], t[3], tt = 0, s = 0;
-    node_pos(sc, b, fs->node[2 * f], u, xa);
-    node_pos(sc, b, fs->node[2 * f + 1], u, xb);
-    for (i = 0; i < D; i++) { t[i] = xb[i] - xa[i]; tt += t[i] * t[i]; s += (x[i] - xa[i]) * t[i]; }
-    s /= tt;                                   /* 0 at a, 1 at b */
-    *inside = s >= -1e-9 && s <= 1 + 1e-9;
-    if (s < 0) s = 0;
-    if (s > 1) s = 1;
+    break;
+  case MO_FK_LINE2:
+  case MO_FK_LINE3: {
+    double xa[3], xb[3], tt = 0, s = 0;
+    node_pos(sc, b, fs->node[nfn * f], u, xa);
+    node_pos(sc, b, fs->node[nfn * f + 1], u, xb);
+    for (i = 0; i < D; i++) { tt += (xb[i] - xa[i]) * (xb[i] - xa[i]); s += (x[i] - xa[i]) * (xb[i] - xa[i]); }
+    s /= tt;                                   /* along the chord: 0 at a, 1 at b */
     xi[0] = 2 * s - 1;
     xi[1] = 0;
-    facet_eval(sc, b, fs, f, xi, u, N, q, n);
-  } else {
-    /* Newton on the bilinear face: minimise |x(xi) - p|^2 */
-    xi[0] = xi[1] = 0;
-    for (it = 0; it < 30; it++) {
-      double dN[8], a1[3] = {0, 0, 0}, a2[3] = {0, 0, 0}, r[3], y[3], A11, A12, A22, b1, b2, det, d0, d1;
-      int a;
-      mo_facet_shape(4, xi, N, dN);
-      for (i = 0; i < 3; i++) q[i] = 0;
-      for (a = 0; a < 4; a++) {
-        node_pos(sc, b, fs->node[4 * f + a], u, y);
-        for (i = 0; i < 3; i++) {
-          q[i] += N[a] * y[i];
-          a1[i] += dN[2 * a] * y[i];
-          a2[i] += dN[2 * a + 1] * y[i];
-        }
+    if (fs->kind == MO_FK_LINE3) {
+      static const double A[2] = {-1, 0}, B[2] = {1, 0};
+      xi[0] = fmax(-1, fmin(1, xi[0]));
+      facet_newton(sc, b, fs, f, x, u, xi, NULL, NULL);
+      *inside = xi[0] >= -1 - 2e-9 && xi[0] <= 1 + 2e-9;
+      if (!*inside) { /* the nearest point of the arc: Newton kept on [-1, 1] from either end */
+        double e[2] = {-1, 0}, g[2] = {1, 0};
+        double fa = facet_newton(sc, b, fs, f, x, u, e, A, B), fb = facet_newton(sc, b, fs, f, x, u, g, A, B);
+        xi[0] = fa <= fb ? e[0] : g[0];
       }
-      for (i = 0; i < 3; i++) r[i] = x[i] - q[i];
-      A11 = a1[0] * a1[0] + a1[1] * a1[1] + a1[2] * a1[2];
-      A12 = a1[0] * a2[0] + a1[1] * a2[1] + a1[2] * a2[2];
-      A22 = a2[0] * a2[0] + a2[1] * a2[1] + a2[2] * a2[2];
-      b1 = r[0] * a1[0] + r[1] * a1[1] + r[2] * a1[2];
-      b2 = r[0] * a2[0] + r[1] * a2[1] + r[2] * a2[2];
-      det = A11 * A22 - A12 * A12;
-      if (!(det > 0)) break;
-      d0 = (A22 * b1 - A12 * b2) / det;
-      d1 = (A11 * b2 - A12 * b1) / det;
-      xi[0] += d0;
-      xi[1] += d1;
-      if (fabs(d0) + fabs(d1) < 1e-13) break;
-      if (fabs(xi[0]) > 10 || fabs(xi[1]) > 10) break;
+    } else
+      *inside = xi[0] >= -1 - 2e-9 && xi[0] <= 1 + 2e-9;
+    xi[0] = fmax(-1, fmin(1, xi[0]));
+    facet_eval(sc, b, fs, f, xi, u, N, q, n);
+    break;
+  }
+  case MO_FK_TRI3:
+  case MO_FK_TRI6: {
+    double X[3][3];
+    int a;
+    for (a = 0; a < 3; a++) node_pos(sc, b, fs->node[nfn * f + a], u, X[a]);
+    *inside = triangle_closest(X, x, xi);
+    if (fs->kind == MO_FK_TRI6) {
+      facet_newton(sc, b, fs, f, x, u, xi, NULL, NULL);
+      *inside = xi[0] >= -1e-9 && xi[1] >= -1e-9 && xi[0] + xi[1] <= 1 + 1e-9;
+      if (!*inside) tri6_boundary(sc, b, fs, f, x, u, xi);
+      else {
+        xi[0] = fmax(0, xi[0]);
+        xi[1] = fmax(0, xi[1]);
+      }
     }
+    facet_eval(sc, b, fs, f, xi, u, N, q, n);
+    break;
+  }
+  default: /* the bilinear face */
+    xi[0] = xi[1] = 0;
+    facet_newton(sc, b, fs, f, x, u, xi, NULL, NULL);
     *inside = fabs(xi[0]) <= 1 + 1e-9 && fabs(xi[1]) <= 1 + 1e-9;
-    if (xi[0] > 1) xi[0] = 1;
-    if (xi[0] < -1) xi[0] = -1;
-    if (xi[1] > 1) xi[1] = 1;
-    if (xi[1] < -1) xi[1] = -1;
+    for (i = 0; i < 2; i++) xi[i] = fmax(-1, fmin(1, xi[i]));
     facet_eval(sc, b, fs, f, xi, u, N, q, n);
   }
   for (i = 0; i < D; i++) d2 += (x[i] - q[i]) * (x[i] - q[i]);
@@ -334,7 +558,7 @@ static void pair_point(mo_contact *C, mo_cpoint *p, const mo_state *u, double t,
   }
   {
     const mo_facetset *fs = mo_mesh_find_facetset(sc->body[P->mbody].mesh, P->mset);
-    double q[3], n[3], N[4], xi[2];
+    double q[3], n[3], N[MO_FNODE_MAX], xi[2];
     if (p->mseg > 0 && p->mfacet < 0) {
       /* a point of a segment: its master facet is the segment's (doc/theory.md (T90)) */
       int inside;
@@ -619,21 +843,65 @@ int mo_contact_geometry(mo_contact *C, const mo_state *u, double t, int repair, 
 /* --- dual cells and P* -------------------------------------------------------------------------- */
 
 /* Integrals over the part of facet f nearest to each of its nodes: A[a][s] = int_{cell a} f_s,
-   meas[a] = int_{cell a} 1 (measure with thickness / 2 pi r / area factor). */
-static void facet_cells(const mo_scene *sc, int b, const mo_facetset *fs, int f, double A[4][4],
-                        double meas[4])
+   meas[a] = int_{cell a} 1 (measure with thickness / 2 pi r / area factor). The cells: half
+   intervals (lines), quadrants of the reference square, and on triangles the barycentric cells
+   (corner a, the middles of its two edges and the centroid: a third of the triangle, (T194)),
+   each as two triangles with the 3-point rule (exact for the linear integrands of flat T3). A
+   quadratic facet (T6 edges, T10 faces) has no cells of positive P* (its corner functions change
+   sign): meas[a] is its HRZ share of the facet's measure (T191, T194), A is left zero. */
+static int facet_cells(const mo_scene *sc, int b, const mo_facetset *fs, int f, double A[MO_FNODE_MAX][MO_FNODE_MAX],
+                       double meas[MO_FNODE_MAX], mo_ctx *ctx)
 {
   int nfn = fs->nfn, a, s, q, r;
   static const double gp[2] = {-0.5773502691896257645, 0.5773502691896257645};
   const mo_material *mat = &sc->body[b].mat;
-  memset(A, 0, 16 * sizeof(double));
-  memset(meas, 0, 4 * sizeof(double));
+  memset(A, 0, MO_FNODE_MAX * MO_FNODE_MAX * sizeof(double));
+  memset(meas, 0, MO_FNODE_MAX * sizeof(double));
   if (nfn == 1) {
     double x[3], N[1];
     double xi[2] = {0, 0};
     facet_eval(sc, b, fs, f, xi, NULL, N, x, NULL);
     A[0][0] = meas[0] = facet_factor(mat, x);
-    return;
+    return MO_OK;
+  }
+  if (fs->kind == MO_FK_LINE3 || fs->kind == MO_FK_TRI6) {
+    double dsum = 0, total = 0;
+    mo_quad Q;
+    int st = mo_quad_facet_kind(fs->kind, 3, &Q, ctx);
+    if (st) return st;
+    for (q = 0; q < Q.n; q++) {
+      double N[MO_FNODE_MAX], x[3], w = facet_eval(sc, b, fs, f, Q.xi[q], NULL, N, x, NULL) * Q.w[q];
+      w *= facet_factor(mat, x);
+      total += w;
+      for (a = 0; a < nfn; a++) meas[a] += w * N[a] * N[a];
+    }
+    for (a = 0; a < nfn; a++) dsum += meas[a];
+    for (a = 0; a < nfn; a++) meas[a] *= total / dsum;
+    return MO_OK;
+  }
+  if (fs->kind == MO_FK_TRI3) {
+    static const double V[3][2] = {{0, 0}, {1, 0}, {0, 1}}, g[2] = {1.0 / 3, 1.0 / 3};
+    static const double rule[3][2] = {{1.0 / 6, 1.0 / 6}, {2.0 / 3, 1.0 / 6}, {1.0 / 6, 2.0 / 3}};
+    for (a = 0; a < 3; a++) {
+      double mab[2], mac[2];
+      int h, k;
+      for (k = 0; k < 2; k++) {
+        mab[k] = 0.5 * (V[a][k] + V[(a + 1) % 3][k]);
+        mac[k] = 0.5 * (V[a][k] + V[(a + 2) % 3][k]);
+      }
+      for (h = 0; h < 2; h++) { /* triangles (V_a, m_ab, g) and (V_a, g, m_ac) */
+        const double *P0 = V[a], *P1 = h ? g : mab, *P2 = h ? mac : g;
+        double area2 = fabs((P1[0] - P0[0]) * (P2[1] - P0[1]) - (P1[1] - P0[1]) * (P2[0] - P0[0]));
+        for (q = 0; q < 3; q++) {
+          double xi[2], N[MO_FNODE_MAX], x[3], w;
+          for (k = 0; k < 2; k++) xi[k] = P0[k] + rule[q][0] * (P1[k] - P0[k]) + rule[q][1] * (P2[k] - P0[k]);
+          w = facet_eval(sc, b, fs, f, xi, NULL, N, x, NULL) * area2 / 6 * facet_factor(mat, x);
+          meas[a] += w;
+          for (s = 0; s < 3; s++) A[a][s] += w * N[s];
+        }
+      }
+    }
+    return MO_OK;
   }
   for (a = 0; a < nfn; a++) {
     /* the sub-cell of node a: half interval or quadrant of the reference facet */
@@ -646,7 +914,7 @@ static void facet_cells(const mo_scene *sc, int b, const mo_facetset *fs, int f,
     }
     for (q = 0; q < 2; q++)
       for (r = 0; r < (nfn == 4 ? 2 : 1); r++) {
-        double xi[2], N[4], x[3], jac, w;
+        double xi[2], N[MO_FNODE_MAX], x[3], jac, w;
         xi[0] = 0.5 * (lo0 + hi0) + 0.5 * (hi0 - lo0) * gp[q];
         xi[1] = nfn == 4 ? 0.5 * (lo1 + hi1) + 0.5 * (hi1 - lo1) * gp[r] : 0;
         jac = facet_eval(sc, b, fs, f, xi, NULL, N, x, NULL);
@@ -655,6 +923,7 @@ static void facet_cells(const mo_scene *sc, int b, const mo_facetset *fs, int f,
         for (s = 0; s < nfn; s++) A[a][s] += w * N[s];
       }
   }
+  return MO_OK;
 }
 
 /* --- building from the case --------------------------------------------------------------------- */
@@ -835,6 +1104,13 @@ static int build_pair(mo_contact *C, int k, const config_setting_t *pg, mo_ctx *
     return mo_case_error(cs, mo_cfg_member(pg, "slave_set"), ctx,
                          "%s reactions and Gauss collocation need a facet set; '%s' is not one",
                          P->reactions == MO_REACT_WEIGHTED ? "weighted" : "concentrated", P->sset);
+  if (P->reactions == MO_REACT_WEIGHTED && fs && (fs->kind == MO_FK_LINE3 || fs->kind == MO_FK_TRI6))
+    /* a quadratic facet's corner functions change sign: P* would lose J88 Proposition 2 (T194) */
+    return mo_case_error(cs, config_lookup(&cs->cfg, "contact.reactions") ? config_lookup(&cs->cfg, "contact.reactions")
+                             : mo_cfg_member(pg, "reactions") ? mo_cfg_member(pg, "reactions") : pg, ctx, "weighted reactions need linear facets: the %s elements' quadratic %s have shape "
+                         "functions that change sign, and P* would have negative entries (J88 Proposition 2); use "
+                         "concentrated reactions (nodes or Gauss collocation)", m->type == MO_EL_T6 ? "T6" : "T10",
+                         fs->kind == MO_FK_LINE3 ? "edges" : "faces");
   if (P->exclude && mo_mesh_nodeset_resolve(m, P->exclude, &excl, &nexcl, ctx)) {
     char msg[MO_ERRMSG_MAX];
     snprintf(msg, sizeof msg, "%s", ctx->errmsg);
@@ -888,12 +1164,18 @@ static int build_pair(mo_contact *C, int k, const config_setting_t *pg, mo_ctx *
     double *mg = NULL;
     int nseg = 0, segcap = 0, segment = P->integ == MO_INTEG_SEGMENTS && P->master == MO_MASTER_FACETS && fs->nfn > 1;
     const mo_facetset *mfs = segment ? mo_mesh_find_facetset(sc->body[P->mbody].mesh, P->mset) : NULL;
+    if (mfs && (fs->kind == MO_FK_LINE3 || fs->kind == MO_FK_TRI6 || mfs->kind == MO_FK_LINE3 || mfs->kind == MO_FK_TRI6)) {
+      /* the cuts of (T90) are made between straight facets (T195) */
+      mo_note_skip(ctx, "segmented integration on pair '%s' (quadratic facets: Gauss points on whole facets, as "
+                   "integration = \"facet\")", P->name);
+      mfs = NULL;
+    }
     mo_state s0;
     /* the segments are cut in the configuration of the first pairing (u0) */
     memset(&s0, 0, sizeof s0);
     s0.u = sc->u0;
     s0.v = sc->v0;
-    if ((st = mo_quad_facet(D - 1, P->gauss, &Q, ctx))) goto done;
+    if ((st = mo_quad_facet_kind(fs->kind, P->gauss, &Q, ctx))) goto done;
     if (mfs && (st = mo_contact_segment_masters(sc, P->mbody, mfs, &s0, &mg, ctx))) goto done;
     for (f = 0; f < fs->n && !st; f++) {
       int q, nq = Q.n, whole = 0;
@@ -908,7 +1190,7 @@ static int build_pair(mo_contact *C, int k, const config_setting_t *pg, mo_ctx *
       for (q = 0; q < nq; q++) {
         mo_cpoint p;
         mo_candidate c;
-        double x[3], N[4], jac, one = 1;
+        double x[3], N[MO_FNODE_MAX], jac, one = 1;
         const double *xi = nseg ? seg[q].xi : Q.xi[q];
         int pi;
         memset(&p, 0, sizeof p);
@@ -958,6 +1240,7 @@ static int build_pair(mo_contact *C, int k, const config_setting_t *pg, mo_ctx *
     /* dual cells: A[h][s] = int_{cell h} f_s, meas[h] (doc/theory.md §4.3) */
     double *meas = mo_calloc(ctx, (size_t)m->nnode, sizeof(double));
     int *cidx = mo_malloc(ctx, (size_t)m->nnode * sizeof(int)), ncand = 0;
+    int pstar = fs && fs->kind != MO_FK_LINE3 && fs->kind != MO_FK_TRI6;
     int *rowpts = mo_malloc(ctx, (size_t)nsn * sizeof(int));
     double *rowcoef = mo_malloc(ctx, (size_t)nsn * sizeof(double));
     double *Arow = mo_calloc(ctx, (size_t)nsn * (size_t)nsn, sizeof(double));
@@ -973,13 +1256,13 @@ static int build_pair(mo_contact *C, int k, const config_setting_t *pg, mo_ctx *
       if (iscand[snodes[i]]) cidx[snodes[i]] = ncand++;
     }
     if (fs) {
-      double Af[4][4], mf[4];
+      double Af[MO_FNODE_MAX][MO_FNODE_MAX], mf[MO_FNODE_MAX];
       for (f = 0; f < fs->n; f++) {
         const int *fn = &fs->node[f * fs->nfn];
-        int allc = 1, s, owner[4];
+        int allc = 1, s, owner[MO_FNODE_MAX];
         for (a = 0; a < fs->nfn; a++) allc &= iscand[fn[a]];
         if (P->ends == MO_ENDS_HALF && !allc) continue;
-        facet_cells(sc, P->sbody, fs, f, Af, mf);
+        if ((st = facet_cells(sc, P->sbody, fs, f, Af, mf, ctx))) break;
         for (a = 0; a < fs->nfn; a++) {
           owner[a] = iscand[fn[a]] ? fn[a] : -1;
           if (owner[a] < 0 && P->ends == MO_ENDS_EXTEND) { /* nearest candidate of the facet */
@@ -1004,8 +1287,9 @@ static int build_pair(mo_contact *C, int k, const config_setting_t *pg, mo_ctx *
     /* the pair's P* over its candidates (square), for tables and the tests */
     C->pp[k].n = ncand;
     C->pp[k].cand = mo_malloc(ctx, (size_t)(ncand ? ncand : 1) * sizeof(int));
-    C->pp[k].P = fs ? mo_calloc(ctx, (size_t)(ncand ? ncand : 1) * (size_t)(ncand ? ncand : 1), sizeof(double)) : NULL;
-    if (!C->pp[k].cand || (fs && !C->pp[k].P)) st = MO_ENOMEM;
+    /* (none on quadratic facets: they have no P*, and concentrated reactions no other representation) */
+    C->pp[k].P = pstar ? mo_calloc(ctx, (size_t)(ncand ? ncand : 1) * (size_t)(ncand ? ncand : 1), sizeof(double)) : NULL;
+    if (!C->pp[k].cand || (pstar && !C->pp[k].P)) st = MO_ENOMEM;
     for (i = 0; !st && i < nsn; i++) {
       int h = snodes[i], s, np = 0;
       mo_candidate c;
@@ -1023,8 +1307,8 @@ static int build_pair(mo_contact *C, int k, const config_setting_t *pg, mo_ctx *
       }
       C->pp[k].cand[cidx[h]] = C->nc;
       for (s = 0; s < nsn; s++) {
-        double Ps = fs ? Arow[(size_t)i * (size_t)nsn + (size_t)s] / meas[h] : (s == i);
-        if (fs && iscand[snodes[s]]) C->pp[k].P[(size_t)cidx[h] * (size_t)ncand + (size_t)cidx[snodes[s]]] = Ps;
+        double Ps = pstar ? Arow[(size_t)i * (size_t)nsn + (size_t)s] / meas[h] : (s == i);
+        if (pstar && iscand[snodes[s]]) C->pp[k].P[(size_t)cidx[h] * (size_t)ncand + (size_t)cidx[snodes[s]]] = Ps;
         if (P->reactions == MO_REACT_WEIGHTED) {
           if (Ps != 0) { rowpts[np] = ptof[snodes[s]]; rowcoef[np++] = Ps; }
         }

@@ -104,11 +104,18 @@ static int push(mo_segpt **pts, int *n, int *cap, const double *xi, double w, in
   return MO_OK;
 }
 
-/* Reference coordinates xi of the slave facet whose projection on the plane is z: Newton on the
-   bilinear map of the projected vertices zs. */
-static void invert_bilinear(double zs[4][2], const double *z, double *xi)
+/* Reference coordinates xi of the slave facet whose projection on the plane is z: the affine
+   map of a triangle's projected corners zs, or Newton on the bilinear map of a quadrilateral's. */
+static void invert_bilinear(int nvs, double zs[4][2], const double *z, double *xi)
 {
   int it, a;
+  if (nvs == 3) {
+    double J00 = zs[1][0] - zs[0][0], J01 = zs[2][0] - zs[0][0], J10 = zs[1][1] - zs[0][1], J11 = zs[2][1] - zs[0][1];
+    double r0 = z[0] - zs[0][0], r1 = z[1] - zs[0][1], det = J00 * J11 - J01 * J10;
+    xi[0] = (J11 * r0 - J01 * r1) / det;
+    xi[1] = (J00 * r1 - J10 * r0) / det;
+    return;
+  }
   xi[0] = xi[1] = 0;
   for (it = 0; it < 50; it++) {
     double N[4], dN[8], r0 = -z[0], r1 = -z[1], J00 = 0, J01 = 0, J10 = 0, J11 = 0, det, d0, d1;
@@ -136,12 +143,13 @@ int mo_contact_segment_masters(const mo_scene *sc, int mb, const mo_facetset *mf
                                mo_ctx *ctx)
 {
   const int D = sc->dim, nfn = mfs->nfn;
-  double xi0[2] = {0, 0}, N[4], x[3];
+  double xi0[2] = {0, 0}, N[MO_FNODE_MAX], x[3];
   int m, a, i;
+  if (mfs->kind == MO_FK_TRI3 || mfs->kind == MO_FK_TRI6) xi0[0] = xi0[1] = 1.0 / 3;
   *mg = mo_malloc(ctx, (size_t)(mfs->n ? mfs->n : 1) * 7 * sizeof **mg);
   if (!*mg) return MO_ENOMEM;
   for (m = 0; m < mfs->n; m++) {
-    double *g = *mg + 7 * m, Y[4][3], r = 0;
+    double *g = *mg + 7 * m, Y[MO_FNODE_MAX][3], r = 0;
     memset(g, 0, 7 * sizeof *g);
     for (a = 0; a < nfn; a++) {
       mo_contact_node_pos(sc, mb, mfs->node[m * nfn + a], u, Y[a]);
@@ -163,14 +171,20 @@ int mo_contact_segment_facet(const mo_scene *sc, int sb, const mo_facetset *sfs,
                              int *npts, int *cap, int *whole, mo_ctx *ctx)
 {
   const int D = sc->dim, nfn = sfs->nfn;
+  const int nvs = sfs->kind == MO_FK_TRI3 ? 3 : 4, nvm = mfs->kind == MO_FK_TRI3 ? 3 : 4;
   const mo_material *mat = &sc->body[sb].mat;
   double X[4][3], c[3] = {0, 0, 0}, ns[3] = {0, 0, 0}, e1[3] = {0, 0, 0}, e2[3] = {0, 0, 0}, zs[4][2];
-  double N[4], x[3], xi0[2] = {0, 0}, diam = 0, reach, As, covered = 0, dmin = HUGE_VAL;
+  double N[MO_FNODE_MAX], x[3], xi0[2] = {0, 0}, diam = 0, reach, As, covered = 0, dmin = HUGE_VAL;
   piece *pc = NULL;
   int npc = 0, a, i, m, k, q, st = MO_OK, n0 = *npts;
   gsl_integration_glfixed_table *T1 = NULL, *T2 = NULL;
   *whole = 0;
-  if (nfn != 2 && nfn != 4) return MO_OK;
+  if (sfs->kind != MO_FK_LINE2 && sfs->kind != MO_FK_TRI3 && sfs->kind != MO_FK_QUAD4) return MO_OK;
+  if (mfs->kind != MO_FK_LINE2 && mfs->kind != MO_FK_TRI3 && mfs->kind != MO_FK_QUAD4) {
+    *whole = 1; /* a quadratic master: its facets are curved (T195) */
+    return MO_OK;
+  }
+  if (nvs == 3) xi0[0] = xi0[1] = 1.0 / 3;
   /* the slave facet: its vertices, centre, normal at the centre and a basis of its plane */
   for (a = 0; a < nfn; a++) {
     mo_contact_node_pos(sc, sb, sfs->node[f * nfn + a], u, X[a]);
@@ -193,16 +207,16 @@ int mo_contact_segment_facet(const mo_scene *sc, int sb, const mo_facetset *sfs,
     e2[0] = ns[1] * e1[2] - ns[2] * e1[1];
     e2[1] = ns[2] * e1[0] - ns[0] * e1[2];
     e2[2] = ns[0] * e1[1] - ns[1] * e1[0];
-    for (a = 0; a < 4; a++) {
+    for (a = 0; a < nvs; a++) {
       double r[3] = {X[a][0] - c[0], X[a][1] - c[1], X[a][2] - c[2]};
       zs[a][0] = dot3(r, e1);
       zs[a][1] = dot3(r, e2);
       diam = fmax(diam, 2 * hypot(zs[a][0], zs[a][1]));
     }
-    As = 0.5 * area2(4, zs);
-    for (a = 0; a < 4; a++) { /* a convex quadrilateral, counter-clockwise seen from n_s */
-      double cr = (zs[(a + 1) % 4][0] - zs[a][0]) * (zs[(a + 2) % 4][1] - zs[(a + 1) % 4][1]) -
-                  (zs[(a + 1) % 4][1] - zs[a][1]) * (zs[(a + 2) % 4][0] - zs[(a + 1) % 4][0]);
+    As = 0.5 * area2(nvs, zs);
+    for (a = 0; a < nvs; a++) { /* a convex polygon, counter-clockwise seen from n_s */
+      double cr = (zs[(a + 1) % nvs][0] - zs[a][0]) * (zs[(a + 2) % nvs][1] - zs[(a + 1) % nvs][1]) -
+                  (zs[(a + 1) % nvs][1] - zs[a][1]) * (zs[(a + 2) % nvs][0] - zs[(a + 1) % nvs][0]);
       if (!(cr > 0) || !(As > 0)) { *whole = 1; return MO_OK; }
     }
   }
@@ -212,7 +226,7 @@ int mo_contact_segment_facet(const mo_scene *sc, int sb, const mo_facetset *sfs,
   /* the master facets facing it whose projections overlap it */
   for (m = 0; m < mfs->n; m++) {
     const double *cm = mg + 7 * m, *nm = mg + 7 * m + 3;
-    double Y[4][3], dm = 0, r[3], lat;
+    double Y[MO_FNODE_MAX][3], dm = 0, r[3], lat;
     piece *P = &pc[npc];
     if (!(dot3(nm, ns) < -0.5)) continue; /* not facing the slave facet */
     P->m = m;
@@ -221,8 +235,8 @@ int mo_contact_segment_facet(const mo_scene *sc, int sb, const mo_facetset *sfs,
     for (i = 0; i < 3; i++) r[i] -= P->dn * ns[i];
     lat = sqrt(dot3(r, r));
     if (lat > 0.5 * diam + mg[7 * m + 6] + 1e-9 * diam) continue; /* its projection is away from the facet */
-    for (a = 0; a < nfn; a++) {
-      mo_contact_node_pos(sc, mb, mfs->node[m * nfn + a], u, Y[a]);
+    for (a = 0; a < mfs->nfn; a++) {
+      mo_contact_node_pos(sc, mb, mfs->node[m * mfs->nfn + a], u, Y[a]);
       if (D == 2) Y[a][2] = 0;
     }
     if (D == 2) {
@@ -238,33 +252,35 @@ int mo_contact_segment_facet(const mo_scene *sc, int sb, const mo_facetset *sfs,
     } else {
       double zm[4][2], A;
       dm = 2 * mg[7 * m + 6];
-      for (a = 0; a < 4; a++) {
+      for (a = 0; a < nvm; a++) {
         double y[3] = {Y[a][0] - c[0], Y[a][1] - c[1], Y[a][2] - c[2]};
         zm[a][0] = dot3(y, e1);
         zm[a][1] = dot3(y, e2);
       }
-      if (area2(4, zm) < 0) /* seen from the slave side, the master facet turns the other way */
-        for (a = 0; a < 2; a++) {
+      if (area2(nvm, zm) < 0) /* seen from the slave side, the master facet turns the other way */
+        for (a = 0; a < nvm / 2; a++) {
           double t0 = zm[a][0], t1 = zm[a][1];
-          zm[a][0] = zm[3 - a][0]; zm[a][1] = zm[3 - a][1];
-          zm[3 - a][0] = t0; zm[3 - a][1] = t1;
+          zm[a][0] = zm[nvm - 1 - a][0]; zm[a][1] = zm[nvm - 1 - a][1];
+          zm[nvm - 1 - a][0] = t0; zm[nvm - 1 - a][1] = t1;
         }
       {
         /* bounding boxes apart: no overlap (and then its shape does not matter) */
         double lo0 = HUGE_VAL, hi0 = -HUGE_VAL, lo1 = HUGE_VAL, hi1 = -HUGE_VAL, sl0 = HUGE_VAL, sh0 = -HUGE_VAL,
                sl1 = HUGE_VAL, sh1 = -HUGE_VAL;
-        for (a = 0; a < 4; a++) {
+        for (a = 0; a < nvm; a++) {
           lo0 = fmin(lo0, zm[a][0]); hi0 = fmax(hi0, zm[a][0]); lo1 = fmin(lo1, zm[a][1]); hi1 = fmax(hi1, zm[a][1]);
+        }
+        for (a = 0; a < nvs; a++) {
           sl0 = fmin(sl0, zs[a][0]); sh0 = fmax(sh0, zs[a][0]); sl1 = fmin(sl1, zs[a][1]); sh1 = fmax(sh1, zs[a][1]);
         }
         if (hi0 <= sl0 || lo0 >= sh0 || hi1 <= sl1 || lo1 >= sh1) continue;
       }
-      for (a = 0; a < 4; a++) { /* Sutherland-Hodgman needs a convex clipping polygon */
-        double cr = (zm[(a + 1) % 4][0] - zm[a][0]) * (zm[(a + 2) % 4][1] - zm[(a + 1) % 4][1]) -
-                    (zm[(a + 1) % 4][1] - zm[a][1]) * (zm[(a + 2) % 4][0] - zm[(a + 1) % 4][0]);
+      for (a = 0; a < nvm; a++) { /* Sutherland-Hodgman needs a convex clipping polygon */
+        double cr = (zm[(a + 1) % nvm][0] - zm[a][0]) * (zm[(a + 2) % nvm][1] - zm[(a + 1) % nvm][1]) -
+                    (zm[(a + 1) % nvm][1] - zm[a][1]) * (zm[(a + 2) % nvm][0] - zm[(a + 1) % nvm][0]);
         if (!(cr > 0)) goto not_covered;
       }
-      P->nv = clip(4, zs, 4, zm, P->z);
+      P->nv = clip(nvs, zs, nvm, zm, P->z);
       if (P->nv < 3) continue;
       A = 0.5 * area2(P->nv, P->z);
       if (!(A > 1e-10 * As)) continue;
@@ -349,7 +365,7 @@ int mo_contact_segment_facet(const mo_scene *sc, int sb, const mo_facetset *sfs,
             J11 += dN[2 * a + 1] * zq[a][1];
           }
           wp = w0 * w1 * fabs(J00 * J11 - J01 * J10);
-          invert_bilinear(zs, z, xi);
+          invert_bilinear(nvs, zs, z, xi);
           mo_contact_facet_eval(sc, sb, sfs, f, xi, u, N, x, nq);
           if ((st = push(pts, npts, cap, xi, wp / fabs(dot3(nq, ns)) * mo_contact_facet_factor(mat, x), P->m, ctx)))
             goto done;
@@ -366,7 +382,7 @@ int mo_contact_segment_facet(const mo_scene *sc, int sb, const mo_facetset *sfs,
           gsl_integration_glfixed_point(0, 1, (size_t)j, &gu, &wu, T2);
           gsl_integration_glfixed_point(0, 1, (size_t)l, &gv, &wv, T2);
           for (i = 0; i < 2; i++) z[i] = (1 - gu) * A[i] + gu * ((1 - gv) * B[i] + gv * Cc[i]);
-          invert_bilinear(zs, z, xi);
+          invert_bilinear(nvs, zs, z, xi);
           mo_contact_facet_eval(sc, sb, sfs, f, xi, u, N, x, nq);
           if ((st = push(pts, npts, cap, xi, wu * wv * 2 * at * gu / fabs(dot3(nq, ns)) * mo_contact_facet_factor(mat, x),
                          P->m, ctx)))

@@ -105,8 +105,8 @@ int mo_contact_detect_setup(mo_contact *C, mo_ctx *ctx)
 typedef struct {
   int pair, sb, mb, sfeat, mfeat;
   int snode;                 /* slave mesh node, or -1 */
-  int mfacet, mn, mnode[4];  /* master mesh facet, or -1 */
-  double mN[4];
+  int mfacet, mn, mnode[MO_FNODE_MAX];  /* master mesh facet, or -1 */
+  double mN[MO_FNODE_MAX];
 } dyn_side;
 
 /* Append the contact N of pair k between slave sb and master mb as a point and a candidate,
@@ -236,7 +236,7 @@ static int shape_shape(mo_contact *C, int k, int sb, int mb, const mo_state *s, 
 static double closest_facet(const mo_scene *sc, int b, const mo_facetset *fs, const double *x, const mo_state *s,
                             int *fbest, double *N, double *q, double *n)
 {
-  double best = HUGE_VAL, bestin = HUGE_VAL, xi[2], Nf[4], qf[3], nf[3], g = 0;
+  double best = HUGE_VAL, bestin = HUGE_VAL, xi[2], Nf[MO_FNODE_MAX], qf[3], nf[3], g = 0;
   int f, fin = -1, fout = -1, inside, i, fsel;
   for (f = 0; f < fs->n; f++) {
     double dist = mo_contact_project_facet(sc, b, fs, f, x, s, xi, Nf, qf, nf, &inside);
@@ -258,7 +258,7 @@ static int point_facets(mo_contact *C, int k, int sb, int sfeat, const double *c
   const mo_scene *sc = C->sc;
   const mo_contact_pair *P = &C->pair[k];
   const mo_facetset *fs = mo_mesh_find_facetset(sc->body[P->mb[0]].mesh, P->mset);
-  double N[4], q[3], n[3], g;
+  double N[MO_FNODE_MAX], q[3], n[3], g;
   int f, i;
   dyn_side ds;
   mo_narrow nc;

@@ -25,6 +25,7 @@
 typedef struct {
   int n, nfn;
   int *node;
+  int open;   /* 1: a polyline (a 3-node edge), else a closed polygon from nfn > 2 nodes */
 } outline;
 
 typedef struct {
@@ -184,6 +185,7 @@ static int outline_build(const mo_mesh *m, outline *o, mo_ctx *ctx)
   }
   if ((st = mo_mesh_all_facets(m, &F, &nf, ctx))) return st;
   o->nfn = T->nfn;
+  o->open = T->fkind == MO_FK_LINE3;
   if (!(o->node = mo_malloc(ctx, (nf + 1) * (size_t)T->nfn * sizeof *o->node))) {
     mo_free(F);
     return MO_ENOMEM;
@@ -191,8 +193,12 @@ static int outline_build(const mo_mesh *m, outline *o, mo_ctx *ctx)
   for (i = 0; i < nf; i = j) {
     for (j = i + 1; j < nf && !mo_facet_cmp_key(&F[i], &F[j]); j++) continue;
     if (j - i != 1) continue; /* shared by two elements: inside */
-    for (c = 0; c < T->nfn; c++)
-      o->node[o->n * T->nfn + c] = m->conn[(size_t)F[i].elem * m->nen + T->facet[F[i].lface][c]];
+    for (c = 0; c < T->nfn; c++) {
+      /* along the facet's outline: a 3-node edge end, middle, end; a 6-node face corner, middle, ... */
+      static const int line3[3] = {0, 2, 1}, tri6[6] = {0, 3, 1, 4, 2, 5};
+      int lc = T->fkind == MO_FK_LINE3 ? line3[c] : T->fkind == MO_FK_TRI6 ? tri6[c] : c;
+      o->node[o->n * T->nfn + c] = m->conn[(size_t)F[i].elem * m->nen + T->facet[F[i].lface][lc]];
+    }
     o->n++;
   }
   mo_free(F);
@@ -332,7 +338,7 @@ static void body_outline(mo_draw *d, const mo_scene *sc, const mo_state *s, int 
   }
   for (k = 0; k < o->n; k++) {
     fputc('\n', d->f);
-    for (a = 0; a < o->nfn + (o->nfn > 2); a++) {
+    for (a = 0; a < o->nfn + (o->nfn > 2 && !o->open); a++) {
       node_pos(sc, s, B, o->node[k * o->nfn + a % o->nfn], x);
       put_xy(d, sc, x);
     }

@@ -21,6 +21,37 @@ const char *mo_hyp_name(mo_hypothesis h)
   return (unsigned)h <= MO_HYP_3D ? n[h] : "?";
 }
 
+/* Simplices in barycentric coordinates L_0 = 1 - sum xi, L_i = xi_i: linear N_a = L_a; quadratic
+   corners L_a (2 L_a - 1), middles 4 L_a L_b over the edges of the node order (mesh.h). */
+static void simplex_shape(mo_eltype t, const double *xi, double *N, double *dN)
+{
+  static const int t6mid[3][2] = {{0, 1}, {1, 2}, {2, 0}};
+  static const int t10mid[6][2] = {{0, 1}, {1, 2}, {2, 0}, {0, 3}, {1, 3}, {2, 3}};
+  const int D = t == MO_EL_T6 ? 2 : 3, nv = D + 1, quad = t != MO_EL_T4;
+  const int(*mid)[2] = t == MO_EL_T6 ? t6mid : t10mid;
+  const int nmid = quad ? (t == MO_EL_T6 ? 3 : 6) : 0;
+  double L[4], dL[4][3];
+  int a, i;
+  L[0] = 1;
+  for (i = 0; i < D; i++) {
+    L[0] -= xi[i];
+    L[i + 1] = xi[i];
+  }
+  for (a = 0; a < nv; a++)
+    for (i = 0; i < D; i++) dL[a][i] = a == 0 ? -1 : (a == i + 1);
+  for (a = 0; a < nv; a++) {
+    N[a] = quad ? L[a] * (2 * L[a] - 1) : L[a];
+    if (dN)
+      for (i = 0; i < D; i++) dN[a * D + i] = (quad ? 4 * L[a] - 1 : 1) * dL[a][i];
+  }
+  for (a = 0; a < nmid; a++) {
+    int p = mid[a][0], q = mid[a][1];
+    N[nv + a] = 4 * L[p] * L[q];
+    if (dN)
+      for (i = 0; i < D; i++) dN[(nv + a) * D + i] = 4 * (L[p] * dL[q][i] + L[q] * dL[p][i]);
+  }
+}
+
 void mo_shape(mo_eltype t, const double *xi, double *N, double *dN)
 {
   switch (t) {
@@ -62,19 +93,39 @@ void mo_shape(mo_eltype t, const double *xi, double *N, double *dN)
     }
     break;
   }
+  case MO_EL_T4:
+  case MO_EL_T6:
+  case MO_EL_T10: simplex_shape(t, xi, N, dN); break;
   default: break;
+  }
+}
+
+void mo_facet_shape_kind(mo_facet_kind k, const double *s, double *N, double *dN)
+{
+  switch (k) {
+  case MO_FK_POINT: N[0] = 1; break;
+  case MO_FK_LINE2: mo_shape(MO_EL_BAR2, s, N, dN); break;
+  case MO_FK_LINE3: /* the ends at s = -1, 1, the middle at 0 */
+    N[0] = 0.5 * s[0] * (s[0] - 1);
+    N[1] = 0.5 * s[0] * (s[0] + 1);
+    N[2] = 1 - s[0] * s[0];
+    if (dN) { dN[0] = s[0] - 0.5; dN[1] = s[0] + 0.5; dN[2] = -2 * s[0]; }
+    break;
+  case MO_FK_TRI3: mo_shape(MO_EL_T3, s, N, dN); break;
+  case MO_FK_TRI6: mo_shape(MO_EL_T6, s, N, dN); break;
+  case MO_FK_QUAD4: mo_shape(MO_EL_Q4, s, N, dN); break;
   }
 }
 
 void mo_facet_shape(int nfn, const double *s, double *N, double *dN)
 {
-  if (nfn == 1) {
-    N[0] = 1;
-  } else if (nfn == 2) {
-    mo_shape(MO_EL_BAR2, s, N, dN);
-  } else {
-    mo_shape(MO_EL_Q4, s, N, dN);
-  }
+  mo_facet_shape_kind(nfn == 1 ? MO_FK_POINT : nfn == 2 ? MO_FK_LINE2 : nfn == 3 ? MO_FK_TRI3
+                      : nfn == 6 ? MO_FK_TRI6 : MO_FK_QUAD4, s, N, dN);
+}
+
+int mo_facet_kind_dim(mo_facet_kind k)
+{
+  return k == MO_FK_POINT ? 0 : k == MO_FK_LINE2 || k == MO_FK_LINE3 ? 1 : 2;
 }
 
 static int gauss_legendre(int order, double *x, double *w, mo_ctx *ctx)
@@ -109,27 +160,80 @@ static int tensor_rule(int dim, int order, mo_quad *q, mo_ctx *ctx)
   return MO_OK;
 }
 
+/* Symmetric rules on the reference triangle (area 1/2) and tetrahedron (volume 1/6): points
+   given by one barycentric coordinate a per orbit. Triangle: degree 1 (centroid), 2 (3 points
+   (1/6, 1/6)), 4 (6 points, Strang and Fix / Dunavant), 5 (7 points, Radon); tetrahedron: degree
+   1 (centroid), 2 (4 points a = (5 - sqrt 5) / 20), 5 (14 points: two orbits (a, a, a, 1 - 3a)
+   and one (a, a, 1/2 - a, 1/2 - a), Walkington's rule). Exactness is checked on the monomials in
+   tests/test_elements. */
+static void put_point(mo_quad *q, const double *xi, double w)
+{
+  int i;
+  for (i = 0; i < 3; i++) q->xi[q->n][i] = i < q->dim ? xi[i] : 0;
+  q->w[q->n++] = w;
+}
+
+/* The 3 (triangle) or 4 (tetrahedron) points of the orbit (a, ..., a, 1 - d a). */
+static void orbit_corner(mo_quad *q, double a, double w)
+{
+  int d = q->dim, k, i;
+  for (k = 0; k <= d; k++) {
+    double L[4], xi[3];
+    for (i = 0; i <= d; i++) L[i] = i == k ? 1 - d * a : a;
+    for (i = 0; i < d; i++) xi[i] = L[i + 1];
+    put_point(q, xi, w);
+  }
+}
+
+/* The 6 points of the tetrahedron's orbit (a, a, b, b), b = 1/2 - a. */
+static void orbit_edge(mo_quad *q, double a, double w)
+{
+  static const int pairs[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+  int k, i;
+  for (k = 0; k < 6; k++) {
+    double L[4], xi[3];
+    for (i = 0; i < 4; i++) L[i] = i == pairs[k][0] || i == pairs[k][1] ? a : 0.5 - a;
+    for (i = 0; i < 3; i++) xi[i] = L[i + 1];
+    put_point(q, xi, w);
+  }
+}
+
+static int simplex_rule(int dim, int degree, mo_quad *q, mo_ctx *ctx)
+{
+  static const double ctr[3] = {1.0 / 3, 1.0 / 3, 0}, ctr3[3] = {0.25, 0.25, 0.25};
+  memset(q, 0, sizeof *q);
+  q->dim = dim;
+  if (dim == 2) {
+    if (degree <= 1) put_point(q, ctr, 0.5);
+    else if (degree == 2) orbit_corner(q, 1.0 / 6, 1.0 / 6);
+    else if (degree <= 4) {
+      orbit_corner(q, 0.445948490915965, 0.223381589678011 / 2);
+      orbit_corner(q, 0.091576213509771, 0.109951743655322 / 2);
+    } else if (degree == 5) {
+      double r = sqrt(15.0);
+      put_point(q, ctr, 9.0 / 80);
+      orbit_corner(q, (6 - r) / 21, (155 - r) / 2400);
+      orbit_corner(q, (6 + r) / 21, (155 + r) / 2400);
+    } else
+      return mo_error(ctx, MO_EINTERNAL, "no triangle rule of degree %d", degree);
+    return MO_OK;
+  }
+  if (degree <= 1) put_point(q, ctr3, 1.0 / 6);
+  else if (degree == 2) orbit_corner(q, (5 - sqrt(5.0)) / 20, 1.0 / 24);
+  else if (degree <= 5) {
+    orbit_corner(q, 0.3108859192633006, 0.01878132095300264);
+    orbit_corner(q, 0.0927352503108912, 0.01224884051939366);
+    orbit_edge(q, 0.0455037041256496, 0.007091003462846911);
+  } else
+    return mo_error(ctx, MO_EINTERNAL, "no tetrahedron rule of degree %d", degree);
+  return MO_OK;
+}
+
 int mo_quad_element(mo_eltype t, int order, mo_quad *q, mo_ctx *ctx)
 {
   memset(q, 0, sizeof *q);
-  if (t == MO_EL_T3) {
-    q->dim = 2;
-    if (order <= 1) {
-      q->n = 1;
-      q->xi[0][0] = q->xi[0][1] = 1.0 / 3;
-      q->w[0] = 0.5;
-    } else { /* degree-2 rule: exact for the consistent mass */
-      static const double p[3][2] = {{1.0 / 6, 1.0 / 6}, {2.0 / 3, 1.0 / 6}, {1.0 / 6, 2.0 / 3}};
-      int i;
-      q->n = 3;
-      for (i = 0; i < 3; i++) {
-        q->xi[i][0] = p[i][0];
-        q->xi[i][1] = p[i][1];
-        q->w[i] = 1.0 / 6;
-      }
-    }
-    return MO_OK;
-  }
+  if (t == MO_EL_T3 || t == MO_EL_T6) return simplex_rule(2, order, q, ctx);
+  if (t == MO_EL_T4 || t == MO_EL_T10) return simplex_rule(3, order, q, ctx);
   return tensor_rule(mo_eltype_get(t)->dim, order, q, ctx);
 }
 
@@ -142,6 +246,32 @@ int mo_quad_facet(int fdim, int order, mo_quad *q, mo_ctx *ctx)
     return MO_OK;
   }
   return tensor_rule(fdim, order, q, ctx);
+}
+
+int mo_quad_facet_kind(mo_facet_kind k, int order, mo_quad *q, mo_ctx *ctx)
+{
+  static const int tri_degree[5] = {1, 1, 4, 5, 5}; /* at least 2 order - 1, Gauss-like */
+  if (k == MO_FK_TRI3 || k == MO_FK_TRI6) {
+    if (order < 1 || order > 4) return mo_error(ctx, MO_EINTERNAL, "triangle facet rule of order %d", order);
+    if (order < 4) return simplex_rule(2, tri_degree[order], q, ctx);
+    /* order 4 (degree 7): the collapsed product of 5 Gauss points per direction (degree 8) */
+    {
+      double x[5], w[5];
+      int i, j, st;
+      memset(q, 0, sizeof *q);
+      q->dim = 2;
+      if ((st = gauss_legendre(5, x, w, ctx))) return st;
+      for (i = 0; i < 5; i++)
+        for (j = 0; j < 5; j++) {
+          double u = 0.5 * (1 + x[i]), v = 0.5 * (1 + x[j]), xi[2];
+          xi[0] = u * (1 - v);
+          xi[1] = u * v;
+          put_point(q, xi, 0.25 * w[i] * w[j] * u);
+        }
+      return MO_OK;
+    }
+  }
+  return mo_quad_facet(mo_facet_kind_dim(k), order, q, ctx);
 }
 
 void mo_elastic_D(const mo_material *m, double *D)
@@ -184,7 +314,7 @@ double mo_elem_geometry(const mo_mesh *msh, int e, const double *xi, double *N, 
   const mo_eltype_info *T = mo_eltype_get(msh->type);
   const int *c = &msh->conn[(size_t)e * (size_t)msh->nen];
   int D = msh->dim, nen = T->nen, a, i, j;
-  double dN[24], J[9] = {0}, Ji[9], det;
+  double dN[3 * MO_NEN_MAX], J[9] = {0}, Ji[9], det;
   mo_shape(msh->type, xi, N, dN);
   for (i = 0; i < D; i++) xq[i] = 0;
   for (a = 0; a < nen; a++) {
@@ -263,19 +393,37 @@ static void bmatrix(const mo_material *mat, int nen, int D, const double *N, con
   }
 }
 
-static int stiff_order(mo_eltype t) { return t == MO_EL_T3 ? 1 : 2; }
+/* The stiffness rule: full integration of straight elements (2 Gauss points per direction;
+   simplices: the degree 2 (p - 1) of B^T D B, i.e. the centroid for T3 and T4, degree 2 for T6 and
+   T10); axisymmetric triangles take the hoop term u_r / r, not a polynomial, with degree 2 (T3)
+   and 4 (T6) (doc/theory.md §2, (T190)). */
+static int stiff_order(mo_eltype t, mo_hypothesis h)
+{
+  int ax = h == MO_HYP_AXISYMMETRIC;
+  switch (t) {
+  case MO_EL_T3: return ax ? 2 : 1;
+  case MO_EL_T6: return ax ? 4 : 2;
+  case MO_EL_T4: return 1;
+  case MO_EL_T10: return 2;
+  default: return 2;
+  }
+}
+
+/* The mass rule, exact for the consistent mass of straight elements (N_a N_b: degree 2 p on
+   simplices; 2 Gauss points per direction otherwise), and for measures. */
+static int mass_order(mo_eltype t)
+{
+  return t == MO_EL_T6 || t == MO_EL_T10 ? 4 : 2;
+}
 
 int mo_elem_stiffness(const mo_mesh *msh, int e, const mo_material *mat, double *Ke,
                       mo_ctx *ctx)
 {
   const mo_eltype_info *T = mo_eltype_get(msh->type);
   int D = msh->dim, nen = T->nen, nd = nen * D, nc = mo_hyp_ncomp(mat->hyp), q, i, j, k, st;
-  double N[8], dNx[24], xq[3], B[6 * 24], DB[6 * 24], Dm[36];
+  double N[MO_NEN_MAX], dNx[3 * MO_NEN_MAX], xq[3], B[6 * MO_ND_MAX], DB[6 * MO_ND_MAX], Dm[36];
   mo_quad Q;
-  /* axisymmetric T3: the hoop strain u_r/r needs more than the centroid */
-  if ((st = mo_quad_element(msh->type, (msh->type == MO_EL_T3 && mat->hyp == MO_HYP_AXISYMMETRIC)
-                                           ? 2 : stiff_order(msh->type), &Q, ctx)))
-    return st;
+  if ((st = mo_quad_element(msh->type, stiff_order(msh->type, mat->hyp), &Q, ctx))) return st;
   mo_elastic_D(mat, Dm);
   memset(Ke, 0, (size_t)nd * (size_t)nd * sizeof *Ke);
   for (q = 0; q < Q.n; q++) {
@@ -305,10 +453,9 @@ int mo_elem_mass(const mo_mesh *msh, int e, const mo_material *mat, int lumped, 
 {
   const mo_eltype_info *T = mo_eltype_get(msh->type);
   int D = msh->dim, nen = T->nen, nd = nen * D, q, a, b, i, st;
-  double N[8], dNx[24], xq[3], Ms[64];
+  double N[MO_NEN_MAX], dNx[3 * MO_NEN_MAX], xq[3], Ms[MO_NEN_MAX * MO_NEN_MAX];
   mo_quad Q;
-  /* exact for the consistent mass of every type (bilinear products) */
-  if ((st = mo_quad_element(msh->type, 2, &Q, ctx))) return st;
+  if ((st = mo_quad_element(msh->type, mass_order(msh->type), &Q, ctx))) return st;
   memset(Ms, 0, sizeof Ms);
   for (q = 0; q < Q.n; q++) {
     double det = mo_elem_geometry(msh, e, Q.xi[q], N, dNx, xq);
@@ -318,12 +465,22 @@ int mo_elem_mass(const mo_mesh *msh, int e, const mo_material *mat, int lumped, 
     for (a = 0; a < nen; a++)
       for (b = 0; b < nen; b++) Ms[a * nen + b] += wq * N[a] * N[b];
   }
-  if (lumped)
+  if (lumped && T->order == 1) /* row sums: all positive for the linear types */
     for (a = 0; a < nen; a++) {
       double s = 0;
       for (b = 0; b < nen; b++) { s += Ms[a * nen + b]; Ms[a * nen + b] = 0; }
       Ms[a * nen + a] = s;
+    } else if (lumped) {
+    /* HRZ (Hinton, Rock and Zienkiewicz 1976): the diagonal scaled to the element's mass; row
+       sums would give T6 corners 0 and T10 corners -1/20 of it (T191) */
+    double m = 0, dsum = 0;
+    for (a = 0; a < nen; a++) {
+      dsum += Ms[a * nen + a];
+      for (b = 0; b < nen; b++) m += Ms[a * nen + b];
     }
+    for (a = 0; a < nen; a++)
+      for (b = 0; b < nen; b++) Ms[a * nen + b] = a == b ? Ms[a * nen + a] * m / dsum : 0;
+  }
   memset(Me, 0, (size_t)nd * (size_t)nd * sizeof *Me);
   for (a = 0; a < nen; a++)
     for (b = 0; b < nen; b++)
@@ -336,9 +493,8 @@ int mo_elem_stress(const mo_mesh *msh, int e, const mo_material *mat, const doub
 {
   const mo_eltype_info *T = mo_eltype_get(msh->type);
   int D = msh->dim, nen = T->nen, nd = nen * D, nc = mo_hyp_ncomp(mat->hyp), i, j;
-  double N[8], dNx[24], xq[3], B[6 * 24], Dm[36], c[3] = {0, 0, 0};
-  if (msh->type == MO_EL_T3) c[0] = c[1] = 1.0 / 3;
-  mo_elem_geometry(msh, e, c, N, dNx, xq);
+  double N[MO_NEN_MAX], dNx[3 * MO_NEN_MAX], xq[3], B[6 * MO_ND_MAX], Dm[36];
+  mo_elem_geometry(msh, e, T->centre, N, dNx, xq);
   bmatrix(mat, nen, D, N, dNx, xq, B);
   mo_elastic_D(mat, Dm);
   for (i = 0; i < nc; i++) {
@@ -361,12 +517,12 @@ int mo_elem_stress(const mo_mesh *msh, int e, const mo_material *mat, const doub
 
 double mo_elem_measure(const mo_mesh *msh, int e, const mo_material *mat)
 {
-  double N[8], dNx[24], xq[3], s = 0;
+  double N[MO_NEN_MAX], dNx[3 * MO_NEN_MAX], xq[3], s = 0;
   mo_quad Q;
   mo_ctx c;
   int q;
   mo_ctx_init(&c);
-  if (mo_quad_element(msh->type, 2, &Q, &c)) return NAN;
+  if (mo_quad_element(msh->type, mass_order(msh->type), &Q, &c)) return NAN;
   for (q = 0; q < Q.n; q++) {
     double det = mo_elem_geometry(msh, e, Q.xi[q], N, dNx, xq);
     s += det * Q.w[q] * mo_measure_factor(mat, xq);
@@ -375,19 +531,19 @@ double mo_elem_measure(const mo_mesh *msh, int e, const mo_material *mat)
 }
 
 /* Facet geometry at facet coordinates s: point, tangent(s), unit normal, measure density. */
-static double facet_geom(const mo_mesh *msh, const int *fn, int nfn, int lface, const double *s,
-                         double *N, double *xq, double *n)
+static double facet_geom(const mo_mesh *msh, const int *fn, mo_facet_kind kind, int nfn, int lface,
+                         const double *s, double *N, double *xq, double *n)
 {
-  int D = msh->dim, a, i;
-  double dN[8], t1[3] = {0, 0, 0}, t2[3] = {0, 0, 0}, len;
-  mo_facet_shape(nfn, s, N, dN);
+  int D = msh->dim, fd = mo_facet_kind_dim(kind), a, i;
+  double dN[2 * MO_FNODE_MAX], t1[3] = {0, 0, 0}, t2[3] = {0, 0, 0}, len;
+  mo_facet_shape_kind(kind, s, N, dN);
   for (i = 0; i < D; i++) xq[i] = 0;
   for (a = 0; a < nfn; a++) {
     const double *x = &msh->x[(size_t)fn[a] * (size_t)D];
     for (i = 0; i < D; i++) {
       xq[i] += N[a] * x[i];
-      if (nfn >= 2) t1[i] += dN[a * (nfn == 2 ? 1 : 2)] * x[i];
-      if (nfn == 4) t2[i] += dN[a * 2 + 1] * x[i];
+      if (fd >= 1) t1[i] += dN[a * fd] * x[i];
+      if (fd == 2) t2[i] += dN[a * 2 + 1] * x[i];
     }
   }
   if (D == 1) {
@@ -408,17 +564,24 @@ static double facet_geom(const mo_mesh *msh, const int *fn, int nfn, int lface, 
   return len;
 }
 
+/* The facet rule of the loads: exact for a uniform traction on straight facets and for the
+   linear variation of 2 pi r (2 Gauss points per direction, degree 4 on triangles). */
+static int load_rule(mo_facet_kind k, mo_quad *Q, mo_ctx *ctx)
+{
+  return mo_quad_facet_kind(k, k == MO_FK_TRI3 || k == MO_FK_TRI6 ? 3 : 2, Q, ctx);
+}
+
 int mo_facet_load(const mo_mesh *msh, const mo_facetset *fs, int f, const mo_material *mat,
                   mo_traction_fn traction, void *data, double *fe, mo_ctx *ctx)
 {
   int D = msh->dim, nfn = fs->nfn, q, a, i, st;
   const int *fn = &fs->node[f * nfn];
-  double N[4], xq[3], n[3], t[3];
+  double N[MO_FNODE_MAX], xq[3], n[3], t[3];
   mo_quad Q;
-  if ((st = mo_quad_facet(D - 1, 2, &Q, ctx))) return st;
+  if ((st = load_rule(fs->kind, &Q, ctx))) return st;
   memset(fe, 0, (size_t)nfn * (size_t)D * sizeof *fe);
   for (q = 0; q < Q.n; q++) {
-    double jac = facet_geom(msh, fn, nfn, fs->lface[f], Q.xi[q], N, xq, n);
+    double jac = facet_geom(msh, fn, fs->kind, nfn, fs->lface[f], Q.xi[q], N, xq, n);
     double w = jac * Q.w[q] * mo_measure_factor(mat, xq);
     if (D == 3) w = jac * Q.w[q];
     traction(xq, n, data, t);
@@ -431,9 +594,21 @@ int mo_facet_load(const mo_mesh *msh, const mo_facetset *fs, int f, const mo_mat
 void mo_facet_normal(const mo_mesh *msh, const mo_facetset *fs, int f, double *n,
                      double *measure)
 {
-  double s[2] = {0, 0}, N[4], xq[3], jac;
-  jac = facet_geom(msh, &fs->node[f * fs->nfn], fs->nfn, fs->lface[f], s, N, xq, n);
-  if (measure) *measure = fs->nfn == 1 ? 1 : jac * (fs->nfn == 2 ? 2 : 4);
+  static const double ctr[3][2] = {{0, 0}, {0, 0}, {1.0 / 3, 1.0 / 3}};
+  const int *fn = &fs->node[f * fs->nfn];
+  double N[MO_FNODE_MAX], xq[3], nq[3];
+  int tri = fs->kind == MO_FK_TRI3 || fs->kind == MO_FK_TRI6, q;
+  mo_quad Q;
+  mo_ctx c;
+  facet_geom(msh, fn, fs->kind, fs->nfn, fs->lface[f], ctr[tri ? 2 : 0], N, xq, n);
+  if (!measure) return;
+  *measure = 0;
+  mo_ctx_init(&c);
+  if (fs->kind == MO_FK_POINT || load_rule(fs->kind, &Q, &c)) {
+    *measure = 1;
+    return;
+  }
+  for (q = 0; q < Q.n; q++) *measure += Q.w[q] * facet_geom(msh, fn, fs->kind, fs->nfn, fs->lface[f], Q.xi[q], N, xq, nq);
 }
 
 double mo_von_mises(mo_hypothesis h, const double *s)

@@ -21,6 +21,20 @@ static const double w_q4[4] = {1, 1, 1, 1};
 static const double xi_h8[8][3] = {{-G3, -G3, -G3}, {G3, -G3, -G3}, {G3, G3, -G3}, {-G3, G3, -G3},
                                    {-G3, -G3, G3},  {G3, -G3, G3},  {G3, G3, G3},  {-G3, G3, G3}};
 static const double w_h8[8] = {1, 1, 1, 1, 1, 1, 1, 1};
+/* simplices: T4 the centroid; T10 the 4-point degree-2 rule, a = (5 - sqrt 5) / 20; T6 the 3-point
+   degree-2 rule, in axisymmetry the 6-point degree-4 rule (as the small-strain stiffness, fe.c) */
+#define TA 0.13819660112501051518
+#define TB 0.58541019662496845446
+static const double xi_t4[1][3] = {{0.25, 0.25, 0.25}};
+static const double w_t4[1] = {1.0 / 6};
+static const double xi_t10[4][3] = {{TA, TA, TA}, {TB, TA, TA}, {TA, TB, TA}, {TA, TA, TB}};
+static const double w_t10[4] = {1.0 / 24, 1.0 / 24, 1.0 / 24, 1.0 / 24};
+#define D4A 0.445948490915965
+#define D4B 0.091576213509771
+static const double xi_t6x[6][3] = {{D4A, D4A, 0}, {1 - 2 * D4A, D4A, 0}, {D4A, 1 - 2 * D4A, 0},
+                                    {D4B, D4B, 0}, {1 - 2 * D4B, D4B, 0}, {D4B, 1 - 2 * D4B, 0}};
+static const double w_t6x[6] = {0.223381589678011 / 2, 0.223381589678011 / 2, 0.223381589678011 / 2,
+                                0.109951743655322 / 2, 0.109951743655322 / 2, 0.109951743655322 / 2};
 
 typedef struct {
   int n;
@@ -46,6 +60,19 @@ static int nl_rule_get(mo_eltype t, mo_hypothesis h, nl_rule *R)
     R->n = 8;
     R->xi = xi_h8;
     R->w = w_h8;
+  } else if (t == MO_EL_T4 && h == MO_HYP_3D) {
+    R->n = 1;
+    R->xi = xi_t4;
+    R->w = w_t4;
+  } else if (t == MO_EL_T10 && h == MO_HYP_3D) {
+    R->n = 4;
+    R->xi = xi_t10;
+    R->w = w_t10;
+  } else if (t == MO_EL_T6 && two) {
+    int ax = h == MO_HYP_AXISYMMETRIC;
+    R->n = ax ? 6 : 3;
+    R->xi = ax ? xi_t6x : xi_t3x;
+    R->w = ax ? w_t6x : w_t3x;
   }
   return R->n;
 }
@@ -97,7 +124,7 @@ static void spatial(int D, int ax, int nen, const double *N, const double *dNX,
 static int unsupported(const mo_mesh *msh, const mo_material *mat, mo_ctx *ctx)
 {
   return mo_error(ctx, MO_EUNSUPPORTED, "finite strains: element %s with hypothesis '%s' is "
-                  "not supported (T3 or Q4 in plane strain or axisymmetry, H8 in 3D)",
+                  "not supported (T3, T6 or Q4 in plane strain or axisymmetry, H8, T4 or T10 in 3D)",
                   mo_eltype_get(msh->type)->name, mo_hyp_name(mat->hyp));
 }
 
@@ -118,9 +145,9 @@ int mo_elem_nl_force(const mo_mesh *msh, int e, const mo_material *mat, unsigned
   const int *rows = D == 3 ? rows3 : rows2;
   const double dd = ps ? 2 : 3; /* directions the mean dilatation scales (T32) */
   /* per point: weight, F, J, spatial gradients, hoop terms, divergence operator */
-  double w[8], F[8][9], J[8], g[8][24], h[8][8], dv[8][24];
-  double N[8], dNX[24], X[3], Fi[9], Fb[9], tau[9], A[81], tg[24];
-  double m[24] = {0}, dT[6 * 24], cq[8];
+  double w[8], F[8][9], J[8], g[8][MO_ND_MAX], h[8][MO_NEN_MAX], dv[8][MO_ND_MAX];
+  double N[MO_NEN_MAX], dNX[MO_ND_MAX], X[3], Fi[9], Fb[9], tau[9], A[81], tg[MO_ND_MAX];
+  double m[MO_ND_MAX] = {0}, dT[6 * MO_ND_MAX], cq[8];
   double v = 0, V0 = 0, theta = 1, P = 0;
   nl_rule R;
   int md, q, a, b, i, k, r, c, st;
@@ -280,7 +307,7 @@ int mo_elem_nl_force(const mo_mesh *msh, int e, const mo_material *mat, unsigned
 /* Reference-volume weight of every point: detJ * w * (thickness or 2 pi R). */
 static int nl_weights(const mo_mesh *msh, int e, const mo_material *mat, double *wq)
 {
-  double N[8], dNX[24], X[3];
+  double N[MO_NEN_MAX], dNX[MO_ND_MAX], X[3];
   nl_rule R;
   int q;
   if (!nl_rule_get(msh->type, mat->hyp, &R) || (msh->dim == 3) != (mat->hyp == MO_HYP_3D))

@@ -1,5 +1,6 @@
-/* gmsh.c: Gmsh MSH files (ASCII 4.1 and 2.2) read into a mesh with named node and facet sets,
-   validated like a case file: every error names the file, the line and what was expected. */
+/* gmsh.c: Gmsh MSH files (4.1 ASCII or binary, ASCII 2.2) read into a mesh with named node and
+   facet sets, validated like a case file: every error names the file, the line (the byte in a
+   binary file) and what was expected. */
 #include "config.h"
 #include <moreau/mesh.h>
 #include "mesh_internal.h"
@@ -8,6 +9,7 @@
 #include <limits.h>
 #include <math.h>
 #include <stdarg.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -28,18 +30,26 @@
 #define MSH_MIN_SINE 1e-6
 #define MSH_COINCIDE 1e-10
 
-/* The element types moreau reads; any other is refused with its Gmsh name. */
-enum { G_POINT = 0, G_LINE, G_TRI, G_QUAD, G_HEX, G_NTYPES };
+/* The element types moreau reads; any other is refused with its Gmsh name. The 3-node line is
+   the side of a T6 body only. perm: moreau's node a is the file's node perm[a] (Gmsh numbers the
+   10-node tetrahedron's middles of edges 23 and 13 as its 9th and 10th nodes, VTK and moreau the
+   other way round, mesh.h). */
+enum { G_POINT = 0, G_LINE, G_TRI, G_QUAD, G_HEX, G_TET, G_TET10, G_TRI6, G_LINE3, G_NTYPES };
 static const struct {
-  int gmsh, dim, nen;
-  const char *name;
+  int gmsh, dim, nen, nvert;
+  const char *name, *names;
   mo_eltype mo;
+  int perm[MO_NEN_MAX];
 } gtype[G_NTYPES] = {
-  {15, 0, 1, "point", MO_EL_NTYPES},
-  {1, 1, 2, "line", MO_EL_BAR2},
-  {2, 2, 3, "triangle", MO_EL_T3},
-  {3, 2, 4, "quadrangle", MO_EL_Q4},
-  {5, 3, 8, "hexahedron", MO_EL_H8},
+  {15, 0, 1, 1, "point", "points", MO_EL_NTYPES, {0}},
+  {1, 1, 2, 2, "line", "lines", MO_EL_BAR2, {0, 1}},
+  {2, 2, 3, 3, "triangle", "triangles", MO_EL_T3, {0, 1, 2}},
+  {3, 2, 4, 4, "quadrangle", "quadrangles", MO_EL_Q4, {0, 1, 2, 3}},
+  {5, 3, 8, 8, "hexahedron", "hexahedra", MO_EL_H8, {0, 1, 2, 3, 4, 5, 6, 7}},
+  {4, 3, 4, 4, "tetrahedron", "tetrahedra", MO_EL_T4, {0, 1, 2, 3}},
+  {11, 3, 10, 4, "10-node tetrahedron", "10-node tetrahedra", MO_EL_T10, {0, 1, 2, 3, 4, 5, 6, 7, 9, 8}},
+  {9, 2, 6, 3, "6-node triangle", "6-node triangles", MO_EL_T6, {0, 1, 2, 3, 4, 5}},
+  {8, 1, 3, 2, "3-node line", "3-node lines", MO_EL_NTYPES, {0, 1, 2}},
 };
 
 static const char *gmsh_type_name(long long t)
@@ -90,6 +100,12 @@ typedef struct {
   int nl_last;           /* the last byte read was a newline */
   char tok[MSH_TOKEN_MAX];
   char shown[64];        /* the token as printed in messages */
+  long pos;              /* bytes read so far */
+  int term;              /* the byte that ended the last token */
+  int binary, inbin;     /* a binary file (4.1); its binary section under way ($Entities, $Nodes, $Elements) */
+  int swap, dsize;       /* binary: the file's byte order is not this machine's; bytes of its size_t */
+  char posbuf[4][32];    /* positions formatted for messages (W) */
+  int nat;
   mo_ctx *ctx;
   long long max_nodes, max_elems;
   int version;           /* 41 or 22 */
@@ -141,12 +157,29 @@ static void msh_release(msh *R)
 
 /* --- messages ------------------------------------------------------------------------------ */
 
+/* Positions are lines (> 0), bytes of a binary file (-1 - offset), or 0 for the file as a whole. */
 static int msh_verror(msh *R, int code, long line, const char *fmt, va_list ap)
 {
   char msg[1024];
   vsnprintf(msg, sizeof msg, fmt, ap);
   if (line > 0) return mo_error(R->ctx, code, "%s:%ld: %s", R->file, line, msg);
+  if (line < 0) return mo_error(R->ctx, code, "%s: byte %ld: %s", R->file, -1 - line, msg);
   return mo_error(R->ctx, code, "%s: %s", R->file, msg);
+}
+
+/* How a position reads in messages ("line 12", "byte 4711"). */
+static const char *where(long line, char *buf, size_t n)
+{
+  if (line < 0) snprintf(buf, n, "byte %ld", -1 - line);
+  else snprintf(buf, n, "line %ld", line);
+  return buf;
+}
+
+/* The same in the reader's own buffers (four at a time, for one message). */
+static const char *W(msh *R, long line)
+{
+  char *b = R->posbuf[R->nat++ & 3];
+  return where(line, b, sizeof R->posbuf[0]);
 }
 
 /* An error of kind `code` at `line` (0: the file as a whole). */
@@ -206,12 +239,14 @@ static int msh_next(msh *R)
     c = getc_unlocked(R->f);
     if (c == EOF) {
       R->line = R->at > 1 && R->nl_last ? R->at - 1 : R->at; /* the last line, not the one after */
+      if (R->binary) R->line = -1 - R->pos;
       if (ferror(R->f)) {
         msh_error(R, MO_EIO, R->at, "read error (%s)", strerror(errno));
         return -1;
       }
       return 0;
     }
+    R->pos++;
     R->nl_last = c == '\n';
     if (c == '\n' && !(++R->at & 0xffff) && R->ctx->interrupt && *R->ctx->interrupt) {
       mo_error(R->ctx, MO_EINTERRUPT, "%s: interrupted while reading line %ld", R->file, R->at);
@@ -219,11 +254,12 @@ static int msh_next(msh *R)
     }
     else if (!is_blank(c)) break;
   }
-  R->line = R->at;
+  R->line = R->binary ? -R->pos : R->at; /* the token's first byte: offset pos - 1 */
   if (c == '"') {
     R->tok[n++] = '"';
     do {
       c = getc_unlocked(R->f);
+      R->pos += c != EOF;
       if (c == EOF || c == '\n' || c == '\0') {
         R->tok[n] = '\0';
         msh_bad(R, "a quoted name is not closed on its line");
@@ -250,12 +286,65 @@ static int msh_next(msh *R)
       }
       R->tok[n++] = (char)c;
       c = getc_unlocked(R->f);
+      R->pos += c != EOF;
     } while (c != EOF && !is_blank(c));
     R->nl_last = c == '\n';
+    R->term = c;
     if (c == '\n') R->at++;
   }
   R->tok[n] = '\0';
   return 1;
+}
+
+/* --- binary values (MSH 4.1 binary: int 4 bytes, size_t dsize bytes, double 8 bytes, in the
+   file's byte order) -------------------------------------------------------------------------- */
+
+/* n bytes of a binary section, in this machine's byte order; an error naming `what` when the file
+   ends first. */
+static int bin_read(msh *R, void *buf, size_t n, const char *what)
+{
+  unsigned char *b = buf;
+  size_t got;
+  R->line = -1 - R->pos;
+  got = fread(buf, 1, n, R->f);
+  R->pos += (long)got;
+  if (got < n) {
+    if (ferror(R->f)) return msh_error(R, MO_EIO, R->line, "read error (%s)", strerror(errno));
+    return msh_bad(R, "the file ends inside a binary section (%zu of the %zu bytes of %s)", got, n, what);
+  }
+  if (R->swap)
+    for (got = 0; got < n / 2; got++) {
+      unsigned char t = b[got];
+      b[got] = b[n - 1 - got];
+      b[n - 1 - got] = t;
+    }
+  return MO_OK;
+}
+
+/* A binary integer of `bytes` bytes (4: a signed int; 4 or 8: an unsigned size_t) in [lo, hi]. */
+static int bin_int(msh *R, int size_t_kind, const char *what, long long lo, long long hi, long long *v)
+{
+  int st;
+  if (!size_t_kind) {
+    int32_t i;
+    if ((st = bin_read(R, &i, 4, what))) return st;
+    *v = i;
+  } else if (R->dsize == 4) {
+    uint32_t u;
+    if ((st = bin_read(R, &u, 4, what))) return st;
+    *v = (long long)u;
+  } else {
+    uint64_t u;
+    if ((st = bin_read(R, &u, 8, what))) return st;
+    if (u > (uint64_t)LLONG_MAX)
+      return msh_bad(R, "%s is %llu: it must lie in [%lld, %lld]", what, (unsigned long long)u, lo, hi);
+    *v = (long long)u;
+  }
+  if (*v < lo || *v > hi) {
+    if (hi == LLONG_MAX) return msh_bad(R, "%s is %lld: it must be at least %lld", what, *v, lo);
+    return msh_bad(R, "%s is %lld: it must lie in [%lld, %lld]", what, *v, lo, hi);
+  }
+  return MO_OK;
 }
 
 /* A token that a value of kind `what` must be: not the end of the file, not a section mark. */
@@ -270,11 +359,13 @@ static int msh_value_token(msh *R, const char *what)
   return MO_OK;
 }
 
-/* An integer in [lo, hi]. */
+/* An integer in [lo, hi]: text, or in a binary section a 4-byte int. */
 static int msh_int(msh *R, const char *what, long long lo, long long hi, long long *v)
 {
   char *end;
-  int st = msh_value_token(R, what);
+  int st;
+  if (R->inbin) return bin_int(R, 0, what, lo, hi, v);
+  st = msh_value_token(R, what);
   if (st) return st;
   errno = 0;
   *v = strtoll(R->tok, &end, 10);
@@ -284,6 +375,15 @@ static int msh_int(msh *R, const char *what, long long lo, long long hi, long lo
     return msh_bad(R, "%s is %s: it must lie in [%lld, %lld]", what, shown(R), lo, hi);
   }
   return MO_OK;
+}
+
+/* The same for a count or a tag the binary format writes as a size_t. */
+static int msh_size(msh *R, const char *what, long long lo, long long hi, long long *v)
+{
+  int st;
+  if (!R->inbin) return msh_int(R, what, lo, hi, v);
+  st = bin_int(R, 1, what, lo, hi, v);
+  return st;
 }
 
 static int msh_int32(msh *R, const char *what, long long lo, long long hi, int *v)
@@ -297,7 +397,7 @@ static int msh_int32(msh *R, const char *what, long long lo, long long hi, int *
 /* A count of items, refused with MO_ELIMIT past `limit` (before anything is allocated). */
 static int msh_count(msh *R, const char *what, long long limit, const char *why, long long *v)
 {
-  int st = msh_int(R, what, 0, LLONG_MAX, v);
+  int st = msh_size(R, what, 0, LLONG_MAX, v);
   if (st) return st;
   if (*v > limit)
     return msh_error(R, MO_ELIMIT, R->line, "%s: %lld, more than the limit of %lld%s", what, *v,
@@ -309,7 +409,13 @@ static int msh_count(msh *R, const char *what, long long limit, const char *why,
 static int msh_real(msh *R, const char *what, double *v)
 {
   char *end;
-  int st = msh_value_token(R, what);
+  int st;
+  if (R->inbin) {
+    if ((st = bin_read(R, v, 8, what))) return st;
+    if (!isfinite(*v)) return msh_bad(R, "%s is %g, not a finite number", what, *v);
+    return MO_OK;
+  }
+  st = msh_value_token(R, what);
   if (st) return st;
   *v = strtod(R->tok, &end);
   if (end == R->tok || *end) return msh_bad(R, "expected %s (a number), found '%s'", what, shown(R));
@@ -320,10 +426,28 @@ static int msh_real(msh *R, const char *what, double *v)
 /* The end mark of the section that began at `line`. */
 static int msh_end(msh *R, const char *mark, long line)
 {
-  int t = msh_next(R);
+  int t;
+  if (R->inbin) {
+    /* after binary data: a newline, then the mark (binary bytes are no tokens) */
+    size_t k = 0, n = strlen(mark);
+    int c;
+    while ((c = getc_unlocked(R->f)) == '\n' || c == '\r') R->pos++;
+    R->line = -1 - R->pos;
+    while (c != EOF && k < n && c == mark[k]) {
+      R->pos++;
+      k++;
+      c = k < n ? getc_unlocked(R->f) : c;
+    }
+    if (k == n) return MO_OK;
+    if (c == EOF && !ferror(R->f))
+      return msh_bad(R, "the file ends inside the section that begins at %s: expected %s", W(R, line), mark);
+    return msh_bad(R, "expected %s after the binary data: the section holds more, or other, bytes than its counts "
+                   "announce", mark);
+  }
+  t = msh_next(R);
   if (t < 0) return R->ctx->status;
   if (t == 0)
-    return msh_bad(R, "the file ends inside the section that begins at line %ld: expected %s", line,
+    return msh_bad(R, "the file ends inside the section that begins at %s: expected %s", W(R, line),
                    mark);
   if (strcmp(R->tok, mark)) {
     if (R->tok[0] == '$') return msh_bad(R, "expected %s, found %s", mark, shown(R));
@@ -364,9 +488,32 @@ static int read_format(msh *R)
     return msh_bad(R, "MSH 4.0 is not read: save the mesh as MSH 4.1 (Gmsh's default) or 2.2");
   else
     return msh_bad(R, "MSH version %s is not read: save the mesh as MSH 4.1 or 2.2", shown(R));
-  if ((st = msh_int(R, "the file type (0 for ASCII)", 0, 1, &ft))) return st;
-  if (ft == 1) return msh_bad(R, "a binary MSH file is not read: save it as ASCII (Mesh.Binary = 0)");
+  if ((st = msh_int(R, "the file type (0 for ASCII, 1 for binary)", 0, 1, &ft))) return st;
+  if (ft == 1 && R->version == 22)
+    return msh_bad(R, "a binary MSH 2.2 file is not read: save it as MSH 4.1 (binary or ASCII) or as ASCII 2.2");
   if ((st = msh_int(R, "the data size", 1, 64, &ds))) return st;
+  if (ft == 1) {
+    /* binary 4.1: the size of its size_t, then the integer 1 in the writer's byte order */
+    unsigned char one[4];
+    int c;
+    if (ds != 4 && ds != 8)
+      return msh_bad(R, "a binary file of data size %lld: Gmsh writes size_t of 4 or 8 bytes", ds);
+    if (R->term == '\r' && (c = getc_unlocked(R->f)) != '\n') ungetc(c, R->f);
+    else if (R->term == '\r') R->pos++;
+    R->binary = 1;
+    R->dsize = (int)ds;
+    R->line = -1 - R->pos;
+    if (fread(one, 1, 4, R->f) != 4) return msh_bad(R, "the file ends where the binary check integer 1 was expected");
+    R->pos += 4;
+    {
+      uint32_t w; /* 1 as this machine reads it: the file's byte order is ours; 2^24: the other one */
+      memcpy(&w, one, 4);
+      if (w == 1) R->swap = 0;
+      else if (w == (uint32_t)1 << 24) R->swap = 1;
+      else return msh_bad(R, "the binary check integer reads %02x %02x %02x %02x, not 1 in either byte order: "
+                          "a damaged file, or one transferred as text", one[0], one[1], one[2], one[3]);
+    }
+  }
   return msh_end(R, "$EndMeshFormat", R->sec_line[S_FORMAT]);
 }
 
@@ -509,8 +656,8 @@ static int read_nodes(msh *R)
   if ((st = msh_count(R, "the number of node blocks", LLONG_MAX, "", &nblock))) return st;
   head = R->line;
   if ((st = msh_count(R, "the number of nodes", R->max_nodes, node_limit_why, &total))) return st;
-  if ((st = msh_int(R, "the smallest node tag", 0, LLONG_MAX, &R->nmin))) return st;
-  if ((st = msh_int(R, "the largest node tag", 0, LLONG_MAX, &R->nmax))) return st;
+  if ((st = msh_size(R, "the smallest node tag", 0, LLONG_MAX, &R->nmin))) return st;
+  if ((st = msh_size(R, "the largest node tag", 0, LLONG_MAX, &R->nmax))) return st;
   left = total;
   for (b = 0; b < nblock; b++) {
     long long edim, etag, param, nb, extra;
@@ -518,16 +665,16 @@ static int read_nodes(msh *R)
     if ((st = msh_int(R, "the dimension of a node block's entity", 0, 3, &edim))) return st;
     if ((st = msh_int(R, "the entity tag of a node block", 1, INT_MAX, &etag))) return st;
     if ((st = msh_int(R, "the parametric flag of a node block (0 or 1)", 0, 1, &param))) return st;
-    if ((st = msh_int(R, "the number of nodes in a block", 0, LLONG_MAX, &nb))) return st;
+    if ((st = msh_size(R, "the number of nodes in a block", 0, LLONG_MAX, &nb))) return st;
     if (nb > left)
-      return msh_bad(R, "a block of %lld nodes, but only %lld of the %lld announced at line %ld remain",
-                     nb, left, total, head);
+      return msh_bad(R, "a block of %lld nodes, but only %lld of the %lld announced at %s remain",
+                     nb, left, total, W(R, head));
     for (i = 0; i < nb; i++) {
       long long tag;
-      if ((st = msh_int(R, "a node tag", 1, LLONG_MAX, &tag))) return st;
+      if ((st = msh_size(R, "a node tag", 1, LLONG_MAX, &tag))) return st;
       if (tag < R->nmin || tag > R->nmax)
-        return msh_bad(R, "node tag %lld lies outside the range [%lld, %lld] announced at line %ld", tag,
-                       R->nmin, R->nmax, head);
+        return msh_bad(R, "node tag %lld lies outside the range [%lld, %lld] announced at %s", tag,
+                       R->nmin, R->nmax, W(R, head));
       if ((st = push_node(R, tag, R->line))) return st;
     }
     extra = param ? edim : 0; /* parametric coordinates u (curves), u v (surfaces), u v w */
@@ -542,8 +689,8 @@ static int read_nodes(msh *R)
     left -= nb;
   }
   if (left)
-    return msh_bad(R, "the node blocks hold %lld nodes, but line %ld announces %lld", total - left,
-                   head, total);
+    return msh_bad(R, "the node blocks hold %lld nodes, but %s announces %lld", total - left,
+                   W(R, head), total);
   return msh_end(R, "$EndNodes", R->sec_line[S_NODES]);
 }
 
@@ -557,13 +704,10 @@ static int type_of(msh *R, long long t, int *g)
       return MO_OK;
     }
   n = gmsh_type_name(t);
-  if (t >= 8)
-    return msh_bad(R, "element type %lld%s%s%s is not supported: moreau reads first-order 2-node lines, "
-                   "3-node triangles, 4-node quadrangles and 8-node hexahedra (Mesh.ElementOrder = 1)",
-                   t, n ? " (" : "", n ? n : "", n ? ")" : "");
-  return msh_bad(R, "element type %lld%s%s%s is not supported: moreau reads 2-node lines, 3-node "
-                 "triangles, 4-node quadrangles and 8-node hexahedra (mesh volumes with hexahedra: "
-                 "Transfinite and Recombine)", t, n ? " (" : "", n ? n : "", n ? ")" : "");
+  return msh_bad(R, "element type %lld%s%s%s is not supported: moreau reads 2-node lines, 3- and 6-node "
+                 "triangles, 4-node quadrangles, 4- and 10-node tetrahedra, 8-node hexahedra, and 3-node lines "
+                 "as the sides of 6-node triangles (Mesh.ElementOrder = 1 or 2 with Mesh.SecondOrderIncomplete = 0; "
+                 "no prisms or pyramids)", t, n ? " (" : "", n ? n : "", n ? ")" : "");
 }
 
 static int push_element(msh *R, int g, int grp, long long tag, long line)
@@ -597,14 +741,14 @@ static int push_element(msh *R, int g, int grp, long long tag, long line)
   return MO_OK;
 }
 
+/* The element's node tags, stored in moreau's order (gtype[g].perm). */
 static int read_element_nodes(msh *R, int g)
 {
+  long long tag[MO_NEN_MAX];
   int a, st;
-  for (a = 0; a < gtype[g].nen; a++) {
-    long long tag;
-    if ((st = msh_int(R, "a node tag of an element", 1, LLONG_MAX, &tag))) return st;
-    R->enode[R->nenode++] = tag;
-  }
+  for (a = 0; a < gtype[g].nen; a++)
+    if ((st = msh_size(R, "a node tag of an element", 1, LLONG_MAX, &tag[a]))) return st;
+  for (a = 0; a < gtype[g].nen; a++) R->enode[R->nenode++] = tag[gtype[g].perm[a]];
   return MO_OK;
 }
 
@@ -641,8 +785,8 @@ static int read_elements(msh *R)
   if ((st = msh_count(R, "the number of element blocks", LLONG_MAX, "", &nblock))) return st;
   head = R->line;
   if ((st = msh_count(R, "the number of elements", R->max_elems, elem_limit_why, &total))) return st;
-  if ((st = msh_int(R, "the smallest element tag", 0, LLONG_MAX, &lo))) return st;
-  if ((st = msh_int(R, "the largest element tag", 0, LLONG_MAX, &hi))) return st;
+  if ((st = msh_size(R, "the smallest element tag", 0, LLONG_MAX, &lo))) return st;
+  if ((st = msh_size(R, "the largest element tag", 0, LLONG_MAX, &hi))) return st;
   left = total;
   for (b = 0; b < nblock; b++) {
     long long edim, etag, type, nb;
@@ -651,41 +795,56 @@ static int read_elements(msh *R)
     if ((st = msh_int(R, "the element type of a block", 1, INT_MAX, &type))) return st;
     if ((st = type_of(R, type, &g))) return st;
     if (gtype[g].dim != edim)
-      return msh_bad(R, "a block of %ss (dimension %d) on a %s (dimension %lld)", gtype[g].name,
+      return msh_bad(R, "a block of %s (dimension %d) on a %s (dimension %lld)", gtype[g].names,
                      gtype[g].dim, dim_word((int)edim), edim);
-    if ((st = msh_int(R, "the number of elements in a block", 0, LLONG_MAX, &nb))) return st;
+    if ((st = msh_size(R, "the number of elements in a block", 0, LLONG_MAX, &nb))) return st;
     if (nb > left)
-      return msh_bad(R, "a block of %lld elements, but only %lld of the %lld announced at line %ld remain",
-                     nb, left, total, head);
+      return msh_bad(R, "a block of %lld elements, but only %lld of the %lld announced at %s remain",
+                     nb, left, total, W(R, head));
     for (i = 0; i < nb; i++) {
       long long tag;
-      if ((st = msh_int(R, "an element tag", 1, LLONG_MAX, &tag))) return st;
+      if ((st = msh_size(R, "an element tag", 1, LLONG_MAX, &tag))) return st;
       if (tag < lo || tag > hi)
-        return msh_bad(R, "element tag %lld lies outside the range [%lld, %lld] announced at line %ld",
-                       tag, lo, hi, head);
+        return msh_bad(R, "element tag %lld lies outside the range [%lld, %lld] announced at %s",
+                       tag, lo, hi, W(R, head));
       if ((st = push_element(R, g, (int)etag, tag, R->line))) return st;
       if ((st = read_element_nodes(R, g))) return st;
     }
     left -= nb;
   }
   if (left)
-    return msh_bad(R, "the element blocks hold %lld elements, but line %ld announces %lld",
-                   total - left, head, total);
+    return msh_bad(R, "the element blocks hold %lld elements, but %s announces %lld",
+                   total - left, W(R, head), total);
   return msh_end(R, "$EndElements", R->sec_line[S_ELEMENTS]);
 }
 
-/* A section moreau does not need ($Periodic, $NodeData, $Comments, ...): skipped to its end. */
+/* A section moreau does not need ($Periodic, $NodeData, $Comments, ...): skipped to its end. In a
+   binary file its bytes are searched for the end mark (binary data need not be tokens). */
 static int skip_section(msh *R)
 {
-  char end[MSH_TOKEN_MAX + 8], name[64];
+  char end[MSH_TOKEN_MAX + 8], name[64], at[32];
   long line = R->line;
   int t;
   snprintf(end, sizeof end, "$End%s", R->tok + 1);
   snprintf(name, sizeof name, "%s", shown(R));
+  if (R->binary) {
+    size_t k = 0, n = strlen(end);
+    int c;
+    while ((c = getc_unlocked(R->f)) != EOF) {
+      R->pos++;
+      k = c == end[k] ? k + 1 : c == end[0];
+      if (k == n) {
+        R->line = -1 - R->pos;
+        return MO_OK;
+      }
+    }
+    R->line = -1 - R->pos;
+    return msh_bad(R, "the file ends inside section %s (%s): no $End%s", name, where(line, at, sizeof at), name + 1);
+  }
   for (;;) {
     t = msh_next(R);
     if (t < 0) return R->ctx->status;
-    if (t == 0) return msh_bad(R, "the file ends inside section %s (line %ld): no $End%s", name, line, name + 1);
+    if (t == 0) return msh_bad(R, "the file ends inside section %s (%s): no $End%s", name, where(line, at, sizeof at), name + 1);
     if (!strcmp(R->tok, end)) return MO_OK;
   }
 }
@@ -715,10 +874,11 @@ static int read_sections(msh *R)
       continue;
     }
     if (R->sec_line[k])
-      return msh_bad(R, "a second %s section (the first begins at line %ld)", known[k], R->sec_line[k]);
+      return msh_bad(R, "a second %s section (the first begins at %s)", known[k], W(R, R->sec_line[k]));
     if (k == S_ENTITIES && R->version == 22)
       return msh_bad(R, "an $Entities section in an MSH 2.2 file");
     R->sec_line[k] = R->line;
+    R->inbin = R->binary && k != S_NAMES; /* $PhysicalNames is text in binary files too */
     switch (k) {
     case S_NAMES: st = read_names(R); break;
     case S_ENTITIES: st = read_entities(R); break;
@@ -726,6 +886,7 @@ static int read_sections(msh *R)
     case S_ELEMENTS: st = read_elements(R); break;
     default: st = MO_EINTERNAL; break;
     }
+    R->inbin = 0;
     if (st) return st;
   }
   if (!R->sec_line[S_NODES]) return msh_error(R, MO_EINPUT, 0, "no $Nodes section");
@@ -769,7 +930,7 @@ static int cmp_pname_name(const void *a, const void *b)
 
 /* Element keys for finding repeated elements: sorted node numbers, then the element. */
 typedef struct {
-  int key[8];
+  int key[MO_NEN_MAX];
   int el;
 } msh_elkey;
 
@@ -777,7 +938,7 @@ static int cmp_elkey(const void *a, const void *b)
 {
   const msh_elkey *p = a, *q = b;
   int i;
-  for (i = 0; i < 8; i++)
+  for (i = 0; i < MO_NEN_MAX; i++)
     if (p->key[i] != q->key[i]) return (p->key[i] > q->key[i]) - (p->key[i] < q->key[i]);
   return (p->el > q->el) - (p->el < q->el);
 }
@@ -824,8 +985,8 @@ static int element_physicals(msh *R, size_t e, const int **p, int *n)
       }
     }
     if (!E)
-      return msh_error(R, MO_EINPUT, R->eline[e], "element %lld lies on %s %d, which $Entities (line %ld) "
-                       "does not define", R->etag[e], dim_word(key.dim), key.tag, R->sec_line[S_ENTITIES]);
+      return msh_error(R, MO_EINPUT, R->eline[e], "element %lld lies on %s %d, which $Entities (%s) "
+                       "does not define", R->etag[e], dim_word(key.dim), key.tag, W(R, R->sec_line[S_ENTITIES]));
     *p = &R->ptag[E->phys0];
     *n = E->nphys;
   }
@@ -838,15 +999,18 @@ static double corner_sine(const double *X, int nd, const int *c, int g, int k)
 {
   static const int h8nb[8][3] = {{1, 3, 4}, {2, 0, 5}, {3, 1, 6}, {0, 2, 7},
                                  {7, 5, 0}, {4, 6, 1}, {5, 7, 2}, {6, 4, 3}};
+  /* a tetrahedron's corner k: its edges to the other three in an even order of the corners */
+  static const int t4nb[4][3] = {{1, 2, 3}, {2, 0, 3}, {0, 1, 3}, {0, 2, 1}};
   double a[3], b[3], w[3], la, lb, lw;
-  int d, n = gtype[g].nen;
+  int d, n = gtype[g].nvert;
   const double *p = &X[(size_t)c[k] * (size_t)nd];
   if (g == G_LINE) return X[(size_t)c[1] * (size_t)nd] > X[(size_t)c[0] * (size_t)nd] ? 1 : -1;
-  if (g == G_HEX) {
+  if (g == G_HEX || g == G_TET || g == G_TET10) {
+    const int *nb = g == G_HEX ? h8nb[k] : t4nb[k];
     for (d = 0; d < 3; d++) {
-      a[d] = X[(size_t)c[h8nb[k][0]] * 3 + (size_t)d] - p[d];
-      b[d] = X[(size_t)c[h8nb[k][1]] * 3 + (size_t)d] - p[d];
-      w[d] = X[(size_t)c[h8nb[k][2]] * 3 + (size_t)d] - p[d];
+      a[d] = X[(size_t)c[nb[0]] * 3 + (size_t)d] - p[d];
+      b[d] = X[(size_t)c[nb[1]] * 3 + (size_t)d] - p[d];
+      w[d] = X[(size_t)c[nb[2]] * 3 + (size_t)d] - p[d];
     }
     la = sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
     lb = sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
@@ -871,10 +1035,18 @@ static double centre_jacobian(const double *X, int nd, const int *c, int g)
   int a, d, r;
   switch (g) {
   case G_LINE: return X[(size_t)c[1]] - X[(size_t)c[0]];
-  case G_TRI: {
+  case G_TRI:
+  case G_TRI6: { /* a curved T6: its corners' triangle (the map itself is checked after, (T196)) */
     const double *p = &X[(size_t)c[0] * 2], *q = &X[(size_t)c[1] * 2], *s = &X[(size_t)c[2] * 2];
     return (q[0] - p[0]) * (s[1] - p[1]) - (q[1] - p[1]) * (s[0] - p[0]);
   }
+  case G_TET:
+  case G_TET10:
+    for (a = 0; a < 3; a++)
+      for (d = 0; d < 3; d++) J[d][a] = X[(size_t)c[a + 1] * 3 + (size_t)d] - X[(size_t)c[0] * 3 + (size_t)d];
+    return J[0][0] * (J[1][1] * J[2][2] - J[1][2] * J[2][1]) -
+           J[0][1] * (J[1][0] * J[2][2] - J[1][2] * J[2][0]) +
+           J[0][2] * (J[1][0] * J[2][1] - J[1][1] * J[2][0]);
   case G_QUAD:
     for (a = 0; a < 4; a++)
       for (d = 0; d < 2; d++)
@@ -898,10 +1070,14 @@ static int element_edges(int g, const int (**E)[2])
   static const int quad[4][2] = {{0, 1}, {1, 2}, {2, 3}, {3, 0}};
   static const int hex[12][2] = {{0, 1}, {1, 2}, {2, 3}, {3, 0}, {4, 5}, {5, 6},
                                  {6, 7}, {7, 4}, {0, 4}, {1, 5}, {2, 6}, {3, 7}};
+  static const int tet[6][2] = {{0, 1}, {1, 2}, {2, 0}, {0, 3}, {1, 3}, {2, 3}};
   switch (g) {
   case G_LINE: *E = line; return 1;
-  case G_TRI: *E = tri; return 3;
+  case G_TRI:
+  case G_TRI6: *E = tri; return 3; /* between corners */
   case G_QUAD: *E = quad; return 4;
+  case G_TET:
+  case G_TET10: *E = tet; return 6;
   default: *E = hex; return 12;
   }
 }
@@ -923,7 +1099,8 @@ static double dist(const double *X, int nd, int i, int j)
    mesh node n (for the tags in messages). */
 static int check_shapes(msh *R, mo_mesh *m, const int *body, const int *fileof, int gb, int *nreor)
 {
-  static const double refmeasure[G_NTYPES] = {0, 1, 0.5, 4, 8}; /* |reference element| x J */
+  /* |reference element| x J: the measure of the element (of its corners' simplex) */
+  static const double refmeasure[G_NTYPES] = {0, 1, 0.5, 4, 8, 1.0 / 6, 1.0 / 6, 0.5, 0};
   const int D = m->dim;
   const int(*E)[2];
   int ne = element_edges(gb, &E), k, a;
@@ -957,7 +1134,17 @@ static int check_shapes(msh *R, mo_mesh *m, const int *body, const int *fileof, 
       switch (gb) {
       case G_LINE: t = c[0]; c[0] = c[1]; c[1] = t; break;
       case G_TRI: t = c[1]; c[1] = c[2]; c[2] = t; break;
+      case G_TRI6: /* corners 1, 2 and the middles of 01, 20 */
+        t = c[1]; c[1] = c[2]; c[2] = t;
+        t = c[3]; c[3] = c[5]; c[5] = t;
+        break;
       case G_QUAD: t = c[1]; c[1] = c[3]; c[3] = t; break;
+      case G_TET: t = c[1]; c[1] = c[2]; c[2] = t; break;
+      case G_TET10: /* corners 1, 2, the middles of 01 and 20, of 13 and 23 */
+        t = c[1]; c[1] = c[2]; c[2] = t;
+        t = c[4]; c[4] = c[6]; c[6] = t;
+        t = c[8]; c[8] = c[9]; c[9] = t;
+        break;
       default:
         for (a = 0; a < 4; a++) { t = c[a]; c[a] = c[a + 4]; c[a + 4] = t; }
       }
@@ -970,7 +1157,7 @@ static int check_shapes(msh *R, mo_mesh *m, const int *body, const int *fileof, 
                        "the %s of its longest edge, a valid element needs more than %g", gtype[gb].name,
                        R->etag[fe], D == 3 ? "volume" : "area", rel, D == 3 ? "cube" : "square",
                        MSH_MIN_SINE);
-    for (k = 0; gb != G_LINE && k < m->nen; k++) {
+    for (k = 0; gb != G_LINE && k < gtype[gb].nvert; k++) {
       double s = corner_sine(m->x, D, c, gb, k);
       if (s < smin) {
         smin = s;
@@ -986,6 +1173,18 @@ static int check_shapes(msh *R, mo_mesh *m, const int *body, const int *fileof, 
                        "corner's sine is %.3g (an angle of 0 or 180 degrees), a valid element needs "
                        "more than %g", gtype[gb].name, R->etag[fe], R->ntag[fileof[c[kmin]]], smin,
                        MSH_MIN_SINE);
+    if (gtype[gb].nen > gtype[gb].nvert) {
+      /* a curved element: its map must keep the orientation of its corners everywhere (T196) */
+      int at;
+      double jmin = mo_mesh_elem_min_jacobian(m, (int)i, &at) / J; /* both det J of the reference simplex */
+      char node[48] = "at its centre";
+      if (at >= 0) snprintf(node, sizeof node, "at its node %lld", R->ntag[fileof[c[at]]]);
+      if (!(jmin > MSH_MIN_SINE))
+        return msh_error(R, MO_EINPUT, R->eline[fe], "%s %lld is %s %s (the Jacobian of its curved map there "
+                         "is %.3g times that of its corners' %s): a middle node lies too far from the middle "
+                         "of its edge", gtype[gb].name, R->etag[fe], jmin < 0 ? "inverted" : "degenerate", node,
+                         jmin, D == 3 ? "tetrahedron" : "triangle");
+    }
   }
   return MO_OK;
 }
@@ -995,12 +1194,12 @@ static int check_shapes(msh *R, mo_mesh *m, const int *body, const int *fileof, 
    through it in opposite senses unless the mesh folds over itself there. */
 static int facet_sense(const mo_mesh *m, const mo_eltype_info *T, int e, int f)
 {
-  int v[4], a, lo = 0;
-  for (a = 0; a < T->nfn; a++) {
+  int v[4] = {0, 0, 0, 0}, a, lo = 0, n = T->nfv; /* the facet's corners */
+  for (a = 0; a < n; a++) {
     v[a] = m->conn[(size_t)e * (size_t)m->nen + (size_t)T->facet[f][a]];
     if (v[a] < v[lo]) lo = a;
   }
-  return T->nfn == 1 ? f : T->nfn == 2 ? v[0] < v[1] : v[(lo + 1) % 4] < v[(lo + 3) % 4];
+  return n == 1 ? f : n == 2 ? v[0] < v[1] : v[(lo + 1) % n] < v[(lo + n - 1) % n];
 }
 
 static int check_folds(msh *R, const mo_mesh *m, const int *body, const int *fileof, int gb)
@@ -1020,18 +1219,18 @@ static int check_folds(msh *R, const mo_mesh *m, const int *body, const int *fil
       size_t p = (size_t)body[S[i].elem], q = (size_t)body[S[i + 1].elem];
       char nodes[160];
       int k = 0;
-      for (a = 0; a < T->nfn; a++)
+      for (a = 0; a < T->nfv; a++) /* the key: its corners */
         k += snprintf(nodes + k, sizeof nodes - (size_t)k, "%s%lld", a ? ", " : "",
                       R->ntag[fileof[S[i].key[a]]]);
       if (j - i > 2)
-        st = msh_error(R, MO_EINPUT, R->eline[q], "%zu elements share the %s of nodes %s (%s %lld at this "
-                       "line, %s %lld at line %ld): the mesh overlaps itself there", j - i,
+        st = msh_error(R, MO_EINPUT, R->eline[q], "%zu elements share the %s of nodes %s (%s %lld here, "
+                       "%s %lld at %s): the mesh overlaps itself there", j - i,
                        side_word[T->dim], nodes, gtype[gb].name, R->etag[q], gtype[gb].name, R->etag[p],
-                       R->eline[p]);
+                       W(R, R->eline[p]));
       else
-        st = msh_error(R, MO_EINPUT, R->eline[q], "%s %lld and %s %lld (line %ld) lie on the same side of "
+        st = msh_error(R, MO_EINPUT, R->eline[q], "%s %lld and %s %lld (%s) lie on the same side of "
                        "their common %s (nodes %s): the mesh folds over itself there", gtype[gb].name,
-                       R->etag[q], gtype[gb].name, R->etag[p], R->eline[p], side_word[T->dim], nodes);
+                       R->etag[q], gtype[gb].name, R->etag[p], W(R, R->eline[p]), side_word[T->dim], nodes);
     }
   }
   mo_free(S);
@@ -1094,12 +1293,17 @@ static int build(msh *R, const mo_gmsh_options *opt, mo_mesh **out, mo_gmsh_repo
       gb = R->etype[e];
       first_body = R->eline[e];
     } else if (R->etype[e] != gb)
-      return msh_error(R, MO_EINPUT, R->eline[e], "element %lld is a %s, but the element at line %ld is "
+      return msh_error(R, MO_EINPUT, R->eline[e], "element %lld is a %s, but the element at %s is "
                        "a %s: a body has one element type (recombine every surface into quadrangles, "
-                       "or none)", R->etag[e], gtype[R->etype[e]].name, first_body, gtype[gb].name);
+                       "or none; one Mesh.ElementOrder)", R->etag[e], gtype[R->etype[e]].name, W(R, first_body),
+                       gtype[gb].name);
     nbody++;
   }
-  if (nbody > (size_t)INT_MAX / 8)
+  if (gb == G_LINE3)
+    return msh_error(R, MO_EINPUT, first_body, "the body would be made of 3-node lines: moreau's 1D element is the "
+                     "2-node bar (save a 1D mesh with Mesh.ElementOrder = 1); 3-node lines are the sides of 6-node "
+                     "triangles");
+  if (nbody > (size_t)INT_MAX / MO_NEN_MAX)
     return msh_error(R, MO_ELIMIT, R->sec_line[S_ELEMENTS], "%zu body elements", nbody);
 
   /* node tags: sorted, unique */
@@ -1114,8 +1318,8 @@ static int build(msh *R, const mo_gmsh_options *opt, mo_mesh **out, mo_gmsh_repo
   qsort(order, R->nnode, sizeof *order, cmp_tagidx);
   for (i = 1; i < R->nnode; i++)
     if (order[i].tag == order[i - 1].tag) {
-      st = msh_error(R, MO_EINPUT, R->nline[order[i].idx], "node %lld is defined twice (first at line %ld)",
-                     order[i].tag, R->nline[order[i - 1].idx]);
+      st = msh_error(R, MO_EINPUT, R->nline[order[i].idx], "node %lld is defined twice (first at %s)",
+                     order[i].tag, W(R, R->nline[order[i - 1].idx]));
       goto done;
     }
 
@@ -1123,15 +1327,15 @@ static int build(msh *R, const mo_gmsh_options *opt, mo_mesh **out, mo_gmsh_repo
   if (R->nent) qsort(R->ent, R->nent, sizeof *R->ent, cmp_entity);
   for (i = 1; i < R->nent; i++)
     if (R->ent[i].dim == R->ent[i - 1].dim && R->ent[i].tag == R->ent[i - 1].tag) {
-      st = msh_error(R, MO_EINPUT, R->ent[i].line, "%s %d is defined twice (first at line %ld)",
-                     dim_word(R->ent[i].dim), R->ent[i].tag, R->ent[i - 1].line);
+      st = msh_error(R, MO_EINPUT, R->ent[i].line, "%s %d is defined twice (first at %s)",
+                     dim_word(R->ent[i].dim), R->ent[i].tag, W(R, R->ent[i - 1].line));
       goto done;
     }
   if (R->npn) qsort(R->pn, R->npn, sizeof *R->pn, cmp_pname);
   for (i = 1; i < R->npn; i++)
     if (R->pn[i].dim == R->pn[i - 1].dim && R->pn[i].tag == R->pn[i - 1].tag) {
-      st = msh_error(R, MO_EINPUT, R->pn[i].line, "physical %s %d is named twice (first at line %ld)",
-                     dim_word(R->pn[i].dim), R->pn[i].tag, R->pn[i - 1].line);
+      st = msh_error(R, MO_EINPUT, R->pn[i].line, "physical %s %d is named twice (first at %s)",
+                     dim_word(R->pn[i].dim), R->pn[i].tag, W(R, R->pn[i - 1].line));
       goto done;
     }
   if (R->npn > 1) {
@@ -1142,9 +1346,9 @@ static int build(msh *R, const mo_gmsh_options *opt, mo_mesh **out, mo_gmsh_repo
     qsort(by, R->npn, sizeof *by, cmp_pname_name);
     for (i = 1; i < R->npn && !st; i++)
       if (by[i]->dim == by[i - 1]->dim && !strcmp(by[i]->name, by[i - 1]->name))
-        st = msh_error(R, MO_EINPUT, by[i]->line, "physical %ss %d and %d are both named %s (first at line %ld): "
+        st = msh_error(R, MO_EINPUT, by[i]->line, "physical %ss %d and %d are both named %s (first at %s): "
                        "the set of that name would merge them; give each group its own name",
-                       dim_word(by[i]->dim), by[i - 1]->tag, by[i]->tag, by[i]->name, by[i - 1]->line);
+                       dim_word(by[i]->dim), by[i - 1]->tag, by[i]->tag, by[i]->name, W(R, by[i - 1]->line));
     mo_free(by);
     if (st) goto done;
   }
@@ -1179,8 +1383,8 @@ static int build(msh *R, const mo_gmsh_options *opt, mo_mesh **out, mo_gmsh_repo
       }
       if (lo < R->nnode && order[lo].tag == t[a]) hit = &order[lo];
       if (!hit) {
-        st = msh_error(R, MO_EINPUT, R->eline[e], "%s %lld refers to node %lld, which $Nodes (line %ld) "
-                       "does not define", gtype[g].name, R->etag[e], t[a], R->sec_line[S_NODES]);
+        st = msh_error(R, MO_EINPUT, R->eline[e], "%s %lld refers to node %lld, which $Nodes (%s) "
+                       "does not define", gtype[g].name, R->etag[e], t[a], W(R, R->sec_line[S_NODES]));
         goto done;
       }
       t[a] = (long long)hit->idx;
@@ -1208,9 +1412,9 @@ static int build(msh *R, const mo_gmsh_options *opt, mo_mesh **out, mo_gmsh_repo
         for (d = D; d < 3; d++)
           if (fabs(R->nx[3 * i + (size_t)d]) > 1e-10 * ext) {
             st = msh_error(R, MO_EINPUT, R->nline[i], "node %lld has %c = %g, but a %s body lies %s: the "
-                           "file's highest-dimensional elements are %ss%s", R->ntag[i], "xyz"[d],
+                           "file's highest-dimensional elements are %s%s", R->ntag[i], "xyz"[d],
                            R->nx[3 * i + (size_t)d], D == 1 ? "1D" : "2D",
-                           D == 1 ? "on the x axis" : "in the plane z = 0", gtype[gb].name,
+                           D == 1 ? "on the x axis" : "in the plane z = 0", gtype[gb].names,
                            D < 3 ? " (Gmsh saves only the elements of physical groups once there are "
                                    "some: add a physical group for the body, or set Mesh.SaveAll = 1)" : "");
             goto done;
@@ -1253,7 +1457,7 @@ static int build(msh *R, const mo_gmsh_options *opt, mo_mesh **out, mo_gmsh_repo
   keys = mo_malloc(ctx, (nbody ? nbody : 1) * sizeof *keys);
   if (!keys) { st = MO_ENOMEM; goto done; }
   for (i = 0; i < nbody; i++) {
-    for (a = 0; a < 8; a++) keys[i].key[a] = a < m->nen ? m->conn[i * (size_t)m->nen + (size_t)a] : -1;
+    for (a = 0; a < MO_NEN_MAX; a++) keys[i].key[a] = a < m->nen ? m->conn[i * (size_t)m->nen + (size_t)a] : -1;
     qsort(keys[i].key, (size_t)m->nen, sizeof(int), cmp_int1);
     keys[i].el = (int)i;
   }
@@ -1264,8 +1468,8 @@ static int build(msh *R, const mo_gmsh_options *opt, mo_mesh **out, mo_gmsh_repo
       int same = !memcmp(&m->conn[p * (size_t)m->nen], &m->conn[q * (size_t)m->nen],
                          (size_t)m->nen * sizeof(int));
       if (R->version != 22 || !same) {
-        st = msh_error(R, MO_EINPUT, R->eline[body[q]], "%s %lld has the nodes of %s %lld (line %ld)",
-                       gtype[gb].name, R->etag[body[q]], gtype[gb].name, R->etag[body[p]], R->eline[body[p]]);
+        st = msh_error(R, MO_EINPUT, R->eline[body[q]], "%s %lld has the nodes of %s %lld (%s)",
+                       gtype[gb].name, R->etag[body[q]], gtype[gb].name, R->etag[body[p]], W(R, R->eline[body[p]]));
         goto done;
       }
       drop[q] = 1;
@@ -1289,8 +1493,8 @@ static int build(msh *R, const mo_gmsh_options *opt, mo_mesh **out, mo_gmsh_repo
   if ((st = check_shapes(R, m, body, fileof, gb, &nreor))) goto done;
   if ((st = check_folds(R, m, body, fileof, gb))) goto done;
   if (nreor)
-    mo_log(ctx, 1, "%s: note: %d of %d %ss were written clockwise (negative Jacobian) and were "
-           "reoriented\n", R->file, nreor, m->nelem, gtype[gb].name);
+    mo_log(ctx, 1, "%s: note: %d of %d %s were written clockwise (negative Jacobian) and were "
+           "reoriented\n", R->file, nreor, m->nelem, gtype[gb].names);
 
   /* physical groups: (dim, tag) pairs, each with a set name (groups sharing a name merge) */
   for (e = 0; e < R->nel; e++) {
@@ -1431,10 +1635,10 @@ static int build(msh *R, const mo_gmsh_options *opt, mo_mesh **out, mo_gmsh_repo
       }
       if (nb && nin) {
         st = msh_error(R, MO_EINPUT, R->eline[first_in], "physical group '%s' has %s %lld inside the body and "
-                       "%s %lld (line %ld) on its boundary: a group of %ss lies on the boundary (a facet "
+                       "%s %lld (%s) on its boundary: a group of %s lies on the boundary (a facet "
                        "set for loads and contact) or inside (a node set)", S->name,
                        gtype[R->etype[first_in]].name, R->etag[first_in], gtype[R->etype[first_b]].name,
-                       R->etag[first_b], R->eline[first_b], gtype[R->etype[first_b]].name);
+                       R->etag[first_b], W(R, R->eline[first_b]), gtype[R->etype[first_b]].names);
         goto done;
       }
       if (nb && (st = mo_mesh_add_facetset(m, S->name, se, sl, (int)nb, ctx))) goto done;
@@ -1458,6 +1662,7 @@ static int build(msh *R, const mo_gmsh_options *opt, mo_mesh **out, mo_gmsh_repo
     rep->version = R->version;
     rep->nunused = (int)R->nnode - nused;
     rep->nduplicate = (int)(nbody - nkeep);
+    rep->binary = R->binary;
   }
   *out = m;
   m = NULL;

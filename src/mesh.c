@@ -1,5 +1,6 @@
 /* mesh.c: mesh storage, named sets, boundary facets, structured generators. */
 #include "config.h"
+#include <moreau/fe.h>
 #include <moreau/mesh.h>
 #include "mesh_internal.h"
 
@@ -9,11 +10,24 @@
 #include <string.h>
 
 static const mo_eltype_info eltypes[MO_EL_NTYPES] = {
-  {"bar2", 1, 2, 2, 1, {{0}, {1}}},
-  {"T3", 2, 3, 3, 2, {{0, 1}, {1, 2}, {2, 0}}},
-  {"Q4", 2, 4, 4, 2, {{0, 1}, {1, 2}, {2, 3}, {3, 0}}},
-  {"H8", 3, 8, 6, 4,
-   {{0, 3, 2, 1}, {4, 5, 6, 7}, {0, 1, 5, 4}, {1, 2, 6, 5}, {2, 3, 7, 6}, {3, 0, 4, 7}}},
+  [MO_EL_BAR2] = {.name = "bar2", .dim = 1, .nen = 2, .nfacet = 2, .nfn = 1, .facet = {{0}, {1}},
+                  .nvert = 2, .nfv = 1, .order = 1, .fkind = MO_FK_POINT, .centre = {0, 0, 0}},
+  [MO_EL_T3] = {.name = "T3", .dim = 2, .nen = 3, .nfacet = 3, .nfn = 2, .facet = {{0, 1}, {1, 2}, {2, 0}},
+                .nvert = 3, .nfv = 2, .order = 1, .fkind = MO_FK_LINE2, .centre = {1.0 / 3, 1.0 / 3, 0}},
+  [MO_EL_Q4] = {.name = "Q4", .dim = 2, .nen = 4, .nfacet = 4, .nfn = 2, .facet = {{0, 1}, {1, 2}, {2, 3}, {3, 0}},
+                .nvert = 4, .nfv = 2, .order = 1, .fkind = MO_FK_LINE2, .centre = {0, 0, 0}},
+  [MO_EL_H8] = {.name = "H8", .dim = 3, .nen = 8, .nfacet = 6, .nfn = 4,
+                .facet = {{0, 3, 2, 1}, {4, 5, 6, 7}, {0, 1, 5, 4}, {1, 2, 6, 5}, {2, 3, 7, 6}, {3, 0, 4, 7}},
+                .nvert = 8, .nfv = 4, .order = 1, .fkind = MO_FK_QUAD4, .centre = {0, 0, 0}},
+  /* faces (a, b, c) with (b - a) x (c - a) outward; T10's add the middles of ab, bc, ca */
+  [MO_EL_T4] = {.name = "T4", .dim = 3, .nen = 4, .nfacet = 4, .nfn = 3,
+                .facet = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}},
+                .nvert = 4, .nfv = 3, .order = 1, .fkind = MO_FK_TRI3, .centre = {0.25, 0.25, 0.25}},
+  [MO_EL_T10] = {.name = "T10", .dim = 3, .nen = 10, .nfacet = 4, .nfn = 6,
+                 .facet = {{0, 2, 1, 6, 5, 4}, {0, 1, 3, 4, 8, 7}, {0, 3, 2, 7, 9, 6}, {1, 2, 3, 5, 9, 8}},
+                 .nvert = 4, .nfv = 3, .order = 2, .fkind = MO_FK_TRI6, .centre = {0.25, 0.25, 0.25}},
+  [MO_EL_T6] = {.name = "T6", .dim = 2, .nen = 6, .nfacet = 3, .nfn = 3, .facet = {{0, 1, 3}, {1, 2, 4}, {2, 0, 5}},
+                .nvert = 3, .nfv = 2, .order = 2, .fkind = MO_FK_LINE3, .centre = {1.0 / 3, 1.0 / 3, 0}},
 };
 
 const mo_eltype_info *mo_eltype_get(mo_eltype t)
@@ -159,9 +173,9 @@ int mo_mesh_all_facets(const mo_mesh *m, mo_facet **out, size_t *nout, mo_ctx *c
   for (e = 0, i = 0; e < m->nelem; e++)
     for (f = 0; f < T->nfacet; f++, i++) {
       for (a = 0; a < 4; a++)
-        F[i].key[a] = a < T->nfn ? m->conn[(size_t)e * (size_t)m->nen + (size_t)T->facet[f][a]]
+        F[i].key[a] = a < T->nfv ? m->conn[(size_t)e * (size_t)m->nen + (size_t)T->facet[f][a]]
                                  : -1;
-      sort_key(F[i].key, T->nfn);
+      sort_key(F[i].key, T->nfv);
       F[i].elem = e;
       F[i].lface = f;
     }
@@ -189,10 +203,24 @@ static int boundary_facets(const mo_mesh *m, mo_facet **out, int *nout, mo_ctx *
   return MO_OK;
 }
 
+/* 1 when the nodes fn (nfn of them, the facet's corners first) are those of local facet lf of
+   element e, in any order. */
+static int same_facet_nodes(const mo_mesh *m, int e, int lf, const int *fn, int nfn)
+{
+  const mo_eltype_info *T = &eltypes[m->type];
+  int a, b;
+  for (a = 0; a < nfn; a++) {
+    int hit = 0;
+    for (b = 0; b < nfn && !hit; b++) hit = m->conn[(size_t)e * (size_t)m->nen + (size_t)T->facet[lf][b]] == fn[a];
+    if (!hit) return 0;
+  }
+  return 1;
+}
+
 int mo_mesh_locate_facets(const mo_mesh *m, const int *fnodes, int nf, int *elem, int *lface,
                           mo_ctx *ctx)
 {
-  const int nfn = eltypes[m->type].nfn;
+  const int nfn = eltypes[m->type].nfn, nfv = eltypes[m->type].nfv;
   mo_facet *F, q;
   size_t n;
   int f, a, st;
@@ -203,8 +231,9 @@ int mo_mesh_locate_facets(const mo_mesh *m, const int *fnodes, int nf, int *elem
   if ((st = mo_mesh_all_facets(m, &F, &n, ctx))) return st;
   for (f = 0; f < nf; f++) {
     const mo_facet *hit;
-    for (a = 0; a < 4; a++) q.key[a] = a < nfn ? fnodes[(size_t)f * (size_t)nfn + (size_t)a] : -1;
-    sort_key(q.key, nfn);
+    /* found by its corners; a quadratic facet's middle nodes must be the element's too */
+    for (a = 0; a < 4; a++) q.key[a] = a < nfv ? fnodes[(size_t)f * (size_t)nfn + (size_t)a] : -1;
+    sort_key(q.key, nfv);
     hit = bsearch(&q, F, n, sizeof *F, mo_facet_cmp_key);
     elem[f] = -1;
     lface[f] = -1;
@@ -213,6 +242,7 @@ int mo_mesh_locate_facets(const mo_mesh *m, const int *fnodes, int nf, int *elem
       elem[f] = -2; /* two elements share it: inside the mesh */
       continue;
     }
+    if (!same_facet_nodes(m, hit->elem, hit->lface, fnodes + (size_t)f * (size_t)nfn, nfn)) continue;
     elem[f] = hit->elem;
     lface[f] = hit->lface;
   }
@@ -264,6 +294,7 @@ int mo_mesh_add_facetset(mo_mesh *m, const char *name, const int *elem, const in
   memset(fs, 0, sizeof *fs);
   fs->name = mo_strdup(ctx, name);
   fs->nfn = T->nfn;
+  fs->kind = T->fkind;
   fs->n = cnt;
   fs->node = mo_malloc(ctx, (size_t)(cnt ? cnt : 1) * (size_t)T->nfn * sizeof(int));
   fs->elem = mo_malloc(ctx, (size_t)(cnt ? cnt : 1) * sizeof(int));
@@ -306,7 +337,7 @@ int mo_mesh_add_facetset_from_nodes(mo_mesh *m, const char *name, const int *nod
   for (i = 0; i < n; i++) in[nodes[i]] = 1;
   for (i = 0; i < nb; i++) {
     int all = 1;
-    for (a = 0; a < T->nfn; a++) all &= in[F[i].key[a]];
+    for (a = 0; a < T->nfv; a++) all &= in[F[i].key[a]]; /* its corners */
     if (all) {
       el[cnt] = F[i].elem;
       lf[cnt++] = F[i].lface;
@@ -432,10 +463,11 @@ void mo_mesh_edge_range(const mo_mesh *m, double *hmin, double *hmax)
   const mo_eltype_info *T = &eltypes[m->type];
   double lo = HUGE_VAL, hi = 0;
   int e, f, a, d;
-  /* edges: the element itself in 1D, the cyclic edges of every facet otherwise */
+  /* edges: the element itself in 1D, the cyclic edges of every facet's corners otherwise (a
+     quadratic element's edges run corner to corner) */
   for (e = 0; e < m->nelem; e++) {
     const int *c = &m->conn[(size_t)e * (size_t)m->nen];
-    int nf = T->dim == 1 ? 1 : T->nfacet, nfn = T->dim == 1 ? 2 : T->nfn;
+    int nf = T->dim == 1 ? 1 : T->nfacet, nfn = T->dim == 1 ? 2 : T->nfv;
     for (f = 0; f < nf; f++)
       for (a = 0; a < nfn; a++) {
         int na = T->dim == 1 ? a : T->facet[f][a];
@@ -495,8 +527,44 @@ static double min_corner_jacobian(const mo_mesh *m, int e)
     }
     return jmin;
   }
+  case MO_EL_T4: {
+    const double *p = &X[c[0] * 3];
+    double a[3], b[3], g[3];
+    int d;
+    for (d = 0; d < 3; d++) {
+      a[d] = X[c[1] * 3 + d] - p[d];
+      b[d] = X[c[2] * 3 + d] - p[d];
+      g[d] = X[c[3] * 3 + d] - p[d];
+    }
+    return a[0] * (b[1] * g[2] - b[2] * g[1]) - a[1] * (b[0] * g[2] - b[2] * g[0]) +
+           a[2] * (b[0] * g[1] - b[1] * g[0]);
+  }
   default: return -1;
   }
+}
+
+/* The reference coordinates of the nodes of the quadratic types (corners, then middles). */
+static const double t6_nodes[6][3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0.5, 0, 0}, {0.5, 0.5, 0}, {0, 0.5, 0}};
+static const double t10_nodes[10][3] = {{0, 0, 0},     {1, 0, 0},     {0, 1, 0},   {0, 0, 1},     {0.5, 0, 0},
+                                        {0.5, 0.5, 0}, {0, 0.5, 0},   {0, 0, 0.5}, {0.5, 0, 0.5}, {0, 0.5, 0.5}};
+
+double mo_mesh_elem_min_jacobian(const mo_mesh *m, int e, int *at)
+{
+  const double(*ref)[3] = m->type == MO_EL_T6 ? t6_nodes : t10_nodes;
+  double N[MO_NEN_MAX], dNx[3 * MO_NEN_MAX], xq[3], jmin = HUGE_VAL;
+  int k;
+  if (at) *at = -1;
+  if (eltypes[m->type].order == 1) return min_corner_jacobian(m, e);
+  /* a curved element: det J of its map at its nodes and its centre (a middle node placed too
+     far from its edge's middle turns the map over near a corner first) */
+  for (k = 0; k <= m->nen; k++) {
+    double j = mo_elem_geometry(m, e, k < m->nen ? ref[k] : eltypes[m->type].centre, N, dNx, xq);
+    if (!(j >= jmin)) {
+      jmin = j;
+      if (at) *at = k < m->nen ? k : -1;
+    }
+  }
+  return jmin;
 }
 
 int mo_mesh_check(const mo_mesh *m, mo_ctx *ctx)
@@ -510,7 +578,7 @@ int mo_mesh_check(const mo_mesh *m, mo_ctx *ctx)
       return mo_error(ctx, MO_EINPUT, "element %d refers to node %d, which does not exist",
                       i / m->nen, m->conn[i]);
   for (e = 0; e < m->nelem; e++) {
-    double j = min_corner_jacobian(m, e);
+    double j = mo_mesh_elem_min_jacobian(m, e, NULL);
     if (!(e & 0xffff) && MO_INTERRUPTED(ctx))
       return mo_error(ctx, MO_EINTERRUPT, "interrupted while checking the mesh (element %d of %d)", e, m->nelem);
     if (!isfinite(j)) {
@@ -564,6 +632,71 @@ static int add_bbox_sets(mo_mesh *m, double tol, mo_ctx *ctx)
   return st;
 }
 
+/* An edge of an element between corners a < b, for numbering the middle nodes. */
+typedef struct {
+  int a, b, elem, k;
+} mesh_edge;
+
+static int cmp_edge(const void *p, const void *q)
+{
+  const mesh_edge *x = p, *y = q;
+  if (x->a != y->a) return (x->a > y->a) - (x->a < y->a);
+  if (x->b != y->b) return (x->b > y->b) - (x->b < y->b);
+  if (x->elem != y->elem) return (x->elem > y->elem) - (x->elem < y->elem);
+  return (x->k > y->k) - (x->k < y->k);
+}
+
+/* The quadratic mesh of a linear one (T3 -> T6, T4 -> T10): a node at the middle of every edge,
+   numbered after the corners in the order of the edges' sorted corner pairs. The sets are built
+   afterwards (from coordinates). */
+static int elevate(mo_mesh *m, mo_ctx *ctx)
+{
+  static const int t3e[3][2] = {{0, 1}, {1, 2}, {2, 0}};
+  static const int t4e[6][2] = {{0, 1}, {1, 2}, {2, 0}, {0, 3}, {1, 3}, {2, 3}};
+  const int(*E)[2] = m->type == MO_EL_T3 ? t3e : t4e;
+  mo_eltype q = m->type == MO_EL_T3 ? MO_EL_T6 : MO_EL_T10;
+  int ne = m->type == MO_EL_T3 ? 3 : 6, nq = eltypes[q].nen, D = m->dim, e, k, d, nnew = 0;
+  size_t n = (size_t)m->nelem * (size_t)ne, i;
+  mesh_edge *L = mo_malloc(ctx, (n ? n : 1) * sizeof *L);
+  int *conn = mo_malloc(ctx, ((size_t)m->nelem * (size_t)nq + 1) * sizeof *conn);
+  double *x = NULL;
+  if (!L || !conn) { mo_free(L); mo_free(conn); return MO_ENOMEM; }
+  for (e = 0, i = 0; e < m->nelem; e++)
+    for (k = 0; k < ne; k++, i++) {
+      int p = m->conn[(size_t)e * (size_t)m->nen + (size_t)E[k][0]], r = m->conn[(size_t)e * (size_t)m->nen + (size_t)E[k][1]];
+      L[i].a = p < r ? p : r;
+      L[i].b = p < r ? r : p;
+      L[i].elem = e;
+      L[i].k = k;
+    }
+  qsort(L, n, sizeof *L, cmp_edge);
+  for (i = 0; i < n; i++) nnew += i == 0 || L[i].a != L[i - 1].a || L[i].b != L[i - 1].b;
+  if (!(x = mo_malloc(ctx, ((size_t)(m->nnode + nnew) * (size_t)D + 1) * sizeof *x))) {
+    mo_free(L);
+    mo_free(conn);
+    return MO_ENOMEM;
+  }
+  memcpy(x, m->x, (size_t)m->nnode * (size_t)D * sizeof *x);
+  for (e = 0; e < m->nelem; e++)
+    for (k = 0; k < m->nen; k++) conn[(size_t)e * (size_t)nq + (size_t)k] = m->conn[(size_t)e * (size_t)m->nen + (size_t)k];
+  for (i = 0, k = m->nnode - 1; i < n; i++) {
+    if (i == 0 || L[i].a != L[i - 1].a || L[i].b != L[i - 1].b) {
+      k++;
+      for (d = 0; d < D; d++) x[(size_t)k * (size_t)D + (size_t)d] = 0.5 * (m->x[(size_t)L[i].a * (size_t)D + (size_t)d] + m->x[(size_t)L[i].b * (size_t)D + (size_t)d]);
+    }
+    conn[(size_t)L[i].elem * (size_t)nq + (size_t)(m->nen + L[i].k)] = k;
+  }
+  mo_free(L);
+  mo_free(m->x);
+  mo_free(m->conn);
+  m->x = x;
+  m->conn = conn;
+  m->nnode += nnew;
+  m->type = q;
+  m->nen = nq;
+  return MO_OK;
+}
+
 int mo_mesh_bar(double x0, double length, int nel, mo_mesh **out, mo_ctx *ctx)
 {
   mo_mesh *m;
@@ -594,10 +727,10 @@ int mo_mesh_rectangle(const double origin[2], const double size[2], const int ne
   if (nx < 1 || ny < 1) return mo_error(ctx, MO_EINPUT, "a rectangle needs at least 1 x 1 cells");
   if (!(size[0] > 0 && size[1] > 0))
     return mo_error(ctx, MO_EINPUT, "a rectangle needs positive sizes");
-  if (type != MO_EL_Q4 && type != MO_EL_T3)
-    return mo_error(ctx, MO_EINPUT, "a rectangle is meshed with Q4 or T3 elements");
-  ne = nx * ny * (type == MO_EL_T3 ? 2 : 1);
-  if ((st = mesh_alloc(2, (nx + 1) * (ny + 1), type, ne, &m, ctx))) return st;
+  if (type != MO_EL_Q4 && type != MO_EL_T3 && type != MO_EL_T6)
+    return mo_error(ctx, MO_EINPUT, "a rectangle is meshed with Q4, T3 or T6 elements");
+  ne = nx * ny * (type == MO_EL_Q4 ? 1 : 2);
+  if ((st = mesh_alloc(2, (nx + 1) * (ny + 1), type == MO_EL_Q4 ? MO_EL_Q4 : MO_EL_T3, ne, &m, ctx))) return st;
   for (j = 0; j <= ny; j++)
     for (i = 0; i <= nx; i++) {
       int n = j * (nx + 1) + i;
@@ -607,7 +740,7 @@ int mo_mesh_rectangle(const double origin[2], const double size[2], const int ne
   for (j = 0; j < ny; j++)
     for (i = 0; i < nx; i++) {
       int a = j * (nx + 1) + i, b = a + 1, c = b + nx + 1, d = a + nx + 1;
-      if (type == MO_EL_Q4) {
+      if (m->type == MO_EL_Q4) {
         int *q = &m->conn[4 * e++];
         q[0] = a; q[1] = b; q[2] = c; q[3] = d;
       } else {
@@ -628,7 +761,8 @@ int mo_mesh_rectangle(const double origin[2], const double size[2], const int ne
         }
       }
     }
-  if ((st = add_bbox_sets(m, 1e-9 * (size[0] < size[1] ? size[0] : size[1]), ctx))) {
+  if ((type == MO_EL_T6 && (st = elevate(m, ctx))) ||
+      (st = add_bbox_sets(m, 1e-9 * (size[0] < size[1] ? size[0] : size[1]), ctx))) {
     mo_mesh_free(m);
     return st;
   }
@@ -639,13 +773,50 @@ int mo_mesh_rectangle(const double origin[2], const double size[2], const int ne
 int mo_mesh_box(const double origin[3], const double size[3], const int nel[3], mo_mesh **out,
                 mo_ctx *ctx)
 {
+  return mo_mesh_box_elements(origin, size, nel, MO_EL_H8, out, ctx);
+}
+
+/* The 6 tetrahedra of Kuhn's subdivision of cell h (its 8 corners in H8 order) into t: one per
+   order in which the path from corner 0 to corner 6 steps along x, y and z, each turned
+   right-handed. */
+static void kuhn(const mo_mesh *m, const int *h, int *t)
+{
+  static const int perm[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+  /* H8 corners as bit sets of the unit steps: 0 = 000, 1 = x, 2 = xy, 3 = y, 4 = z, 5 = xz, 6 = xyz, 7 = yz */
+  static const int bits2h8[8] = {0, 1, 3, 2, 4, 5, 7, 6};
+  int k;
+  for (k = 0; k < 6; k++) {
+    int b = 0, j, *v = t + 4 * k, d;
+    double a[3][3], det;
+    v[0] = h[0];
+    for (j = 0; j < 3; j++) {
+      b |= 1 << perm[k][j];
+      v[j + 1] = h[bits2h8[b]];
+    }
+    for (j = 0; j < 3; j++)
+      for (d = 0; d < 3; d++) a[j][d] = m->x[(size_t)v[j + 1] * 3 + (size_t)d] - m->x[(size_t)v[0] * 3 + (size_t)d];
+    det = a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0]) +
+          a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
+    if (det < 0) {
+      int s = v[1];
+      v[1] = v[2];
+      v[2] = s;
+    }
+  }
+}
+
+int mo_mesh_box_elements(const double origin[3], const double size[3], const int nel[3], mo_eltype type,
+                         mo_mesh **out, mo_ctx *ctx)
+{
   mo_mesh *m;
-  int nx = nel[0], ny = nel[1], nz = nel[2], i, j, k, st, e = 0;
+  int nx = nel[0], ny = nel[1], nz = nel[2], i, j, k, st, e = 0, tet = type == MO_EL_T4 || type == MO_EL_T10;
   double smin;
   if (nx < 1 || ny < 1 || nz < 1) return mo_error(ctx, MO_EINPUT, "a box needs at least 1 x 1 x 1 cells");
   if (!(size[0] > 0 && size[1] > 0 && size[2] > 0))
     return mo_error(ctx, MO_EINPUT, "a box needs positive sizes");
-  if ((st = mesh_alloc(3, (nx + 1) * (ny + 1) * (nz + 1), MO_EL_H8, nx * ny * nz, &m, ctx)))
+  if (type != MO_EL_H8 && !tet) return mo_error(ctx, MO_EINPUT, "a box is meshed with H8, T4 or T10 elements");
+  if ((st = mesh_alloc(3, (nx + 1) * (ny + 1) * (nz + 1), tet ? MO_EL_T4 : MO_EL_H8, nx * ny * nz * (tet ? 6 : 1), &m,
+                       ctx)))
     return st;
   for (k = 0; k <= nz; k++)
     for (j = 0; j <= ny; j++)
@@ -660,14 +831,19 @@ int mo_mesh_box(const double origin[3], const double size[3], const int nel[3], 
       for (i = 0; i < nx; i++) {
         int a = (k * (ny + 1) + j) * (nx + 1) + i;
         int up = (ny + 1) * (nx + 1);
-        int *h = &m->conn[8 * e++];
+        int h[8];
         h[0] = a; h[1] = a + 1; h[2] = a + 1 + nx + 1; h[3] = a + nx + 1;
         h[4] = a + up; h[5] = a + 1 + up; h[6] = a + 1 + nx + 1 + up; h[7] = a + nx + 1 + up;
+        if (tet) {
+          kuhn(m, h, &m->conn[(size_t)4 * (size_t)e]);
+          e += 6;
+        } else
+          memcpy(&m->conn[(size_t)8 * (size_t)e++], h, sizeof h);
       }
   smin = size[0];
   if (size[1] < smin) smin = size[1];
   if (size[2] < smin) smin = size[2];
-  if ((st = add_bbox_sets(m, 1e-9 * smin, ctx))) {
+  if ((type == MO_EL_T10 && (st = elevate(m, ctx))) || (st = add_bbox_sets(m, 1e-9 * smin, ctx))) {
     mo_mesh_free(m);
     return st;
   }

@@ -18,4 +18,9 @@ int mo_mesh_all_facets(const mo_mesh *m, mo_facet **out, size_t *nout, mo_ctx *c
 /* Compares the keys only (for bsearch and for grouping shared facets). */
 int mo_facet_cmp_key(const void *a, const void *b);
 
+/* The smallest Jacobian determinant of element e: at its corners (linear types: of the corner
+   edges), or of its isoparametric map at its nodes and centre (quadratic types); *at (when not
+   NULL) the local node where it is found, -1 for the centre or a linear type. */
+double mo_mesh_elem_min_jacobian(const mo_mesh *m, int e, int *at);
+
 #endif

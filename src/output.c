@@ -612,10 +612,13 @@ static int write_paraview_script(const mo_vtk *v, const mo_scene *sc, mo_ctx *ct
 static int vtk_cell_type(mo_eltype t)
 {
   switch (t) {
-  case MO_EL_BAR2: return 3;
-  case MO_EL_T3: return 5;
-  case MO_EL_Q4: return 9;
-  default: return 12;
+  case MO_EL_BAR2: return 3;   /* VTK_LINE */
+  case MO_EL_T3: return 5;     /* VTK_TRIANGLE */
+  case MO_EL_Q4: return 9;     /* VTK_QUAD */
+  case MO_EL_T4: return 10;    /* VTK_TETRA */
+  case MO_EL_T6: return 22;    /* VTK_QUADRATIC_TRIANGLE: the node order of mesh.h */
+  case MO_EL_T10: return 24;   /* VTK_QUADRATIC_TETRA: the node order of mesh.h */
+  default: return 12;          /* VTK_HEXAHEDRON */
   }
 }
 
@@ -624,10 +627,9 @@ static int vtk_cell_type(mo_eltype t)
 static void green_lagrange(const mo_mesh *m, int e, const mo_material *mat, const double *ue,
                            double *E)
 {
-  static const double ctr[MO_EL_NTYPES][3] = {{0, 0, 0}, {1.0 / 3, 1.0 / 3, 0}, {0, 0, 0}, {0, 0, 0}};
-  double N[8], dN[24], xq[3], F[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1}, C[9];
+  double N[MO_NEN_MAX], dN[MO_ND_MAX], xq[3], F[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1}, C[9];
   int D = m->dim, a, i, j, k;
-  mo_elem_geometry(m, e, ctr[m->type], N, dN, xq);
+  mo_elem_geometry(m, e, mo_eltype_get(m->type)->centre, N, dN, xq);
   for (a = 0; a < m->nen; a++)
     for (i = 0; i < D; i++)
       for (j = 0; j < D; j++) F[3 * i + j] += ue[a * D + i] * dN[a * D + j];
@@ -659,7 +661,7 @@ static void element_fields(const mo_scene *sc, const mo_body *B, const mo_state 
   const mo_mesh *m = B->mesh;
   int D = sc->dim, a, c, e, w, nc = mo_hyp_ncomp(B->mat.hyp);
   for (e = 0; e < m->nelem; e++) {
-    double ue[24], ee[6], se[6];
+    double ue[MO_ND_MAX], ee[6], se[6];
     ep[e] = 0;
     for (a = 0; a < m->nen; a++)
       for (c = 0; c < D; c++) ue[a * D + c] = s->u[B->dof0 + m->conn[e * m->nen + a] * D + c];

@@ -55,16 +55,16 @@ static double facet_measure(const mo_mesh *m, const mo_eltype_info *T, int e, in
   const int *c = m->conn + (size_t)e * (size_t)m->nen, *fn = T->facet[f];
   const double *x0 = m->x + (size_t)c[fn[0]] * (size_t)m->dim;
   int i;
-  if (T->nfn == 2) {
+  if (T->nfv == 2) {
     const double *x1 = m->x + (size_t)c[fn[1]] * (size_t)m->dim;
     double s = 0;
     for (i = 0; i < m->dim; i++) s += (x1[i] - x0[i]) * (x1[i] - x0[i]);
     return sqrt(s);
   }
-  if (T->nfn >= 3 && m->dim == 3) {
+  if (T->nfv >= 3 && m->dim == 3) {
     /* a triangle: |ab x ac| / 2; a planar quad: |ac x bd| / 2 */
     const double *a = x0, *b = m->x + (size_t)c[fn[1]] * 3, *cc = m->x + (size_t)c[fn[2]] * 3;
-    const double *d = T->nfn == 4 ? m->x + (size_t)c[fn[3]] * 3 : NULL;
+    const double *d = T->nfv == 4 ? m->x + (size_t)c[fn[3]] * 3 : NULL;
     double p[3], q[3], r[3];
     for (i = 0; i < 3; i++) {
       p[i] = d ? cc[i] - a[i] : b[i] - a[i];
@@ -78,8 +78,9 @@ static double facet_measure(const mo_mesh *m, const mo_eltype_info *T, int e, in
   return 0;
 }
 
-/* (T102): l_e = measure / largest facet (bar: its length; T3: twice, the smallest altitude;
-   Q4, H8: area over the longest side, volume over the largest face), dt_e = l_e / c_d. */
+/* (T102): l_e = measure / largest facet (bar: its length; T3: twice, T4: three times, the
+   smallest altitude; Q4, H8: area over the longest side, volume over the largest face; T6, T10:
+   the altitude of their corners' simplex over sqrt 6, (T192)), dt_e = l_e / c_d. */
 double mo_scene_dt_crit(const mo_scene *sc, int *body, int *elem)
 {
   double best = HUGE_VAL;
@@ -97,13 +98,24 @@ double mo_scene_dt_crit(const mo_scene *sc, int *body, int *elem)
     if (!(c > 0) || !isfinite(c)) continue;
     for (e = 0; e < m->nelem; e++) {
       double meas = 0, fmax = 0, l;
-      if (m->type == MO_EL_BAR2 || m->type == MO_EL_T3) {
+      if (m->type != MO_EL_Q4 && m->type != MO_EL_H8) {
+        /* a bar or a simplex: the measure of its corners */
         const int *cn = m->conn + (size_t)e * (size_t)m->nen;
         const double *x0 = m->x + (size_t)cn[0] * (size_t)m->dim, *x1 = m->x + (size_t)cn[1] * (size_t)m->dim;
         if (m->type == MO_EL_BAR2) meas = fabs(x1[0] - x0[0]);
-        else {
+        else if (m->dim == 2) {
           const double *x2 = m->x + (size_t)cn[2] * 2;
           meas = 0.5 * fabs((x1[0] - x0[0]) * (x2[1] - x0[1]) - (x1[1] - x0[1]) * (x2[0] - x0[0]));
+        } else {
+          const double *x2 = m->x + (size_t)cn[2] * 3, *x3 = m->x + (size_t)cn[3] * 3;
+          double p[3], q2[3], r[3];
+          for (i = 0; i < 3; i++) {
+            p[i] = x1[i] - x0[i];
+            q2[i] = x2[i] - x0[i];
+            r[i] = x3[i] - x0[i];
+          }
+          meas = fabs(p[0] * (q2[1] * r[2] - q2[2] * r[1]) - p[1] * (q2[0] * r[2] - q2[2] * r[0]) +
+                      p[2] * (q2[0] * r[1] - q2[1] * r[0])) / 6;
         }
       } else {
         /* Q4, H8: the 2^dim Gauss points of weight 1 integrate det J exactly */
@@ -120,7 +132,9 @@ double mo_scene_dt_crit(const mo_scene *sc, int *body, int *elem)
           double fm = facet_measure(m, T, e, f);
           if (fm > fmax) fmax = fm;
         }
-        l = fmax > 0 ? (m->type == MO_EL_T3 ? 2 : 1) * meas / fmax : 0;
+        /* the altitude: d measure / largest facet for a simplex of dimension d */
+        l = fmax > 0 ? (T->nvert == m->dim + 1 ? m->dim : 1) * meas / fmax : 0;
+        if (T->order == 2) l /= sqrt(6.0);
       }
       if (l > 0 && l / c < best) {
         best = l / c;
@@ -393,8 +407,8 @@ static int assemble(mo_scene *sc, int with_mass, mo_ctx *ctx)
   for (b = 0; b < sc->nbody && !st; b++) {
     mo_body *B = &sc->body[b];
     mo_mesh *m = B->mesh;
-    int dofs[24], nd;
-    double Ke[24 * 24], Me[24 * 24];
+    int dofs[MO_ND_MAX], nd;
+    double Ke[MO_ND_MAX * MO_ND_MAX], Me[MO_ND_MAX * MO_ND_MAX];
     if (B->kind != MO_BODY_DEFORMABLE) continue;
     nd = m->nen * D;
     B->mass = 0;
@@ -884,14 +898,17 @@ static int estimate_size(const mo_case *cs, const config_setting_t *bl, int nent
       ne = n[0];
       nn = n[0] + 1;
     } else if (!strcmp(gen, "rectangle")) {
-      int t3 = !strcmp(mo_cfg_string(mg, "element", "Q4"), "T3"), uj = !strcmp(mo_cfg_string(mg, "diagonal", ""), "union_jack");
+      const char *el = mo_cfg_string(mg, "element", "Q4");
+      int t3 = !strcmp(el, "T3"), t6 = !strcmp(el, "T6"), uj = !strcmp(mo_cfg_string(mg, "diagonal", ""), "union_jack");
       d = 2;
-      ne = n[0] * n[1] * (uj ? 4 : t3 ? 2 : 1);
-      nn = (n[0] + 1) * (n[1] + 1) + (uj ? n[0] * n[1] : 0);
+      ne = n[0] * n[1] * (uj ? 4 : t3 || t6 ? 2 : 1);
+      nn = t6 ? (2 * n[0] + 1) * (2 * n[1] + 1) : (n[0] + 1) * (n[1] + 1) + (uj ? n[0] * n[1] : 0);
     } else if (!strcmp(gen, "box")) {
+      const char *el = mo_cfg_string(mg, "element", "H8");
+      int t10 = !strcmp(el, "T10");
       d = 3;
-      ne = n[0] * n[1] * n[2];
-      nn = (n[0] + 1) * (n[1] + 1) * (n[2] + 1);
+      ne = n[0] * n[1] * n[2] * (strcmp(el, "H8") ? 6 : 1);
+      nn = t10 ? (2 * n[0] + 1) * (2 * n[1] + 1) * (2 * n[2] + 1) : (n[0] + 1) * (n[1] + 1) * (n[2] + 1);
     } else if (!strcmp(gen, "disk")) {
       double core = mo_cfg_float(mg, "core", 8), rings = mo_cfg_float(mg, "rings", 4);
       d = 2;

@@ -11,7 +11,7 @@
 #include <string.h>
 
 /* The largest element: nen dim dofs (H8: 24). */
-#define ND_MAX 24
+#define ND_MAX MO_ND_MAX
 
 void mo_tangent_release(mo_stepper *S)
 {

@@ -18,7 +18,7 @@ int nl_assemble(const mo_mesh *m, const mo_material *mat, unsigned opts, const d
 {
   int D = m->dim, nen = m->nen, nd = nen * D, n = m->nnode * D;
   int nq = mo_elem_nl_npoint(m->type, mat->hyp), e, a, b, st;
-  double ue[24], fe[24], Ke[576];
+  double ue[MO_ND_MAX], fe[MO_ND_MAX], Ke[MO_ND_MAX * MO_ND_MAX];
   memset(f, 0, (size_t)n * sizeof *f);
   if (K) memset(K, 0, (size_t)n * n * sizeof *K);
   for (e = 0; e < m->nelem; e++) {

@@ -1,9 +1,13 @@
 /* test_gmsh.c: Gmsh MSH files (tests/meshes/, made by Gmsh 4.8.4 from the .geo files beside
    them): counts, sets, areas and volumes against closed forms, spectra against the same meshes
-   from the generators, patch tests, hostile inputs, and a contact scene on a Gmsh mesh. */
+   from the generators, patch tests, tetrahedra and second-order elements (T4, T10, T6), binary
+   MSH 4.1 read as its ASCII twin, hostile inputs in text and binary, and a contact scene on a Gmsh
+   mesh. */
 #include "config.h"
 #include <moreau/moreau.h>
 #include "testlib.h"
+
+#include <stdint.h>
 
 /* LAPACK: generalized symmetric-definite eigenproblem and SPD solve */
 extern void dsygv_(const int *itype, const char *jobz, const char *uplo, const int *n, double *a,
@@ -84,8 +88,8 @@ static int assemble_dense(const mo_mesh *m, const mo_material *mat, const char *
   *K = calloc((size_t)n * (size_t)n, sizeof(double));
   *M = calloc((size_t)n * (size_t)n, sizeof(double));
   for (e = 0; e < m->nelem; e++) {
-    double Ke[24 * 24], Me[24 * 24];
-    int nd = m->nen * D, dof[24];
+    double Ke[MO_ND_MAX * MO_ND_MAX], Me[MO_ND_MAX * MO_ND_MAX];
+    int nd = m->nen * D, dof[MO_ND_MAX];
     mo_elem_stiffness(m, e, mat, Ke, &ctx);
     mo_elem_mass(m, e, mat, 0, Me, &ctx);
     for (a = 0; a < m->nen; a++)
@@ -410,6 +414,364 @@ static void test_box_bar(void)
   mo_mesh_free(g);
 }
 
+/* --- tetrahedra and second-order elements; binary files ------------------------------------------- */
+
+/* 1 when meshes a and b have the same nodes (coordinates to tol), elements and sets. */
+static int same_mesh(const mo_mesh *a, const mo_mesh *b, double tol, double *dx)
+{
+  int i, k, same = a->type == b->type && a->dim == b->dim && a->nnode == b->nnode && a->nelem == b->nelem &&
+                   a->nnodeset == b->nnodeset && a->nfacetset == b->nfacetset;
+  *dx = 0;
+  if (!same) return 0;
+  for (i = 0; i < a->nnode * a->dim; i++) *dx = fmax(*dx, fabs(a->x[i] - b->x[i]));
+  same &= *dx <= tol && !memcmp(a->conn, b->conn, (size_t)a->nelem * (size_t)a->nen * sizeof(int));
+  for (k = 0; same && k < a->nnodeset; k++) {
+    const mo_nodeset *p = &a->nodeset[k], *q = mo_mesh_find_nodeset(b, p->name);
+    same &= q && q->n == p->n && !memcmp(p->node, q->node, (size_t)p->n * sizeof(int));
+  }
+  for (k = 0; same && k < a->nfacetset; k++) {
+    const mo_facetset *p = &a->facetset[k], *q = mo_mesh_find_facetset(b, p->name);
+    same &= q && q->n == p->n && q->kind == p->kind && !memcmp(p->node, q->node, (size_t)p->n * (size_t)p->nfn * sizeof(int));
+  }
+  return same;
+}
+
+/* The largest distance of a middle node from the middle of its edge (the box's T10 are straight):
+   the 9th and 10th nodes must sit on edges 13 and 23 once read (Gmsh writes them the other way). */
+static double middle_error(const mo_mesh *m)
+{
+  static const int edge[6][2] = {{0, 1}, {1, 2}, {2, 0}, {0, 3}, {1, 3}, {2, 3}};
+  double worst = 0;
+  int e, k, d;
+  for (e = 0; e < m->nelem; e++)
+    for (k = 0; k < 6; k++) {
+      const int *c = &m->conn[e * 10];
+      double s = 0;
+      for (d = 0; d < 3; d++) {
+        double t = m->x[c[4 + k] * 3 + d] - 0.5 * (m->x[c[edge[k][0]] * 3 + d] + m->x[c[edge[k][1]] * 3 + d]);
+        s += t * t;
+      }
+      worst = fmax(worst, sqrt(s));
+    }
+  return worst;
+}
+
+static void test_tets(void)
+{
+  static const char *files[2][2] = {{"tests/meshes/box-t4.msh", "tests/meshes/box-t4-bin.msh"},
+                                    {"tests/meshes/box-t10.msh", "tests/meshes/box-t10-bin.msh"}};
+  mo_ctx ctx;
+  mo_mesh *m = NULL, *mb = NULL;
+  mo_gmsh_report r, rb;
+  int k, st, d;
+  mo_ctx_init(&ctx);
+  ctx.verbosity = 0;
+  for (k = 0; k < 2; k++) {
+    double dx = 0;
+    st = read_mesh(files[k][0], NULL, &m, &r, &ctx);
+    st |= read_mesh(files[k][1], NULL, &mb, &rb, &ctx);
+    ok(!st && m->type == (k ? MO_EL_T10 : MO_EL_T4) && !r.binary && rb.binary && rb.version == 41 &&
+       mo_mesh_check(m, &ctx) == MO_OK,
+       "%s and its binary twin: %s bodies (%s)", files[k][0] + 13, k ? "T10" : "T4", st ? ctx.errmsg : "read");
+    if (st) break;
+    ok(same_mesh(m, mb, 1e-15, &dx), "%s: the binary file gives the ASCII file's mesh: %d nodes, %d elements, %d node "
+       "and %d facet sets, coordinates within %.1e", files[k][1] + 13, m->nnode, m->nelem, m->nnodeset, m->nfacetset, dx);
+    is_close(total_measure(m), 6, 1e-13, "%s: volume 1 x 2 x 3", files[k][0] + 13);
+    for (d = 0; d < 6; d++) {
+      static const char *nm[6] = {"xmin", "xmax", "ymin", "ymax", "zmin", "zmax"};
+      static const double area[6] = {6, 6, 3, 3, 2, 2};
+      const mo_facetset *fs = mo_mesh_find_facetset(m, nm[d]);
+      double n[3] = {0, 0, 0}, a = 0;
+      int f;
+      n[d / 2] = d % 2 ? 1 : -1;
+      for (f = 0; fs && f < fs->n; f++) {
+        double meas, nn[3];
+        mo_facet_normal(m, fs, f, nn, &meas);
+        a += meas;
+      }
+      ok(fs && fs->kind == (k ? MO_FK_TRI6 : MO_FK_TRI3) && outward(m, nm[d], n) && fabs(a - area[d]) < 1e-13,
+         "%s: face group %s: %d %s faces, outward normals, area %g", files[k][0] + 13, nm[d], fs ? fs->n : 0,
+         k ? "6-node" : "3-node", a);
+    }
+    ok(set_size(m, "origin", 0) == 1 && m->x[3 * mo_mesh_find_nodeset(m, "origin")->node[0] + 2] == 0,
+       "%s: the physical point 'origin' is the node at (0, 0, 0)", files[k][0] + 13);
+    is_close(patch_test(m, "xmin|xmax|ymin|ymax|zmin|zmax"), 0, 1e-10, "%s: patch test on Gmsh's tetrahedra",
+             files[k][0] + 13);
+    if (k) {
+      double w = middle_error(m);
+      ok(w < 1e-12, "box-t10.msh: every middle node at the middle of its edge in moreau's order (largest distance "
+         "%.1e): Gmsh's 9th and 10th nodes swapped", w);
+    }
+    mo_mesh_free(m);
+    mo_mesh_free(mb);
+    m = mb = NULL;
+  }
+  /* curved 6-node triangles: the quarter disk, its arc's middle nodes on the circle */
+  st = read_mesh("tests/meshes/quarter-t6.msh", NULL, &m, &r, &ctx);
+  ok(!st && m->type == MO_EL_T6 && set_size(m, "arc", 1) > 0 && mo_mesh_find_facetset(m, "arc")->kind == MO_FK_LINE3,
+     "quarter-t6.msh: a T6 body, its arc a facet set of 3-node edges %s", st ? ctx.errmsg : "");
+  if (!st) {
+    const mo_facetset *fs = mo_mesh_find_facetset(m, "arc");
+    double area = total_measure(m), poly = 0, len = 0, off = 0;
+    int f;
+    for (f = 0; f < fs->n; f++) { /* the corners' polygon: what T3 with these corners would enclose */
+      const double *a = &m->x[2 * fs->node[3 * f]], *b = &m->x[2 * fs->node[3 * f + 1]], *c = &m->x[2 * fs->node[3 * f + 2]];
+      double meas, nn[2];
+      poly += 0.5 * fabs(a[0] * b[1] - a[1] * b[0]);
+      mo_facet_normal(m, fs, f, nn, &meas);
+      len += meas;
+      off = fmax(off, fabs(hypot(c[0], c[1]) - 1));
+    }
+    ok(off < 1e-12, "quarter-t6: the middle nodes of its %d arc edges lie on the unit circle (%.1e)", fs->n, off);
+    ok(fabs(area - M_PI / 4) < 1e-5 && fabs(poly - M_PI / 4) > 100 * fabs(area - M_PI / 4),
+       "quarter-t6: area %.9f against pi/4 = %.9f (%.1e; the corners' polygon %.1e)", area, M_PI / 4,
+       fabs(area - M_PI / 4), fabs(poly - M_PI / 4));
+    ok(fabs(len - M_PI / 2) < 1e-5, "quarter-t6: the arc's length %.9f against pi/2 (%.1e)", len, fabs(len - M_PI / 2));
+    is_close(patch_test(m, "xaxis|arc|yaxis"), 0, 1e-10, "quarter-t6: patch test on curved 6-node triangles");
+  }
+  mo_mesh_free(m);
+}
+
+/* A binary MSH 4.1 file built byte by byte: one tetrahedron (nodes 1-4) on volume 1 of physical group
+   1 "v"; in the writer's byte order (swap: the other one) and size_t of ds bytes. Hooks put
+   damage where a test wants it; at[] records where items begin. */
+typedef struct {
+  char *b;
+  size_t n, cap;
+  int swap, ds;
+} bbuf;
+
+static void b_raw(bbuf *B, const void *p, size_t n)
+{
+  if (B->n + n > B->cap) {
+    B->cap = 2 * (B->n + n) + 64;
+    B->b = realloc(B->b, B->cap);
+  }
+  memcpy(B->b + B->n, p, n);
+  B->n += n;
+}
+static void b_str(bbuf *B, const char *s) { b_raw(B, s, strlen(s)); }
+static void b_num(bbuf *B, const void *p, size_t n)
+{
+  unsigned char t[8];
+  size_t i;
+  for (i = 0; i < n; i++) t[i] = ((const unsigned char *)p)[B->swap ? n - 1 - i : i];
+  b_raw(B, t, n);
+}
+static void b_int(bbuf *B, int v) { int32_t w = v; b_num(B, &w, 4); }
+static void b_size(bbuf *B, unsigned long long v)
+{
+  if (B->ds == 4) { uint32_t w = (uint32_t)v; b_num(B, &w, 4); }
+  else { uint64_t w = v; b_num(B, &w, 8); }
+}
+static void b_dbl(bbuf *B, double v) { b_num(B, &v, 8); }
+
+enum { BAD_NONE = 0, BAD_CHECK, BAD_NNODES, BAD_TYPE, BAD_NODEREF, BAD_NAN, BAD_MORE, BAD_DIM, BAD_TRUNC };
+
+/* The file, with one defect; *at: the byte offset of the defect's item. */
+static bbuf binary_tet(int swap, int ds, int bad, size_t *at)
+{
+  static const double X[4][3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  bbuf B = {NULL, 0, 0, swap, ds};
+  char head[64];
+  int i, j;
+  *at = 0;
+  snprintf(head, sizeof head, "$MeshFormat\n4.1 1 %d\n", ds);
+  b_str(&B, head);
+  *at = B.n;
+  if (bad == BAD_CHECK) b_int(&B, 2);
+  else b_int(&B, 1);
+  b_str(&B, "\n$EndMeshFormat\n$PhysicalNames\n1\n3 1 \"v\"\n$EndPhysicalNames\n$Entities\n");
+  b_size(&B, 0); b_size(&B, 0); b_size(&B, 0); b_size(&B, 1);
+  b_int(&B, 1);
+  for (i = 0; i < 6; i++) b_dbl(&B, i < 3 ? 0 : 1);
+  b_size(&B, 1); b_int(&B, 1); b_size(&B, 0);
+  b_str(&B, "\n$EndEntities\n$Nodes\n");
+  b_size(&B, 1);
+  if (bad == BAD_NNODES) *at = B.n;
+  b_size(&B, bad == BAD_NNODES ? 1000000000000ULL : 4);
+  b_size(&B, 1); b_size(&B, 4);
+  b_int(&B, 3); b_int(&B, 1); b_int(&B, 0); b_size(&B, 4);
+  for (i = 0; i < 4; i++) b_size(&B, (unsigned long long)i + 1);
+  for (i = 0; i < 4; i++)
+    for (j = 0; j < 3; j++) {
+      if (bad == BAD_NAN && i == 2 && j == 0) *at = B.n;
+      b_dbl(&B, bad == BAD_NAN && i == 2 && j == 0 ? NAN : X[i][j]);
+      if (bad == BAD_TRUNC && i == 3 && j == 1) {
+        *at = B.n;
+        b_raw(&B, "\0\0\0", 3);
+        return B;
+      }
+    }
+  b_str(&B, "\n$EndNodes\n$Elements\n");
+  b_size(&B, 1); b_size(&B, 1); b_size(&B, 1); b_size(&B, 1);
+  if (bad == BAD_DIM) *at = B.n;
+  b_int(&B, bad == BAD_DIM ? -1 : 3);
+  b_int(&B, 1);
+  if (bad == BAD_TYPE) *at = B.n;
+  b_int(&B, bad == BAD_TYPE ? 6 : 4);
+  b_size(&B, 1);
+  b_size(&B, 1);
+  for (i = 0; i < 4; i++) {
+    if (bad == BAD_NODEREF && i == 3) *at = B.n;
+    b_size(&B, bad == BAD_NODEREF && i == 3 ? 9 : (unsigned long long)i + 1);
+  }
+  if (bad == BAD_MORE) {
+    *at = B.n;
+    b_size(&B, 5); /* a fifth node where $EndElements belongs */
+  }
+  b_str(&B, "\n$EndElements\n");
+  return B;
+}
+
+static void test_binary(void)
+{
+  mo_ctx ctx;
+  mo_mesh *m = NULL, *ref = NULL;
+  mo_gmsh_report r;
+  static const char ascii[] =
+    "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$PhysicalNames\n1\n3 1 \"v\"\n$EndPhysicalNames\n"
+    "$Entities\n0 0 0 1\n1 0 0 0 1 1 1 1 1 0\n$EndEntities\n"
+    "$Nodes\n1 4 1 4\n3 1 0 4\n1\n2\n3\n4\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n$EndNodes\n"
+    "$Elements\n1 1 1 1\n3 1 4 1\n1 1 2 3 4\n$EndElements\n";
+  int swap, ds, st, k;
+  size_t at;
+  mo_ctx_init(&ctx);
+  ctx.verbosity = 0;
+  st = mo_mesh_read_gmsh_buffer(ascii, strlen(ascii), "a.msh", NULL, &ref, &r, &ctx);
+  ok(!st && ref->nelem == 1 && ref->type == MO_EL_T4, "the ASCII tetrahedron reads (%s)", st ? ctx.errmsg : "1 T4");
+  if (st) return;
+  for (swap = 0; swap < 2; swap++)
+    for (ds = 4; ds <= 8; ds += 4) {
+      bbuf B = binary_tet(swap, ds, BAD_NONE, &at);
+      double dx;
+      st = mo_mesh_read_gmsh_buffer(B.b, B.n, "b.msh", NULL, &m, &r, &ctx);
+      int same = !st && same_mesh(m, ref, 0, &dx);
+      ok(!st && r.binary && same, "binary, %s byte order, %d-byte size_t: the ASCII file's "
+         "tetrahedron, bit for bit (%s)", swap ? "the other" : "this machine's", ds, st ? ctx.errmsg : "same");
+      mo_mesh_free(m);
+      m = NULL;
+      free(B.b);
+    }
+  {
+    static const struct { int bad; const char *want; } bad[] = {
+      {BAD_CHECK, "the binary check integer reads 02 00 00 00, not 1 in either byte order: a damaged file, or "
+                  "one transferred as text"},
+      {BAD_NNODES, "the number of nodes: 1000000000000, more than the limit of 20000000 (at least one dof per node, "
+                   "and the context's max_dofs bounds the dofs: a direct factorization would not fit in memory)"},
+      {BAD_TYPE, "element type 6 (6-node prism) is not supported"},
+      {BAD_NAN, "the x coordinate of a node is nan, not a finite number"},
+      {BAD_DIM, "the dimension of an element block's entity is -1: it must lie in [0, 3]"},
+      {BAD_TRUNC, "the file ends inside a binary section (3 of the 8 bytes of the z coordinate of a node)"},
+      {BAD_MORE, "expected $EndElements after the binary data: the section holds more, or other, bytes than its "
+                 "counts announce"},
+    };
+    for (k = 0; k < (int)MO_COUNT(bad); k++) {
+      bbuf B = binary_tet(0, 8, bad[k].bad, &at);
+      char want[512];
+      mo_ctx_clear_error(&ctx);
+      snprintf(want, sizeof want, "b.msh: byte %zu: %s", at, bad[k].want);
+      st = mo_mesh_read_gmsh_buffer(B.b, B.n, "b.msh", NULL, &m, &r, &ctx);
+      ok(st != MO_OK && !strncmp(ctx.errmsg, want, strlen(want)), "binary, refused: %s (%s)", want + 6,
+         st ? ctx.errmsg : "accepted");
+      mo_mesh_free(m);
+      m = NULL;
+      free(B.b);
+    }
+  }
+  {
+    bbuf B = binary_tet(0, 8, BAD_NODEREF, &at);
+    mo_ctx_clear_error(&ctx);
+    st = mo_mesh_read_gmsh_buffer(B.b, B.n, "b.msh", NULL, &m, &r, &ctx);
+    ok(st == MO_EINPUT && strstr(ctx.errmsg, "b.msh: byte ") &&
+           strstr(ctx.errmsg, ": tetrahedron 1 refers to node 9, which $Nodes (byte "),
+       "binary, refused: an element's node the file does not define (%s)", ctx.errmsg);
+    mo_mesh_free(m);
+    m = NULL;
+    free(B.b);
+  }
+  {
+    /* every proper prefix of the binary tetrahedron, and damaged copies of box-t4-bin.msh: never a
+       crash, an error naming the file and the byte (or the line, in its text parts) */
+    bbuf B = binary_tet(0, 8, BAD_NONE, &at);
+    size_t len = 0, j;
+    char *text = slurp("tests/meshes/box-t4-bin.msh", &len), *copy = malloc(len + 1);
+    int accepted_bad = 0, crashes = 0, unlocated = 0, accepted = 0;
+    for (j = 0; j + 1 < B.n; j++) {
+      mo_ctx_init(&ctx);
+      ctx.verbosity = 0;
+      st = mo_mesh_read_gmsh_buffer(B.b, j, "cut.msh", NULL, &m, &r, &ctx);
+      if (st == MO_OK) accepted_bad++;
+      else if (st != MO_EINPUT) crashes++;
+      else if (strncmp(ctx.errmsg, "cut.msh: byte ", 14) && strncmp(ctx.errmsg, "cut.msh:", 8)) unlocated++;
+      mo_mesh_free(m);
+      m = NULL;
+    }
+    ok(accepted_bad == 0 && crashes == 0 && unlocated == 0, "each of the %zu proper prefixes of the binary "
+       "tetrahedron is refused with 'cut.msh: byte N: ...' (%d accepted, %d other codes, %d unlocated)", B.n - 1,
+       accepted_bad, crashes, unlocated);
+    if (text && copy) {
+      unsigned long long sd = 88172645463325252ULL;
+      int n = 2000, i;
+      for (i = 0; i < n; i++) {
+        size_t pos;
+        sd ^= sd << 13; sd ^= sd >> 7; sd ^= sd << 17;
+        pos = (size_t)(sd % len);
+        memcpy(copy, text, len);
+        copy[pos] = (char)(sd >> 40);
+        mo_ctx_init(&ctx);
+        ctx.verbosity = 0;
+        st = mo_mesh_read_gmsh_buffer(copy, len, "hit.msh", NULL, &m, &r, &ctx);
+        if (st == MO_OK) {
+          accepted++;
+          if (mo_mesh_check(m, &ctx)) crashes++;
+        } else if (st != MO_EINPUT && st != MO_ELIMIT) crashes++;
+        else if (strncmp(ctx.errmsg, "hit.msh:", 8)) unlocated++;
+        mo_mesh_free(m);
+        m = NULL;
+      }
+      ok(crashes == 0 && unlocated == 0, "%d copies of box-t4-bin.msh with a byte changed: %d read (all pass "
+         "mo_mesh_check), the others refused naming the file and the place (%d other codes or failed checks, %d "
+         "unlocated)", n, accepted, crashes, unlocated);
+    }
+    {
+      /* every allocation of a binary read, failing, gives MO_ENOMEM */
+      long calls, i;
+      size_t bad = 0;
+      mo_ctx_init(&ctx);
+      ctx.verbosity = 0;
+      st = mo_mesh_read_gmsh_buffer(text, len, "b.msh", NULL, &m, &r, &ctx);
+      mo_mesh_free(m);
+      m = NULL;
+      calls = ctx.alloc_calls;
+      for (i = 1; i <= calls; i++) {
+        mo_ctx_init(&ctx);
+        ctx.verbosity = 0;
+        ctx.alloc_fail_at = i;
+        st = mo_mesh_read_gmsh_buffer(text, len, "b.msh", NULL, &m, &r, &ctx);
+        if (st != MO_ENOMEM || m) bad++;
+        mo_mesh_free(m);
+        m = NULL;
+      }
+      ok(calls > 10 && bad == 0, "each of the %ld allocations of a binary read, failing, gives MO_ENOMEM (%zu did not)",
+         calls, bad);
+    }
+    mo_ctx_init(&ctx);
+    ctx.verbosity = 0;
+    free(B.b);
+    free(text);
+    free(copy);
+  }
+  {
+    static const char v22[] = "$MeshFormat\n2.2 1 8\n";
+    mo_ctx_clear_error(&ctx);
+    st = mo_mesh_read_gmsh_buffer(v22, strlen(v22), "b.msh", NULL, &m, &r, &ctx);
+    ok(st == MO_EINPUT && !strcmp(ctx.errmsg, "b.msh:2: a binary MSH 2.2 file is not read: save it as MSH 4.1 (binary or "
+       "ASCII) or as ASCII 2.2"), "binary MSH 2.2: refused (%s)", ctx.errmsg);
+  }
+  mo_mesh_free(ref);
+}
+
 /* --- what a file may hold beyond the test meshes -------------------------------------------- */
 
 static const char v22_two_groups[] =
@@ -464,9 +826,28 @@ static void test_features(void)
        "e.msh:6: physical name 'a&b' contains '&', which set names use for intersections"},
       {"$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n0\n$EndNodes\n$Foo\n1 2 3\n",
        "e.msh:8: the file ends inside section $Foo (line 7): no $EndFoo"},
-      {"$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n2\n1 0 0 0\n2 1 0 0\n$EndNodes\n$Elements\n1\n1 8 2 1 1 1 2 3\n$EndElements\n",
-       "e.msh:11: element type 8 (3-node line) is not supported: moreau reads first-order 2-node lines, "
-       "3-node triangles, 4-node quadrangles and 8-node hexahedra (Mesh.ElementOrder = 1)"},
+      {"$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n3\n1 0 0 0\n2 1 0 0\n3 0.5 0 0\n$EndNodes\n$Elements\n1\n1 8 2 1 1 1 2 3\n$EndElements\n",
+       "e.msh:12: the body would be made of 3-node lines: moreau's 1D element is the 2-node bar (save a 1D mesh "
+       "with Mesh.ElementOrder = 1); 3-node lines are the sides of 6-node triangles"},
+      {"$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n2\n1 0 0 0\n2 1 0 0\n$EndNodes\n$Elements\n1\n1 6 2 1 1 1 2 3 4 5 6\n$EndElements\n",
+       "e.msh:11: element type 6 (6-node prism) is not supported: moreau reads 2-node lines, 3- and 6-node "
+       "triangles, 4-node quadrangles, 4- and 10-node tetrahedra, 8-node hexahedra, and 3-node lines as the sides "
+       "of 6-node triangles (Mesh.ElementOrder = 1 or 2 with Mesh.SecondOrderIncomplete = 0; no prisms or pyramids)"},
+      /* a 6-node triangle whose middle node of edge 12 sits beyond corner 1: its map turns over there */
+      {"$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n6\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0.5 0 0\n5 1.6 -0.1 0\n"
+       "6 0 0.5 0\n$EndNodes\n$Elements\n1\n1 9 2 1 1 1 2 3 4 5 6\n$EndElements\n",
+       "e.msh:15: 6-node triangle 1 is inverted at its node 2 (the Jacobian of its curved map there is -1.4 times "
+       "that of its corners' triangle): a middle node lies too far from the middle of its edge"},
+      /* a tetrahedron and a 10-node tetrahedron in one body */
+      {"$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n5\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n5 1 1 1\n$EndNodes\n"
+       "$Elements\n2\n1 4 2 1 1 1 2 3 4\n2 11 2 1 1 2 3 4 5 1 1 1 1 1 1\n$EndElements\n",
+       "e.msh:15: element 2 is a 10-node tetrahedron, but the element at line 14 is a tetrahedron: a body has one "
+       "element type (recombine every surface into quadrangles, or none; one Mesh.ElementOrder)"},
+      /* a group of 3-node triangles on a 10-node tetrahedron */
+      {"$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n10\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n5 0.5 0 0\n"
+       "6 0.5 0.5 0\n7 0 0.5 0\n8 0 0 0.5\n9 0 0.5 0.5\n10 0.5 0 0.5\n$EndNodes\n"
+       "$Elements\n2\n1 11 2 1 1 1 2 3 4 5 6 7 8 9 10\n2 2 2 2 1 1 2 3\n$EndElements\n",
+       "e.msh:20: triangle 2 (physical group 'surface2') cannot be a side of a 10-node tetrahedron"},
       {"$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n3\n1 0 0 0\n2 1 0 0\n3 0 1 1\n$EndNodes\n"
        "$Elements\n1\n1 2 2 1 1 1 2 3\n$EndElements\n",
        "e.msh:8: node 3 has z = 1, but a 2D body lies in the plane z = 0: the file's highest-dimensional "
@@ -667,6 +1048,8 @@ int main(void)
   test_plates();
   test_disks();
   test_box_bar();
+  test_tets();
+  test_binary();
   test_features();
   test_hostile();
   test_drop();

@@ -113,8 +113,8 @@ static int patch_run(int dim, int ns, int nm, const char *mult, const char *cons
       }
     }
     for (e = 0; e < m->nelem; e++) {
-      double ue[24], eps[6], sig[6];
-      int nen = D == 2 ? 4 : 8;
+      double ue[MO_ND_MAX], eps[6], sig[6];
+      int nen = m->nen;
       for (k = 0; k < nen; k++)
         for (i = 0; i < D; i++) ue[D * k + i] = R.s.u[B->dof0 + D * m->conn[nen * e + k] + i];
       mo_elem_stress(m, e, &B->mat, ue, eps, sig);
@@ -326,6 +326,13 @@ int main(void)
   /* the Gauss points of whole facets */
   check(2, 12, 11, "p0", "facet", 0);
   check(3, 4, 3, "p0", "facet", 0);
+  /* tetrahedra: triangular facets cut by triangles (T4 against T4, against H8), and whole T10 faces */
+  check_with(3, 4, 3, "auto", NULL, "bodies.lower.mesh.element=\"T4\"", "bodies.upper.mesh.element=\"T4\"", 1e-10);
+  check_with(3, 3, 4, "p1", NULL, "bodies.lower.mesh.element=\"T4\"", "bodies.upper.mesh.element=\"T4\"", 1e-10);
+  check_with(3, 4, 3, "auto", NULL, "bodies.lower.mesh.element=\"T4\"", NULL, 1e-10);
+  check_with(3, 4, 3, "p0", NULL, NULL, "bodies.upper.mesh.element=\"T4\"", 1e-10);
+  check_with(3, 4, 4, "p0", NULL, "bodies.lower.mesh.element=\"T10\"", "bodies.upper.mesh.element=\"T10\"", 1e-10);
+  check_with(3, 4, 3, "p0", NULL, "bodies.lower.mesh.element=\"T10\"", "bodies.upper.mesh.element=\"T10\"", 0);
   test_turned_master();
   test_partial_cover();
   return done_testing();

@@ -61,23 +61,49 @@ static void test_singular(void)
 
 /* --- 2. the box with a corner held: the closed form -------------------------------------------------- */
 
-static void test_box(const char *solver, int max_iter)
+/* The consistent nodal force of p on the bottom of the tetrahedral box at (x, y): Kuhn's split
+   cuts every bottom cell (i, j) along its diagonal from (i, j) to (i + 1, j + 1); a flat T3 face
+   gives p A / 3 to each corner, a flat T6 face 0 to its corners and p A / 3 to each edge middle. */
+static double tet_bottom_force(int t10, double x, double y, double p, double h, int n)
+{
+  double f = 0;
+  int i, j, k, a;
+  for (i = 0; i < n; i++)
+    for (j = 0; j < n; j++)
+      for (k = 0; k < 2; k++) {
+        double v[3][2] = {{i * h, j * h}, {(i + 1) * h, (j + 1) * h}, {(i + !k) * h, (j + k) * h}};
+        for (a = 0; a < 3; a++) {
+          const double *P = v[a], *Q = v[(a + 1) % 3];
+          double mx = 0.5 * (P[0] + Q[0]), my = 0.5 * (P[1] + Q[1]);
+          if (!t10 && fabs(x - P[0]) < 1e-9 && fabs(y - P[1]) < 1e-9) f += p * h * h / 6;
+          if (t10 && fabs(x - mx) < 1e-9 && fabs(y - my) < 1e-9) f += p * h * h / 6;
+        }
+      }
+  return f;
+}
+
+/* The box of cases/box-on-plane in H8, T4 or T10 (element): the closed form holds exactly. */
+static void test_box(const char *solver, const char *element, int max_iter)
 {
   const double p = 1e6, E = 2.1e11, L = 0.05, h = 0.0125, side = 0.1;
-  char out[256], err[MO_ERRMSG_MAX], path[300];
+  char out[256], err[MO_ERRMSG_MAX], path[300], set[64], tag[32];
+  const char *sets[1];
   tl_table T, Hs;
   json_t *J;
-  int st, i, bad = 0, n = 0;
-  double worst = 0, uz, it, eq;
-  st = run("box-on-plane", solver, NULL, 0, solver, out, sizeof out, err, sizeof err);
-  ok(st == 0, "box with a corner held, %s: runs (%s)", solver, err);
+  int st, i, bad = 0, n = 0, h8 = !strcmp(element, "H8"), t10 = !strcmp(element, "T10"), want_n = t10 ? 288 : 80;
+  double worst = 0, uz, it, eq, total = 0;
+  snprintf(set, sizeof set, "bodies.box.mesh.element=\"%s\"", element);
+  snprintf(tag, sizeof tag, "%s-%s", solver, element);
+  sets[0] = set;
+  st = run("box-on-plane", solver, sets, 1, tag, out, sizeof out, err, sizeof err);
+  ok(st == 0, "box with a corner held, %s, %s: runs (%s)", element, solver, err);
   if (st) { tl_remove_dir(out); return; }
   J = tl_summary(out);
   it = tl_jnum(J, "contact", "iterations_max", NULL);
   eq = tl_jnum(J, "contact", "equilibrium_residual_max", NULL);
   json_decref(J);
-  ok(it >= 1 && it <= max_iter, "box, %s: %g iterations (at most %d)", solver, it, max_iter);
-  ok(eq <= 1e-10, "box, %s: global equilibrium |f + H r - K u| = %.2e of the forces (T82)", solver, eq);
+  ok(it >= 1 && it <= max_iter, "box, %s, %s: %g iterations (at most %d)", element, solver, it, max_iter);
+  ok(eq <= 1e-10, "box, %s, %s: global equilibrium |f + H r - K u| = %.2e of the forces (T82)", element, solver, eq);
   snprintf(path, sizeof path, "%s/contact.csv", out);
   if (!tl_table_read(path, &T)) {
     int cx = tl_col(&T, "x"), cy = tl_col(&T, "y"), cr = tl_col(&T, "RN");
@@ -86,22 +112,30 @@ static void test_box(const char *solver, int max_iter)
       /* consistent nodal forces of a uniform pressure: a quarter at corners, a half on edges */
       if (fabs(x) < 1e-9 || fabs(x - side) < 1e-9) want *= 0.5;
       if (fabs(y) < 1e-9 || fabs(y - side) < 1e-9) want *= 0.5;
-      e = fabs(tl_num(&T, i, cr) - want) / want;
+      if (!h8) want = tet_bottom_force(t10, x, y, p, h, 8);
+      e = fabs(tl_num(&T, i, cr) - want) / (p * h * h);
       if (e > worst) worst = e;
       bad += !(e <= 1e-9);
+      total += tl_num(&T, i, cr);
       n++;
     }
     tl_table_free(&T);
   }
-  ok(n == 80 && !bad, "box, %s: the 80 reactions are the consistent forces of p (corner 39.0625, edge 78.125, "
-     "interior 156.25 N) to %.1e", solver, worst);
+  if (h8)
+    ok(n == 80 && !bad, "box, %s: the 80 reactions are the consistent forces of p (corner 39.0625, edge 78.125, "
+       "interior 156.25 N) to %.1e", solver, worst);
+  else
+    ok(n == want_n && !bad, "box, %s, %s: the %d reactions are the consistent forces of p on the bottom's %s "
+       "(sum %.7f N) to %.1e of p h^2", element, solver, want_n, t10 ? "6-node triangles (0 at corners)" : "triangles",
+       total, worst);
   snprintf(path, sizeof path, "%s/history.csv", out);
   uz = NAN;
   if (!tl_table_read(path, &Hs)) {
     uz = tl_num(&Hs, Hs.nrow - 1, tl_col(&Hs, "top.uz"));
     tl_table_free(&Hs);
   }
-  ok(fabs(uz + p * L / E) <= 1e-9 * p * L / E, "box, %s: top u_z = %.10e = -p L / E = %.10e", solver, uz, -p * L / E);
+  ok(fabs(uz + p * L / E) <= 1e-9 * p * L / E, "box, %s, %s: top u_z = %.10e = -p L / E = %.10e", element, solver, uz,
+     -p * L / E);
   tl_remove_dir(out);
 }
 
@@ -268,8 +302,13 @@ static void test_count(void)
 int main(void)
 {
   test_singular();
-  test_box("nscd", 100);
-  test_box("levelset", 10);
+  test_box("nscd", "H8", 100);
+  test_box("levelset", "H8", 10);
+  /* the same on tetrahedra: triangular contact facets of T4 and T10 (T193) */
+  test_box("nscd", "T4", 100);
+  test_box("levelset", "T4", 10);
+  test_box("nscd", "T10", 100);
+  test_box("levelset", "T10", 10);
   test_patch();
   test_redundant();
   test_equilibrium_check();

@@ -49,7 +49,7 @@ typedef struct {
 #define OFF(f) offsetof(ls_params, f)
 static const mo_option_spec ls_options[] = {
   {"multipliers", MO_OPT_ENUM, OFF(multipliers), "auto|p1|p0", NAN, NAN, "\"auto\"",
-   "Multiplier space (BDZ07 (65)): auto is P1 at the nodes for node collocation and P0 per slave facet for Gauss collocation; p1 at Gauss points interpolates nodal multipliers with the facet's shape functions."},
+   "Multiplier space (BDZ07 (65)): auto is P1 at the nodes for node collocation and P0 per slave facet for Gauss collocation (P1 at the Gauss points where P0 would outnumber the slave nodes, doc/theory.md (T195)); p1 at Gauss points interpolates nodal multipliers with the facet's shape functions."},
   {"h_n", MO_OPT_DOUBLE, OFF(h_n), NULL, 0, NAN, "0 (automatic)",
    "h_n of BDZ07 (27), (67), in pressure per unit of U'; 0 takes the contact stiffness 1/(c w W_nn) averaged over the candidates (doc/theory.md (T16))."},
   {"rho_n", MO_OPT_DOUBLE, OFF(rho_n), NULL, 0, NAN, "0 (automatic)",

@@ -5,6 +5,7 @@
 #include "levelset.h"
 
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 /* --- multiplier spaces ------------------------------------------------------------------------- */
@@ -18,13 +19,51 @@ void ls_space_free(ls_space *A)
   memset(A, 0, sizeof *A);
 }
 
+static int cmp_int(const void *a, const void *b)
+{
+  int x = *(const int *)a, y = *(const int *)b;
+  return (x > y) - (x < y);
+}
+
+/* The slave facets and the slave nodes of pair k's Gauss points: P0 has one multiplier per facet,
+   P1 one per node; P0 on triangles has about twice as many multipliers as the slave surface has
+   nodes, more constraints than the normal displacements there can meet (the inf-sup condition
+   fails, doc/theory.md (T195)). */
+static int pair_counts(const mo_contact *C, int k, int *nfacet, int *nnode, mo_ctx *ctx)
+{
+  int nc = mo_contact_ncandidates(C), j, q, n = 0, nf = 0, *ids;
+  *nfacet = *nnode = 0;
+  if (!(ids = mo_malloc(ctx, ((size_t)nc * MO_FNODE_MAX + 1) * sizeof *ids))) return MO_ENOMEM;
+  for (j = 0; j < nc; j++) {
+    const mo_candidate *cd = mo_contact_candidate(C, j);
+    const mo_cpoint *pt = mo_contact_point(C, cd->point);
+    if (cd->pair != k || cd->point < 0 || pt->facet < 0) continue;
+    for (q = 0; q < pt->nn; q++) ids[n++] = pt->node[q];
+  }
+  qsort(ids, (size_t)n, sizeof *ids, cmp_int);
+  for (j = 0; j < n; j++) *nnode += j == 0 || ids[j] != ids[j - 1];
+  n = 0;
+  for (j = 0; j < nc; j++) {
+    const mo_candidate *cd = mo_contact_candidate(C, j);
+    const mo_cpoint *pt = mo_contact_point(C, cd->point);
+    if (cd->pair == k && cd->point >= 0 && pt->facet >= 0) ids[n++] = pt->facet;
+  }
+  qsort(ids, (size_t)n, sizeof *ids, cmp_int);
+  for (j = 0; j < n; j++) nf += j == 0 || ids[j] != ids[j - 1];
+  *nfacet = nf;
+  mo_free(ids);
+  return MO_OK;
+}
+
 /* Build lambda_h(p_j) = sum_k A_jk lambda_k for every candidate (BDZ07 (65) collocated at the
    candidates, (66)-(67)):
    P1 at nodes (node collocation, concentrated or weighted reactions): one multiplier per
      candidate, A = I (the nodal values of a P1 field, or the dual-cell densities of J88);
    P0 per facet (Gauss collocation): one multiplier per slave facet, A_jk = 1 when Gauss point j
      lies on facet k (the patch test's space, BDZ07 §6.4);
-   P1 at Gauss points: one multiplier per slave node, A_jk = N_k(p_j), the facet's shape values. */
+   P1 at Gauss points: one multiplier per slave node, A_jk = N_k(p_j), the facet's shape values;
+   auto takes it for Gauss collocation when P0 would have more multipliers than slave nodes
+   (triangular facets, (T195)). */
 int ls_space_build(ls_space *A, const mo_contact *C, int mode, mo_ctx *ctx)
 {
   int nc = mo_contact_ncandidates(C), np = mo_contact_npairs(C), j, k, st = MO_OK, cap;
@@ -33,7 +72,7 @@ int ls_space_build(ls_space *A, const mo_contact *C, int mode, mo_ctx *ctx)
   A->nc = nc;
   A->kind = mo_calloc(ctx, (size_t)np + 1, sizeof(int));
   A->rp = mo_calloc(ctx, (size_t)nc + 1, sizeof(int));
-  cap = 4 * nc + 1;
+  cap = MO_FNODE_MAX * nc + 1;
   A->ri = mo_malloc(ctx, (size_t)cap * sizeof(int));
   A->rx = mo_malloc(ctx, (size_t)cap * sizeof(double));
   A->pair = mo_malloc(ctx, (size_t)cap * sizeof(int));
@@ -51,6 +90,11 @@ int ls_space_build(ls_space *A, const mo_contact *C, int mode, mo_ctx *ctx)
       goto done;
     }
     A->kind[k] = mode == LS_MULT_AUTO ? (gauss ? LS_MULT_P0 : LS_MULT_P1) : mode;
+    if (mode == LS_MULT_AUTO && gauss) {
+      int nf, nn;
+      if ((st = pair_counts(C, k, &nf, &nn, ctx))) goto done;
+      if (nf > nn) A->kind[k] = LS_MULT_P1;
+    }
   }
   /* rows, numbering the multipliers on the fly by (pair, key): key = candidate (P1 at nodes),
      slave facet (P0) or slave node (P1 at Gauss points); a linear search per pair is enough for
@@ -59,8 +103,8 @@ int ls_space_build(ls_space *A, const mo_contact *C, int mode, mo_ctx *ctx)
   for (j = 0; j < nc; j++) {
     const mo_candidate *cd = mo_contact_candidate(C, j);
     const mo_cpoint *pt = mo_contact_point(C, cd->point);
-    int kind = A->kind[cd->pair], n = 0, keys[4], q, m;
-    double vals[4];
+    int kind = A->kind[cd->pair], n = 0, keys[MO_FNODE_MAX], q, m;
+    double vals[MO_FNODE_MAX];
     if (cd->point < 0) { st = mo_error(ctx, MO_EINTERNAL, "levelset: candidate %d has no point", j); goto done; }
     if (kind == LS_MULT_P0) { keys[0] = pt->facet; vals[0] = 1; n = 1; }
     else if (pt->facet >= 0) { /* P1 at a Gauss point: the slave shape values */

@@ -74,13 +74,13 @@ typedef struct {
   int pair;
   int facet;                 /* slave facet (index in the slave facet set) of a Gauss point,
                                 -1 for a node point */
-  int nn, node[4];           /* slave nodes (body-local) interpolating the point */
-  double N[4];               /* their shape values */
+  int nn, node[MO_FNODE_MAX]; /* slave nodes (body-local) interpolating the point */
+  double N[MO_FNODE_MAX];    /* their shape values */
   double x0[3];              /* reference position */
   /* pairing, frozen inside a geometric loop */
   int mfacet;                /* master facet (index in the master set), -1 for a plane */
-  int mn, mnode[4];
-  double mN[4];
+  int mn, mnode[MO_FNODE_MAX];
+  double mN[MO_FNODE_MAX];
   double xi[2];              /* master facet coordinates of the projection */
   int off;                   /* 1: the projection fell off the master (inactive) */
   int mseg;                  /* segmented integration: 1 + the master facet of the point's segment,

@@ -13,17 +13,46 @@ typedef enum {
   MO_EL_T3,       /* 3-node triangle */
   MO_EL_Q4,       /* 4-node quadrilateral */
   MO_EL_H8,       /* 8-node hexahedron */
+  MO_EL_T4,       /* 4-node tetrahedron */
+  MO_EL_T10,      /* 10-node tetrahedron (quadratic) */
+  MO_EL_T6,       /* 6-node triangle (quadratic) */
   MO_EL_NTYPES
 } mo_eltype;
 
+/* The most nodes of an element, and of a facet (a face of T10). */
+#define MO_NEN_MAX 10
+#define MO_FNODE_MAX 6
+/* The most dofs of an element (T10 in 3D). */
+#define MO_ND_MAX (3 * MO_NEN_MAX)
+
+/* Kinds of facet, with their reference domains: a point; lines on [-1, 1] (2 nodes: the ends;
+   3 nodes: the ends, then the middle); triangles on the unit triangle s0, s1 >= 0,
+   s0 + s1 <= 1 (3 corners; 6 nodes: the corners, then the middles of edges 01, 12, 20); the
+   4-node quadrilateral on [-1, 1]^2. doc/theory.md §2.1. */
+typedef enum {
+  MO_FK_POINT = 0,
+  MO_FK_LINE2,
+  MO_FK_LINE3,
+  MO_FK_TRI3,
+  MO_FK_TRI6,
+  MO_FK_QUAD4
+} mo_facet_kind;
+
 /* Reference-element facts: dimension, nodes per element, facets per element and nodes per
    facet, and the local node numbers of each facet, ordered so that the facet's outward normal
-   follows from the ordering (2D: edge a->b has outward normal (tb_y, -tb_x); 3D: quad face
-   a,b,c,d has outward normal (b-a) x (d-a)). */
+   follows from the ordering (2D: edge a->b has outward normal (tb_y, -tb_x); 3D: face a,b,c(,d)
+   has outward normal (b-a) x (c-a)); the corner nodes (vertices) come first in an element and in
+   its facets, nvert of them per element and nfv per facet; the facets' kind; the polynomial
+   order (1 or 2); the reference centroid. Node orders: T10 corners 0-3, then the middles of the
+   edges 01, 12, 20, 03, 13, 23 (VTK's order; Gmsh swaps the last two, the reader maps them);
+   T6 corners 0-2, then the middles of 01, 12, 20 (Gmsh's and VTK's order). */
 typedef struct {
   const char *name;
   int dim, nen, nfacet, nfn;
-  int facet[6][4];
+  int facet[6][MO_FNODE_MAX];
+  int nvert, nfv, order;
+  mo_facet_kind fkind;
+  double centre[3];
 } mo_eltype_info;
 const mo_eltype_info *mo_eltype_get(mo_eltype t);
 
@@ -34,15 +63,16 @@ typedef struct {
   int *node;
 } mo_nodeset;
 
-/* A named set of boundary facets: end points in 1D, edges in 2D, quadrilateral faces in 3D.
-   Facet f has nodes node[f*nfn .. f*nfn+nfn-1] (outward orientation), and lies on local facet
-   lface[f] of element elem[f]. */
+/* A named set of boundary facets: end points in 1D, edges in 2D, faces in 3D, of the kind the
+   mesh's element type has. Facet f has nodes node[f*nfn .. f*nfn+nfn-1] (outward orientation),
+   and lies on local facet lface[f] of element elem[f]. */
 typedef struct {
   char *name;
   int n, nfn;
   int *node;
   int *elem;
   int *lface;
+  mo_facet_kind kind;
 } mo_facetset;
 
 typedef struct mo_mesh {
@@ -69,10 +99,16 @@ typedef enum { MO_DIAG_RIGHT = 0, MO_DIAG_LEFT, MO_DIAG_ALTERNATE, MO_DIAG_UNION
    "right" = xmax and, in 2D, "bottom" = ymin, "top" = ymax; and "all" (every node). Nodes are
    numbered x fastest, then y, then z. */
 int mo_mesh_bar(double x0, double length, int nel, mo_mesh **out, mo_ctx *ctx);
+/* rectangle: Q4, T3 or T6 (the T3 split, a node at the middle of every edge). */
 int mo_mesh_rectangle(const double origin[2], const double size[2], const int nel[2],
                       mo_eltype type, mo_diag diag, mo_mesh **out, mo_ctx *ctx);
 int mo_mesh_box(const double origin[3], const double size[3], const int nel[3], mo_mesh **out,
                 mo_ctx *ctx);
+/* A box of H8, T4 or T10: tetrahedra split every cell into the 6 of Kuhn's subdivision along its
+   diagonal from the lowest corner (conforming: every cell is split alike), T10 with a node at the
+   middle of every edge. */
+int mo_mesh_box_elements(const double origin[3], const double size[3], const int nel[3], mo_eltype type,
+                         mo_mesh **out, mo_ctx *ctx);
 /* Q4 disk of given centre and radius: a square core of n x n cells and nr rings of n cells per
    quarter (an "O-grid"); sets "boundary" (the circle), "all", and "bottom_point", "top_point",
    "left_point", "right_point" (single nodes on the axes). */
@@ -112,18 +148,20 @@ int mo_mesh_locate_facets(const mo_mesh *m, const int *fnodes, int nf, int *elem
 int mo_mesh_add_facetset(mo_mesh *m, const char *name, const int *elem, const int *lface, int n,
                          mo_ctx *ctx);
 
-/* Gmsh MSH files, ASCII 4.1 (Gmsh's default) and 2.2 (doc/case-format.md, "Gmsh files").
-   The body is made of the elements of the highest dimension in the file, all of one type (2-node
-   lines, 3-node triangles, 4-node quadrangles or 8-node hexahedra); nodes no such element uses
-   are dropped and the others numbered 0, 1, ... in increasing tag order. Every physical group
-   gives a node set under its name (unnamed groups: "point7", "curve3", "surface1", "volume2";
-   groups that share a name are merged); a group of facets (points in 1D, lines in 2D,
-   quadrangles in 3D) on the boundary also gives a facet set; "all" holds every node unless the
-   file names a group so. Elements written clockwise (negative Jacobian at the centre) are
-   reoriented with a note; degenerate and inverted elements, repeated or missing nodes,
-   unsupported element types and malformed sections are errors "FILE:LINE: ..." (MO_EINPUT),
-   counts past ctx->max_dofs are refused before allocating (MO_ELIMIT), an unreadable file is
-   MO_EIO. Coordinates become scale * x + translate. */
+/* Gmsh MSH files, 4.1 (Gmsh's default; ASCII or binary, either byte order) and ASCII 2.2
+   (doc/case-format.md, "Gmsh files"). The body is made of the elements of the highest dimension
+   in the file, all of one type (2-node lines, 3- or 6-node triangles, 4-node quadrangles, 4- or
+   10-node tetrahedra, 8-node hexahedra); nodes no such element uses are dropped and the others
+   numbered 0, 1, ... in increasing tag order. Every physical group gives a node set under its
+   name (unnamed groups: "point7", "curve3", "surface1", "volume2"; groups that share a name are
+   merged); a group of facets (points in 1D, lines in 2D, faces in 3D, of the body's facet kind:
+   3-node lines for T6, 6-node triangles for T10) on the boundary also gives a facet set; "all"
+   holds every node unless the file names a group so. Elements written clockwise (negative
+   Jacobian at the centre) are reoriented with a note; degenerate and inverted elements, repeated
+   or missing nodes, unsupported element types and malformed sections are errors "FILE:LINE: ..."
+   ("FILE: byte N: ..." in a binary file) (MO_EINPUT), counts past ctx->max_dofs are refused
+   before allocating (MO_ELIMIT), an unreadable file is MO_EIO. Coordinates become
+   scale * x + translate. */
 typedef struct {
   double scale;         /* > 0 */
   double translate[3];
@@ -134,6 +172,7 @@ typedef struct {
   int nreoriented;      /* elements written clockwise, reoriented */
   int nunused;          /* nodes of the file that no body element uses (dropped) */
   int nduplicate;       /* MSH 2.2: body elements repeated once per physical group (dropped) */
+  int binary;           /* 1: a binary file (4.1) */
 } mo_gmsh_report;
 
 /* Read the file at `path`; opt and rep may be NULL (scale 1, no translation). */
