@@ -1,49 +1,16 @@
 #!/bin/sh
 # test_vtk_elements.sh: the VTK cells of the tetrahedra and quadratic triangles (VTK_TETRA 10,
-# VTK_QUADRATIC_TETRA 24, VTK_QUADRATIC_TRIANGLE 22), read back with Debian's python3 (xml.etree;
-# ascii, inline binary or appended arrays): the cell types and sizes, every middle node at the middle
+# VTK_QUADRATIC_TETRA 24, VTK_QUADRATIC_TRIANGLE 22), read back by VTK (tests/vtkread.py,
+# python3-vtk9): the cell types and sizes, every middle node at the middle
 # of the edge VTK's node order gives it, and the displacement field of a uniform stress (the closed
 # form) at every point.
 . "$MOREAU_SRCDIR/tests/tap.sh"
 PY=/usr/bin/python3
 
 cat > "$OUT/vtu.py" <<'EOF'
-import base64, struct
-import xml.etree.ElementTree as ET
-TYPES = {'Float64': 'd', 'Float32': 'f', 'Int32': 'i', 'Int64': 'q', 'UInt8': 'B'}
-def read(path):
-    root = ET.parse(path).getroot()
-    order = '<' if root.get('byte_order', 'LittleEndian') == 'LittleEndian' else '>'
-    head = 'Q' if root.get('header_type') == 'UInt64' else 'I'
-    app = root.find('AppendedData')
-    raw_app = None
-    if app is not None:
-        text = app.text or ''
-        raw_app = text[text.index('_') + 1:].encode('latin-1') if app.get('encoding') == 'raw' else text.strip()[1:]
-    piece = root.find('UnstructuredGrid/Piece')
-    arrays = {}
-    for da in piece.iter('DataArray'):
-        f = TYPES[da.get('type')]
-        fmt = da.get('format')
-        if fmt == 'ascii':
-            vals = [float(x) if f in 'fd' else int(x) for x in (da.text or '').split()]
-        else:
-            if fmt == 'binary':
-                raw = base64.b64decode((da.text or '').strip())
-            else:
-                off = int(da.get('offset'))
-                raw = raw_app[off:] if app.get('encoding') == 'raw' else base64.b64decode(raw_app)[off:]
-            n = struct.unpack(order + head, raw[:struct.calcsize(head)])[0]
-            body = raw[struct.calcsize(head):struct.calcsize(head) + n]
-            vals = list(struct.unpack(order + f * (n // struct.calcsize(f)), body))
-        arrays[da.get('Name') or 'points'] = (int(da.get('NumberOfComponents', '1')), vals)
-    return int(piece.get('NumberOfPoints')), int(piece.get('NumberOfCells')), arrays
-def tuples(arrays, name):
-    c, v = arrays[name]
-    return [v[i:i + c] for i in range(0, len(v), c)]
-def cells(arrays):
-    off = arrays['offsets'][1]; conn = arrays['connectivity'][1]
-    return [conn[(off[k - 1] if k else 0):off[k]] for k in range(len(off))]
+import os, sys
+sys.path.insert(0, os.path.join(os.environ["MOREAU_SRCDIR"], "tests"))
+from vtkread import read, tuples, cells  # VTK's own reader (python3-vtk9): appended raw arrays
 # VTK's edges of the quadratic cells, in the order of their middle nodes
 EDGES = {24: [(0, 1), (1, 2), (2, 0), (0, 3), (1, 3), (2, 3)], 22: [(0, 1), (1, 2), (2, 0)]}
 def middles(path):
