@@ -389,6 +389,11 @@ int main(int argc, char **argv)
     return 0;
   }
   if (!strcmp(cmd, "compare")) {
+    if (mo_parallel_launched()) {
+      fprintf(stderr, "moreau: compare runs its cells one after the other in one process: run a case over MPI "
+                      "ranks with 'mpirun -np N moreau run CASE'\n");
+      return 2;
+    }
     catch_signals(&ctx);
     return cmd_compare(argc, argv, &ctx);
   }
@@ -415,8 +420,16 @@ int main(int argc, char **argv)
       return 0;
     }
     catch_signals(&ctx);
+    /* under mpirun every rank runs the case; rank 0 writes and speaks (doc/parallel.md) */
+    if (mo_parallel_launched() && (st = mo_parallel_start(&argc, &argv, &ctx))) {
+      fprintf(stderr, "moreau: %s\n", ctx.errmsg);
+      free(c.sets);
+      return exit_code(st);
+    }
     st = mo_run(&c.o, &res, &ctx);
+    mo_parallel_finish();
     free(c.sets);
+    if (ctx.rank != 0) return st ? exit_code(st) : 0;
     if (st) {
       fprintf(stderr, "moreau: %s\n", ctx.errmsg);
       if (res.outdir[0] && res.steps > 0 && res.summary)

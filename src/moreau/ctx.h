@@ -67,6 +67,12 @@ typedef struct mo_ctx {
   volatile sig_atomic_t *interrupt;
   /* size limits, refused with MO_ELIMIT before allocating (0: the defaults, 2e7 dofs) */
   long max_dofs;
+  /* MPI runs (moreau/parallel.h): this process's rank among nranks (0 of 1 when serial), and
+     the collective calls made through it: their number, seconds and the bytes each rank sent
+     (doc/parallel.md: the measured communication behind the projections) */
+  int rank, nranks;
+  long par_calls;
+  double par_time, par_bytes;
 } mo_ctx;
 
 /* 1 when the program was asked to stop (SIGINT, SIGTERM): the long loops of loading and

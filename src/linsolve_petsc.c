@@ -1,0 +1,229 @@
+/* linsolve_petsc.c: the linear-solver type over PETSc's KSP on every MPI rank (doc/parallel.md
+   §2): the matrix distributed by rows, replicated right-hand sides in, replicated solutions out. */
+#include "config.h"
+#include <moreau/sparse.h>
+
+#ifdef HAVE_PETSC
+#include <moreau/parallel.h>
+
+#include <petscksp.h>
+#include <string.h>
+
+typedef struct {
+  int configured;
+  char ksp[32], pc[32], package[32], options[1024];
+  double rtol;
+  int spd;
+  Mat A;
+  KSP ksp_obj;
+  Vec b, x, xall;           /* distributed right-hand side and solution, the whole solution */
+  VecScatter toall;
+  int n, rstart, rend;      /* rows of this rank: rstart .. rend-1 */
+  mo_csc *At;               /* the factored matrix by rows (its transpose), for the owned rows */
+  long iterations;          /* Krylov iterations over the solves (0 for direct solves) */
+} petsc_state;
+
+/* A PETSc error as moreau's: the call and PETSc's own message. */
+static int petsc_fail(mo_ctx *ctx, PetscErrorCode e, const char *call)
+{
+  const char *text = NULL;
+  PetscErrorMessage(e, &text, NULL);
+  return mo_error(ctx, e == PETSC_ERR_MEM ? MO_ENOMEM : MO_EINTERNAL, "PETSc: %s failed: %s", call,
+                  text ? text : "(no message)");
+}
+#define P(call)                                         \
+  do {                                                  \
+    PetscErrorCode e_ = (call);                         \
+    if (e_) return petsc_fail(ctx, e_, #call);          \
+  } while (0)
+
+static int petsc_configure(void *state, const mo_linsolver_settings *set, mo_ctx *ctx)
+{
+  petsc_state *s = state;
+  snprintf(s->ksp, sizeof s->ksp, "%s", set->ksp ? set->ksp : "preonly");
+  snprintf(s->pc, sizeof s->pc, "%s", set->pc ? set->pc : (set->spd ? "cholesky" : "lu"));
+  snprintf(s->package, sizeof s->package, "%s", set->package ? set->package : "mumps");
+  snprintf(s->options, sizeof s->options, "%s", set->options ? set->options : "");
+  s->rtol = set->rtol > 0 ? set->rtol : 1e-10;
+  s->spd = set->spd;
+  s->configured = 1;
+  (void)ctx;
+  return MO_OK;
+}
+
+/* The KSP and its preconditioner from the settings, then PETSc's own options over them. */
+static int make_ksp(petsc_state *s, mo_ctx *ctx)
+{
+  PC pc;
+  P(KSPCreate(PETSC_COMM_WORLD, &s->ksp_obj));
+  P(KSPSetType(s->ksp_obj, s->ksp));
+  P(KSPGetPC(s->ksp_obj, &pc));
+  P(PCSetType(pc, s->pc));
+  if (!strcmp(s->pc, "lu") || !strcmp(s->pc, "cholesky")) P(PCFactorSetMatSolverType(pc, s->package));
+  P(KSPSetTolerances(s->ksp_obj, s->rtol, PETSC_DEFAULT, PETSC_DEFAULT, PETSC_DEFAULT));
+  /* an iterative solve starts from zero: a replicated start would need a scatter, and the
+     stepper's unknowns change little enough between steps for the tolerance to decide */
+  P(KSPSetInitialGuessNonzero(s->ksp_obj, PETSC_FALSE));
+  if (s->options[0]) P(PetscOptionsInsertString(NULL, s->options));
+  P(KSPSetFromOptions(s->ksp_obj));
+  return MO_OK;
+}
+
+/* The distributed matrix with the pattern of A: each rank preallocates and owns a contiguous
+   block of rows (PETSc's split), filled from the rows of A (the columns of A^T). */
+static int make_matrix(petsc_state *s, const mo_csc *A, mo_ctx *ctx)
+{
+  PetscInt *dn = NULL, *on = NULL, n = A->nrow, r;
+  int st;
+  const mo_csc *T;
+  mo_csc_free(s->At);
+  s->At = NULL;
+  if ((st = mo_csc_transpose(A, &s->At, ctx))) return st;
+  T = s->At;
+  {
+    /* PETSc's split of the rows: contiguous blocks, the first ranks one row more */
+    PetscInt nloc = PETSC_DECIDE, N = n, end = 0;
+    P(PetscSplitOwnership(PETSC_COMM_WORLD, &nloc, &N));
+    if (MPI_Scan(&nloc, &end, 1, MPIU_INT, MPI_SUM, PETSC_COMM_WORLD) != MPI_SUCCESS)
+      return mo_error(ctx, MO_EINTERNAL, "MPI_Scan failed while splitting the rows");
+    s->rstart = (int)(end - nloc);
+    s->rend = (int)end;
+    P(MatCreate(PETSC_COMM_WORLD, &s->A));
+    P(MatSetSizes(s->A, nloc, nloc, n, n));
+    P(MatSetType(s->A, MATAIJ));
+  }
+  s->n = (int)n;
+  if (!(dn = mo_calloc(ctx, (size_t)(s->rend - s->rstart) + 1, sizeof *dn)) ||
+      !(on = mo_calloc(ctx, (size_t)(s->rend - s->rstart) + 1, sizeof *on))) {
+    mo_free(dn);
+    return MO_ENOMEM;
+  }
+  for (r = s->rstart; r < s->rend; r++) {
+    int p;
+    for (p = T->p[r]; p < T->p[r + 1]; p++)
+      if (T->i[p] >= s->rstart && T->i[p] < s->rend) dn[r - s->rstart]++;
+      else on[r - s->rstart]++;
+  }
+  {
+    PetscErrorCode e = MatSeqAIJSetPreallocation(s->A, 0, dn);
+    if (!e) e = MatMPIAIJSetPreallocation(s->A, 0, dn, 0, on);
+    mo_free(dn);
+    mo_free(on);
+    if (e) return petsc_fail(ctx, e, "MatMPIAIJSetPreallocation");
+  }
+  if (s->spd) P(MatSetOption(s->A, MAT_SPD, PETSC_TRUE));
+  P(MatSetOption(s->A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));
+  P(MatCreateVecs(s->A, &s->x, &s->b));
+  P(VecScatterCreateToAll(s->x, &s->toall, &s->xall));
+  return MO_OK;
+}
+
+static void drop(petsc_state *s)
+{
+  if (s->ksp_obj) KSPDestroy(&s->ksp_obj);
+  if (s->A) MatDestroy(&s->A);
+  if (s->b) VecDestroy(&s->b);
+  if (s->x) VecDestroy(&s->x);
+  if (s->xall) VecDestroy(&s->xall);
+  if (s->toall) VecScatterDestroy(&s->toall);
+}
+
+static int petsc_factor(void *state, const mo_csc *A, int same, mo_ctx *ctx)
+{
+  petsc_state *s = state;
+  PetscInt r;
+  PC pc;
+  PCFailedReason pf;
+  int st;
+  if (!mo_parallel_started() && (st = mo_parallel_start(NULL, NULL, ctx))) return st;
+  if (!s->configured) {
+    mo_linsolver_settings d = {NULL, NULL, NULL, NULL, 0, 0};
+    petsc_configure(s, &d, ctx);
+  }
+  if (!same || !s->A) {
+    drop(s);
+    if ((st = make_matrix(s, A, ctx))) return st;
+    if ((st = make_ksp(s, ctx))) return st;
+  } else {
+    /* the same pattern: new values in the rows this rank owns (PETSc keeps the symbolic
+       factorization of a matrix whose nonzero pattern did not change) */
+    mo_csc_free(s->At);
+    s->At = NULL;
+    if ((st = mo_csc_transpose(A, &s->At, ctx))) return st;
+  }
+  for (r = s->rstart; r < s->rend; r++) {
+    const mo_csc *T = s->At;
+    PetscInt row = r, nz = T->p[r + 1] - T->p[r], k, cols[64], *cp = cols;
+    PetscInt *big = NULL;
+    if (nz > 64) {
+      if (!(big = mo_malloc(ctx, (size_t)nz * sizeof *big))) return MO_ENOMEM;
+      cp = big;
+    }
+    for (k = 0; k < nz; k++) cp[k] = T->i[T->p[r] + k];
+    {
+      PetscErrorCode e = MatSetValues(s->A, 1, &row, nz, cp, T->x + T->p[r], INSERT_VALUES);
+      mo_free(big);
+      if (e) return petsc_fail(ctx, e, "MatSetValues");
+    }
+  }
+  P(MatAssemblyBegin(s->A, MAT_FINAL_ASSEMBLY));
+  P(MatAssemblyEnd(s->A, MAT_FINAL_ASSEMBLY));
+  P(KSPSetOperators(s->ksp_obj, s->A, s->A));
+  /* the factorization (or the preconditioner's set-up) now, where the stepper times it */
+  P(KSPSetUp(s->ksp_obj));
+  P(KSPGetPC(s->ksp_obj, &pc));
+  P(PCGetFailedReason(pc, &pf));
+  if (pf != PC_NOERROR)
+    return mo_error(ctx, MO_ESINGULAR, "factorization by PETSc (%s, %s): %s", s->pc, s->package,
+                    pf == PC_FACTOR_NUMERIC_ZEROPIVOT ? "a zero pivot: the matrix is singular (a body free to "
+                    "move rigidly with zero mass, or a missing support)" : PCFailedReasons[pf]);
+  return MO_OK;
+}
+
+/* One replicated right-hand side in, the replicated solution out. */
+static int solve_one(petsc_state *s, const double *b, double *x, mo_ctx *ctx)
+{
+  PetscScalar *pb;
+  const PetscScalar *px;
+  KSPConvergedReason why;
+  PetscInt its;
+  P(VecGetArray(s->b, &pb));
+  memcpy(pb, b + s->rstart, (size_t)(s->rend - s->rstart) * sizeof *pb);
+  P(VecRestoreArray(s->b, &pb));
+  P(KSPSolve(s->ksp_obj, s->b, s->x));
+  P(KSPGetConvergedReason(s->ksp_obj, &why));
+  if (why < 0)
+    return mo_error(ctx, MO_ENOCONV, "the PETSc solve (%s, %s) did not converge: %s", s->ksp, s->pc,
+                    KSPConvergedReasons[why]);
+  P(KSPGetIterationNumber(s->ksp_obj, &its));
+  s->iterations += its;
+  P(VecScatterBegin(s->toall, s->x, s->xall, INSERT_VALUES, SCATTER_FORWARD));
+  P(VecScatterEnd(s->toall, s->x, s->xall, INSERT_VALUES, SCATTER_FORWARD));
+  P(VecGetArrayRead(s->xall, &px));
+  memcpy(x, px, (size_t)s->n * sizeof *x);
+  P(VecRestoreArrayRead(s->xall, &px));
+  return MO_OK;
+}
+
+static int petsc_solve(void *state, int nrhs, const double *B, double *X, mo_ctx *ctx)
+{
+  petsc_state *s = state;
+  int k, st;
+  for (k = 0; k < nrhs; k++)
+    if ((st = solve_one(s, B + (size_t)k * (size_t)s->n, X + (size_t)k * (size_t)s->n, ctx))) return st;
+  return MO_OK;
+}
+
+static void petsc_free(void *state)
+{
+  petsc_state *s = state;
+  drop(s);
+  mo_csc_free(s->At);
+}
+
+static const mo_linsolver_type petsc_type = {"petsc", 0, sizeof(petsc_state), petsc_factor, petsc_solve,
+                                             petsc_free, petsc_configure};
+const mo_linsolver_type *const mo_linsolver_petsc = &petsc_type;
+#else
+const mo_linsolver_type *const mo_linsolver_petsc = NULL;
+#endif
