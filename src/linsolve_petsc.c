@@ -205,10 +205,71 @@ static int solve_one(petsc_state *s, const double *b, double *x, mo_ctx *ctx)
   return MO_OK;
 }
 
+/* Several right-hand sides in one call of the factorization (MUMPS solves them together):
+   B and X dense by rows over the ranks, X's rows gathered to every rank afterwards. */
+static int solve_block(petsc_state *s, int nrhs, const double *B, double *X, mo_ctx *ctx)
+{
+  Mat Bm, Xm;
+  PetscScalar *pb;
+  const PetscScalar *px;
+  int nloc = s->rend - s->rstart, k, r, *cnt = NULL, st = MO_OK;
+  double *mine = NULL, *all = NULL;
+  KSPConvergedReason why;
+  P(MatCreateDense(PETSC_COMM_WORLD, nloc, PETSC_DECIDE, s->n, nrhs, NULL, &Bm));
+  P(MatCreateDense(PETSC_COMM_WORLD, nloc, PETSC_DECIDE, s->n, nrhs, NULL, &Xm));
+  P(MatDenseGetArray(Bm, &pb));
+  for (k = 0; k < nrhs; k++)
+    memcpy(pb + (size_t)k * nloc, B + (size_t)k * s->n + s->rstart, (size_t)nloc * sizeof *pb);
+  P(MatDenseRestoreArray(Bm, &pb));
+  P(KSPMatSolve(s->ksp_obj, Bm, Xm));
+  P(KSPGetConvergedReason(s->ksp_obj, &why));
+  if (why < 0) {
+    MatDestroy(&Bm);
+    MatDestroy(&Xm);
+    return mo_error(ctx, MO_ENOCONV, "the PETSc solve (%s, %s) of %d right-hand sides did not converge: %s", s->ksp,
+                    s->pc, nrhs, KSPConvergedReasons[why]);
+  }
+  /* the rows of every rank, rank after rank, each block column-major */
+  if (!(cnt = mo_malloc(ctx, (size_t)ctx->nranks * sizeof *cnt)) ||
+      !(mine = mo_malloc(ctx, ((size_t)nloc * nrhs + 1) * sizeof *mine)) ||
+      !(all = mo_malloc(ctx, ((size_t)s->n * nrhs + 1) * sizeof *all))) {
+    st = MO_ENOMEM;
+    goto done;
+  }
+  P(MatDenseGetArrayRead(Xm, &px));
+  memcpy(mine, px, (size_t)nloc * nrhs * sizeof *mine);
+  P(MatDenseRestoreArrayRead(Xm, &px));
+  {
+    /* PETSc's split (PetscSplitOwnership): n / size rows each, one more on the first n % size */
+    long off = 0, first = 0;
+    for (r = 0; r < ctx->nranks; r++) cnt[r] = (s->n / ctx->nranks + (r < s->n % ctx->nranks)) * nrhs;
+    if (cnt[ctx->rank] != nloc * nrhs) {
+      st = mo_error(ctx, MO_EINTERNAL, "PETSc's row split is not the one expected (%d rows here)", nloc);
+      goto done;
+    }
+    if ((st = mo_par_gatherv(mine, cnt, all, ctx))) goto done;
+    for (r = 0; r < ctx->nranks; r++) {
+      int rows = cnt[r] / nrhs;
+      for (k = 0; k < nrhs; k++)
+        memcpy(X + (size_t)k * s->n + first, all + off + (size_t)k * rows, (size_t)rows * sizeof *X);
+      off += cnt[r];
+      first += rows;
+    }
+  }
+done:
+  mo_free(cnt);
+  mo_free(mine);
+  mo_free(all);
+  MatDestroy(&Bm);
+  MatDestroy(&Xm);
+  return st;
+}
+
 static int petsc_solve(void *state, int nrhs, const double *B, double *X, mo_ctx *ctx)
 {
   petsc_state *s = state;
   int k, st;
+  if (nrhs > 1) return solve_block(s, nrhs, B, X, ctx);
   for (k = 0; k < nrhs; k++)
     if ((st = solve_one(s, B + (size_t)k * (size_t)s->n, X + (size_t)k * (size_t)s->n, ctx))) return st;
   return MO_OK;

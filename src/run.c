@@ -277,6 +277,26 @@ static json_t *timings_json(const mo_ctx *ctx, double wall, double steps)
   return j;
 }
 
+/* How the run was spread over MPI ranks (doc/parallel.md): the ranks, the solver of What, and
+   rank 0's collective calls outside PETSc (their count, seconds and the bytes it sent). */
+static json_t *parallel_json(const mo_ctx *ctx, const mo_scene *sc)
+{
+  json_t *j = json_object();
+  json_object_set_new(j, "ranks", json_integer(ctx->nranks));
+  json_object_set_new(j, "linear_solver", json_string(sc->lin.petsc ? "petsc" : "cholmod"));
+  if (sc->lin.petsc) {
+    char desc[160];
+    snprintf(desc, sizeof desc, "%s/%s%s%s", sc->lin.ksp, sc->lin.pc,
+             strcmp(sc->lin.pc, "lu") && strcmp(sc->lin.pc, "cholesky") ? "" : "/", 
+             strcmp(sc->lin.pc, "lu") && strcmp(sc->lin.pc, "cholesky") ? "" : sc->lin.package);
+    json_object_set_new(j, "petsc", json_string(desc));
+  }
+  json_object_set_new(j, "collective_calls", json_integer(ctx->par_calls));
+  json_object_set_new(j, "collective_seconds", jnum(ctx->par_time));
+  json_object_set_new(j, "collective_bytes", jnum(ctx->par_bytes));
+  return j;
+}
+
 static const char *scheme_name(mo_scheme s)
 {
   return s == MO_SCHEME_NEWMARK ? "newmark" : s == MO_SCHEME_QUASISTATIC ? "quasistatic" : "theta";
@@ -718,6 +738,7 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
   } else
     json_decref(ls);
   json_object_set_new(root, "timings", timings_json(ctx, wall, steps_wall));
+  json_object_set_new(root, "parallel", parallel_json(ctx, sc));
   for (k = 0; k < ctx->nskip; k++) json_array_append_new(skipped, json_string(ctx->skipped[k]));
   json_object_set_new(root, "skipped", skipped);
   {
@@ -1017,8 +1038,10 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
      (doc/parallel.md); they agree on the outcome before every collective step */
   if (io && (st = mo_outdir_claim(&od, outdir, mo_case_file(cs), ctx))) goto done;
   if (io && opt->dump_fclib && (st = mo_mkdir_p(opt->dump_fclib, ctx))) goto done;
-  agreed = st != MO_OK;
-  if ((st = mo_par_agree(st, ctx))) goto done;
+  if ((st = mo_par_agree(st, ctx))) {
+    agreed = 1;
+    goto done;
+  }
   if (C && (st = mo_contact_time_scheme(sc, C, ctx))) goto done;
   {
     /* the critical time step (T102) in the log; the explicit scheme warns above it (the
