@@ -427,7 +427,7 @@ int main(int argc, char **argv)
       return exit_code(st);
     }
     st = mo_run(&c.o, &res, &ctx);
-    mo_parallel_finish();
+    mo_parallel_finish(&ctx);
     free(c.sets);
     if (ctx.rank != 0) return st ? exit_code(st) : 0;
     if (st) {

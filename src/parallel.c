@@ -1,14 +1,18 @@
-/* parallel.c: MPI ranks and their collective calls (moreau/parallel.h, doc/parallel.md); the
-   serial calls in a build without PETSc. */
+/* parallel.c: MPI ranks and their collective calls (moreau/parallel.h, doc/parallel.md): the
+   serial calls, or the PETSc module's once a run has loaded it (petsc_module.h). */
+#define _GNU_SOURCE /* dladdr */
 #include "config.h"
 #include <moreau/parallel.h>
+#include "petsc_module.h"
 
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #ifdef HAVE_PETSC
-#include <petscsys.h>
-#include <mpi.h>
+#include <dlfcn.h>
+#include <limits.h>
+#include <sys/stat.h>
 #endif
 
 int mo_parallel_available(void)
@@ -30,93 +34,131 @@ int mo_parallel_launched(void)
   return 0;
 }
 
-int mo_parallel_started(void)
-{
 #ifdef HAVE_PETSC
-  PetscBool up = PETSC_FALSE;
-  PetscInitialized(&up);
-  return up == PETSC_TRUE;
-#else
-  return 0;
-#endif
+static const mo_petsc_host host = {mo_verror, mo_malloc, mo_calloc, mo_free, mo_csc_transpose, mo_csc_free, mo_clock};
+
+static int exists(const char *path)
+{
+  struct stat st;
+  return stat(path, &st) == 0 && S_ISREG(st.st_mode);
 }
+
+/* Where the module is: MOREAU_PETSC_MODULE, beside the object holding this code (the installed
+   library's folder/moreau/, or the build tree's .libs/), the build tree, the install folder. */
+static int module_path(char *path, size_t n)
+{
+  const char *env = getenv("MOREAU_PETSC_MODULE");
+  Dl_info info;
+  if (env && *env) {
+    snprintf(path, n, "%s", env);
+    return exists(path);
+  }
+  if (dladdr((void *)&mo_parallel_available, &info) && info.dli_fname) {
+    char dir[PATH_MAX];
+    char *slash;
+    snprintf(dir, sizeof dir, "%s", info.dli_fname);
+    slash = strrchr(dir, '/');
+    if (slash) {
+      *slash = 0;
+      snprintf(path, n, "%s/moreau/%s", dir, MO_PETSC_MODULE_NAME);
+      if (exists(path)) return 1;
+      snprintf(path, n, "%s/%s", dir, MO_PETSC_MODULE_NAME);
+      if (exists(path)) return 1;
+      snprintf(path, n, "%s/.libs/%s", dir, MO_PETSC_MODULE_NAME);
+      if (exists(path)) return 1;
+    }
+  }
+  snprintf(path, n, "%s/.libs/%s", MO_BUILDDIR, MO_PETSC_MODULE_NAME);
+  if (exists(path)) return 1;
+  snprintf(path, n, "%s/%s", MO_PKGLIBDIR, MO_PETSC_MODULE_NAME);
+  return exists(path);
+}
+
+/* Load the module (once: dlopen counts) with its own symbols first: Debian's Siconos numerics
+   brings the sequential MUMPS into the process, and PETSc must call the MPI one; MPI's own
+   components need its symbols global. */
+static int load(mo_ctx *ctx)
+{
+  char path[PATH_MAX + 64];
+  void *h;
+  const mo_petsc_module *M;
+  if (ctx->par_module) return MO_OK;
+  if (!module_path(path, sizeof path))
+    return mo_error(ctx, MO_EUNSUPPORTED, "the PETSc module %s is not installed beside libmoreau (looked last at "
+                    "%s; MOREAU_PETSC_MODULE names another)", MO_PETSC_MODULE_NAME, path);
+  if (!(h = dlopen(path, RTLD_NOW | RTLD_GLOBAL | RTLD_DEEPBIND)))
+    return mo_error(ctx, MO_EUNSUPPORTED, "the PETSc module %s cannot be loaded: %s", path, dlerror());
+  M = (const mo_petsc_module *)dlsym(h, MO_PETSC_SYMBOL);
+  if (!M || M->abi != MO_PETSC_ABI)
+    return mo_error(ctx, MO_EUNSUPPORTED, "%s is not this moreau's PETSc module (%s)", path,
+                    M ? "another ABI version" : "no " MO_PETSC_SYMBOL);
+  ctx->par_module = M;
+  return MO_OK;
+}
+#define MODULE(ctx) ((const mo_petsc_module *)(ctx)->par_module)
+#endif
 
 int mo_parallel_start(int *argc, char ***argv, mo_ctx *ctx)
 {
-#ifdef HAVE_PETSC
-  PetscMPIInt r = 0, n = 1;
-  if (!mo_parallel_started()) {
-    /* PETSc reads its options from the command line only when given one: moreau's own
-       arguments are not PETSc's, so it gets none (linear_solver.options carries them) */
-    int zero = 0;
-    char **none = NULL;
-    (void)argc;
-    (void)argv;
-    if (PetscInitialize(&zero, &none, NULL, NULL))
-      return mo_error(ctx, MO_EUNSUPPORTED, "PETSc could not be started (PetscInitialize failed)");
-  }
-  MPI_Comm_rank(PETSC_COMM_WORLD, &r);
-  MPI_Comm_size(PETSC_COMM_WORLD, &n);
-  ctx->rank = r;
-  ctx->nranks = n;
-  return MO_OK;
-#else
   (void)argc;
   (void)argv;
+#ifdef HAVE_PETSC
+  {
+    int st;
+    if ((st = load(ctx))) return st;
+    return MODULE(ctx)->start(&host, &ctx->rank, &ctx->nranks, ctx);
+  }
+#else
   return mo_error(ctx, MO_EUNSUPPORTED, "this build of moreau has no MPI: configure it --with-petsc "
                   "(Debian: apt-get install petsc-dev openmpi-bin)");
 #endif
 }
 
-void mo_parallel_finish(void)
+int mo_parallel_started(const mo_ctx *ctx)
 {
 #ifdef HAVE_PETSC
-  if (mo_parallel_started()) PetscFinalize();
+  return ctx->par_module && MODULE(ctx)->started();
+#else
+  (void)ctx;
+  return 0;
 #endif
 }
 
+void mo_parallel_finish(mo_ctx *ctx)
+{
 #ifdef HAVE_PETSC
-/* Account one collective call of `bytes` sent by this rank. */
-static void traffic(mo_ctx *ctx, double t0, double bytes)
-{
-  ctx->par_calls++;
-  ctx->par_time += mo_clock() - t0;
-  ctx->par_bytes += bytes;
+  if (ctx->par_module) MODULE(ctx)->finish();
+#else
+  (void)ctx;
+#endif
 }
 
-static int mpi_fail(mo_ctx *ctx, int rc, const char *what)
+const mo_linsolver_type *mo_linsolver_petsc(mo_ctx *ctx)
 {
-  char msg[MPI_MAX_ERROR_STRING];
-  int len = 0;
-  MPI_Error_string(rc, msg, &len);
-  return mo_error(ctx, MO_EINTERNAL, "MPI %s failed: %.*s", what, len, msg);
+#ifdef HAVE_PETSC
+  if (!mo_parallel_started(ctx) && mo_parallel_start(NULL, NULL, ctx)) return NULL;
+  return MODULE(ctx)->linsolver;
+#else
+  mo_error(ctx, MO_EUNSUPPORTED, "this build of moreau has no PETSc: configure it --with-petsc "
+           "(Debian: apt-get install petsc-dev openmpi-bin)");
+  return NULL;
+#endif
 }
 
-static int reduce(double *x, long n, MPI_Op op, const char *what, mo_ctx *ctx)
-{
-  double t0 = mo_clock();
-  long k = 0;
-  int rc;
-  /* in chunks that an int count holds */
-  while (k < n) {
-    int m = n - k > (1L << 30) ? 1 << 30 : (int)(n - k);
-    if ((rc = MPI_Allreduce(MPI_IN_PLACE, x + k, m, MPI_DOUBLE, op, PETSC_COMM_WORLD)) != MPI_SUCCESS)
-      return mpi_fail(ctx, rc, what);
-    k += m;
-  }
-  traffic(ctx, t0, 8.0 * (double)n);
-  return MO_OK;
-}
+/* The collective calls go to the module when there is more than one rank. */
+#ifdef HAVE_PETSC
+#define PARALLEL(ctx) ((ctx)->nranks > 1 && (ctx)->par_module)
+#else
+#define PARALLEL(ctx) 0
 #endif
 
 int mo_par_sum(double *x, long n, mo_ctx *ctx)
 {
 #ifdef HAVE_PETSC
-  if (ctx->nranks > 1) return reduce(x, n, MPI_SUM, "sum", ctx);
-#else
+  if (PARALLEL(ctx)) return MODULE(ctx)->allreduce(x, n, 0, ctx);
+#endif
   (void)x;
   (void)n;
-#endif
   (void)ctx;
   return MO_OK;
 }
@@ -124,11 +166,10 @@ int mo_par_sum(double *x, long n, mo_ctx *ctx)
 int mo_par_max(double *x, long n, mo_ctx *ctx)
 {
 #ifdef HAVE_PETSC
-  if (ctx->nranks > 1) return reduce(x, n, MPI_MAX, "maximum", ctx);
-#else
+  if (PARALLEL(ctx)) return MODULE(ctx)->allreduce(x, n, 1, ctx);
+#endif
   (void)x;
   (void)n;
-#endif
   (void)ctx;
   return MO_OK;
 }
@@ -136,19 +177,11 @@ int mo_par_max(double *x, long n, mo_ctx *ctx)
 int mo_par_bcast(void *buf, long bytes, int root, mo_ctx *ctx)
 {
 #ifdef HAVE_PETSC
-  if (ctx->nranks > 1) {
-    double t0 = mo_clock();
-    int rc;
-    if (bytes > 0x7fffffffL) return mo_error(ctx, MO_ELIMIT, "MPI broadcast of %ld bytes", bytes);
-    if ((rc = MPI_Bcast(buf, (int)bytes, MPI_BYTE, root, PETSC_COMM_WORLD)) != MPI_SUCCESS)
-      return mpi_fail(ctx, rc, "broadcast");
-    traffic(ctx, t0, ctx->rank == root ? (double)bytes : 0);
-  }
-#else
+  if (PARALLEL(ctx)) return MODULE(ctx)->bcast(buf, bytes, root, ctx);
+#endif
   (void)buf;
   (void)bytes;
   (void)root;
-#endif
   (void)ctx;
   return MO_OK;
 }
@@ -156,25 +189,7 @@ int mo_par_bcast(void *buf, long bytes, int root, mo_ctx *ctx)
 int mo_par_gatherv(const double *mine, const int *n, double *all, mo_ctx *ctx)
 {
 #ifdef HAVE_PETSC
-  if (ctx->nranks > 1) {
-    double t0 = mo_clock();
-    int *displ, r, rc;
-    long tot = 0;
-    if (!(displ = mo_malloc(ctx, (size_t)ctx->nranks * sizeof *displ))) return MO_ENOMEM;
-    for (r = 0; r < ctx->nranks; r++) {
-      displ[r] = (int)tot;
-      tot += n[r];
-    }
-    if (tot > 0x7fffffffL) {
-      mo_free(displ);
-      return mo_error(ctx, MO_ELIMIT, "MPI gather of %ld values", tot);
-    }
-    rc = MPI_Allgatherv(mine, n[ctx->rank], MPI_DOUBLE, all, n, displ, MPI_DOUBLE, PETSC_COMM_WORLD);
-    mo_free(displ);
-    if (rc != MPI_SUCCESS) return mpi_fail(ctx, rc, "gather");
-    traffic(ctx, t0, 8.0 * n[ctx->rank]);
-    return MO_OK;
-  }
+  if (PARALLEL(ctx)) return MODULE(ctx)->allgatherv(mine, n, all, ctx);
 #endif
   memmove(all, mine, (size_t)n[0] * sizeof *all);
   (void)ctx;
@@ -184,29 +199,7 @@ int mo_par_gatherv(const double *mine, const int *n, double *all, mo_ctx *ctx)
 int mo_par_agree(int st, mo_ctx *ctx)
 {
 #ifdef HAVE_PETSC
-  if (ctx->nranks > 1) {
-    /* (status, -rank) pairs: the largest status, and the lowest rank that has it */
-    int in[2], out[2], rc, from;
-    char msg[MO_ERRMSG_MAX];
-    double t0 = mo_clock();
-    in[0] = st;
-    in[1] = -ctx->rank;
-    if ((rc = MPI_Allreduce(in, out, 1, MPI_2INT, MPI_MAXLOC, PETSC_COMM_WORLD)) != MPI_SUCCESS)
-      return mpi_fail(ctx, rc, "status agreement");
-    if (out[0] == MO_OK) {
-      traffic(ctx, t0, 8);
-      return MO_OK;
-    }
-    /* the failing rank's message, for every rank's diagnosis */
-    from = -out[1];
-    if (ctx->rank == from) snprintf(msg, sizeof msg, "%s", ctx->errmsg);
-    if ((rc = MPI_Bcast(msg, (int)sizeof msg, MPI_CHAR, from, PETSC_COMM_WORLD)) != MPI_SUCCESS)
-      return mpi_fail(ctx, rc, "status agreement");
-    traffic(ctx, t0, 8 + (ctx->rank == from ? sizeof msg : 0));
-    msg[sizeof msg - 1] = 0;
-    if (st != MO_OK) return st;
-    return mo_error(ctx, out[0], "rank %d stopped: %s", from, msg);
-  }
+  if (PARALLEL(ctx)) return MODULE(ctx)->agree(st, ctx);
 #endif
   (void)ctx;
   return st;

@@ -333,17 +333,17 @@ static int make_solver(mo_stepper *S, mo_ctx *ctx)
 {
   const mo_linear_settings *L = &S->sc->lin;
   mo_linsolver_settings set;
+  const mo_linsolver_type *T;
   int st;
   if (!L->petsc) return mo_linsolver_create(&mo_linsolver_cholmod, &S->ls, ctx);
-  if (!mo_linsolver_petsc)
-    return mo_error(ctx, MO_EUNSUPPORTED, "linear_solver.type = \"petsc\": this build has no PETSc");
+  if (!(T = mo_linsolver_petsc(ctx))) return mo_error_prefix(ctx, "linear_solver.type = \"petsc\"");
   set.ksp = L->ksp;
   set.pc = L->pc;
   set.package = L->package;
   set.options = L->options;
   set.rtol = L->rtol;
   set.spd = 1;
-  if ((st = mo_linsolver_create(mo_linsolver_petsc, &S->ls, ctx))) return st;
+  if ((st = mo_linsolver_create(T, &S->ls, ctx))) return st;
   return mo_linsolver_configure(S->ls, &set, ctx);
 }
 

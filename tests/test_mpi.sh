@@ -6,8 +6,17 @@
 # builds without PETSc. The 2 ranks share CI's 2 cores with nothing else: oversubscription
 # allowed, as the CI machine's MPI would refuse it otherwise.
 . "$MOREAU_SRCDIR/tests/tap.sh"
-if [ -z "$MOREAU_MPIRUN" ] || [ "$MOREAU_HAVE_PETSC" != yes ]; then
-  echo "1..0 # SKIP this build has no PETSc and MPI (configure --with-petsc)"
+if [ "$MOREAU_HAVE_PETSC" != yes ]; then
+  # the serial build: a case that asks for PETSc is refused, saying how to get it
+  e=$("$MOREAU" check "$MOREAU_SRCDIR/cases/rods-3d" --set 'linear_solver.type="petsc"' 2>&1)
+  is "$?" "2" "a build without PETSc: linear_solver.type = \"petsc\" refused as bad input"
+  contains "$e" "configure it --with-petsc" "a build without PETSc: the message says how to get it"
+  contains "$e" "linear_solver" "a build without PETSc: the message names the key"
+  done_testing
+  exit
+fi
+if [ -z "$MOREAU_MPIRUN" ]; then
+  echo "1..0 # SKIP no mpirun found by configure"
   exit 0
 fi
 # Open MPI as root in a container: allowed explicitly; no shared-memory single copy (it needs

@@ -64,7 +64,7 @@ static void solver_checks(mo_ctx *ctx, const char *ksp, const char *pc, double t
   mo_linsolver_create(&mo_linsolver_cholmod, &chol, ctx);
   mo_linsolver_factor(chol, A, ctx);
   mo_linsolver_solve_multi(chol, nrhs, B, Y, ctx);
-  ok(mo_linsolver_create(mo_linsolver_petsc, &ps, ctx) == MO_OK && mo_linsolver_configure(ps, &set, ctx) == MO_OK,
+  ok(mo_linsolver_create(mo_linsolver_petsc(ctx), &ps, ctx) == MO_OK && mo_linsolver_configure(ps, &set, ctx) == MO_OK,
      "petsc %s/%s: created on %d rank(s)", ksp, pc, ctx->nranks);
   ok(agree_all(mo_linsolver_factor(ps, A, ctx) == MO_OK, ctx), "petsc %s/%s: factored (%s)", ksp, pc, ctx->errmsg);
   ok(agree_all(mo_linsolver_solve_multi(ps, nrhs, B, X, ctx) == MO_OK, ctx), "petsc %s/%s: solved", ksp, pc);
@@ -128,6 +128,6 @@ int main(int argc, char **argv)
   solver_checks(&ctx, "preonly", "lu", 1e-12);
   solver_checks(&ctx, "cg", "jacobi", 1e-9);
   printf("1..%d\n", tap_n);
-  mo_parallel_finish();
+  mo_parallel_finish(&ctx);
   return tap_failed != 0;
 }

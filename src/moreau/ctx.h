@@ -71,6 +71,7 @@ typedef struct mo_ctx {
      the collective calls made through it: their number, seconds and the bytes each rank sent
      (doc/parallel.md: the measured communication behind the projections) */
   int rank, nranks;
+  const void *par_module;  /* the PETSc module once loaded (parallel.c), else NULL */
   long par_calls;
   double par_time, par_bytes;
 } mo_ctx;

@@ -19,12 +19,13 @@ int mo_parallel_launched(void);
 /* Start MPI and PETSc (once per process) and set ctx->rank, ctx->nranks. Called at the start of
    a program launched by mpirun, and on demand by the first PETSc solver of a serial run (a
    singleton MPI start costs about 0.5 s: a serial run that does not ask for PETSc never pays it).
-   MO_EUNSUPPORTED in a build without PETSc. */
+   PETSc and MPI live in a module of their own, loaded here (doc/parallel.md §1). MO_EUNSUPPORTED
+   in a build without PETSc, or when the module cannot be loaded. */
 int mo_parallel_start(int *argc, char ***argv, mo_ctx *ctx);
-/* 1 once mo_parallel_start has succeeded in this process. */
-int mo_parallel_started(void);
+/* 1 once mo_parallel_start has succeeded with this context. */
+int mo_parallel_started(const mo_ctx *ctx);
 /* Finalize PETSc and MPI if they were started (at the program's exit). */
-void mo_parallel_finish(void);
+void mo_parallel_finish(mo_ctx *ctx);
 
 /* Collective operations over every rank (no-ops on one rank). Each returns MO_OK, or an error
    recorded in ctx if MPI fails. */

@@ -92,8 +92,9 @@ extern const mo_linsolver_type mo_linsolver_cholmod;
 extern const mo_linsolver_type mo_linsolver_umfpack;
 /* PETSc's KSP over every MPI rank (MUMPS by default): the matrix is distributed by rows, every
    rank passes the same replicated right-hand sides and receives the whole solution
-   (doc/parallel.md). Present in builds configured --with-petsc; NULL otherwise. */
-extern const mo_linsolver_type *const mo_linsolver_petsc;
+   (doc/parallel.md). Loads and starts the PETSc module on first use; NULL with the reason in ctx
+   in builds without PETSc. */
+const mo_linsolver_type *mo_linsolver_petsc(mo_ctx *ctx);
 /* Pass settings to a solver of a configurable type (a no-op for the others). */
 int mo_linsolver_configure(mo_linsolver *S, const mo_linsolver_settings *set, mo_ctx *ctx);
 

@@ -1,13 +1,160 @@
-/* linsolve_petsc.c: the linear-solver type over PETSc's KSP on every MPI rank (doc/parallel.md
+/* petsc_module.c: moreau's PETSc module (moreau_petsc.so; petsc_module.h): MPI's start and
+   collective calls, and the linear-solver type over PETSc's KSP on every rank (doc/parallel.md
    §2): the matrix distributed by rows, replicated right-hand sides in, replicated solutions out. */
 #include "config.h"
-#include <moreau/sparse.h>
-
-#ifdef HAVE_PETSC
-#include <moreau/parallel.h>
+#include "petsc_module.h"
 
 #include <petscksp.h>
+#include <mpi.h>
+#include <stdarg.h>
 #include <string.h>
+
+/* The library that loaded the module: set once by start, read-only after (the module has no
+   other state of its own; PETSc's is process-wide by design). */
+static const mo_petsc_host *H;
+
+static int module_error(mo_ctx *ctx, int code, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+static int module_error(mo_ctx *ctx, int code, const char *fmt, ...)
+{
+  va_list ap;
+  int rc;
+  va_start(ap, fmt);
+  rc = H->verror(ctx, code, fmt, ap);
+  va_end(ap);
+  return rc;
+}
+#define mo_error module_error
+#define mo_malloc(ctx, n) H->malloc_(ctx, n)
+#define mo_calloc(ctx, c, s) H->calloc_(ctx, c, s)
+#define mo_free(p) H->free_(p)
+#define mo_csc_transpose(A, T, ctx) H->csc_transpose(A, T, ctx)
+#define mo_csc_free(A) H->csc_free(A)
+#define mo_clock() H->clock()
+
+/* --- MPI ---------------------------------------------------------------------------------------- */
+
+static int started(void)
+{
+  PetscBool up = PETSC_FALSE;
+  PetscInitialized(&up);
+  return up == PETSC_TRUE;
+}
+
+static int start(const mo_petsc_host *host, int *rank, int *nranks, mo_ctx *ctx)
+{
+  PetscMPIInt r = 0, n = 1;
+  H = host;
+  if (!started()) {
+    /* PETSc reads its options from the command line only when given one: moreau's own
+       arguments are not PETSc's (linear_solver.options carries those) */
+    int zero = 0;
+    char **none = NULL;
+    if (PetscInitialize(&zero, &none, NULL, NULL))
+      return mo_error(ctx, MO_EUNSUPPORTED, "PETSc could not be started (PetscInitialize failed)");
+  }
+  MPI_Comm_rank(PETSC_COMM_WORLD, &r);
+  MPI_Comm_size(PETSC_COMM_WORLD, &n);
+  *rank = r;
+  *nranks = n;
+  return MO_OK;
+}
+
+static void finish(void)
+{
+  if (started()) PetscFinalize();
+}
+
+/* Account one collective call of `bytes` sent by this rank. */
+static void traffic(mo_ctx *ctx, double t0, double bytes)
+{
+  ctx->par_calls++;
+  ctx->par_time += mo_clock() - t0;
+  ctx->par_bytes += bytes;
+}
+
+static int mpi_fail(mo_ctx *ctx, int rc, const char *what)
+{
+  char msg[MPI_MAX_ERROR_STRING];
+  int len = 0;
+  MPI_Error_string(rc, msg, &len);
+  return mo_error(ctx, MO_EINTERNAL, "MPI %s failed: %.*s", what, len, msg);
+}
+
+static int allreduce(double *x, long n, int op, mo_ctx *ctx)
+{
+  double t0 = mo_clock();
+  long k = 0;
+  int rc;
+  /* in chunks that an int count holds */
+  while (k < n) {
+    int m = n - k > (1L << 30) ? 1 << 30 : (int)(n - k);
+    if ((rc = MPI_Allreduce(MPI_IN_PLACE, x + k, m, MPI_DOUBLE, op ? MPI_MAX : MPI_SUM, PETSC_COMM_WORLD)) !=
+        MPI_SUCCESS)
+      return mpi_fail(ctx, rc, op ? "maximum" : "sum");
+    k += m;
+  }
+  traffic(ctx, t0, 8.0 * (double)n);
+  return MO_OK;
+}
+
+static int bcast(void *buf, long bytes, int root, mo_ctx *ctx)
+{
+  double t0 = mo_clock();
+  int rc;
+  if (bytes > 0x7fffffffL) return mo_error(ctx, MO_ELIMIT, "MPI broadcast of %ld bytes", bytes);
+  if ((rc = MPI_Bcast(buf, (int)bytes, MPI_BYTE, root, PETSC_COMM_WORLD)) != MPI_SUCCESS)
+    return mpi_fail(ctx, rc, "broadcast");
+  traffic(ctx, t0, ctx->rank == root ? (double)bytes : 0);
+  return MO_OK;
+}
+
+static int allgatherv(const double *mine, const int *n, double *all, mo_ctx *ctx)
+{
+  double t0 = mo_clock();
+  int *displ, r, rc;
+  long tot = 0;
+  if (!(displ = mo_malloc(ctx, (size_t)ctx->nranks * sizeof *displ))) return MO_ENOMEM;
+  for (r = 0; r < ctx->nranks; r++) {
+    displ[r] = (int)tot;
+    tot += n[r];
+  }
+  if (tot > 0x7fffffffL) {
+    mo_free(displ);
+    return mo_error(ctx, MO_ELIMIT, "MPI gather of %ld values", tot);
+  }
+  rc = MPI_Allgatherv(mine, n[ctx->rank], MPI_DOUBLE, all, n, displ, MPI_DOUBLE, PETSC_COMM_WORLD);
+  mo_free(displ);
+  if (rc != MPI_SUCCESS) return mpi_fail(ctx, rc, "gather");
+  traffic(ctx, t0, 8.0 * n[ctx->rank]);
+  return MO_OK;
+}
+
+static int agree(int st, mo_ctx *ctx)
+{
+  /* (status, -rank) pairs: the largest status, and the lowest rank that has it */
+  int in[2], out[2], rc, from;
+  char msg[MO_ERRMSG_MAX];
+  double t0 = mo_clock();
+  in[0] = st;
+  in[1] = -ctx->rank;
+  if ((rc = MPI_Allreduce(in, out, 1, MPI_2INT, MPI_MAXLOC, PETSC_COMM_WORLD)) != MPI_SUCCESS)
+    return mpi_fail(ctx, rc, "status agreement");
+  if (out[0] == MO_OK) {
+    traffic(ctx, t0, 8);
+    return MO_OK;
+  }
+  /* the failing rank's message, for every rank's diagnosis */
+  from = -out[1];
+  if (ctx->rank == from) snprintf(msg, sizeof msg, "%s", ctx->errmsg);
+  if ((rc = MPI_Bcast(msg, (int)sizeof msg, MPI_CHAR, from, PETSC_COMM_WORLD)) != MPI_SUCCESS)
+    return mpi_fail(ctx, rc, "status agreement");
+  traffic(ctx, t0, 8.0 + (ctx->rank == from ? (double)sizeof msg : 0));
+  msg[sizeof msg - 1] = 0;
+  if (st != MO_OK) return st;
+  return mo_error(ctx, out[0], "rank %d stopped: %s", from, msg);
+}
+
+/* --- the linear-solver type ----------------------------------------------------------------------- */
 
 typedef struct {
   int configured;
@@ -135,7 +282,6 @@ static int petsc_factor(void *state, const mo_csc *A, int same, mo_ctx *ctx)
   PC pc;
   PCFailedReason pf;
   int st;
-  if (!mo_parallel_started() && (st = mo_parallel_start(NULL, NULL, ctx))) return st;
   if (!s->configured) {
     mo_linsolver_settings d = {NULL, NULL, NULL, NULL, 0, 0};
     petsc_configure(s, &d, ctx);
@@ -247,7 +393,7 @@ static int solve_block(petsc_state *s, int nrhs, const double *B, double *X, mo_
       st = mo_error(ctx, MO_EINTERNAL, "PETSc's row split is not the one expected (%d rows here)", nloc);
       goto done;
     }
-    if ((st = mo_par_gatherv(mine, cnt, all, ctx))) goto done;
+    if ((st = allgatherv(mine, cnt, all, ctx))) goto done;
     for (r = 0; r < ctx->nranks; r++) {
       int rows = cnt[r] / nrhs;
       for (k = 0; k < nrhs; k++)
@@ -284,7 +430,8 @@ static void petsc_free(void *state)
 
 static const mo_linsolver_type petsc_type = {"petsc", 0, sizeof(petsc_state), petsc_factor, petsc_solve,
                                              petsc_free, petsc_configure};
-const mo_linsolver_type *const mo_linsolver_petsc = &petsc_type;
-#else
-const mo_linsolver_type *const mo_linsolver_petsc = NULL;
-#endif
+
+/* The module's one export (petsc_module.h). */
+extern const mo_petsc_module mo_petsc_module_v1;
+const mo_petsc_module mo_petsc_module_v1 = {MO_PETSC_ABI, PETSC_VERSION_GIT, start, started, finish, allreduce,
+                                            bcast, allgatherv, agree, &petsc_type};
