@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 # getfem_bar_obstacle.py: the bar-obstacle benchmark (Doyen-Ern-Piperno 2011, benchmark 1;
-# ../shared/design/CASES.md §2; cases/bar-obstacle) solved by GetFEM, measured the way moreau
+# doc/architecture.md §11; cases/bar-obstacle) solved by GetFEM, measured the way moreau
 # measures its own runs, and written as rows of `moreau compare`'s CSV so that
 # `moreau compare CASE --peer FILE.csv` puts them on the same error-against-run-time figure.
 #
@@ -36,7 +36,7 @@ EXIT_FAILED = 1      # a run failed or --verify found a disagreement
 EXIT_USAGE = 2       # bad command line
 EXIT_NO_GETFEM = 3   # GetFEM (or numpy) cannot be imported: callers skip
 
-# The benchmark (CASES.md §2): bar on [0, L], E = rho = A = 1 (wave speed c = 1), clamped at
+# The benchmark (doc/architecture.md §11, doc/theory.md §3.4): bar on [0, L], E = rho = A = 1 (wave speed c = 1), clamped at
 # x = L, Signorini u(0, t) >= 0, u0 = a (1 - x / L) with a = 1/2, v0 = 0; period 3, T = 12.
 LENGTH = 1.0
 YOUNG = 1.0
@@ -86,7 +86,7 @@ class RunFailed(Exception):
 
 # --- the closed form -----------------------------------------------------------------------------
 #
-# Derived from the description in CASES.md §2 (not from moreau's code): d'Alembert's
+# Derived from the description in doc/theory.md §3.4 (not from moreau's code): d'Alembert's
 # construction, one phase at a time, in the benchmark's units (L = c = 1, a = 1/2); p = t mod 3.
 #
 #  Phase 1, 0 <= p <= 1, the end released: a release wave leaves x = 0 at speed 1. Behind it
@@ -523,6 +523,34 @@ def read_history(path):
     return head, data
 
 
+def read_vtu(np, path):
+    """The arrays of one of moreau's .vtu files: {name: values (n x components)}, 'points' among
+    them. moreau appends them raw (format="appended", encoding="raw", UInt64 byte counts); an
+    ASCII file (older runs) is read too."""
+    import xml.etree.ElementTree as ET
+    with open(path, "rb") as f:
+        raw = f.read()
+    cut = raw.find(b"<AppendedData")
+    if cut < 0:
+        root, data = ET.fromstring(raw.decode()), b""
+    else:
+        root = ET.fromstring(raw[:cut].decode() + "</VTKFile>")
+        data = raw[raw.index(b"_", cut) + 1:]
+    order = "<" if root.get("byte_order", "LittleEndian") == "LittleEndian" else ">"
+    kinds = {"Float64": "f8", "Int32": "i4", "UInt8": "u1"}
+    out = {}
+    for da in root.iter("DataArray"):
+        name, ncomp = da.get("Name"), int(da.get("NumberOfComponents", "1"))
+        if da.get("format") == "appended":
+            off = int(da.get("offset"))
+            nbytes = int(np.frombuffer(data[off:off + 8], dtype=order + "u8")[0])
+            vals = np.frombuffer(data[off + 8:off + 8 + nbytes], dtype=order + kinds[da.get("type")])
+        else:
+            vals = np.array([float(s) for s in da.text.split()]) if da.text else np.array([])
+        out[name if name is not None else "points"] = vals.reshape(-1, ncomp) if ncomp > 1 else vals
+    return out
+
+
 def read_fields(np, run_dir):
     """The displacement and velocity of every frame of fields.pvd (nodes sorted by x)."""
     import xml.etree.ElementTree as ET
@@ -532,17 +560,10 @@ def read_fields(np, run_dir):
     frames = []
     for ds in ET.parse(pvd).getroot().iter("DataSet"):
         t = float(ds.get("timestep"))
-        root = ET.parse(os.path.join(run_dir, ds.get("file"))).getroot()
-        pts = None
-        arrays = {}
-        for da in root.iter("DataArray"):
-            vals = np.array([float(s) for s in da.text.split()]) if da.text else np.array([])
-            if pts is None and da.get("Name") is None and da.get("NumberOfComponents") == "3":
-                pts = vals.reshape(-1, 3)[:, 0]
-            elif da.get("Name") in ("displacement", "velocity"):
-                arrays[da.get("Name")] = vals.reshape(-1, 3)[:, 0]
+        arrays = read_vtu(np, os.path.join(run_dir, ds.get("file")))
+        pts = arrays["points"][:, 0]
         order = np.argsort(pts)
-        frames.append((t, pts[order], arrays["displacement"][order], arrays["velocity"][order]))
+        frames.append((t, pts[order], arrays["displacement"][:, 0][order], arrays["velocity"][:, 0][order]))
     return frames
 
 

@@ -188,6 +188,7 @@ static void classify(run_row *r, const colset *C, double pen_rel)
     ci.velocity_scale = colval(r, C, "contact.velocity_scale");
     ci.max_vn_in_contact = colval(r, C, "contact.max_vn_in_contact");
     ci.oscillation_index = colval(r, C, "contact.oscillation_index");
+    ci.oscillation_scale = colval(r, C, "contact.oscillation_scale");
     ci.vn_sign_changes = colval(r, C, "contact.vn_sign_changes");
     ci.restitution = colval(r, C, "contact.restitution");
     if (isnan(ci.restitution)) ci.restitution = 0;

@@ -652,6 +652,9 @@ int mo_contact_driver_create(const mo_scene *sc, mo_contact *C, mo_stepper *S,
       return st;
     }
     fresh_uprev(D, &s0, 0, D->nc);
+    /* U before the first step is U- (the outputs of t = 0 show it; fit took the mesh points' from
+       Uprev before it was computed) */
+    memcpy(D->U, D->Uprev, (size_t)D->nc * D->d * sizeof *D->U);
   }
   *out = D;
   return MO_OK;
@@ -744,7 +747,7 @@ static double local_problem(mo_contact_driver *D, const mo_state *s, const doubl
     int act = C->active[a];
     if (scheme == MO_SCHEME_THETA && law[a] == MO_LAW_NEWTON) {
       /* Moreau's impact law (T71): U_n+ + e U_n- >= 0 _|_ r_n >= 0 on the contacts closed at the
-         predicted position g + h (1 - theta) U_n- (DEM.md §2, Jean/LMGC90 practice) */
+         predicted position g + h (1 - theta) U_n- (doc/theory.md (T71), Jean/LMGC90 practice) */
       if (g[a] + h * (1 - theta) * D->Uprev[a * d] > C->gtol) act = 0;
       D->q[a * d] += e[a] * D->Uprev[a * d];
     } else if (scheme == MO_SCHEME_THETA && (law[a] == MO_LAW_GAP || C->signorini == MO_SIGNORINI_POSITION))

@@ -767,6 +767,18 @@ static int side_bodies(const mo_scene *sc, const char *name, int **list, int *n,
 /* A pair the detection serves (doc/theory.md §12.3): each side is rigid shapes (disks, spheres,
    polygons), a plane (master only), or one mesh body with its set (master: facets; slave:
    nodes). */
+/* The error of a pair whose `key` names a set body b does not have (facets: a facet set),
+   listing the sets it has. */
+static int missing_set(const mo_contact *C, const config_setting_t *pg, const char *key, int b, const char *set,
+                       int facets, mo_ctx *ctx)
+{
+  const mo_body *B = &C->sc->body[b];
+  char names[512];
+  mo_mesh_set_names(B->mesh, facets, names, sizeof names);
+  return mo_case_error(C->sc->cs, mo_cfg_member(pg, key), ctx, "body '%s' has no %s set '%s' (its %s sets: %s)",
+                       B->name, facets ? "facet" : "node or facet", set, facets ? "facet" : "node", names);
+}
+
 static int check_dynamic(const mo_contact *C, const mo_contact_pair *P, const config_setting_t *pg, mo_ctx *ctx)
 {
   const mo_scene *sc = C->sc;
@@ -798,14 +810,14 @@ static int check_dynamic(const mo_contact *C, const mo_contact_pair *P, const co
     return mo_case_error(cs, pg, ctx, "a mesh against a mesh is a pair of sets; here one side is not a single mesh body");
   if (P->mset) {
     const mo_facetset *mfs = mo_mesh_find_facetset(sc->body[P->mb[0]].mesh, P->mset);
-    if (!mfs || mfs->n == 0)
+    if (!mfs) return missing_set(C, pg, "master_set", P->mb[0], P->mset, 1, ctx);
+    if (mfs->n == 0)
       return mo_case_error(cs, mo_cfg_member(pg, "master_set"), ctx, "body '%s' has no facets in set '%s'",
                            sc->body[P->mb[0]].name, P->mset);
   }
   if (P->sset[0] && !mo_mesh_find_nodeset(sc->body[P->sb[0]].mesh, P->sset) &&
       !mo_mesh_find_facetset(sc->body[P->sb[0]].mesh, P->sset))
-    return mo_case_error(cs, mo_cfg_member(pg, "slave_set"), ctx, "body '%s' has no set '%s'", sc->body[P->sb[0]].name,
-                         P->sset);
+    return missing_set(C, pg, "slave_set", P->sb[0], P->sset, 0, ctx);
   return MO_OK;
 }
 
@@ -1168,7 +1180,7 @@ int mo_contact_build(const mo_scene *sc, mo_contact **out, mo_ctx *ctx)
     }
     b = P->sbody;
     if (!mo_mesh_find_facetset(sc->body[b].mesh, P->sset) && !mo_mesh_find_nodeset(sc->body[b].mesh, P->sset) && !strchr(P->sset, '&')) {
-      st = mo_case_error(cs, mo_cfg_member(pg, "slave_set"), ctx, "body '%s' has no set '%s'", sc->body[b].name, P->sset);
+      st = missing_set(C, pg, "slave_set", b, P->sset, 0, ctx);
       goto fail;
     }
     b = P->mbody;
@@ -1187,7 +1199,9 @@ int mo_contact_build(const mo_scene *sc, mo_contact **out, mo_ctx *ctx)
       }
       mfs = mo_mesh_find_facetset(sc->body[b].mesh, P->mset);
       if (!mfs || mfs->n == 0) {
-        st = mo_case_error(cs, mo_cfg_member(pg, "master_set"), ctx, "body '%s' has no facets in set '%s'", sc->body[b].name, P->mset);
+        st = !mfs ? missing_set(C, pg, "master_set", b, P->mset, 1, ctx)
+                  : mo_case_error(cs, mo_cfg_member(pg, "master_set"), ctx, "body '%s' has no facets in set '%s'",
+                                  sc->body[b].name, P->mset);
         goto fail;
       }
       if (b == P->sbody) mo_note_skip(ctx, "self-contact search (pair '%s' pairs a body with itself)", P->name);

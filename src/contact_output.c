@@ -7,6 +7,7 @@
 #include "contact_internal.h"
 
 #include <gsl/gsl_linalg.h>
+#include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -90,19 +91,86 @@ static void cand_node_disp(const mo_scene *sc, const mo_contact *C, int a, const
   }
 }
 
+/* The columns of contact.csv: pair, candidate, node, position x.., displacement D1.., gap, the
+   local velocity and reactions normal first (UN UT US, RN RT RS), status, measure,
+   representation, then (with `other`) the other representation's reactions (RN_other ...),
+   lambda, slave, master. */
+static void csv_header(FILE *f, int D, int d, int other)
+{
+  static const char *ax[3] = {"x", "y", "z"}, *dn[3] = {"D1", "D2", "D3"}, *ln[3] = {"N", "T", "S"};
+  int i;
+  fprintf(f, "pair,candidate,node");
+  for (i = 0; i < D; i++) fprintf(f, ",%s", ax[i]);
+  for (i = 0; i < D; i++) fprintf(f, ",%s", dn[i]);
+  fprintf(f, ",gap");
+  for (i = 0; i < d; i++) fprintf(f, ",U%s", ln[i]);
+  for (i = 0; i < d; i++) fprintf(f, ",R%s", ln[i]);
+  fprintf(f, ",status,measure,representation");
+  for (i = 0; other && i < d; i++) fprintf(f, ",R%s_other", ln[i]);
+  fprintf(f, ",lambda,slave,master\n");
+}
+
+/* The values the rows read: the driver's reactions (as forces: times fs), local velocities and
+   statuses, the candidates' gaps. */
+typedef struct {
+  const double *r, *U, *g;
+  const int *status;
+  double fs;
+} cand_values;
+
+static void cand_values_get(const mo_scene *sc, const mo_contact *C, const mo_contact_driver *Dr, cand_values *v)
+{
+  v->r = mo_contact_reactions(Dr);
+  v->U = mo_contact_local_velocity(Dr);
+  v->g = mo_contact_gaps(C);
+  v->status = mo_contact_statuses(Dr);
+  v->fs = force_scale(sc, Dr);
+}
+
+/* Candidate a's row of contact.csv (other: its other representation, NULL for none; with_other:
+   the file has those columns). */
+static void csv_row(FILE *f, const mo_scene *sc, const mo_contact *C, const cand_values *v, const mo_state *s,
+                    int a, int with_other, const double *other)
+{
+  const mo_candidate *c = &C->cand[a];
+  const mo_cpoint *p = &C->pt[c->point];
+  int d = C->dim, D = sc->dim, i;
+  double Dd[3];
+  cand_node_disp(sc, C, a, s, Dd);
+  fprintf(f, "%s,%d,%d", C->pair[c->pair].name, a, c->node);
+  for (i = 0; i < D; i++) fprintf(f, ",%.10g", p->x0[i]);
+  for (i = 0; i < D; i++) fprintf(f, ",%.10g", Dd[i]);
+  fprintf(f, ",%.10g", v->g[a]);
+  for (i = 0; i < d; i++) fprintf(f, ",%.10g", v->U[a * d + i]);
+  for (i = 0; i < d; i++) fprintf(f, ",%.10g", v->r[a * d + i] * v->fs);
+  fprintf(f, ",%s,%.10g,%s", mo_contact_status_name(v->status[a]), c->w,
+          C->pair[c->pair].reactions == MO_REACT_WEIGHTED ? "weighted" : "concentrated");
+  for (i = 0; with_other && i < d; i++) {
+    if (other) fprintf(f, ",%.10g", other[i] * v->fs);
+    else fprintf(f, ",");
+  }
+  fprintf(f, ",%.10g,%s,%s\n", mo_contact_friction_ratio(d, c->mu, v->r + a * d), sc->body[p->sb].name,
+          p->mb >= 0 ? sc->body[p->mb].name : "");
+}
+
+/* A candidate shown among the closed ones: a status other than open, or a reaction. */
+static int cand_closed(const cand_values *v, int d, int a)
+{
+  int i, any = v->status[a] != MO_CS_OPEN;
+  for (i = 0; i < d; i++) any |= v->r[a * d + i] != 0;
+  return any;
+}
+
 int mo_contact_write_csv(const char *path, const mo_scene *sc, const mo_contact *C,
                          const mo_contact_driver *Dr, const mo_state *s, mo_ctx *ctx)
 {
-  static const char *ax[3] = {"x", "y", "z"}, *dn[3] = {"D1", "D2", "D3"};
-  static const char *ln[3] = {"N", "T", "S"};
-  int d = C->dim, D = sc->dim, a, i, k, st = MO_OK;
-  const double *r = mo_contact_reactions(Dr), *U = mo_contact_local_velocity(Dr), *g = mo_contact_gaps(C);
-  const int *status = mo_contact_statuses(Dr);
-  double fs = force_scale(sc, Dr), *other = NULL;
+  int d = C->dim, a, i, k, st = MO_OK;
+  cand_values v;
+  double *other = NULL;
   int *has_other = NULL;
   mo_atomic_file A;
-  FILE *f = NULL;
   A.f = NULL;
+  cand_values_get(sc, C, Dr, &v);
   other = mo_calloc(ctx, (size_t)C->nc * (size_t)d + 1, sizeof(double));
   has_other = mo_calloc(ctx, (size_t)C->nc + 1, sizeof(int));
   if (!other || !has_other) { st = MO_ENOMEM; goto done; }
@@ -114,7 +182,7 @@ int mo_contact_write_csv(const char *path, const mo_scene *sc, const mo_contact 
     if (mo_contact_pair_P(C, k, &P, &n, &cands)) continue;
     tmp = mo_malloc(ctx, (size_t)n * (size_t)d * sizeof(double) + 1);
     if (!tmp) { st = MO_ENOMEM; goto done; }
-    if (!other_representation(C, k, r, tmp, ctx))
+    if (!other_representation(C, k, v.r, tmp, ctx))
       for (i = 0; i < n; i++) {
         memcpy(&other[cands[i] * d], &tmp[i * d], (size_t)d * sizeof(double));
         has_other[cands[i]] = 1;
@@ -124,45 +192,71 @@ int mo_contact_write_csv(const char *path, const mo_scene *sc, const mo_contact 
   }
   /* streamed: a pile of 10^5 grains has 2 10^5 candidates */
   if ((st = mo_atomic_open(&A, path, ctx))) goto done;
-  f = A.f;
-#define APPEND(...) fprintf(f, __VA_ARGS__)
-  APPEND("pair,candidate,node");
-  for (i = 0; i < D; i++) APPEND(",%s", ax[i]);
-  for (i = 0; i < D; i++) APPEND(",%s", dn[i]);
-  APPEND(",gap");
-  for (i = 0; i < d; i++) APPEND(",U%s", ln[i]);
-  /* Jean's column order: RT before RN */
-  for (i = d - 1; i >= 0; i--) APPEND(",R%s", ln[i]);
-  APPEND(",status,measure,representation");
-  for (i = d - 1; i >= 0; i--) APPEND(",R%s_other", ln[i]);
-  APPEND(",lambda,slave,master\n");
-  for (a = 0; a < C->nc; a++) {
-    const mo_candidate *c = &C->cand[a];
-    const mo_cpoint *p = &C->pt[c->point];
-    double Dd[3];
-    cand_node_disp(sc, C, a, s, Dd);
-    APPEND("%s,%d,%d", C->pair[c->pair].name, a, c->node);
-    for (i = 0; i < D; i++) APPEND(",%.10g", p->x0[i]);
-    for (i = 0; i < D; i++) APPEND(",%.10g", Dd[i]);
-    APPEND(",%.10g", g[a]);
-    for (i = 0; i < d; i++) APPEND(",%.10g", U[a * d + i]);
-    for (i = d - 1; i >= 0; i--) APPEND(",%.10g", r[a * d + i] * fs);
-    APPEND(",%s,%.10g,%s", mo_contact_status_name(status[a]), c->w,
-           C->pair[c->pair].reactions == MO_REACT_WEIGHTED ? "weighted" : "concentrated");
-    for (i = d - 1; i >= 0; i--) {
-      if (has_other[a]) APPEND(",%.10g", other[a * d + i] * fs);
-      else APPEND(",");
-    }
-    APPEND(",%.10g,%s,%s\n", mo_contact_friction_ratio(d, c->mu, r + a * d), sc->body[p->sb].name,
-           p->mb >= 0 ? sc->body[p->mb].name : "");
-  }
-#undef APPEND
+  csv_header(A.f, sc->dim, d, 1);
+  for (a = 0; a < C->nc; a++) csv_row(A.f, sc, C, &v, s, a, 1, has_other[a] ? &other[a * d] : NULL);
   st = mo_atomic_commit(&A, 1, ctx);
   A.f = NULL;
 done:
   if (A.f) mo_atomic_commit(&A, 0, ctx); /* an error above: the old file stays */
   mo_free(other);
   mo_free(has_other);
+  return st;
+}
+
+/* --- contact_history.csv: the candidates of every output step ---------------------------------- */
+
+struct mo_contact_history {
+  FILE *f;
+  char *path;
+  int closed;
+};
+
+int mo_contact_history_open(const char *path, const mo_scene *sc, const mo_contact *C, int closed_only,
+                            mo_contact_history **out, mo_ctx *ctx)
+{
+  mo_contact_history *H = mo_calloc(ctx, 1, sizeof *H);
+  *out = NULL;
+  if (!H) return MO_ENOMEM;
+  if (!(H->path = mo_strdup(ctx, path))) {
+    mo_free(H);
+    return MO_ENOMEM;
+  }
+  H->closed = closed_only;
+  if (!(H->f = fopen(path, "w"))) {
+    int e = errno;
+    mo_contact_history_close(H, ctx);
+    return mo_error(ctx, MO_EOUTPUT, "cannot write '%s': %s", path, strerror(e));
+  }
+  fprintf(H->f, "step,t,");
+  csv_header(H->f, sc->dim, C->dim, 0);
+  *out = H;
+  return MO_OK;
+}
+
+int mo_contact_history_write(mo_contact_history *H, const mo_scene *sc, const mo_contact *C,
+                             const mo_contact_driver *Dr, const mo_state *s, mo_ctx *ctx)
+{
+  cand_values v;
+  int a;
+  cand_values_get(sc, C, Dr, &v);
+  for (a = 0; a < C->nc; a++) {
+    if (H->closed && !cand_closed(&v, C->dim, a)) continue;
+    fprintf(H->f, "%ld,%.17g,", s->step, s->t);
+    csv_row(H->f, sc, C, &v, s, a, 0, NULL);
+  }
+  /* a block is flushed whole: a reader of a run killed meanwhile sees whole steps but the last */
+  if (fflush(H->f) != 0 || ferror(H->f))
+    return mo_error(ctx, MO_EOUTPUT, "cannot write '%s': %s", H->path, strerror(errno ? errno : EIO));
+  return MO_OK;
+}
+
+int mo_contact_history_close(mo_contact_history *H, mo_ctx *ctx)
+{
+  int st = MO_OK;
+  if (!H) return MO_OK;
+  if (H->f && fclose(H->f) != 0) st = mo_error(ctx, MO_EOUTPUT, "cannot write '%s': %s", H->path, strerror(errno));
+  mo_free(H->path);
+  mo_free(H);
   return st;
 }
 
@@ -300,6 +394,56 @@ int mo_contact_network(const mo_scene *sc, const mo_contact *C, const mo_contact
     N->body[2 * n] = p->sb;
     N->body[2 * n + 1] = p->mb;
     N->n++;
+  }
+  return MO_OK;
+}
+
+int mo_contact_points(const mo_scene *sc, const mo_contact *C, const mo_contact_driver *Dr, const mo_state *s,
+                      int closed_only, mo_vtk_points *P, mo_ctx *ctx)
+{
+  cand_values v;
+  int a, i, l, d, st;
+  P->n = 0;
+  if (!C || !Dr) return MO_OK;
+  d = C->dim;
+  cand_values_get(sc, C, Dr, &v);
+  if ((st = mo_vtk_points_reserve(P, C->nc, d, ctx))) return st;
+  for (a = 0; a < C->nc; a++) {
+    const mo_candidate *c = &C->cand[a];
+    const mo_cpoint *p = &C->pt[c->point];
+    const double *F = &mo_contact_frames(C)[(size_t)a * d * d];
+    int n = P->n;
+    double *x = P->x + 3 * n, *f = P->force + 3 * n, *w = P->vrel + 3 * n;
+    if (closed_only && !cand_closed(&v, d, a)) continue;
+    network_material(sc, s, p->sb, p->nn, p->node, p->N, p->xs, x);
+    memset(P->x0 + 3 * n, 0, 3 * sizeof(double));
+    memcpy(P->x0 + 3 * n, p->x0, (size_t)sc->dim * sizeof(double));
+    memset(P->disp + 3 * n, 0, 3 * sizeof(double));
+    cand_node_disp(sc, C, a, s, P->disp + 3 * n);
+    memset(P->normal + 3 * n, 0, 3 * sizeof(double));
+    memset(P->R + 3 * n, 0, 3 * sizeof(double));
+    memset(P->U + 3 * n, 0, 3 * sizeof(double));
+    memset(f, 0, 3 * sizeof(double));
+    memset(w, 0, 3 * sizeof(double));
+    for (l = 0; l < d; l++) {
+      P->R[3 * n + l] = v.r[a * d + l] * v.fs;
+      P->U[3 * n + l] = v.U[a * d + l];
+      for (i = 0; i < d; i++) {
+        if (l == 0) P->normal[3 * n + i] = F[i];
+        f[i] += P->R[3 * n + l] * F[l * d + i]; /* the frame's rows: n, t, s */
+        w[i] += P->U[3 * n + l] * F[l * d + i];
+      }
+    }
+    P->gap[n] = v.g[a];
+    P->lambda[n] = mo_contact_friction_ratio(d, c->mu, v.r + a * d);
+    P->measure[n] = c->w;
+    P->cand[n] = a;
+    P->pair[n] = c->pair;
+    P->node[n] = c->node;
+    P->status[n] = v.status[a];
+    P->body[2 * n] = p->sb;
+    P->body[2 * n + 1] = p->mb;
+    P->n++;
   }
   return MO_OK;
 }

@@ -1,8 +1,17 @@
-/* main.c: the moreau command line (argument handling and messages only; no numerics). */
+/* main.c: the moreau command line (argument handling and messages only; no numerics).
+
+   Every command is a row of `commands` below: its operands, its help and a table of options.
+   getopt_long parses the table (`--opt value`, `--opt=value`, `-o value`, unique prefixes of
+   long names, `--` before an operand that starts with '-'), and `moreau CMD --help`, the
+   synopsis of `moreau --help` and the error messages are made from the same rows. An option
+   added to a command is one row of its table and one case of its handler. */
 #include "config.h"
 #include <moreau/moreau.h>
 
+#include <getopt.h>
+#include <math.h>
 #include <signal.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -27,98 +36,439 @@ static void catch_signals(mo_ctx *ctx)
   ctx->interrupt = &interrupted;
 }
 
+static int exit_code(int st)
+{
+  return st == MO_EINPUT || st == MO_EIO ? 2 : 1;
+}
+
+/* --- commands and their options ------------------------------------------------------------ */
+
+/* Keys of the options without a short letter (those with one use the letter). */
+enum {
+  OPT_SOLVER = 256, OPT_DUMP_FCLIB, OPT_LOG, OPT_SOLVERS, OPT_DT, OPT_VARY, OPT_METRIC, OPT_PEER,
+  OPT_REPEAT, OPT_REFERENCE, OPT_PENETRATION_TOL, OPT_TOL, OPT_MAX_SWEEPS, OPT_MIN_TIME,
+  OPT_VS_SICONOS, OPT_SICONOS_DENSE
+};
+
+/* One option: its long name (without "--"), its key (a short letter or OPT_*), its argument as
+   the help shows it (NULL: a flag), whether it may be repeated, and what it does (lines
+   separated by '\n', printed beside the name). */
+typedef struct {
+  const char *name;
+  int key;
+  const char *arg;
+  int repeat;
+  const char *help;
+} cli_option;
+
+typedef struct cli_command cli_command;
+/* A command's handler for one option (o) or one operand (o NULL, arg the operand); returns 0 or
+   the exit status of a refusal (its message printed). */
+typedef int (*cli_handler)(const cli_command *cmd, void *data, const cli_option *o, const char *arg);
+
+struct cli_command {
+  const char *name;
+  const char *operands;        /* the operands as the synopsis shows them */
+  const char *summary;         /* one line (or two) under its synopsis in `moreau --help` */
+  const char *about;           /* the paragraph of `moreau CMD --help` */
+  const cli_option *opt;       /* ended by a row with a NULL name */
+  int (*main)(const cli_command *cmd, int argc, char **argv, mo_ctx *ctx);
+};
+
+static const cli_option run_options[] = {
+  {"solver", OPT_SOLVER, "S", 0,
+   "contact back end, or a formulation BACKEND[:PRESET][[KEY=VALUE;...]]:\n"
+   "levelset:bdz07, nscd:jean88, nscd[theta=0.5] (moreau list-solvers)"},
+  {"set", 's', "KEY=VALUE", 1, "override a case key (case-file syntax; a bare word is a string)"},
+  {"out", 'o', "DIR", 0, "output folder (default out/<case>)"},
+  {"dump-fclib", OPT_DUMP_FCLIB, "DIR", 0,
+   "the contact problem each step solved, as an FCLIB local problem\n"
+   "DIR/step-NNNNNN.hdf5: the candidates of the step's index set, W, q, mu\n"
+   "and the step's solution r, U = W r + q (the file's info says so)"},
+  {"log", OPT_LOG, NULL, 0, "print the per-phase timing table and the work the scene did not need"},
+  {"quiet", 'q', NULL, 0, "print nothing but errors"},
+  {NULL, 0, NULL, 0, NULL}};
+
+static const cli_option check_options[] = {
+  {"solver", OPT_SOLVER, "S", 0, "contact back end or formulation, as for run"},
+  {"set", 's', "KEY=VALUE", 1, "override a case key, as for run"},
+  {"quiet", 'q', NULL, 0, "print nothing but errors"},
+  {NULL, 0, NULL, 0, NULL}};
+
+static const cli_option compare_options[] = {
+  {"solvers", OPT_SOLVERS, "a,b,...", 0,
+   "back ends or formulations, at most 16 (default: the case's);\n"
+   "commas inside [ ] belong to a spec: nscd[theta=0.5]"},
+  {"dt", OPT_DT, "h1,h2,...", 0, "time steps, 1 to 64 (default: the case's)"},
+  {"vary", OPT_VARY, "KEY=v1,v2,...", 1,
+   "a grid over a case key (several: a grid over all, the last fastest);\n"
+   "a vector value keeps its commas inside [ ]"},
+  {"set", 's', "KEY=VALUE", 1, "override a case key in every run"},
+  {"out", 'o', "DIR", 0, "output folder (default out/compare-<case>)"},
+  {"metric", OPT_METRIC, "NAME", 0, "the error of the work-precision figure (a compare.csv column)"},
+  {"penetration-tol", OPT_PENETRATION_TOL, "F", 0,
+   "unstable beyond F times the smallest element (default 0.01)"},
+  {"peer", OPT_PEER, "FILE.csv", 1,
+   "another program's rows (compare.csv's columns) join the\n"
+   "work-precision figure and report.md"},
+  {"repeat", OPT_REPEAT, "N", 0,
+   "runs per cell, 1 to 20, timed by the median step time (default:\n"
+   "until the median is stable, at most 5)"},
+  {"reference", OPT_REFERENCE, "DT", 0,
+   "one more run per back end at DT, the reference of the others\n"
+   "(default: the finest run of the sweep)"},
+  {"quiet", 'q', NULL, 0, "print nothing but errors"},
+  {NULL, 0, NULL, 0, NULL}};
+
+static const cli_option bench_options[] = {
+  {"tol", OPT_TOL, "T", 0, "the accuracy whose sweeps and update cost are reported (default 1e-8)"},
+  {"vs-siconos", OPT_VS_SICONOS, NULL, 0, "solve the same problems with Siconos' NSGS, print the ratios"},
+  {"siconos-dense", OPT_SICONOS_DENSE, NULL, 0, "the same, Siconos given a dense W"},
+  {"max-sweeps", OPT_MAX_SWEEPS, "N", 0, "iteration limit of every solve (default 20000)"},
+  {"min-time", OPT_MIN_TIME, "S", 0, "repeat each timing for S seconds, keep the fastest (default 0.2)"},
+  {NULL, 0, NULL, 0, NULL}};
+
+static const cli_option no_options[] = {{NULL, 0, NULL, 0, NULL}};
+
+static int cmd_run(const cli_command *cmd, int argc, char **argv, mo_ctx *ctx);
+static int cmd_compare(const cli_command *cmd, int argc, char **argv, mo_ctx *ctx);
+static int cmd_bench_local(const cli_command *cmd, int argc, char **argv, mo_ctx *ctx);
+static int cmd_list_solvers(const cli_command *cmd, int argc, char **argv, mo_ctx *ctx);
+static int cmd_keys(const cli_command *cmd, int argc, char **argv, mo_ctx *ctx);
+
+static const cli_command commands[] = {
+  {"run", "CASE", "run a case (a folder holding case.cfg, or a file)",
+   "Run a case: a folder holding case.cfg, or a case file. Outputs in DIR (default out/<case>):\n"
+   "history.csv, summary.json (written last: \"complete\", or \"incomplete\" and why), and as the\n"
+   "case asks: contact.csv (the last step's candidates), contact_history.csv (output.contact_history),\n"
+   "fields.pvd, contact_points.pvd, planes.pvd and the rigid series for ParaView (output.vtk),\n"
+   "bodies.csv, plots/ (output.draw). The end of the run lists the files written.",
+   run_options, cmd_run},
+  {"check", "CASE", "validate a case and build its scene without running it",
+   "Validate a case (every key, the scene, the contact set, the back end and its options) and\n"
+   "build its scene without running it. Prints \"CASE: ok\", or the error with file, line and key.",
+   check_options, cmd_run},
+  {"compare", "CASE", "the same scene by several back ends and time steps (and parameter grids)",
+   "Run the same scene by several back ends and time steps (and parameter grids): compare.csv,\n"
+   "orders.csv, stability.csv, report.md, plots/ in DIR (default out/compare-<case>), every run\n"
+   "in DIR/runs/<label>; each run classed stable, chatter, unstable or failed, with its reason.",
+   compare_options, cmd_compare},
+  {"bench-local", "FILE.hdf5...", "the nscd solver on FCLIB local problems (with Siconos' NSGS)",
+   "Solve FCLIB local problems with the nscd back end: sweeps, residual, time to 1e-4 and 1e-8,\n"
+   "cost per contact update (with Siconos' NSGS side by side).",
+   bench_options, cmd_bench_local},
+  {"list-solvers", "", "the registered contact back ends and their papers' presets",
+   "One line per registered contact back end, then the presets (formulations) and what each sets.",
+   no_options, cmd_list_solvers},
+  {"keys", "", "every case-file key with its type, range and default",
+   "Every case-file key with its type, range, default and meaning (doc/case-format.md).",
+   no_options, cmd_keys},
+  {NULL, NULL, NULL, NULL, NULL, NULL}};
+
+static const cli_option help_option = {"help", 'h', NULL, 0, "this help"};
+
+/* --- help ---------------------------------------------------------------------------------- */
+
+/* Print `text` (lines separated by '\n'), every line after the first indented by `indent`. */
+static void print_lines(FILE *f, const char *text, int indent)
+{
+  const char *p = text;
+  while (*p) {
+    const char *nl = strchr(p, '\n');
+    int n = nl ? (int)(nl - p) : (int)strlen(p);
+    if (p != text) fprintf(f, "\n%*s", indent, "");
+    fprintf(f, "%.*s", n, p);
+    p += n + (nl != NULL);
+  }
+  fputc('\n', f);
+}
+
+/* The synopsis: "run CASE [--solver S] [--set KEY=VALUE]... ...", wrapped at 94 columns. */
+static void print_synopsis(FILE *f, const cli_command *cmd, int indent)
+{
+  const cli_option *o;
+  int col = indent + fprintf(f, "%*s%s%s%s", indent, "", cmd->name, cmd->operands[0] ? " " : "", cmd->operands) - indent;
+  for (o = cmd->opt; o->name; o++) {
+    char item[128];
+    int n = snprintf(item, sizeof item, " [--%s%s%s]%s", o->name, o->arg ? " " : "", o->arg ? o->arg : "",
+                     o->repeat ? "..." : "");
+    if (col + n > 94) {
+      fprintf(f, "\n%*s", indent + 8, "");
+      col = indent + 8;
+      n--;
+      fputs(item + 1, f);
+    } else
+      fputs(item, f);
+    col += n;
+  }
+  fputc('\n', f);
+}
+
+/* One option's line: "  -s, --set KEY=VALUE ...   help". */
+static void print_option(FILE *f, const cli_option *o)
+{
+  char left[80], help[1024];
+  int n;
+  if (o->key < 256) n = snprintf(left, sizeof left, "  -%c, --%s", o->key, o->name);
+  else n = snprintf(left, sizeof left, "      --%s", o->name);
+  if (o->arg) snprintf(left + n, sizeof left - (size_t)n, " %s", o->arg);
+  if (strlen(left) > 30) fprintf(f, "%s\n%32s", left, "");
+  else fprintf(f, "%-32s", left);
+  snprintf(help, sizeof help, "%s%s", o->help, o->repeat ? " (repeatable)" : "");
+  print_lines(f, help, 32);
+}
+
+static void command_help(FILE *f, const cli_command *cmd)
+{
+  const cli_option *o;
+  fprintf(f, "usage: moreau %s%s%s%s\n\n", cmd->name, cmd->operands[0] ? " " : "", cmd->operands,
+          cmd->opt->name ? " [OPTION]..." : "");
+  print_lines(f, cmd->about, 0);
+  fprintf(f, "\noptions:\n");
+  for (o = cmd->opt; o->name; o++) print_option(f, o);
+  print_option(f, &help_option);
+  fprintf(f, "\nExit status: 0 success, 1 the run failed or an output could not be written, 2 bad\n"
+             "command line or case file. See moreau(1) and doc/case-format.md.\n");
+}
+
 static void usage(FILE *f)
 {
-  fprintf(f,
-          "usage: moreau COMMAND [ARGS]\n"
-          "\n"
-          "  run CASE [--solver S] [--set KEY=VALUE]... [--out DIR] [--log] [--quiet]\n"
-          "          [--dump-fclib DIR]\n"
-          "            run a case (a folder holding case.cfg, or a file); outputs in DIR\n"
-          "            (default out/<case>): history.csv, summary.json, fields.pvd;\n"
-          "            --dump-fclib: the contact problem each step solved, as an FCLIB local\n"
-          "            problem DIR/step-NNNNNN.hdf5: the candidates of the step's index set, W,\n"
-          "            q, mu and the step's solution r, U = W r + q (the file's info says so)\n"
-          "  compare CASE [--solvers a,b,...] [--dt h1,h2,...] [--vary KEY=v1,v2,...]...\n"
-          "          [--set KEY=VALUE]... [--out DIR] [--metric NAME] [--penetration-tol F]\n"
-          "          [--repeat N] [--reference DT]\n"
-          "            the same scene by several back ends and time steps (and parameter grids):\n"
-          "            compare.csv, orders.csv, stability.csv, report.md, plots/ (default\n"
-          "            out/compare-<case>); classes stable, chatter, unstable, failed;\n"
-          "            --repeat N: runs per cell, timed by the median step time (default:\n"
-          "            until the median is stable, at most 5); --reference DT: one more run\n"
-          "            per back end at DT, the reference of the others (else the finest)\n"
-          "          [--peer FILE.csv]...: another program's rows (compare.csv's columns) join the\n"
-          "            work-precision figure and report.md\n"
-          "  check CASE [--solver S] [--set KEY=VALUE]...\n"
-          "            validate a case and build its scene without running it\n"
-          "  bench-local FILE.hdf5... [--tol T] [--vs-siconos] [--max-sweeps N] [--min-time S]\n"
-          "            [--siconos-dense]\n"
-          "            the nscd solver on FCLIB local problems: sweeps, residual, time to 1e-4\n"
-          "            and 1e-8, cost per contact update (with Siconos' NSGS side by side)\n"
-          "  list-solvers   the registered contact back ends and their papers' presets\n"
-          "  keys           every case-file key with its type, range and default\n"
-          "  --version, --help\n"
-          "\n"
-          "S is a back end, or a formulation BACKEND[:PRESET][[KEY=VALUE;...]]: levelset:bdz07,\n"
-          "nscd:jean88, nscd[theta=0.5] (moreau list-solvers).\n"
-          "\n"
-          "Exit status: 0 success, 1 the run failed (the outputs say how far it got; also an\n"
-          "output that could not be written, a full disk),\n"
-          "2 bad command line or case file. See moreau(1) and doc/case-format.md.\n");
+  const cli_command *c;
+  fprintf(f, "usage: moreau COMMAND [ARGS]\n\n");
+  for (c = commands; c->name; c++) {
+    print_synopsis(f, c, 2);
+    fprintf(f, "            %s\n", c->summary);
+  }
+  fprintf(f, "  help [COMMAND], --help, --version\n"
+             "\n"
+             "moreau COMMAND --help: the command's options, each explained. Options take their value as\n"
+             "--opt VALUE or --opt=VALUE. S is a back end, or a formulation BACKEND[:PRESET][[KEY=VALUE;...]]:\n"
+             "levelset:bdz07, nscd:jean88, nscd[theta=0.5] (moreau list-solvers).\n"
+             "\n"
+             "Exit status: 0 success, 1 the run failed (the outputs say how far it got; also an\n"
+             "output that could not be written, a full disk),\n"
+             "2 bad command line or case file. See moreau(1) and doc/case-format.md.\n");
 }
+
+/* --- parsing --------------------------------------------------------------------------------- */
+
+static int cli_refuse(const cli_command *cmd, const char *fmt, ...)
+{
+  va_list ap;
+  fprintf(stderr, "moreau %s: ", cmd->name);
+  va_start(ap, fmt);
+  vfprintf(stderr, fmt, ap);
+  va_end(ap);
+  fputc('\n', stderr);
+  return 2;
+}
+
+static const cli_option *find_option(const cli_command *cmd, int key)
+{
+  const cli_option *o;
+  for (o = cmd->opt; o->name; o++)
+    if (o->key == key) return o;
+  return NULL;
+}
+
+/* An option getopt_long did not take: unknown, or the prefix of several (--s: --solvers, --set). */
+static int unknown_option(const cli_command *cmd, const char *word)
+{
+  char names[512] = "";
+  const cli_option *o;
+  size_t n = strcspn(word, "="), k = 0;
+  int matches = 0;
+  if (!strncmp(word, "--", 2) && n > 2)
+    for (o = cmd->opt; o->name; o++)
+      if (!strncmp(o->name, word + 2, n - 2) && k < sizeof names - 64) {
+        k += (size_t)snprintf(names + k, sizeof names - k, "%s--%s", matches ? ", " : "", o->name);
+        matches++;
+      }
+  if (matches > 1) return cli_refuse(cmd, "'%.*s' is ambiguous: %s", (int)n, word, names);
+  return cli_refuse(cmd, "unknown option '%s' (moreau %s --help lists the options)", word, cmd->name);
+}
+
+#define CLI_MAX_OPTIONS 40
+#define CLI_HELP_SHOWN -1
+
+/* Parse argv (argv[1] the command) with getopt_long over the command's table: fn for every
+   option and operand in order. Returns 0, CLI_HELP_SHOWN after --help, or 2 after a refusal
+   (its message printed). */
+static int cli_parse(const cli_command *cmd, int argc, char **argv, cli_handler fn, void *data)
+{
+  struct option lo[CLI_MAX_OPTIONS + 2];
+  char shorts[2 * CLI_MAX_OPTIONS + 4];
+  int n = 0, ns = 0, c, rc, i;
+  const cli_option *o;
+  shorts[ns++] = ':'; /* a missing argument is ':', told apart from an unknown option */
+  for (o = cmd->opt; o->name && n < CLI_MAX_OPTIONS; o++, n++) {
+    lo[n].name = o->name;
+    lo[n].has_arg = o->arg ? required_argument : no_argument;
+    lo[n].flag = NULL;
+    lo[n].val = o->key;
+    if (o->key < 256) {
+      shorts[ns++] = (char)o->key;
+      if (o->arg) shorts[ns++] = ':';
+    }
+  }
+  lo[n] = (struct option){"help", no_argument, NULL, 'h'};
+  lo[n + 1] = (struct option){NULL, 0, NULL, 0};
+  shorts[ns++] = 'h';
+  shorts[ns] = '\0';
+  opterr = 0;
+  optind = 0; /* glibc: start afresh */
+  /* argv[1], the command, stands for the program's name */
+  while ((c = getopt_long(argc - 1, argv + 1, shorts, lo, NULL)) != -1) {
+    /* a long option getopt refuses is the word before optind (argv + 1 counts from the command) */
+    const char *bad = optind >= 1 && optind < argc ? argv[optind] : "";
+    if (c == 'h') {
+      command_help(stdout, cmd);
+      return CLI_HELP_SHOWN;
+    }
+    if (c == ':') {
+      o = find_option(cmd, optopt);
+      if (!o) return cli_refuse(cmd, "'%s' needs a value (moreau %s --help)", bad, cmd->name);
+      {
+        int len = (int)strcspn(o->help, "\n");
+        while (len > 0 && strchr(":;, ", o->help[len - 1])) len--;
+        return cli_refuse(cmd, "--%s needs %s: %.*s", o->name, o->arg, len, o->help);
+      }
+    }
+    if (c == '?') {
+      o = optopt == 'h' ? &help_option : optopt ? find_option(cmd, optopt) : NULL;
+      if (o && !strncmp(bad, "--", 2)) return cli_refuse(cmd, "--%s takes no value ('%s')", o->name, bad);
+      if (optopt > 0 && optopt < 256)
+        return cli_refuse(cmd, "unknown option '-%c' (moreau %s --help lists the options)", optopt, cmd->name);
+      return unknown_option(cmd, bad);
+    }
+    if ((rc = fn(cmd, data, find_option(cmd, c), optarg))) return rc;
+  }
+  for (i = optind + 1; i < argc; i++)
+    if ((rc = fn(cmd, data, NULL, argv[i]))) return rc;
+  return 0;
+}
+
+/* --- run, check -------------------------------------------------------------------------------- */
 
 typedef struct {
   mo_run_options o;
   const char **sets;
   int quiet;
-} cli;
+} run_args;
 
-static int parse_run_args(int argc, char **argv, int i, cli *c)
+static int run_option(const cli_command *cmd, void *data, const cli_option *o, const char *arg)
 {
-  c->sets = calloc((size_t)argc, sizeof *c->sets);
-  if (!c->sets) return 2;
-  c->o.sets = c->sets;
-  c->o.progress = 1;
-  for (; i < argc; i++) {
-    const char *a = argv[i];
-    if (!strcmp(a, "--set") || !strcmp(a, "-s")) {
-      if (++i >= argc) { fprintf(stderr, "moreau: --set needs KEY=VALUE\n"); return 2; }
-      c->sets[c->o.nset++] = argv[i];
-    } else if (!strncmp(a, "--set=", 6)) {
-      c->sets[c->o.nset++] = a + 6;
-    } else if (!strcmp(a, "--solver")) {
-      if (++i >= argc) { fprintf(stderr, "moreau: --solver needs a name (see moreau list-solvers)\n"); return 2; }
-      c->o.solver = argv[i];
-    } else if (!strcmp(a, "--out") || !strcmp(a, "-o")) {
-      if (++i >= argc) { fprintf(stderr, "moreau: --out needs a folder\n"); return 2; }
-      c->o.outdir = argv[i];
-    } else if (!strcmp(a, "--dump-fclib")) {
-      if (++i >= argc) { fprintf(stderr, "moreau: --dump-fclib needs a folder\n"); return 2; }
-      c->o.dump_fclib = argv[i];
-    } else if (!strcmp(a, "--log")) {
-      c->o.log = 1;
-    } else if (!strcmp(a, "--quiet") || !strcmp(a, "-q")) {
-      c->quiet = 1;
-      c->o.progress = 0;
-    } else if (a[0] == '-' && a[1]) {
-      fprintf(stderr, "moreau: unknown option '%s'\n", a);
-      return 2;
-    } else if (!c->o.case_path) {
-      c->o.case_path = a;
-    } else {
-      fprintf(stderr, "moreau: one case at a time ('%s' and '%s')\n", c->o.case_path, a);
-      return 2;
-    }
+  run_args *c = data;
+  if (!o) {
+    if (c->o.case_path) return cli_refuse(cmd, "one case at a time ('%s' and '%s')", c->o.case_path, arg);
+    c->o.case_path = arg;
+    return 0;
   }
-  if (!c->o.case_path) {
-    fprintf(stderr, "moreau: which case? (a folder holding case.cfg, or a file)\n");
-    return 2;
+  switch (o->key) {
+  case 's': c->sets[c->o.nset++] = arg; break;
+  case OPT_SOLVER: c->o.solver = arg; break;
+  case 'o': c->o.outdir = arg; break;
+  case OPT_DUMP_FCLIB: c->o.dump_fclib = arg; break;
+  case OPT_LOG: c->o.log = 1; break;
+  case 'q':
+    c->quiet = 1;
+    c->o.progress = 0;
+    break;
+  default: return cli_refuse(cmd, "--%s: not handled", o->name);
   }
   return 0;
 }
 
-static int exit_code(int st);
+/* The files a run wrote, named at its end (res->outputs, moreau/run.h). */
+static void print_outputs(const mo_run_result *res)
+{
+  static const struct { unsigned bit; const char *file, *what; } out[] = {
+    {MO_OUT_HISTORY, "history.csv", ""},
+    {MO_OUT_SUMMARY, "summary.json", ""},
+    {MO_OUT_CONTACT, "contact.csv", " (the last step's candidates)"},
+    {MO_OUT_CONTACT_HISTORY, "contact_history.csv", " (the candidates of every output step)"},
+    {MO_OUT_BODIES, "bodies.csv", ""},
+    {MO_OUT_FIELDS, "fields.pvd", ""},
+    {MO_OUT_CONTACT_POINTS, "contact_points.pvd", ""},
+    {MO_OUT_PLANES, "planes.pvd", ""},
+    {MO_OUT_RIGID, "particles.py", " (the rigid series: particles.pvd, polygons.pvd, contacts.pvd)"},
+    {MO_OUT_DRAW, "plots/", " (drawings)"}};
+  size_t k;
+  int n = 0;
+  printf("  outputs:");
+  for (k = 0; k < sizeof out / sizeof out[0]; k++)
+    if (res->outputs & out[k].bit) printf("%s %s/%s%s", n++ ? "," : "", res->outdir, out[k].file, out[k].what);
+  printf("\n");
+  if (res->outputs & MO_OUT_RIGID)
+    printf("  ParaView: %d frames (pvpython %s/particles.py)\n", res->vtk_frames, res->outdir);
+  else if (res->outputs & (MO_OUT_FIELDS | MO_OUT_CONTACT_POINTS | MO_OUT_PLANES))
+    printf("  ParaView: %d frames (paraview %s/%s)\n", res->vtk_frames, res->outdir,
+           res->outputs & MO_OUT_FIELDS ? "fields.pvd" : res->outputs & MO_OUT_CONTACT_POINTS ? "contact_points.pvd"
+                                                                                            : "planes.pvd");
+}
+
+static int cmd_run(const cli_command *cmd, int argc, char **argv, mo_ctx *ctx)
+{
+  run_args c;
+  mo_run_result res;
+  int st, rc;
+  memset(&c, 0, sizeof c);
+  if (!(c.sets = calloc((size_t)argc, sizeof *c.sets))) return 2;
+  c.o.sets = c.sets;
+  c.o.progress = 1;
+  rc = cli_parse(cmd, argc, argv, run_option, &c);
+  if (!rc && !c.o.case_path) rc = cli_refuse(cmd, "which case? (a folder holding case.cfg, or a file)");
+  if (rc) {
+    free(c.sets);
+    return rc == CLI_HELP_SHOWN ? 0 : rc;
+  }
+  if (c.quiet) ctx->verbosity = 0;
+  catch_signals(ctx);
+  if (!strcmp(cmd->name, "check")) {
+    st = mo_check(&c.o, ctx);
+    free(c.sets);
+    if (st) {
+      fprintf(stderr, "%s\n", ctx->errmsg);
+      return exit_code(st);
+    }
+    if (!c.quiet) printf("%s: ok\n", c.o.case_path);
+    return 0;
+  }
+  /* under mpirun every rank runs the case; rank 0 writes and speaks (doc/parallel.md) */
+  if (mo_parallel_launched() && (st = mo_parallel_start(&argc, &argv, ctx))) {
+    fprintf(stderr, "moreau: %s\n", ctx->errmsg);
+    free(c.sets);
+    return exit_code(st);
+  }
+  st = mo_run(&c.o, &res, ctx);
+  mo_parallel_finish(ctx);
+  free(c.sets);
+  if (ctx->rank != 0) return st ? exit_code(st) : 0;
+  if (st) {
+    fprintf(stderr, "moreau: %s\n", ctx->errmsg);
+    if (res.outdir[0] && res.steps > 0 && res.summary)
+      fprintf(stderr, "moreau: outputs up to step %ld (t = %.6g) are in %s (summary.json says "
+                      "\"incomplete\")\n", res.steps, res.t, res.outdir);
+    else if (res.outdir[0] && res.steps > 0)
+      fprintf(stderr, "moreau: the partial outputs in %s have no summary.json (it could not be "
+                      "written): no reader takes them for complete\n", res.outdir);
+    return exit_code(st);
+  }
+  if (!c.quiet) {
+    int k;
+    printf("%s: %ld steps to t = %.6g in %.3f s\n", c.o.case_path, res.steps, res.t, res.wall);
+    if (res.energy0 > 0)
+      printf("  energy: initial %.6g, final %.6g (ratio %.6f)\n", res.energy0, res.energy1,
+             res.energy1 / res.energy0);
+    for (k = 0; k < res.nmetric; k++)
+      printf("  error of %s against the reference: L2 %.3e, Linf %.3e (relative)\n",
+             res.metric_name[k], res.metric_l2[k], res.metric_linf[k]);
+    print_outputs(&res);
+  }
+  return 0;
+}
+
+/* --- compare ------------------------------------------------------------------------------------ */
 
 /* Split a comma-separated list in place. Commas inside brackets, parentheses or quotes belong
    to the item (a --vary value may be a vector: velocity=[0.0,-1.0],[0.0,-10.0]). Returns the
@@ -147,187 +497,213 @@ static int split_list(char *s, char **items, int max)
   return n;
 }
 
-static int cmd_compare(int argc, char **argv, mo_ctx *ctx)
-{
+typedef struct {
   mo_compare_options o;
-  mo_compare_result res;
-  char *solvers[16], *vals[MO_COMPARE_MAX_VARY][64], outbuf[4200];
+  char *solvers[16], *vals[MO_COMPARE_MAX_VARY][64];
   double dts[64];
-  const char **sets = calloc((size_t)argc, sizeof *sets), **peers = calloc((size_t)argc, sizeof *peers);
-  int i, k, st, rc = 2;
-  memset(&o, 0, sizeof o);
-  if (!sets || !peers) goto out;
-  o.sets = sets;
-  o.peers = peers;
-  for (i = 2; i < argc; i++) {
-    const char *a = argv[i];
-    if (!strcmp(a, "--solvers") && i + 1 < argc) {
-      o.nsolver = split_list(argv[++i], solvers, 16);
-      o.solvers = (const char *const *)solvers;
-      if (o.nsolver == 0) {
-        fprintf(stderr, "moreau compare: --solvers names no back end, only commas (a,b,...: see moreau list-solvers)\n");
-        goto out;
-      }
-      if (o.nsolver < 0) {
-        fprintf(stderr, "moreau compare: --solvers a,b,...: at most 16 back ends, brackets matched\n");
-        goto out;
-      }
-    } else if (!strcmp(a, "--dt") && i + 1 < argc) {
-      char *items[64], *end;
-      int n = split_list(argv[++i], items, 64);
-      if (n <= 0) {
-        fprintf(stderr, "moreau compare: --dt h1,h2,...: 1 to 64 time steps\n");
-        goto out;
-      }
-      for (k = 0; k < n; k++) {
-        dts[k] = strtod(items[k], &end);
-        if (*end || !(dts[k] > 0)) {
-          fprintf(stderr, "moreau compare: --dt: '%s' is not a positive time step\n", items[k]);
-          goto out;
-        }
-      }
-      o.ndt = n;
-      o.dt = dts;
-    } else if (!strcmp(a, "--vary") && i + 1 < argc) {
-      char *eq = strchr(argv[++i], '=');
-      if (!eq || o.nvary == MO_COMPARE_MAX_VARY) {
-        fprintf(stderr, "moreau compare: --vary KEY=v1,v2,... (at most %d keys)\n", MO_COMPARE_MAX_VARY);
-        goto out;
-      }
-      *eq = '\0';
-      o.vary[o.nvary].key = argv[i];
-      o.vary[o.nvary].nval = split_list(eq + 1, vals[o.nvary], 64);
-      o.vary[o.nvary].val = (const char *const *)vals[o.nvary];
-      if (o.vary[o.nvary].nval <= 0) {
-        fprintf(stderr, "moreau compare: --vary %s=...: 1 to 64 values, brackets matched (a vector value "
-                "keeps its commas inside [ ])\n", argv[i]);
-        goto out;
-      }
-      o.nvary++;
-    } else if ((!strcmp(a, "--set") || !strcmp(a, "-s")) && i + 1 < argc) {
-      sets[o.nset++] = argv[++i];
-    } else if ((!strcmp(a, "--out") || !strcmp(a, "-o")) && i + 1 < argc) {
-      o.outdir = argv[++i];
-    } else if (!strcmp(a, "--metric") && i + 1 < argc) {
-      o.metric = argv[++i];
-    } else if (!strcmp(a, "--peer") && i + 1 < argc) {
-      peers[o.npeer++] = argv[++i];
-    } else if (!strcmp(a, "--repeat") && i + 1 < argc) {
-      char *end;
-      long n = strtol(argv[++i], &end, 10);
-      if (*end || n < 1 || n > 20) {
-        fprintf(stderr, "moreau compare: --repeat N: 1 to 20 runs per cell ('%s')\n", argv[i]);
-        goto out;
-      }
-      o.repeat = (int)n;
-    } else if (!strcmp(a, "--reference") && i + 1 < argc) {
-      char *end;
-      o.reference_dt = strtod(argv[++i], &end);
-      if (*end || !(o.reference_dt > 0)) {
-        fprintf(stderr, "moreau compare: --reference DT: '%s' is not a positive time step\n", argv[i]);
-        goto out;
-      }
-    } else if (!strcmp(a, "--penetration-tol") && i + 1 < argc) {
-      o.penetration_tol = atof(argv[++i]);
-    } else if (!strcmp(a, "--quiet") || !strcmp(a, "-q")) {
-      ctx->verbosity = 0;
-    } else if (a[0] == '-' && a[1]) {
-      fprintf(stderr, "moreau compare: unknown or incomplete option '%s'\n", a);
-      goto out;
-    } else if (!o.case_path) {
-      o.case_path = a;
-    } else {
-      fprintf(stderr, "moreau compare: one case at a time\n");
-      goto out;
-    }
+  const char **sets, **peers;
+  int quiet;
+} compare_args;
+
+/* A number from the whole of `s` (strtod), or NAN. */
+static double parse_number(const char *s)
+{
+  char *end;
+  double v = strtod(s, &end);
+  return *s && !*end ? v : NAN;
+}
+
+static int compare_option(const cli_command *cmd, void *data, const cli_option *o, const char *arg)
+{
+  compare_args *c = data;
+  char *a = (char *)arg; /* an argv word: split_list cuts it in place */
+  int k, n;
+  if (!o) {
+    if (c->o.case_path) return cli_refuse(cmd, "one case at a time ('%s' and '%s')", c->o.case_path, arg);
+    c->o.case_path = arg;
+    return 0;
   }
-  if (!o.case_path) {
-    fprintf(stderr, "moreau compare: which case?\n");
+  switch (o->key) {
+  case OPT_SOLVERS:
+    c->o.nsolver = split_list(a, c->solvers, 16);
+    c->o.solvers = (const char *const *)c->solvers;
+    if (c->o.nsolver == 0)
+      return cli_refuse(cmd, "--solvers names no back end, only commas (a,b,...: see moreau list-solvers)");
+    if (c->o.nsolver < 0) return cli_refuse(cmd, "--solvers a,b,...: at most 16 back ends, brackets matched");
+    break;
+  case OPT_DT: {
+    char *items[64];
+    n = split_list(a, items, 64);
+    if (n <= 0) return cli_refuse(cmd, "--dt h1,h2,...: 1 to 64 time steps");
+    for (k = 0; k < n; k++) {
+      c->dts[k] = parse_number(items[k]);
+      if (!(c->dts[k] > 0)) return cli_refuse(cmd, "--dt: '%s' is not a positive time step", items[k]);
+    }
+    c->o.ndt = n;
+    c->o.dt = c->dts;
+    break;
+  }
+  case OPT_VARY: {
+    char *eq = strchr(a, '=');
+    mo_compare_vary *V = &c->o.vary[c->o.nvary];
+    if (!eq || c->o.nvary == MO_COMPARE_MAX_VARY)
+      return cli_refuse(cmd, "--vary KEY=v1,v2,... (at most %d keys)", MO_COMPARE_MAX_VARY);
+    *eq = '\0';
+    V->key = a;
+    V->nval = split_list(eq + 1, c->vals[c->o.nvary], 64);
+    V->val = (const char *const *)c->vals[c->o.nvary];
+    if (V->nval <= 0)
+      return cli_refuse(cmd, "--vary %s=...: 1 to 64 values, brackets matched (a vector value keeps its commas "
+                        "inside [ ])", a);
+    c->o.nvary++;
+    break;
+  }
+  case 's': c->sets[c->o.nset++] = arg; break;
+  case 'o': c->o.outdir = arg; break;
+  case OPT_METRIC: c->o.metric = arg; break;
+  case OPT_PEER: c->peers[c->o.npeer++] = arg; break;
+  case OPT_REPEAT: {
+    double v = parse_number(arg);
+    if (!(v >= 1 && v <= 20 && v == (int)v)) return cli_refuse(cmd, "--repeat N: 1 to 20 runs per cell ('%s')", arg);
+    c->o.repeat = (int)v;
+    break;
+  }
+  case OPT_REFERENCE:
+    c->o.reference_dt = parse_number(arg);
+    if (!(c->o.reference_dt > 0)) return cli_refuse(cmd, "--reference DT: '%s' is not a positive time step", arg);
+    break;
+  case OPT_PENETRATION_TOL:
+    c->o.penetration_tol = parse_number(arg);
+    if (!(c->o.penetration_tol > 0) || !(c->o.penetration_tol < 1e300))
+      return cli_refuse(cmd, "--penetration-tol F: '%s' is not a positive fraction of the smallest element", arg);
+    break;
+  case 'q': c->quiet = 1; break;
+  default: return cli_refuse(cmd, "--%s: not handled", o->name);
+  }
+  return 0;
+}
+
+static int cmd_compare(const cli_command *cmd, int argc, char **argv, mo_ctx *ctx)
+{
+  compare_args *c = calloc(1, sizeof *c);
+  mo_compare_result res;
+  char outbuf[4200];
+  int st, rc = 2;
+  if (!c) return 2;
+  c->sets = calloc((size_t)argc, sizeof *c->sets);
+  c->peers = calloc((size_t)argc, sizeof *c->peers);
+  if (!c->sets || !c->peers) goto out;
+  c->o.sets = c->sets;
+  c->o.peers = c->peers;
+  if ((rc = cli_parse(cmd, argc, argv, compare_option, c))) {
+    if (rc == CLI_HELP_SHOWN) rc = 0;
     goto out;
   }
-  if (!o.outdir) {
+  rc = 2;
+  if (!c->o.case_path) {
+    cli_refuse(cmd, "which case? (a folder holding case.cfg, or a file)");
+    goto out;
+  }
+  if (c->quiet) ctx->verbosity = 0;
+  if (mo_parallel_launched()) {
+    fprintf(stderr, "moreau: compare runs its cells one after the other in one process: run a case over MPI "
+                    "ranks with 'mpirun -np N moreau run CASE'\n");
+    goto out;
+  }
+  if (!c->o.outdir) {
     char tmp[4096], *base;
     size_t l;
-    snprintf(tmp, sizeof tmp, "%s", o.case_path);
+    snprintf(tmp, sizeof tmp, "%s", c->o.case_path);
     l = strlen(tmp);
     while (l > 1 && tmp[l - 1] == '/') tmp[--l] = '\0';
     base = strrchr(tmp, '/');
     snprintf(outbuf, sizeof outbuf, "out/compare-%s", base ? base + 1 : tmp);
-    o.outdir = outbuf;
+    c->o.outdir = outbuf;
   }
-  if ((st = mo_compare(&o, &res, ctx))) {
+  catch_signals(ctx);
+  if ((st = mo_compare(&c->o, &res, ctx))) {
     fprintf(stderr, "moreau compare: %s\n", ctx->errmsg);
     rc = exit_code(st);
     goto out;
   }
   if (ctx->verbosity >= 1) {
-    printf("%s: %d runs (%d stable, %d chatter, %d unstable, %d failed)\n", o.case_path, res.nrun, res.nstable,
+    const char *d = c->o.outdir;
+    printf("%s: %d runs (%d stable, %d chatter, %d unstable, %d failed)\n", c->o.case_path, res.nrun, res.nstable,
            res.nchatter, res.nunstable, res.nfailed);
     if (res.nmarked)
       printf("  %d grid cells not run: their back end ignores the varied key (marked in report.md)\n", res.nmarked);
-    printf("  outputs: %s/compare.csv, %s/report.md, %s/plots/ (%d figures, %d rendered)\n", o.outdir, o.outdir, o.outdir,
-           res.nfigures, res.rendered);
+    printf("  outputs: %s/compare.csv, %s/report.md, %s/plots/ (%d figures, %d rendered)\n", d, d, d, res.nfigures,
+           res.rendered);
     if (res.npeer) printf("  with %d external rows from the --peer files (report.md, work-precision figure)\n", res.npeer);
   }
   rc = 0;
 out:
-  free(sets);
-  free(peers);
+  free(c->sets);
+  free(c->peers);
+  free(c);
   return rc;
 }
 
-/* moreau bench-local FILE... [options] */
-static int bench_local(int argc, char **argv, mo_ctx *ctx)
-{
+/* --- bench-local, list-solvers, keys ----------------------------------------------------------- */
+
+typedef struct {
   mo_bench_options o;
-  const char **files = calloc((size_t)argc, sizeof *files);
-  int i, n = 0, st;
-  if (!files) return 2;
-  mo_bench_options_default(&o);
-  for (i = 2; i < argc; i++) {
-    const char *a = argv[i];
-    char *end;
-    if (!strcmp(a, "--tol") || !strcmp(a, "--max-sweeps") || !strcmp(a, "--min-time")) {
-      if (++i >= argc) { fprintf(stderr, "moreau: %s needs a value\n", a); free(files); return 2; }
-      if (!strcmp(a, "--max-sweeps")) {
-        long v = strtol(argv[i], &end, 10);
-        if (*end || v < 1 || v > 1000000000L) { fprintf(stderr, "moreau: --max-sweeps takes a positive integer, not '%s'\n", argv[i]); free(files); return 2; }
-        o.max_sweeps = (int)v;
-      } else {
-        double v = strtod(argv[i], &end);
-        if (*end || !(v > 0) || !(v < 1e6)) { fprintf(stderr, "moreau: %s takes a positive number, not '%s'\n", a, argv[i]); free(files); return 2; }
-        if (!strcmp(a, "--tol")) o.tol = v;
-        else o.min_time = v;
-      }
-    } else if (!strcmp(a, "--vs-siconos")) {
-      o.vs_siconos = 1;
-    } else if (!strcmp(a, "--siconos-dense")) {
-      o.vs_siconos = 1;
-      o.siconos_dense = 1;
-    } else if (a[0] == '-' && a[1]) {
-      fprintf(stderr, "moreau: unknown option '%s'\n", a);
-      free(files);
-      return 2;
-    } else
-      files[n++] = a;
+  const char **files;
+  int n;
+} bench_args;
+
+static int bench_option(const cli_command *cmd, void *data, const cli_option *o, const char *arg)
+{
+  bench_args *b = data;
+  double v;
+  if (!o) {
+    b->files[b->n++] = arg;
+    return 0;
   }
-  if (!n) {
-    fprintf(stderr, "moreau: bench-local needs FCLIB files (.hdf5)\n");
-    free(files);
-    return 2;
+  switch (o->key) {
+  case OPT_MAX_SWEEPS:
+    v = parse_number(arg);
+    if (!(v >= 1 && v <= 1e9 && v == (long)v))
+      return cli_refuse(cmd, "--max-sweeps takes a positive integer, not '%s'", arg);
+    b->o.max_sweeps = (int)v;
+    break;
+  case OPT_TOL:
+  case OPT_MIN_TIME:
+    v = parse_number(arg);
+    if (!(v > 0) || !(v < 1e6)) return cli_refuse(cmd, "--%s takes a positive number, not '%s'", o->name, arg);
+    if (o->key == OPT_TOL) b->o.tol = v;
+    else b->o.min_time = v;
+    break;
+  case OPT_SICONOS_DENSE: /* a comparison with Siconos, given a dense W */
+    b->o.siconos_dense = 1;
+    b->o.vs_siconos = 1;
+    break;
+  case OPT_VS_SICONOS: b->o.vs_siconos = 1; break;
+  default: return cli_refuse(cmd, "--%s: not handled", o->name);
   }
-  if (o.vs_siconos && !mo_bench_have_siconos()) {
-    fprintf(stderr, "moreau: --vs-siconos: this build has no Siconos numerics (install libsiconos-numerics-dev and configure again)\n");
-    free(files);
-    return 2;
+  return 0;
+}
+
+static int cmd_bench_local(const cli_command *cmd, int argc, char **argv, mo_ctx *ctx)
+{
+  bench_args b;
+  int st, rc;
+  memset(&b, 0, sizeof b);
+  if (!(b.files = calloc((size_t)argc, sizeof *b.files))) return 2;
+  mo_bench_options_default(&b.o);
+  rc = cli_parse(cmd, argc, argv, bench_option, &b);
+  if (!rc && !b.n) rc = cli_refuse(cmd, "which FCLIB files? (FILE.hdf5...)");
+  if (!rc && b.o.vs_siconos && !mo_bench_have_siconos())
+    rc = cli_refuse(cmd, "--vs-siconos: this build has no Siconos numerics (install libsiconos-numerics-dev and "
+                    "configure again)");
+  if (!rc && !mo_fclib_available())
+    rc = cli_refuse(cmd, "this build reads no FCLIB files (install libfclib-dev libhdf5-dev and configure again)");
+  if (rc) {
+    free(b.files);
+    return rc == CLI_HELP_SHOWN ? 0 : rc;
   }
-  if (!mo_fclib_available()) {
-    fprintf(stderr, "moreau: this build reads no FCLIB files (install libfclib-dev libhdf5-dev and configure again)\n");
-    free(files);
-    return 2;
-  }
-  st = mo_bench_local(files, n, &o, stdout, ctx);
-  free(files);
+  st = mo_bench_local(b.files, b.n, &b.o, stdout, ctx);
+  free(b.files);
   if (st) {
     fprintf(stderr, "moreau: %s\n", ctx->errmsg);
     return exit_code(st);
@@ -335,11 +711,21 @@ static int bench_local(int argc, char **argv, mo_ctx *ctx)
   return 0;
 }
 
-static int exit_code(int st)
+/* A command without options or operands. */
+static int no_operand(const cli_command *cmd, void *data, const cli_option *o, const char *arg)
 {
-  return st == MO_EINPUT || st == MO_EIO ? 2 : 1;
+  (void)data;
+  (void)o;
+  return cli_refuse(cmd, "takes no operand ('%s')", arg);
 }
 
+static int cmd_list_solvers(const cli_command *cmd, int argc, char **argv, mo_ctx *ctx)
+{
+  int rc = cli_parse(cmd, argc, argv, no_operand, NULL);
+  (void)ctx;
+  if (rc) return rc == CLI_HELP_SHOWN ? 0 : rc;
+  return mo_cli_list_solvers(stdout);
+}
 
 static void print_key(const char *path, const char *type, const char *range, const char *deflt,
                       const char *doc, void *data)
@@ -348,112 +734,63 @@ static void print_key(const char *path, const char *type, const char *range, con
   printf("%-36s %-28s %-24s %-14s %s\n", path, type, range, deflt, doc);
 }
 
+static int cmd_keys(const cli_command *cmd, int argc, char **argv, mo_ctx *ctx)
+{
+  int rc = cli_parse(cmd, argc, argv, no_operand, NULL);
+  (void)ctx;
+  if (rc) return rc == CLI_HELP_SHOWN ? 0 : rc;
+  mo_case_schema_visit(print_key, NULL);
+  return 0;
+}
+
+/* --- main ----------------------------------------------------------------------------------- */
+
+static const cli_command *find_command(const char *name)
+{
+  const cli_command *c;
+  for (c = commands; c->name; c++)
+    if (!strcmp(c->name, name)) return c;
+  return NULL;
+}
+
 /* OpenBLAS's thread count, when OpenBLAS is the BLAS loaded (weak: absent otherwise). */
 extern void openblas_set_num_threads(int n) __attribute__((weak));
 
 int main(int argc, char **argv)
 {
   mo_ctx ctx;
-  cli c;
-  int st, rc;
-  const char *cmd;
+  const cli_command *cmd;
   mo_ctx_init(&ctx);
   /* moreau computes on one thread: the comparisons time one core against one core, and the
      dense kernels it calls are small (levelset's least squares, CHOLMOD's supernodes), where
      OpenBLAS's threads spin in sched_yield more than they help. OPENBLAS_NUM_THREADS overrides. */
   if (openblas_set_num_threads && !getenv("OPENBLAS_NUM_THREADS")) openblas_set_num_threads(1);
-  memset(&c, 0, sizeof c);
   if (argc < 2) {
     usage(stderr);
     return 2;
   }
-  cmd = argv[1];
-  if (!strcmp(cmd, "--help") || !strcmp(cmd, "-h") || !strcmp(cmd, "help")) {
+  if (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h") || !strcmp(argv[1], "help")) {
+    /* moreau help COMMAND: that command's help */
+    if (argc > 2 && strcmp(argv[1], "help") == 0) {
+      if (!(cmd = find_command(argv[2]))) {
+        fprintf(stderr, "moreau help: no command '%s'\n\n", argv[2]);
+        usage(stderr);
+        return 2;
+      }
+      command_help(stdout, cmd);
+      return 0;
+    }
     usage(stdout);
     return 0;
   }
-  {
-    int i;
-    for (i = 2; i < argc; i++)
-      if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) { /* moreau COMMAND --help */
-        usage(stdout);
-        return 0;
-      }
-  }
-  if (!strcmp(cmd, "--version")) {
+  if (!strcmp(argv[1], "--version")) {
     printf("moreau %s\n", PACKAGE_VERSION);
     return 0;
   }
-  if (!strcmp(cmd, "keys")) {
-    mo_case_schema_visit(print_key, NULL);
-    return 0;
+  if (!(cmd = find_command(argv[1]))) {
+    fprintf(stderr, "moreau: unknown command '%s'\n\n", argv[1]);
+    usage(stderr);
+    return 2;
   }
-  if (!strcmp(cmd, "compare")) {
-    if (mo_parallel_launched()) {
-      fprintf(stderr, "moreau: compare runs its cells one after the other in one process: run a case over MPI "
-                      "ranks with 'mpirun -np N moreau run CASE'\n");
-      return 2;
-    }
-    catch_signals(&ctx);
-    return cmd_compare(argc, argv, &ctx);
-  }
-  if (!strcmp(cmd, "bench-local")) return bench_local(argc, argv, &ctx);
-  if (!strcmp(cmd, "list-solvers")) {
-    return mo_cli_list_solvers(stdout);
-  }
-  if (!strcmp(cmd, "run") || !strcmp(cmd, "check")) {
-    mo_run_result res;
-    if ((rc = parse_run_args(argc, argv, 2, &c))) {
-      free(c.sets);
-      return rc;
-    }
-    if (c.quiet) ctx.verbosity = 0;
-    if (!strcmp(cmd, "check")) {
-      catch_signals(&ctx);
-      st = mo_check(&c.o, &ctx);
-      free(c.sets);
-      if (st) {
-        fprintf(stderr, "%s\n", ctx.errmsg);
-        return exit_code(st);
-      }
-      if (!c.quiet) printf("%s: ok\n", c.o.case_path);
-      return 0;
-    }
-    catch_signals(&ctx);
-    /* under mpirun every rank runs the case; rank 0 writes and speaks (doc/parallel.md) */
-    if (mo_parallel_launched() && (st = mo_parallel_start(&argc, &argv, &ctx))) {
-      fprintf(stderr, "moreau: %s\n", ctx.errmsg);
-      free(c.sets);
-      return exit_code(st);
-    }
-    st = mo_run(&c.o, &res, &ctx);
-    mo_parallel_finish(&ctx);
-    free(c.sets);
-    if (ctx.rank != 0) return st ? exit_code(st) : 0;
-    if (st) {
-      fprintf(stderr, "moreau: %s\n", ctx.errmsg);
-      if (res.outdir[0] && res.steps > 0 && res.summary)
-        fprintf(stderr, "moreau: outputs up to step %ld (t = %.6g) are in %s (summary.json says "
-                        "\"incomplete\")\n", res.steps, res.t, res.outdir);
-      else if (res.outdir[0] && res.steps > 0)
-        fprintf(stderr, "moreau: the partial outputs in %s have no summary.json (it could not be "
-                        "written): no reader takes them for complete\n", res.outdir);
-      return exit_code(st);
-    }
-    if (!c.quiet) {
-      int k;
-      printf("%s: %ld steps to t = %.6g in %.3f s\n", c.o.case_path, res.steps, res.t, res.wall);
-      if (res.energy0 > 0)
-        printf("  energy: initial %.6g, final %.6g (ratio %.6f)\n", res.energy0, res.energy1,
-               res.energy1 / res.energy0);
-      for (k = 0; k < res.nmetric; k++)
-        printf("  error of %s against the reference: L2 %.3e, Linf %.3e (relative)\n",
-               res.metric_name[k], res.metric_l2[k], res.metric_linf[k]);
-      printf("  outputs: %s/history.csv, %s/summary.json\n", res.outdir, res.outdir);
-    }
-    return 0;
-  }
-  fprintf(stderr, "moreau: unknown command '%s'\n\n", cmd);
-  usage(stderr);
-  return 2;
+  return cmd->main(cmd, argc, argv, &ctx);
 }

@@ -345,6 +345,23 @@ int mo_mesh_add_box_set(mo_mesh *m, const char *name, const double *lo, const do
   return st;
 }
 
+void mo_mesh_set_names(const mo_mesh *m, int facets, char *buf, size_t n)
+{
+  size_t k = 0;
+  int i, count = facets ? m->nfacetset : m->nnodeset;
+  if (!n) return;
+  buf[0] = '\0';
+  for (i = 0; i < count; i++) {
+    const char *name = facets ? m->facetset[i].name : m->nodeset[i].name;
+    if (k + strlen(name) + 8 > n) {
+      snprintf(buf + k, n - k, "%s...", i ? ", " : "");
+      return;
+    }
+    k += (size_t)snprintf(buf + k, n - k, "%s%s", i ? ", " : "", name);
+  }
+  if (!count) snprintf(buf, n, "none");
+}
+
 int mo_mesh_nodeset_resolve(const mo_mesh *m, const char *expr, int **ids, int *n, mo_ctx *ctx)
 {
   char part[128];
@@ -367,11 +384,7 @@ int mo_mesh_nodeset_resolve(const mo_mesh *m, const char *expr, int **ids, int *
     ns = mo_mesh_find_nodeset(m, part);
     if (!ns) {
       char avail[512];
-      int i, k = 0;
-      avail[0] = '\0';
-      for (i = 0; i < m->nnodeset && k < (int)sizeof avail - 40; i++)
-        k += snprintf(avail + k, sizeof avail - (size_t)k, "%s%s", i ? ", " : "",
-                      m->nodeset[i].name);
+      mo_mesh_set_names(m, 0, avail, sizeof avail);
       mo_free(cur);
       return mo_error(ctx, MO_EINPUT, "no node set '%s' in this mesh (sets: %s)", part, avail);
     }

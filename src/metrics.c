@@ -38,6 +38,9 @@ struct mo_metrics {
   double tv_gone;            /* the largest variation of the candidates that left the set */
   long unmeasured;           /* steps left out of the contact measures (no memory to follow the set) */
   double max_pen, max_vn_closed, vscale, impulse, first_release, t_prev;
+  double uscale;             /* the largest |U| (every component) of a candidate at a step (T50) */
+  double lscale;             /* the smallest element edge, or without one the smallest rigid body */
+  double vround;             /* the largest round-off speed 1e-9 lscale / h of the steps (T50) */
   double final_pen;          /* the largest penetration of the last step measured */
   double vland;              /* the largest approach speed |U_n| of a step before any landing of a watched
                                 candidate (T93); the chatter verdict's V is vimpact (T97) */
@@ -165,6 +168,38 @@ static int follow(mo_metrics *M)
   return ok;
 }
 
+/* The smallest element edge of the deformable bodies, else the smallest rigid body (radius or
+   bounding radius), else 1: the length whose 1e-9 part a step moves by round-off (T50). */
+static double length_scale(const mo_scene *sc)
+{
+  double L = mo_metrics_hmin(sc);
+  int k;
+  if (isfinite(L) && L > 0) return L;
+  L = HUGE_VAL;
+  for (k = 0; k < sc->nrigid; k++) {
+    const mo_body *B = &sc->body[sc->rigid[k]];
+    double r = B->kind == MO_BODY_DISK || B->kind == MO_BODY_SPHERE ? B->radius : B->bound;
+    if (r > 0 && r < L) L = r;
+  }
+  return isfinite(L) ? L : 1;
+}
+
+/* The oscillation index's velocity scale (T50): the largest relative velocity of a contact
+   point, every component, not below the round-off speed (a sliding or resting contact whose
+   U_n is round-off does not make its own round-off the scale). */
+static double oscillation_scale(const mo_metrics *M)
+{
+  return M->uscale > M->vround ? M->uscale : M->vround;
+}
+
+static double oscillation_index(const mo_metrics *M)
+{
+  double osc = M->tv_gone, V = oscillation_scale(M);
+  int a;
+  for (a = 0; a < M->nc; a++) if (M->tv[a] > osc) osc = M->tv[a];
+  return V > 0 ? osc / V : 0;
+}
+
 int mo_metrics_create(const mo_scene *sc, const mo_contact *C, mo_metrics **out, mo_ctx *ctx)
 {
   mo_metrics *M = mo_calloc(ctx, 1, sizeof *M);
@@ -185,6 +220,7 @@ int mo_metrics_create(const mo_scene *sc, const mo_contact *C, mo_metrics **out,
     if (!room(M, M->nc, ctx)) { mo_metrics_free(M); return MO_ENOMEM; }
     if (M->nc) memcpy(M->keys, mo_contact_key(C, 0), (size_t)M->nc * MO_KEY * sizeof *M->keys);
     M->gtol = 1e-9 * mo_metrics_hmin(sc);
+    M->lscale = length_scale(sc);
   }
   *out = M;
   return MO_OK;
@@ -282,6 +318,7 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
        round-off, never an impact speed (T93) */
     vfloor = h > 0 && isfinite(M->gtol) ? M->gtol / h : 0;
     M->vfloor = vfloor;
+    if (h > 0 && 1e-9 * M->lscale / h > M->vround) M->vround = 1e-9 * M->lscale / h;
     for (a = 0; a < M->nc; a++) {
       double un = M->Un[a * d] + U0[a * d];
       /* bearing: a compressive reaction. The jump of the normal velocity and its variation
@@ -297,6 +334,12 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
       if (-g[a] > M->max_pen) M->max_pen = -g[a];
       if (-g[a] > M->final_pen) M->final_pen = -g[a];
       if (fabs(un) > M->vscale) M->vscale = fabs(un);
+      {
+        double u2 = 0;
+        int l;
+        for (l = 0; l < d; l++) u2 += (M->Un[a * d + l] + U0[a * d + l]) * (M->Un[a * d + l] + U0[a * d + l]);
+        if (sqrt(u2) > M->uscale) M->uscale = sqrt(u2);
+      }
       if (inc) {
         closed++;
         if (M->incontact[a]) {
@@ -385,11 +428,8 @@ json_t *mo_metrics_json(const mo_metrics *M)
   }
   if (M->C) {
     json_t *c = json_object(), *imp = json_array(), *impt = json_array();
-    double osc = 0, tref = mo_reference_release_time(R);
+    double tref = mo_reference_release_time(R);
     int a, k;
-    double osc_all = M->tv_gone;
-    for (a = 0; a < M->nc; a++) if (M->tv[a] > osc_all) osc_all = M->tv[a];
-    osc = osc_all;
     json_object_set_new(c, "max_penetration", json_real(M->max_pen));
     json_object_set_new(c, "final_penetration", json_real(M->final_pen));
     {
@@ -408,7 +448,8 @@ json_t *mo_metrics_json(const mo_metrics *M)
       json_object_set_new(c, "chatter", json_boolean(ch.chatter));
     }
     json_object_set_new(c, "velocity_scale", json_real(M->vscale));
-    json_object_set_new(c, "oscillation_index", json_real(M->vscale > 0 ? osc / M->vscale : 0));
+    json_object_set_new(c, "oscillation_index", json_real(oscillation_index(M)));
+    json_object_set_new(c, "oscillation_scale", json_real(oscillation_scale(M)));
     json_object_set_new(c, "impact_velocity", json_real(M->vimpact));
     json_object_set_new(c, "restitution", json_real(restitution(M)));
     {
@@ -463,16 +504,14 @@ static double restitution(const mo_metrics *M)
 
 void mo_metrics_chatter_input(const mo_metrics *M, mo_chatter_input *in)
 {
-  double osc = M->tv_gone;
   int a, ns = M->nsign_gone;
-  for (a = 0; a < M->nc; a++) {
-    if (M->tv[a] > osc) osc = M->tv[a];
+  for (a = 0; a < M->nc; a++)
     if (M->nsign[a] > ns) ns = M->nsign[a];
-  }
   in->impact_velocity = M->vimpact;
   in->velocity_scale = M->vscale;
   in->max_vn_in_contact = M->max_vn_closed;
-  in->oscillation_index = M->vscale > 0 ? osc / M->vscale : 0;
+  in->oscillation_index = oscillation_index(M);
+  in->oscillation_scale = oscillation_scale(M);
   in->vn_sign_changes = ns;
   in->restitution = restitution(M);
 }
@@ -500,7 +539,7 @@ int mo_chatter_verdict(const mo_chatter_input *in, char *why, size_t n)
     return 0;
   }
   vn = in->max_vn_in_contact / V;
-  osc = in->oscillation_index * in->velocity_scale / V;
+  osc = in->oscillation_index * (isnan(in->oscillation_scale) ? in->velocity_scale : in->oscillation_scale) / V;
   if (isnan(vn)) vn = 0;
   if (isnan(osc)) osc = 0;
   if (isnan(ns)) ns = 0;

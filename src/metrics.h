@@ -55,6 +55,8 @@ void mo_metrics_free(mo_metrics *M);
 typedef struct {
   double impact_velocity, velocity_scale, max_vn_in_contact, oscillation_index, vn_sign_changes;
   double restitution;        /* the largest Newton restitution e of the pairs (0: none) */
+  double oscillation_scale;  /* the oscillation index's velocity scale (T50); NAN: velocity_scale
+                                (summaries written before it was reported) */
 } mo_chatter_input;
 
 /* A run's chatter measures (the values metrics.contact of summary.json holds). */

@@ -1,4 +1,4 @@
-/* narrow.c: narrow phases of contact detection: plane, ball and convex polygon pairs (doc/DEM.md §1). */
+/* narrow.c: narrow phases of contact detection: plane, ball and convex polygon pairs (doc/theory.md §12.3). */
 #include "config.h"
 #include "narrow.h"
 

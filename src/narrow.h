@@ -4,7 +4,7 @@
 
 #include <stddef.h>
 
-/* One contact between a master shape A and a slave shape B (doc/DEM.md §1).
+/* One contact between a master shape A and a slave shape B (doc/theory.md §12.1, §12.3).
    x: the point midway between the two surfaces; n: unit normal from A toward B; g: the signed
    distance between the surfaces along n (g >= 0 open, g < 0 overlap). Components beyond the
    dimension are 0.

@@ -1,5 +1,5 @@
-/* output.c: CSV histories, VTK XML series (fields, rigid bodies, contact network), atomic file
-   replacement. */
+/* output.c: CSV histories, VTK XML series (fields, rigid bodies, contact network, contact points,
+   planes) appended raw, atomic file replacement. */
 #ifndef _GNU_SOURCE
 #define _GNU_SOURCE 1 /* O_TMPFILE, linkat */
 #endif
@@ -259,16 +259,172 @@ int mo_csv_close(mo_csv *c, mo_ctx *ctx)
 
 /* --- VTK ----------------------------------------------------------------------------------- */
 
+/* Every .vtu of the series is an UnstructuredGrid whose arrays are appended raw (VTK's
+   format="appended", encoding="raw": after the XML, '_' then per array a UInt64 byte count and
+   the values in the machine's byte order, which the file names), exact to the last bit and read
+   by VTK, ParaView and meshio. A file is written in two passes of the same code: the first
+   writes the XML, each array declared with its offset; the second its values. An array whose
+   values do not fill what was declared is an internal error, never a file. */
+
+typedef enum { VT_F64 = 8, VT_I32 = 4, VT_U8 = 1 } vtu_type;
+
+typedef struct {
+  mo_atomic_file A;
+  FILE *f;
+  int pass;             /* 0: XML, 1: the appended values */
+  uint64_t offset;      /* pass 0: the offset of the next array */
+  uint64_t left;        /* pass 1: the bytes the current array still owes */
+  int short_array;      /* an array got fewer or more values than it declared */
+  unsigned char buf[1 << 16];
+  size_t nbuf;
+} vtu;
+
+static void vtu_flush(vtu *w)
+{
+  if (w->nbuf) fwrite(w->buf, 1, w->nbuf, w->f);
+  w->nbuf = 0;
+}
+
+static void vtu_bytes(vtu *w, const void *p, size_t n)
+{
+  if (n > w->left) {
+    w->short_array = 1;
+    return;
+  }
+  w->left -= n;
+  if (w->nbuf + n > sizeof w->buf) vtu_flush(w);
+  memcpy(w->buf + w->nbuf, p, n);
+  w->nbuf += n;
+}
+
+static void put_f64(vtu *w, double x) { vtu_bytes(w, &x, sizeof x); }
+static void put_i32(vtu *w, long x)
+{
+  int32_t y = (int32_t)x;
+  vtu_bytes(w, &y, sizeof y);
+}
+static void put_u8(vtu *w, int x)
+{
+  unsigned char y = (unsigned char)x;
+  vtu_bytes(w, &y, 1);
+}
+/* The first D of three components, padded with zeros (2D and 1D vectors as VTK's 3). */
+static void put_vec3(vtu *w, const double *x, int D)
+{
+  int i;
+  for (i = 0; i < 3; i++) put_f64(w, i < D ? x[i] : 0.0);
+}
+
+/* An array of n values (ncomp per tuple) named `name`. Pass 0 declares it and returns 0; pass
+   1 starts its values and returns 1: the caller then puts exactly n values. */
+static int vtu_array(vtu *w, const char *name, vtu_type type, int ncomp, long n)
+{
+  uint64_t bytes = (uint64_t)n * (uint64_t)type;
+  if (w->pass == 0) {
+    fprintf(w->f, "<DataArray type=\"%s\" Name=\"%s\" NumberOfComponents=\"%d\" format=\"appended\" "
+                  "offset=\"%llu\"/>\n",
+            type == VT_F64 ? "Float64" : type == VT_I32 ? "Int32" : "UInt8", name, ncomp,
+            (unsigned long long)w->offset);
+    w->offset += sizeof bytes + bytes;
+    return 0;
+  }
+  if (w->left) w->short_array = 1;
+  w->left = sizeof bytes;
+  vtu_bytes(w, &bytes, sizeof bytes);
+  w->left = bytes;
+  return 1;
+}
+
+/* XML of the first pass only (section tags). */
+static void vtu_xml(vtu *w, const char *text)
+{
+  if (w->pass == 0) fputs(text, w->f);
+}
+
+static const char *byte_order(void)
+{
+  const uint16_t one = 1;
+  return *(const unsigned char *)&one ? "LittleEndian" : "BigEndian";
+}
+
+/* Open `path` (a temporary until vtu_close) for a piece of npoint points and ncell cells at
+   time t (its FieldData TimeValue), and write the header. */
+static int vtu_open(vtu *w, const char *path, long npoint, long ncell, double t, mo_ctx *ctx)
+{
+  int st;
+  w->f = NULL;
+  w->pass = 0;
+  w->offset = w->left = 0;
+  w->short_array = 0;
+  w->nbuf = 0;
+  if (npoint > INT_MAX || ncell > INT_MAX)
+    return mo_error(ctx, MO_ELIMIT, "'%s': more than %d points or cells", path, INT_MAX);
+  if ((st = mo_atomic_open(&w->A, path, ctx))) return st;
+  w->A.nosync = 1;
+  w->f = w->A.f;
+  fprintf(w->f, "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" "
+                "byte_order=\"%s\" header_type=\"UInt64\">\n<UnstructuredGrid>\n"
+                "<FieldData>\n<DataArray type=\"Float64\" Name=\"TimeValue\" NumberOfTuples=\"1\" format=\"ascii\">"
+                "%.17g</DataArray>\n</FieldData>\n"
+                "<Piece NumberOfPoints=\"%ld\" NumberOfCells=\"%ld\">\n",
+          byte_order(), t, npoint, ncell);
+  return MO_OK;
+}
+
+/* Between the passes: the end of the XML, the start of the appended values. */
+static void vtu_values(vtu *w)
+{
+  fputs("</Piece>\n</UnstructuredGrid>\n<AppendedData encoding=\"raw\">\n_", w->f);
+  w->pass = 1;
+}
+
+/* Close the file and put it in place; `ok` 0 (an error of the caller): removed. */
+static int vtu_close(vtu *w, int ok, mo_ctx *ctx)
+{
+  if (!w->f) return MO_OK;
+  if (ok) {
+    if (w->left) w->short_array = 1;
+    vtu_flush(w);
+    fputs("\n</AppendedData>\n</VTKFile>\n", w->f);
+  }
+  w->f = NULL;
+  if (ok && w->short_array) {
+    mo_atomic_commit(&w->A, 0, ctx);
+    return mo_error(ctx, MO_EINTERNAL, "'%s': an array's values do not match its declaration", w->A.path);
+  }
+  return mo_atomic_commit(&w->A, ok, ctx);
+}
+
+/* Cells of one type with nv vertices each, numbered in order (vertices, lines): connectivity,
+   offsets, types. */
+static void vtu_uniform_cells(vtu *w, long ncell, int nv, int type)
+{
+  long c;
+  vtu_xml(w, "<Cells>\n");
+  if (vtu_array(w, "connectivity", VT_I32, 1, ncell * nv))
+    for (c = 0; c < ncell * nv; c++) put_i32(w, c);
+  if (vtu_array(w, "offsets", VT_I32, 1, ncell))
+    for (c = 0; c < ncell; c++) put_i32(w, (c + 1) * nv);
+  if (vtu_array(w, "types", VT_U8, 1, ncell))
+    for (c = 0; c < ncell; c++) put_u8(w, type);
+  vtu_xml(w, "</Cells>\n");
+}
+
 struct mo_vtk {
   char *dir;
   int nframe, cap;
   double *times;
+  int fields;                /* deformable bodies: fields_BODY_NNNNN.vtu, fields.pvd */
   int balls, shapes, rigid;  /* the rigid series of the scene: particles, polygons, contacts */
+  int points;                /* contact_points_NNNNN.vtu (the scene has contact, output.vtk.contacts) */
+  int planes;                /* planes_NNNNN.vtu */
+  double box[6];             /* the bodies' bounding box over the frames so far (planes' size) */
+  int has_box;
 };
 
 static int write_paraview_script(const mo_vtk *v, const mo_scene *sc, mo_ctx *ctx);
 
-int mo_vtk_open(const char *dir, const mo_scene *sc, mo_vtk **out, mo_ctx *ctx)
+int mo_vtk_open(const char *dir, const mo_scene *sc, int contact, mo_vtk **out, mo_ctx *ctx)
 {
   mo_vtk *v = mo_calloc(ctx, 1, sizeof *v);
   int k, st;
@@ -276,12 +432,17 @@ int mo_vtk_open(const char *dir, const mo_scene *sc, mo_vtk **out, mo_ctx *ctx)
   if (!v) return MO_ENOMEM;
   v->dir = mo_strdup(ctx, dir);
   if (!v->dir) { mo_free(v); return MO_ENOMEM; }
+  for (k = 0; k < sc->nbody; k++) {
+    v->fields |= sc->body[k].kind == MO_BODY_DEFORMABLE;
+    v->planes |= sc->body[k].kind == MO_BODY_PLANE;
+  }
   for (k = 0; k < sc->nrigid; k++) {
     mo_body_kind kd = sc->body[sc->rigid[k]].kind;
     v->balls |= kd == MO_BODY_DISK || kd == MO_BODY_SPHERE;
     v->shapes |= kd == MO_BODY_POLYGON || kd == MO_BODY_RIGID_MESH;
   }
   v->rigid = sc->nrigid > 0;
+  v->points = contact && sc->out.vtk_contacts != MO_VTK_CONTACTS_NONE;
   if (v->rigid && (st = write_paraview_script(v, sc, ctx))) {
     mo_vtk_close(v);
     return st;
@@ -291,6 +452,14 @@ int mo_vtk_open(const char *dir, const mo_scene *sc, mo_vtk **out, mo_ctx *ctx)
 }
 
 int mo_vtk_frames(const mo_vtk *v) { return v->nframe; }
+
+int mo_vtk_wants_points(const mo_vtk *v) { return v->points; }
+
+unsigned mo_vtk_outputs(const mo_vtk *v)
+{
+  return (v->fields ? MO_OUT_FIELDS : 0u) | (v->points ? MO_OUT_CONTACT_POINTS : 0u) |
+         (v->planes ? MO_OUT_PLANES : 0u) | (v->rigid ? MO_OUT_RIGID : 0u);
+}
 
 void mo_vtk_close(mo_vtk *v)
 {
@@ -329,6 +498,33 @@ void mo_vtk_contacts_release(mo_vtk_contacts *N)
   memset(N, 0, sizeof *N);
 }
 
+int mo_vtk_points_reserve(mo_vtk_points *P, int n, int d, mo_ctx *ctx)
+{
+  int cap = P->cap ? P->cap : 16;
+  void *p;
+  P->d = d;
+  if (n <= P->cap) return MO_OK;
+  while (cap < n) cap *= 2;
+#define GROW(ptr, k)                                                                            \
+  if (!(p = mo_realloc(ctx, ptr, (size_t)cap * (k) * sizeof *(ptr)))) return MO_ENOMEM;           \
+  ptr = p
+  GROW(P->x, 3); GROW(P->x0, 3); GROW(P->disp, 3); GROW(P->normal, 3); GROW(P->R, 3); GROW(P->U, 3);
+  GROW(P->force, 3); GROW(P->vrel, 3); GROW(P->gap, 1); GROW(P->lambda, 1); GROW(P->measure, 1);
+  GROW(P->cand, 1); GROW(P->pair, 1); GROW(P->node, 1); GROW(P->status, 1); GROW(P->body, 2);
+#undef GROW
+  P->cap = cap;
+  return MO_OK;
+}
+
+void mo_vtk_points_release(mo_vtk_points *P)
+{
+  if (!P) return;
+  mo_free(P->x); mo_free(P->x0); mo_free(P->disp); mo_free(P->normal); mo_free(P->R); mo_free(P->U);
+  mo_free(P->force); mo_free(P->vrel); mo_free(P->gap); mo_free(P->lambda); mo_free(P->measure);
+  mo_free(P->cand); mo_free(P->pair); mo_free(P->node); mo_free(P->status); mo_free(P->body);
+  memset(P, 0, sizeof *P);
+}
+
 /* The tubes' radius in particles.py: a tenth of the smallest rigid body. */
 static double tube_radius(const mo_scene *sc)
 {
@@ -347,7 +543,7 @@ static double tube_radius(const mo_scene *sc)
    absolute path of v->dir when the run wrote it. */
 static int write_paraview_script(const mo_vtk *v, const mo_scene *sc, mo_ctx *ctx)
 {
-  char path[4200], absdir[PATH_MAX], here[PATH_MAX + 8], text[6144];
+  char path[4200], absdir[PATH_MAX], here[PATH_MAX + 8], text[8192];
   int n;
   /* the folder as a Python literal; a name with quotes or backslashes: the current folder */
   if (realpath(v->dir, absdir) && !strpbrk(absdir, "'\\\n")) snprintf(here, sizeof here, "'%s'", absdir);
@@ -361,7 +557,9 @@ static int write_paraview_script(const mo_vtk *v, const mo_scene *sc, mo_ctx *ct
     "# one line per closed contact) as tubes coloured by the normal force rn. Arrays: particles (points):\n"
     "# radius, velocity, omega, orientation (2D: angle; 3D: quaternion w x y z), body; polygons (cells):\n"
     "# velocity, omega, body; contacts (cells): rn, rt (forces), gap, point, status (0 open, 1 stick,\n"
-    "# 2 slide), slave, master (body numbers). Play the animation for the time series.\n"
+    "# 2 slide), slave, master (body numbers); planes.pvd (the planes, sized to the scene) and\n"
+    "# contact_points.pvd (a point per candidate: force, R, U, gap, status...) when written. Play the\n"
+    "# animation for the time series.\n"
     "import os\n"
     "from paraview.simple import *\n\n"
     "try:\n    HERE = os.path.dirname(os.path.abspath(__file__))\n"
@@ -389,11 +587,23 @@ static int write_paraview_script(const mo_vtk *v, const mo_scene *sc, mo_ctx *ct
     "    tube = Tube(Input=contacts)\n"
     "    tube.Radius = %.6g  # a tenth of the smallest body\n"
     "    colour(Show(tube, view), 'CELLS', 'rn')\n"
+    "planes = series('planes')\n"
+    "if planes is not None:\n"
+    "    shown = Show(planes, view)\n"
+    "    shown.Opacity = 0.3\n"
+    "points = series('contact_points')\n"
+    "if points is not None:\n"
+    "    arrows = Glyph(Input=points, GlyphType='Arrow')\n"
+    "    arrows.OrientationArray = ['POINTS', 'force']\n"
+    "    arrows.ScaleArray = ['POINTS', 'No scale array']\n"
+    "    arrows.ScaleFactor = %.6g  # the contact forces' directions, coloured by their size\n"
+    "    arrows.GlyphMode = 'All Points'\n"
+    "    colour(Show(arrows, view), 'POINTS', 'force', 'Magnitude')\n"
     "GetAnimationScene().UpdateAnimationUsingDataTimeSteps()\n"
     "%s"
     "view.ResetCamera()\n"
     "Render()\n",
-    here, tube_radius(sc), sc->dim == 2 ? "view.InteractionMode = '2D'\n" : "");
+    here, tube_radius(sc), 20 * tube_radius(sc), sc->dim == 2 ? "view.InteractionMode = '2D'\n" : "");
   if (n < 0 || n >= (int)sizeof text) return mo_error(ctx, MO_EINTERNAL, "particles.py: text too long");
   snprintf(path, sizeof path, "%s/particles.py", v->dir);
   return mo_write_file_atomic(path, text, (size_t)n, ctx);
@@ -439,110 +649,96 @@ static void green_lagrange(const mo_mesh *m, int e, const mo_material *mat, cons
   }
 }
 
-static int write_vtu(const char *path, const mo_scene *sc, const mo_body *B, const mo_state *s,
-                     unsigned fields, mo_ctx *ctx)
+
+/* The element fields of a deformable body at state s: strain and stress as VTK's symmetric
+   tensors (XX YY ZZ XY YZ XZ; finite-strain bodies: Green-Lagrange at the centroid and the
+   material state's Cauchy stress), von Mises, eps_p (finite-strain bodies). Arrays of nelem. */
+static void element_fields(const mo_scene *sc, const mo_body *B, const mo_state *s, double *eps, double *sig,
+                           double *vm, double *ep)
 {
   const mo_mesh *m = B->mesh;
-  int D = sc->dim, a, c, e, nc = mo_hyp_ncomp(B->mat.hyp);
-  mo_atomic_file A;
-  FILE *f;
-  int st = mo_atomic_open(&A, path, ctx);
-  if (st) return st;
-  A.nosync = 1;
-  f = A.f;
-  fprintf(f, "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"0.1\" "
-             "byte_order=\"LittleEndian\">\n<UnstructuredGrid>\n"
-             "<Piece NumberOfPoints=\"%d\" NumberOfCells=\"%d\">\n<Points>\n"
-             "<DataArray type=\"Float64\" NumberOfComponents=\"3\" format=\"ascii\">\n",
-          m->nnode, m->nelem);
-  for (a = 0; a < m->nnode; a++) {
-    for (c = 0; c < 3; c++) fprintf(f, "%.10g ", c < D ? m->x[a * D + c] : 0.0);
-    fputc('\n', f);
-  }
-  fprintf(f, "</DataArray>\n</Points>\n<Cells>\n<DataArray type=\"Int32\" Name=\"connectivity\" format=\"ascii\">\n");
+  int D = sc->dim, a, c, e, w, nc = mo_hyp_ncomp(B->mat.hyp);
   for (e = 0; e < m->nelem; e++) {
-    for (a = 0; a < m->nen; a++) fprintf(f, "%d ", m->conn[e * m->nen + a]);
-    fputc('\n', f);
-  }
-  fprintf(f, "</DataArray>\n<DataArray type=\"Int32\" Name=\"offsets\" format=\"ascii\">\n");
-  for (e = 0; e < m->nelem; e++) fprintf(f, "%d\n", (e + 1) * m->nen);
-  fprintf(f, "</DataArray>\n<DataArray type=\"UInt8\" Name=\"types\" format=\"ascii\">\n");
-  for (e = 0; e < m->nelem; e++) fprintf(f, "%d\n", vtk_cell_type(m->type));
-  fprintf(f, "</DataArray>\n</Cells>\n<PointData Vectors=\"displacement\">\n");
-  {
-    static const char *names[2] = {"displacement", "velocity"};
-    const double *src[2] = {s->u, s->v};
-    int w;
+    double ue[24], ee[6], se[6];
+    ep[e] = 0;
+    for (a = 0; a < m->nen; a++)
+      for (c = 0; c < D; c++) ue[a * D + c] = s->u[B->dof0 + m->conn[e * m->nen + a] * D + c];
+    if (B->nl) {
+      const double *q = s->q + B->q0 + (size_t)e * (size_t)B->npoint * MO_J2_NSTATE;
+      mo_elem_nl_fields(m, e, &B->mat, q, se, &vm[e], &ep[e]);
+      green_lagrange(m, e, &B->mat, ue, ee);
+    } else {
+      mo_elem_stress(m, e, &B->mat, ue, ee, se);
+      vm[e] = mo_von_mises(B->mat.hyp, se);
+    }
     for (w = 0; w < 2; w++) {
-      if (!(fields & (w ? MO_VTK_VELOCITY : MO_VTK_DISPLACEMENT))) continue;
-      fprintf(f, "<DataArray type=\"Float64\" Name=\"%s\" NumberOfComponents=\"3\" format=\"ascii\">\n", names[w]);
-      for (a = 0; a < m->nnode; a++) {
-        for (c = 0; c < 3; c++) fprintf(f, "%.10g ", c < D ? src[w][B->dof0 + a * D + c] : 0.0);
-        fputc('\n', f);
-      }
-      fprintf(f, "</DataArray>\n");
+      const double *in = w ? se : ee;
+      double *o = (w ? sig : eps) + 6 * e;
+      memset(o, 0, 6 * sizeof *o);
+      if (nc == 1) o[0] = in[0];
+      else if (nc == 6) { o[0] = in[0]; o[1] = in[1]; o[2] = in[2]; o[3] = in[5]; o[4] = in[3]; o[5] = in[4]; }
+      else { o[0] = in[0]; o[1] = in[1]; o[2] = in[3]; o[3] = in[2]; }
     }
   }
-  fprintf(f, "</PointData>\n<CellData>\n");
-  if (fields & (MO_VTK_STRESS | MO_VTK_STRAIN | MO_VTK_VON_MISES | MO_VTK_EPS_P)) {
-    /* ParaView reads 6-component arrays as symmetric tensors XX YY ZZ XY YZ XZ */
-    int w;
-    double *eps = mo_malloc(ctx, (size_t)m->nelem * 6 * sizeof(double));
-    double *sig = mo_malloc(ctx, (size_t)m->nelem * 6 * sizeof(double));
-    double *vm = mo_malloc(ctx, (size_t)(m->nelem ? m->nelem : 1) * sizeof(double));
-    double *ep = mo_calloc(ctx, (size_t)(m->nelem ? m->nelem : 1), sizeof(double));
+}
+
+/* fields_BODY_NNNNN.vtu: the mesh in its reference configuration, point data displacement and
+   velocity, cell data strain, stress, von_mises, eps_p (as output.vtk.fields asks). */
+static int write_fields(const char *path, const mo_scene *sc, const mo_body *B, const mo_state *s,
+                        unsigned fields, mo_ctx *ctx)
+{
+  static const char *vname[2] = {"displacement", "velocity"};
+  const mo_mesh *m = B->mesh;
+  const double *vsrc[2] = {s->u, s->v};
+  int D = sc->dim, a, e, w, st, cells = fields & (MO_VTK_STRESS | MO_VTK_STRAIN | MO_VTK_VON_MISES | MO_VTK_EPS_P);
+  long ne = m->nelem;
+  double *eps = NULL, *sig = NULL, *vm = NULL, *ep = NULL;
+  vtu wr;
+  if (cells) {
+    eps = mo_malloc(ctx, (size_t)(ne + 1) * 6 * sizeof(double));
+    sig = mo_malloc(ctx, (size_t)(ne + 1) * 6 * sizeof(double));
+    vm = mo_malloc(ctx, (size_t)(ne + 1) * sizeof(double));
+    ep = mo_malloc(ctx, (size_t)(ne + 1) * sizeof(double));
     if (!eps || !sig || !vm || !ep) {
-      mo_free(eps); mo_free(sig); mo_free(vm); mo_free(ep);
-      mo_atomic_commit(&A, 0, ctx);
-      return MO_ENOMEM;
+      st = MO_ENOMEM;
+      goto done;
     }
-    for (e = 0; e < m->nelem; e++) {
-      double ue[24], ee[6], se[6];
-      for (a = 0; a < m->nen; a++)
-        for (c = 0; c < D; c++) ue[a * D + c] = s->u[B->dof0 + m->conn[e * m->nen + a] * D + c];
-      if (B->nl) {
-        /* finite strains: the material state's Cauchy stress, von Mises and epsp (element
-           means over the points), the Green-Lagrange strain at the centroid */
-        const double *q = s->q + B->q0 + (size_t)e * (size_t)B->npoint * MO_J2_NSTATE;
-        mo_elem_nl_fields(m, e, &B->mat, q, se, &vm[e], &ep[e]);
-        green_lagrange(m, e, &B->mat, ue, ee);
-      } else {
-        mo_elem_stress(m, e, &B->mat, ue, ee, se);
-        vm[e] = mo_von_mises(B->mat.hyp, se);
-      }
-      for (w = 0; w < 2; w++) {
-        const double *in = w ? se : ee;
-        double *o = (w ? sig : eps) + 6 * e;
-        memset(o, 0, 6 * sizeof *o);
-        if (nc == 1) o[0] = in[0];
-        else if (nc == 6) { o[0] = in[0]; o[1] = in[1]; o[2] = in[2]; o[3] = in[5]; o[4] = in[3]; o[5] = in[4]; }
-        else { o[0] = in[0]; o[1] = in[1]; o[2] = in[3]; o[3] = in[2]; }
-      }
-    }
-    for (w = 0; w < 2; w++) {
-      const double *arr = w ? sig : eps;
-      if (!(fields & (w ? MO_VTK_STRESS : MO_VTK_STRAIN))) continue;
-      fprintf(f, "<DataArray type=\"Float64\" Name=\"%s\" NumberOfComponents=\"6\" format=\"ascii\">\n", w ? "stress" : "strain");
-      for (e = 0; e < m->nelem; e++) {
-        for (c = 0; c < 6; c++) fprintf(f, "%.8g ", arr[6 * e + c]);
-        fputc('\n', f);
-      }
-      fprintf(f, "</DataArray>\n");
-    }
-    if (fields & MO_VTK_VON_MISES) {
-      fprintf(f, "<DataArray type=\"Float64\" Name=\"von_mises\" format=\"ascii\">\n");
-      for (e = 0; e < m->nelem; e++) fprintf(f, "%.8g\n", vm[e]);
-      fprintf(f, "</DataArray>\n");
-    }
-    if ((fields & MO_VTK_EPS_P) && B->nl) {
-      fprintf(f, "<DataArray type=\"Float64\" Name=\"eps_p\" format=\"ascii\">\n");
-      for (e = 0; e < m->nelem; e++) fprintf(f, "%.8g\n", ep[e]);
-      fprintf(f, "</DataArray>\n");
-    }
-    mo_free(eps); mo_free(sig); mo_free(vm); mo_free(ep);
+    element_fields(sc, B, s, eps, sig, vm, ep);
   }
-  fprintf(f, "</CellData>\n</Piece>\n</UnstructuredGrid>\n</VTKFile>\n");
-  return mo_atomic_commit(&A, 1, ctx);
+  if ((st = vtu_open(&wr, path, m->nnode, ne, s->t, ctx))) goto done;
+  for (; wr.pass < 2; wr.pass++) {
+    if (wr.pass) vtu_values(&wr);
+    vtu_xml(&wr, "<Points>\n");
+    if (vtu_array(&wr, "points", VT_F64, 3, 3L * m->nnode))
+      for (a = 0; a < m->nnode; a++) put_vec3(&wr, m->x + (size_t)a * D, D);
+    vtu_xml(&wr, "</Points>\n<Cells>\n");
+    if (vtu_array(&wr, "connectivity", VT_I32, 1, ne * m->nen))
+      for (e = 0; e < ne * m->nen; e++) put_i32(&wr, m->conn[e]);
+    if (vtu_array(&wr, "offsets", VT_I32, 1, ne))
+      for (e = 0; e < ne; e++) put_i32(&wr, (long)(e + 1) * m->nen);
+    if (vtu_array(&wr, "types", VT_U8, 1, ne))
+      for (e = 0; e < ne; e++) put_u8(&wr, vtk_cell_type(m->type));
+    vtu_xml(&wr, "</Cells>\n<PointData Vectors=\"displacement\">\n");
+    for (w = 0; w < 2; w++)
+      if ((fields & (w ? MO_VTK_VELOCITY : MO_VTK_DISPLACEMENT)) && vtu_array(&wr, vname[w], VT_F64, 3, 3L * m->nnode))
+        for (a = 0; a < m->nnode; a++) put_vec3(&wr, vsrc[w] + B->dof0 + (size_t)a * D, D);
+    vtu_xml(&wr, "</PointData>\n<CellData>\n");
+    for (w = 0; w < 2; w++)
+      if ((fields & (w ? MO_VTK_STRESS : MO_VTK_STRAIN)) && vtu_array(&wr, w ? "stress" : "strain", VT_F64, 6, 6 * ne))
+        for (e = 0; e < 6 * ne; e++) put_f64(&wr, (w ? sig : eps)[e]);
+    if ((fields & MO_VTK_VON_MISES) && vtu_array(&wr, "von_mises", VT_F64, 1, ne))
+      for (e = 0; e < ne; e++) put_f64(&wr, vm[e]);
+    if ((fields & MO_VTK_EPS_P) && B->nl && vtu_array(&wr, "eps_p", VT_F64, 1, ne))
+      for (e = 0; e < ne; e++) put_f64(&wr, ep[e]);
+    vtu_xml(&wr, "</CellData>\n");
+  }
+  st = vtu_close(&wr, 1, ctx);
+done:
+  mo_free(eps);
+  mo_free(sig);
+  mo_free(vm);
+  mo_free(ep);
+  return st;
 }
 
 /* fields.pvd, rewritten whole so that it always lists complete frames only. */
@@ -568,7 +764,7 @@ static int write_fields_pvd(const mo_vtk *v, const mo_scene *sc, mo_ctx *ctx)
   for (k = 0; k < v->nframe; k++)
     for (b = 0; b < sc->nbody; b++)
       if (sc->body[b].kind == MO_BODY_DEFORMABLE)
-        APPEND("<DataSet timestep=\"%.12g\" part=\"%d\" file=\"fields_%s_%05d.vtu\"/>\n", v->times[k], b,
+        APPEND("<DataSet timestep=\"%.17g\" part=\"%d\" file=\"fields_%s_%05d.vtu\"/>\n", v->times[k], b,
                sc->body[b].name, k);
   APPEND("</Collection>\n</VTKFile>\n");
 #undef APPEND
@@ -578,125 +774,7 @@ static int write_fields_pvd(const mo_vtk *v, const mo_scene *sc, mo_ctx *ctx)
   return st;
 }
 
-/* --- rigid bodies and the contact network: binary .vtu ------------------------------------------ */
-
-/* A .vtu being written under a temporary name, and the base64 stream of its current DataArray
-   (VTK's inline binary format: base64 of a UInt64 byte count followed by the values, as one
-   stream). */
-typedef struct {
-  FILE *f;
-  mo_atomic_file A;
-  unsigned char in[3];
-  int nin, nout;
-  char out[4096];
-} vtu;
-
-static void b64_flush(vtu *w)
-{
-  if (w->nout) fwrite(w->out, 1, (size_t)w->nout, w->f);
-  w->nout = 0;
-}
-
-/* The 1 to 3 bytes held as 4 digits ('=' padding when fewer than 3). */
-static void b64_group(vtu *w)
-{
-  static const char dig[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  unsigned long x = (unsigned long)w->in[0] << 16 | (unsigned long)(w->nin > 1 ? w->in[1] : 0) << 8 |
-                    (unsigned long)(w->nin > 2 ? w->in[2] : 0);
-  char *o;
-  if (w->nout + 4 > (int)sizeof w->out) b64_flush(w);
-  o = w->out + w->nout;
-  o[0] = dig[x >> 18 & 63];
-  o[1] = dig[x >> 12 & 63];
-  o[2] = w->nin > 1 ? dig[x >> 6 & 63] : '=';
-  o[3] = w->nin > 2 ? dig[x & 63] : '=';
-  w->nout += 4;
-  w->nin = 0;
-}
-
-static void vtu_put(vtu *w, const void *p, size_t n)
-{
-  const unsigned char *b = p;
-  size_t i;
-  for (i = 0; i < n; i++) {
-    w->in[w->nin++] = b[i];
-    if (w->nin == 3) b64_group(w);
-  }
-}
-
-static void put_f64(vtu *w, double x) { vtu_put(w, &x, sizeof x); }
-static void put_i32(vtu *w, long x)
-{
-  int32_t y = (int32_t)x;
-  vtu_put(w, &y, sizeof y);
-}
-static void put_u8(vtu *w, int x)
-{
-  unsigned char y = (unsigned char)x;
-  vtu_put(w, &y, 1);
-}
-
-/* Start a DataArray of n values (Float64, Int32 or UInt8, by the size) of ncomp components. */
-static void vtu_begin(vtu *w, const char *name, int ncomp, long n, int size)
-{
-  uint64_t bytes = (uint64_t)n * (uint64_t)size;
-  fprintf(w->f, "<DataArray type=\"%s\" Name=\"%s\" NumberOfComponents=\"%d\" format=\"binary\">\n",
-          size == 8 ? "Float64" : size == 4 ? "Int32" : "UInt8", name, ncomp);
-  vtu_put(w, &bytes, sizeof bytes);
-}
-
-static void vtu_end(vtu *w)
-{
-  if (w->nin) b64_group(w);
-  b64_flush(w);
-  fputs("\n</DataArray>\n", w->f);
-}
-
-static const char *byte_order(void)
-{
-  const uint16_t one = 1;
-  return *(const unsigned char *)&one ? "LittleEndian" : "BigEndian";
-}
-
-/* Open DIR/NAME_NNNNN.vtu of frame k under a temporary name and write its header. */
-static int vtu_open(vtu *w, const mo_vtk *v, const char *name, int k, long npoint, long ncell, mo_ctx *ctx)
-{
-  char path[4200];
-  int st;
-  memset(w, 0, sizeof *w);
-  if (snprintf(path, sizeof path, "%s/%s_%05d.vtu", v->dir, name, k) >= (int)sizeof path)
-    return mo_error(ctx, MO_EIO, "path too long: '%s/%s'", v->dir, name);
-  if (npoint > INT_MAX || ncell > INT_MAX)
-    return mo_error(ctx, MO_ELIMIT, "'%s': more than %d points or cells", path, INT_MAX);
-  if ((st = mo_atomic_open(&w->A, path, ctx))) return st;
-  w->A.nosync = 1;
-  w->f = w->A.f;
-  fprintf(w->f, "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" "
-                "byte_order=\"%s\" header_type=\"UInt64\">\n<UnstructuredGrid>\n"
-                "<Piece NumberOfPoints=\"%ld\" NumberOfCells=\"%ld\">\n",
-          byte_order(), npoint, ncell);
-  return MO_OK;
-}
-
-/* Close the file and put it in place (or remove it when writing failed). */
-static int vtu_close(vtu *w, mo_ctx *ctx)
-{
-  fputs("</Piece>\n</UnstructuredGrid>\n</VTKFile>\n", w->f);
-  w->f = NULL;
-  return mo_atomic_commit(&w->A, 1, ctx);
-}
-
-/* The offsets and types of ncell cells of one type with nv vertices each (vertices, lines). */
-static void vtu_uniform_cells(vtu *w, long ncell, int nv, int type)
-{
-  long c;
-  vtu_begin(w, "offsets", 1, ncell, 4);
-  for (c = 0; c < ncell; c++) put_i32(w, (c + 1) * nv);
-  vtu_end(w);
-  vtu_begin(w, "types", 1, ncell, 1);
-  for (c = 0; c < ncell; c++) put_u8(w, type);
-  vtu_end(w);
-}
+/* --- rigid bodies and the contact network ----------------------------------------------------- */
 
 /* A rigid body's state as the series show it: centre, velocity, angular velocity (2D: along z),
    orientation (2D: the angle; 3D: the quaternion w, x, y, z). */
@@ -740,7 +818,7 @@ static void rigid_array(vtu *w, const mo_scene *sc, const mo_state *s, int balls
   int nq = sc->dim == 2 ? 1 : 4, k, i;
   int ncomp = what == RV_VELOCITY || what == RV_OMEGA ? 3 : what == RV_ORIENTATION ? nq : 1;
   long c;
-  vtu_begin(w, names[what], ncomp, n * ncomp, what == RV_BODY ? 4 : 8);
+  if (!vtu_array(w, names[what], what == RV_BODY ? VT_I32 : VT_F64, ncomp, n * ncomp)) return;
   for (k = 0; k < sc->nrigid; k++) {
     const mo_body *B = &sc->body[sc->rigid[k]];
     rigid_view r;
@@ -753,35 +831,43 @@ static void rigid_array(vtu *w, const mo_scene *sc, const mo_state *s, int balls
         put_f64(w, what == RV_VELOCITY ? r.v[i] : what == RV_OMEGA ? r.w[i] : r.q[i]);
     }
   }
-  vtu_end(w);
+}
+
+/* DIR/NAME_NNNNN.vtu of frame k. */
+static int frame_path(char *path, size_t n, const mo_vtk *v, const char *name, int k, mo_ctx *ctx)
+{
+  if (snprintf(path, n, "%s/%s_%05d.vtu", v->dir, name, k) >= (int)n)
+    return mo_error(ctx, MO_EIO, "path too long: '%s/%s'", v->dir, name);
+  return MO_OK;
 }
 
 /* particles_NNNNN.vtu: every disk and sphere as a vertex at its centre. */
 static int write_particles(const mo_vtk *v, int frame, const mo_scene *sc, const mo_state *s, mo_ctx *ctx)
 {
+  char path[4200];
   vtu w;
-  long n = 0, a;
+  long n = 0;
   int k, st, what;
   for (k = 0; k < sc->nrigid; k++) n += is_ball(&sc->body[sc->rigid[k]]);
-  if ((st = vtu_open(&w, v, "particles", frame, n, n, ctx))) return st;
-  fputs("<Points>\n", w.f);
-  vtu_begin(&w, "points", 3, 3 * n, 8);
-  for (k = 0; k < sc->nrigid; k++) {
-    double x[3];
-    if (!is_ball(&sc->body[sc->rigid[k]])) continue;
-    mo_rigid_center(sc, &sc->body[sc->rigid[k]], s, x);
-    for (a = 0; a < 3; a++) put_f64(&w, x[a]);
+  if ((st = frame_path(path, sizeof path, v, "particles", frame, ctx)) || (st = vtu_open(&w, path, n, n, s->t, ctx)))
+    return st;
+  for (; w.pass < 2; w.pass++) {
+    if (w.pass) vtu_values(&w);
+    vtu_xml(&w, "<Points>\n");
+    if (vtu_array(&w, "points", VT_F64, 3, 3 * n))
+      for (k = 0; k < sc->nrigid; k++) {
+        double x[3];
+        if (!is_ball(&sc->body[sc->rigid[k]])) continue;
+        mo_rigid_center(sc, &sc->body[sc->rigid[k]], s, x);
+        put_vec3(&w, x, 3);
+      }
+    vtu_xml(&w, "</Points>\n");
+    vtu_uniform_cells(&w, n, 1, 1); /* VTK_VERTEX */
+    vtu_xml(&w, "<PointData Scalars=\"radius\" Vectors=\"velocity\">\n");
+    for (what = RV_RADIUS; what <= RV_BODY; what++) rigid_array(&w, sc, s, 1, what, n);
+    vtu_xml(&w, "</PointData>\n");
   }
-  vtu_end(&w);
-  fputs("</Points>\n<Cells>\n", w.f);
-  vtu_begin(&w, "connectivity", 1, n, 4);
-  for (a = 0; a < n; a++) put_i32(&w, a);
-  vtu_end(&w);
-  vtu_uniform_cells(&w, n, 1, 1); /* VTK_VERTEX */
-  fputs("</Cells>\n<PointData Scalars=\"radius\" Vectors=\"velocity\">\n", w.f);
-  for (what = RV_RADIUS; what <= RV_BODY; what++) rigid_array(&w, sc, s, 1, what, n);
-  fputs("</PointData>\n", w.f);
-  return vtu_close(&w, ctx);
+  return vtu_close(&w, 1, ctx);
 }
 
 /* World position of node a of a rigid mesh: x = c + R (X - xc0). */
@@ -797,25 +883,20 @@ static void rigid_node(const mo_scene *sc, const mo_state *s, const mo_body *B, 
 /* The points of polygons_: each polygon's world vertices, each rigid mesh's nodes. */
 static void shape_points(vtu *w, const mo_scene *sc, const mo_state *s, long npoint)
 {
-  int k, a, i;
-  vtu_begin(w, "points", 3, 3 * npoint, 8);
+  int k, a;
+  if (!vtu_array(w, "points", VT_F64, 3, 3 * npoint)) return;
   for (k = 0; k < sc->nrigid; k++) {
     const mo_body *B = &sc->body[sc->rigid[k]];
     double vw[2 * MO_POLYGON_MAX], x[3];
     if (B->kind == MO_BODY_POLYGON) {
       mo_polygon_world(sc, B, s, vw);
-      for (a = 0; a < B->nvert; a++) {
-        put_f64(w, vw[2 * a]);
-        put_f64(w, vw[2 * a + 1]);
-        put_f64(w, 0);
-      }
+      for (a = 0; a < B->nvert; a++) put_vec3(w, vw + 2 * a, 2);
     } else if (B->kind == MO_BODY_RIGID_MESH)
       for (a = 0; a < B->mesh->nnode; a++) {
         rigid_node(sc, s, B, a, x);
-        for (i = 0; i < 3; i++) put_f64(w, x[i]);
+        put_vec3(w, x, 3);
       }
   }
-  vtu_end(w);
 }
 
 /* The cells of polygons_: connectivity, offsets, types (VTK_POLYGON, the mesh's cell type). */
@@ -825,7 +906,7 @@ static void shape_cells_write(vtu *w, const mo_scene *sc, long nconn, long ncell
   int k, a, e, pass;
   for (pass = 0; pass < 3; pass++) {
     static const char *names[] = {"connectivity", "offsets", "types"};
-    vtu_begin(w, names[pass], 1, pass == 0 ? nconn : ncell, pass == 2 ? 1 : 4);
+    if (!vtu_array(w, names[pass], pass == 2 ? VT_U8 : VT_I32, 1, pass == 0 ? nconn : ncell)) continue;
     for (k = 0, p0 = 0, off = 0; k < sc->nrigid; k++) {
       const mo_body *B = &sc->body[sc->rigid[k]];
       if (B->kind == MO_BODY_POLYGON) {
@@ -842,13 +923,13 @@ static void shape_cells_write(vtu *w, const mo_scene *sc, long nconn, long ncell
         p0 += m->nnode;
       }
     }
-    vtu_end(w);
   }
 }
 
 /* polygons_NNNNN.vtu: every polygon and rigid mesh in its current configuration. */
 static int write_polygons(const mo_vtk *v, int frame, const mo_scene *sc, const mo_state *s, mo_ctx *ctx)
 {
+  char path[4200];
   vtu w;
   long npoint = 0, ncell = 0, nconn = 0;
   int k, st, what;
@@ -864,52 +945,243 @@ static int write_polygons(const mo_vtk *v, int frame, const mo_scene *sc, const 
       ncell += B->mesh->nelem;
     }
   }
-  if ((st = vtu_open(&w, v, "polygons", frame, npoint, ncell, ctx))) return st;
-  fputs("<Points>\n", w.f);
-  shape_points(&w, sc, s, npoint);
-  fputs("</Points>\n<Cells>\n", w.f);
-  shape_cells_write(&w, sc, nconn, ncell);
-  fputs("</Cells>\n<CellData Vectors=\"velocity\">\n", w.f);
-  for (what = RV_VELOCITY; what <= RV_BODY; what++)
-    if (what != RV_ORIENTATION) rigid_array(&w, sc, s, 0, what, ncell);
-  fputs("</CellData>\n", w.f);
-  return vtu_close(&w, ctx);
+  if ((st = frame_path(path, sizeof path, v, "polygons", frame, ctx)) ||
+      (st = vtu_open(&w, path, npoint, ncell, s->t, ctx)))
+    return st;
+  for (; w.pass < 2; w.pass++) {
+    if (w.pass) vtu_values(&w);
+    vtu_xml(&w, "<Points>\n");
+    shape_points(&w, sc, s, npoint);
+    vtu_xml(&w, "</Points>\n<Cells>\n");
+    shape_cells_write(&w, sc, nconn, ncell);
+    vtu_xml(&w, "</Cells>\n<CellData Vectors=\"velocity\">\n");
+    for (what = RV_VELOCITY; what <= RV_BODY; what++)
+      if (what != RV_ORIENTATION) rigid_array(&w, sc, s, 0, what, ncell);
+    vtu_xml(&w, "</CellData>\n");
+  }
+  return vtu_close(&w, 1, ctx);
 }
 
 /* contacts_NNNNN.vtu: the network as lines, two points of their own each. */
-static int write_contacts(const mo_vtk *v, int frame, const mo_vtk_contacts *net, mo_ctx *ctx)
+static int write_contacts(const mo_vtk *v, int frame, double t, const mo_vtk_contacts *net, mo_ctx *ctx)
 {
   static const char *names[] = {"rn", "rt", "gap", "point", "status", "slave", "master"};
+  char path[4200];
   vtu w;
   long n = net ? net->n : 0, a;
   int st, f, i;
-  if ((st = vtu_open(&w, v, "contacts", frame, 2 * n, n, ctx))) return st;
-  fputs("<Points>\n", w.f);
-  vtu_begin(&w, "points", 3, 6 * n, 8);
-  for (a = 0; a < 6 * n; a++) put_f64(&w, net->end[a]);
-  vtu_end(&w);
-  fputs("</Points>\n<Cells>\n", w.f);
-  vtu_begin(&w, "connectivity", 1, 2 * n, 4);
-  for (a = 0; a < 2 * n; a++) put_i32(&w, a);
-  vtu_end(&w);
-  vtu_uniform_cells(&w, n, 2, 3); /* VTK_LINE */
-  fputs("</Cells>\n<CellData Scalars=\"rn\">\n", w.f);
-  for (f = 0; f < 7; f++) {
-    int nc = f == 3 ? 3 : 1;
-    vtu_begin(&w, names[f], nc, nc * n, f >= 4 ? 4 : 8);
-    for (a = 0; a < n; a++)
-      switch (f) {
-      case 0: put_f64(&w, net->rn[a]); break;
-      case 1: put_f64(&w, net->rt[a]); break;
-      case 2: put_f64(&w, net->gap[a]); break;
-      case 3: for (i = 0; i < 3; i++) put_f64(&w, net->point[3 * a + i]); break;
-      case 4: put_i32(&w, net->status[a]); break;
-      default: put_i32(&w, net->body[2 * a + f - 5]); break;
-      }
-    vtu_end(&w);
+  if ((st = frame_path(path, sizeof path, v, "contacts", frame, ctx)) || (st = vtu_open(&w, path, 2 * n, n, t, ctx)))
+    return st;
+  for (; w.pass < 2; w.pass++) {
+    if (w.pass) vtu_values(&w);
+    vtu_xml(&w, "<Points>\n");
+    if (vtu_array(&w, "points", VT_F64, 3, 6 * n))
+      for (a = 0; a < 6 * n; a++) put_f64(&w, net->end[a]);
+    vtu_xml(&w, "</Points>\n");
+    vtu_uniform_cells(&w, n, 2, 3); /* VTK_LINE */
+    vtu_xml(&w, "<CellData Scalars=\"rn\">\n");
+    for (f = 0; f < 7; f++) {
+      int nc = f == 3 ? 3 : 1;
+      if (!vtu_array(&w, names[f], f >= 4 ? VT_I32 : VT_F64, nc, nc * n)) continue;
+      for (a = 0; a < n; a++)
+        switch (f) {
+        case 0: put_f64(&w, net->rn[a]); break;
+        case 1: put_f64(&w, net->rt[a]); break;
+        case 2: put_f64(&w, net->gap[a]); break;
+        case 3: for (i = 0; i < 3; i++) put_f64(&w, net->point[3 * a + i]); break;
+        case 4: put_i32(&w, net->status[a]); break;
+        default: put_i32(&w, net->body[2 * a + f - 5]); break;
+        }
+    }
+    vtu_xml(&w, "</CellData>\n");
   }
-  fputs("</CellData>\n", w.f);
-  return vtu_close(&w, ctx);
+  return vtu_close(&w, 1, ctx);
+}
+
+/* --- contact points and planes ---------------------------------------------------------------- */
+
+/* contact_points_NNNNN.vtu: a vertex per candidate (mo_vtk_points: every one, or the closed
+   ones) at its slave point in the current configuration, with its contact.csv row as point
+   data: candidate, pair, node, displacement (D1..), gap, U and R (local, normal first: UN UT
+   US, RN RT RS; R as forces), status, measure, lambda, slave, master; and in world axes its
+   normal, the force on the slave (sum_l R_l F_l) and the relative velocity (sum_l U_l F_l). */
+static int write_points(const mo_vtk *v, int frame, double t, const mo_vtk_points *P, mo_ctx *ctx)
+{
+  char path[4200];
+  vtu w;
+  long n = P ? P->n : 0, a;
+  int st, d = P && P->d ? P->d : 1, k;
+  if ((st = frame_path(path, sizeof path, v, "contact_points", frame, ctx)) || (st = vtu_open(&w, path, n, n, t, ctx)))
+    return st;
+  for (; w.pass < 2; w.pass++) {
+    if (w.pass) vtu_values(&w);
+    vtu_xml(&w, "<Points>\n");
+    if (vtu_array(&w, "points", VT_F64, 3, 3 * n))
+      for (a = 0; a < 3 * n; a++) put_f64(&w, P->x[a]);
+    vtu_xml(&w, "</Points>\n");
+    vtu_uniform_cells(&w, n, 1, 1); /* VTK_VERTEX */
+    vtu_xml(&w, "<PointData Scalars=\"gap\" Vectors=\"force\">\n");
+    {
+      /* the integer arrays, then the vectors of 3, then the local ones of d, then the scalars */
+      static const char *iname[] = {"candidate", "pair", "node", "status", "slave", "master"};
+      static const char *vname[] = {"displacement", "normal", "force", "relative_velocity", "reference"};
+      static const char *lname[] = {"R", "U"};
+      static const char *sname[] = {"gap", "lambda", "measure"};
+      for (k = 0; k < 6; k++)
+        if (vtu_array(&w, iname[k], VT_I32, 1, n))
+          for (a = 0; a < n; a++)
+            put_i32(&w, k == 0 ? P->cand[a] : k == 1 ? P->pair[a] : k == 2 ? P->node[a] : k == 3 ? P->status[a]
+                                                                                       : P->body[2 * a + k - 4]);
+      for (k = 0; k < 5; k++) {
+        const double *src = k == 0 ? P->disp : k == 1 ? P->normal : k == 2 ? P->force : k == 3 ? P->vrel : P->x0;
+        if (vtu_array(&w, vname[k], VT_F64, 3, 3 * n))
+          for (a = 0; a < 3 * n; a++) put_f64(&w, src[a]);
+      }
+      for (k = 0; k < 2; k++)
+        if (vtu_array(&w, lname[k], VT_F64, d, d * n))
+          for (a = 0; a < n; a++) {
+            int i;
+            for (i = 0; i < d; i++) put_f64(&w, (k ? P->U : P->R)[3 * a + i]);
+          }
+      for (k = 0; k < 3; k++)
+        if (vtu_array(&w, sname[k], VT_F64, 1, n))
+          for (a = 0; a < n; a++) put_f64(&w, (k == 0 ? P->gap : k == 1 ? P->lambda : P->measure)[a]);
+    }
+    vtu_xml(&w, "</PointData>\n");
+  }
+  return vtu_close(&w, 1, ctx);
+}
+
+/* Grow the box b (xmin, xmax, ymin, ymax, zmin, zmax) by the ball of radius r about x. */
+static void box_add(double *b, const double *x, int D, double r)
+{
+  int i;
+  for (i = 0; i < D; i++) {
+    if (x[i] - r < b[2 * i]) b[2 * i] = x[i] - r;
+    if (x[i] + r > b[2 * i + 1]) b[2 * i + 1] = x[i] + r;
+  }
+}
+
+/* The box of every body but the planes at state s, joined with the box of the earlier frames:
+   the planes are drawn to its size. O(nodes + bodies). */
+static void scene_box(mo_vtk *v, const mo_scene *sc, const mo_state *s)
+{
+  double b[6] = {HUGE_VAL, -HUGE_VAL, HUGE_VAL, -HUGE_VAL, HUGE_VAL, -HUGE_VAL}, x[3];
+  int D = sc->dim, k, a, i, any = 0;
+  for (k = 0; k < sc->nbody; k++) {
+    const mo_body *B = &sc->body[k];
+    if (B->kind == MO_BODY_PLANE) continue;
+    any = 1;
+    if (B->kind == MO_BODY_DEFORMABLE)
+      for (a = 0; a < B->mesh->nnode; a++) {
+        for (i = 0; i < D; i++) x[i] = B->mesh->x[(size_t)a * D + i] + s->u[B->dof0 + (size_t)a * D + i];
+        box_add(b, x, D, 0);
+      }
+    else if (B->kind == MO_BODY_RIGID_MESH)
+      for (a = 0; a < B->mesh->nnode; a++) {
+        rigid_node(sc, s, B, a, x);
+        box_add(b, x, D, 0);
+      }
+    else {
+      mo_rigid_center(sc, B, s, x);
+      box_add(b, x, D, is_ball(B) ? B->radius : B->bound);
+    }
+  }
+  if (!any) return;
+  if (!v->has_box) memcpy(v->box, b, sizeof b);
+  for (i = 0; i < D; i++) {
+    if (b[2 * i] < v->box[2 * i]) v->box[2 * i] = b[2 * i];
+    if (b[2 * i + 1] > v->box[2 * i + 1]) v->box[2 * i + 1] = b[2 * i + 1];
+  }
+  v->has_box = 1;
+}
+
+/* The corners of plane B at time t (4 in 3D, 2 in 2D, 1 in 1D): a square (a segment) centred
+   at the projection of the box's centre, of half-side 0.6 times the box's diagonal, so that it
+   spans the scene seen from any side. Returns the number of corners. */
+static int plane_corners(const mo_vtk *v, const mo_scene *sc, const mo_body *B, double t, double *c)
+{
+  const double *n = B->normal;
+  double p[3] = {0, 0, 0}, m[3] = {0, 0, 0}, t1[3] = {0, 0, 0}, t2[3] = {0, 0, 0}, L = 0, g = 0;
+  int D = sc->dim, i, k;
+  for (i = 0; i < D; i++) {
+    p[i] = B->point[i] + B->velocity[i] * t;
+    m[i] = v->has_box ? 0.5 * (v->box[2 * i] + v->box[2 * i + 1]) : p[i];
+    if (v->has_box) L += (v->box[2 * i + 1] - v->box[2 * i]) * (v->box[2 * i + 1] - v->box[2 * i]);
+  }
+  L = 0.6 * sqrt(L);
+  if (!(L > 0)) L = 0.5;
+  for (i = 0; i < D; i++) g += (m[i] - p[i]) * n[i];
+  for (i = 0; i < D; i++) m[i] -= g * n[i];
+  memset(c, 0, 12 * sizeof *c);
+  if (D == 1) {
+    c[0] = p[0];
+    return 1;
+  }
+  if (D == 2) {
+    t1[0] = -n[1];
+    t1[1] = n[0];
+    for (i = 0; i < 2; i++) {
+      c[i] = m[i] - L * t1[i];
+      c[3 + i] = m[i] + L * t1[i];
+    }
+    return 2;
+  }
+  {
+    /* t1 normal to n and to the axis least aligned with it, t2 = n x t1 */
+    int ax = fabs(n[0]) <= fabs(n[1]) && fabs(n[0]) <= fabs(n[2]) ? 0 : fabs(n[1]) <= fabs(n[2]) ? 1 : 2;
+    double e[3] = {0, 0, 0}, r;
+    e[ax] = 1;
+    t1[0] = n[1] * e[2] - n[2] * e[1];
+    t1[1] = n[2] * e[0] - n[0] * e[2];
+    t1[2] = n[0] * e[1] - n[1] * e[0];
+    r = sqrt(t1[0] * t1[0] + t1[1] * t1[1] + t1[2] * t1[2]);
+    for (i = 0; i < 3; i++) t1[i] /= r;
+    t2[0] = n[1] * t1[2] - n[2] * t1[1];
+    t2[1] = n[2] * t1[0] - n[0] * t1[2];
+    t2[2] = n[0] * t1[1] - n[1] * t1[0];
+    for (k = 0; k < 4; k++) {
+      double s1 = k == 0 || k == 3 ? -L : L, s2 = k < 2 ? -L : L;
+      for (i = 0; i < 3; i++) c[3 * k + i] = m[i] + s1 * t1[i] + s2 * t2[i];
+    }
+    return 4;
+  }
+}
+
+/* planes_NNNNN.vtu: every plane at time t as a quadrilateral (3D), a segment (2D) or a vertex
+   (1D) sized to the scene, cell data body, normal, velocity. */
+static int write_planes(const mo_vtk *v, int frame, const mo_scene *sc, double t, mo_ctx *ctx)
+{
+  char path[4200];
+  vtu w;
+  int k, st, nv = sc->dim == 3 ? 4 : sc->dim == 2 ? 2 : 1, np = 0, a, f;
+  for (k = 0; k < sc->nbody; k++) np += sc->body[k].kind == MO_BODY_PLANE;
+  if ((st = frame_path(path, sizeof path, v, "planes", frame, ctx)) ||
+      (st = vtu_open(&w, path, (long)np * nv, np, t, ctx)))
+    return st;
+  for (; w.pass < 2; w.pass++) {
+    if (w.pass) vtu_values(&w);
+    vtu_xml(&w, "<Points>\n");
+    if (vtu_array(&w, "points", VT_F64, 3, 3L * np * nv))
+      for (k = 0; k < sc->nbody; k++) {
+        double c[12];
+        if (sc->body[k].kind != MO_BODY_PLANE) continue;
+        plane_corners(v, sc, &sc->body[k], t, c);
+        for (a = 0; a < 3 * nv; a++) put_f64(&w, c[a]);
+      }
+    vtu_xml(&w, "</Points>\n");
+    vtu_uniform_cells(&w, np, nv, nv == 4 ? 9 : nv == 2 ? 3 : 1); /* VTK_QUAD, VTK_LINE, VTK_VERTEX */
+    vtu_xml(&w, "<CellData Vectors=\"normal\">\n");
+    if (vtu_array(&w, "body", VT_I32, 1, np))
+      for (k = 0; k < sc->nbody; k++)
+        if (sc->body[k].kind == MO_BODY_PLANE) put_i32(&w, k);
+    for (f = 0; f < 2; f++)
+      if (vtu_array(&w, f ? "velocity" : "normal", VT_F64, 3, 3L * np))
+        for (k = 0; k < sc->nbody; k++)
+          if (sc->body[k].kind == MO_BODY_PLANE) put_vec3(&w, f ? sc->body[k].velocity : sc->body[k].normal, sc->dim);
+    vtu_xml(&w, "</CellData>\n");
+  }
+  return vtu_close(&w, 1, ctx);
 }
 
 /* PREFIX.pvd listing the frames PREFIX_NNNNN.vtu with their times (one part). */
@@ -932,25 +1204,11 @@ static int write_series_pvd(const mo_vtk *v, const char *prefix, mo_ctx *ctx)
   return st;
 }
 
-/* The rigid series of the last frame recorded (v->nframe - 1) and their collections. */
-static int write_rigid_frame(const mo_vtk *v, const mo_scene *sc, const mo_state *s,
-                             const mo_vtk_contacts *net, mo_ctx *ctx)
-{
-  int st, k = v->nframe - 1;
-  st = v->balls ? write_particles(v, k, sc, s, ctx) : MO_OK;
-  if (!st && v->shapes) st = write_polygons(v, k, sc, s, ctx);
-  if (!st) st = write_contacts(v, k, net, ctx);
-  if (!st && v->balls) st = write_series_pvd(v, "particles", ctx);
-  if (!st && v->shapes) st = write_series_pvd(v, "polygons", ctx);
-  if (!st) st = write_series_pvd(v, "contacts", ctx);
-  return st;
-}
-
 int mo_vtk_frame(mo_vtk *v, const mo_scene *sc, const mo_state *s, const mo_vtk_contacts *net,
-                 mo_ctx *ctx)
+                 const mo_vtk_points *pts, mo_ctx *ctx)
 {
   char path[4200];
-  int b, st;
+  int b, st = MO_OK, k;
   if (v->nframe == v->cap) {
     int cap2 = v->cap ? 2 * v->cap : 64;
     double *t = mo_realloc(ctx, v->times, (size_t)cap2 * sizeof *t);
@@ -958,14 +1216,28 @@ int mo_vtk_frame(mo_vtk *v, const mo_scene *sc, const mo_state *s, const mo_vtk_
     v->times = t;
     v->cap = cap2;
   }
-  for (b = 0; b < sc->nbody; b++) {
+  k = v->nframe;
+  /* every file of the frame first, then the collections that list it */
+  for (b = 0; !st && b < sc->nbody; b++) {
     if (sc->body[b].kind != MO_BODY_DEFORMABLE) continue;
-    snprintf(path, sizeof path, "%s/fields_%s_%05d.vtu", v->dir, sc->body[b].name, v->nframe);
-    if ((st = write_vtu(path, sc, &sc->body[b], s, sc->out.vtk_fields, ctx))) return st;
+    snprintf(path, sizeof path, "%s/fields_%s_%05d.vtu", v->dir, sc->body[b].name, k);
+    st = write_fields(path, sc, &sc->body[b], s, sc->out.vtk_fields, ctx);
   }
+  if (!st && v->balls) st = write_particles(v, k, sc, s, ctx);
+  if (!st && v->shapes) st = write_polygons(v, k, sc, s, ctx);
+  if (!st && v->rigid) st = write_contacts(v, k, s->t, net, ctx);
+  if (!st && v->points) st = write_points(v, k, s->t, pts, ctx);
+  if (!st && v->planes) {
+    scene_box(v, sc, s);
+    st = write_planes(v, k, sc, s->t, ctx);
+  }
+  if (st) return st;
   v->times[v->nframe++] = s->t;
-  if (v->rigid && (st = write_rigid_frame(v, sc, s, net, ctx))) return st;
-  /* fields.pvd lists the deformable bodies' fields: none, no file (the rigid series have theirs) */
-  for (b = 0; b < sc->nbody && sc->body[b].kind != MO_BODY_DEFORMABLE; b++) {}
-  return b < sc->nbody ? write_fields_pvd(v, sc, ctx) : MO_OK;
+  if (v->fields) st = write_fields_pvd(v, sc, ctx);
+  if (!st && v->balls) st = write_series_pvd(v, "particles", ctx);
+  if (!st && v->shapes) st = write_series_pvd(v, "polygons", ctx);
+  if (!st && v->rigid) st = write_series_pvd(v, "contacts", ctx);
+  if (!st && v->points) st = write_series_pvd(v, "contact_points", ctx);
+  if (!st && v->planes) st = write_series_pvd(v, "planes", ctx);
+  return st;
 }

@@ -1,4 +1,4 @@
-/* registry.c: the explicit table of contact back ends (ARCHITECTURE.md §3). A new back end is
+/* registry.c: the explicit table of contact back ends (doc/architecture.md §5). A new back end is
    one folder under solvers/ and one line here. */
 #include "config.h"
 #include <moreau/moreau.h>

@@ -142,7 +142,7 @@ static double probe_value(const mo_scene *sc, const mo_probe *P, mo_quantity q, 
   return kind >= 2 ? acc : acc / P->nnode;
 }
 
-/* The rigid bodies' columns (DEM.md §3): 2D x, y, theta, vx, vy, omega; 3D x, y, z, q0..q3, vx,
+/* The rigid bodies' columns (doc/case-format.md, "Output"): 2D x, y, theta, vx, vy, omega; 3D x, y, z, q0..q3, vx,
    vy, vz, wx, wy, wz. At most this many moving rigid bodies get them; larger scenes write the
    aggregate columns (rigid.*). */
 #define MO_RIGID_COLUMNS_MAX 32
@@ -410,7 +410,7 @@ static json_t *plasticity_json(const mo_scene *sc, const mo_state *s)
 /* Linear momentum of every body, p_b = sum over its dofs of (M v) per direction, into
    p[3 b + i] (zero for rigid planes and quasi-static scenes). work: ndof. The balance
    p(T) - p(0) = external impulse + contact impulse + support reactions is the check of a
-   scene without a closed form (CASES.md §4). */
+   scene without a closed form (doc/architecture.md §11). */
 static void body_momenta(const mo_scene *sc, const double *v, double *work, double *p)
 {
   int b, a, i;
@@ -1004,6 +1004,8 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   mo_csv *csv = NULL;
   mo_vtk *vtk = NULL;
   mo_vtk_contacts net;
+  mo_vtk_points pts;
+  mo_contact_history *chist = NULL;
   mo_draw *draw = NULL;
   column *cols = NULL;
   contact_view cv;
@@ -1025,6 +1027,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   memset(&prog, 0, sizeof prog);
   memset(&cv, 0, sizeof cv);
   memset(&net, 0, sizeof net);
+  memset(&pts, 0, sizeof pts);
 
   if ((st = load_case(opt, &cs, ctx))) return st;
   if (opt->outdir) snprintf(outdir, sizeof outdir, "%s", opt->outdir);
@@ -1203,10 +1206,17 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   if (cutcol) snprintf(names[cutcol], 80, "time.cuts");
   snprintf(path, sizeof path, "%s/history.csv", outdir);
   if (io && (st = mo_csv_open(path, (const char *const *)names, ncol, sc->out.precision, &csv, ctx))) goto done;
+  res->outputs |= MO_OUT_HISTORY;
   if (sc->out.vtk && io) {
-    if ((st = mo_vtk_open(outdir, sc, &vtk, ctx))) goto done;
+    if ((st = mo_vtk_open(outdir, sc, C != NULL, &vtk, ctx))) goto done;
   } else
     mo_note_skip(ctx, "field output (no output.vtk group)");
+  if (sc->out.contact_history && C && io) {
+    snprintf(path, sizeof path, "%s/contact_history.csv", outdir);
+    if ((st = mo_contact_history_open(path, sc, C, sc->out.contact_history_closed, &chist, ctx))) goto done;
+    res->outputs |= MO_OUT_CONTACT_HISTORY;
+  } else if (sc->out.contact_history)
+    mo_note_skip(ctx, "contact_history.csv (output.contact_history, but the case has no contact pairs)");
   if (opt->no_draw) {
     if (config_lookup(&cs->cfg, "output.draw"))
       mo_note_skip(ctx, "drawings (output.draw: left to single runs, not the runs of a comparison)");
@@ -1328,21 +1338,29 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
       int vframe = vtk && (s.step % sc->out.vtk_every == 0 || last);
       int dframe = draw && mo_draw_wants(draw, s.step);
       if ((vframe || dframe) && (st = mo_contact_network(sc, C, drv, &s, &net, ctx))) goto done;
-      if (vframe && (st = mo_vtk_frame(vtk, sc, &s, &net, ctx))) goto done;
+      if (vframe && mo_vtk_wants_points(vtk) &&
+          (st = mo_contact_points(sc, C, drv, &s, sc->out.vtk_contacts == MO_VTK_CONTACTS_CLOSED, &pts, ctx)))
+        goto done;
+      if (vframe && (st = mo_vtk_frame(vtk, sc, &s, &net, &pts, ctx))) goto done;
+      /* the candidates of the step, every output.contact_history.every steps */
+      if (chist && drv && (s.step % sc->out.contact_history_every == 0 || last) &&
+          (st = mo_contact_history_write(chist, sc, C, drv, &s, ctx)))
+        goto done;
       if (dframe && (st = mo_draw_frame(draw, sc, &s, &net, ctx))) goto done;
     }
     mo_phase_add(ctx, MO_PH_OUTPUT, t0);
     progress_draw(&prog, s.step, sc->time.steps, s.t, last, drv);
-    /* every rank's outputs of the step went through (rank 0's disk may be full) */
-    if (ctx->nranks > 1 && (st = mo_par_agree(MO_OK, ctx))) {
-      agreed = 1;
-      goto done;
+    {
+      /* every rank's outputs of the step went through (rank 0's disk may be full), and an
+         interrupt stops every rank at the same step (mpirun passes SIGINT to each) */
+      int mine = !last && ctx->interrupt && *ctx->interrupt ? MO_EINTERRUPT : MO_OK;
+      if (mine) mo_error(ctx, MO_EINTERRUPT, "interrupted at step %ld (t = %.6g)", s.step, s.t);
+      if ((st = mo_par_agree(mine, ctx))) {
+        agreed = 1;
+        goto done;
+      }
     }
     if (last) break;
-    if (ctx->interrupt && *ctx->interrupt) {
-      st = mo_error(ctx, MO_EINTERRUPT, "interrupted at step %ld (t = %.6g)", s.step, s.t);
-      goto done;
-    }
     {
       double ts = mo_clock();
       st = take_step(&stepper, &s, ctx);
@@ -1360,6 +1378,10 @@ done:
   }
   if (prog.on && !complete) fputc('\n', stderr);
   if (csv) mo_csv_close(csv, ctx);
+  if (chist) {
+    int stc = mo_contact_history_close(chist, ctx);
+    if (stc && !st) st = stc;
+  }
   res->steps = s.step;
   res->t = s.t;
   res->wall = mo_clock() - start;
@@ -1385,12 +1407,14 @@ done:
     if (drv && s.u && s.step > 0) {
       snprintf(path, sizeof path, "%s/contact.csv", outdir);
       st2 = mo_contact_write_csv(path, sc, C, drv, &s, ctx);
+      if (!st2) res->outputs |= MO_OUT_CONTACT;
       if (!st2 && table && ctx->verbosity >= 1) mo_contact_print_table(stdout, sc, C, drv, &s, ctx);
     }
     /* the drawings of the frames taken, also after a failure (the error kept is the run's) */
     if (draw) {
       int st3 = mo_draw_finish(draw, sc, ctx);
       if (st3 && !st2) st2 = st3;
+      if (!st3) res->outputs |= MO_OUT_DRAW;
     }
     if (st2 && !keep) {
       keep = st2;
@@ -1406,8 +1430,10 @@ done:
       /* the "running" summary must not outlive the run */
       snprintf(path, sizeof path, "%s/summary.json", outdir);
       remove(path);
-    } else
+    } else {
       res->summary = 1;
+      res->outputs |= MO_OUT_SUMMARY | (sc->nrigid ? MO_OUT_BODIES : 0u);
+    }
     if (keep) {
       st = keep;
       ctx->status = keep;
@@ -1437,9 +1463,14 @@ done:
     }
   }
   mo_outdir_release(&od);
+  if (vtk) {
+    res->vtk_frames = mo_vtk_frames(vtk);
+    if (res->vtk_frames) res->outputs |= mo_vtk_outputs(vtk);
+  }
   if (opt->log && sc) print_log(ctx, res->wall);
   mo_vtk_close(vtk);
   mo_vtk_contacts_release(&net);
+  mo_vtk_points_release(&pts);
   mo_draw_free(draw);
   stepping_free(&stepper);
   mo_metrics_free(met);

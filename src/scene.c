@@ -611,6 +611,11 @@ static int build_output(mo_scene *sc, const mo_case *cs, mo_ctx *ctx)
     sc->out.vtk = 1;
     sc->out.vtk_every = mo_cfg_int(vg, "every", 10);
     sc->out.vtk_fields = nf ? 0 : 0x3f;
+    {
+      const char *c = mo_cfg_string(vg, "contacts", "all");
+      sc->out.vtk_contacts = !strcmp(c, "none") ? MO_VTK_CONTACTS_NONE
+                             : !strcmp(c, "closed") ? MO_VTK_CONTACTS_CLOSED : MO_VTK_CONTACTS_ALL;
+    }
     for (k = 0; k < nf; k++) {
       const char *f = mo_cfg_string_at(vg, "fields", k);
       sc->out.vtk_fields |= !strcmp(f, "displacement") ? MO_VTK_DISPLACEMENT
@@ -619,6 +624,11 @@ static int build_output(mo_scene *sc, const mo_case *cs, mo_ctx *ctx)
                             : !strcmp(f, "strain") ? MO_VTK_STRAIN
                             : !strcmp(f, "eps_p") ? MO_VTK_EPS_P : MO_VTK_VON_MISES;
     }
+  }
+  if ((vg = mo_cfg_member(og, "contact_history"))) {
+    sc->out.contact_history = 1;
+    sc->out.contact_history_every = mo_cfg_int(vg, "every", sc->out.every);
+    sc->out.contact_history_closed = !strcmp(mo_cfg_string(vg, "candidates", "all"), "closed");
   }
   if ((st = build_extents(sc, cs, mo_cfg_member(og, "extents"), ctx))) return st;
   pl = mo_cfg_member(og, "probes");

@@ -797,7 +797,7 @@ int mo_stepper_predict(mo_stepper *S, const mo_state *s, double *x, mo_ctx *ctx)
   mo_scene_fext(sc, tn, f1);
   switch (S->scheme) {
   case MO_SCHEME_THETA: {
-    /* J88 (3.3)_1 with the theta-scheme of ARCHITECTURE.md §2:
+    /* J88 (3.3)_1 with the theta-scheme of doc/theory.md §1:
        What v+ = M v - h K (u + h theta_f (1 - theta) v) + h (theta_f f+ + (1 - theta_f) f)
                  - What_fp v+_p */
     double tf = S->theta_f, c = h * tf * (1 - S->theta), hf = h;

@@ -12,7 +12,7 @@
 int nl_assemble(const mo_mesh *m, const mo_material *mat, unsigned opts, const double *u, const double *sn,
                 double *s, double *f, double *K, mo_ctx *ctx);
 
-/* The copper bar of CASES.md §5 (radius 3.2 mm, length 32.4 mm, 227 m/s) on a rigid
+/* The copper bar of doc/architecture.md §11 (radius 3.2 mm, length 32.4 mm, 227 m/s) on a rigid
    frictionless wall to 80 us, nr x nz Q4 (axisymmetric, J2, opts as mo_elem_nl_force), lumped
    mass, central differences with a step from the current smallest element height, the wall as a
    velocity projection. Writes the final length, the footprint radius (the impact face's largest

@@ -1,5 +1,5 @@
 /* test_impact_convergence.c: the errors of nscd and levelset against the closed forms of
-   rods-1d (CASES.md §1) and bar-obstacle (§2) decrease when h is halved, three halvings, at the
+   rods-1d (doc/architecture.md §11) and bar-obstacle (§2) decrease when h is halved, three halvings, at the
    rates the regularity of the solutions allows; the rates are printed.
 
    What converges and how fast (measured; the mechanism in brackets):

@@ -1,5 +1,5 @@
 /* test_impact_scenes.c: the energy and contact behaviour of the three back ends on the impact
-   scenes of issue 6 (CASES.md §1-§4):
+   scenes of issue 6 (doc/architecture.md §11):
    1. theta = 1 never creates energy: nscd and levelset on rods-1d, bar-obstacle and
       cylinder-wall (CI size), step to step in the history and in summary.json; newmark (its own
       Newmark scheme) on the same scenes stays below E0;

@@ -1,5 +1,5 @@
 /* test_levelset.c: the levelset back end against independent references: the rods impact against
-   its closed form (CASES.md §1), the GRECO examples against a projected Gauss-Seidel reference
+   its closed form (doc/architecture.md §11), the GRECO examples against a projected Gauss-Seidel reference
    written here and against Jean's published tables, the patch test (uniform pressure with k_n = 0
    and the projected k_n, perturbed by the pointwise k_n), Signorini-Moreau and Coulomb at every
    step of 2D and 3D frictional runs, status cycling, and allocation failures. */
@@ -41,7 +41,7 @@ static double momentum(const run_t *R, int i)
   return p;
 }
 
-/* --- 1. the rods impact (CASES.md §1): 1D bar elements, theta = 1, h = 2e-6 ------------------------- */
+/* --- 1. the rods impact (doc/architecture.md §11): 1D bar elements, theta = 1, h = 2e-6 ------------------------- */
 
 static void test_rods(void)
 {
@@ -362,7 +362,7 @@ static void test_greco(void)
          e / maxabs(L.r, m));
       greco_result_free(&K);
     } else ok(0, "%s: KKT path run", greco_name[ex]);
-    /* Jean's published table (1e-3 of each column's largest magnitude, CASES.md §7) */
+    /* Jean's published table (1e-3 of each column's largest magnitude, doc/architecture.md §11) */
     if (ex >= 2) ok(1, "# SKIP %s: no published table", greco_name[ex]);
     else if (jean_table(greco_name[ex], tab, jstat)) {
       double cmax[4] = {0, 0, 0, 0}, emax[4] = {0, 0, 0, 0};

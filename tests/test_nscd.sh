@@ -14,8 +14,8 @@ contains "$t" "iterations = " "and the iterations (nscd: sweeps)"
 row=$(echo "$t" | awk '$1 == "13" { print $6 }'); is "$row" "stick" "node 13 sticks"
 row=$(echo "$t" | awk '$1 == "6" { print $6 }'); is "$row" "slide" "node 6 slides"
 h=$(head -1 "$OUT/g1/contact.csv")
-ok $(/usr/bin/python3 -c "import sys; h=sys.argv[1].split(','); sys.exit(0 if all(k in h for k in 'node x D1 D2 RT RN status'.split()) else 1)" "$h"; echo $?) \
-  "contact.csv header holds node, x, D1, D2, RT, RN, status ($h)"
+ok $(/usr/bin/python3 -c "import sys; h=sys.argv[1].split(','); sys.exit(0 if all(k in h for k in 'node x D1 D2 RT RN status'.split()) and h.index('UN') < h.index('UT') < h.index('RN') < h.index('RT') and h.index('RN_other') < h.index('RT_other') else 1)" "$h"; echo $?) \
+  "contact.csv header holds node, x, D1, D2, UN, UT, RN, RT, status, normal first as U ($h)"
 is "$(grep -c ',stick,' "$OUT/g1/contact.csv")" "4" "contact.csv: 4 sticking candidates"
 is "$(json "$OUT/g1/summary.json" "d['contact']['solver']")" "nscd" "summary.json: solver nscd"
 ok $(json "$OUT/g1/summary.json" "0 if d['contact']['iterations_total'] > 10 and d['contact']['iterations_max'] == d['contact']['iterations_total'] else 1") \
@@ -24,7 +24,7 @@ ok $(json "$OUT/g1/summary.json" "0 if d['contact']['iterations_total'] > 10 and
 w=$("$MOREAU" run "$MOREAU_SRCDIR/cases/greco-jean-mu1" --out "$OUT/g1w" --set contact.reactions=weighted); ok $? "--set contact.reactions=weighted"
 contains "$w" "pair base (weighted reactions)" "the short form turns the pair to weighted reactions"
 contains "$w" "equiv. concentrated (P rho)" "a weighted table gives the P images"
-is "$(sed -n 2p "$OUT/g1w/contact.csv" | cut -d, -f15)" "weighted" "contact.csv says which representation"
+is "$(/usr/bin/python3 -c "import csv, sys; print(next(csv.DictReader(open(sys.argv[1])))['representation'])" "$OUT/g1w/contact.csv")" "weighted" "contact.csv says which representation"
 r=$("$MOREAU" run "$MOREAU_SRCDIR/cases/greco-jean-mu01" --out "$OUT/g01" --set nscd.stop=sweeps --set nscd.max_sweeps=42 --quiet); ok $? "Jean's run replayed (--set nscd.stop=sweeps --set nscd.max_sweeps=42)"
 is "$(json "$OUT/g01/summary.json" "d['contact']['iterations_total']")" "42" "exactly 42 sweeps"
 e=$("$MOREAU" check "$MOREAU_SRCDIR/cases/greco-jean-mu1" --set nscd.order=random 2>&1); is $? 2 "a bad option value: exit 2"

@@ -1,5 +1,5 @@
 /* test_reference.c: the closed forms of src/reference.c (doc/theory.md §3: (T5), (T6), (T43),
-   (T44)) at points worked out by hand from the physics (CASES.md §1-§3), their energy and
+   (T44)) at points worked out by hand from the physics (doc/architecture.md §11), their energy and
    their internal consistency (v = du/dt, eps = du/dx), and the reference block of the shipped
    cases. */
 #include "config.h"
@@ -111,7 +111,7 @@ static int build_reference(const char *block, mo_reference *R, char *msg, size_t
   return st;
 }
 
-/* --- rods_impact (CASES.md §1, BDZ07 §6.1) ----------------------------------------------------- */
+/* --- rods_impact (doc/architecture.md §11, BDZ07 §6.1) ----------------------------------------------------- */
 
 static void test_rods(void)
 {
@@ -209,7 +209,7 @@ static void test_rods(void)
      "rods, right rod: contact force +rho c v0 A (toward +x)");
 }
 
-/* --- bar_obstacle (CASES.md §2, Doyen-Ern-Piperno benchmark 1) -------------------------------- */
+/* --- bar_obstacle (doc/architecture.md §11, Doyen-Ern-Piperno benchmark 1) -------------------------------- */
 
 static void test_obstacle(void)
 {

@@ -1,4 +1,4 @@
-/* test_rigid.c: rigid bodies against their closed forms (DEM.md §4, doc/theory.md §12), for nscd
+/* test_rigid.c: rigid bodies against their closed forms (doc/architecture.md §11, doc/theory.md §12), for nscd
    and levelset: the bouncing ball, the block on a slope, the rolling disk and sphere, Newton's
    cradle, Housner's rocking block, the struck bar, the masonry arch; momentum and energy in
    impacts between free bodies; a resting stack over 10^4 steps; bodies of a mesh held rigid; a

@@ -32,7 +32,7 @@ static const char *jstr(json_t *root, const char *key)
   return j && json_is_string(j) ? json_string_value(j) : "";
 }
 
-/* --- the axisymmetric Taylor bar (CASES.md §5) ----------------------------------------------- */
+/* --- the axisymmetric Taylor bar (doc/architecture.md §11) ----------------------------------------------- */
 
 static void test_axisymmetric(void)
 {
@@ -75,7 +75,7 @@ static void test_axisymmetric(void)
     ok(fabs(bal) <= 0.01, "%s: kinetic + elastic + plastic dissipation - contact work closes to %.2f%% of the "
        "initial kinetic energy %.2f J (plastic %.2f J, contact work %.2f J, max epsp %.2f)", solvers[k],
        100 * bal, e0, wp, wc, ep);
-    ok(fabs(e0 - 239.8) < 0.1, "%s: initial kinetic energy %.3f J (CASES.md: 239.8 J)", solvers[k], e0);
+    ok(fabs(e0 - 239.8) < 0.1, "%s: initial kinetic energy %.3f J (doc/architecture.md §11: 239.8 J)", solvers[k], e0);
     ok(fabs(L[k] - Le) <= 5e-3 * Le && fabs(R[k] - Re) <= 5e-3 * Re,
        "%s: within 0.5%% of the explicit integrator on the same mesh (length %+.2f%%, footprint %+.2f%%)",
        solvers[k], 100 * (L[k] / Le - 1), 100 * (R[k] / Re - 1));

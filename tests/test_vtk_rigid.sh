@@ -1,6 +1,6 @@
 #!/bin/sh
 # test_vtk_rigid.sh: the VTK series of rigid bodies (particles, polygons, contact network), read
-# back with Debian's python3 (xml.etree, base64, struct) and checked against closed forms.
+# back by VTK (tests/vtkread.py) and checked against closed forms.
 . "$MOREAU_SRCDIR/tests/tap.sh"
 PY=/usr/bin/python3
 
@@ -28,44 +28,18 @@ contact = {
 output = { vtk = { every = 5; }; };
 EOF
 
-# vtu.py: read a .vtu of inline binary arrays: (points, cells, {name: (components, values)})
-cat > "$OUT/vtu.py" <<'EOF'
-import base64, glob, math, os, struct, sys
-import xml.etree.ElementTree as ET
-TYPES = {'Float64': 'd', 'Int32': 'i', 'UInt8': 'B'}
-def read(path):
-    root = ET.parse(path).getroot()
-    assert root.get('type') == 'UnstructuredGrid' and root.get('header_type') == 'UInt64'
-    order = '<' if root.get('byte_order') == 'LittleEndian' else '>'
-    piece = root.find('UnstructuredGrid/Piece')
-    arrays = {}
-    for da in piece.iter('DataArray'):
-        assert da.get('format') == 'binary'
-        raw = base64.b64decode((da.text or '').strip())
-        n = struct.unpack(order + 'Q', raw[:8])[0]
-        assert n == len(raw) - 8, (path, da.get('Name'), n, len(raw))
-        f = TYPES[da.get('type')]
-        arrays[da.get('Name')] = (int(da.get('NumberOfComponents')), struct.unpack(order + f * (n // struct.calcsize(f)), raw[8:]))
-    return int(piece.get('NumberOfPoints')), int(piece.get('NumberOfCells')), arrays
-def tuples(arrays, name):
-    c, v = arrays[name]
-    return [v[i:i + c] for i in range(0, len(v), c)]
-def cells(arrays):
-    off = arrays['offsets'][1]; conn = arrays['connectivity'][1]
-    return [conn[(off[k - 1] if k else 0):off[k]] for k in range(len(off))]
-def area(pts):
-    return 0.5 * sum(pts[i][0] * pts[i - len(pts) + 1][1] - pts[i - len(pts) + 1][0] * pts[i][1] for i in range(len(pts)))
-def pvd(path):
-    root = ET.parse(path).getroot()
-    return [(float(d.get('timestep')), d.get('file')) for d in root.iter('DataSet')]
-EOF
-py() { "$PY" -c "import sys; sys.path.insert(0, '$OUT'); from vtu import *; $1"; }
+# the files read back by VTK (tests/vtkread.py, Debian's python3-vtk9: ParaView's reader)
+if ! "$PY" -c "import vtkmodules.vtkIOXML" 2>/dev/null; then
+  echo "1..0 # SKIP python3-vtk9 is not installed (the quickstart installs it)"
+  exit 0
+fi
+py() { "$PY" -c "import sys, glob, os, math; sys.path.insert(0, '$MOREAU_SRCDIR/tests'); from vtkread import *; $1"; }
 
 d="$OUT/r"
 "$MOREAU" run "$OUT/rest.cfg" --out "$d" --quiet; ok $? "run: disks, a block and a slab at rest, output.vtk every 5 steps"
 n=$(ls "$d"/particles_*.vtu "$d"/polygons_*.vtu "$d"/contacts_*.vtu 2>/dev/null | wc -l)
 is "$n" "15" "5 frames (steps 0, 5, 10, 15, 20) of particles_, polygons_ and contacts_"
-ok $(py "[read(f) for f in glob.glob('$d/*_0000?.vtu')]; print(0)") "every .vtu parses (xml.etree) and every array's byte count matches its values"
+ok $(py "[read(f) for f in glob.glob('$d/*_0000?.vtu')]; print(0)") "every .vtu is read by VTK, its arrays appended raw"
 
 # particles: 3 points, radii and vertex cells
 is "$(py "p, c, a = read('$d/particles_00004.vtu'); print(p, c, sorted(a['radius'][1]), set(a['types'][1]))")" \
@@ -86,7 +60,7 @@ print(0 if sorted(x[:4]) == sorted([(0.8, 0.0, 0.0), (1.2, 0.0, 0.0), (1.2, 0.2,
 
 # contacts: empty at t = 0, then one line per contact with rn the weight it carries
 is "$(py "p, c, a = read('$d/contacts_00000.vtu'); print(p, c, sorted(a))")" \
-   "0 0 ['connectivity', 'gap', 'master', 'offsets', 'point', 'points', 'rn', 'rt', 'slave', 'status', 'types']" \
+   "0 0 ['TimeValue', 'connectivity', 'gap', 'master', 'offsets', 'point', 'points', 'rn', 'rt', 'slave', 'status', 'types']" \
    "contacts at t = 0: an empty network is a valid file with every array"
 is "$(py "p, c, a = read('$d/contacts_00004.vtu'); print(p, c, set(a['types'][1]), sorted(a['slave'][1]), set(a['status'][1]) <= {1, 2})")" \
    "10 5 {3} [1, 2, 3, 3, 5] True" "contacts at the end: 5 lines (a disk each, the block's 2 corners), closed"

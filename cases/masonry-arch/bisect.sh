@@ -1,5 +1,5 @@
 #!/bin/sh
-# bisect.sh: the limit thickness of the 36-voussoir arch by bisection (DEM.md §4): each run lasts
+# bisect.sh: the limit thickness of the 36-voussoir arch by bisection (doc/architecture.md §11): each run lasts
 # T = 1.5 s; the arch collapsed when a voussoir still moves faster than 1 mm/s at T (a standing
 # arch creeps at 1e-8 m/s, a collapsing one at metres per second). Starts from the bracket
 # [0.09, 0.13] of the case's README and halves it until it is narrower than TOL (default 0.0025).

@@ -1,6 +1,6 @@
 /* moreau/contact.h: the core's half of contact: candidates, frames, gaps, the H operators
    (concentrated and P-weighted reactions), the Delassus operator, the contact problem handed to
-   a back end, and the back-end type (the seam of ARCHITECTURE.md §3). */
+   a back end, and the back-end type (the seam of doc/architecture.md §5). */
 #ifndef MOREAU_CONTACT_H
 #define MOREAU_CONTACT_H
 
@@ -35,7 +35,7 @@ typedef enum { MO_MASTER_PLANE = 0, MO_MASTER_FACETS } mo_master_kind;
 typedef enum { MO_OFF_NEAREST = 0, MO_OFF_INACTIVE } mo_off_master;
 /* The unilateral law of a candidate: Signorini as contact.signorini says (position or velocity
    level), or Moreau's form of Newton's impact law at velocity level with restitution e (pairs
-   with a rigid body, DEM.md §2, doc/theory.md (T71)). */
+   with a rigid body, doc/theory.md §12.4, (T71)). */
 /* SIGNORINI: deformable pairs (contact.signorini); NEWTON: pairs with a rigid body, Moreau's
    impact law (T71); GAP: pairs with a rigid body, Signorini on the end-of-step gap (no
    restitution, no penetration left: contact.pairs.[].law = "gap", (T78)). */
@@ -485,12 +485,23 @@ int mo_contact_driver_solved_problem(const mo_contact_driver *D, mo_solved_probl
 void mo_solved_problem_release(mo_solved_problem *P);
 
 /* Per-candidate results of the last step: contact.csv (pair, candidate, node, position,
-   displacement D1.., gap, local U, reactions as forces with RT before RN as in Jean's tables,
-   status, measure, and the other representation's reactions: P^-1 images of concentrated
-   reactions, P images of weighted ones). */
+   displacement D1.., gap, local U and reactions as forces, both normal first (UN UT US, RN RT
+   RS), status, measure, representation, the other representation's reactions (RN_other ...:
+   P^-1 images of concentrated reactions, P images of weighted ones), lambda, slave, master). */
 int mo_contact_write_csv(const char *path, const mo_scene *sc, const mo_contact *C,
                          const mo_contact_driver *D, const mo_state *s, mo_ctx *ctx);
-/* The same in Jean's layout (J88 Figs. 3-4), with the resultants and the sweeps. */
+/* contact_history.csv: contact.csv's rows (without the other representation, whose P^-1
+   images cost a factorization per pair) for every step written, each prefixed by step and t;
+   every candidate, or (closed_only) those with a status other than open or a reaction. Streamed
+   and flushed step by step like history.csv: O(candidates) per step. */
+typedef struct mo_contact_history mo_contact_history;
+int mo_contact_history_open(const char *path, const mo_scene *sc, const mo_contact *C, int closed_only,
+                            mo_contact_history **out, mo_ctx *ctx);
+int mo_contact_history_write(mo_contact_history *H, const mo_scene *sc, const mo_contact *C,
+                             const mo_contact_driver *D, const mo_state *s, mo_ctx *ctx);
+int mo_contact_history_close(mo_contact_history *H, mo_ctx *ctx);
+/* The same in Jean's layout (J88 Figs. 3-4), with the resultants and the sweeps: RT before RN,
+   as his tables print them. */
 void mo_contact_print_table(FILE *f, const mo_scene *sc, const mo_contact *C,
                             const mo_contact_driver *D, const mo_state *s, mo_ctx *ctx);
 /* The friction semi-multiplier |Lambda| = |r_t| / (mu r_n) of a reaction r (d components,
@@ -526,6 +537,13 @@ struct mo_vtk_contacts;
    the theta-scheme), status and gap. C or D NULL: an empty network. */
 int mo_contact_network(const mo_scene *sc, const mo_contact *C, const mo_contact_driver *D,
                        const mo_state *s, struct mo_vtk_contacts *N, mo_ctx *ctx);
+struct mo_vtk_points;
+/* The contact points of the last step into P (contact_points_NNNNN.vtu): every candidate, or
+   (closed_only) those with a status other than open or a reaction, with the values of their
+   contact.csv rows and, in world axes, the normal, the force on the slave and the relative
+   velocity. C or D NULL: none. O(candidates). */
+int mo_contact_points(const mo_scene *sc, const mo_contact *C, const mo_contact_driver *D, const mo_state *s,
+                      int closed_only, struct mo_vtk_points *P, mo_ctx *ctx);
 
 #ifdef __cplusplus
 }

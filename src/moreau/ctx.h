@@ -57,7 +57,7 @@ typedef struct mo_ctx {
   /* per-phase wall time (s) and call counts */
   double phase_time[MO_PH_N];
   long phase_calls[MO_PH_N];
-  /* work the scene did not need, reported by --log (ARCHITECTURE.md §2 "leave out") */
+  /* work the scene did not need, reported by --log (doc/architecture.md §9) */
   int nskip;
   char skipped[MO_MAX_SKIPS][160];
   /* seed of every random choice (contact ordering, random test problems) */

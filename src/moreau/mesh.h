@@ -85,6 +85,9 @@ void mo_mesh_free(mo_mesh *m);
    (resolved by mo_mesh_nodeset_resolve). */
 const mo_nodeset *mo_mesh_find_nodeset(const mo_mesh *m, const char *name);
 const mo_facetset *mo_mesh_find_facetset(const mo_mesh *m, const char *name);
+/* The names of the mesh's sets, ", "-separated into buf (n bytes, cut with "..." when full): the
+   node sets (facets = 0) or the facet sets (facets = 1), for the errors that name a missing one. */
+void mo_mesh_set_names(const mo_mesh *m, int facets, char *buf, size_t n);
 /* Resolve a node-set expression "a", "a&b&..." into a freshly allocated id array (*ids, *n);
    MO_EINPUT naming the missing set when a part is unknown. */
 int mo_mesh_nodeset_resolve(const mo_mesh *m, const char *expr, int **ids, int *n, mo_ctx *ctx);

@@ -8,6 +8,7 @@
 #include <moreau/ctx.h>
 #include <moreau/scene.h>
 #include <moreau/step.h>
+#include <moreau/run.h>
 
 #ifdef __cplusplus
 extern "C" {
@@ -70,9 +71,45 @@ typedef struct mo_vtk_contacts {
 int mo_vtk_contacts_reserve(mo_vtk_contacts *N, int n, mo_ctx *ctx);
 void mo_vtk_contacts_release(mo_vtk_contacts *N);
 
+/* The contact points of one frame, as contact_points_NNNNN.vtu shows them (filled by
+   mo_contact_points, moreau/contact.h): one entry per candidate of the step (output.vtk.contacts
+   = "all") or per closed one ("closed": a status other than open, or a reaction), in contact.csv's
+   order, with contact.csv's values. d is the local dimension (1, 2 or 3); R and U hold 3 values
+   per entry, the first d used. The owner releases the arrays with mo_vtk_points_release. */
+typedef struct mo_vtk_points {
+  int n, cap, d;
+  double *x;        /* 3 n: the slave point in the current configuration (x0 + displacement for
+                       a mesh point; the contact point of a detected one) */
+  double *x0;       /* 3 n: its reference position (contact.csv's x, y, z) */
+  double *disp;     /* 3 n: the displacement of the slave point (contact.csv's D1, D2, D3) */
+  double *normal;   /* 3 n: the normal of the frame (master to slave) */
+  double *R, *U;    /* 3 n: reactions as forces and local relative velocity, normal first */
+  double *force;    /* 3 n: the reaction on the slave in world axes, sum_l R_l F_l */
+  double *vrel;     /* 3 n: the relative velocity in world axes, sum_l U_l F_l */
+  double *gap, *lambda, *measure; /* n: gap, friction semi-multiplier (T66), the candidate's measure */
+  int *cand, *pair, *node, *status; /* n: candidate (contact.csv's), pair index, slave node (-1: none),
+                                       MO_CS_* */
+  int *body;        /* 2 n: slave and master body (index in mo_scene.body; -1: none) */
+} mo_vtk_points;
+/* Room for n points of local dimension d (n and the contents kept). */
+int mo_vtk_points_reserve(mo_vtk_points *P, int n, int d, mo_ctx *ctx);
+void mo_vtk_points_release(mo_vtk_points *P);
+
 typedef struct mo_vtk mo_vtk;
-/* VTK XML series in `dir`: one .vtu per deformable body and frame, indexed by fields.pvd
-   (rewritten atomically after each frame). A scene with rigid bodies adds, per frame:
+/* VTK XML series in `dir`, every file an UnstructuredGrid with its arrays appended raw
+   (format="appended", encoding="raw", UInt64 byte counts, the machine's byte order, which the
+   file names: exact to the last bit; read by VTK, ParaView, meshio) and its time as FieldData
+   TimeValue, every collection (.pvd) listing its frames with their times and rewritten
+   atomically after each frame, so that it names complete files only. Per frame:
+     fields_BODY_NNNNN.vtu  each deformable body in its reference configuration, point data
+                          displacement, velocity, cell data strain, stress, von_mises, eps_p
+                          (output.vtk.fields), in fields.pvd (one part per body);
+     contact_points_NNNNN.vtu (a scene with contact, output.vtk.contacts "all" or "closed") a
+                          vertex per candidate (mo_vtk_points), in contact_points.pvd;
+     planes_NNNNN.vtu     every plane at time t as a square (3D), a segment (2D) or a point
+                          (1D), sized to the bodies' bounding box over the frames so far, cell
+                          data body, normal, velocity, in planes.pvd;
+   and for a scene with rigid bodies:
      particles_NNNNN.vtu  every disk and sphere as a vertex at its centre, point data radius,
                           velocity, omega (2D: along z), orientation (2D: the angle; 3D: the
                           quaternion w, x, y, z), body;
@@ -83,15 +120,19 @@ typedef struct mo_vtk mo_vtk;
                           rt, status, gap, point, slave, master (a valid empty file when there is
                           no contact);
    with particles.pvd, polygons.pvd, contacts.pvd (the series a scene has; contacts.pvd always)
-   and once, particles.py: a ParaView script that shows them (glyphs, tubes). These files are
-   binary (format="binary": base64 of a UInt64 byte count and the values, in the machine's
-   byte order, which the file names), exact to the last bit; fields_ files stay ASCII. */
-int mo_vtk_open(const char *dir, const mo_scene *sc, mo_vtk **out, mo_ctx *ctx);
-/* Write frame mo_vtk_frames(v) of state s: the fields, and for a scene with rigid bodies the
-   rigid series with the network `net` (NULL: no contact). */
+   and once, particles.py: a ParaView script that shows them (glyphs, tubes, planes, forces).
+   `contact`: the scene has contact pairs. */
+int mo_vtk_open(const char *dir, const mo_scene *sc, int contact, mo_vtk **out, mo_ctx *ctx);
+/* Write frame mo_vtk_frames(v) of state s: the fields, the contact points `pts`, the planes,
+   and for a scene with rigid bodies the rigid series with the network `net` (NULL: no
+   contact). */
 int mo_vtk_frame(mo_vtk *v, const mo_scene *sc, const mo_state *s, const mo_vtk_contacts *net,
-                 mo_ctx *ctx);
+                 const mo_vtk_points *pts, mo_ctx *ctx);
 int mo_vtk_frames(const mo_vtk *v);
+/* The series this writer writes (MO_OUT_* bits of moreau/run.h). */
+unsigned mo_vtk_outputs(const mo_vtk *v);
+/* 1 when frames carry contact points (mo_vtk_frame reads pts). */
+int mo_vtk_wants_points(const mo_vtk *v);
 void mo_vtk_close(mo_vtk *v);
 
 #ifdef __cplusplus

@@ -32,7 +32,23 @@ typedef struct {
   int nmetric;                  /* errors against the reference */
   char metric_name[32][64];
   double metric_l2[32], metric_linf[32];
+  unsigned outputs;             /* the files written in outdir (MO_OUT_* bits) */
+  int vtk_frames;               /* frames of the VTK series */
 } mo_run_result;
+
+/* The files of a run's folder (mo_run_result.outputs), named at the end of `moreau run`. */
+enum {
+  MO_OUT_HISTORY = 1u << 0,         /* history.csv */
+  MO_OUT_SUMMARY = 1u << 1,         /* summary.json */
+  MO_OUT_CONTACT = 1u << 2,         /* contact.csv: the last step's candidates */
+  MO_OUT_CONTACT_HISTORY = 1u << 3, /* contact_history.csv: the candidates of every output step */
+  MO_OUT_BODIES = 1u << 4,          /* bodies.csv */
+  MO_OUT_FIELDS = 1u << 5,          /* fields.pvd and its fields_BODY_NNNNN.vtu */
+  MO_OUT_CONTACT_POINTS = 1u << 6,  /* contact_points.pvd */
+  MO_OUT_PLANES = 1u << 7,          /* planes.pvd */
+  MO_OUT_RIGID = 1u << 8,           /* particles.pvd, polygons.pvd, contacts.pvd, particles.py */
+  MO_OUT_DRAW = 1u << 9             /* plots/: the drawings of output.draw */
+};
 
 /* Load, override, validate and build the scene without running it. */
 int mo_check(const mo_run_options *opt, mo_ctx *ctx);

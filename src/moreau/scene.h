@@ -137,10 +137,17 @@ typedef struct {
   int vtk;              /* write VTK series */
   int vtk_every;
   unsigned vtk_fields;  /* bit set of MO_VTK_* */
+  int vtk_contacts;     /* output.vtk.contacts: MO_VTK_CONTACTS_* */
+  int contact_history;  /* output.contact_history present: contact_history.csv */
+  int contact_history_every;
+  int contact_history_closed; /* output.contact_history.candidates = "closed" */
   int nextent;
   mo_extent *extent;    /* output.extents */
 } mo_output_settings;
 
+/* Which candidates the contact outputs of every frame carry: none, the closed ones (a status
+   other than open, or a reaction), all. */
+enum { MO_VTK_CONTACTS_NONE = 0, MO_VTK_CONTACTS_CLOSED, MO_VTK_CONTACTS_ALL };
 enum { MO_VTK_DISPLACEMENT = 1, MO_VTK_VELOCITY = 2, MO_VTK_STRESS = 4, MO_VTK_STRAIN = 8,
        MO_VTK_VON_MISES = 16, MO_VTK_EPS_P = 32 };
 

@@ -1,5 +1,5 @@
-/* moreau/step.h: time integration shared by every back end: the theta-scheme (ARCHITECTURE.md
-   §2), Newmark (beta, gamma) and quasi-static load steps. */
+/* moreau/step.h: time integration shared by every back end: the theta-scheme (doc/theory.md
+   §1, doc/architecture.md §4), Newmark (beta, gamma) and quasi-static load steps. */
 #ifndef MOREAU_STEP_H
 #define MOREAU_STEP_H
 
