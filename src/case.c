@@ -2,6 +2,7 @@
 #include "config.h"
 #include "case_internal.h"
 #include <moreau/contact.h>
+#include <moreau/backend.h>
 
 #include <ctype.h>
 #include <errno.h>
@@ -277,7 +278,7 @@ static const char *synonym(const char *name)
   return NULL;
 }
 
-static const char *suggest(const char *parent, const char *name, char *buf, size_t n)
+static const char *suggest(const char *parent, const char *name, char *buf, size_t n, const mo_ctx *ctx)
 {
   suggest_data S;
   int limit;
@@ -286,7 +287,7 @@ static const char *suggest(const char *parent, const char *name, char *buf, size
     char path[512];
     mo_key K;
     snprintf(path, sizeof path, "%s%s%s", parent, parent[0] ? "." : "", syn);
-    if (mo_schema_lookup(path, &K)) {
+    if (mo_schema_lookup(path, &K, ctx)) {
       snprintf(buf, n, "%s", syn);
       return buf;
     }
@@ -295,7 +296,7 @@ static const char *suggest(const char *parent, const char *name, char *buf, size
   S.parent = parent;
   S.name = name;
   S.bestd = 1000;
-  mo_case_schema_visit(suggest_visit, &S);
+  mo_case_schema_visit_ctx(suggest_visit, &S, ctx);
   limit = (int)strlen(name) <= 4 ? 1 : (int)strlen(name) / 3 + 1;
   if (S.best && S.bestd <= limit) {
     snprintf(buf, n, "%s", S.best);
@@ -579,11 +580,11 @@ static int validate_group(const mo_case *cs, const config_setting_t *g, const ch
     char sub[512], sug[128];
     mo_key K;
     snprintf(sub, sizeof sub, "%s%s%s", spath, spath[0] ? "." : "", name);
-    if (!mo_schema_lookup(sub, &K)) {
+    if (!mo_schema_lookup(sub, &K, ctx)) {
       char where[600], gp[512];
       mo_case_where(cs, s, where, sizeof where);
       mo_case_path(g, gp, sizeof gp);
-      if (suggest(spath, name, sug, sizeof sug))
+      if (suggest(spath, name, sug, sizeof sug, ctx))
         return mo_error(ctx, MO_EINPUT, "%s: unknown key '%s'%s%s%s (did you mean '%s'?)", where,
                         name, gp[0] ? " in '" : "", gp, gp[0] ? "'" : "", sug);
       return mo_error(ctx, MO_EINPUT, "%s: unknown key '%s'%s%s%s", where, name,
@@ -596,7 +597,7 @@ static int validate_group(const mo_case *cs, const config_setting_t *g, const ch
   R.cs = cs;
   R.ctx = ctx;
   R.st = 0;
-  mo_case_schema_visit(required_visit, &R);
+  mo_case_schema_visit_ctx(required_visit, &R, ctx);
   return R.st;
 }
 
@@ -712,7 +713,7 @@ int mo_case_set(mo_case *cs, const char *assign, mo_ctx *ctx)
     if (l && l < sizeof first) {
       memcpy(first, key, l);
       first[l] = '\0';
-      if (mo_contact_solver_find(first) && strlen(key) + 9 < sizeof key) {
+      if (mo_contact_solver_lookup(first, ctx) && strlen(key) + 9 < sizeof key) {
         memmove(key + 8, key, strlen(key) + 1);
         memcpy(key, "contact.", 8);
       }
@@ -813,13 +814,13 @@ int mo_case_set(mo_case *cs, const char *assign, mo_ctx *ctx)
            config_setting_source_line(config_setting_parent(top)) == 0)
       top = config_setting_parent(top);
     schema_path(top, sp, sizeof sp);
-    if (!mo_schema_lookup(sp, &K)) {
+    if (!mo_schema_lookup(sp, &K, ctx)) {
       char parent[512], sug[128], *dot;
       const char *name = config_setting_name(top);
       snprintf(parent, sizeof parent, "%s", sp);
       dot = strrchr(parent, '.');
       if (dot) *dot = '\0'; else parent[0] = '\0';
-      if (suggest(parent, name, sug, sizeof sug))
+      if (suggest(parent, name, sug, sizeof sug, ctx))
         st = mo_error(ctx, MO_EINPUT, "--set %s: unknown key '%s'%s%s%s (did you mean '%s'?)",
                       assign, name, parent[0] ? " in '" : "", parent, parent[0] ? "'" : "", sug);
       else

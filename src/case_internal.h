@@ -45,8 +45,9 @@ typedef struct {
 } mo_key;
 
 /* Schema lookup: the core's keys and each contact back end's option keys (from the registry, so
-   a new back end's options are validated and documented at once). 1 when found. */
-int mo_schema_lookup(const char *path, mo_key *out);
+   a new back end's options are validated and documented at once, and from the plug-ins loaded
+   into ctx, which may be NULL). 1 when found. */
+int mo_schema_lookup(const char *path, mo_key *out, const mo_ctx *ctx);
 
 /* Location of a setting: "FILE:LINE" for a setting read from the file, "--set" for one created
    by an override. */

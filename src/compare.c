@@ -4,6 +4,7 @@
 #include <moreau/compare.h>
 #include <moreau/output.h>
 #include <moreau/run.h>
+#include <moreau/backend.h>
 
 #include "metrics.h"
 
@@ -694,7 +695,7 @@ static void peers_plot(sbuf *gp, const run_row *rows, int n, int metric_col, con
    that key alone are one run: the options of another back end (contact.OTHER.*), and the
    theta-scheme's keys for a back end that runs its own scheme (newmark's time_scheme). The
    back end's name is the part of `solver` before a ':' or '[' (a preset, a labelled entry). */
-static int solver_ignores(const char *solver, const char *key)
+static int solver_ignores(const char *solver, const char *key, const mo_ctx *ctx)
 {
   char base[64], other[64];
   const mo_contact_solver_type *T;
@@ -702,13 +703,13 @@ static int solver_ignores(const char *solver, const char *key)
   if (n >= sizeof base) return 0;
   memcpy(base, solver, n);
   base[n] = '\0';
-  if (!(T = mo_contact_solver_find(base))) return 0;  /* "case", or a name the run will reject */
+  if (!(T = mo_contact_solver_lookup(base, ctx))) return 0;  /* "case", or a name the run will reject */
   if (!strncmp(key, "contact.", 8)) {
     size_t m = strcspn(key + 8, ".");
     if (key[8 + m] != '.' || m >= sizeof other) return 0;
     memcpy(other, key + 8, m);
     other[m] = '\0';
-    return strcmp(other, base) && mo_contact_solver_find(other) != NULL;
+    return strcmp(other, base) && mo_contact_solver_lookup(other, ctx) != NULL;
   }
   if (!strcmp(key, "time.theta") || !strcmp(key, "time.theta_f")) {
     mo_time_settings ts;
@@ -1065,7 +1066,7 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
       g /= opt->vary[k].nval;
       snprintf(R->vary[k], sizeof R->vary[k], "%s", opt->vary[k].val[vi]);
       snprintf(varyset[k], sizeof varyset[k], "%s=%s", opt->vary[k].key, opt->vary[k].val[vi]);
-      if (solver_ignores(R->solver, opt->vary[k].key)) R->ignored |= 1u << k;
+      if (solver_ignores(R->solver, opt->vary[k].key, ctx)) R->ignored |= 1u << k;
       else g0 += vi * stride; /* the cell with every ignored key at its first value */
       stride *= opt->vary[k].nval;
     }
@@ -1106,6 +1107,7 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
       mo_ctx_init(&rc);
       rc.verbosity = 0;
       rc.interrupt = ctx->interrupt;
+      rc.plugins = ctx->plugins; /* the back ends loaded at run time, shared */
       R->status = mo_run(&ro, &rr, &rc);
       R->wall = rr.wall;
       R->steps = rr.steps;
@@ -1581,7 +1583,7 @@ int mo_compare(const mo_compare_options *opt, mo_compare_result *res, mo_ctx *ct
       if (any) {
         sb_printf(&b, " `%s` (", opt->vary[k].key);
         for (i = 0, j = 0; i < nsol; i++)
-          if (solver_ignores(rows[i * ndt * ngrid].solver, opt->vary[k].key))
+          if (solver_ignores(rows[i * ndt * ngrid].solver, opt->vary[k].key, ctx))
             sb_printf(&b, "%s%s", j++ ? ", " : "", rows[i * ndt * ngrid].solver);
         sb_printf(&b, ")");
       }

@@ -2,6 +2,7 @@
    and the accuracy measures common to every back end. */
 #include "config.h"
 #include <moreau/contact.h>
+#include <moreau/backend.h>
 #include "case_internal.h"
 #include "contact_internal.h"
 
@@ -212,7 +213,7 @@ static int apply_case_options(const mo_contact_solver_type *T, void *params, con
 
 int mo_contact_time_scheme(mo_scene *sc, const mo_contact *C, mo_ctx *ctx)
 {
-  const mo_contact_solver_type *T = mo_contact_solver_find(C->solver);
+  const mo_contact_solver_type *T = mo_contact_solver_lookup(C->solver, ctx);
   void *params;
   mo_time_settings old = sc->time;
   int st;
@@ -578,16 +579,17 @@ int mo_contact_driver_create(const mo_scene *sc, mo_contact *C, mo_stepper *S,
   D->sc = sc;
   D->C = C;
   D->S = S;
-  D->T = mo_contact_solver_find(C->solver);
+  D->T = mo_contact_solver_lookup(C->solver, ctx);
   if (!D->T) {
     char list[256];
     int len = 0;
     const config_setting_t *s = config_lookup(&cs->cfg, "contact.solver");
-    for (k = 0; k < mo_contact_solver_count() && len < 200; k++)
-      len += snprintf(list + len, sizeof list - (size_t)len, "%s%s", k ? ", " : "", mo_contact_solver_at(k)->name);
+    for (k = 0; k < mo_contact_solver_total(ctx) && len < 200; k++)
+      len += snprintf(list + len, sizeof list - (size_t)len, "%s%s", k ? ", " : "", mo_contact_solver_nth(k, ctx)->name);
     if (!len) snprintf(list, sizeof list, "none in this build");
     st = mo_case_error(cs, s ? s : config_lookup(&cs->cfg, "contact"), ctx,
-                       "unknown contact back end '%s' (registered: %s)", C->solver, list);
+                       "unknown contact back end '%s' (registered: %s%s%s)", C->solver, list,
+                       mo_plugin_failures(ctx)[0] ? "; plug-ins refused: " : "", mo_plugin_failures(ctx));
     mo_free(D);
     return st;
   }

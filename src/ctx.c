@@ -15,6 +15,20 @@ void mo_ctx_init(mo_ctx *ctx)
   ctx->nranks = 1;
 }
 
+mo_ctx *mo_ctx_create(void)
+{
+  mo_ctx *ctx = malloc(sizeof *ctx);
+  if (ctx) mo_ctx_init(ctx);
+  return ctx;
+}
+
+void mo_ctx_destroy(mo_ctx *ctx)
+{
+  if (!ctx) return;
+  mo_ctx_release(ctx); /* plugin.c: what a context owns */
+  free(ctx);
+}
+
 int mo_verror(mo_ctx *ctx, int code, const char *fmt, va_list ap)
 {
   if (ctx->status != MO_OK) return code; /* keep the root cause */

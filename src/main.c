@@ -245,6 +245,11 @@ static void usage(FILE *f)
              "--opt VALUE or --opt=VALUE. S is a back end, or a formulation BACKEND[:PRESET][[KEY=VALUE;...]]:\n"
              "levelset:bdz07, nscd:jean88, nscd[theta=0.5] (moreau list-solvers).\n"
              "\n"
+             "Every command takes --plugin FILE.so or --plugin NAME (repeatable): a contact back end\n"
+             "built outside moreau (doc/backends.md), then named like the others (--solver NAME);\n"
+             "NAME is NAME.so in the plug-in folders, which are also loaded whole: MOREAU_PLUGIN_PATH\n"
+             "(DIR:DIR...), else the installed folder.\n"
+             "\n"
              "Exit status: 0 success, 1 the run failed (the outputs say how far it got; also an\n"
              "output that could not be written, a full disk),\n"
              "2 bad command line or case file. See moreau(1) and doc/case-format.md.\n");
@@ -722,10 +727,48 @@ static int no_operand(const cli_command *cmd, void *data, const cli_option *o, c
 static int cmd_list_solvers(const cli_command *cmd, int argc, char **argv, mo_ctx *ctx)
 {
   int rc = cli_parse(cmd, argc, argv, no_operand, NULL);
-  (void)ctx;
   if (rc) return rc == CLI_HELP_SHOWN ? 0 : rc;
-  return mo_cli_list_solvers(stdout);
+  rc = mo_cli_list_solvers(stdout);
+  if (mo_plugin_count(ctx) || mo_plugin_failures(ctx)[0]) {
+    printf("\nplug-ins (--plugin, MOREAU_PLUGIN_PATH):\n");
+    mo_plugin_print(stdout, ctx);
+  }
+  return rc;
 }
+/* --plugin FILE|NAME, anywhere after the command and repeatable: the back ends of plug-ins
+   (moreau/backend.h), loaded before those of the plug-in folders and before the command reads
+   its options, and taken out of argv so that no command's parser sees them. */
+static int load_plugins(int *argc, char **argv, mo_ctx *ctx)
+{
+  int i, j;
+  for (i = j = 2; i < *argc; i++) {
+    const char *spec;
+    if (!strcmp(argv[i], "--plugin")) {
+      if (i + 1 >= *argc) {
+        fprintf(stderr, "moreau: --plugin needs a plug-in file (.so) or name\n");
+        return 2;
+      }
+      spec = argv[++i];
+    } else if (!strncmp(argv[i], "--plugin=", 9)) {
+      spec = argv[i] + 9;
+    } else {
+      argv[j++] = argv[i];
+      continue;
+    }
+    if (mo_plugin_load(ctx, spec)) {
+      fprintf(stderr, "moreau: %s\n", ctx->errmsg);
+      return 2;
+    }
+  }
+  *argc = j;
+  argv[j] = NULL;
+  if (mo_plugin_scan(ctx, NULL, NULL)) {
+    fprintf(stderr, "moreau: %s\n", ctx->errmsg);
+    return 1;
+  }
+  return 0;
+}
+
 
 static void print_key(const char *path, const char *type, const char *range, const char *deflt,
                       const char *doc, void *data)
@@ -737,9 +780,8 @@ static void print_key(const char *path, const char *type, const char *range, con
 static int cmd_keys(const cli_command *cmd, int argc, char **argv, mo_ctx *ctx)
 {
   int rc = cli_parse(cmd, argc, argv, no_operand, NULL);
-  (void)ctx;
   if (rc) return rc == CLI_HELP_SHOWN ? 0 : rc;
-  mo_case_schema_visit(print_key, NULL);
+  mo_case_schema_visit_ctx(print_key, NULL, ctx); /* with the plug-ins' options */
   return 0;
 }
 
@@ -758,8 +800,9 @@ extern void openblas_set_num_threads(int n) __attribute__((weak));
 
 int main(int argc, char **argv)
 {
-  mo_ctx ctx;
+  mo_ctx ctx __attribute__((cleanup(mo_ctx_release))); /* unloads the plug-ins at every return */
   const cli_command *cmd;
+  int rc;
   mo_ctx_init(&ctx);
   /* moreau computes on one thread: the comparisons time one core against one core, and the
      dense kernels it calls are small (levelset's least squares, CHOLMOD's supernodes), where
@@ -792,5 +835,6 @@ int main(int argc, char **argv)
     usage(stderr);
     return 2;
   }
+  if ((rc = load_plugins(&argc, argv, &ctx))) return rc;
   return cmd->main(cmd, argc, argv, &ctx);
 }

@@ -14,6 +14,7 @@
 #include "config.h"
 #include "case_internal.h"
 #include <moreau/contact.h>
+#include <moreau/backend.h>
 
 #include <stdio.h>
 #include <string.h>
@@ -84,7 +85,7 @@ static int spec_set(mo_case *cs, const char *spec, const char *assign, mo_ctx *c
 
 /* A bracketed key without a dot: time.KEY, contact.KEY or contact.BACKEND.KEY, the one the
    schema knows (theta, theta_f, dt; signorini, reactions; tol, max_sweeps, k_n, ...). */
-static int resolve_key(const char *base, const char *key, char *out, size_t nout)
+static int resolve_key(const char *base, const char *key, char *out, size_t nout, const mo_ctx *ctx)
 {
   const char *pre[3] = {"time.", "contact.", NULL};
   char b[96];
@@ -95,7 +96,7 @@ static int resolve_key(const char *base, const char *key, char *out, size_t nout
   pre[2] = b;
   for (i = 0; i < 3; i++) {
     if (snprintf(out, nout, "%s%s", pre[i], key) >= (int)nout) return -1;
-    if (mo_schema_lookup(out, &K)) return 0;
+    if (mo_schema_lookup(out, &K, ctx)) return 0;
   }
   return -1;
 }
@@ -125,8 +126,10 @@ int mo_solver_spec_apply(mo_case *cs, const char *spec, const char *const *sets,
     memcpy(over, brk + 1, lo - 2);
     over[lo - 2] = '\0';
   }
-  if (!mo_contact_solver_find(base))
-    return mo_error(ctx, MO_EINPUT, "--solver %s: no back end '%s' (moreau list-solvers names them)", spec, base);
+  if (!mo_contact_solver_lookup(base, ctx))
+    return mo_error(ctx, MO_EINPUT, "--solver %s: no back end '%s' (moreau list-solvers names them; a plug-in's "
+                    "is loaded by --plugin)%s%s", spec, base, mo_plugin_failures(ctx)[0] ? "; plug-ins refused: " : "",
+                    mo_plugin_failures(ctx));
   snprintf(assign, sizeof assign, "contact.solver=%s", base);
   if ((st = spec_set(cs, spec, assign, ctx))) return st;
 
@@ -183,7 +186,7 @@ int mo_solver_spec_apply(mo_case *cs, const char *spec, const char *const *sets,
           return mo_error(ctx, MO_EINPUT, "--solver %s: '%s' inside the brackets is not KEY=VALUE", spec, start);
         memcpy(key, start, (size_t)(eq - start));
         key[eq - start] = '\0';
-        if (resolve_key(base, key, full, sizeof full))
+        if (resolve_key(base, key, full, sizeof full, ctx))
           return mo_error(ctx, MO_EINPUT, "--solver %s: unknown key '%s' (a full key, or one of time.%s, contact.%s, "
                           "contact.%s.%s)", spec, key, key, key, base, key);
         snprintf(assign, sizeof assign, "%s=%s", full, eq + 1);

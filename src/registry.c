@@ -1,9 +1,11 @@
 /* registry.c: the explicit table of contact back ends (doc/architecture.md §5). A new back end is
-   one folder under solvers/ and one line here. */
+   one folder under solvers/ and one line here; back ends built outside moreau are loaded at run
+   time into the context (plugin.c) and found after these. */
 #include "config.h"
 #include <moreau/moreau.h>
 #include <moreau/contact.h>
 #include <moreau/case.h>
+#include <moreau/backend.h>
 
 #include <string.h>
 
@@ -34,6 +36,25 @@ const mo_contact_solver_type *mo_contact_solver_find(const char *name)
   for (i = 0; i < mo_contact_solver_count(); i++)
     if (!strcmp(registry[i]->name, name)) return registry[i];
   return NULL;
+}
+
+const mo_contact_solver_type *mo_contact_solver_lookup(const char *name, const mo_ctx *ctx)
+{
+  const mo_contact_solver_type *T = mo_contact_solver_find(name);
+  int i;
+  for (i = 0; !T && i < mo_plugin_count(ctx); i++)
+    if (!strcmp(mo_plugin_type(ctx, i)->name, name)) T = mo_plugin_type(ctx, i);
+  return T;
+}
+
+int mo_contact_solver_total(const mo_ctx *ctx)
+{
+  return mo_contact_solver_count() + mo_plugin_count(ctx);
+}
+
+const mo_contact_solver_type *mo_contact_solver_nth(int i, const mo_ctx *ctx)
+{
+  return i < mo_contact_solver_count() ? mo_contact_solver_at(i) : mo_plugin_type(ctx, i - mo_contact_solver_count());
 }
 
 int mo_cli_list_solvers(FILE *out)

@@ -3,6 +3,7 @@
 #include "config.h"
 #include "case_internal.h"
 #include <moreau/contact.h>
+#include <moreau/backend.h>
 
 #include <math.h>
 #include <string.h>
@@ -219,7 +220,7 @@ static const mo_key core_keys[] = {
 
 /* Back-end options appear as contact.<backend>.<option>; their specs come from the registry,
    so a new back end's options are validated and documented the moment it is registered. */
-static int backend_key(const char *path, mo_key *out)
+static int backend_key(const char *path, mo_key *out, const mo_ctx *ctx)
 {
   char name[64];
   const char *rest, *dot;
@@ -233,7 +234,7 @@ static int backend_key(const char *path, mo_key *out)
   if (len == 0 || len >= sizeof name) return 0;
   memcpy(name, rest, len);
   name[len] = '\0';
-  T = mo_contact_solver_find(name);
+  T = mo_contact_solver_lookup(name, ctx);
   if (!T) return 0;
   memset(out, 0, sizeof *out);
   out->lo = out->hi = NAN;
@@ -259,7 +260,7 @@ static int backend_key(const char *path, mo_key *out)
   return 0;
 }
 
-int mo_schema_lookup(const char *path, mo_key *out)
+int mo_schema_lookup(const char *path, mo_key *out, const mo_ctx *ctx)
 {
   size_t k;
   for (k = 0; k < MO_COUNT(core_keys); k++)
@@ -267,7 +268,7 @@ int mo_schema_lookup(const char *path, mo_key *out)
       *out = core_keys[k];
       return 1;
     }
-  return backend_key(path, out);
+  return backend_key(path, out, ctx);
 }
 
 static const char *type_name(mo_key_type t)
@@ -309,20 +310,25 @@ static void visit_one(const mo_key *K, mo_key_visit fn, void *data)
      K->doc, data);
 }
 
-void mo_case_schema_visit(mo_key_visit fn, void *data)
+void mo_case_schema_visit_ctx(mo_key_visit fn, void *data, const mo_ctx *ctx)
 {
   size_t k;
   int b, o;
   for (k = 0; k < MO_COUNT(core_keys); k++) visit_one(&core_keys[k], fn, data);
-  for (b = 0; b < mo_contact_solver_count(); b++) {
-    const mo_contact_solver_type *T = mo_contact_solver_at(b);
+  for (b = 0; b < mo_contact_solver_total(ctx); b++) {
+    const mo_contact_solver_type *T = mo_contact_solver_nth(b, ctx);
     char path[160];
     mo_key K;
     snprintf(path, sizeof path, "contact.%s", T->name);
-    if (backend_key(path, &K)) visit_one(&K, fn, data);
+    if (backend_key(path, &K, ctx)) visit_one(&K, fn, data);
     for (o = 0; o < T->noptions; o++) {
       snprintf(path, sizeof path, "contact.%s.%s", T->name, T->options[o].name);
-      if (backend_key(path, &K)) visit_one(&K, fn, data);
+      if (backend_key(path, &K, ctx)) visit_one(&K, fn, data);
     }
   }
+}
+
+void mo_case_schema_visit(mo_key_visit fn, void *data)
+{
+  mo_case_schema_visit_ctx(fn, data, NULL);
 }

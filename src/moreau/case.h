@@ -47,6 +47,8 @@ const char *mo_preset_name(int i, const char **summary);
 typedef void (*mo_key_visit)(const char *path, const char *type, const char *range,
                              const char *deflt, const char *doc, void *data);
 void mo_case_schema_visit(mo_key_visit fn, void *data);
+/* The same, with the options of the plug-ins loaded into ctx after the registry's back ends'. */
+void mo_case_schema_visit_ctx(mo_key_visit fn, void *data, const mo_ctx *ctx);
 
 #ifdef __cplusplus
 }

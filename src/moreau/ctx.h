@@ -74,6 +74,9 @@ typedef struct mo_ctx {
   const void *par_module;  /* the PETSc module once loaded (parallel.c), else NULL */
   long par_calls;
   double par_time, par_bytes;
+  /* contact back ends loaded at run time (moreau/backend.h): owned by the context that loaded
+     them, shared by its copies (a comparison's runs), unloaded by mo_ctx_release */
+  struct mo_plugins *plugins;
 } mo_ctx;
 
 /* 1 when the program was asked to stop (SIGINT, SIGTERM): the long loops of loading and
@@ -82,6 +85,13 @@ typedef struct mo_ctx {
 
 /* Initialise a context with defaults (verbosity 1, seed 1, no injection). */
 void mo_ctx_init(mo_ctx *ctx);
+/* Release what a context owns (its plug-ins) and initialise it again. Copies of it must not be
+   used afterwards. */
+void mo_ctx_release(mo_ctx *ctx);
+/* A context on the heap, for callers that cannot know its layout (moreau/api.h): created with
+   mo_ctx_init's defaults, destroyed with what it owns. NULL when memory is short. */
+mo_ctx *mo_ctx_create(void);
+void mo_ctx_destroy(mo_ctx *ctx);
 
 /* Record an error (printf-style message) and return `code`. The first error is kept; later ones
    are ignored until mo_ctx_clear_error, so the root cause is what the user reads. */

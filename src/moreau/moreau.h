@@ -20,6 +20,8 @@
 #include <moreau/contact.h>
 #include <moreau/compare.h>
 #include <moreau/bench.h>
+#include <moreau/backend.h>
+#include <moreau/api.h>
 
 #ifdef __cplusplus
 extern "C" {
