@@ -1207,7 +1207,8 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   snprintf(path, sizeof path, "%s/history.csv", outdir);
   if (io && (st = mo_csv_open(path, (const char *const *)names, ncol, sc->out.precision, &csv, ctx))) goto done;
   res->outputs |= MO_OUT_HISTORY;
-  if (sc->out.vtk && io) {
+  /* VTK: every rank writes its pieces of the deformable bodies, rank 0 everything else */
+  if (sc->out.vtk && (io || sc->nfe_dof > 0)) {
     if ((st = mo_vtk_open(outdir, sc, C != NULL, &vtk, ctx))) goto done;
   } else
     mo_note_skip(ctx, "field output (no output.vtk group)");
@@ -1360,6 +1361,8 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
         goto done;
       }
     }
+    /* the collections list a frame once every rank's pieces of it are there */
+    if (vtk && (st = mo_vtk_index(vtk, sc, ctx))) goto done;
     if (last) break;
     {
       double ts = mo_clock();

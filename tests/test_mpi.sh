@@ -56,7 +56,18 @@ check_runs() {
     esac
   done < "$OUT/cmp"
 }
-run_pair rods-3d "$MOREAU_SRCDIR/cases/rods-3d"
+run_pair rods-3d "$MOREAU_SRCDIR/cases/rods-3d" --set 'output.vtk={every=50;}'
+# the fields: each rank's piece of every body, joined by rank 0's .pvtu, read back by VTK
+/usr/bin/python3 "$MOREAU_SRCDIR/tests/pvtu_check.py" "$OUT/rods-3d-1" "$OUT/rods-3d-2" 1e-8 > "$OUT/pvtu" 2>&1 ||
+  echo "1	pvtu_check.py crashed: $(tail -1 "$OUT/pvtu")" >> "$OUT/pvtu"
+while IFS= read -r line; do
+  case "$line" in
+    [01]'	'*) ok "${line%%	*}" "rods-3d VTK: ${line#*	}" ;;
+    *) echo "# $line" ;;
+  esac
+done < "$OUT/pvtu"
+is "$(ls "$OUT/rods-3d-2" | grep -c '^fields_left_.*_[01]\.vtu$')" "$((2 * $(ls "$OUT/rods-3d-1" | grep -c '^fields_left_.*\.vtu$')))" \
+  "rods-3d VTK: two pieces per frame of each body"
 run_pair box-14 "$MOREAU_SRCDIR/cases/box-on-plane" --set 'bodies.box.mesh.elements=[14,14,14]'
 
 # 3. a rank that fails alone does not leave the others waiting: rank 0's folder is locked
