@@ -12,6 +12,7 @@ void mo_ctx_init(mo_ctx *ctx)
   memset(ctx, 0, sizeof *ctx);
   ctx->verbosity = 1;
   ctx->seed = 1;
+  ctx->nranks = 1;
 }
 
 mo_ctx *mo_ctx_create(void)
@@ -176,6 +177,8 @@ void mo_log(const mo_ctx *ctx, int level, const char *fmt, ...)
 {
   va_list ap;
   if (level <= 0 || !ctx || ctx->verbosity < level) return;
+  /* every rank of an MPI run takes the same steps: one of them speaks */
+  if (ctx->rank != 0) return;
   va_start(ap, fmt);
   vfprintf(stderr, fmt, ap);
   va_end(ap);

@@ -79,6 +79,11 @@ int mo_linsolver_solve(mo_linsolver *S, const double *b, double *x, mo_ctx *ctx)
   return mo_linsolver_solve_multi(S, 1, b, x, ctx);
 }
 
+int mo_linsolver_configure(mo_linsolver *S, const mo_linsolver_settings *set, mo_ctx *ctx)
+{
+  return S->type->configure ? S->type->configure(S->state, set, ctx) : MO_OK;
+}
+
 int mo_linsolver_n(const mo_linsolver *S) { return S->n; }
 
 void mo_linsolver_stats(const mo_linsolver *S, long *nfactor, long *nsymbolic, long *nsolve)
@@ -198,7 +203,7 @@ static void chol_free(void *state)
 }
 
 const mo_linsolver_type mo_linsolver_cholmod = {"cholmod", 1, sizeof(chol_state), chol_factor,
-                                                chol_solve, chol_free};
+                                                chol_solve, chol_free, NULL};
 
 /* --- UMFPACK: general square matrices --------------------------------------------------------- */
 
@@ -262,4 +267,4 @@ static void umf_free(void *state)
 }
 
 const mo_linsolver_type mo_linsolver_umfpack = {"umfpack", 0, sizeof(umf_state), umf_factor,
-                                                umf_solve, umf_free};
+                                                umf_solve, umf_free, NULL};

@@ -439,8 +439,16 @@ static int cmd_run(const cli_command *cmd, int argc, char **argv, mo_ctx *ctx)
     if (!c.quiet) printf("%s: ok\n", c.o.case_path);
     return 0;
   }
+  /* under mpirun every rank runs the case; rank 0 writes and speaks (doc/parallel.md) */
+  if (mo_parallel_launched() && (st = mo_parallel_start(&argc, &argv, ctx))) {
+    fprintf(stderr, "moreau: %s\n", ctx->errmsg);
+    free(c.sets);
+    return exit_code(st);
+  }
   st = mo_run(&c.o, &res, ctx);
+  mo_parallel_finish(ctx);
   free(c.sets);
+  if (ctx->rank != 0) return st ? exit_code(st) : 0;
   if (st) {
     fprintf(stderr, "moreau: %s\n", ctx->errmsg);
     if (res.outdir[0] && res.steps > 0 && res.summary)
@@ -602,6 +610,11 @@ static int cmd_compare(const cli_command *cmd, int argc, char **argv, mo_ctx *ct
     goto out;
   }
   if (c->quiet) ctx->verbosity = 0;
+  if (mo_parallel_launched()) {
+    fprintf(stderr, "moreau: compare runs its cells one after the other in one process: run a case over MPI "
+                    "ranks with 'mpirun -np N moreau run CASE'\n");
+    goto out;
+  }
   if (!c->o.outdir) {
     char tmp[4096], *base;
     size_t l;

@@ -420,6 +420,11 @@ struct mo_vtk {
   int planes;                /* planes_NNNNN.vtu */
   double box[6];             /* the bodies' bounding box over the frames so far (planes' size) */
   int has_box;
+  /* MPI runs (doc/parallel.md §3): each rank writes its piece of every deformable body, rank r
+     the elements [ne r / N, ne (r + 1) / N) as fields_BODY_NNNNN_r.vtu, and rank 0 the
+     fields_BODY_NNNNN.pvtu that joins them and every other series */
+  int rank, nranks;
+  int indexed;               /* frames whose collections (.pvtu, .pvd) are written */
 };
 
 static int write_paraview_script(const mo_vtk *v, const mo_scene *sc, mo_ctx *ctx);
@@ -443,6 +448,9 @@ int mo_vtk_open(const char *dir, const mo_scene *sc, int contact, mo_vtk **out, 
   }
   v->rigid = sc->nrigid > 0;
   v->points = contact && sc->out.vtk_contacts != MO_VTK_CONTACTS_NONE;
+  v->rank = ctx->rank;
+  v->nranks = ctx->nranks;
+  if (v->rank != 0) v->balls = v->shapes = v->rigid = v->points = v->planes = 0;
   if (v->rigid && (st = write_paraview_script(v, sc, ctx))) {
     mo_vtk_close(v);
     return st;
@@ -687,60 +695,113 @@ static void element_fields(const mo_scene *sc, const mo_body *B, const mo_state 
 /* fields_BODY_NNNNN.vtu: the mesh in its reference configuration, point data displacement and
    velocity, cell data strain, stress, von_mises, eps_p (as output.vtk.fields asks). */
 static int write_fields(const char *path, const mo_scene *sc, const mo_body *B, const mo_state *s,
-                        unsigned fields, mo_ctx *ctx)
+                        unsigned fields, long e0, long e1, mo_ctx *ctx)
 {
   static const char *vname[2] = {"displacement", "velocity"};
   const mo_mesh *m = B->mesh;
   const double *vsrc[2] = {s->u, s->v};
   int D = sc->dim, a, e, w, st, cells = fields & (MO_VTK_STRESS | MO_VTK_STRAIN | MO_VTK_VON_MISES | MO_VTK_EPS_P);
-  long ne = m->nelem;
+  long ne = e1 - e0, np = m->nnode;
+  int *nodes = NULL, *local = NULL; /* a piece: its nodes, and each mesh node's number in it */
   double *eps = NULL, *sig = NULL, *vm = NULL, *ep = NULL;
   vtu wr;
+  if (ne < m->nelem) {
+    long k;
+    nodes = mo_malloc(ctx, (size_t)m->nnode * sizeof *nodes);
+    local = mo_malloc(ctx, (size_t)m->nnode * sizeof *local);
+    if (!nodes || !local) {
+      st = MO_ENOMEM;
+      goto done;
+    }
+    for (a = 0; a < m->nnode; a++) local[a] = -1;
+    for (np = 0, k = e0 * m->nen; k < e1 * m->nen; k++)
+      if (local[m->conn[k]] < 0) {
+        local[m->conn[k]] = (int)np;
+        nodes[np++] = m->conn[k];
+      }
+  }
+#define NODE(i) (nodes ? nodes[i] : (i))
   if (cells) {
-    eps = mo_malloc(ctx, (size_t)(ne + 1) * 6 * sizeof(double));
-    sig = mo_malloc(ctx, (size_t)(ne + 1) * 6 * sizeof(double));
-    vm = mo_malloc(ctx, (size_t)(ne + 1) * sizeof(double));
-    ep = mo_malloc(ctx, (size_t)(ne + 1) * sizeof(double));
+    /* every element's (a piece reads its own) */
+    eps = mo_malloc(ctx, (size_t)(m->nelem + 1) * 6 * sizeof(double));
+    sig = mo_malloc(ctx, (size_t)(m->nelem + 1) * 6 * sizeof(double));
+    vm = mo_malloc(ctx, (size_t)(m->nelem + 1) * sizeof(double));
+    ep = mo_malloc(ctx, (size_t)(m->nelem + 1) * sizeof(double));
     if (!eps || !sig || !vm || !ep) {
       st = MO_ENOMEM;
       goto done;
     }
     element_fields(sc, B, s, eps, sig, vm, ep);
   }
-  if ((st = vtu_open(&wr, path, m->nnode, ne, s->t, ctx))) goto done;
+  if ((st = vtu_open(&wr, path, np, ne, s->t, ctx))) goto done;
   for (; wr.pass < 2; wr.pass++) {
     if (wr.pass) vtu_values(&wr);
     vtu_xml(&wr, "<Points>\n");
-    if (vtu_array(&wr, "points", VT_F64, 3, 3L * m->nnode))
-      for (a = 0; a < m->nnode; a++) put_vec3(&wr, m->x + (size_t)a * D, D);
+    if (vtu_array(&wr, "points", VT_F64, 3, 3L * np))
+      for (a = 0; a < np; a++) put_vec3(&wr, m->x + (size_t)NODE(a) * D, D);
     vtu_xml(&wr, "</Points>\n<Cells>\n");
     if (vtu_array(&wr, "connectivity", VT_I32, 1, ne * m->nen))
-      for (e = 0; e < ne * m->nen; e++) put_i32(&wr, m->conn[e]);
+      for (e = 0; e < ne * m->nen; e++) {
+        int n = m->conn[e0 * m->nen + e];
+        put_i32(&wr, local ? local[n] : n);
+      }
     if (vtu_array(&wr, "offsets", VT_I32, 1, ne))
       for (e = 0; e < ne; e++) put_i32(&wr, (long)(e + 1) * m->nen);
     if (vtu_array(&wr, "types", VT_U8, 1, ne))
       for (e = 0; e < ne; e++) put_u8(&wr, vtk_cell_type(m->type));
     vtu_xml(&wr, "</Cells>\n<PointData Vectors=\"displacement\">\n");
     for (w = 0; w < 2; w++)
-      if ((fields & (w ? MO_VTK_VELOCITY : MO_VTK_DISPLACEMENT)) && vtu_array(&wr, vname[w], VT_F64, 3, 3L * m->nnode))
-        for (a = 0; a < m->nnode; a++) put_vec3(&wr, vsrc[w] + B->dof0 + (size_t)a * D, D);
+      if ((fields & (w ? MO_VTK_VELOCITY : MO_VTK_DISPLACEMENT)) && vtu_array(&wr, vname[w], VT_F64, 3, 3L * np))
+        for (a = 0; a < np; a++) put_vec3(&wr, vsrc[w] + B->dof0 + (size_t)NODE(a) * D, D);
     vtu_xml(&wr, "</PointData>\n<CellData>\n");
     for (w = 0; w < 2; w++)
       if ((fields & (w ? MO_VTK_STRESS : MO_VTK_STRAIN)) && vtu_array(&wr, w ? "stress" : "strain", VT_F64, 6, 6 * ne))
-        for (e = 0; e < 6 * ne; e++) put_f64(&wr, (w ? sig : eps)[e]);
+        for (e = 0; e < 6 * ne; e++) put_f64(&wr, (w ? sig : eps)[6 * e0 + e]);
     if ((fields & MO_VTK_VON_MISES) && vtu_array(&wr, "von_mises", VT_F64, 1, ne))
-      for (e = 0; e < ne; e++) put_f64(&wr, vm[e]);
+      for (e = 0; e < ne; e++) put_f64(&wr, vm[e0 + e]);
     if ((fields & MO_VTK_EPS_P) && B->nl && vtu_array(&wr, "eps_p", VT_F64, 1, ne))
-      for (e = 0; e < ne; e++) put_f64(&wr, ep[e]);
+      for (e = 0; e < ne; e++) put_f64(&wr, ep[e0 + e]);
     vtu_xml(&wr, "</CellData>\n");
   }
   st = vtu_close(&wr, 1, ctx);
+#undef NODE
 done:
+  mo_free(nodes);
+  mo_free(local);
   mo_free(eps);
   mo_free(sig);
   mo_free(vm);
   mo_free(ep);
   return st;
+}
+
+/* The parallel file of frame k of body B: the arrays its pieces hold (as write_fields writes
+   them) and the pieces fields_BODY_k_r.vtu of the ranks. */
+static int write_fields_pvtu(const mo_vtk *v, const mo_scene *sc, const mo_body *B, int k, mo_ctx *ctx)
+{
+  char path[4200], buf[8192];
+  unsigned f = sc->out.vtk_fields;
+  size_t len = 0;
+  int r;
+#define P(...) (len += (size_t)snprintf(buf + len, len < sizeof buf ? sizeof buf - len : 0, __VA_ARGS__))
+  P("<?xml version=\"1.0\"?>\n<VTKFile type=\"PUnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" "
+    "header_type=\"UInt64\">\n<PUnstructuredGrid GhostLevel=\"0\">\n");
+  P("<PPoints><PDataArray type=\"Float64\" NumberOfComponents=\"3\" Name=\"points\"/></PPoints>\n");
+  P("<PPointData Vectors=\"displacement\">\n");
+  if (f & MO_VTK_DISPLACEMENT) P("<PDataArray type=\"Float64\" NumberOfComponents=\"3\" Name=\"displacement\"/>\n");
+  if (f & MO_VTK_VELOCITY) P("<PDataArray type=\"Float64\" NumberOfComponents=\"3\" Name=\"velocity\"/>\n");
+  P("</PPointData>\n<PCellData>\n");
+  if (f & MO_VTK_STRAIN) P("<PDataArray type=\"Float64\" NumberOfComponents=\"6\" Name=\"strain\"/>\n");
+  if (f & MO_VTK_STRESS) P("<PDataArray type=\"Float64\" NumberOfComponents=\"6\" Name=\"stress\"/>\n");
+  if (f & MO_VTK_VON_MISES) P("<PDataArray type=\"Float64\" NumberOfComponents=\"1\" Name=\"von_mises\"/>\n");
+  if ((f & MO_VTK_EPS_P) && B->nl) P("<PDataArray type=\"Float64\" NumberOfComponents=\"1\" Name=\"eps_p\"/>\n");
+  P("</PCellData>\n");
+  for (r = 0; r < v->nranks; r++) P("<Piece Source=\"fields_%s_%05d_%d.vtu\"/>\n", B->name, k, r);
+  P("</PUnstructuredGrid>\n</VTKFile>\n");
+#undef P
+  if (len >= sizeof buf) return mo_error(ctx, MO_ELIMIT, "the parallel file of body '%s' lists too many pieces", B->name);
+  snprintf(path, sizeof path, "%s/fields_%s_%05d.pvtu", v->dir, B->name, k);
+  return mo_write_file_atomic(path, buf, len, ctx);
 }
 
 /* fields.pvd, rewritten whole so that it always lists complete frames only. */
@@ -766,8 +827,8 @@ static int write_fields_pvd(const mo_vtk *v, const mo_scene *sc, mo_ctx *ctx)
   for (k = 0; k < v->nframe; k++)
     for (b = 0; b < sc->nbody; b++)
       if (sc->body[b].kind == MO_BODY_DEFORMABLE)
-        APPEND("<DataSet timestep=\"%.17g\" part=\"%d\" file=\"fields_%s_%05d.vtu\"/>\n", v->times[k], b,
-               sc->body[b].name, k);
+        APPEND("<DataSet timestep=\"%.17g\" part=\"%d\" file=\"fields_%s_%05d.%s\"/>\n", v->times[k], b,
+               sc->body[b].name, k, v->nranks > 1 ? "pvtu" : "vtu");
   APPEND("</Collection>\n</VTKFile>\n");
 #undef APPEND
   snprintf(path, sizeof path, "%s/fields.pvd", v->dir);
@@ -1219,11 +1280,17 @@ int mo_vtk_frame(mo_vtk *v, const mo_scene *sc, const mo_state *s, const mo_vtk_
     v->cap = cap2;
   }
   k = v->nframe;
-  /* every file of the frame first, then the collections that list it */
+  /* every file of the frame first (mo_vtk_index then writes the collections that list it) */
   for (b = 0; !st && b < sc->nbody; b++) {
-    if (sc->body[b].kind != MO_BODY_DEFORMABLE) continue;
-    snprintf(path, sizeof path, "%s/fields_%s_%05d.vtu", v->dir, sc->body[b].name, k);
-    st = write_fields(path, sc, &sc->body[b], s, sc->out.vtk_fields, ctx);
+    const mo_body *B = &sc->body[b];
+    long ne = B->kind == MO_BODY_DEFORMABLE ? B->mesh->nelem : 0;
+    if (!ne) continue;
+    if (v->nranks > 1)
+      snprintf(path, sizeof path, "%s/fields_%s_%05d_%d.vtu", v->dir, B->name, k, v->rank);
+    else
+      snprintf(path, sizeof path, "%s/fields_%s_%05d.vtu", v->dir, B->name, k);
+    st = write_fields(path, sc, B, s, sc->out.vtk_fields, ne * v->rank / v->nranks, ne * (v->rank + 1) / v->nranks,
+                      ctx);
   }
   if (!st && v->balls) st = write_particles(v, k, sc, s, ctx);
   if (!st && v->shapes) st = write_polygons(v, k, sc, s, ctx);
@@ -1235,6 +1302,18 @@ int mo_vtk_frame(mo_vtk *v, const mo_scene *sc, const mo_state *s, const mo_vtk_
   }
   if (st) return st;
   v->times[v->nframe++] = s->t;
+  return MO_OK;
+}
+
+int mo_vtk_index(mo_vtk *v, const mo_scene *sc, mo_ctx *ctx)
+{
+  int st = MO_OK, b;
+  if (v->rank != 0 || v->indexed == v->nframe) return MO_OK;
+  for (; v->nranks > 1 && v->indexed < v->nframe; v->indexed++)
+    for (b = 0; !st && b < sc->nbody; b++)
+      if (sc->body[b].kind == MO_BODY_DEFORMABLE && (st = write_fields_pvtu(v, sc, &sc->body[b], v->indexed, ctx)))
+        return st;
+  v->indexed = v->nframe;
   if (v->fields) st = write_fields_pvd(v, sc, ctx);
   if (!st && v->balls) st = write_series_pvd(v, "particles", ctx);
   if (!st && v->shapes) st = write_series_pvd(v, "polygons", ctx);

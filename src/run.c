@@ -2,6 +2,7 @@
    the summary. */
 #include "config.h"
 #include <moreau/run.h>
+#include <moreau/parallel.h>
 #include <moreau/body.h>
 #include <moreau/case.h>
 #include <moreau/contact.h>
@@ -273,6 +274,26 @@ static json_t *timings_json(const mo_ctx *ctx, double wall, double steps)
      `moreau compare` times a run by (doc/theory.md (T99)) */
   json_object_set_new(j, "steps", jnum(steps));
   json_object_set_new(j, "calls", calls);
+  return j;
+}
+
+/* How the run was spread over MPI ranks (doc/parallel.md): the ranks, the solver of What, and
+   rank 0's collective calls outside PETSc (their count, seconds and the bytes it sent). */
+static json_t *parallel_json(const mo_ctx *ctx, const mo_scene *sc)
+{
+  json_t *j = json_object();
+  json_object_set_new(j, "ranks", json_integer(ctx->nranks));
+  json_object_set_new(j, "linear_solver", json_string(sc->lin.petsc ? "petsc" : "cholmod"));
+  if (sc->lin.petsc) {
+    char desc[160];
+    snprintf(desc, sizeof desc, "%s/%s%s%s", sc->lin.ksp, sc->lin.pc,
+             strcmp(sc->lin.pc, "lu") && strcmp(sc->lin.pc, "cholesky") ? "" : "/", 
+             strcmp(sc->lin.pc, "lu") && strcmp(sc->lin.pc, "cholesky") ? "" : sc->lin.package);
+    json_object_set_new(j, "petsc", json_string(desc));
+  }
+  json_object_set_new(j, "collective_calls", json_integer(ctx->par_calls));
+  json_object_set_new(j, "collective_seconds", jnum(ctx->par_time));
+  json_object_set_new(j, "collective_bytes", jnum(ctx->par_bytes));
   return j;
 }
 
@@ -717,6 +738,7 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
   } else
     json_decref(ls);
   json_object_set_new(root, "timings", timings_json(ctx, wall, steps_wall));
+  json_object_set_new(root, "parallel", parallel_json(ctx, sc));
   for (k = 0; k < ctx->nskip; k++) json_array_append_new(skipped, json_string(ctx->skipped[k]));
   json_object_set_new(root, "skipped", skipped);
   {
@@ -913,7 +935,7 @@ static int one_step(stepping *T, mo_state *s, int cut, mo_ctx *ctx)
   if (T->drv) {
     if ((st = mo_contact_step(T->drv, s, ctx))) return st;
     /* a cut step's substeps share their step number: their problems are not dumped */
-    if (T->dump && !cut && (st = dump_fclib(T->dump, T->drv, s->step, ctx))) return st;
+    if (T->dump && !cut && ctx->rank == 0 && (st = dump_fclib(T->dump, T->drv, s->step, ctx))) return st;
   } else if ((st = mo_stepper_step(T->S, s, ctx)))
     return st;
   mo_metrics_step(T->met, s, T->drv);
@@ -993,6 +1015,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   int ratio_col = 1;
   int st, ncol = 0, nprobecol = 0, nexact = 0, k, p, complete = 0, ecol0 = 0, ccol0 = 0, table = 0, x0col;
   int nl = 0, necol = 0, ncol0 = 0, cutcol = 0, nvalcol = 0, nrigcol = 0, agcol = 0, pfcol = 0;
+  int io = ctx->rank == 0, agreed = 0;
   char reason[MO_ERRMSG_MAX] = "", blowup[512] = "";
   progress prog;
   stepping stepper;
@@ -1014,8 +1037,14 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   if ((st = mo_contact_build(sc, &C, ctx))) goto done;
   if (opt->solver && !C) mo_note_skip(ctx, "contact solve (--solver given, but the case has no contact pairs)");
   /* from here on the folder is this run's: locked, its old summary replaced by "running" */
-  if ((st = mo_outdir_claim(&od, outdir, mo_case_file(cs), ctx))) goto done;
-  if (opt->dump_fclib && (st = mo_mkdir_p(opt->dump_fclib, ctx))) goto done;
+  /* an MPI run: rank 0 writes every output, the other ranks compute the same steps with it
+     (doc/parallel.md); they agree on the outcome before every collective step */
+  if (io && (st = mo_outdir_claim(&od, outdir, mo_case_file(cs), ctx))) goto done;
+  if (io && opt->dump_fclib && (st = mo_mkdir_p(opt->dump_fclib, ctx))) goto done;
+  if ((st = mo_par_agree(st, ctx))) {
+    agreed = 1;
+    goto done;
+  }
   if (C && (st = mo_contact_time_scheme(sc, C, ctx))) goto done;
   {
     /* the critical time step (T102) in the log; the explicit scheme warns above it (the
@@ -1176,13 +1205,14 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
     mo_note_skip(ctx, "energy.plastic and newton.* columns (no finite-strain body)");
   if (cutcol) snprintf(names[cutcol], 80, "time.cuts");
   snprintf(path, sizeof path, "%s/history.csv", outdir);
-  if ((st = mo_csv_open(path, (const char *const *)names, ncol, sc->out.precision, &csv, ctx))) goto done;
+  if (io && (st = mo_csv_open(path, (const char *const *)names, ncol, sc->out.precision, &csv, ctx))) goto done;
   res->outputs |= MO_OUT_HISTORY;
-  if (sc->out.vtk) {
+  /* VTK: every rank writes its pieces of the deformable bodies, rank 0 everything else */
+  if (sc->out.vtk && (io || sc->nfe_dof > 0)) {
     if ((st = mo_vtk_open(outdir, sc, C != NULL, &vtk, ctx))) goto done;
   } else
     mo_note_skip(ctx, "field output (no output.vtk group)");
-  if (sc->out.contact_history && C) {
+  if (sc->out.contact_history && C && io) {
     snprintf(path, sizeof path, "%s/contact_history.csv", outdir);
     if ((st = mo_contact_history_open(path, sc, C, sc->out.contact_history_closed, &chist, ctx))) goto done;
     res->outputs |= MO_OUT_CONTACT_HISTORY;
@@ -1191,11 +1221,11 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   if (opt->no_draw) {
     if (config_lookup(&cs->cfg, "output.draw"))
       mo_note_skip(ctx, "drawings (output.draw: left to single runs, not the runs of a comparison)");
-  } else if ((st = mo_draw_open(outdir, sc, cs, &draw, ctx))) goto done;
+  } else if (io && (st = mo_draw_open(outdir, sc, cs, &draw, ctx))) goto done;
   if (!sc->nprobe) mo_note_skip(ctx, "probe histories (no output.probes)");
   if (!C) mo_note_skip(ctx, "contact (no contact pairs)");
 
-  prog.on = opt->progress && isatty(2) && ctx->verbosity >= 1;
+  prog.on = io && opt->progress && isatty(2) && ctx->verbosity >= 1;
   prog.start = prog.last = mo_clock();
   e0 = mo_energy_kinetic(sc, &s, work) + mo_energy_stored(sc, &s, work) + s.wplastic;
   if (!(p0 = mo_malloc(ctx, (3 * (size_t)sc->nbody + 1) * sizeof *p0))) {
@@ -1302,7 +1332,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
       if (cutcol) row[cutcol] = (double)stepper.cuts;
       if (agcol) rigid_aggregates(sc, &s, &cv, row + agcol);
       if ((st = mo_finite_row(sc, &s, row, (const char *const *)names, ncol, ctx))) goto done;
-      if ((st = mo_csv_row(csv, row, ctx))) goto done;
+      if (csv && (st = mo_csv_row(csv, row, ctx))) goto done;
     }
     {
       /* fields and drawings, with the contact network of the step when they need it */
@@ -1321,11 +1351,19 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
     }
     mo_phase_add(ctx, MO_PH_OUTPUT, t0);
     progress_draw(&prog, s.step, sc->time.steps, s.t, last, drv);
-    if (last) break;
-    if (ctx->interrupt && *ctx->interrupt) {
-      st = mo_error(ctx, MO_EINTERRUPT, "interrupted at step %ld (t = %.6g)", s.step, s.t);
-      goto done;
+    {
+      /* every rank's outputs of the step went through (rank 0's disk may be full), and an
+         interrupt stops every rank at the same step (mpirun passes SIGINT to each) */
+      int mine = !last && ctx->interrupt && *ctx->interrupt ? MO_EINTERRUPT : MO_OK;
+      if (mine) mo_error(ctx, MO_EINTERRUPT, "interrupted at step %ld (t = %.6g)", s.step, s.t);
+      if ((st = mo_par_agree(mine, ctx))) {
+        agreed = 1;
+        goto done;
+      }
     }
+    /* the collections list a frame once every rank's pieces of it are there */
+    if (vtk && (st = mo_vtk_index(vtk, sc, ctx))) goto done;
+    if (last) break;
     {
       double ts = mo_clock();
       st = take_step(&stepper, &s, ctx);
@@ -1336,6 +1374,11 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   complete = 1;
 
 done:
+  /* a rank that failed alone tells the others, which wait for it at the step's agreement */
+  if (!agreed && ctx->nranks > 1) {
+    st = mo_par_agree(st, ctx);
+    if (st) complete = 0;
+  }
   if (prog.on && !complete) fputc('\n', stderr);
   if (csv) mo_csv_close(csv, ctx);
   if (chist) {

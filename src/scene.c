@@ -2,6 +2,7 @@
 #include "config.h"
 #include <moreau/scene.h>
 #include <moreau/material.h>
+#include <moreau/parallel.h>
 #include "case_internal.h"
 #include "scene_internal.h"
 
@@ -569,6 +570,48 @@ static int build_extents(mo_scene *sc, const mo_case *cs, const config_setting_t
   return MO_OK;
 }
 
+/* A PETSc name (a type or a package): letters, digits and underscores. */
+static int petsc_name(const char *v)
+{
+  if (!*v) return 0;
+  for (; *v; v++)
+    if (!((*v >= 'a' && *v <= 'z') || (*v >= 'A' && *v <= 'Z') || (*v >= '0' && *v <= '9') || *v == '_')) return 0;
+  return 1;
+}
+
+/* linear_solver: CHOLMOD, or PETSc over the MPI ranks; under mpirun with more than one rank the
+   default is PETSc (a CHOLMOD factorization on every rank would repeat the same work). */
+static int build_linear(mo_scene *sc, const mo_case *cs, mo_ctx *ctx)
+{
+  const config_setting_t *lg = config_lookup(&cs->cfg, "linear_solver"), *t = mo_cfg_member(lg, "type");
+  mo_linear_settings *L = &sc->lin;
+  static const char *const names[] = {"ksp", "pc", "package"};
+  char *dest[3];
+  size_t k;
+  L->petsc = t ? !strcmp(mo_cfg_string(lg, "type", "cholmod"), "petsc") : ctx->nranks > 1;
+  dest[0] = L->ksp;
+  dest[1] = L->pc;
+  dest[2] = L->package;
+  for (k = 0; k < 3; k++) {
+    const config_setting_t *m = mo_cfg_member(lg, names[k]);
+    const char *v = mo_cfg_string(lg, names[k], k == 0 ? "preonly" : k == 1 ? "cholesky" : "mumps");
+    if (m && !petsc_name(v))
+      return mo_case_error(cs, m, ctx, "'%s' is not a PETSc name (letters, digits and '_')", v);
+    if (m && !L->petsc)
+      return mo_case_error(cs, m, ctx, "is used by linear_solver.type = \"petsc\" only");
+    snprintf(dest[k], 32, "%s", v);
+  }
+  L->rtol = mo_cfg_float(lg, "rtol", 1e-10);
+  snprintf(L->options, sizeof L->options, "%s", mo_cfg_string(lg, "options", ""));
+  if (L->petsc && !mo_parallel_available())
+    return mo_case_error(cs, t ? t : lg, ctx, "asks for PETSc, and this build of moreau has none: configure it "
+                         "--with-petsc (Debian: apt-get install petsc-dev openmpi-bin)");
+  if (ctx->nranks > 1 && !L->petsc)
+    mo_note_skip(ctx, "distributed linear algebra (linear_solver.type = \"cholmod\" under %d ranks: every rank "
+                 "factors What alone)", ctx->nranks);
+  return MO_OK;
+}
+
 static int build_output(mo_scene *sc, const mo_case *cs, mo_ctx *ctx)
 {
   const config_setting_t *og = config_lookup(&cs->cfg, "output"), *pl, *vg;
@@ -977,6 +1020,7 @@ int mo_scene_build(const mo_case *cs, mo_scene **out, mo_ctx *ctx)
   if (!sc->u0 || !sc->v0 || !owner || !f || !sc->free_of) { st = MO_ENOMEM; goto fail; }
   if ((st = conditions(sc, bl, nentry, owner, ctx))) goto fail;
   if ((st = loads(sc, bl, nentry, f, ctx))) goto fail;
+  if ((st = build_linear(sc, cs, ctx))) goto fail;
   if ((st = build_output(sc, cs, ctx))) goto fail;
   if ((st = mo_reference_build(&sc->ref, sc, ctx))) goto fail;
   mo_phase_add(ctx, MO_PH_SETUP, t0);

@@ -156,6 +156,13 @@ static const mo_key core_keys[] = {
   {"contact.pairs.[].exclude", K_STRING, NULL, NONE, 0, NULL, "Node set of slave nodes that are not candidates.", NULL},
 
   /* --- output ------------------------------------------------------------------------------ */
+  {"linear_solver", K_GROUP, NULL, NONE, 0, NULL, "The solver of the iteration matrix What (M + c K, or K for quasi-static steps; doc/parallel.md).", NULL},
+  {"linear_solver.type", K_ENUM, "cholmod|petsc", NONE, 0, "\"cholmod\" (\"petsc\" under mpirun with more than one rank)", "cholmod: CHOLMOD's supernodal Cholesky factorization on one process; petsc: PETSc's KSP distributed over the MPI ranks (builds configured --with-petsc).", NULL},
+  {"linear_solver.ksp", K_STRING, NULL, NONE, 0, "\"preonly\"", "petsc: the Krylov method by PETSc's name (preonly: the factorization alone; cg, gmres, ...).", NULL},
+  {"linear_solver.pc", K_STRING, NULL, NONE, 0, "\"cholesky\"", "petsc: the preconditioner by PETSc's name (cholesky, lu: a direct factorization by 'package'; gamg, jacobi, ...).", NULL},
+  {"linear_solver.package", K_STRING, NULL, NONE, 0, "\"mumps\"", "petsc with pc cholesky or lu: the factorization package (mumps, superlu_dist, petsc).", NULL},
+  {"linear_solver.rtol", K_FLOAT, NULL, R(0, 1, 1, 1), 0, "1e-10", "petsc with an iterative ksp: the relative tolerance of each solve.", "a relative tolerance lies in (0, 1)"},
+  {"linear_solver.options", K_STRING, NULL, NONE, 0, "\"\"", "petsc: PETSc options passed through, e.g. \"-pc_gamg_threshold 0.05 -ksp_norm_type unpreconditioned\".", NULL},
   {"output", K_GROUP, NULL, NONE, 0, NULL, "What is written.", NULL},
   {"output.every", K_INT, NULL, R(1, U, 0, 0), 0, "1", "Write a history row every N steps (the first and last steps are always written).", NULL},
   {"output.precision", K_INT, NULL, R(3, 17, 0, 0), 0, "10", "Significant digits in CSV files.", NULL},

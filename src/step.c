@@ -328,6 +328,25 @@ done:
   return st;
 }
 
+/* The solver of What that linear_solver asks for (CHOLMOD, or PETSc over the ranks). */
+static int make_solver(mo_stepper *S, mo_ctx *ctx)
+{
+  const mo_linear_settings *L = &S->sc->lin;
+  mo_linsolver_settings set;
+  const mo_linsolver_type *T;
+  int st;
+  if (!L->petsc) return mo_linsolver_create(&mo_linsolver_cholmod, &S->ls, ctx);
+  if (!(T = mo_linsolver_petsc(ctx))) return mo_error_prefix(ctx, "linear_solver.type = \"petsc\"");
+  set.ksp = L->ksp;
+  set.pc = L->pc;
+  set.package = L->package;
+  set.options = L->options;
+  set.rtol = L->rtol;
+  set.spd = 1;
+  if ((st = mo_linsolver_create(T, &S->ls, ctx))) return st;
+  return mo_linsolver_configure(S->ls, &set, ctx);
+}
+
 /* Virgin states of every finite-strain body. */
 static void init_material(const mo_scene *sc, double *q)
 {
@@ -355,7 +374,7 @@ static int create_nonlinear(mo_stepper *S, mo_ctx *ctx)
   mo_free(q);
   if (st) return mo_error_prefix(ctx, "the initial configuration");
   t0 = mo_clock();
-  st = mo_linsolver_create(&mo_linsolver_cholmod, &S->ls, ctx);
+  st = make_solver(S, ctx);
   if (!st) st = mo_linsolver_factor(S->ls, S->W, ctx);
   mo_phase_add(ctx, MO_PH_FACTOR, t0);
   if (st)
@@ -547,7 +566,7 @@ int mo_stepper_create(const mo_scene *sc, mo_stepper **out, mo_ctx *ctx)
     mo_note_skip(ctx, "coupling with prescribed motion (every prescribed dof is fixed)");
   }
   t0 = mo_clock();
-  st = mo_linsolver_create(&mo_linsolver_cholmod, &S->ls, ctx);
+  st = make_solver(S, ctx);
   if (!st) st = mo_linsolver_factor(S->ls, S->W, ctx);
   mo_phase_add(ctx, MO_PH_FACTOR, t0);
   if (st) {

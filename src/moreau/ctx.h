@@ -67,6 +67,13 @@ typedef struct mo_ctx {
   volatile sig_atomic_t *interrupt;
   /* size limits, refused with MO_ELIMIT before allocating (0: the defaults, 2e7 dofs) */
   long max_dofs;
+  /* MPI runs (moreau/parallel.h): this process's rank among nranks (0 of 1 when serial), and
+     the collective calls made through it: their number, seconds and the bytes each rank sent
+     (doc/parallel.md: the measured communication behind the projections) */
+  int rank, nranks;
+  const void *par_module;  /* the PETSc module once loaded (parallel.c), else NULL */
+  long par_calls;
+  double par_time, par_bytes;
   /* contact back ends loaded at run time (moreau/backend.h): owned by the context that loaded
      them, shared by its copies (a comparison's runs), unloaded by mo_ctx_release */
   struct mo_plugins *plugins;

@@ -13,6 +13,7 @@
 #include <moreau/case.h>
 #include <moreau/scene.h>
 #include <moreau/body.h>
+#include <moreau/parallel.h>
 #include <moreau/step.h>
 #include <moreau/output.h>
 #include <moreau/run.h>

@@ -128,6 +128,10 @@ int mo_vtk_open(const char *dir, const mo_scene *sc, int contact, mo_vtk **out, 
    contact). */
 int mo_vtk_frame(mo_vtk *v, const mo_scene *sc, const mo_state *s, const mo_vtk_contacts *net,
                  const mo_vtk_points *pts, mo_ctx *ctx);
+/* The collections that list the frames written (the .pvd of each series, and in MPI runs the
+   .pvtu joining the ranks' pieces of each body): after mo_vtk_frame, once every rank's pieces are
+   written (rank 0 writes them; a no-op on the others). */
+int mo_vtk_index(mo_vtk *v, const mo_scene *sc, mo_ctx *ctx);
 int mo_vtk_frames(const mo_vtk *v);
 /* The series this writer writes (MO_OUT_* bits of moreau/run.h). */
 unsigned mo_vtk_outputs(const mo_vtk *v);

@@ -204,6 +204,13 @@ int mo_reference_eval(const mo_reference *R, mo_quantity q, double x, double t, 
 int mo_reference_rigid(const mo_reference *R, const struct mo_scene *sc, int b, int comp, double t, double *val);
 const char *mo_reference_name(mo_reference_type t);
 
+/* linear_solver: the solver of What (moreau/sparse.h mo_linsolver_settings). */
+typedef struct {
+  int petsc;                  /* 1: PETSc's KSP over the MPI ranks; 0: CHOLMOD */
+  char ksp[32], pc[32], package[32], options[1024];
+  double rtol;
+} mo_linear_settings;
+
 typedef struct mo_scene {
   char *title;
   char *case_file;
@@ -231,6 +238,7 @@ typedef struct mo_scene {
   int nonlinear;        /* some body has a finite-strain material: Newton steps (§11) */
   size_t nq;            /* doubles of material state over the finite-strain bodies */
   mo_time_settings time;
+  mo_linear_settings lin;
   mo_output_settings out;
   int nprobe;
   mo_probe *probe;

@@ -64,6 +64,17 @@ int mo_csc_to_dense(const mo_csc *A, double **D, mo_ctx *ctx);
    analysis. */
 typedef struct mo_linsolver mo_linsolver;
 
+/* What a configurable solver (PETSc's) is told: the Krylov method and preconditioner by PETSc's
+   names ("preonly" and "cholesky" or "lu" for a direct factorization, "cg" and "gamg" ...), the
+   factorization package ("mumps"), the relative tolerance of iterative methods, and PETSc
+   options passed through ("-pc_gamg_threshold 0.05 ..."). spd: the matrices are symmetric
+   positive definite (the stepper's What), so a Cholesky factorization applies. */
+typedef struct mo_linsolver_settings {
+  const char *ksp, *pc, *package, *options;
+  double rtol;
+  int spd;
+} mo_linsolver_settings;
+
 typedef struct mo_linsolver_type {
   const char *name;   /* "cholmod", "umfpack" */
   int spd_only;       /* 1: the matrix must be symmetric positive definite */
@@ -73,10 +84,19 @@ typedef struct mo_linsolver_type {
      alias B. */
   int (*solve)(void *state, int nrhs, const double *B, double *X, mo_ctx *ctx);
   void (*free)(void *state);
+  /* Optional: take settings before the first factorization (NULL: the type has none). */
+  int (*configure)(void *state, const mo_linsolver_settings *set, mo_ctx *ctx);
 } mo_linsolver_type;
 
 extern const mo_linsolver_type mo_linsolver_cholmod;
 extern const mo_linsolver_type mo_linsolver_umfpack;
+/* PETSc's KSP over every MPI rank (MUMPS by default): the matrix is distributed by rows, every
+   rank passes the same replicated right-hand sides and receives the whole solution
+   (doc/parallel.md). Loads and starts the PETSc module on first use; NULL with the reason in ctx
+   in builds without PETSc. */
+const mo_linsolver_type *mo_linsolver_petsc(mo_ctx *ctx);
+/* Pass settings to a solver of a configurable type (a no-op for the others). */
+int mo_linsolver_configure(mo_linsolver *S, const mo_linsolver_settings *set, mo_ctx *ctx);
 
 int mo_linsolver_create(const mo_linsolver_type *T, mo_linsolver **out, mo_ctx *ctx);
 /* Factor A (symbolic analysis on the first call or when the pattern changed). */

@@ -1,0 +1,437 @@
+/* petsc_module.c: moreau's PETSc module (moreau_petsc.so; petsc_module.h): MPI's start and
+   collective calls, and the linear-solver type over PETSc's KSP on every rank (doc/parallel.md
+   §2): the matrix distributed by rows, replicated right-hand sides in, replicated solutions out. */
+#include "config.h"
+#include "petsc_module.h"
+
+#include <petscksp.h>
+#include <mpi.h>
+#include <stdarg.h>
+#include <string.h>
+
+/* The library that loaded the module: set once by start, read-only after (the module has no
+   other state of its own; PETSc's is process-wide by design). */
+static const mo_petsc_host *H;
+
+static int module_error(mo_ctx *ctx, int code, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+static int module_error(mo_ctx *ctx, int code, const char *fmt, ...)
+{
+  va_list ap;
+  int rc;
+  va_start(ap, fmt);
+  rc = H->verror(ctx, code, fmt, ap);
+  va_end(ap);
+  return rc;
+}
+#define mo_error module_error
+#define mo_malloc(ctx, n) H->malloc_(ctx, n)
+#define mo_calloc(ctx, c, s) H->calloc_(ctx, c, s)
+#define mo_free(p) H->free_(p)
+#define mo_csc_transpose(A, T, ctx) H->csc_transpose(A, T, ctx)
+#define mo_csc_free(A) H->csc_free(A)
+#define mo_clock() H->clock()
+
+/* --- MPI ---------------------------------------------------------------------------------------- */
+
+static int started(void)
+{
+  PetscBool up = PETSC_FALSE;
+  PetscInitialized(&up);
+  return up == PETSC_TRUE;
+}
+
+static int start(const mo_petsc_host *host, int *rank, int *nranks, mo_ctx *ctx)
+{
+  PetscMPIInt r = 0, n = 1;
+  H = host;
+  if (!started()) {
+    /* PETSc reads its options from the command line only when given one: moreau's own
+       arguments are not PETSc's (linear_solver.options carries those) */
+    int zero = 0;
+    char **none = NULL;
+    if (PetscInitialize(&zero, &none, NULL, NULL))
+      return mo_error(ctx, MO_EUNSUPPORTED, "PETSc could not be started (PetscInitialize failed)");
+  }
+  MPI_Comm_rank(PETSC_COMM_WORLD, &r);
+  MPI_Comm_size(PETSC_COMM_WORLD, &n);
+  *rank = r;
+  *nranks = n;
+  return MO_OK;
+}
+
+static void finish(void)
+{
+  if (started()) PetscFinalize();
+}
+
+/* Account one collective call of `bytes` sent by this rank. */
+static void traffic(mo_ctx *ctx, double t0, double bytes)
+{
+  ctx->par_calls++;
+  ctx->par_time += mo_clock() - t0;
+  ctx->par_bytes += bytes;
+}
+
+static int mpi_fail(mo_ctx *ctx, int rc, const char *what)
+{
+  char msg[MPI_MAX_ERROR_STRING];
+  int len = 0;
+  MPI_Error_string(rc, msg, &len);
+  return mo_error(ctx, MO_EINTERNAL, "MPI %s failed: %.*s", what, len, msg);
+}
+
+static int allreduce(double *x, long n, int op, mo_ctx *ctx)
+{
+  double t0 = mo_clock();
+  long k = 0;
+  int rc;
+  /* in chunks that an int count holds */
+  while (k < n) {
+    int m = n - k > (1L << 30) ? 1 << 30 : (int)(n - k);
+    if ((rc = MPI_Allreduce(MPI_IN_PLACE, x + k, m, MPI_DOUBLE, op ? MPI_MAX : MPI_SUM, PETSC_COMM_WORLD)) !=
+        MPI_SUCCESS)
+      return mpi_fail(ctx, rc, op ? "maximum" : "sum");
+    k += m;
+  }
+  traffic(ctx, t0, 8.0 * (double)n);
+  return MO_OK;
+}
+
+static int bcast(void *buf, long bytes, int root, mo_ctx *ctx)
+{
+  double t0 = mo_clock();
+  int rc;
+  if (bytes > 0x7fffffffL) return mo_error(ctx, MO_ELIMIT, "MPI broadcast of %ld bytes", bytes);
+  if ((rc = MPI_Bcast(buf, (int)bytes, MPI_BYTE, root, PETSC_COMM_WORLD)) != MPI_SUCCESS)
+    return mpi_fail(ctx, rc, "broadcast");
+  traffic(ctx, t0, ctx->rank == root ? (double)bytes : 0);
+  return MO_OK;
+}
+
+static int allgatherv(const double *mine, const int *n, double *all, mo_ctx *ctx)
+{
+  double t0 = mo_clock();
+  int *displ, r, rc;
+  long tot = 0;
+  if (!(displ = mo_malloc(ctx, (size_t)ctx->nranks * sizeof *displ))) return MO_ENOMEM;
+  for (r = 0; r < ctx->nranks; r++) {
+    displ[r] = (int)tot;
+    tot += n[r];
+  }
+  if (tot > 0x7fffffffL) {
+    mo_free(displ);
+    return mo_error(ctx, MO_ELIMIT, "MPI gather of %ld values", tot);
+  }
+  rc = MPI_Allgatherv(mine, n[ctx->rank], MPI_DOUBLE, all, n, displ, MPI_DOUBLE, PETSC_COMM_WORLD);
+  mo_free(displ);
+  if (rc != MPI_SUCCESS) return mpi_fail(ctx, rc, "gather");
+  traffic(ctx, t0, 8.0 * n[ctx->rank]);
+  return MO_OK;
+}
+
+static int agree(int st, mo_ctx *ctx)
+{
+  /* (status, -rank) pairs: the largest status, and the lowest rank that has it */
+  int in[2], out[2], rc, from;
+  char msg[MO_ERRMSG_MAX];
+  double t0 = mo_clock();
+  in[0] = st;
+  in[1] = -ctx->rank;
+  if ((rc = MPI_Allreduce(in, out, 1, MPI_2INT, MPI_MAXLOC, PETSC_COMM_WORLD)) != MPI_SUCCESS)
+    return mpi_fail(ctx, rc, "status agreement");
+  if (out[0] == MO_OK) {
+    traffic(ctx, t0, 8);
+    return MO_OK;
+  }
+  /* the failing rank's message, for every rank's diagnosis */
+  from = -out[1];
+  if (ctx->rank == from) snprintf(msg, sizeof msg, "%s", ctx->errmsg);
+  if ((rc = MPI_Bcast(msg, (int)sizeof msg, MPI_CHAR, from, PETSC_COMM_WORLD)) != MPI_SUCCESS)
+    return mpi_fail(ctx, rc, "status agreement");
+  traffic(ctx, t0, 8.0 + (ctx->rank == from ? (double)sizeof msg : 0));
+  msg[sizeof msg - 1] = 0;
+  if (st != MO_OK) return st;
+  return mo_error(ctx, out[0], "rank %d stopped: %s", from, msg);
+}
+
+/* --- the linear-solver type ----------------------------------------------------------------------- */
+
+typedef struct {
+  int configured;
+  char ksp[32], pc[32], package[32], options[1024];
+  double rtol;
+  int spd;
+  Mat A;
+  KSP ksp_obj;
+  Vec b, x, xall;           /* distributed right-hand side and solution, the whole solution */
+  VecScatter toall;
+  int n, rstart, rend;      /* rows of this rank: rstart .. rend-1 */
+  mo_csc *At;               /* the factored matrix by rows (its transpose), for the owned rows */
+  long iterations;          /* Krylov iterations over the solves (0 for direct solves) */
+} petsc_state;
+
+/* A PETSc error as moreau's: the call and PETSc's own message. */
+static int petsc_fail(mo_ctx *ctx, PetscErrorCode e, const char *call)
+{
+  const char *text = NULL;
+  PetscErrorMessage(e, &text, NULL);
+  return mo_error(ctx, e == PETSC_ERR_MEM ? MO_ENOMEM : MO_EINTERNAL, "PETSc: %s failed: %s", call,
+                  text ? text : "(no message)");
+}
+#define P(call)                                         \
+  do {                                                  \
+    PetscErrorCode e_ = (call);                         \
+    if (e_) return petsc_fail(ctx, e_, #call);          \
+  } while (0)
+
+static int petsc_configure(void *state, const mo_linsolver_settings *set, mo_ctx *ctx)
+{
+  petsc_state *s = state;
+  snprintf(s->ksp, sizeof s->ksp, "%s", set->ksp ? set->ksp : "preonly");
+  snprintf(s->pc, sizeof s->pc, "%s", set->pc ? set->pc : (set->spd ? "cholesky" : "lu"));
+  snprintf(s->package, sizeof s->package, "%s", set->package ? set->package : "mumps");
+  snprintf(s->options, sizeof s->options, "%s", set->options ? set->options : "");
+  s->rtol = set->rtol > 0 ? set->rtol : 1e-10;
+  s->spd = set->spd;
+  s->configured = 1;
+  (void)ctx;
+  return MO_OK;
+}
+
+/* The KSP and its preconditioner from the settings, then PETSc's own options over them. */
+static int make_ksp(petsc_state *s, mo_ctx *ctx)
+{
+  PC pc;
+  P(KSPCreate(PETSC_COMM_WORLD, &s->ksp_obj));
+  P(KSPSetType(s->ksp_obj, s->ksp));
+  P(KSPGetPC(s->ksp_obj, &pc));
+  P(PCSetType(pc, s->pc));
+  if (!strcmp(s->pc, "lu") || !strcmp(s->pc, "cholesky")) P(PCFactorSetMatSolverType(pc, s->package));
+  P(KSPSetTolerances(s->ksp_obj, s->rtol, PETSC_DEFAULT, PETSC_DEFAULT, PETSC_DEFAULT));
+  /* an iterative solve starts from zero: a replicated start would need a scatter, and the
+     stepper's unknowns change little enough between steps for the tolerance to decide */
+  P(KSPSetInitialGuessNonzero(s->ksp_obj, PETSC_FALSE));
+  if (s->options[0]) P(PetscOptionsInsertString(NULL, s->options));
+  P(KSPSetFromOptions(s->ksp_obj));
+  return MO_OK;
+}
+
+/* The distributed matrix with the pattern of A: each rank preallocates and owns a contiguous
+   block of rows (PETSc's split), filled from the rows of A (the columns of A^T). */
+static int make_matrix(petsc_state *s, const mo_csc *A, mo_ctx *ctx)
+{
+  PetscInt *dn = NULL, *on = NULL, n = A->nrow, r;
+  int st;
+  const mo_csc *T;
+  mo_csc_free(s->At);
+  s->At = NULL;
+  if ((st = mo_csc_transpose(A, &s->At, ctx))) return st;
+  T = s->At;
+  {
+    /* PETSc's split of the rows: contiguous blocks, the first ranks one row more */
+    PetscInt nloc = PETSC_DECIDE, N = n, end = 0;
+    P(PetscSplitOwnership(PETSC_COMM_WORLD, &nloc, &N));
+    if (MPI_Scan(&nloc, &end, 1, MPIU_INT, MPI_SUM, PETSC_COMM_WORLD) != MPI_SUCCESS)
+      return mo_error(ctx, MO_EINTERNAL, "MPI_Scan failed while splitting the rows");
+    s->rstart = (int)(end - nloc);
+    s->rend = (int)end;
+    P(MatCreate(PETSC_COMM_WORLD, &s->A));
+    P(MatSetSizes(s->A, nloc, nloc, n, n));
+    P(MatSetType(s->A, MATAIJ));
+  }
+  s->n = (int)n;
+  if (!(dn = mo_calloc(ctx, (size_t)(s->rend - s->rstart) + 1, sizeof *dn)) ||
+      !(on = mo_calloc(ctx, (size_t)(s->rend - s->rstart) + 1, sizeof *on))) {
+    mo_free(dn);
+    return MO_ENOMEM;
+  }
+  for (r = s->rstart; r < s->rend; r++) {
+    int p;
+    for (p = T->p[r]; p < T->p[r + 1]; p++)
+      if (T->i[p] >= s->rstart && T->i[p] < s->rend) dn[r - s->rstart]++;
+      else on[r - s->rstart]++;
+  }
+  {
+    PetscErrorCode e = MatSeqAIJSetPreallocation(s->A, 0, dn);
+    if (!e) e = MatMPIAIJSetPreallocation(s->A, 0, dn, 0, on);
+    mo_free(dn);
+    mo_free(on);
+    if (e) return petsc_fail(ctx, e, "MatMPIAIJSetPreallocation");
+  }
+  if (s->spd) P(MatSetOption(s->A, MAT_SPD, PETSC_TRUE));
+  P(MatSetOption(s->A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));
+  P(MatCreateVecs(s->A, &s->x, &s->b));
+  P(VecScatterCreateToAll(s->x, &s->toall, &s->xall));
+  return MO_OK;
+}
+
+static void drop(petsc_state *s)
+{
+  if (s->ksp_obj) KSPDestroy(&s->ksp_obj);
+  if (s->A) MatDestroy(&s->A);
+  if (s->b) VecDestroy(&s->b);
+  if (s->x) VecDestroy(&s->x);
+  if (s->xall) VecDestroy(&s->xall);
+  if (s->toall) VecScatterDestroy(&s->toall);
+}
+
+static int petsc_factor(void *state, const mo_csc *A, int same, mo_ctx *ctx)
+{
+  petsc_state *s = state;
+  PetscInt r;
+  PC pc;
+  PCFailedReason pf;
+  int st;
+  if (!s->configured) {
+    mo_linsolver_settings d = {NULL, NULL, NULL, NULL, 0, 0};
+    petsc_configure(s, &d, ctx);
+  }
+  if (!same || !s->A) {
+    drop(s);
+    if ((st = make_matrix(s, A, ctx))) return st;
+    if ((st = make_ksp(s, ctx))) return st;
+  } else {
+    /* the same pattern: new values in the rows this rank owns (PETSc keeps the symbolic
+       factorization of a matrix whose nonzero pattern did not change) */
+    mo_csc_free(s->At);
+    s->At = NULL;
+    if ((st = mo_csc_transpose(A, &s->At, ctx))) return st;
+  }
+  for (r = s->rstart; r < s->rend; r++) {
+    const mo_csc *T = s->At;
+    PetscInt row = r, nz = T->p[r + 1] - T->p[r], k, cols[64], *cp = cols;
+    PetscInt *big = NULL;
+    if (nz > 64) {
+      if (!(big = mo_malloc(ctx, (size_t)nz * sizeof *big))) return MO_ENOMEM;
+      cp = big;
+    }
+    for (k = 0; k < nz; k++) cp[k] = T->i[T->p[r] + k];
+    {
+      PetscErrorCode e = MatSetValues(s->A, 1, &row, nz, cp, T->x + T->p[r], INSERT_VALUES);
+      mo_free(big);
+      if (e) return petsc_fail(ctx, e, "MatSetValues");
+    }
+  }
+  P(MatAssemblyBegin(s->A, MAT_FINAL_ASSEMBLY));
+  P(MatAssemblyEnd(s->A, MAT_FINAL_ASSEMBLY));
+  P(KSPSetOperators(s->ksp_obj, s->A, s->A));
+  /* the factorization (or the preconditioner's set-up) now, where the stepper times it */
+  P(KSPSetUp(s->ksp_obj));
+  P(KSPGetPC(s->ksp_obj, &pc));
+  P(PCGetFailedReason(pc, &pf));
+  if (pf != PC_NOERROR)
+    return mo_error(ctx, MO_ESINGULAR, "factorization by PETSc (%s, %s): %s", s->pc, s->package,
+                    pf == PC_FACTOR_NUMERIC_ZEROPIVOT ? "a zero pivot: the matrix is singular (a body free to "
+                    "move rigidly with zero mass, or a missing support)" : PCFailedReasons[pf]);
+  return MO_OK;
+}
+
+/* One replicated right-hand side in, the replicated solution out. */
+static int solve_one(petsc_state *s, const double *b, double *x, mo_ctx *ctx)
+{
+  PetscScalar *pb;
+  const PetscScalar *px;
+  KSPConvergedReason why;
+  PetscInt its;
+  P(VecGetArray(s->b, &pb));
+  memcpy(pb, b + s->rstart, (size_t)(s->rend - s->rstart) * sizeof *pb);
+  P(VecRestoreArray(s->b, &pb));
+  P(KSPSolve(s->ksp_obj, s->b, s->x));
+  P(KSPGetConvergedReason(s->ksp_obj, &why));
+  if (why < 0)
+    return mo_error(ctx, MO_ENOCONV, "the PETSc solve (%s, %s) did not converge: %s", s->ksp, s->pc,
+                    KSPConvergedReasons[why]);
+  P(KSPGetIterationNumber(s->ksp_obj, &its));
+  s->iterations += its;
+  P(VecScatterBegin(s->toall, s->x, s->xall, INSERT_VALUES, SCATTER_FORWARD));
+  P(VecScatterEnd(s->toall, s->x, s->xall, INSERT_VALUES, SCATTER_FORWARD));
+  P(VecGetArrayRead(s->xall, &px));
+  memcpy(x, px, (size_t)s->n * sizeof *x);
+  P(VecRestoreArrayRead(s->xall, &px));
+  return MO_OK;
+}
+
+/* Several right-hand sides in one call of the factorization (MUMPS solves them together):
+   B and X dense by rows over the ranks, X's rows gathered to every rank afterwards. */
+static int solve_block(petsc_state *s, int nrhs, const double *B, double *X, mo_ctx *ctx)
+{
+  Mat Bm, Xm;
+  PetscScalar *pb;
+  const PetscScalar *px;
+  int nloc = s->rend - s->rstart, k, r, *cnt = NULL, st = MO_OK;
+  double *mine = NULL, *all = NULL;
+  KSPConvergedReason why;
+  P(MatCreateDense(PETSC_COMM_WORLD, nloc, PETSC_DECIDE, s->n, nrhs, NULL, &Bm));
+  P(MatCreateDense(PETSC_COMM_WORLD, nloc, PETSC_DECIDE, s->n, nrhs, NULL, &Xm));
+  P(MatDenseGetArray(Bm, &pb));
+  for (k = 0; k < nrhs; k++)
+    memcpy(pb + (size_t)k * nloc, B + (size_t)k * s->n + s->rstart, (size_t)nloc * sizeof *pb);
+  P(MatDenseRestoreArray(Bm, &pb));
+  P(KSPMatSolve(s->ksp_obj, Bm, Xm));
+  P(KSPGetConvergedReason(s->ksp_obj, &why));
+  if (why < 0) {
+    MatDestroy(&Bm);
+    MatDestroy(&Xm);
+    return mo_error(ctx, MO_ENOCONV, "the PETSc solve (%s, %s) of %d right-hand sides did not converge: %s", s->ksp,
+                    s->pc, nrhs, KSPConvergedReasons[why]);
+  }
+  /* the rows of every rank, rank after rank, each block column-major */
+  if (!(cnt = mo_malloc(ctx, (size_t)ctx->nranks * sizeof *cnt)) ||
+      !(mine = mo_malloc(ctx, ((size_t)nloc * nrhs + 1) * sizeof *mine)) ||
+      !(all = mo_malloc(ctx, ((size_t)s->n * nrhs + 1) * sizeof *all))) {
+    st = MO_ENOMEM;
+    goto done;
+  }
+  P(MatDenseGetArrayRead(Xm, &px));
+  memcpy(mine, px, (size_t)nloc * nrhs * sizeof *mine);
+  P(MatDenseRestoreArrayRead(Xm, &px));
+  {
+    /* PETSc's split (PetscSplitOwnership): n / size rows each, one more on the first n % size */
+    long off = 0, first = 0;
+    for (r = 0; r < ctx->nranks; r++) cnt[r] = (s->n / ctx->nranks + (r < s->n % ctx->nranks)) * nrhs;
+    if (cnt[ctx->rank] != nloc * nrhs) {
+      st = mo_error(ctx, MO_EINTERNAL, "PETSc's row split is not the one expected (%d rows here)", nloc);
+      goto done;
+    }
+    if ((st = allgatherv(mine, cnt, all, ctx))) goto done;
+    for (r = 0; r < ctx->nranks; r++) {
+      int rows = cnt[r] / nrhs;
+      for (k = 0; k < nrhs; k++)
+        memcpy(X + (size_t)k * s->n + first, all + off + (size_t)k * rows, (size_t)rows * sizeof *X);
+      off += cnt[r];
+      first += rows;
+    }
+  }
+done:
+  mo_free(cnt);
+  mo_free(mine);
+  mo_free(all);
+  MatDestroy(&Bm);
+  MatDestroy(&Xm);
+  return st;
+}
+
+static int petsc_solve(void *state, int nrhs, const double *B, double *X, mo_ctx *ctx)
+{
+  petsc_state *s = state;
+  int k, st;
+  if (nrhs > 1) return solve_block(s, nrhs, B, X, ctx);
+  for (k = 0; k < nrhs; k++)
+    if ((st = solve_one(s, B + (size_t)k * (size_t)s->n, X + (size_t)k * (size_t)s->n, ctx))) return st;
+  return MO_OK;
+}
+
+static void petsc_free(void *state)
+{
+  petsc_state *s = state;
+  drop(s);
+  mo_csc_free(s->At);
+}
+
+static const mo_linsolver_type petsc_type = {"petsc", 0, sizeof(petsc_state), petsc_factor, petsc_solve,
+                                             petsc_free, petsc_configure};
+
+/* The module's one export (petsc_module.h). */
+extern const mo_petsc_module mo_petsc_module_v1;
+const mo_petsc_module mo_petsc_module_v1 = {MO_PETSC_ABI, PETSC_VERSION_GIT, start, started, finish, allreduce,
+                                            bcast, allgatherv, agree, &petsc_type};

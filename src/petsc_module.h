@@ -1,0 +1,47 @@
+/* petsc_module.h: the contract between libmoreau and its PETSc module (moreau_petsc.so, built by
+   configure --with-petsc; doc/parallel.md §1). libmoreau never links PETSc or MPI: a serial run
+   does not load their hundred shared libraries (0.2 s at every start); parallel.c loads the
+   module when a run asks for it (mpirun, linear_solver.type = "petsc"). The module calls
+   libmoreau only through the host table it is given, so that it can be loaded by the library
+   and by programs linked with moreau's objects alike. */
+#ifndef MOREAU_PETSC_MODULE_H
+#define MOREAU_PETSC_MODULE_H
+
+#include <stdarg.h>
+#include <stddef.h>
+
+#include <moreau/ctx.h>
+#include <moreau/sparse.h>
+
+/* Raised whenever a member changes meaning or position. */
+#define MO_PETSC_ABI 1
+#define MO_PETSC_SYMBOL "mo_petsc_module_v1"
+#define MO_PETSC_MODULE_NAME "moreau_petsc.so"
+
+typedef struct mo_petsc_host {
+  int (*verror)(mo_ctx *ctx, int code, const char *fmt, va_list ap);
+  void *(*malloc_)(mo_ctx *ctx, size_t n);
+  void *(*calloc_)(mo_ctx *ctx, size_t count, size_t size);
+  void (*free_)(void *p);
+  int (*csc_transpose)(const mo_csc *A, mo_csc **AT, mo_ctx *ctx);
+  void (*csc_free)(mo_csc *A);
+  double (*clock)(void);
+} mo_petsc_host;
+
+typedef struct mo_petsc_module {
+  int abi;                   /* MO_PETSC_ABI */
+  const char *petsc_version; /* PETSc's version string */
+  /* Start MPI and PETSc once per process; rank and size of the world. */
+  int (*start)(const mo_petsc_host *host, int *rank, int *nranks, mo_ctx *ctx);
+  int (*started)(void);
+  void (*finish)(void);
+  /* Collective calls over every rank (doc/parallel.md): op 0 sum, 1 maximum. */
+  int (*allreduce)(double *x, long n, int op, mo_ctx *ctx);
+  int (*bcast)(void *buf, long bytes, int root, mo_ctx *ctx);
+  int (*allgatherv)(const double *mine, const int *n, double *all, mo_ctx *ctx);
+  /* (status, -rank) pairs reduced by MAXLOC, then the failing rank's message to every rank. */
+  int (*agree)(int st, mo_ctx *ctx);
+  const mo_linsolver_type *linsolver;
+} mo_petsc_module;
+
+#endif

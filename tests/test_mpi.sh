@@ -1,0 +1,85 @@
+#!/bin/sh
+# test_mpi.sh: runs over MPI ranks equal the serial run (doc/parallel.md). The PETSc solver type
+# on 2 ranks against CHOLMOD (tests/test_parallel), then `mpirun -np 2 moreau run` against the
+# serial run on rods-3d (dynamic impacts, the Delassus operator from distributed solves) and the
+# 14^3 H8 box pressed on a plane (quasi-static), to 1e-8 of every history column. Skipped by
+# builds without PETSc. The 2 ranks share CI's 2 cores with nothing else: oversubscription
+# allowed, as the CI machine's MPI would refuse it otherwise.
+. "$MOREAU_SRCDIR/tests/tap.sh"
+if [ "$MOREAU_HAVE_PETSC" != yes ]; then
+  # the serial build: a case that asks for PETSc is refused, saying how to get it
+  e=$("$MOREAU" check "$MOREAU_SRCDIR/cases/rods-3d" --set 'linear_solver.type="petsc"' 2>&1)
+  is "$?" "2" "a build without PETSc: linear_solver.type = \"petsc\" refused as bad input"
+  contains "$e" "configure it --with-petsc" "a build without PETSc: the message says how to get it"
+  contains "$e" "linear_solver" "a build without PETSc: the message names the key"
+  done_testing
+  exit
+fi
+if [ -z "$MOREAU_MPIRUN" ]; then
+  echo "1..0 # SKIP no mpirun found by configure"
+  exit 0
+fi
+# Open MPI as root in a container: allowed explicitly; no shared-memory single copy (it needs
+# ptrace rights that containers do not give)
+export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_btl_vader_single_copy_mechanism=none
+export OMPI_MCA_rmaps_base_oversubscribe=1 OMPI_MCA_mpi_yield_when_idle=1
+# a bound on every parallel run: a rank waiting for another that left must not hang CI
+mpi() { timeout 300 "$MOREAU_MPIRUN" -np "$@"; }
+
+# 1. the solver type and the collective calls on 2 ranks
+mpi 2 "$MOREAU_BUILDDIR/tests/test_parallel" > "$OUT/unit" 2>&1
+n=$(grep -c '^ok' "$OUT/unit")
+f=$(grep -c '^not ok' "$OUT/unit")
+ok $([ "$n" -gt 15 ] && [ "$f" -eq 0 ] && echo 0 || echo 1) "tests/test_parallel on 2 ranks: $n checks pass, $f fail"
+grep '^not ok' "$OUT/unit" | sed 's/^/#   /'
+
+# 2. whole runs: serial CHOLMOD against PETSc (MUMPS) on 2 ranks
+run_pair() { # run_pair NAME CASE ARGS...: serial and 2-rank runs, then their comparison
+  name=$1
+  c=$2
+  shift 2
+  "$MOREAU" run "$c" --out "$OUT/$name-1" --quiet "$@" > "$OUT/$name-1.log" 2>&1
+  ran $? "$OUT/$name-1.log" "$name: the serial run completes"
+  mpi 2 "$MOREAU" run "$c" --out "$OUT/$name-2" --quiet "$@" > "$OUT/$name-2.log" 2>&1
+  ran $? "$OUT/$name-2.log" "$name: mpirun -np 2 completes"
+  check_runs "$OUT/$name-1" "$OUT/$name-2" 1e-8 "$name"
+  is "$(json "$OUT/$name-2/summary.json" "d['parallel']['ranks']")" "2" "$name: summary.json says 2 ranks"
+  is "$(json "$OUT/$name-2/summary.json" "d['parallel']['linear_solver']")" "petsc" "$name: the 2-rank run solved with PETSc"
+  is "$(ls "$OUT/$name-2" | grep -c '\.tmp\.')" "0" "$name: one set of outputs, no temporary left by another rank"
+}
+check_runs() {
+  /usr/bin/python3 "$MOREAU_SRCDIR/tests/compare_runs.py" "$1" "$2" "$3" > "$OUT/cmp" 2>&1 || echo "1	compare_runs.py crashed: $(tail -1 "$OUT/cmp")" >> "$OUT/cmp"
+  while IFS= read -r line; do
+    case "$line" in
+      [01]'	'*) ok "${line%%	*}" "$4: ${line#*	}" ;;
+      *) echo "# $line" ;;
+    esac
+  done < "$OUT/cmp"
+}
+run_pair rods-3d "$MOREAU_SRCDIR/cases/rods-3d" --set 'output.vtk={every=50;}'
+# the fields: each rank's piece of every body, joined by rank 0's .pvtu, read back by VTK
+/usr/bin/python3 "$MOREAU_SRCDIR/tests/pvtu_check.py" "$OUT/rods-3d-1" "$OUT/rods-3d-2" 1e-8 > "$OUT/pvtu" 2>&1 ||
+  echo "1	pvtu_check.py crashed: $(tail -1 "$OUT/pvtu")" >> "$OUT/pvtu"
+while IFS= read -r line; do
+  case "$line" in
+    [01]'	'*) ok "${line%%	*}" "rods-3d VTK: ${line#*	}" ;;
+    *) echo "# $line" ;;
+  esac
+done < "$OUT/pvtu"
+is "$(ls "$OUT/rods-3d-2" | grep -c '^fields_left_.*_[01]\.vtu$')" "$((2 * $(ls "$OUT/rods-3d-1" | grep -c '^fields_left_.*\.vtu$')))" \
+  "rods-3d VTK: two pieces per frame of each body"
+run_pair box-14 "$MOREAU_SRCDIR/cases/box-on-plane" --set 'bodies.box.mesh.elements=[14,14,14]'
+
+# 3. a rank that fails alone does not leave the others waiting: rank 0's folder is locked
+mkdir -p "$OUT/locked"
+"$MOREAU" run "$MOREAU_SRCDIR/cases/rods-3d" --out "$OUT/locked" --quiet --set time.end=2e-5 > /dev/null 2>&1
+( exec 9> "$OUT/locked/.lock"; flock -x 9; sleep 30 ) &
+holder=$!
+sleep 0.5
+start=$(date +%s)
+mpi 2 "$MOREAU" run "$MOREAU_SRCDIR/cases/rods-3d" --out "$OUT/locked" --quiet > "$OUT/locked.log" 2>&1
+rc=$?
+kill $holder 2> /dev/null
+ok $([ "$rc" -ne 0 ] && [ $(($(date +%s) - start)) -lt 20 ] && echo 0 || echo 1) \
+  "a folder another run holds: the 2-rank run stops (exit $rc) without waiting"
+done_testing
