@@ -35,6 +35,14 @@ typedef struct {
   int *ipiv;
   size_t cap_y, cap_u;
   ls_lu_cache lu;            /* the factors of the last Newton matrix (T86) */
+  ls_reduced red;            /* the reduced path's partition and kept factor of W_XX (T130-T133) */
+  int reduced;               /* the reduced path applies (A = I and the path allows it) */
+  int coupled;               /* the threshold is coupled in this solve (T134) */
+  int frozen_solve;          /* a frozen-threshold (dense) solve since the last threshold update */
+  unsigned char *phi;        /* nc: where friction acts with the coupled threshold (S_v = 1, mu > 0) */
+  long wcc_gen;              /* WCC builds */
+  long uc_gen;               /* Uc, Umc hold U' at the last Newton iterate with WCC of this build; -1 none */
+  int u_partial;             /* L->U holds W r + q only over Cset's components (the rest: full_velocity) */
   const mo_delassus *wcc_W;  /* what WCC holds: W, its version, the contact set (nC, cset) */
   long wcc_version;
   int wcc_nC, wcc_nr, *wcc_cset;
@@ -68,8 +76,10 @@ static const mo_option_spec ls_options[] = {
    "Tangential stabilization k_tau of BDZ07 (49) on sticking points."},
   {"su", MO_OPT_ENUM, OFF(su), "index_set|end_gap", NAN, NAN, "\"index_set\"",
    "Theta steps at velocity level: S_u from the gap predicted without contact impulse (the core's index set, frozen in the step), or re-evaluated from the end-of-step gap in the level-set loop (BDZ07 (53) literally: it cycles at landing steps)."},
-  {"path", MO_OPT_ENUM, OFF(path), "auto|schur|kkt", NAN, NAN, "\"auto\"",
-   "Linear algebra: schur solves the frozen-status system on the contact set through W (the shared factorization, linear scenes); kkt assembles the saddle-point system over the free dofs and solves it with UMFPACK; auto is schur."},
+  {"path", MO_OPT_ENUM, OFF(path), "auto|schur|kkt|reduced", NAN, NAN, "\"auto\"",
+   "Linear algebra: reduced solves each Newton step on the constrained components only, with the kept factor of W restricted to them (one multiplier per candidate: node collocation; doc/theory.md (T130)); schur solves the whole frozen-status system on the contact set through W (the shared factorization, linear scenes) with a dense LU; kkt assembles the saddle-point system over the free dofs and solves it with UMFPACK; auto is reduced where it applies, else schur."},
+  {"threshold", MO_OPT_ENUM, OFF(threshold), "auto|loop|coupled", NAN, NAN, "\"auto\"",
+   "Friction threshold p^g: loop freezes it in each frozen-status solve and updates it to the pressure after (the outer loop of BDZ07 Fig. 2); coupled makes every closed candidate's threshold its own pressure inside the frozen system, r_t = -mu r_n e when sliding (the same discrete problem in one pass; 2D, the reduced path; doc/theory.md (T134)); auto is coupled where it applies, else loop."},
   {"threshold_max", MO_OPT_INT, OFF(threshold_max), NULL, 1, 100000, "200",
    "Friction-threshold loop: iteration limit."},
   {"threshold_tol", MO_OPT_DOUBLE, OFF(threshold_tol), NULL, 0, 1, "1e-10",
@@ -111,6 +121,8 @@ static void ls_free(void *state)
   ls_system_free(&L->S);
   ls_kkt_free(&L->K);
   ls_lu_cache_free(&L->lu);
+  ls_reduced_free(&L->red);
+  mo_free(L->phi);
   mo_free(L->wcc_cset);
   mo_free(L->su); mo_free(L->sv); mo_free(L->sf); mo_free(L->nsu); mo_free(L->nsv); mo_free(L->nsf);
   mo_free(L->pg); mo_free(L->ph); mo_free(L->lam); mo_free(L->U); mo_free(L->Umag); mo_free(L->r);
@@ -131,10 +143,20 @@ static int ls_init(void *state, const void *params, const mo_contact_problem *P,
   L->m = m;
   L->friction = 0;
   L->wcc_nC = -1;
+  L->uc_gen = -1;
   for (j = 0; j < nc; j++) L->friction |= d > 1 && P->mu[j] > 0;
   if (L->par.path == LS_PATH_KKT && (!P->H || !P->What || P->nfree <= 0))
     return mo_error(ctx, MO_EINTERNAL, "levelset: the kkt path needs the global system (H, What)");
   if ((st = ls_space_build(&L->A, P->contact, L->par.multipliers, ctx))) return st;
+  L->reduced = (L->par.path == LS_PATH_AUTO || L->par.path == LS_PATH_REDUCED) && ls_reduced_applies(&L->A);
+  if (L->par.path == LS_PATH_REDUCED && !L->reduced)
+    return mo_error(ctx, MO_EINPUT, "contact.levelset.path = \"reduced\" needs one multiplier per candidate "
+                    "(node collocation); this scene's multipliers are shared by several candidates");
+  if (L->par.threshold == LS_THR_COUPLED && !(L->reduced && d == 2))
+    return mo_error(ctx, MO_EINPUT, "contact.levelset.threshold = \"coupled\" needs the reduced path (one "
+                    "multiplier per candidate) in 2D; %s", d != 2 ? "this scene is not 2D" :
+                    "this scene's multipliers are shared by several candidates, or path is not \"auto\" or \"reduced\"");
+  if (!(L->phi = mo_calloc(ctx, n1, 1))) return MO_ENOMEM;
   nm1 = (size_t)L->A.nm + 1;
   L->su = mo_calloc(ctx, n1, 1); L->sv = mo_calloc(ctx, n1, 1); L->sf = mo_calloc(ctx, n1, 1);
   L->nsu = mo_calloc(ctx, n1, 1); L->nsv = mo_calloc(ctx, n1, 1); L->nsf = mo_calloc(ctx, n1, 1);
@@ -202,7 +224,7 @@ static int slide_reversed(ls_state *L, const double *y, const double *Uc, int fi
   for (jc = 0; jc < S->nC; jc++) {
     int j = S->cset[jc];
     double lam[2], G[2], dot = 0;
-    if (!S->dt || S->sf[j] || !(S->mu[j] > 0 && S->pg[j] > 0)) continue;
+    if (!S->dt || S->sf[j] || !ls_phi(S, j)) continue;
     ls_lam_at(S, &L->A, y, j, lam);
     for (t = 0; t < S->dt; t++) {
       G[t] = lam[t] + S->h2_t * Uc[jc * S->nr + 1 + t];
@@ -240,6 +262,14 @@ static void newton_scales(const ls_state *L, const double *J, double *D)
       D[nu + S->nM + mi * S->dt + t] = 1 / sqrt(tau);
     }
   }
+}
+
+static int nonzero(const double *y, int n)
+{
+  int e;
+  for (e = 0; e < n; e++)
+    if (y[e] != 0) return 1;
+  return 0;
 }
 
 /* 1 when y = 0 and F(y) = 0 exactly: the Newton step from there is 0 (whatever J). */
@@ -287,6 +317,19 @@ static int wcc_remember(ls_state *L, const mo_delassus *W, mo_ctx *ctx)
   return MO_OK;
 }
 
+/* The dense paths freeze the threshold (T17): with the coupled threshold, this solve takes p^g as
+   it stands (the pressures of the last iterate, 0 where none is positive), and the threshold loop
+   updates it after. */
+static void frozen_threshold(ls_state *L)
+{
+  int j;
+  if (!L->coupled || L->S.phi == NULL) return;
+  L->S.phi = NULL;
+  L->frozen_solve = 1;
+  for (j = 0; j < L->nc; j++)
+    if (!(L->pg[j] > 0)) L->pg[j] = 0;
+}
+
 /* Solve F(y, U') = 0 for the frozen sign fields and threshold (T17)-(T20), by (generalized)
    Newton: U' = W_CC r + q on the Schur path, U' = q + H_C^T dv with What dv = H_C r on the KKT
    path. The system is linear except for the sliding directions: one step, plus the check, unless
@@ -299,7 +342,7 @@ static int ls_newton(ls_state *L, const mo_contact_problem *P, int kkt, int *its
 {
   ls_system *S = &L->S;
   const ls_space *A = &L->A;
-  int ny = S->ny, nu = S->nC * S->nr, it, e, k, col, st, mi, t, hit;
+  int ny = S->ny, nu = S->nC * S->nr, it, e, k, col, st, mi, t, hit, reduced;
   *its = 0;
   *conv = 0;
   memset(L->rev, 0, (size_t)L->nc);
@@ -319,16 +362,28 @@ static int ls_newton(ls_state *L, const mo_contact_problem *P, int kkt, int *its
        without a threshold); Newton would take the zero step once and stop */
     *its = 1;
     *conv = 1;
+    L->uc_gen = -1;
     return MO_OK;
   }
   if (!kkt && !wcc_current(L, P->W)) {
     if ((st = ls_schur_wcc(S, P->W, L->WCC))) return st;
     if ((st = wcc_remember(L, P->W, ctx))) return st;
+    L->wcc_gen++;
+  }
+  /* the reduced path (T130) where the multipliers are the candidates' own; the dense Newton
+     matrix otherwise, and for a step the reduced path hands back */
+  reduced = 0;
+  if (!kkt && L->reduced && (st = ls_reduced_classify(&L->red, S, A, L->coupled, &reduced, ctx))) return st;
+  if (!reduced) {
+    if ((st = ls_system_jacobians(S, ctx))) return st;
+    frozen_threshold(L);
   }
   for (it = 0;; it++) {
+    /* U' at the iterate: the previous Newton loop ended at this y with this W_CC (Uc kept) */
     if (kkt) ls_kkt_velocity(S, P, L->dv, L->Uc, L->Umc);
-    else ls_schur_velocity(S, L->WCC, P->b, L->y, L->Uc, L->Umc);
-    ls_system_eval(S, A, L->y, L->Uc, L->Umc);
+    else if (it > 0 || L->uc_gen != L->wcc_gen) ls_schur_velocity(S, L->WCC, P->b, L->y, L->Uc, L->Umc);
+    /* the reduced step needs F only to test convergence, and to find y = 0 a solution */
+    if (!reduced || it > 0 || !nonzero(L->y, ny)) ls_system_eval(S, A, L->y, L->Uc, L->Umc);
     if (it > 0 && ls_system_converged(S, L->par.newton_tol)) { *conv = 1; break; }
     if (it == L->par.newton_max) break;
     if (slide_reversed(L, L->y, L->Uc, it < 2) && it >= 2) break;
@@ -338,6 +393,22 @@ static int ls_newton(ls_state *L, const mo_contact_problem *P, int kkt, int *its
       (*its)++;
       *conv = 1;
       break;
+    }
+    if (reduced) {
+      int fallback;
+      if ((st = ls_reduced_step(&L->red, S, P->W, L->WCC, L->Uc, L->y, L->pg, &L->lu.factorizations,
+                                &L->lu.reuses, &fallback, ctx)))
+        return st;
+      if (!fallback) {
+        (*its)++;
+        continue;
+      }
+      /* the reduced matrix singular with sliding directions coupled to it: this status on the
+         dense path, with the threshold frozen */
+      reduced = 0;
+      if ((st = ls_system_jacobians(S, ctx))) return st;
+      frozen_threshold(L);
+      ls_system_eval(S, A, L->y, L->Uc, L->Umc);
     }
     if (kkt) {
       L->lu.factorizations++; /* UMFPACK factors the saddle-point matrix at every step */
@@ -366,6 +437,7 @@ static int ls_newton(ls_state *L, const mo_contact_problem *P, int kkt, int *its
     for (e = 0; e < ny; e++) L->y[e] += L->dy[e];
     (*its)++;
   }
+  L->uc_gen = kkt ? -1 : L->wcc_gen;
   /* keep the multipliers for the next solve */
   for (mi = 0; mi < S->nM; mi++) {
     L->pm[S->mset[mi]] = L->y[nu + mi];
@@ -458,6 +530,35 @@ static void sign_tolerances(const ls_state *L, int d, int dt, double rho_n, doub
   *tol_f = L->par.status_tol * (fsc + rho_t * vsc) + L->par.threshold_tol * fsc;
 }
 
+/* U' = W r + q (Schur) or q + H^T dv (KKT) over every candidate, and its magnitudes. */
+static void full_velocity(ls_state *L, const mo_contact_problem *P, int kkt)
+{
+  int j, m = L->m;
+  memcpy(L->U, P->b, (size_t)m * sizeof(double));
+  if (kkt) mo_csc_gatxpy(P->H, 1, L->dv, 1, L->U);
+  else {
+    for (j = 0; j < m && L->r[j] == 0; j++) continue;
+    if (j < m) mo_delassus_mult(P->W, L->r, 1, L->U); /* (r = 0: U' = q) */
+  }
+  for (j = 0; j < m; j++) L->Umag[j] = fabs(P->b[j]) + fabs(L->U[j] - P->b[j]);
+  L->u_partial = 0;
+}
+
+/* rho_t (T16): 1 / (c w W_tt mu p) with the mean threshold over the contact set, and h1_t, h2_t
+   (rho_t unless set); kept as it was when no threshold is positive yet. */
+static void friction_scales(ls_state *L, double kt, double *rho_t)
+{
+  double ps = 0, ms = 0;
+  int np = 0, j;
+  for (j = 0; j < L->nc; j++)
+    if (L->pg[j] > 0 && L->mu[j] > 0) { ps += L->pg[j]; ms += L->mu[j]; np++; }
+  if (L->par.rho_t > 0) *rho_t = L->par.rho_t;
+  else if (np) *rho_t = kt * np / (ms / np * ps);
+  else if (!L->coupled) *rho_t = 0;
+  L->S.h2_t = L->par.h2_t > 0 ? L->par.h2_t : *rho_t;
+  L->S.h1_t = L->par.h1_t > 0 ? L->par.h1_t : *rho_t;
+}
+
 /* S_f of candidate j from g = |Lam + rho_t U'_t| with hysteresis (T88): a sticking candidate
    starts to slide only beyond 1 + b, a sliding one sticks only below 1 - b, b the tolerance tol_f
    of the problem's friction scale in units of the candidate's threshold mu p^g (status_tol at
@@ -512,7 +613,7 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
   const int velocity = P->scheme == MO_SCHEME_THETA && P->signorini == MO_SIGNORINI_VELOCITY;
   const int end_gap = velocity && L->par.su == LS_SU_END_GAP;
   int kkt = L->par.path == LS_PATH_KKT, st, j, t, thr, lsit, nhist, nls = 0, nnewt = 0, conv, safe;
-  double kn = 0, kt = 0, h_n, rho_n, rho_t = 0, h2_t = 0, h1_t = 0, tol_v, tol_f, scale_v;
+  double kn = 0, kt = 0, h_n, rho_n, rho_t = 0, tol_v, tol_f, scale_v;
   int nkn = 0, nkt = 0;
   const long nfact0 = L->lu.factorizations, nreuse0 = L->lu.reuses;
   if (!P->W) return mo_error(ctx, MO_EINTERNAL, "levelset: the core did not build W");
@@ -555,6 +656,8 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
   S->k_n = L->par.k_n;
   S->k_t = L->par.k_t;
   S->projected = L->par.stabilization == LS_STAB_PROJECTED;
+  L->uc_gen = -1;
+  L->u_partial = 0;
   /* the starting sign fields from the warm start: U'0 = W r_prev + q; the first Newton loop
      starts from r_prev (Schur) or from r = 0, dv = 0 (KKT, where dv would have to match it) */
   for (j = 0; j < m && x->r[j] == 0; j++) continue;
@@ -600,19 +703,13 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
   rep->reason = MO_CR_CONVERGED;
   rep->loops[0] = 1; /* the geometric loop: the core freezes the pairing within the step (§6.5) */
 
-  /* the friction-threshold loop */
+  /* the friction-threshold loop (one pass with the coupled threshold, T134) */
+  L->coupled = L->reduced && !kkt && dt == 1 && L->par.threshold != LS_THR_LOOP;
   for (thr = 0;; thr++) {
-    /* rho_t (T16): 1 / (c w W_tt mu p) with the mean threshold over the contact set */
+    L->frozen_solve = 0;
+    if (L->u_partial) full_velocity(L, P, kkt);
     if (dt) {
-      double ps = 0, ms = 0;
-      int np = 0;
-      for (j = 0; j < nc; j++)
-        if (L->pg[j] > 0 && L->mu[j] > 0) { ps += L->pg[j]; ms += L->mu[j]; np++; }
-      rho_t = L->par.rho_t > 0 ? L->par.rho_t : np ? kt * np / (ms / np * ps) : 0;
-      h2_t = L->par.h2_t > 0 ? L->par.h2_t : rho_t;
-      h1_t = L->par.h1_t > 0 ? L->par.h1_t : rho_t;
-      S->h2_t = h2_t;
-      S->h1_t = h1_t;
+      friction_scales(L, kt, &rho_t);
       /* S_f from the current semi-multipliers and U', with the hysteresis of (T88) */
       sign_tolerances(L, d, dt, rho_n, rho_t, &tol_v, &tol_f, &scale_v);
       for (j = 0; j < nc; j++) {
@@ -631,6 +728,13 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
     nhist = 1;
     for (lsit = 0;; lsit++) {
       int its, same = 1, k0 = -1, k;
+      S->phi = NULL;
+      if (L->coupled) {
+        /* friction acts on the closed candidates, with their own pressure as threshold */
+        for (j = 0; j < nc; j++) L->phi[j] = L->sv[j] && L->mu[j] > 0;
+        S->phi = L->phi;
+        if (lsit > 0) friction_scales(L, kt, &rho_t);
+      }
       if ((st = ls_system_setup(S, A, nc, ctx))) return st;
       st = ls_newton(L, P, kkt, &its, &conv, ctx);
       nnewt += its;
@@ -651,13 +755,17 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
       memset(L->r, 0, (size_t)m * sizeof(double));
       for (k = 0; k < S->nC; k++)
         for (t = 0; t < S->nr; t++) L->r[S->cset[k] * d + t] = L->y[k * S->nr + t];
-      memcpy(L->U, P->b, (size_t)m * sizeof(double));
-      if (kkt) mo_csc_gatxpy(P->H, 1, L->dv, 1, L->U);
-      else {
-        for (j = 0; j < m && L->r[j] == 0; j++) continue;
-        if (j < m) mo_delassus_mult(P->W, L->r, 1, L->U); /* (r = 0: U' = q) */
-      }
-      for (j = 0; j < m; j++) L->Umag[j] = fabs(P->b[j]) + fabs(L->U[j] - P->b[j]);
+      if (!kkt && !end_gap && L->uc_gen == L->wcc_gen) {
+        /* the signs need U' over Cset only: the Newton loop's last U' (the rest when needed) */
+        for (k = 0; k < S->nC; k++)
+          for (t = 0; t < S->nr; t++) {
+            int i = S->cset[k] * d + t;
+            L->U[i] = L->Uc[k * S->nr + t];
+            L->Umag[i] = fabs(P->b[i]) + fabs(L->U[i] - P->b[i]);
+          }
+        L->u_partial = 1;
+      } else
+        full_velocity(L, P, kkt);
       /* the sign fields from the new solution: (T14), (T15), BDZ07 (69), (70), (48), tested
          against the problem's scales with hysteresis (T88) */
       for (j = 0; j < nc; j++) L->ph[j] = L->su[j] ? ls_p_at(S, A, L->y, j) : 0;
@@ -744,6 +852,8 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
       memcpy(L->sf, L->nsf, (size_t)nc);
     }
     if (rep->reason < 0 || !dt) break;
+    /* coupled: every solve took p^g = p, the threshold holds already */
+    if (L->coupled && !L->frozen_solve) break;
     /* the threshold: lambda^g <- lambda (BDZ04 Fig. 1, loop 3) */
     {
       double change = 0, pmax = 0;
@@ -764,6 +874,7 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
   }
   rep->loops[1] = thr + 1;
 
+  if (L->u_partial) full_velocity(L, P, kkt);
   /* outputs in the core's conventions (T13): impulses (forces for quasi-static steps) r_n >= 0
      compressive and r_t = -mu r_n Lam, U' = W r + q, statuses */
   memcpy(x->r, L->r, (size_t)m * sizeof(double));
