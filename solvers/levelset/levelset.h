@@ -22,7 +22,8 @@ typedef struct {
   int su;                 /* LS_SU_*: how S_u is evaluated in a theta step (T14) */
   int path;               /* LS_PATH_* */
   int threshold;          /* LS_THR_*: the friction threshold frozen in an outer loop, or coupled (T134) */
-  int threshold_max, levelset_max, newton_max;
+  double proximal;        /* eps of the proximal term (T136); 0 = automatic */
+  int threshold_max, levelset_max, newton_max, proximal_max;
   double threshold_tol, newton_tol, status_tol;
 } ls_params;
 
@@ -65,6 +66,7 @@ typedef struct {
   double c;               /* r = c x force: h (theta) or 1 (quasistatic) */
   double h_n, k_n, k_t, h1_t, h2_t;
   int projected;
+  double eps;             /* the proximal term on the diagonal of W (T136), 0 without */
   /* the projection Z on the multiplier space restricted to Cset (nC x nC), NULL = identity */
   double *Z;
   /* the residual F (ny), the Jacobians dF/dy (ny x ny) and dF/dU' (ny x nC nr), row-major,
@@ -193,6 +195,7 @@ typedef struct {
   size_t cap_c, cap_f, cap_kv, cap_d, cap_cs, cap_e, cap_w, cap_i, cap_k, cap_ks, cap_pv, cap_z, cap_r, cap_zk,
       cap_m2, cap_p, cap_up, cap_bx, cap_t1;
   long singular;           /* factorizations that found the matrix singular */
+  int normal_null;         /* the singular W_XX's null space moves normal impulses */
 } ls_reduced;
 
 /* 1 when the multiplier space is one multiplier per candidate with A = I. */
@@ -204,9 +207,10 @@ int ls_reduced_classify(ls_reduced *R, const ls_system *S, const ls_space *A, in
 /* One Newton step of (T17)-(T20) on the partition of ls_reduced_classify, from the iterate y with
    local velocities U = W_CC r + q (Cset layout) and W_CC dense (nu x nu, row-major): y is replaced
    by the next iterate, and with the coupled threshold pg (the state's thresholds) takes the new
-   pressures of the candidates with friction. *fallback = 1 (y untouched) when the reduced matrix
-   is singular and sliders couple to it (the dense path then takes the step). Counts a
-   factorization or a reuse of the kept factor. */
+   pressures of the candidates with friction. *fallback (y untouched): 1 when the reduced matrix
+   is singular and sliders couple to it (the dense path then takes the step), 2 when the
+   impulses are not unique and the proximal term (T136) is off. Counts a factorization or a reuse
+   of the kept factor. */
 int ls_reduced_step(ls_reduced *R, const ls_system *S, const mo_delassus *W, const double *WCC,
                     const double *U, double *y, double *pg, long *nfact, long *nreuse, int *fallback,
                     mo_ctx *ctx);

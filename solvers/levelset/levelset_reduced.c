@@ -4,6 +4,7 @@
 #include "config.h"
 #include "levelset.h"
 
+#include <float.h>
 #include <math.h>
 #include <string.h>
 
@@ -240,7 +241,7 @@ static int factor_current(ls_reduced *R, const ls_system *S, const mo_delassus *
 
 /* Factor W_XX (kval): the Cholesky factor of Ds W_XX Ds (Ds = diag(W_XX)^-1/2, unit diagonal) when
    no pivot falls below LS_RED_RCOND, else its eigen-decomposition (T132). */
-static int factor_spd(ls_reduced *R, mo_ctx *ctx)
+static int factor_spd(ls_reduced *R, int nr, mo_ctx *ctx)
 {
   const int n = R->nX;
   int info = 0, i, k, st, lwork = -1;
@@ -279,6 +280,11 @@ static int factor_spd(ls_reduced *R, mo_ctx *ctx)
   for (i = 0; i < n; i++) R->rank += R->ev[i] > LS_RED_RCOND * R->ev[n - 1];
   R->kind = LS_RED_PINV;
   R->singular++;
+  /* a null vector that moves a normal impulse: (T76) chooses among friction impulses only */
+  R->normal_null = 0;
+  for (k = 0; k < n - R->rank && !R->normal_null; k++)
+    for (i = 0; i < n; i++)
+      if (R->xc[i] % nr == 0 && fabs(R->f[(size_t)k * n + i]) > 1e-6) R->normal_null = 1;
   mo_log(ctx, 3, "levelset: the constrained block of W has rank %d of %d: the impulses of smallest weighted norm\n",
          R->rank, n);
   return MO_OK;
@@ -339,7 +345,7 @@ static int red_factor(ls_reduced *R, const ls_system *S, const mo_delassus *W, c
     return st;
   gather(R, S, WCC, nks, R->kval);
   if (nks) factor_coupled(R);
-  else if ((st = factor_spd(R, ctx))) return st;
+  else if ((st = factor_spd(R, S->nr, ctx))) return st;
   memcpy(R->key, R->xg, (size_t)n * sizeof *R->key);
   memcpy(R->keys, R->scode, (size_t)nks * sizeof *R->keys);
   R->nkey = n;
@@ -408,7 +414,10 @@ static int pinv_solve(ls_reduced *R, const double *m, double *b, mo_ctx *ctx)
     for (i = 0; i < n; i++) s += R->ds[i] * R->f[(size_t)k * n + i] * b[i] / m[i];
     a[k] = -s;
   }
-  dgesv_(&k0, &one, g, &k0, R->iwk, a, &k0, &info);
+  if (k0 <= LS_SMALL_LU) {
+    if ((info = lu_small(k0, g, R->iwk, DBL_MIN)) == 0) lu_solve_small(k0, g, R->iwk, a);
+  } else
+    dgesv_(&k0, &one, g, &k0, R->iwk, a, &k0, &info);
   if (info != 0) return MO_OK; /* the weights leave the choice open: keep the scaled minimum norm */
   for (i = 0; i < n; i++) {
     double s = 0;
@@ -498,7 +507,10 @@ static int slider_step(ls_reduced *R, const ls_system *S, const double *WCC, con
       }
     }
   }
-  dgesv_(&ns, &one, m2, &ns, R->ipiv, b2, &ns, &info);
+  if (ns <= LS_SMALL_LU) {
+    if ((info = lu_small(ns, m2, R->ipiv, DBL_MIN)) == 0) lu_solve_small(ns, m2, R->ipiv, b2);
+  } else
+    dgesv_(&ns, &one, m2, &ns, R->ipiv, b2, &ns, &info);
   if (info != 0)
     return mo_error(ctx, MO_ESINGULAR, "levelset: the sliding directions' Newton system is singular "
                     "(LAPACK dgesv info %d, %d sliding candidates)", info, R->nS);
@@ -558,9 +570,15 @@ int ls_reduced_step(ls_reduced *R, const ls_system *S, const mo_delassus *W, con
     }
   fresh = !factor_current(R, S, W, WCC, nks);
   if (fresh && (st = red_factor(R, S, W, WCC, nks, ctx))) return st;
+  if (R->kind == LS_RED_PINV && R->normal_null) {
+    /* redundant normal impulses: the proximal term makes them unique (T136) */
+    *fallback = 2;
+    return MO_OK;
+  }
   if ((R->kind == LS_RED_PINV && R->nS > 0) || R->kind == LS_RED_SINGULAR) {
-    /* redundant constraints coupled to sliding directions: the dense path decides */
-    *fallback = 1;
+    /* redundant constraints coupled to sliding directions: the dense path decides, or the
+       proximal term when it is not on yet */
+    *fallback = R->kind == LS_RED_SINGULAR && !(S->eps > 0) ? 2 : 1;
     return MO_OK;
   }
   if (fresh) (*nfact)++;
