@@ -33,9 +33,11 @@ typedef struct {
   /* work sized by the contact set (grown on demand) */
   double *y, *dy, *D, *WCC, *J, *Uc, *Umc;
   int *ipiv;
-  size_t cap_y, cap_u;
+  size_t cap_y, cap_u, cap_j, cap_w;
   ls_lu_cache lu;            /* the factors of the last Newton matrix (T86) */
   ls_reduced red;            /* the reduced path's partition and kept factor of W_XX (T130-T133) */
+  ls_sparse sp;              /* its sparse algebra on large sets (T137) */
+  int rigid;                 /* some candidate joins two rigid bodies (a dynamic pair) */
   int reduced;               /* the reduced path applies (A = I and the path allows it) */
   int want_prox;             /* the automatic proximal term is on (T136) */
   int prox_request;          /* a frozen status met redundant normal impulses without it */
@@ -145,6 +147,7 @@ static void ls_free(void *state)
   ls_kkt_free(&L->K);
   ls_lu_cache_free(&L->lu);
   ls_reduced_free(&L->red);
+  ls_sparse_free(&L->sp);
   mo_free(L->phi);
   mo_free(L->qeff); mo_free(L->rc); mo_free(L->dW);
   mo_free(L->wcc_cset);
@@ -180,6 +183,8 @@ static int ls_init(void *state, const void *params, const mo_contact_problem *P,
     return mo_error(ctx, MO_EINPUT, "contact.levelset.threshold = \"coupled\" needs the reduced path (one "
                     "multiplier per candidate) in 2D; %s", d != 2 ? "this scene is not 2D" :
                     "this scene's multipliers are shared by several candidates, or path is not \"auto\" or \"reduced\"");
+  for (j = 0; j < nc && !L->rigid; j++)
+    L->rigid = mo_contact_pair_get(P->contact, mo_contact_candidate(P->contact, j)->pair)->dynamic;
   if (!(L->phi = mo_calloc(ctx, n1, 1)) || !(L->qeff = mo_calloc(ctx, (size_t)m + 1, sizeof(double))) ||
       !(L->rc = mo_calloc(ctx, (size_t)m + 1, sizeof(double))) || !(L->dW = mo_calloc(ctx, (size_t)m + 1, sizeof(double))))
     return MO_ENOMEM;
@@ -222,33 +227,40 @@ static int ls_reinit(void *state, const mo_contact_problem *P, mo_ctx *ctx)
   return st;
 }
 
-/* Grow the work arrays for ny unknowns and nu local velocities. */
-static int ls_reserve(ls_state *L, size_t ny, size_t nu, mo_ctx *ctx)
+/* Grow the work arrays for ny unknowns and nu local velocities; the dense ones (the Newton
+   matrix J, ny x ny, and W_CC, nu x nu) only when `dense` asks for them. */
+static int ls_reserve(ls_state *L, size_t ny, size_t nu, int dense, mo_ctx *ctx)
 {
+  double *a;
+  int *ip;
   if (ny > L->cap_y) {
-    double *a;
-    int *ip;
     if (!(a = mo_realloc(ctx, L->y, (ny + 1) * sizeof(double)))) return MO_ENOMEM;
     L->y = a;
     if (!(a = mo_realloc(ctx, L->dy, (ny + 1) * sizeof(double)))) return MO_ENOMEM;
     L->dy = a;
     if (!(a = mo_realloc(ctx, L->D, (ny + 1) * sizeof(double)))) return MO_ENOMEM;
     L->D = a;
-    if (!(a = mo_realloc(ctx, L->J, (ny * ny + 1) * sizeof(double)))) return MO_ENOMEM;
-    L->J = a;
     if (!(ip = mo_realloc(ctx, L->ipiv, (ny + 1) * sizeof(int)))) return MO_ENOMEM;
     L->ipiv = ip;
     L->cap_y = ny;
   }
   if (nu > L->cap_u) {
-    double *a;
-    if (!(a = mo_realloc(ctx, L->WCC, (nu * nu + 1) * sizeof(double)))) return MO_ENOMEM;
-    L->WCC = a;
     if (!(a = mo_realloc(ctx, L->Uc, (nu + 1) * sizeof(double)))) return MO_ENOMEM;
     L->Uc = a;
     if (!(a = mo_realloc(ctx, L->Umc, (nu + 1) * sizeof(double)))) return MO_ENOMEM;
     L->Umc = a;
     L->cap_u = nu;
+  }
+  if (dense && ny > L->cap_j) {
+    if (!(a = mo_realloc(ctx, L->J, (ny * ny + 1) * sizeof(double)))) return MO_ENOMEM;
+    L->J = a;
+    L->cap_j = ny;
+  }
+  if (dense && nu > L->cap_w) {
+    if (!(a = mo_realloc(ctx, L->WCC, (nu * nu + 1) * sizeof(double)))) return MO_ENOMEM;
+    L->WCC = a;
+    L->cap_w = nu;
+    L->wcc_nC = -1; /* its contents are gone */
   }
   return MO_OK;
 }
@@ -382,10 +394,12 @@ static int ls_newton(ls_state *L, const mo_contact_problem *P, int kkt, int *its
   ls_system *S = &L->S;
   const ls_space *A = &L->A;
   int ny = S->ny, nu = S->nC * S->nr, it, e, k, col, st, mi, t, hit, reduced;
+  /* the sparse path (T137) for sets too large for dense algebra on the reduced path */
+  const int sparse = !kkt && L->reduced && nu > LS_DENSE_MAX;
   *its = 0;
   *conv = 0;
   memset(L->rev, 0, (size_t)L->nc);
-  if ((st = ls_reserve(L, (size_t)ny, (size_t)nu, ctx))) return st;
+  if ((st = ls_reserve(L, (size_t)ny, (size_t)nu, !sparse, ctx))) return st;
   /* start from the previous solution (r, and dv on the KKT path: U' consistent with them), p and
      Lam from the current multipliers: the sliding directions G / |G| start where the last solve
      left them, not at the free slip of r = 0 */
@@ -404,7 +418,13 @@ static int ls_newton(ls_state *L, const mo_contact_problem *P, int kkt, int *its
     L->uc_gen = -1;
     return MO_OK;
   }
-  if (!kkt && !wcc_current(L, P->W)) {
+  if (sparse && !(L->eps > 0) && L->rigid) {
+    /* contacts between rigid bodies: redundancy the sparse factor cannot tell from round-off
+       (no pivot test); the proximal term from the start (T136) */
+    L->prox_request = 1;
+    return MO_OK;
+  }
+  if (!kkt && !sparse && !wcc_current(L, P->W)) {
     if ((st = ls_schur_wcc(S, P->W, L->WCC))) return st;
     if (L->eps > 0) /* the proximal term (T136) on the diagonal */
       for (e = 0; e < nu; e++) L->WCC[(size_t)e * nu + e] += L->eps * L->dW[S->cset[e / S->nr] * S->d + e % S->nr];
@@ -417,12 +437,15 @@ static int ls_newton(ls_state *L, const mo_contact_problem *P, int kkt, int *its
   reduced = 0;
   if (!kkt && L->reduced && (st = ls_reduced_classify(&L->red, S, A, L->coupled, &reduced, ctx))) return st;
   if (!reduced) {
-    if ((st = ls_system_jacobians(S, ctx))) return st;
+    if (nu > LS_DENSE_MAX && !kkt)
+      mo_log(ctx, 2, "levelset: dense Newton matrix of %d unknowns (the multipliers are shared: no reduced path)\n", ny);
+    if ((st = ls_reserve(L, (size_t)ny, (size_t)nu, 1, ctx)) || (st = ls_system_jacobians(S, ctx))) return st;
     frozen_threshold(L);
   }
   for (it = 0;; it++) {
     /* U' at the iterate: the previous Newton loop ended at this y with this W_CC (Uc kept) */
     if (kkt) ls_kkt_velocity(S, P, L->dv, L->Uc, L->Umc);
+    else if (sparse) ls_sparse_velocity(S, P->W, L->b, L->eps, L->dW, L->y, L->Uc, L->Umc);
     else if (it > 0 || L->uc_gen != L->wcc_gen) ls_schur_velocity(S, L->WCC, L->b, L->y, L->Uc, L->Umc);
     /* the reduced step needs F only to test convergence, and to find y = 0 a solution */
     if (!reduced || it > 0 || !nonzero(L->y, ny)) ls_system_eval(S, A, L->y, L->Uc, L->Umc);
@@ -438,22 +461,31 @@ static int ls_newton(ls_state *L, const mo_contact_problem *P, int kkt, int *its
     }
     if (reduced) {
       int fallback;
-      if ((st = ls_reduced_step(&L->red, S, P->W, L->WCC, L->Uc, L->y, L->pg, &L->lu.factorizations,
-                                &L->lu.reuses, &fallback, ctx)))
-        return st;
+      if (sparse)
+        st = ls_sparse_step(&L->sp, &L->red, S, P->W, L->eps, L->dW, L->b, L->Uc, L->y, L->pg,
+                            &L->lu.factorizations, &L->lu.reuses, &fallback, ctx);
+      else
+        st = ls_reduced_step(&L->red, S, P->W, L->WCC, L->Uc, L->y, L->pg, &L->lu.factorizations,
+                             &L->lu.reuses, &fallback, ctx);
+      if (st) return st;
       if (!fallback) {
         (*its)++;
         continue;
       }
-      if (fallback == 2) {
+      if (fallback == 2 && !(L->eps > 0)) {
         /* redundant normal impulses: the solve starts again with the proximal term (T136) */
         L->prox_request = 1;
         return MO_OK;
       }
+      if (sparse)
+        return mo_error(ctx, MO_ESINGULAR, "levelset: the frozen status of %d contact unknowns %s; the dense "
+                        "Newton matrix it would need is too large (reduced path on sparse algebra, "
+                        "doc/theory.md (T137))", nu, fallback == 2 ? "is singular" :
+                        "has sliding directions that the sparse path does not solve (3D, or the threshold loop)");
       /* the reduced matrix singular with sliding directions coupled to it: this status on the
          dense path, with the threshold frozen */
       reduced = 0;
-      if ((st = ls_system_jacobians(S, ctx))) return st;
+      if ((st = ls_reserve(L, (size_t)ny, (size_t)nu, 1, ctx)) || (st = ls_system_jacobians(S, ctx))) return st;
       frozen_threshold(L);
       ls_system_eval(S, A, L->y, L->Uc, L->Umc);
     }
@@ -484,7 +516,7 @@ static int ls_newton(ls_state *L, const mo_contact_problem *P, int kkt, int *its
     for (e = 0; e < ny; e++) L->y[e] += L->dy[e];
     (*its)++;
   }
-  L->uc_gen = kkt ? -1 : L->wcc_gen;
+  L->uc_gen = kkt || sparse ? -1 : L->wcc_gen;
   /* keep the multipliers for the next solve */
   for (mi = 0; mi < S->nM; mi++) {
     L->pm[S->mset[mi]] = L->y[nu + mi];

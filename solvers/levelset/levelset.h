@@ -215,5 +215,32 @@ int ls_reduced_step(ls_reduced *R, const ls_system *S, const mo_delassus *W, con
                     const double *U, double *y, double *pg, long *nfact, long *nreuse, int *fallback,
                     mo_ctx *ctx);
 void ls_reduced_free(ls_reduced *R);
+/* The pressures, thresholds (coupled: p^g = p where friction acts) and semi-multipliers of the new
+   iterate y from its impulses, by the linear rows of (T17)-(T20); U over Cset at the new iterate
+   (read only with k_n or k_t). */
+void ls_reduced_multipliers(const ls_reduced *R, const ls_system *S, const double *U, double *y, double *pg);
+
+/* The reduced path on contact sets of more than LS_DENSE_MAX components (levelset_sparse.c, T137):
+   no dense W_CC; products from W's block rows, the frozen status's matrix sparse, factored by
+   CHOLMOD or UMFPACK and kept while it repeats (pattern and values). */
+#define LS_DENSE_MAX 400
+typedef struct {
+  mo_linsolver *chol, *umf;
+  mo_csc *M;               /* the matrix factored (kept: UMFPACK reads it, and it is the key) */
+  int kind;                /* 1: UMFPACK (coupled sliders), 0: CHOLMOD */
+  int *pos;                /* Cset component -> position in X, or -1 */
+  double *x;               /* work: U' and the right-hand side */
+  size_t cap;
+} ls_sparse;
+
+/* U' = W_CC y + b over Cset and the magnitudes of its terms (eps D on the diagonal, T136). */
+void ls_sparse_velocity(const ls_system *S, const mo_delassus *W, const double *b, double eps,
+                        const double *dW, const double *y, double *U, double *Umag);
+/* ls_reduced_step on the sparse path; *fallback: 1 when the status needs dense algebra (3D
+   sliding directions, the 2D threshold loop's sliders), 2 when the matrix is singular. */
+int ls_sparse_step(ls_sparse *Z, ls_reduced *R, const ls_system *S, const mo_delassus *W, double eps,
+                   const double *dW, const double *b, const double *U, double *y, double *pg, long *nfact,
+                   long *nreuse, int *fallback, mo_ctx *ctx);
+void ls_sparse_free(ls_sparse *Z);
 
 #endif

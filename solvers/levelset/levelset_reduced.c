@@ -517,11 +517,7 @@ static int slider_step(ls_reduced *R, const ls_system *S, const double *WCC, con
   return MO_OK;
 }
 
-/* The pressures, thresholds (coupled: p^g = p where friction acts) and semi-multipliers of the new
-   iterate from its impulses, by the linear rows of (T17)-(T20); U over Cset at the new iterate
-   (needed only with k_n or k_t). */
-static void multipliers_from_impulses(const ls_reduced *R, const ls_system *S, const double *U, double *y,
-                                      double *pg)
+void ls_reduced_multipliers(const ls_reduced *R, const ls_system *S, const double *U, double *y, double *pg)
 {
   const int nr = S->nr, dt = S->dt, nC = S->nC, nu = nC * nr, offp = nu, offl = nu + S->nM;
   int jc, t, k;
@@ -671,6 +667,6 @@ int ls_reduced_step(ls_reduced *R, const ls_system *S, const mo_delassus *W, con
           for (e = 0; e < nu; e++) R->up[e] += WCC[(size_t)e * nu + c] * dr;
       }
   }
-  multipliers_from_impulses(R, S, R->up, y, pg);
+  ls_reduced_multipliers(R, S, R->up, y, pg);
   return MO_OK;
 }
