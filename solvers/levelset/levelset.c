@@ -1038,9 +1038,14 @@ static void write_solution(ls_state *L, ls_pass *Q, mo_contact_vars *x)
   const mo_contact_problem *P = Q->P;
   const int nc = L->nc, d = L->d, m = L->m, dt = Q->dt;
   int j, t;
+  /* U' = W r + q over every candidate: the last frozen solve's when it covered them all */
+  if (!(L->u_partial && L->S.nC == nc && L->S.nr == d && !(L->eps > 0))) {
+    L->b = P->b;
+    L->eps = 0;
+    full_velocity(L, P, Q->kkt);
+  }
   L->b = P->b;
   L->eps = 0;
-  full_velocity(L, P, Q->kkt);
   memcpy(x->r, L->r, (size_t)m * sizeof(double));
   memcpy(x->U, L->U, (size_t)m * sizeof(double));
   for (j = 0; j < nc; j++) {
