@@ -48,7 +48,7 @@ int ls_reduced_applies(const ls_space *A)
 static int grow(double **p, size_t *cap, size_t n, mo_ctx *ctx)
 {
   double *a;
-  if (n <= *cap) return MO_OK;
+  if (n <= *cap && *p) return MO_OK;
   if (!(a = mo_realloc(ctx, *p, (n + 1) * sizeof *a))) return MO_ENOMEM;
   *p = a;
   *cap = n;
@@ -58,7 +58,7 @@ static int grow(double **p, size_t *cap, size_t n, mo_ctx *ctx)
 static int grow_int(int **p, size_t *cap, size_t n, mo_ctx *ctx)
 {
   int *a;
-  if (n <= *cap) return MO_OK;
+  if (n <= *cap && *p) return MO_OK;
   if (!(a = mo_realloc(ctx, *p, (n + 1) * sizeof *a))) return MO_ENOMEM;
   *p = a;
   *cap = n;
@@ -71,7 +71,7 @@ int ls_reduced_classify(ls_reduced *R, const ls_system *S, const ls_space *A, in
   const int nr = S->nr, dt = S->dt, nu = S->nC * nr;
   int jc, t, e, st;
   *ok = 0;
-  if ((size_t)nu > R->cap_c) {
+  if ((size_t)nu > R->cap_c || !R->cls) {
     unsigned char *c = mo_realloc(ctx, R->cls, (size_t)nu + 1);
     size_t cap;
     if (!c) return MO_ENOMEM;
