@@ -48,7 +48,7 @@ c = d.get("contact", {})
 t = d.get("time", {})
 why = c.get("last_reason", "?").replace(" ", "_")
 if c.get("failed_solves", 0):
-    why = "failed_solves=%d" % c["failed_solves"]
+    why = "failed_solves=%d_of_%d" % (c["failed_solves"], c.get("steps_with_contact", 0))
 if d.get("status") != "complete":
     why += ",t_reached=%g" % t.get("t_reached", float("nan"))
 print("%.6f %s %s" % (d.get("timings", {}).get("contact", float("nan")), d.get("status", "?"), why))
@@ -101,6 +101,9 @@ except Exception: print('-')")
     ratio=-
   elif [ "$stl" = incomplete ] && ! grep -qiE 'error|cannot|stopped on' "$OUT/$name-levelset.log"; then
     note="levelset: stopped at LIMIT = $LIMIT s ($why)"
+    ratio=-
+  elif [ "$stl" = complete ] && [ "${why#failed_solves}" != "$why" ]; then
+    note="levelset: $why contact steps failed (no ratio for a run that did not solve)"
     ratio=-
   elif [ "$stl" != complete ]; then
     note="levelset: $(grep -m1 -iE 'error|refuse|cannot|redundan|fail' "$OUT/$name-levelset.log" | cut -c1-90)"

@@ -1,8 +1,9 @@
 #!/bin/sh
 # test_levelset_reuse.sh: levelset keeps the factors of its Newton matrix while the frozen status
-# leaves it unchanged (doc/theory.md (T86)) and solves an open step without one (T87); counted in
-# summary.json (contact.factorizations, contact.factor_reuses), never by the clock. The answers
-# are checked against nscd's (another back end on the same scene).
+# leaves it unchanged (doc/theory.md (T86); on the reduced path, the factor of W_XX, (T131)) and
+# solves an open step without one (T87); counted in summary.json (contact.factorizations,
+# contact.factor_reuses), never by the clock. The answers are checked against nscd's (another back
+# end on the same scene). tests/test_levelset_reduced.sh compares the paths.
 . "$MOREAU_SRCDIR/tests/tap.sh"
 
 # 1. a block resting under its weight on a frictionless plane: the 21 bottom nodes stay closed,

@@ -33,8 +33,25 @@ typedef struct {
   /* work sized by the contact set (grown on demand) */
   double *y, *dy, *D, *WCC, *J, *Uc, *Umc;
   int *ipiv;
-  size_t cap_y, cap_u;
+  size_t cap_y, cap_u, cap_j, cap_w;
   ls_lu_cache lu;            /* the factors of the last Newton matrix (T86) */
+  ls_reduced red;            /* the reduced path's partition and kept factor of W_XX (T130-T133) */
+  ls_sparse sp;              /* its sparse algebra on large sets (T137) */
+  int rigid;                 /* some candidate joins two rigid bodies (a dynamic pair) */
+  int reduced;               /* the reduced path applies (A = I and the path allows it) */
+  int want_prox;             /* the automatic proximal term is on (T136) */
+  int prox_request;          /* a frozen status met redundant normal impulses without it */
+  int coupled;               /* the threshold is coupled in this solve (T134) */
+  int frozen_solve;          /* a frozen-threshold (dense) solve since the last threshold update */
+  unsigned char *phi;        /* nc: where friction acts with the coupled threshold (S_v = 1, mu > 0) */
+  /* the proximal loop (T136): the local problem (W + eps D, q - eps D r_c) */
+  double eps;                /* eps of this solve (0: the problem itself) */
+  const double *b;           /* q - eps D r_c (qeff), or P->b */
+  double *qeff, *rc, *dW;    /* m: q - eps D r_c, the center r_c, D = the diagonal of W */
+  double wcc_eps;            /* the eps WCC holds on its diagonal */
+  long wcc_gen;              /* WCC builds */
+  long uc_gen;               /* Uc, Umc hold U' at the last Newton iterate with WCC of this build; -1 none */
+  int u_partial;             /* L->U holds W r + q only over Cset's components (the rest: full_velocity) */
   const mo_delassus *wcc_W;  /* what WCC holds: W, its version, the contact set (nC, cset) */
   long wcc_version;
   int wcc_nC, wcc_nr, *wcc_cset;
@@ -43,6 +60,17 @@ typedef struct {
   unsigned char *hist;
   int hist_cap;
 } ls_state;
+
+/* What one solve carries through its loops: the problem, its path and scales, the sign tests'
+   tolerances, and the loop counts. */
+typedef struct {
+  const mo_contact_problem *P;
+  int kkt, end_gap, dt;
+  double c, kt, rho_n, rho_t, tol_v, tol_f, scale_v;
+  int nls, nnewt, nthr;
+} ls_pass;
+
+#define LS_PROX_EPS 1e-8      /* the automatic proximal eps (T136) */
 
 /* --- options ---------------------------------------------------------------------------------- */
 
@@ -68,8 +96,14 @@ static const mo_option_spec ls_options[] = {
    "Tangential stabilization k_tau of BDZ07 (49) on sticking points."},
   {"su", MO_OPT_ENUM, OFF(su), "index_set|end_gap", NAN, NAN, "\"index_set\"",
    "Theta steps at velocity level: S_u from the gap predicted without contact impulse (the core's index set, frozen in the step), or re-evaluated from the end-of-step gap in the level-set loop (BDZ07 (53) literally: it cycles at landing steps)."},
-  {"path", MO_OPT_ENUM, OFF(path), "auto|schur|kkt", NAN, NAN, "\"auto\"",
-   "Linear algebra: schur solves the frozen-status system on the contact set through W (the shared factorization, linear scenes); kkt assembles the saddle-point system over the free dofs and solves it with UMFPACK; auto is schur."},
+  {"path", MO_OPT_ENUM, OFF(path), "auto|schur|kkt|reduced", NAN, NAN, "\"auto\"",
+   "Linear algebra: reduced solves each Newton step on the constrained components only, with the kept factor of W restricted to them (one multiplier per candidate: node collocation; doc/theory.md (T130)); schur solves the whole frozen-status system on the contact set through W (the shared factorization, linear scenes) with a dense LU; kkt assembles the saddle-point system over the free dofs and solves it with UMFPACK; auto is reduced where it applies, else schur."},
+  {"threshold", MO_OPT_ENUM, OFF(threshold), "auto|loop|coupled", NAN, NAN, "\"auto\"",
+   "Friction threshold p^g: loop freezes it in each frozen-status solve and updates it to the pressure after (the outer loop of BDZ07 Fig. 2); coupled makes every closed candidate's threshold its own pressure inside the frozen system, r_t = -mu r_n e when sliding (the same discrete problem in one pass; 2D, the reduced path; doc/theory.md (T134)); auto is coupled where it applies, else loop."},
+  {"proximal", MO_OPT_DOUBLE, OFF(proximal), NULL, 0, 1, "0 (automatic)",
+   "Proximal term on the impulses (doc/theory.md (T136)): each pass solves the problem with W + eps D and q - eps D r_c (D the diagonal of W, r_c the previous pass's impulses) until the term falls below newton_tol, so that a frozen status whose impulses are not unique (redundant contacts: piles, masonry) has one solution, the nearest to r_c, and the law holds at the end. 0: eps = 1e-8 where the reduced path finds redundant normal impulses (or a contact set too large for dense algebra between rigid bodies), none elsewhere."},
+  {"proximal_max", MO_OPT_INT, OFF(proximal_max), NULL, 1, 10000, "50",
+   "Proximal loop: iteration limit."},
   {"threshold_max", MO_OPT_INT, OFF(threshold_max), NULL, 1, 100000, "200",
    "Friction-threshold loop: iteration limit."},
   {"threshold_tol", MO_OPT_DOUBLE, OFF(threshold_tol), NULL, 0, 1, "1e-10",
@@ -94,6 +128,7 @@ static void ls_defaults(void *params)
   p->su = LS_SU_INDEX_SET;
   p->path = LS_PATH_AUTO;
   p->threshold_max = 200;
+  p->proximal_max = 50;
   p->threshold_tol = 1e-10;
   p->levelset_max = 100;
   p->newton_max = 50;
@@ -111,6 +146,10 @@ static void ls_free(void *state)
   ls_system_free(&L->S);
   ls_kkt_free(&L->K);
   ls_lu_cache_free(&L->lu);
+  ls_reduced_free(&L->red);
+  ls_sparse_free(&L->sp);
+  mo_free(L->phi);
+  mo_free(L->qeff); mo_free(L->rc); mo_free(L->dW);
   mo_free(L->wcc_cset);
   mo_free(L->su); mo_free(L->sv); mo_free(L->sf); mo_free(L->nsu); mo_free(L->nsv); mo_free(L->nsf);
   mo_free(L->pg); mo_free(L->ph); mo_free(L->lam); mo_free(L->U); mo_free(L->Umag); mo_free(L->r);
@@ -131,10 +170,24 @@ static int ls_init(void *state, const void *params, const mo_contact_problem *P,
   L->m = m;
   L->friction = 0;
   L->wcc_nC = -1;
+  L->uc_gen = -1;
   for (j = 0; j < nc; j++) L->friction |= d > 1 && P->mu[j] > 0;
   if (L->par.path == LS_PATH_KKT && (!P->H || !P->What || P->nfree <= 0))
     return mo_error(ctx, MO_EINTERNAL, "levelset: the kkt path needs the global system (H, What)");
   if ((st = ls_space_build(&L->A, P->contact, L->par.multipliers, ctx))) return st;
+  L->reduced = (L->par.path == LS_PATH_AUTO || L->par.path == LS_PATH_REDUCED) && ls_reduced_applies(&L->A);
+  if (L->par.path == LS_PATH_REDUCED && !L->reduced)
+    return mo_error(ctx, MO_EINPUT, "contact.levelset.path = \"reduced\" needs one multiplier per candidate "
+                    "(node collocation); this scene's multipliers are shared by several candidates");
+  if (L->par.threshold == LS_THR_COUPLED && !(L->reduced && d == 2))
+    return mo_error(ctx, MO_EINPUT, "contact.levelset.threshold = \"coupled\" needs the reduced path (one "
+                    "multiplier per candidate) in 2D; %s", d != 2 ? "this scene is not 2D" :
+                    "this scene's multipliers are shared by several candidates, or path is not \"auto\" or \"reduced\"");
+  for (j = 0; j < nc && !L->rigid; j++)
+    L->rigid = mo_contact_pair_get(P->contact, mo_contact_candidate(P->contact, j)->pair)->dynamic;
+  if (!(L->phi = mo_calloc(ctx, n1, 1)) || !(L->qeff = mo_calloc(ctx, (size_t)m + 1, sizeof(double))) ||
+      !(L->rc = mo_calloc(ctx, (size_t)m + 1, sizeof(double))) || !(L->dW = mo_calloc(ctx, (size_t)m + 1, sizeof(double))))
+    return MO_ENOMEM;
   nm1 = (size_t)L->A.nm + 1;
   L->su = mo_calloc(ctx, n1, 1); L->sv = mo_calloc(ctx, n1, 1); L->sf = mo_calloc(ctx, n1, 1);
   L->nsu = mo_calloc(ctx, n1, 1); L->nsv = mo_calloc(ctx, n1, 1); L->nsf = mo_calloc(ctx, n1, 1);
@@ -160,33 +213,54 @@ static int ls_init(void *state, const void *params, const mo_contact_problem *P,
   return MO_OK;
 }
 
-/* Grow the work arrays for ny unknowns and nu local velocities. */
-static int ls_reserve(ls_state *L, size_t ny, size_t nu, mo_ctx *ctx)
+/* A new contact set (contacts between rigid bodies come and go at most steps): a new state for
+   it, keeping what the run has learnt, that its impulses need the proximal term (T136). */
+static int ls_reinit(void *state, const mo_contact_problem *P, mo_ctx *ctx)
 {
+  ls_state *L = state;
+  ls_params par = L->par;
+  int want = L->want_prox, st;
+  ls_free(L);
+  memset(L, 0, sizeof *L);
+  st = ls_init(L, &par, P, ctx);
+  L->want_prox = want;
+  return st;
+}
+
+/* Grow the work arrays for ny unknowns and nu local velocities; the dense ones (the Newton
+   matrix J, ny x ny, and W_CC, nu x nu) only when `dense` asks for them. */
+static int ls_reserve(ls_state *L, size_t ny, size_t nu, int dense, mo_ctx *ctx)
+{
+  double *a;
+  int *ip;
   if (ny > L->cap_y) {
-    double *a;
-    int *ip;
     if (!(a = mo_realloc(ctx, L->y, (ny + 1) * sizeof(double)))) return MO_ENOMEM;
     L->y = a;
     if (!(a = mo_realloc(ctx, L->dy, (ny + 1) * sizeof(double)))) return MO_ENOMEM;
     L->dy = a;
     if (!(a = mo_realloc(ctx, L->D, (ny + 1) * sizeof(double)))) return MO_ENOMEM;
     L->D = a;
-    if (!(a = mo_realloc(ctx, L->J, (ny * ny + 1) * sizeof(double)))) return MO_ENOMEM;
-    L->J = a;
     if (!(ip = mo_realloc(ctx, L->ipiv, (ny + 1) * sizeof(int)))) return MO_ENOMEM;
     L->ipiv = ip;
     L->cap_y = ny;
   }
   if (nu > L->cap_u) {
-    double *a;
-    if (!(a = mo_realloc(ctx, L->WCC, (nu * nu + 1) * sizeof(double)))) return MO_ENOMEM;
-    L->WCC = a;
     if (!(a = mo_realloc(ctx, L->Uc, (nu + 1) * sizeof(double)))) return MO_ENOMEM;
     L->Uc = a;
     if (!(a = mo_realloc(ctx, L->Umc, (nu + 1) * sizeof(double)))) return MO_ENOMEM;
     L->Umc = a;
     L->cap_u = nu;
+  }
+  if (dense && ny > L->cap_j) {
+    if (!(a = mo_realloc(ctx, L->J, (ny * ny + 1) * sizeof(double)))) return MO_ENOMEM;
+    L->J = a;
+    L->cap_j = ny;
+  }
+  if (dense && nu > L->cap_w) {
+    if (!(a = mo_realloc(ctx, L->WCC, (nu * nu + 1) * sizeof(double)))) return MO_ENOMEM;
+    L->WCC = a;
+    L->cap_w = nu;
+    L->wcc_nC = -1; /* its contents are gone */
   }
   return MO_OK;
 }
@@ -202,7 +276,7 @@ static int slide_reversed(ls_state *L, const double *y, const double *Uc, int fi
   for (jc = 0; jc < S->nC; jc++) {
     int j = S->cset[jc];
     double lam[2], G[2], dot = 0;
-    if (!S->dt || S->sf[j] || !(S->mu[j] > 0 && S->pg[j] > 0)) continue;
+    if (!S->dt || S->sf[j] || !ls_phi(S, j)) continue;
     ls_lam_at(S, &L->A, y, j, lam);
     for (t = 0; t < S->dt; t++) {
       G[t] = lam[t] + S->h2_t * Uc[jc * S->nr + 1 + t];
@@ -242,6 +316,14 @@ static void newton_scales(const ls_state *L, const double *J, double *D)
   }
 }
 
+static int nonzero(const double *y, int n)
+{
+  int e;
+  for (e = 0; e < n; e++)
+    if (y[e] != 0) return 1;
+  return 0;
+}
+
 /* 1 when y = 0 and F(y) = 0 exactly: the Newton step from there is 0 (whatever J). */
 static int zero_start(const ls_system *S, const double *y)
 {
@@ -268,7 +350,7 @@ static int all_open_at_zero(const ls_system *S, const double *y)
 static int wcc_current(const ls_state *L, const mo_delassus *W)
 {
   const ls_system *S = &L->S;
-  return L->wcc_nC >= 0 && L->wcc_W == W && L->wcc_version == mo_delassus_version(W) &&
+  return L->wcc_nC >= 0 && L->wcc_W == W && L->wcc_version == mo_delassus_version(W) && L->wcc_eps == L->eps &&
          L->wcc_nC == S->nC && L->wcc_nr == S->nr &&
          !memcmp(L->wcc_cset, S->cset, (size_t)S->nC * sizeof *S->cset);
 }
@@ -276,15 +358,27 @@ static int wcc_current(const ls_state *L, const mo_delassus *W)
 static int wcc_remember(ls_state *L, const mo_delassus *W, mo_ctx *ctx)
 {
   const ls_system *S = &L->S;
-  int *a = mo_realloc(ctx, L->wcc_cset, ((size_t)L->nc + 1) * sizeof *a);
-  if (!a) return MO_ENOMEM;
-  L->wcc_cset = a;
-  memcpy(a, S->cset, (size_t)S->nC * sizeof *a);
+  if (!L->wcc_cset && !(L->wcc_cset = mo_malloc(ctx, ((size_t)L->nc + 1) * sizeof *L->wcc_cset)))
+    return MO_ENOMEM;
+  memcpy(L->wcc_cset, S->cset, (size_t)S->nC * sizeof *L->wcc_cset);
   L->wcc_W = W;
   L->wcc_version = mo_delassus_version(W);
   L->wcc_nC = S->nC;
   L->wcc_nr = S->nr;
   return MO_OK;
+}
+
+/* The dense paths freeze the threshold (T17): with the coupled threshold, this solve takes p^g as
+   it stands (the pressures of the last iterate, 0 where none is positive), and the threshold loop
+   updates it after. */
+static void frozen_threshold(ls_state *L)
+{
+  int j;
+  if (!L->coupled || L->S.phi == NULL) return;
+  L->S.phi = NULL;
+  L->frozen_solve = 1;
+  for (j = 0; j < L->nc; j++)
+    if (!(L->pg[j] > 0)) L->pg[j] = 0;
 }
 
 /* Solve F(y, U') = 0 for the frozen sign fields and threshold (T17)-(T20), by (generalized)
@@ -299,11 +393,13 @@ static int ls_newton(ls_state *L, const mo_contact_problem *P, int kkt, int *its
 {
   ls_system *S = &L->S;
   const ls_space *A = &L->A;
-  int ny = S->ny, nu = S->nC * S->nr, it, e, k, col, st, mi, t, hit;
+  int ny = S->ny, nu = S->nC * S->nr, it, e, k, col, st, mi, t, hit, reduced;
+  /* the sparse path (T137) for sets too large for dense algebra on the reduced path */
+  const int sparse = !kkt && L->reduced && nu > LS_DENSE_MAX;
   *its = 0;
   *conv = 0;
   memset(L->rev, 0, (size_t)L->nc);
-  if ((st = ls_reserve(L, (size_t)ny, (size_t)nu, ctx))) return st;
+  if ((st = ls_reserve(L, (size_t)ny, (size_t)nu, !sparse, ctx))) return st;
   /* start from the previous solution (r, and dv on the KKT path: U' consistent with them), p and
      Lam from the current multipliers: the sliding directions G / |G| start where the last solve
      left them, not at the free slip of r = 0 */
@@ -319,16 +415,40 @@ static int ls_newton(ls_state *L, const mo_contact_problem *P, int kkt, int *its
        without a threshold); Newton would take the zero step once and stop */
     *its = 1;
     *conv = 1;
+    L->uc_gen = -1;
     return MO_OK;
   }
-  if (!kkt && !wcc_current(L, P->W)) {
+  if (sparse && !(L->eps > 0) && L->rigid) {
+    /* contacts between rigid bodies: redundancy the sparse factor cannot tell from round-off
+       (no pivot test); the proximal term from the start (T136) */
+    L->prox_request = 1;
+    return MO_OK;
+  }
+  if (!kkt && !sparse && !wcc_current(L, P->W)) {
     if ((st = ls_schur_wcc(S, P->W, L->WCC))) return st;
+    if (L->eps > 0) /* the proximal term (T136) on the diagonal */
+      for (e = 0; e < nu; e++) L->WCC[(size_t)e * nu + e] += L->eps * L->dW[S->cset[e / S->nr] * S->d + e % S->nr];
     if ((st = wcc_remember(L, P->W, ctx))) return st;
+    L->wcc_eps = L->eps;
+    L->wcc_gen++;
+  }
+  /* the reduced path (T130) where the multipliers are the candidates' own; the dense Newton
+     matrix otherwise, and for a step the reduced path hands back */
+  reduced = 0;
+  if (!kkt && L->reduced && (st = ls_reduced_classify(&L->red, S, A, L->coupled, &reduced, ctx))) return st;
+  if (!reduced) {
+    if (nu > LS_DENSE_MAX && !kkt)
+      mo_log(ctx, 2, "levelset: dense Newton matrix of %d unknowns (the multipliers are shared: no reduced path)\n", ny);
+    if ((st = ls_reserve(L, (size_t)ny, (size_t)nu, 1, ctx)) || (st = ls_system_jacobians(S, ctx))) return st;
+    frozen_threshold(L);
   }
   for (it = 0;; it++) {
+    /* U' at the iterate: the previous Newton loop ended at this y with this W_CC (Uc kept) */
     if (kkt) ls_kkt_velocity(S, P, L->dv, L->Uc, L->Umc);
-    else ls_schur_velocity(S, L->WCC, P->b, L->y, L->Uc, L->Umc);
-    ls_system_eval(S, A, L->y, L->Uc, L->Umc);
+    else if (sparse) ls_sparse_velocity(S, P->W, L->b, L->eps, L->dW, L->y, L->Uc, L->Umc);
+    else if (it > 0 || L->uc_gen != L->wcc_gen) ls_schur_velocity(S, L->WCC, L->b, L->y, L->Uc, L->Umc);
+    /* the reduced step needs F only to test convergence, and to find y = 0 a solution */
+    if (!reduced || it > 0 || !nonzero(L->y, ny)) ls_system_eval(S, A, L->y, L->Uc, L->Umc);
     if (it > 0 && ls_system_converged(S, L->par.newton_tol)) { *conv = 1; break; }
     if (it == L->par.newton_max) break;
     if (slide_reversed(L, L->y, L->Uc, it < 2) && it >= 2) break;
@@ -338,6 +458,36 @@ static int ls_newton(ls_state *L, const mo_contact_problem *P, int kkt, int *its
       (*its)++;
       *conv = 1;
       break;
+    }
+    if (reduced) {
+      int fallback;
+      if (sparse)
+        st = ls_sparse_step(&L->sp, &L->red, S, P->W, L->eps, L->dW, L->b, L->Uc, L->y, L->pg,
+                            &L->lu.factorizations, &L->lu.reuses, &fallback, ctx);
+      else
+        st = ls_reduced_step(&L->red, S, P->W, L->WCC, L->Uc, L->y, L->pg, &L->lu.factorizations,
+                             &L->lu.reuses, &fallback, ctx);
+      if (st) return st;
+      if (!fallback) {
+        (*its)++;
+        continue;
+      }
+      if (fallback == 2 && !(L->eps > 0)) {
+        /* redundant normal impulses: the solve starts again with the proximal term (T136) */
+        L->prox_request = 1;
+        return MO_OK;
+      }
+      if (sparse)
+        return mo_error(ctx, MO_ESINGULAR, "levelset: the frozen status of %d contact unknowns %s; the dense "
+                        "Newton matrix it would need is too large (reduced path on sparse algebra, "
+                        "doc/theory.md (T137))", nu, fallback == 2 ? "is singular" :
+                        "has sliding directions that the sparse path does not solve (3D, or the threshold loop)");
+      /* the reduced matrix singular with sliding directions coupled to it: this status on the
+         dense path, with the threshold frozen */
+      reduced = 0;
+      if ((st = ls_reserve(L, (size_t)ny, (size_t)nu, 1, ctx)) || (st = ls_system_jacobians(S, ctx))) return st;
+      frozen_threshold(L);
+      ls_system_eval(S, A, L->y, L->Uc, L->Umc);
     }
     if (kkt) {
       L->lu.factorizations++; /* UMFPACK factors the saddle-point matrix at every step */
@@ -366,6 +516,7 @@ static int ls_newton(ls_state *L, const mo_contact_problem *P, int kkt, int *its
     for (e = 0; e < ny; e++) L->y[e] += L->dy[e];
     (*its)++;
   }
+  L->uc_gen = kkt || sparse ? -1 : L->wcc_gen;
   /* keep the multipliers for the next solve */
   for (mi = 0; mi < S->nM; mi++) {
     L->pm[S->mset[mi]] = L->y[nu + mi];
@@ -458,6 +609,57 @@ static void sign_tolerances(const ls_state *L, int d, int dt, double rho_n, doub
   *tol_f = L->par.status_tol * (fsc + rho_t * vsc) + L->par.threshold_tol * fsc;
 }
 
+/* U' = W r + q (Schur) or q + H^T dv (KKT) over every candidate, and its magnitudes. */
+static void full_velocity(ls_state *L, const mo_contact_problem *P, int kkt)
+{
+  int j, m = L->m;
+  memcpy(L->U, L->b, (size_t)m * sizeof(double));
+  if (kkt) mo_csc_gatxpy(P->H, 1, L->dv, 1, L->U);
+  else {
+    for (j = 0; j < m && L->r[j] == 0; j++) continue;
+    if (j < m) mo_delassus_mult(P->W, L->r, 1, L->U); /* (r = 0: U' = q) */
+    if (L->eps > 0)
+      for (j = 0; j < m; j++) L->U[j] += L->eps * L->dW[j] * L->r[j];
+  }
+  for (j = 0; j < m; j++) L->Umag[j] = fabs(L->b[j]) + fabs(L->U[j] - L->b[j]);
+  L->u_partial = 0;
+}
+
+/* The proximal term of this solve (T136): eps, D = the diagonal of W, the center r_c = the
+   previous impulses, q_eff. With proximal = 0 the term is off unless redundancy asks for it
+   (L->want_prox, set by a solve that met redundant normal impulses, and large rigid sets). */
+static void proximal_setup(ls_state *L, ls_pass *Q, const mo_contact_vars *x)
+{
+  const mo_contact_problem *P = Q->P;
+  const int nc = L->nc, d = L->d;
+  int j, i;
+  L->eps = Q->kkt ? 0 : L->par.proximal > 0 ? L->par.proximal : L->want_prox ? LS_PROX_EPS : 0;
+  L->S.eps = L->eps;
+  L->b = P->b;
+  if (!(L->eps > 0)) return;
+  for (j = 0; j < nc; j++) {
+    const double *Wjj = mo_delassus_block(P->W, j, j);
+    for (i = 0; i < d; i++) L->dW[j * d + i] = Wjj ? Wjj[i * d + i] : 0;
+  }
+  memcpy(L->rc, x->r, (size_t)L->m * sizeof(double));
+  L->b = L->qeff;
+}
+
+/* rho_t (T16): 1 / (c w W_tt mu p) with the mean threshold over the contact set, and h1_t, h2_t
+   (rho_t unless set); kept as it was when no threshold is positive yet. */
+static void friction_scales(ls_state *L, double kt, double *rho_t)
+{
+  double ps = 0, ms = 0;
+  int np = 0, j;
+  for (j = 0; j < L->nc; j++)
+    if (L->pg[j] > 0 && L->mu[j] > 0) { ps += L->pg[j]; ms += L->mu[j]; np++; }
+  if (L->par.rho_t > 0) *rho_t = L->par.rho_t;
+  else if (np) *rho_t = kt * np / (ms / np * ps);
+  else if (!L->coupled) *rho_t = 0;
+  L->S.h2_t = L->par.h2_t > 0 ? L->par.h2_t : *rho_t;
+  L->S.h1_t = L->par.h1_t > 0 ? L->par.h1_t : *rho_t;
+}
+
 /* S_f of candidate j from g = |Lam + rho_t U'_t| with hysteresis (T88): a sticking candidate
    starts to slide only beyond 1 + b, a sliding one sticks only below 1 - b, b the tolerance tol_f
    of the problem's friction scale in units of the candidate's threshold mu p^g (status_tol at
@@ -501,23 +703,16 @@ static int law_satisfied(const ls_state *L, const ls_system *S, const ls_space *
   return 1;
 }
 
-static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x,
-                    mo_contact_report *rep, mo_ctx *ctx)
+/* The scales of the step (T16): the friction coefficients (0 for a candidate that no free dof
+   moves tangentially), the mean contact stiffnesses kn (normal) and kt (tangential), h_n and
+   rho_n; and the frozen system's constants. */
+static void solve_scales(ls_state *L, ls_pass *Q)
 {
-  ls_state *L = state;
+  const mo_contact_problem *P = Q->P;
   ls_system *S = &L->S;
-  const ls_space *A = &L->A;
-  const int nc = L->nc, d = L->d, m = L->m, dt = L->friction ? d - 1 : 0;
-  const double c = P->scheme == MO_SCHEME_THETA ? P->h : 1;
-  const int velocity = P->scheme == MO_SCHEME_THETA && P->signorini == MO_SIGNORINI_VELOCITY;
-  const int end_gap = velocity && L->par.su == LS_SU_END_GAP;
-  int kkt = L->par.path == LS_PATH_KKT, st, j, t, thr, lsit, nhist, nls = 0, nnewt = 0, conv, safe;
-  double kn = 0, kt = 0, h_n, rho_n, rho_t = 0, h2_t = 0, h1_t = 0, tol_v, tol_f, scale_v;
-  int nkn = 0, nkt = 0;
-  const long nfact0 = L->lu.factorizations, nreuse0 = L->lu.reuses;
-  if (!P->W) return mo_error(ctx, MO_EINTERNAL, "levelset: the core did not build W");
-  /* scales (T16): the contact stiffness 1 / (c w W_jj) in pressure per unit of U'; the step's
-     friction coefficients, 0 for a candidate that no free dof moves tangentially */
+  const int nc = L->nc, d = L->d, dt = Q->dt;
+  double kn = 0, kt = 0;
+  int nkn = 0, nkt = 0, j, t;
   for (j = 0; j < nc; j++) {
     const double *Wjj = mo_delassus_block(P->W, j, j);
     L->mu[j] = P->mu[j];
@@ -527,19 +722,18 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
       if (!(wtt > 1e-12 * Wjj[0])) L->mu[j] = 0;
     }
     if (!P->active[j] || !Wjj) continue;
-    kn += safe_inv(c * P->w[j] * Wjj[0]);
+    kn += safe_inv(Q->c * P->w[j] * Wjj[0]);
     nkn++;
     if (dt) {
       double wt = 0;
       for (t = 1; t < d; t++) wt += Wjj[t * d + t] / (d - 1);
-      kt += safe_inv(c * P->w[j] * wt);
+      kt += safe_inv(Q->c * P->w[j] * wt);
       nkt++;
     }
   }
   kn = nkn ? kn / nkn : 1;
-  kt = nkt ? kt / nkt : 1;
-  h_n = L->par.h_n > 0 ? L->par.h_n : kn;
-  rho_n = L->par.rho_n > 0 ? L->par.rho_n : kn;
+  Q->kt = nkt ? kt / nkt : 1;
+  Q->rho_n = L->par.rho_n > 0 ? L->par.rho_n : kn;
   memset(S, 0, offsetof(ls_system, cset));
   S->d = d;
   S->dt = dt;
@@ -550,40 +744,39 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
   S->pg = L->pg;
   S->w = P->w;
   S->mu = L->mu;
-  S->c = c;
-  S->h_n = h_n;
+  S->c = Q->c;
+  S->h_n = L->par.h_n > 0 ? L->par.h_n : kn;
   S->k_n = L->par.k_n;
   S->k_t = L->par.k_t;
   S->projected = L->par.stabilization == LS_STAB_PROJECTED;
-  /* the starting sign fields from the warm start: U'0 = W r_prev + q; the first Newton loop
-     starts from r_prev (Schur) or from r = 0, dv = 0 (KKT, where dv would have to match it) */
-  for (j = 0; j < m && x->r[j] == 0; j++) continue;
-  if (j < m) {
-    mo_delassus_mult(P->W, x->r, 0, L->U);
-    for (j = 0; j < m; j++) {
-      L->Umag[j] = fabs(P->b[j]) + fabs(L->U[j]);
-      L->U[j] += P->b[j];
-    }
-  } else /* r_prev = 0 (an open step before): W 0 = 0 */
-    for (j = 0; j < m; j++) {
-      L->Umag[j] = fabs(P->b[j]);
-      L->U[j] = P->b[j];
-    }
-  if (kkt) {
+}
+
+/* The starting state from the previous solve: U'0 = W r_prev + q, the sign fields and thresholds
+   of the previous pressures, the multipliers' values (the first Newton loop starts from r_prev on
+   the Schur paths, from r = 0, dv = 0 on the KKT path, where dv would have to match it). */
+static int warm_start(ls_state *L, ls_pass *Q, const mo_contact_vars *x, mo_ctx *ctx)
+{
+  const mo_contact_problem *P = Q->P;
+  const ls_space *A = &L->A;
+  const int nc = L->nc, d = L->d, m = L->m, dt = Q->dt;
+  int j, t;
+  L->uc_gen = -1;
+  L->u_partial = 0;
+  memcpy(L->r, x->r, (size_t)m * sizeof(double));
+  full_velocity(L, P, 0);
+  if (Q->kkt) {
     memset(L->r, 0, (size_t)m * sizeof(double));
     memset(L->dv, 0, (size_t)P->nfree * sizeof(double));
-  } else
-    memcpy(L->r, x->r, (size_t)m * sizeof(double));
+  }
   for (j = 0; j < nc; j++) {
-    double p0 = L->have_prev ? L->ph_prev[j] : (P->w[j] > 0 ? x->r[j * d] / (c * P->w[j]) : 0);
+    double p0 = L->have_prev ? L->ph_prev[j] : (P->w[j] > 0 ? x->r[j * d] / (Q->c * P->w[j]) : 0);
     L->ph[j] = p0;
     L->su[j] = P->active[j] != 0;
-    L->sv[j] = L->su[j] && p0 - rho_n * L->U[j * d] >= 0;
+    L->sv[j] = L->su[j] && p0 - Q->rho_n * L->U[j * d] >= 0;
     L->pg[j] = L->sv[j] && p0 > 0 ? p0 : 0;
     for (t = 0; t < dt; t++) L->lam[j * 2 + t] = L->have_prev ? L->lam_prev[j * 2 + t] : 0;
     L->sf[j] = 1;
   }
-  /* the multipliers' starting values: the previous pressures at their candidates */
   for (j = 0; j < A->nm; j++) {
     int q = A->cp[j];
     L->pm[j] = L->have_prev && q < A->cp[j + 1] ? L->ph_prev[A->ci[q]] : 0;
@@ -597,175 +790,262 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
     L->hist = h;
     L->hist_cap = L->par.levelset_max + 1;
   }
-  rep->reason = MO_CR_CONVERGED;
-  rep->loops[0] = 1; /* the geometric loop: the core freezes the pairing within the step (§6.5) */
+  return MO_OK;
+}
 
-  /* the friction-threshold loop */
-  for (thr = 0;; thr++) {
-    /* rho_t (T16): 1 / (c w W_tt mu p) with the mean threshold over the contact set */
+/* The new sign fields ns* from the frozen solution: (T14), (T15), BDZ07 (69), (70), (48), tested
+   against the problem's scales with hysteresis (T88); the violation of each change in viol. */
+static void new_signs(ls_state *L, ls_pass *Q)
+{
+  const mo_contact_problem *P = Q->P;
+  const ls_system *S = &L->S;
+  const ls_space *A = &L->A;
+  const int nc = L->nc, d = L->d, dt = Q->dt;
+  int j, t;
+  for (j = 0; j < nc; j++) L->ph[j] = L->su[j] ? ls_p_at(S, A, L->y, j) : 0;
+  sign_tolerances(L, d, dt, Q->rho_n, Q->rho_t, &Q->tol_v, &Q->tol_f, &Q->scale_v);
+  for (j = 0; j < nc; j++) {
+    double ph = L->ph[j], s;
+    L->nsu[j] = L->su[j];
+    L->nsv[j] = L->sv[j];
+    L->nsf[j] = L->sf[j];
+    L->viol[j] = 0;
+    if (Q->end_gap && P->active[j]) {
+      double gend = P->g[j] + P->h * (P->theta * L->U[j * d] + (1 - P->theta) * P->Uprev[j * d]);
+      L->nsu[j] = gend <= 0;
+      if (L->nsu[j] != L->su[j]) L->viol[j] = HUGE_VAL;
+    }
+    if (!L->su[j]) { L->nsv[j] = 0; continue; }
+    /* closed stays closed down to -tol_v, open stays open up to +tol_v */
+    s = ph - Q->rho_n * L->U[j * d];
+    L->nsv[j] = L->sv[j] ? s >= -Q->tol_v : s > Q->tol_v;
+    if (L->nsv[j] != L->sv[j]) L->viol[j] = fmax(L->viol[j], fabs(s) / (Q->scale_v + 1e-300));
     if (dt) {
-      double ps = 0, ms = 0;
-      int np = 0;
-      for (j = 0; j < nc; j++)
-        if (L->pg[j] > 0 && L->mu[j] > 0) { ps += L->pg[j]; ms += L->mu[j]; np++; }
-      rho_t = L->par.rho_t > 0 ? L->par.rho_t : np ? kt * np / (ms / np * ps) : 0;
-      h2_t = L->par.h2_t > 0 ? L->par.h2_t : rho_t;
-      h1_t = L->par.h1_t > 0 ? L->par.h1_t : rho_t;
-      S->h2_t = h2_t;
-      S->h1_t = h1_t;
+      double lam[2], g = 0;
+      ls_lam_at(S, A, L->y, j, lam);
+      for (t = 0; t < dt; t++) {
+        double v = lam[t] + Q->rho_t * L->U[j * d + 1 + t];
+        L->lam[j * 2 + t] = lam[t];
+        g += v * v;
+      }
+      /* a slip that reversed in the frozen solve went through zero: try sticking */
+      if (L->mu[j] > 0) L->nsf[j] = L->rev[j] || stick_sign(L, j, sqrt(g), L->sf[j], Q->tol_f);
+      if (L->nsf[j] != L->sf[j]) L->viol[j] = fmax(L->viol[j], L->rev[j] ? 1 : fabs(sqrt(g) - 1));
+    }
+  }
+}
+
+/* The impulses of the frozen solution over every candidate, and U' over Cset (from the Newton
+   loop's last U' when it holds them: the sign fields need no more) or over every candidate. */
+static void take_solution(ls_state *L, ls_pass *Q)
+{
+  const mo_contact_problem *P = Q->P;
+  const ls_system *S = &L->S;
+  const int d = L->d;
+  int k, t;
+  memset(L->r, 0, (size_t)L->m * sizeof(double));
+  for (k = 0; k < S->nC; k++)
+    for (t = 0; t < S->nr; t++) L->r[S->cset[k] * d + t] = L->y[k * S->nr + t];
+  if (!Q->kkt && !Q->end_gap && L->uc_gen == L->wcc_gen) {
+    for (k = 0; k < S->nC; k++)
+      for (t = 0; t < S->nr; t++) {
+        int i = S->cset[k] * d + t;
+        L->U[i] = L->Uc[k * S->nr + t];
+        L->Umag[i] = fabs(L->b[i]) + fabs(L->U[i] - L->b[i]);
+      }
+    L->u_partial = 1;
+  } else
+    full_velocity(L, P, Q->kkt);
+}
+
+/* Report a breakdown of the frozen system (singular, non-finite) as the solve's reason. */
+static void report_breakdown(int st, mo_contact_report *rep, mo_ctx *ctx)
+{
+  size_t len = strlen(ctx->errmsg);
+  if (len >= sizeof rep->message) len = sizeof rep->message - 1;
+  memcpy(rep->message, ctx->errmsg, len);
+  rep->message[len] = '\0';
+  mo_ctx_clear_error(ctx);
+  rep->reason = st == MO_ENAN ? MO_CR_NAN : MO_CR_BREAKDOWN;
+}
+
+/* The level-set loop (BDZ07 Fig. 2): solve the frozen system by Newton, update the sign fields,
+   until they repeat (T22: cycling detected and reported; T89: a solution that satisfies the law
+   ends it). rep->reason < 0 on failure; MO_ESINGULAR / MO_ENAN become reasons too. */
+static int level_set_loop(ls_state *L, ls_pass *Q, mo_contact_report *rep, mo_ctx *ctx)
+{
+  const mo_contact_problem *P = Q->P;
+  ls_system *S = &L->S;
+  const ls_space *A = &L->A;
+  const int nc = L->nc, d = L->d, dt = Q->dt;
+  int lsit, nhist, safe = 0, j, conv, st;
+  for (j = 0; j < nc; j++) L->hist[j] = (unsigned char)(L->su[j] | L->sv[j] << 1 | L->sf[j] << 2);
+  nhist = 1;
+  for (lsit = 0;; lsit++) {
+    int its, same = 1, k0 = -1, k;
+    S->phi = NULL;
+    if (L->coupled) {
+      /* friction acts on the closed candidates, with their own pressure as threshold */
+      for (j = 0; j < nc; j++) L->phi[j] = L->sv[j] && L->mu[j] > 0;
+      S->phi = L->phi;
+      if (lsit > 0) friction_scales(L, Q->kt, &Q->rho_t);
+    }
+    if ((st = ls_system_setup(S, A, nc, ctx))) return st;
+    st = ls_newton(L, P, Q->kkt, &its, &conv, ctx);
+    Q->nnewt += its;
+    Q->nls++;
+    if (L->prox_request) return MO_OK;
+    if (st == MO_ESINGULAR || st == MO_ENAN) {
+      /* a breakdown of the frozen system is reported, not an error of the run */
+      report_breakdown(st, rep, ctx);
+      return MO_OK;
+    }
+    if (st) return st;
+    take_solution(L, Q);
+    new_signs(L, Q);
+    for (j = 0; j < nc; j++)
+      same &= L->nsu[j] == L->su[j] && L->nsv[j] == L->sv[j] && L->nsf[j] == L->sf[j];
+    if (!same && conv && !memcmp(L->nsu, L->su, (size_t)nc) &&
+        law_satisfied(L, S, A, d, dt, Q->rho_n, Q->rho_t, Q->tol_v, Q->tol_f)) {
+      /* (T89): the frozen solution satisfies the contact law to the tolerances of the sign
+         tests; the signs that would change sit on their boundaries at round-off */
+      mo_log(ctx, 3, "levelset step %ld: the contact law holds to its tolerances; sign changes at "
+             "round-off ignored\n", P->step);
+      memcpy(L->nsv, L->sv, (size_t)nc);
+      memcpy(L->nsf, L->sf, (size_t)nc);
+      same = 1;
+    }
+    if (same && !conv) {
+      /* Newton failed on a status that the signs confirm: nothing left to change */
+      rep->reason = MO_CR_MAXITER;
+      snprintf(rep->message, sizeof rep->message, "the Newton loop did not converge in %d iterations "
+               "on a frozen status that the sign fields confirm (newton_max = %d)", its, L->par.newton_max);
+      return MO_OK;
+    }
+    if (same) return MO_OK;
+    if (safe) one_sign(L);
+    /* cycling: the new state was visited before (T22) */
+    for (j = 0; j < nc; j++) L->hist[(size_t)nhist * nc + j] = (unsigned char)(L->nsu[j] | L->nsv[j] << 1 | L->nsf[j] << 2);
+    for (k = 0; k < nhist - 1 && k0 < 0; k++)
+      if (!memcmp(L->hist + (size_t)k * nc, L->hist + (size_t)nhist * nc, (size_t)nc)) k0 = k;
+    if (k0 >= 0 && !safe) {
+      /* changing every sign at once can cycle where the solution changes some of them only
+         (two coupled candidates at a stick/slip boundary): from the current state, change
+         one sign per iteration, the most violated, and call it cycling only if that cycles */
+      safe = 1;
+      memmove(L->hist, L->hist + (size_t)(nhist - 1) * nc, (size_t)nc);
+      nhist = 1;
+      one_sign(L);
+      for (j = 0; j < nc; j++) L->hist[(size_t)nc + j] = (unsigned char)(L->nsu[j] | L->nsv[j] << 1 | L->nsf[j] << 2);
+      k0 = -1;
+    }
+    if (k0 >= 0) {
+      rep->reason = MO_CR_CYCLING;
+      report_cycle(L, P, k0, nhist, rep);
+      return MO_OK;
+    }
+    if (lsit + 1 >= L->par.levelset_max) {
+      rep->reason = MO_CR_MAXITER;
+      snprintf(rep->message, sizeof rep->message, "the level-set loop reached levelset_max = %d",
+               L->par.levelset_max);
+      return MO_OK;
+    }
+    nhist++;
+    memcpy(L->su, L->nsu, (size_t)nc);
+    memcpy(L->sv, L->nsv, (size_t)nc);
+    memcpy(L->sf, L->nsf, (size_t)nc);
+  }
+}
+
+/* The friction-threshold loop (BDZ04 Fig. 1, loop 3): the level-set loop with the threshold
+   frozen, then lambda^g <- max(lambda, 0), until it repeats to threshold_tol (one pass with the
+   coupled threshold, T134, unless a dense solve froze it). */
+static int threshold_loop(ls_state *L, ls_pass *Q, mo_contact_report *rep, mo_ctx *ctx)
+{
+  const int nc = L->nc, d = L->d, dt = Q->dt;
+  int thr, j, t, st;
+  for (thr = 0;; thr++) {
+    double change = 0, pmax = 0;
+    Q->nthr++;
+    L->frozen_solve = 0;
+    if (L->u_partial) full_velocity(L, Q->P, Q->kkt);
+    if (dt) {
+      friction_scales(L, Q->kt, &Q->rho_t);
       /* S_f from the current semi-multipliers and U', with the hysteresis of (T88) */
-      sign_tolerances(L, d, dt, rho_n, rho_t, &tol_v, &tol_f, &scale_v);
+      sign_tolerances(L, d, dt, Q->rho_n, Q->rho_t, &Q->tol_v, &Q->tol_f, &Q->scale_v);
       for (j = 0; j < nc; j++) {
         double g = 0;
         for (t = 0; t < dt; t++) {
-          double v = L->lam[j * 2 + t] + rho_t * L->U[j * d + 1 + t];
+          double v = L->lam[j * 2 + t] + Q->rho_t * L->U[j * d + 1 + t];
           g += v * v;
         }
-        L->sf[j] = (unsigned char)stick_sign(L, j, sqrt(g), L->sf[j], tol_f);
+        L->sf[j] = (unsigned char)stick_sign(L, j, sqrt(g), L->sf[j], Q->tol_f);
       }
     }
-    /* the level-set loop */
-    safe = 0;
-    nhist = 0;
-    for (j = 0; j < nc; j++) L->hist[j] = (unsigned char)(L->su[j] | L->sv[j] << 1 | L->sf[j] << 2);
-    nhist = 1;
-    for (lsit = 0;; lsit++) {
-      int its, same = 1, k0 = -1, k;
-      if ((st = ls_system_setup(S, A, nc, ctx))) return st;
-      st = ls_newton(L, P, kkt, &its, &conv, ctx);
-      nnewt += its;
-      nls++;
-      if (st == MO_ESINGULAR || st == MO_ENAN) {
-        /* a breakdown of the frozen system is reported, not an error of the run */
-        size_t len = strlen(ctx->errmsg);
-        if (len >= sizeof rep->message) len = sizeof rep->message - 1;
-        memcpy(rep->message, ctx->errmsg, len);
-        rep->message[len] = '\0';
-        mo_ctx_clear_error(ctx);
-        rep->reason = st == MO_ENAN ? MO_CR_NAN : MO_CR_BREAKDOWN;
-        memset(L->r, 0, (size_t)m * sizeof(double));
-        goto finish_zero;
-      }
-      if (st) return st;
-      /* r over all candidates, and U' = W r + q (Schur) or q + H^T dv (KKT) */
-      memset(L->r, 0, (size_t)m * sizeof(double));
-      for (k = 0; k < S->nC; k++)
-        for (t = 0; t < S->nr; t++) L->r[S->cset[k] * d + t] = L->y[k * S->nr + t];
-      memcpy(L->U, P->b, (size_t)m * sizeof(double));
-      if (kkt) mo_csc_gatxpy(P->H, 1, L->dv, 1, L->U);
-      else {
-        for (j = 0; j < m && L->r[j] == 0; j++) continue;
-        if (j < m) mo_delassus_mult(P->W, L->r, 1, L->U); /* (r = 0: U' = q) */
-      }
-      for (j = 0; j < m; j++) L->Umag[j] = fabs(P->b[j]) + fabs(L->U[j] - P->b[j]);
-      /* the sign fields from the new solution: (T14), (T15), BDZ07 (69), (70), (48), tested
-         against the problem's scales with hysteresis (T88) */
-      for (j = 0; j < nc; j++) L->ph[j] = L->su[j] ? ls_p_at(S, A, L->y, j) : 0;
-      sign_tolerances(L, d, dt, rho_n, rho_t, &tol_v, &tol_f, &scale_v);
-      for (j = 0; j < nc; j++) {
-        double ph = L->ph[j], s;
-        L->nsu[j] = L->su[j];
-        L->nsv[j] = L->sv[j];
-        L->nsf[j] = L->sf[j];
-        L->viol[j] = 0;
-        if (end_gap && P->active[j]) {
-          double gend = P->g[j] + P->h * (P->theta * L->U[j * d] + (1 - P->theta) * P->Uprev[j * d]);
-          L->nsu[j] = gend <= 0;
-          if (L->nsu[j] != L->su[j]) L->viol[j] = HUGE_VAL;
-        }
-        if (!L->su[j]) { L->nsv[j] = 0; continue; }
-        /* closed stays closed down to -tol_v, open stays open up to +tol_v */
-        s = ph - rho_n * L->U[j * d];
-        L->nsv[j] = L->sv[j] ? s >= -tol_v : s > tol_v;
-        if (L->nsv[j] != L->sv[j]) L->viol[j] = fmax(L->viol[j], fabs(s) / (scale_v + 1e-300));
-        if (dt) {
-          double lam[2], g = 0;
-          ls_lam_at(S, A, L->y, j, lam);
-          for (t = 0; t < dt; t++) {
-            double v = lam[t] + rho_t * L->U[j * d + 1 + t];
-            L->lam[j * 2 + t] = lam[t];
-            g += v * v;
-          }
-          /* a slip that reversed in the frozen solve went through zero: try sticking */
-          if (L->mu[j] > 0) L->nsf[j] = L->rev[j] || stick_sign(L, j, sqrt(g), L->sf[j], tol_f);
-          if (L->nsf[j] != L->sf[j]) L->viol[j] = fmax(L->viol[j], L->rev[j] ? 1 : fabs(sqrt(g) - 1));
-        }
-      }
-      for (j = 0; j < nc; j++)
-        same &= L->nsu[j] == L->su[j] && L->nsv[j] == L->sv[j] && L->nsf[j] == L->sf[j];
-      if (!same && conv && !memcmp(L->nsu, L->su, (size_t)nc) &&
-          law_satisfied(L, S, A, d, dt, rho_n, rho_t, tol_v, tol_f)) {
-        /* (T89): the frozen solution satisfies the contact law to the tolerances of the sign
-           tests; the signs that would change sit on their boundaries at round-off */
-        mo_log(ctx, 3, "levelset step %ld: the contact law holds to its tolerances; sign changes at "
-               "round-off ignored\n", P->step);
-        memcpy(L->nsv, L->sv, (size_t)nc);
-        memcpy(L->nsf, L->sf, (size_t)nc);
-        same = 1;
-      }
-      if (same && !conv) {
-        /* Newton failed on a status that the signs confirm: nothing left to change */
-        rep->reason = MO_CR_MAXITER;
-        snprintf(rep->message, sizeof rep->message, "the Newton loop did not converge in %d iterations "
-                 "on a frozen status that the sign fields confirm (newton_max = %d)", its, L->par.newton_max);
-        break;
-      }
-      if (same) break;
-      if (safe) one_sign(L);
-      /* cycling: the new state was visited before (T22) */
-      for (j = 0; j < nc; j++) L->hist[(size_t)nhist * nc + j] = (unsigned char)(L->nsu[j] | L->nsv[j] << 1 | L->nsf[j] << 2);
-      for (k = 0; k < nhist - 1 && k0 < 0; k++)
-        if (!memcmp(L->hist + (size_t)k * nc, L->hist + (size_t)nhist * nc, (size_t)nc)) k0 = k;
-      if (k0 >= 0 && !safe) {
-        /* changing every sign at once can cycle where the solution changes some of them only
-           (two coupled candidates at a stick/slip boundary): from the current state, change
-           one sign per iteration, the most violated, and call it cycling only if that cycles */
-        safe = 1;
-        memmove(L->hist, L->hist + (size_t)(nhist - 1) * nc, (size_t)nc);
-        nhist = 1;
-        one_sign(L);
-        for (j = 0; j < nc; j++) L->hist[(size_t)nc + j] = (unsigned char)(L->nsu[j] | L->nsv[j] << 1 | L->nsf[j] << 2);
-        k0 = -1;
-      }
-      if (k0 >= 0) {
-        rep->reason = MO_CR_CYCLING;
-        report_cycle(L, P, k0, nhist, rep);
-        break;
-      }
-      if (lsit + 1 >= L->par.levelset_max) {
-        rep->reason = MO_CR_MAXITER;
-        snprintf(rep->message, sizeof rep->message, "the level-set loop reached levelset_max = %d",
-                 L->par.levelset_max);
-        break;
-      }
-      nhist++;
-      memcpy(L->su, L->nsu, (size_t)nc);
-      memcpy(L->sv, L->nsv, (size_t)nc);
-      memcpy(L->sf, L->nsf, (size_t)nc);
+    if ((st = level_set_loop(L, Q, rep, ctx))) return st;
+    if (rep->reason < 0 || !dt || L->prox_request) return MO_OK;
+    /* coupled: every solve took p^g = p, the threshold holds already */
+    if (L->coupled && !L->frozen_solve) return MO_OK;
+    for (j = 0; j < nc; j++) {
+      double pn = L->sv[j] && L->ph[j] > 0 ? L->ph[j] : 0;
+      if (fabs(pn - L->pg[j]) > change) change = fabs(pn - L->pg[j]);
+      if (pn > pmax) pmax = pn;
+      L->pg[j] = pn;
     }
-    if (rep->reason < 0 || !dt) break;
-    /* the threshold: lambda^g <- lambda (BDZ04 Fig. 1, loop 3) */
-    {
-      double change = 0, pmax = 0;
-      for (j = 0; j < nc; j++) {
-        double pn = L->sv[j] && L->ph[j] > 0 ? L->ph[j] : 0;
-        if (fabs(pn - L->pg[j]) > change) change = fabs(pn - L->pg[j]);
-        if (pn > pmax) pmax = pn;
-        L->pg[j] = pn;
-      }
-      if (change <= L->par.threshold_tol * pmax) break;
-      if (thr + 1 >= L->par.threshold_max) {
-        rep->reason = MO_CR_MAXITER;
-        snprintf(rep->message, sizeof rep->message, "the friction-threshold loop reached "
-                 "threshold_max = %d (last change %.3e of %.3e)", L->par.threshold_max, change, pmax);
-        break;
-      }
+    if (change <= L->par.threshold_tol * pmax) return MO_OK;
+    if (thr + 1 >= L->par.threshold_max) {
+      rep->reason = MO_CR_MAXITER;
+      snprintf(rep->message, sizeof rep->message, "the friction-threshold loop reached "
+               "threshold_max = %d (last change %.3e of %.3e)", L->par.threshold_max, change, pmax);
+      return MO_OK;
     }
   }
-  rep->loops[1] = thr + 1;
+}
 
-  /* outputs in the core's conventions (T13): impulses (forces for quasi-static steps) r_n >= 0
-     compressive and r_t = -mu r_n Lam, U' = W r + q, statuses */
+/* The proximal loop (T136): the local problem (W + eps D, q - eps D r_c) around the center r_c,
+   the previous pass's impulses (the previous step's at the first), until the proximal term
+   eps D (r - r_c) is below Newton's tolerance on U'. Without it (eps = 0), one pass on (W, q). */
+static int proximal_loop(ls_state *L, ls_pass *Q, mo_contact_report *rep, mo_ctx *ctx)
+{
+  const mo_contact_problem *P = Q->P;
+  const int m = L->m;
+  int pass, i, st;
+  for (pass = 0;; pass++) {
+    double dmax = 0, umax = 0;
+    if (L->eps > 0)
+      for (i = 0; i < m; i++) L->qeff[i] = P->b[i] - L->eps * L->dW[i] * L->rc[i];
+    if ((st = threshold_loop(L, Q, rep, ctx)) || rep->reason < 0 || !(L->eps > 0) || L->prox_request) return st;
+    if (L->u_partial) full_velocity(L, P, Q->kkt);
+    for (i = 0; i < m; i++) {
+      dmax = fmax(dmax, L->eps * L->dW[i] * fabs(L->r[i] - L->rc[i]));
+      umax = fmax(umax, L->Umag[i]);
+    }
+    memcpy(L->rc, L->r, (size_t)m * sizeof(double));
+    if (dmax <= L->par.newton_tol * umax) return MO_OK;
+    if (pass + 1 >= L->par.proximal_max) {
+      rep->reason = MO_CR_MAXITER;
+      snprintf(rep->message, sizeof rep->message, "the proximal loop reached proximal_max = %d (its term "
+               "%.3e against U' %.3e)", L->par.proximal_max, dmax, umax);
+      return MO_OK;
+    }
+  }
+}
+
+/* The outputs in the core's conventions (T13): impulses (forces for quasi-static steps) r_n >= 0
+   compressive and r_t = -mu r_n Lam, U' = W r + q, statuses; the warm start of the next solve. */
+static void write_solution(ls_state *L, ls_pass *Q, mo_contact_vars *x)
+{
+  const mo_contact_problem *P = Q->P;
+  const int nc = L->nc, d = L->d, m = L->m, dt = Q->dt;
+  int j, t;
+  /* U' = W r + q over every candidate: the last frozen solve's when it covered them all */
+  if (!(L->u_partial && L->S.nC == nc && L->S.nr == d && !(L->eps > 0))) {
+    L->b = P->b;
+    L->eps = 0;
+    full_velocity(L, P, Q->kkt);
+  }
+  L->b = P->b;
+  L->eps = 0;
   memcpy(x->r, L->r, (size_t)m * sizeof(double));
   memcpy(x->U, L->U, (size_t)m * sizeof(double));
   for (j = 0; j < nc; j++) {
@@ -780,23 +1060,57 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
     for (t = 0; t < dt; t++) L->lam_prev[j * 2 + t] = closed ? L->lam[j * 2 + t] : 0;
   }
   L->have_prev = 1;
-  if (kkt) {
+  if (Q->kkt) {
     memcpy(x->dx, L->dv, (size_t)P->nfree * sizeof(double));
     x->dx_set = 1;
   }
-  goto done;
-finish_zero:
-  memset(x->r, 0, (size_t)m * sizeof(double));
-  memcpy(x->U, P->b, (size_t)m * sizeof(double));
-  for (j = 0; j < nc; j++) x->status[j] = MO_CS_OPEN;
-  L->have_prev = 0;
-done:
-  rep->loops[2] = nls;
-  rep->loops[3] = nnewt;
+}
+
+static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x,
+                    mo_contact_report *rep, mo_ctx *ctx)
+{
+  ls_state *L = state;
+  const long nfact0 = L->lu.factorizations, nreuse0 = L->lu.reuses;
+  ls_pass Q;
+  int j, st;
+  if (!P->W) return mo_error(ctx, MO_EINTERNAL, "levelset: the core did not build W");
+  memset(&Q, 0, sizeof Q);
+  Q.P = P;
+  Q.kkt = L->par.path == LS_PATH_KKT;
+  Q.end_gap = P->scheme == MO_SCHEME_THETA && P->signorini == MO_SIGNORINI_VELOCITY && L->par.su == LS_SU_END_GAP;
+  Q.dt = L->friction ? L->d - 1 : 0;
+  Q.c = P->scheme == MO_SCHEME_THETA ? P->h : 1;
+  solve_scales(L, &Q);
+  L->coupled = L->reduced && !Q.kkt && Q.dt == 1 && L->par.threshold != LS_THR_LOOP;
+  for (;;) {
+    L->prox_request = 0;
+    proximal_setup(L, &Q, x);
+    if ((st = warm_start(L, &Q, x, ctx))) return st;
+    rep->reason = MO_CR_CONVERGED;
+    rep->loops[0] = 1; /* the geometric loop: the core freezes the pairing within the step (§6.5) */
+    if ((st = proximal_loop(L, &Q, rep, ctx))) return st;
+    if (!L->prox_request) break;
+    /* redundant normal impulses met without the proximal term: on from now (T136) */
+    mo_log(ctx, 2, "levelset step %ld: redundant normal impulses; the proximal term eps = %g from now on\n",
+           P->step, LS_PROX_EPS);
+    L->want_prox = 1;
+  }
+  if (rep->reason == MO_CR_BREAKDOWN || rep->reason == MO_CR_NAN) {
+    memset(L->r, 0, (size_t)L->m * sizeof(double));
+    memset(x->r, 0, (size_t)L->m * sizeof(double));
+    memcpy(x->U, P->b, (size_t)L->m * sizeof(double));
+    for (j = 0; j < L->nc; j++) x->status[j] = MO_CS_OPEN;
+    L->have_prev = 0;
+    L->b = P->b;
+    L->eps = 0;
+  } else
+    write_solution(L, &Q, x);
+  rep->loops[1] = Q.nthr > 0 ? Q.nthr : 1;
+  rep->loops[2] = Q.nls;
+  rep->loops[3] = Q.nnewt;
   rep->factorizations = (int)(L->lu.factorizations - nfact0);
   rep->factor_reuses = (int)(L->lu.reuses - nreuse0);
-  rep->iterations = nnewt;
-  if (rep->loops[1] == 0) rep->loops[1] = 1;
+  rep->iterations = Q.nnewt;
   mo_log(ctx, 3, "levelset step %ld: loops geometry %d, threshold %d, level-set %d, Newton %d (%s)\n",
          P->step, rep->loops[0], rep->loops[1], rep->loops[2], rep->loops[3],
          mo_contact_reason_name(rep->reason));
@@ -817,5 +1131,5 @@ const mo_contact_solver_type mo_contact_solver_levelset = {
   ls_solve,
   ls_free,
   NULL, /* the case's time scheme */
-  NULL  /* a new contact set: free, then init */
+  ls_reinit
 };

@@ -11,7 +11,8 @@
 enum { LS_MULT_AUTO = 0, LS_MULT_P1, LS_MULT_P0 };
 enum { LS_STAB_PROJECTED = 0, LS_STAB_UNPROJECTED };
 enum { LS_SU_INDEX_SET = 0, LS_SU_END_GAP };
-enum { LS_PATH_AUTO = 0, LS_PATH_SCHUR, LS_PATH_KKT };
+enum { LS_PATH_AUTO = 0, LS_PATH_SCHUR, LS_PATH_KKT, LS_PATH_REDUCED };
+enum { LS_THR_AUTO = 0, LS_THR_LOOP, LS_THR_COUPLED };
 
 typedef struct {
   int multipliers;        /* LS_MULT_*: the multiplier space H_h of BDZ07 (65) */
@@ -20,7 +21,9 @@ typedef struct {
   double rho_t, h1_t, h2_t, k_t; /* BDZ07 (41), (44), (49); 0 = automatic except k_t */
   int su;                 /* LS_SU_*: how S_u is evaluated in a theta step (T14) */
   int path;               /* LS_PATH_* */
-  int threshold_max, levelset_max, newton_max;
+  int threshold;          /* LS_THR_*: the friction threshold frozen in an outer loop, or coupled (T134) */
+  double proximal;        /* eps of the proximal term (T136); 0 = automatic */
+  int threshold_max, levelset_max, newton_max, proximal_max;
   double threshold_tol, newton_tol, status_tol;
 } ls_params;
 
@@ -57,22 +60,36 @@ typedef struct {
   /* frozen data, per candidate j (full size nc) */
   const unsigned char *su, *sv, *sf;
   const double *pg;       /* friction threshold p^g (pressure) */
+  const unsigned char *phi; /* where a friction threshold acts; NULL: where mu p^g > 0 (the
+                             threshold loop); the coupled threshold (T134): the closed candidates */
   const double *w, *mu;
   double c;               /* r = c x force: h (theta) or 1 (quasistatic) */
   double h_n, k_n, k_t, h1_t, h2_t;
   int projected;
+  double eps;             /* the proximal term on the diagonal of W (T136), 0 without */
   /* the projection Z on the multiplier space restricted to Cset (nC x nC), NULL = identity */
   double *Z;
   /* the residual F (ny), the Jacobians dF/dy (ny x ny) and dF/dU' (ny x nC nr), row-major,
      and the per-equation magnitude used by the convergence test */
   double *F, *Jy, *JU, *Fmag;
+  int jac;                /* Jy and JU allocated and evaluated (ls_system_jacobians) */
+  size_t cap_c, cap_cp, cap_m, cap_mp, cap_f, cap_fm, cap_jy, cap_ju; /* capacities kept between setups */
 } ls_system;
+
+/* Whether candidate j carries friction in the frozen system. */
+static inline int ls_phi(const ls_system *S, int j)
+{
+  return S->dt && (S->phi ? S->phi[j] != 0 : S->mu[j] > 0 && S->pg[j] > 0);
+}
 
 /* Set up Cset, Mset and the projection for the frozen statuses (allocating what the sizes
    need); y's layout follows. */
 int ls_system_setup(ls_system *S, const ls_space *A, int nc, mo_ctx *ctx);
 void ls_system_free(ls_system *S);
-/* F(y, U') and its Jacobians at y with local velocities U' (nC * nr, Cset order) of magnitudes
+/* Allocate the Jacobians Jy and JU for the current sizes; ls_system_eval then fills them (the
+   dense paths; the reduced path evaluates the residual alone). */
+int ls_system_jacobians(ls_system *S, mo_ctx *ctx);
+/* F(y, U') and, after ls_system_jacobians, its Jacobians at y with local velocities U' (nC * nr, Cset order) of magnitudes
    Umag (the size of the terms U' was summed from, for the convergence test). */
 void ls_system_eval(ls_system *S, const ls_space *A, const double *y, const double *U,
                     const double *Umag);
@@ -133,5 +150,97 @@ void ls_kkt_free(ls_kkt *K);
 /* U' = q + H_C^T dv over Cset (and magnitudes). */
 void ls_kkt_velocity(const ls_system *S, const mo_contact_problem *P, const double *dv,
                      double *U, double *Umag);
+
+/* --- the reduced path (levelset_reduced.c, doc/theory.md §6.4.2) ----------------------------------
+   With one multiplier per candidate (A = I: P1 at the nodes, node collocation), the frozen system
+   (T17)-(T20) splits its local components in three: the constrained ones X (the normal of a closed
+   candidate, U'_n = 0; the tangents of a sticking one, U'_t = 0), whose impulses are unknown; the
+   sliding candidates S, whose friction impulse is -tau Lam with Lam = G / |G|; and the fixed ones
+   (an open normal, a tangent without threshold), whose impulse is 0. A Newton step of the whole
+   system is then one solve with W_XX, the principal submatrix of W on X (symmetric, positive
+   semi-definite), plus, in 3D, a 2 n_S system for the sliding directions; the pressures and
+   semi-multipliers follow from the linear rows (T130). W_XX depends on the set X only: its factor
+   is kept across Newton, level-set and threshold iterations and steps while X and W stay (T131).
+   With the coupled threshold (2D, T134) a sliding candidate's threshold is its own pressure,
+   r_t = -mu e r_n, and the matrix is W_XX + W_XS C_e, factored by LU and kept while X, the sliders
+   and their directions e stay. */
+enum { LS_RED_NONE = 0, LS_RED_CHOL, LS_RED_PINV, LS_RED_LU, LS_RED_SINGULAR };
+enum { LS_CLS_FIXED = 0, LS_CLS_X, LS_CLS_SLIDE };
+
+typedef struct {
+  /* the partition of the frozen status (Cset layout: component e = jc nr + i) */
+  int nu, nX, nS, coupled;
+  unsigned char *cls;      /* nu: LS_CLS_* of each component */
+  int *xc, *xg;            /* nX: the constrained components, local (Cset layout) and global (j d + i) */
+  int *sc;                 /* nS: the Cset positions of the sliding candidates */
+  int *scode;              /* nS: coupled 2D sliders: 3 j + 1 + e, their directions in the key */
+  double *es;              /* nS: coupled 2D sliders' directions e */
+  /* the kept factor: of Ds W_XX Ds (Ds = diag(W_XX)^-1/2) by Cholesky, or when W_XX is singular
+     its eigenvectors and eigenvalues (the weighted minimum-norm solution, T132); coupled: the LU
+     of W_XX + W_XS C_e scaled to unit rows (ds) and columns (cs) */
+  int kind, nkey, nkeys, rank;
+  const mo_delassus *W;
+  long version;
+  int *key, *keys;         /* the global components X and the coupled sliders' codes of the factor */
+  double *f, *kval, *ds, *cs, *ev; /* kval: the matrix factored, unscaled (the values' key) */
+  int *piv;
+  /* 3D sliding (threshold loop): Z = W_XX^-1 W_XS and Wred = W_SS - W_SX Z over the sliders'
+     tangents, for the slider set zkey of the kept factor */
+  int zvalid, nzkey;
+  int *zkey;
+  double *Z, *Wred;
+  /* work (each buffer kept with its capacity) */
+  double *up, *bx, *t1, *m2, *wk;
+  int *ipiv, *iwk;
+  size_t cap_c, cap_f, cap_kv, cap_d, cap_cs, cap_e, cap_w, cap_i, cap_k, cap_ks, cap_pv, cap_z, cap_r, cap_zk,
+      cap_m2, cap_p, cap_up, cap_bx, cap_t1;
+  long singular;           /* factorizations that found the matrix singular */
+  int normal_null;         /* the singular W_XX's null space moves normal impulses */
+} ls_reduced;
+
+/* 1 when the multiplier space is one multiplier per candidate with A = I. */
+int ls_reduced_applies(const ls_space *A);
+/* Split Cset's components for the frozen statuses of S (*ok = 0 when the layout is not A = I);
+   coupled: the threshold of a closed candidate is its own pressure (2D only). */
+int ls_reduced_classify(ls_reduced *R, const ls_system *S, const ls_space *A, int coupled, int *ok,
+                        mo_ctx *ctx);
+/* One Newton step of (T17)-(T20) on the partition of ls_reduced_classify, from the iterate y with
+   local velocities U = W_CC r + q (Cset layout) and W_CC dense (nu x nu, row-major): y is replaced
+   by the next iterate, and with the coupled threshold pg (the state's thresholds) takes the new
+   pressures of the candidates with friction. *fallback (y untouched): 1 when the reduced matrix
+   is singular and sliders couple to it (the dense path then takes the step), 2 when the
+   impulses are not unique and the proximal term (T136) is off. Counts a factorization or a reuse
+   of the kept factor. */
+int ls_reduced_step(ls_reduced *R, const ls_system *S, const mo_delassus *W, const double *WCC,
+                    const double *U, double *y, double *pg, long *nfact, long *nreuse, int *fallback,
+                    mo_ctx *ctx);
+void ls_reduced_free(ls_reduced *R);
+/* The pressures, thresholds (coupled: p^g = p where friction acts) and semi-multipliers of the new
+   iterate y from its impulses, by the linear rows of (T17)-(T20); U over Cset at the new iterate
+   (read only with k_n or k_t). */
+void ls_reduced_multipliers(const ls_reduced *R, const ls_system *S, const double *U, double *y, double *pg);
+
+/* The reduced path on contact sets of more than LS_DENSE_MAX components (levelset_sparse.c, T137):
+   no dense W_CC; products from W's block rows, the frozen status's matrix sparse, factored by
+   CHOLMOD or UMFPACK and kept while it repeats (pattern and values). */
+#define LS_DENSE_MAX 400
+typedef struct {
+  mo_linsolver *chol, *umf;
+  mo_csc *M;               /* the matrix factored (kept: UMFPACK reads it, and it is the key) */
+  int kind;                /* 1: UMFPACK (coupled sliders), 0: CHOLMOD */
+  int *pos;                /* Cset component -> position in X, or -1 */
+  double *x;               /* work: U' and the right-hand side */
+  size_t cap;
+} ls_sparse;
+
+/* U' = W_CC y + b over Cset and the magnitudes of its terms (eps D on the diagonal, T136). */
+void ls_sparse_velocity(const ls_system *S, const mo_delassus *W, const double *b, double eps,
+                        const double *dW, const double *y, double *U, double *Umag);
+/* ls_reduced_step on the sparse path; *fallback: 1 when the status needs dense algebra (3D
+   sliding directions, the 2D threshold loop's sliders), 2 when the matrix is singular. */
+int ls_sparse_step(ls_sparse *Z, ls_reduced *R, const ls_system *S, const mo_delassus *W, double eps,
+                   const double *dW, const double *b, const double *U, double *y, double *pg, long *nfact,
+                   long *nreuse, int *fallback, mo_ctx *ctx);
+void ls_sparse_free(ls_sparse *Z);
 
 #endif

@@ -165,6 +165,8 @@ void ls_system_free(ls_system *S)
   mo_free(S->Z); mo_free(S->F); mo_free(S->Jy); mo_free(S->JU); mo_free(S->Fmag);
   S->cset = S->mset = S->cpos = S->mpos = NULL;
   S->Z = S->F = S->Jy = S->JU = S->Fmag = NULL;
+  S->cap_c = S->cap_cp = S->cap_m = S->cap_mp = S->cap_f = S->cap_fm = S->cap_jy = S->cap_ju = 0;
+  S->jac = 0;
 }
 
 double ls_p_at(const ls_system *S, const ls_space *A, const double *y, int j)
@@ -248,19 +250,28 @@ done:
   return st;
 }
 
+/* Grow an array kept in S to n entries of `size` bytes. */
+static int sys_grow(void **p, size_t *cap, size_t n, size_t size, mo_ctx *ctx)
+{
+  void *a;
+  if (n <= *cap && *p) return MO_OK;
+  if (!(a = mo_realloc(ctx, *p, (n + 1) * size))) return MO_ENOMEM;
+  *p = a;
+  *cap = n;
+  return MO_OK;
+}
+
 int ls_system_setup(ls_system *S, const ls_space *A, int nc, mo_ctx *ctx)
 {
   int j, q, st;
   size_t ny, nu;
-  mo_free(S->cset); mo_free(S->mset); mo_free(S->cpos); mo_free(S->mpos);
-  mo_free(S->F); mo_free(S->Jy); mo_free(S->JU); mo_free(S->Fmag); mo_free(S->Z);
+  if ((st = sys_grow((void **)&S->cset, &S->cap_c, (size_t)nc, sizeof(int), ctx)) ||
+      (st = sys_grow((void **)&S->cpos, &S->cap_cp, (size_t)nc, sizeof(int), ctx)) ||
+      (st = sys_grow((void **)&S->mset, &S->cap_m, (size_t)A->nm, sizeof(int), ctx)) ||
+      (st = sys_grow((void **)&S->mpos, &S->cap_mp, (size_t)A->nm, sizeof(int), ctx)))
+    return st;
+  mo_free(S->Z);
   S->Z = NULL;
-  S->cset = mo_malloc(ctx, ((size_t)nc + 1) * sizeof(int));
-  S->cpos = mo_malloc(ctx, ((size_t)nc + 1) * sizeof(int));
-  S->mset = mo_malloc(ctx, ((size_t)A->nm + 1) * sizeof(int));
-  S->mpos = mo_malloc(ctx, ((size_t)A->nm + 1) * sizeof(int));
-  S->F = S->Jy = S->JU = S->Fmag = NULL;
-  if (!S->cset || !S->cpos || !S->mset || !S->mpos) return MO_ENOMEM;
   S->nC = S->nM = 0;
   for (q = 0; q < A->nm; q++) S->mpos[q] = -1;
   for (j = 0; j < nc; j++) {
@@ -278,12 +289,23 @@ int ls_system_setup(ls_system *S, const ls_space *A, int nc, mo_ctx *ctx)
   S->ny = S->nC * S->nr + S->nM * (1 + S->dt);
   ny = (size_t)S->ny;
   nu = (size_t)S->nC * (size_t)S->nr;
-  S->F = mo_malloc(ctx, (ny + 1) * sizeof(double));
-  S->Fmag = mo_malloc(ctx, (ny + 1) * sizeof(double));
-  S->Jy = mo_malloc(ctx, (ny * ny + 1) * sizeof(double));
-  S->JU = mo_malloc(ctx, (ny * nu + 1) * sizeof(double));
-  if (!S->F || !S->Fmag || !S->Jy || !S->JU) return MO_ENOMEM;
+  S->jac = 0;
+  if ((st = sys_grow((void **)&S->F, &S->cap_f, ny, sizeof(double), ctx)) ||
+      (st = sys_grow((void **)&S->Fmag, &S->cap_fm, ny, sizeof(double), ctx)))
+    return st;
+  (void)nu;
   if (S->projected && S->k_n != 0 && S->nC > 0 && (st = build_projection(S, A, ctx))) return st;
+  return MO_OK;
+}
+
+int ls_system_jacobians(ls_system *S, mo_ctx *ctx)
+{
+  size_t ny = (size_t)S->ny, nu = (size_t)S->nC * (size_t)S->nr;
+  int st;
+  if ((st = sys_grow((void **)&S->Jy, &S->cap_jy, ny * ny, sizeof(double), ctx)) ||
+      (st = sys_grow((void **)&S->JU, &S->cap_ju, ny * nu, sizeof(double), ctx)))
+    return st;
+  S->jac = 1;
   return MO_OK;
 }
 
@@ -306,14 +328,18 @@ void ls_system_eval(ls_system *S, const ls_space *A, const double *y, const doub
   const int nr = S->nr, dt = S->dt, nC = S->nC, nM = S->nM, ny = S->ny, nu = nC * nr;
   const int offp = nC * nr, offl = offp + nM;
   const double c = S->c;
-  double *F = S->F, *Jy = S->Jy, *JU = S->JU, *Fm = S->Fmag;
+  double *F = S->F, *Jy = S->jac ? S->Jy : NULL, *JU = S->jac ? S->JU : NULL, *Fm = S->Fmag, sink = 0;
   int jc, mi, q, q2, t, s, k;
   memset(F, 0, (size_t)ny * sizeof(double));
   memset(Fm, 0, (size_t)ny * sizeof(double));
-  memset(Jy, 0, (size_t)ny * (size_t)ny * sizeof(double));
-  memset(JU, 0, (size_t)ny * (size_t)nu * sizeof(double));
-#define JY(e, col) Jy[(size_t)(e) * (size_t)ny + (size_t)(col)]
-#define JUU(e, col) JU[(size_t)(e) * (size_t)nu + (size_t)(col)]
+  if (Jy) {
+    memset(Jy, 0, (size_t)ny * (size_t)ny * sizeof(double));
+    memset(JU, 0, (size_t)ny * (size_t)nu * sizeof(double));
+  }
+  /* without Jacobians (S->jac = 0: the reduced path needs the residual only) their entries go
+     to a sink */
+#define JY(e, col) (*(Jy ? &Jy[(size_t)(e) * (size_t)ny + (size_t)(col)] : &sink))
+#define JUU(e, col) (*(JU ? &JU[(size_t)(e) * (size_t)nu + (size_t)(col)] : &sink))
   /* impulses of the contact set: (T17) */
   for (jc = 0; jc < nC; jc++) {
     int j = S->cset[jc], e = jc * nr;
@@ -353,7 +379,7 @@ void ls_system_eval(ls_system *S, const ls_space *A, const double *y, const doub
     if (!dt) continue;
     {
       double mu = S->mu[j], pg = S->pg[j], lam[2], ev[2], D[4], tau;
-      int phi = mu > 0 && pg > 0;
+      int phi = ls_phi(S, j);
       ls_lam_at(S, A, y, j, lam);
       tau = c * wj * mu * pg;
       if (phi && !S->sf[j]) slide_dir(dt, lam, U + e + 1, S->h2_t, ev, D);
@@ -368,7 +394,7 @@ void ls_system_eval(ls_system *S, const ls_space *A, const double *y, const doub
         if (S->sf[j]) {
           /* stick: r_t = -c w mu p^g (Lam_h + k_t U'_t)  (BDZ07 (42) with (49)) */
           F[e2] = y[e2] + tau * (lam[t] + S->k_t * U[e + 1 + t]);
-          Fm[e2] = fabs(y[e2]) + tau * (fabs(lam[t]) + S->k_t * Umag[e + 1 + t]);
+          Fm[e2] = fabs(y[e2]) + fabs(tau) * (fabs(lam[t]) + S->k_t * Umag[e + 1 + t]);
           for (q = A->rp[j]; q < A->rp[j + 1]; q++) {
             int a = S->mpos[A->ri[q]];
             if (a >= 0) JY(e2, offl + a * dt + t) += tau * A->rx[q];
@@ -377,7 +403,7 @@ void ls_system_eval(ls_system *S, const ls_space *A, const double *y, const doub
         } else {
           /* slide: r_t = -c w mu p^g G / |G|  (BDZ07 (42)) */
           F[e2] = y[e2] + tau * ev[t];
-          Fm[e2] = fabs(y[e2]) + tau;
+          Fm[e2] = fabs(y[e2]) + fabs(tau);
           for (s = 0; s < dt; s++) {
             for (q = A->rp[j]; q < A->rp[j + 1]; q++) {
               int a = S->mpos[A->ri[q]];
@@ -419,7 +445,7 @@ void ls_system_eval(ls_system *S, const ls_space *A, const double *y, const doub
     for (q = A->cp[m]; q < A->cp[m + 1]; q++) {
       int j = A->ci[q], kc = S->cpos[j];
       double wa = S->w[j] * A->cx[q], mu = S->mu[j], pg = S->pg[j], lam[2], ev[2], D[4];
-      int phi = kc >= 0 && mu > 0 && pg > 0;
+      int phi = kc >= 0 && ls_phi(S, j);
       ls_lam_at(S, A, y, j, lam);
       if (phi && !S->sf[j]) slide_dir(dt, lam, U + kc * nr + 1, S->h2_t, ev, D);
       for (t = 0; t < dt; t++) {
@@ -455,6 +481,7 @@ void ls_system_eval(ls_system *S, const ls_space *A, const double *y, const doub
   }
 #undef JY
 #undef JUU
+  (void)sink;
 }
 
 int ls_system_converged(const ls_system *S, double tol)
