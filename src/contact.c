@@ -294,6 +294,13 @@ struct mo_contact_driver {
   double pc_energy_added;    /* what the kinetic energy could not pay */
   double *pcwork;            /* 2 ndof */
   double *pc_momentum;       /* 3 per body: the linear momentum the energy compensation took */
+  /* the granular path (doc/theory.md §12.9): per body its first free dof (-1 none) and its centre */
+  mo_grains grains;
+  int *gvel;
+  double *gcentre;
+  /* the state the detected candidates' Uprev were last computed at (mo_contact_driver_uprev) */
+  long up_step;
+  const double *up_v;
 };
 
 const mo_contact_report *mo_contact_last_report(const mo_contact_driver *D) { return &D->rep; }
@@ -325,13 +332,10 @@ static int grow(mo_contact_driver *D, int nc, mo_ctx *ctx)
    the step where the contact is now). */
 static void fresh_uprev(mo_contact_driver *D, const mo_state *s, int a0, int a1)
 {
-  const mo_csc *H = mo_contact_H_full(D->C);
-  const double *U0 = mo_contact_U0(D->C);
-  int j, p, d = D->d;
-  for (j = a0 * d; j < a1 * d; j++) {
-    double acc = U0[j];
-    for (p = H->p[j]; p < H->p[j + 1]; p++) acc += H->x[p] * s->v[H->i[p]];
-    D->Uprev[j] = acc;
+  if (a1 > a0) mo_contact_Htx(D->C, s, s->v, a0, a1, mo_contact_U0(D->C), D->Uprev);
+  if (a1 == D->nc || a1 == mo_contact_ncandidates(D->C)) { /* the detected ones are of s now */
+    D->up_step = s->step;
+    D->up_v = s->v;
   }
 }
 
@@ -363,7 +367,8 @@ static int fit(mo_contact_driver *D, const mo_state *s, const int *okey, int nol
   if ((st = mo_keymap_build(&D->kmap, okey, nold, ctx))) return st;
   fresh_uprev(D, s, ns, nc);
   for (a = 0; a < nc; a++) {
-    const mo_candidate *c = mo_contact_candidate(C, a);
+    mo_candidate cb;
+    const mo_candidate *c = mo_contact_cand_get(C, a, &cb);
     int o = mo_keymap_find(&D->kmap, mo_contact_key(C, a));
     for (i = 0; i < d; i++) {
       D->r[a * d + i] = o >= 0 ? nr[o * d + i] : 0;
@@ -472,6 +477,13 @@ int mo_contact_snapshot_restore(mo_contact_driver *D, const mo_contact_snapshot 
 
 const double *mo_contact_reactions(const mo_contact_driver *D) { return D->r; }
 const double *mo_contact_local_velocity(const mo_contact_driver *D) { return D->U; }
+const double *mo_contact_driver_uprev(const mo_contact_driver *D, const mo_state *s)
+{
+  return D->cset == mo_contact_set_version(D->C) && D->nc == mo_contact_ncandidates(D->C) && D->up_step == s->step &&
+                 D->up_v == s->v
+             ? D->Uprev
+             : NULL;
+}
 const double *mo_contact_pair_forces(const mo_contact_driver *D) { return D->pforce; }
 double mo_contact_normal_force(const mo_contact_driver *D) { return D->fn_step; }
 const int *mo_contact_statuses(const mo_contact_driver *D) { return D->status; }
@@ -486,6 +498,7 @@ static int bodies_only(const mo_contact_driver *D, const mo_what_inverse *Wi)
   const mo_csc *H = D->C->H;
   int p;
   if (!(D->T->needs & MO_NEEDS_BODIES) || D->wkeep || D->C->delassus_always) return 0;
+  if (mo_contact_is_compact(D->C)) return 1; /* rigid shapes and obstacles only, by construction */
   for (p = 0; p < H->p[H->ncol]; p++)
     if (H->i[p] < Wi->nfe) return 0;
   return 1;
@@ -554,6 +567,7 @@ void mo_contact_driver_free(mo_contact_driver *D)
   mo_free(D->sv_idx); mo_free(D->sv_mu); mo_free(D->sv_q); mo_free(D->sv_r); mo_free(D->sv_U);
   mo_free(D->w); mo_free(D->ukin); mo_free(D->xnl); mo_free(D->gnl); mo_free(D->tmp); mo_free(D->itmp);
   mo_free(D->pcwork); mo_free(D->pc_momentum);
+  mo_free(D->gvel); mo_free(D->gcentre);
   mo_keymap_free(&D->kmap);
   mo_free(D->active);
   mo_free(D->act);
@@ -630,6 +644,24 @@ int mo_contact_driver_create(const mo_scene *sc, mo_contact *C, mo_stepper *S,
     mo_contact_driver_free(D);
     return st;
   }
+  if (mo_contact_is_compact(C)) {
+    /* the granular path: each body's first free dof (-1: a plane, or a body held fixed) */
+    int b;
+    D->gvel = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *D->gvel);
+    D->gcentre = mo_calloc(ctx, (size_t)sc->dim * sc->nbody + 1, sizeof *D->gcentre);
+    if (!D->gvel || !D->gcentre) {
+      mo_contact_driver_free(D);
+      return MO_ENOMEM;
+    }
+    for (b = 0; b < sc->nbody; b++) {
+      const mo_body *B = &sc->body[b];
+      D->gvel[b] = (B->type->flags & MO_BODY_F_RIGID) && B->ndof ? sc->free_of[B->dof0] : -1;
+    }
+    D->grains.D = sc->dim;
+    D->grains.key = NULL; /* the set's, at each solve */
+    D->grains.vel = D->gvel;
+    D->grains.centre = D->gcentre;
+  }
   if ((D->T->needs & MO_NEEDS_DELASSUS) && (st = mo_delassus_create(&D->W, ctx))) {
     mo_contact_driver_free(D);
     return st;
@@ -660,8 +692,10 @@ int mo_contact_driver_create(const mo_scene *sc, mo_contact *C, mo_stepper *S,
 /* "candidate 12 (pair 'p', node 13)" or, for a detected contact, its bodies. */
 static int describe(const mo_contact_driver *D, int a, char *buf, size_t n)
 {
-  const mo_candidate *c = mo_contact_candidate(D->C, a);
-  const mo_cpoint *p = mo_contact_point(D->C, c->point);
+  mo_candidate cb;
+  mo_cpoint pb;
+  const mo_candidate *c = mo_contact_cand_get(D->C, a, &cb);
+  const mo_cpoint *p = mo_contact_cand_point(D->C, a, &pb);
   const mo_contact_pair *P = mo_contact_pair_get(D->C, c->pair);
   if (P->dynamic)
     return snprintf(buf, n, "%d (pair '%s', '%s' on '%s')", a, P->name, D->sc->body[p->sb].name, D->sc->body[p->mb].name);
@@ -720,7 +754,7 @@ static double local_problem(mo_contact_driver *D, const mo_state *s, const doubl
   mo_scheme scheme = sc->time.scheme;
   memcpy(D->gk, g, (size_t)nc * sizeof(double));
   if (scheme == MO_SCHEME_THETA) {
-    mo_csc_gatxpy(C->Hfull, 1, D->xfull, 0, D->b);
+    mo_contact_Htx(C, s, D->xfull, 0, nc, NULL, D->b);
     for (i = 0; i < m; i++) D->b[i] += U0[i];
     c = 1;
     dtpos = h * theta;
@@ -734,7 +768,7 @@ static double local_problem(mo_contact_driver *D, const mo_state *s, const doubl
       for (i = 0; i < n; i++) du[i] = D->xfull[i] - s->u[i];
       c = 1;
     }
-    mo_csc_gatxpy(C->Hfull, 1, du, 0, D->b);
+    mo_contact_Htx(C, s, du, 0, nc, NULL, D->b);
     for (i = 0; i < m; i++) D->b[i] += U0[i] * h;
     dtpos = 1;
   }
@@ -872,7 +906,7 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
   mo_contact_problem *P = &D->P;
   mo_contact_report *rep = &D->rep;
   const mo_what_inverse *Wi = mo_stepper_inverse(S);
-  int d = D->d, m = D->m, nc = D->nc, n = sc->ndof, st, a, i, any = 0, rebuilt = 0, rounds = 0;
+  int d = D->d, m = D->m, nc = D->nc, n = sc->ndof, st, a, i, any = 0, rebuilt = 0, rounds = 0, grains;
   double h = mo_stepper_dt(S), t0, c;
   mo_scheme scheme = sc->time.scheme;
 
@@ -882,6 +916,19 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
   if (D->W && !D->wused)
     mo_note_skip(ctx, "the Delassus operator (every contact joins rigid bodies: back end %s sweeps on their velocities)",
                  D->T->name);
+  /* the compact records go to a back end that reads them; any other use builds H from them */
+  grains = mo_contact_is_compact(C) && (D->T->needs & MO_NEEDS_GRAINS) && !D->wused;
+  if (grains) {
+    const int D3 = sc->dim;
+    int b;
+    int q;
+    for (b = 0; b < sc->nbody; b++)
+      if (D->gvel[b] >= 0) /* as mo_rigid_center, D values */
+        for (q = 0; q < D3; q++) D->gcentre[(size_t)D3 * b + q] = sc->body[b].xc0[q] + s->u[sc->body[b].dof0 + q];
+    D->grains.key = C->key;
+    D->grains.x = C->x;
+  } else if ((st = mo_contact_H_ensure(C, s, ctx)))
+    return st;
   if (D->wused) {
     if ((st = mo_delassus_update(D->W, C->H, mo_contact_h_version(C), Wi, c, d, &rebuilt, ctx))) return st;
     if (rebuilt) D->wbuilds++;
@@ -908,7 +955,8 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
   P->gamma = sc->time.gamma;
   P->signorini = C->signorini;
   P->nfree = sc->nfree;
-  P->H = C->H;
+  P->H = grains ? NULL : C->H;
+  P->grains = grains ? &D->grains : NULL;
   P->What = NULL;
   if ((D->T->needs & MO_NEEDS_GLOBAL) && (st = mo_stepper_matrix_full(S, &P->What, ctx))) return st;
   P->Wi = Wi;
@@ -1060,6 +1108,7 @@ resolve:
       if ((st = mo_delassus_apply_Cinv(D->W, C->H, Wi, D->r, D->dx, ctx))) return st;
     } else {
       double *rhs = D->dxfull;
+      if ((st = mo_contact_H_ensure(C, s, ctx))) return st;
       memset(rhs, 0, (size_t)n * sizeof(double));
       mo_csc_gaxpy(C->Hfull, 1, D->r, 0, rhs);
       if ((st = mo_stepper_correct(S, rhs, D->dxfull, ctx))) return st;
@@ -1228,7 +1277,8 @@ static int contact_finish(mo_contact_driver *D, mo_state *s, const double *x, mo
     memset(D->pforce, 0, 3 * (size_t)D->C->npair * sizeof *D->pforce);
     D->fn_step = 0;
     for (a = 0; a < D->nc; a++) {
-      double *f = D->pforce + 3 * (size_t)mo_contact_candidate(D->C, a)->pair;
+      mo_candidate cb;
+      double *f = D->pforce + 3 * (size_t)mo_contact_cand_get(D->C, a, &cb)->pair;
       D->fn_step += D->r[a * d] * fs;
       for (i = 0; i < d; i++)
         for (j = 0; j < dim && d == dim; j++) f[j] += D->r[a * d + i] * fs * F[(size_t)a * d * d + (size_t)i * d + j];

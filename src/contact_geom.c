@@ -98,6 +98,7 @@ void mo_contact_free(mo_contact *C)
   mo_free(C->key);
   mo_free(C->law);
   mo_free(C->e);
+  mo_free(C->x);
   mo_contact_detect_free(C);
   hbuf_free(&C->hb);
   if (C->H != C->Hfull) mo_csc_free(C->H);
@@ -515,18 +516,27 @@ static int build_H(mo_contact *C, mo_ctx *ctx)
   if (C->h_alias) C->H = C->Hfull; /* every dof free, numbered in order: H over the free dofs is H */
   else if ((st = csc_reuse(&C->H, sc->nfree, m, &C->hpcap, ctx))) return st;
   for (a = 0; a < C->nc; a++) {
-    const mo_candidate *c = &C->cand[a];
     const double *F = &C->frame[a * d * d];
-    for (k = 0; k < c->np; k++) {
-      const mo_cpoint *p = &C->pt[C->cpt[c->first + k]];
-      double cf = C->ccoef[c->first + k];
-      if ((st = side_H(C, &C->hb, p->sb, p->nn, p->node, p->N, p->xs, F, cf, ctx))) goto fail;
-      if (p->mb >= 0 && !p->off && (st = side_H(C, &C->hb, p->mb, p->mn, p->mnode, p->mN, p->xm, F, -cf, ctx)))
+    if (C->compact && a >= C->nc_static) { /* a compact record: one point, coefficient 1 */
+      mo_cpoint pb;
+      const mo_cpoint *p = mo_contact_cand_point(C, a, &pb);
+      if ((st = side_H(C, &C->hb, p->sb, 0, NULL, NULL, p->xs, F, 1, ctx)) ||
+          (p->mb >= 0 && (st = side_H(C, &C->hb, p->mb, 0, NULL, NULL, p->xm, F, -1, ctx))))
         goto fail;
+    } else {
+      const mo_candidate *c = &C->cand[a];
+      for (k = 0; k < c->np; k++) {
+        const mo_cpoint *p = &C->pt[C->cpt[c->first + k]];
+        double cf = C->ccoef[c->first + k];
+        if ((st = side_H(C, &C->hb, p->sb, p->nn, p->node, p->N, p->xs, F, cf, ctx))) goto fail;
+        if (p->mb >= 0 && !p->off && (st = side_H(C, &C->hb, p->mb, p->mn, p->mnode, p->mN, p->xm, F, -cf, ctx)))
+          goto fail;
+      }
     }
     if ((st = flush_columns(sc, &C->hb, d, a * d, C->Hfull, &C->hcapf, C->H, &C->hcap, ctx))) goto fail;
   }
   C->hversion++;
+  C->hbuilt = C->cset_version;
   return MO_OK;
 fail:
   /* no half-built H left behind */
@@ -608,12 +618,131 @@ int mo_contact_geometry(mo_contact *C, const mo_state *u, double t, int repair, 
   candidates_update(C, u, t);
   /* the detected candidates of the dynamic pairs (rigid shapes), replaced at every geometry */
   if (C->ndyn) st = mo_contact_detect(C, u, t, ctx);
-  if (!st && (!C->H || changed || C->moving_h || C->cset_version != cset)) st = build_H(C, ctx);
+  /* the granular path builds H only when asked (mo_contact_H_ensure) */
+  if (!st && !C->compact && (!C->H || changed || C->moving_h || C->cset_version != cset)) st = build_H(C, ctx);
+  if (!st && C->compact) {
+    C->hbuilt = -1; /* H, if any, is of an earlier geometry */
+    C->hversion++;
+  }
   C->hstate = NULL;
   mo_phase_add(ctx, MO_PH_GEOMETRY, t0);
   /* the broad phase is its own phase */
   ctx->phase_time[MO_PH_GEOMETRY] -= ctx->phase_time[MO_PH_BROAD] - broad0;
   return st;
+}
+
+int mo_contact_H_ensure(mo_contact *C, const mo_state *s, mo_ctx *ctx)
+{
+  int st;
+  if (!C->compact || (C->H && C->hbuilt == C->cset_version)) return MO_OK;
+  C->hstate = s;
+  st = build_H(C, ctx);
+  C->hstate = NULL;
+  return st;
+}
+
+int mo_contact_is_compact(const mo_contact *C) { return C->compact; }
+
+const mo_cpoint *mo_contact_cand_point(const mo_contact *C, int a, mo_cpoint *buf)
+{
+  const int *key;
+  int D = C->sc->dim, i;
+  if (!C->compact || a < C->nc_static) return &C->pt[C->cand[a].point];
+  /* a compact record: the point detect.c would have written (a shape's contact, no nodes) */
+  key = C->key + (size_t)a * MO_KEY;
+  memset(buf, 0, sizeof *buf);
+  buf->pair = key[0];
+  buf->facet = buf->mfacet = -1;
+  buf->sb = key[1];
+  buf->mb = key[2];
+  buf->sfeat = key[3];
+  buf->mfeat = key[4];
+  for (i = 0; i < D; i++) buf->xs[i] = buf->xm[i] = buf->x0[i] = C->x[(size_t)a * D + i];
+  memcpy(buf->frame, C->frame + (size_t)a * C->dim * C->dim, (size_t)(C->dim * C->dim) * sizeof(double));
+  buf->g = C->g[a];
+  return buf;
+}
+
+const mo_candidate *mo_contact_cand_get(const mo_contact *C, int a, mo_candidate *buf)
+{
+  const int *key;
+  if (!C->compact || a < C->nc_static) return &C->cand[a];
+  key = C->key + (size_t)a * MO_KEY;
+  memset(buf, 0, sizeof *buf);
+  buf->pair = key[0];
+  buf->first = buf->point = -1;
+  buf->np = 1;
+  buf->node = -1;
+  buf->w = 1;
+  buf->mu = C->pair[key[0]].mu;
+  return buf;
+}
+
+/* The d columns of H^T x of compact record a (every dof), added to acc: the entries side_H writes
+   for the rigid shapes at the contact point (T68), summed in increasing dof order as mo_csc_gatxpy
+   sums a column of Hfull. A side's sign (slave +, master -) is applied to the products, which IEEE
+   arithmetic makes the same as applying it to the entries; an entry H does not store (zero) adds a
+   zero product (the sums differ at most by the sign of a zero). */
+static inline __attribute__((always_inline)) void compact_columns(const mo_contact *C, int a, const mo_state *s,
+                                                                  const double *x, double *acc, const int D)
+{
+  const mo_scene *sc = C->sc;
+  const int *key = C->key + (size_t)a * MO_KEY;
+  const double *F = C->frame + (size_t)a * D * D, *xp = C->x + (size_t)a * D;
+  const mo_body *side[2];
+  double cf[2];
+  int ns = 0, k, i, q;
+  if (sc->body[key[1]].type->flags & MO_BODY_F_RIGID) { side[ns] = &sc->body[key[1]]; cf[ns++] = 1; }
+  if (key[2] >= 0 && (sc->body[key[2]].type->flags & MO_BODY_F_RIGID)) { side[ns] = &sc->body[key[2]]; cf[ns++] = -1; }
+  if (ns == 2 && side[1]->dof0 < side[0]->dof0) {
+    const mo_body *b = side[0];
+    side[0] = side[1];
+    side[1] = b;
+    cf[0] = -1;
+    cf[1] = 1;
+  }
+  for (k = 0; k < ns; k++) {
+    const double *u = s->u + side[k]->dof0, *xb = x + side[k]->dof0, *c0 = side[k]->xc0;
+    double r[3];
+    for (q = 0; q < D; q++) r[q] = xp[q] - (c0[q] + u[q]);
+    for (i = 0; i < D; i++) {
+      const double *Fi = F + i * D;
+      double t = 0;
+      if (D == 2) {
+        double p0 = Fi[0] * xb[0], p1 = Fi[1] * xb[1], p2 = (r[0] * Fi[1] - r[1] * Fi[0]) * xb[2];
+        if (cf[k] > 0) t = ((acc[i] + p0) + p1) + p2;
+        else t = ((acc[i] - p0) - p1) - p2;
+      } else {
+        double w0 = r[1] * Fi[2] - r[2] * Fi[1], w1 = r[2] * Fi[0] - r[0] * Fi[2], w2 = r[0] * Fi[1] - r[1] * Fi[0];
+        double p[6] = {Fi[0] * xb[0], Fi[1] * xb[1], Fi[2] * xb[2], w0 * xb[3], w1 * xb[4], w2 * xb[5]};
+        int j;
+        t = acc[i];
+        if (cf[k] > 0) for (j = 0; j < 6; j++) t += p[j];
+        else for (j = 0; j < 6; j++) t -= p[j];
+      }
+      acc[i] = t;
+    }
+  }
+}
+
+void mo_contact_Htx(const mo_contact *C, const mo_state *s, const double *x, int a0, int a1, const double *start,
+                    double *y)
+{
+  const int d = C->dim;
+  int a, i, j, p;
+  for (a = a0; a < a1; a++) {
+    double acc[3] = {0, 0, 0};
+    for (i = 0; i < d; i++) acc[i] = start ? start[a * d + i] : 0;
+    if (C->compact && a >= C->nc_static) {
+      if (d == 2) compact_columns(C, a, s, x, acc, 2);
+      else compact_columns(C, a, s, x, acc, 3);
+    } else {
+      const mo_csc *H = C->Hfull;
+      for (i = 0; i < d; i++)
+        for (j = a * d + i, p = H->p[j]; p < H->p[j + 1]; p++) acc[i] += H->x[p] * x[H->i[p]];
+    }
+    for (i = 0; i < d; i++) y[a * d + i] = start ? acc[i] : 1 * acc[i] + 0;
+  }
 }
 
 /* --- dual cells and P* -------------------------------------------------------------------------- */
@@ -673,6 +802,7 @@ int mo_contact_reserve(mo_contact *C, int nc, mo_ctx *ctx)
   GROW(C->key, (size_t)cap * MO_KEY);
   GROW(C->law, cap);
   GROW(C->e, cap);
+  GROW(C->x, (size_t)cap * (size_t)C->sc->dim);
 #undef GROW
   C->nalloc = cap;
   return MO_OK;
@@ -1031,6 +1161,33 @@ done:
   return st;
 }
 
+/* 1 when every candidate will be a detected contact between rigid shapes (disks, spheres,
+   polygons), or a shape and a plane, each shape's dofs all free or all prescribed: what the
+   compact records describe (doc/theory.md §12.9). */
+static int compact_eligible(const mo_contact *C)
+{
+  const mo_scene *sc = C->sc;
+  int k, i, side;
+  if (C->nc_static || !C->ndyn) return 0;
+  for (k = 0; k < C->npair; k++) {
+    const mo_contact_pair *P = &C->pair[k];
+    if (!P->dynamic) return 0;
+    for (side = 0; side < 2; side++)
+      for (i = 0; i < (side ? P->nm : P->ns); i++) {
+        const mo_body *B = &sc->body[side ? P->mb[i] : P->sb[i]];
+        int j, nfree = 0;
+        if (B->type->flags & MO_BODY_F_OBSTACLE) {
+          if (!side) return 0;
+          continue;
+        }
+        if (!(B->type->flags & (MO_BODY_F_BALL | MO_BODY_F_POLYGON)) || !(B->type->flags & MO_BODY_F_RIGID)) return 0;
+        for (j = 0; j < B->ndof; j++) nfree += sc->free_of[B->dof0 + j] >= 0;
+        if (nfree && nfree != B->ndof) return 0;
+      }
+  }
+  return 1;
+}
+
 int mo_contact_build(const mo_scene *sc, mo_contact **out, mo_ctx *ctx)
 {
   const mo_case *cs = sc->cs;
@@ -1228,8 +1385,20 @@ int mo_contact_build(const mo_scene *sc, mo_contact **out, mo_ctx *ctx)
   if (C->ndyn) {
     C->moving_h = 1; /* detected contacts move with their bodies */
     C->alert = mo_cfg_float(cg, "alert", -1);
+    C->skin = mo_cfg_float(cg, "skin", -1);
     C->h = sc->time.dt;
     if ((st = mo_contact_detect_setup(C, ctx))) goto fail;
+    C->compact_ok = compact_eligible(C);
+    {
+      /* the granular path, when the back end reads compact records (an unknown name is the
+         driver's to report) and W is not wanted at every step */
+      const mo_contact_solver_type *T = mo_contact_solver_find(C->solver);
+      C->compact = C->compact_ok && T && (T->needs & MO_NEEDS_GRAINS) && !C->delassus_always &&
+                   mo_cfg_bool(cg, "compact", 1);
+      if (C->compact)
+        mo_note_skip(ctx, "contact points and H (every candidate joins rigid shapes and obstacles: compact contact "
+                     "records, doc/theory.md §12.9)");
+    }
   } else
     mo_note_skip(ctx, "contact detection (no pair with a rigid shape: the candidates are fixed)");
   {
@@ -1244,7 +1413,8 @@ int mo_contact_build(const mo_scene *sc, mo_contact **out, mo_ctx *ctx)
      push apart violently), refused beyond a millionth of the smallest body */
   for (k = C->nc_static; k < C->nc; k++)
     if (C->g[k] < -1000 * C->gtol) {
-      const mo_cpoint *p = &C->pt[C->cand[k].point];
+      mo_cpoint pb;
+      const mo_cpoint *p = mo_contact_cand_point(C, k, &pb);
       const config_setting_t *bl = config_lookup(&cs->cfg, "bodies");
       st = mo_case_error(cs, config_setting_get_elem(bl, (unsigned)sc->body[p->sb].entry), ctx,
                          "bodies '%s' and '%s' overlap by %.3g m at t = 0 (the tolerance is %.3g m): move them apart",

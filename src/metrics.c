@@ -276,7 +276,24 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
       M->unmeasured++;
       return;
     }
-    mo_csc_gatxpy(mo_contact_H_full(C), 1, s->v, 0, M->Un);
+    {
+      /* the detected candidates' U- of the next step, H^T v + U0 at this geometry, is the driver's
+         (the same sum, to the bit, where U0 = 0): taken from it, the others computed */
+      const double *Up = D ? mo_contact_driver_uprev(D, s) : NULL;
+      int a0 = 0;
+      if (Up) {
+        int i, ns = mo_contact_nstatic(C);
+        mo_contact_Htx(C, s, s->v, 0, ns, NULL, M->Un);
+        for (a = ns; a < M->nc; a++) {
+          int zero = 1;
+          for (i = 0; i < d; i++) zero &= U0[a * d + i] == 0;
+          if (zero) for (i = 0; i < d; i++) M->Un[a * d + i] = Up[a * d + i];
+          else mo_contact_Htx(C, s, s->v, a, a + 1, NULL, M->Un);
+        }
+        a0 = M->nc;
+      }
+      mo_contact_Htx(C, s, s->v, a0, M->nc, NULL, M->Un);
+    }
     M->final_pen = 0;
     /* below this a velocity moves a point by less than the gap tolerance (1e-9 h_min) in a step:
        round-off, never an impact speed (T93) */

@@ -127,6 +127,15 @@ typedef struct {
   int *bmark;                   /* per rigid block: touched by a closed contact (the count of (T84)) */
   size_t bmcap;
   size_t bcap, vcap;
+  /* the granular path (nscd_grains.c): the core gave compact records (P->grains), not H; the sweep
+     on body velocities reads per contact its sides and the moments of its frame (vb above as in
+     the sweep on H) */
+  int grains;
+  void *grec;                   /* per contact its record (nscd_grains.c): sides, c_a, W_aa, the rows of H
+                                   on the sides' rotations, the local solver's data */
+  double *giv;                  /* nfree: the diagonal of What^-1 on the rigid dofs */
+  long givver;                  /* the What^-1 version giv was taken from */
+  size_t gcap, gvcap;
 } nscd_state;
 
 /* The local data of every contact from its diagonal block S->diag[a] and mu: the friction kept
@@ -148,6 +157,16 @@ void nscd_bodies_free(nscd_state *S);
    n - dofs a lower bound of it (the rank is not computed on the sweep on bodies). */
 int nscd_bodies_count(nscd_state *S, const mo_contact_problem *P, const double *r, int *unknowns, int *dofs,
                       mo_ctx *ctx);
+
+/* The same on the compact records of the granular path (nscd_grains.c, doc/theory.md §12.9), with
+   the arithmetic of the sweep on H to the bit. */
+int nscd_grains_prepare(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx);
+void nscd_grains_velocities(nscd_state *S, const mo_contact_problem *P, const double *r);
+void nscd_grains_exact_U(nscd_state *S, const mo_contact_problem *P);
+int nscd_grains_sweep(nscd_state *S, const mo_contact_problem *P, double *r, int *status);
+int nscd_grains_count(nscd_state *S, const mo_contact_problem *P, const double *r, int *unknowns, int *dofs,
+                      mo_ctx *ctx);
+void nscd_grains_free(nscd_state *S);
 
 /* --- the status-set step and the round-off floor (nscd_accel.c, doc/theory.md (T83)-(T85)) ------ */
 
