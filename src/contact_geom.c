@@ -663,6 +663,18 @@ const mo_cpoint *mo_contact_cand_point(const mo_contact *C, int a, mo_cpoint *bu
   return buf;
 }
 
+void mo_contact_cand_bodies(const mo_contact *C, int a, int *sb, int *mb)
+{
+  if (C->compact && a >= C->nc_static) {
+    *sb = C->key[(size_t)a * MO_KEY + 1];
+    *mb = C->key[(size_t)a * MO_KEY + 2];
+  } else {
+    const mo_cpoint *p = &C->pt[C->cand[a].point];
+    *sb = p->sb;
+    *mb = p->mb;
+  }
+}
+
 const mo_candidate *mo_contact_cand_get(const mo_contact *C, int a, mo_candidate *buf)
 {
   const int *key;

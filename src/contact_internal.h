@@ -73,7 +73,8 @@ struct mo_contact {
                                         rigid-rigid pair k */
   int nrr;                    /* rigid-rigid pairs (at most 64) */
   int *rr;                    /* their pair numbers */
-  double *bc, *br;            /* broad phase: centres and radii of the rigid bodies */
+  double *bc, *br;            /* broad phase: centres and radii of the rigid bodies when the list was built */
+  double *bcur;               /* D per body of the dynamic pairs: its centre at this geometry (rigid ones) */
   double *bs, *be;            /* per body: its speed bound, and its alert margin when the pair list was built */
   double *bv, *bw;            /* per body: its translation velocity (3), and what its rotation adds (omega r_bound) */
   double *bs2;                /* per body of the broad phase: its speed relative to their mean velocity, plus bw */
@@ -81,8 +82,8 @@ struct mo_contact {
   unsigned char *bmask;
   /* the broad phase's pair list kept between steps (a Verlet list), its reach (alert plus skin)
      and how many times it was built */
-  int *vl;
-  long vl_n, vl_cap, vl_builds;
+  const int *vl;              /* the broad phase's pair array (owned by C->broad) */
+  long vl_n, vl_builds;
   double vl_reach;
   int vl_built;
 };

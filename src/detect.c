@@ -34,7 +34,7 @@ void mo_contact_detect_free(mo_contact *C)
   mo_free(C->bs2);
   mo_free(C->bmask);
   mo_free(C->dmask);
-  mo_free(C->vl);
+  mo_free(C->bcur);
   C->broad = NULL;
 }
 
@@ -69,6 +69,7 @@ int mo_contact_detect_setup(mo_contact *C, mo_ctx *ctx)
   C->sside = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->sside);
   C->rr = mo_malloc(ctx, ((size_t)C->npair + 1) * sizeof *C->rr);
   C->bc = mo_calloc(ctx, 3 * (size_t)sc->nbody + 1, sizeof *C->bc);
+  C->bcur = mo_calloc(ctx, (size_t)sc->dim * sc->nbody + 1, sizeof *C->bcur);
   C->br = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->br);
   C->bs = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->bs);
   C->be = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->be);
@@ -77,7 +78,7 @@ int mo_contact_detect_setup(mo_contact *C, mo_ctx *ctx)
   C->bs2 = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->bs2);
   C->bmask = mo_calloc(ctx, (size_t)sc->nbody + 1, 1);
   C->dmask = mo_calloc(ctx, (size_t)sc->nbody + 1, 1);
-  if (!C->mside || !C->sside || !C->rr || !C->bc || !C->br || !C->bs || !C->be || !C->bv || !C->bw || !C->bs2 ||
+  if (!C->mside || !C->sside || !C->rr || !C->bc || !C->bcur || !C->br || !C->bs || !C->be || !C->bv || !C->bw || !C->bs2 ||
       !C->bmask || !C->dmask)
     return MO_ENOMEM;
   for (k = 0; k < C->npair; k++) {
@@ -404,7 +405,7 @@ static int shapes_obstacle(mo_contact *C, int k, const mo_state *s, double t, mo
       /* a shape whose bounding ball is farther from the plane than any alert distance of theirs
          (pair_alert <= alert + 2 h (s_b + s_plane)) is passed over before its narrow phase */
       reach = S->bound + (C->alert + 2 * C->h * (C->bs[sb] + C->bs[P->mb[0]])) * (1 + 1e-9);
-      for (j = 0; j < sc->dim; j++) h += (S->xc0[j] + s->u[S->dof0 + j] - p[j]) * M->normal[j];
+      for (j = 0; j < sc->dim; j++) h += (C->bcur[(size_t)sc->dim * sb + j] - p[j]) * M->normal[j];
       if (h > reach) continue;
       alert = pair_alert(C, sb, P->mb[0]);
       shape_world(sc, S, s, c, v);
@@ -434,13 +435,6 @@ static int shapes_obstacle(mo_contact *C, int k, const mo_state *s, double t, mo
   return MO_OK;
 }
 
-/* The centre of rigid body B at state s (mo_rigid_center, D values). */
-static inline void centre_of(const mo_body *B, const mo_state *s, int D, double *c)
-{
-  int k;
-  for (k = 0; k < D; k++) c[k] = B->xc0[k] + s->u[B->dof0 + k];
-}
-
 /* The mean translation velocity of the broad phase's bodies (bv), and each body's speed relative to
    it plus what its rotation adds, s'_b = |v_b - vm| + w_b, into bs2 (doc/theory.md (T110)). */
 static void relative_speeds(mo_contact *C, int D, double *vm)
@@ -465,15 +459,14 @@ static void relative_speeds(mo_contact *C, int D, double *vm)
 /* The broad phase's pair list, kept while it holds every pair closer than its alert distance
    (pair_alert; doc/theory.md (T110)): built with each body's bounding ball grown by what it could
    close relative to the others' mean motion at its speed then (e_b = 2 h s'_b, s'_b its speed
-   relative to the bodies' mean velocity plus what its rotation adds) and a skin of one alert
-   distance, it stays valid while every body's displacement relative to the bodies' mean
+   relative to the bodies' mean velocity plus what its rotation adds) and a skin (contact.skin),
+   it stays valid while every body's displacement relative to the bodies' mean
    displacement since the build, plus what it can close at its relative speed now, stays within
    half the skin plus its e_b. Grains falling together move with the mean: their list stays. */
 static int pair_list(mo_contact *C, const mo_state *s, mo_ctx *ctx)
 {
   const mo_scene *sc = C->sc;
   const int D = sc->dim;
-  const double skin = C->skin;
   const int *pairs;
   long np;
   int b, k, st, valid = C->vl_built, n = 0;
@@ -483,7 +476,7 @@ static int pair_list(mo_contact *C, const mo_state *s, mo_ctx *ctx)
     /* the mean displacement since the build, then each body's displacement relative to it */
     for (b = 0; b < sc->nbody; b++)
       if (C->bmask[b]) {
-        for (k = 0; k < D; k++) dm[k] += sc->body[b].xc0[k] + s->u[sc->body[b].dof0 + k] - C->bc[(size_t)D * b + k];
+        for (k = 0; k < D; k++) dm[k] += C->bcur[(size_t)D * b + k] - C->bc[(size_t)D * b + k];
         n++;
       }
     for (k = 0; k < D && n; k++) dm[k] /= n;
@@ -491,10 +484,10 @@ static int pair_list(mo_contact *C, const mo_state *s, mo_ctx *ctx)
       if (C->bmask[b]) {
         double dd = 0;
         for (k = 0; k < D; k++) {
-          double e = sc->body[b].xc0[k] + s->u[sc->body[b].dof0 + k] - C->bc[(size_t)D * b + k] - dm[k];
+          double e = C->bcur[(size_t)D * b + k] - C->bc[(size_t)D * b + k] - dm[k];
           dd += e * e;
         }
-        valid = sqrt(dd) + 2 * C->h * C->bs2[b] <= 0.5 * skin + C->be[b];
+        valid = sqrt(dd) + 2 * C->h * C->bs2[b] <= 0.5 * C->skin + C->be[b];
       }
   }
   if (valid) {
@@ -503,19 +496,17 @@ static int pair_list(mo_contact *C, const mo_state *s, mo_ctx *ctx)
   }
   for (b = 0; b < sc->nbody; b++)
     if (C->bmask[b]) {
-      centre_of(&sc->body[b], s, D, C->bc + (size_t)D * (size_t)b);
+      memcpy(C->bc + (size_t)D * b, C->bcur + (size_t)D * b, (size_t)D * sizeof *C->bc);
       C->be[b] = 2 * C->h * C->bs2[b];
       C->br[b] = sc->body[b].bound + C->be[b];
     }
-  C->vl_reach = C->alert + skin;
-  if ((st = mo_broad_pairs(C->broad, D, sc->nbody, C->bc, C->br, C->bmask, C->vl_reach, &pairs, &np, ctx))) return st;
-  if (np > C->vl_cap) {
-    int *p = mo_realloc(ctx, C->vl, (size_t)(2 * np) * sizeof *p);
-    if (!p) return MO_ENOMEM;
-    C->vl = p;
-    C->vl_cap = np;
+  C->vl_reach = C->alert + C->skin;
+  if ((st = mo_broad_pairs(C->broad, D, sc->nbody, C->bc, C->br, C->bmask, C->vl_reach, &pairs, &np, ctx))) {
+    C->vl_built = 0;
+    C->vl_n = 0;
+    return st;
   }
-  if (np) memcpy(C->vl, pairs, (size_t)(2 * np) * sizeof *C->vl);
+  C->vl = pairs; /* the broad phase's own list, valid until its next call */
   C->vl_n = np;
   C->vl_built = 1;
   C->vl_builds++;
@@ -529,12 +520,11 @@ static int pair_list(mo_contact *C, const mo_state *s, mo_ctx *ctx)
 static inline int balls_apart(const mo_contact *C, const mo_state *s, int i, int j, int D)
 {
   const mo_body *A = &C->sc->body[i], *B = &C->sc->body[j];
+  const double *ci = C->bcur + (size_t)D * i, *cj = C->bcur + (size_t)D * j;
   double d2 = 0, reach = A->radius + B->radius + C->alert + 2 * C->h * (C->bs[i] + C->bs[j]);
   int k;
-  for (k = 0; k < D; k++) {
-    double e = B->xc0[k] + s->u[B->dof0 + k] - A->xc0[k] - s->u[A->dof0 + k];
-    d2 += e * e;
-  }
+  (void)s;
+  for (k = 0; k < D; k++) d2 += (cj[k] - ci[k]) * (cj[k] - ci[k]);
   return d2 > reach * reach * (1 + 1e-9);
 }
 
@@ -575,6 +565,7 @@ static void body_speeds(mo_contact *C, const mo_state *s)
     v[0] = v[1] = v[2] = 0;
     C->bw[b] = 0;
     if (B->type->flags & MO_BODY_F_RIGID) {
+      for (a = 0; a < D; a++) C->bcur[(size_t)D * b + a] = B->xc0[a] + s->u[B->dof0 + a]; /* mo_rigid_center */
       for (a = 0; a < D; a++) v2 += (v[a] = s->v[B->dof0 + a]) * s->v[B->dof0 + a];
       for (a = D; a < B->ndof; a++) w2 += s->v[B->dof0 + a] * s->v[B->dof0 + a];
       C->bw[b] = sqrt(w2) * B->bound;

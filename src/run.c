@@ -191,12 +191,11 @@ static void rigid_aggregates(const mo_scene *sc, const mo_state *s, const contac
   if (cv->C && cv->D) {
     const int *st = mo_contact_statuses(cv->D);
     for (k = 0; k < mo_contact_ncandidates(cv->C); k++) {
-      mo_cpoint pb;
-      const mo_cpoint *p;
+      int sb, mb;
       if (st[k] == MO_CS_OPEN) continue;
-      p = mo_contact_cand_point(cv->C, k, &pb);
-      z += (sc->body[p->sb].type->flags & MO_BODY_F_RIGID) && !sc->body[p->sb].fixed;
-      z += p->mb >= 0 && (sc->body[p->mb].type->flags & MO_BODY_F_RIGID) && !sc->body[p->mb].fixed;
+      mo_contact_cand_bodies(cv->C, k, &sb, &mb);
+      z += (sc->body[sb].type->flags & MO_BODY_F_RIGID) && !sc->body[sb].fixed;
+      z += mb >= 0 && (sc->body[mb].type->flags & MO_BODY_F_RIGID) && !sc->body[mb].fixed;
     }
   }
   out[0] = mo_rigid_kinetic(sc, s);

@@ -453,7 +453,13 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
   if (!p->warm_start) memset(r, 0, (size_t)m * sizeof *r);
   for (i = 0; i < m; i++)
     if (!isfinite(r[i])) { memset(r, 0, (size_t)m * sizeof *r); break; }
-  exact_U(S, P, r);
+  if (S->bodies && p->stop != NSCD_STOP_SCALED && p->stop != NSCD_STOP_NATURAL) {
+    /* the sweeps on body velocities read U from the velocities; the rules that do not stop on U
+       need it exact only at the end */
+    if (S->grains) nscd_grains_velocities(S, P, r);
+    else nscd_bodies_velocities(S, P, r);
+  } else
+    exact_U(S, P, r);
   memset(&S->lst, 0, sizeof S->lst);
   memset(&S->ai, 0, sizeof S->ai);
   S->accel_tries = 0;

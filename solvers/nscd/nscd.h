@@ -55,6 +55,25 @@ int nscd_local_solve(int d, const double *W, const double *aux, const double *q,
 /* The three local solvers (called by nscd_local_solve; exposed for the tests). */
 int nscd_local_1d(const double *W, const double *q, double *r);
 int nscd_local_2d(const double *W, const double *aux, const double *q, double mu, double *r);
+/* nscd_local_2d with its two common cases inline (open; stick inside the cone), the others
+   through it: the same result, without a call for most updates of a sweep. */
+static inline int nscd_local_2d_fast(const double *W, const double *aux, const double *q, double mu, double *r)
+{
+  double qn = q[0], qt = q[1];
+  if (qn >= 0) {
+    r[0] = r[1] = 0;
+    return MO_CS_OPEN;
+  }
+  if (W[0] > 0 && aux[6] != 0) {
+    double rn = -(aux[0] * qn + aux[1] * qt), rt = -(aux[2] * qn + aux[3] * qt);
+    if (rn > 0 && (rt < 0 ? -rt : rt) <= mu * rn) {
+      r[0] = rn;
+      r[1] = rt;
+      return MO_CS_STICK;
+    }
+  }
+  return nscd_local_2d(W, aux, q, mu, r);
+}
 int nscd_local_3d(const double *W, const double *aux, const double *q, double mu, double *r,
                   const nscd_params *p, nscd_local_stats *st);
 /* The 3D Alart-Curnier Newton, the search on the slip angle and the projection alone (tests).

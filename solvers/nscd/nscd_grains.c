@@ -132,7 +132,7 @@ KERNEL void prepare_d(nscd_state *S, const mo_contact_problem *P, const int d)
     double *Waa = R_W(rec, d), *ca = R_C(rec), wtt = 0;
     const double *F = P->frame + (size_t)a * d * d, *x = Gr->x + (size_t)a * d;
     const int *key = Gr->key + (size_t)a * MO_KEY;
-    int *gs = R_SIDE(rec);
+    int *gs = R_SIDE(rec), act = !P->active || P->active[a];
     sides(Gr, a, gs);
     for (i = 0; i < d * d; i++) Waa[i] = 0;
     for (i = 0; i < d; i++) ca[i] = P->b[a * d + i];
@@ -140,18 +140,24 @@ KERNEL void prepare_d(nscd_state *S, const mo_contact_problem *P, const int d)
       const int o = (gs[s] > 0 ? gs[s] : -gs[s]) - 1, b = gs[s] > 0 ? key[1] : key[2];
       double G[3 * 6], MG[6 * 3];
       side_rows(d, F, x, Gr->centre + (size_t)b * d, gs[s] > 0 ? 1 : -1, G, R_ROT(rec, d) + s * d * NR(d));
-      for (k = 0; k < NK(d); k++) /* inv_k G^T: the diagonal times G^T */
-        for (j = 0; j < d; j++) MG[k * d + j] = iv[o + k] * G[j * NK(d) + k];
+      if (act) /* W_aa for the contacts of the step's problem only */
+        for (k = 0; k < NK(d); k++) /* inv_k G^T: the diagonal times G^T */
+          for (j = 0; j < d; j++) MG[k * d + j] = iv[o + k] * G[j * NK(d) + k];
       for (i = 0; i < d; i++) {
-        for (j = 0; j < d; j++) {
-          double acc = Waa[i * d + j];
-          for (k = 0; k < NK(d); k++) acc += G[i * NK(d) + k] * MG[k * d + j];
-          Waa[i * d + j] = acc;
-        }
+        if (act)
+          for (j = 0; j < d; j++) {
+            double acc = Waa[i * d + j];
+            for (k = 0; k < NK(d); k++) acc += G[i * NK(d) + k] * MG[k * d + j];
+            Waa[i * d + j] = acc;
+          }
         for (k = 0; k < NK(d); k++) ca[i] -= G[i * NK(d) + k] * P->xfree[o + k];
       }
     }
     S->diag[a] = Waa;
+    if (!act) { /* out of the step's problem: its U only (r = 0), no local data */
+      S->mu[a] = S->scale[a] = 0;
+      continue;
+    }
     /* nscd_prepare_local: friction where a free dof moves the contact tangentially, the local
        solvers' data, the scaling (T42) */
     for (i = 1; i < d; i++) wtt += Waa[i * d + i];
@@ -244,10 +250,13 @@ void nscd_grains_velocities(nscd_state *S, const mo_contact_problem *P, const do
 {
   int a;
   memcpy(S->vb, P->xfree, (size_t)P->nfree * sizeof *S->vb);
-  if (S->d == 2)
-    for (a = 0; a < S->nc; a++) push(S, P, REC(S, a, 2), a, r + (size_t)a * 2, 2);
-  else
-    for (a = 0; a < S->nc; a++) push(S, P, REC(S, a, 3), a, r + (size_t)a * 3, 3);
+  /* a contact without reaction moves nothing (its push would add zeros) */
+  if (S->d == 2) {
+    for (a = 0; a < S->nc; a++)
+      if (r[2 * a] != 0 || r[2 * a + 1] != 0) push(S, P, REC(S, a, 2), a, r + (size_t)a * 2, 2);
+  } else
+    for (a = 0; a < S->nc; a++)
+      if (r[3 * a] != 0 || r[3 * a + 1] != 0 || r[3 * a + 2] != 0) push(S, P, REC(S, a, 3), a, r + (size_t)a * 3, 3);
 }
 
 void nscd_grains_exact_U(nscd_state *S, const mo_contact_problem *P)
@@ -276,7 +285,7 @@ KERNEL int sweep_d(nscd_state *S, const mo_contact_problem *P, double *r, int *s
       ql[i] = acc;
       rl[i] = ra[i];
     }
-    st = d == 2 ? nscd_local_2d(Waa, R_AUX(rec, d), ql, mu[a], rl)
+    st = d == 2 ? nscd_local_2d_fast(Waa, R_AUX(rec, d), ql, mu[a], rl)
                 : nscd_local_3d(Waa, R_AUX(rec, d), ql, mu[a], rl, &S->lp, &S->lst);
     if (st < 0) return a;
     status[a] = st;

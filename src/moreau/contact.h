@@ -127,6 +127,8 @@ const mo_cpoint *mo_contact_point(const mo_contact *C, int k);
    points the set stores (not the compact records). */
 const mo_candidate *mo_contact_cand_get(const mo_contact *C, int a, mo_candidate *buf);
 const mo_cpoint *mo_contact_cand_point(const mo_contact *C, int a, mo_cpoint *buf);
+/* The slave and master bodies of candidate a's representative point (master -1: none). */
+void mo_contact_cand_bodies(const mo_contact *C, int a, int *sb, int *mb);
 /* 1 when the detected candidates are compact records (no points, H on demand). */
 int mo_contact_is_compact(const mo_contact *C);
 /* H of the last geometry at its state s, built now when the granular path left it out: for
