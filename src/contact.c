@@ -260,7 +260,8 @@ struct mo_contact_driver {
   int nc, m, d, cap;         /* candidates, m = d nc, capacity (candidates) of the arrays */
   double *b, *q, *U, *Uprev, *r, *rprev, *mu, *gk, *w;
   double *ukin;              /* W r of the last solve (with W), then U without the Signorini
-                                offsets: W r + b (contact_finish) */
+                                offsets: W r + b (contact_finish); allocated by the first solve on W */
+  int ukcap;
   unsigned char *active;
   int *act, nact;            /* the active candidates of the last solve, in increasing order */
   int *status;
@@ -319,12 +320,31 @@ static int grow(mo_contact_driver *D, int nc, mo_ctx *ctx)
   while (cap < nc) cap = cap ? 2 * cap : 16;
 #define GROW(ptr, n) if (!(p = mo_realloc(ctx, ptr, (size_t)(n) * sizeof *(ptr)))) return MO_ENOMEM; ptr = p
   GROW(D->b, (size_t)cap * d); GROW(D->q, (size_t)cap * d); GROW(D->U, (size_t)cap * d);
-  GROW(D->Uprev, (size_t)cap * d); GROW(D->r, (size_t)cap * d); GROW(D->rprev, (size_t)cap * d);
-  GROW(D->ukin, (size_t)cap * d); GROW(D->tmp, (size_t)cap * d * 3);
-  GROW(D->mu, cap); GROW(D->gk, cap); GROW(D->w, cap); GROW(D->active, cap); GROW(D->act, cap + 1);
+  GROW(D->Uprev, (size_t)cap * d); GROW(D->r, (size_t)cap * d); GROW(D->tmp, (size_t)cap * d * 2);
+  GROW(D->mu, cap); GROW(D->active, cap); GROW(D->act, cap + 1);
   GROW(D->status, cap); GROW(D->key, (size_t)cap * MO_KEY); GROW(D->itmp, (size_t)cap + 1);
+  /* the reactions of the previous step for Newton's iterates (nonlinear scenes), the gaps of the
+     step's start (the compact records keep theirs through the solve), W r (the Delassus path) */
+  if (D->S && mo_stepper_nonlinear(D->S)) {
+    GROW(D->rprev, (size_t)cap * d);
+  }
+  if (!mo_contact_is_compact(D->C)) { /* the compact records' measures are all 1: P->w NULL */
+    GROW(D->gk, cap);
+    GROW(D->w, cap);
+  }
 #undef GROW
   D->cap = cap;
+  return MO_OK;
+}
+
+/* W r of the last solve on W: room for the set (allocated when a step first uses W). */
+static int ukin_room(mo_contact_driver *D, mo_ctx *ctx)
+{
+  void *p;
+  if (D->ukin && D->ukcap >= D->cap) return MO_OK;
+  if (!(p = mo_realloc(ctx, D->ukin, ((size_t)D->cap * D->d + 1) * sizeof *D->ukin))) return MO_ENOMEM;
+  D->ukin = p;
+  D->ukcap = D->cap;
   return MO_OK;
 }
 
@@ -376,7 +396,7 @@ static int fit(mo_contact_driver *D, const mo_state *s, const int *okey, int nol
     }
     D->status[a] = o >= 0 ? nst[o] : MO_CS_OPEN;
     D->mu[a] = c->mu;
-    D->w[a] = c->w;
+    if (D->w) D->w[a] = c->w;
   }
   /* the key list after the remap: okey may be D->key itself, read above */
   if (nc) memcpy(D->key, mo_contact_key(C, 0), (size_t)nc * MO_KEY * sizeof *D->key);
@@ -752,7 +772,7 @@ static double local_problem(mo_contact_driver *D, const mo_state *s, const doubl
   double h = mo_stepper_dt(D->S), theta = sc->time.theta, c, dtpos;
   const double *g = mo_contact_gaps(C);
   mo_scheme scheme = sc->time.scheme;
-  memcpy(D->gk, g, (size_t)nc * sizeof(double));
+  if (D->gk) memcpy(D->gk, g, (size_t)nc * sizeof(double));
   if (scheme == MO_SCHEME_THETA) {
     mo_contact_Htx(C, s, D->xfull, 0, nc, NULL, D->b);
     for (i = 0; i < m; i++) D->b[i] += U0[i];
@@ -940,7 +960,7 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
   P->nc = nc;
   P->m = m;
   P->mu = D->mu;
-  P->g = D->gk;
+  P->g = D->gk ? D->gk : mo_contact_gaps(C);
   P->Uprev = D->Uprev;
   P->frame = mo_contact_frames(C);
   P->contact = C;
@@ -1020,6 +1040,7 @@ resolve:
   /* 6. the core's measure: U' = W r + q when W is known, else the back end's U; W r is kept
      for contact_finish */
   if (D->wused) {
+    if ((st = ukin_room(D, ctx))) return st;
     mo_delassus_mult(D->W, D->r, 0, D->ukin);
     for (i = 0; i < m; i++) D->U[i] = D->ukin[i] + D->q[i];
   }
@@ -1253,21 +1274,30 @@ static int contact_finish(mo_contact_driver *D, mo_state *s, const double *x, mo
   double w = 0;
   /* U without the offsets of the laws (Signorini, restitution): W r + b, or the back end's U' - (q - b) */
   const double *Ukin = D->ukin;
-  if (D->wused) for (i = 0; i < m; i++) D->ukin[i] += D->b[i];
-  else for (i = 0; i < m; i++) D->ukin[i] = D->U[i] - (D->q[i] - D->b[i]);
-  for (i = 0; i < m; i++)
-    w += D->r[i] * (scheme == MO_SCHEME_THETA ? 0.5 * (Ukin[i] + D->Uprev[i]) : Ukin[i]);
+  if (!D->wused) {
+    /* without W: U+ computed, its work added and (theta) taken as U- at once */
+    for (i = 0; i < m; i++) {
+      double uk = D->U[i] - (D->q[i] - D->b[i]);
+      w += D->r[i] * (scheme == MO_SCHEME_THETA ? 0.5 * (uk + D->Uprev[i]) : uk);
+      if (scheme == MO_SCHEME_THETA) D->Uprev[i] = uk;
+    }
+    Ukin = D->Uprev;
+  } else {
+    for (i = 0; i < m; i++) D->ukin[i] += D->b[i];
+    for (i = 0; i < m; i++)
+      w += D->r[i] * (scheme == MO_SCHEME_THETA ? 0.5 * (Ukin[i] + D->Uprev[i]) : Ukin[i]);
+  }
   s->wcontact += w;
   /* the end-of-step gaps of the Signorini candidates for the position correction (T94): g_k +
      h (theta U+_n + (1 - theta) U-_n), before U- becomes U+ */
   corr = D->C->poscorr && D->C->signorini == MO_SIGNORINI_VELOCITY && scheme == MO_SCHEME_THETA && D->wused &&
-         D->nc && !mo_stepper_nonlinear(D->S);
+         D->nc && !mo_stepper_nonlinear(D->S) && D->gk; /* (compact records: no Signorini candidate) */
   if (corr) {
     double h = mo_stepper_dt(D->S), th = D->sc->time.theta;
     for (i = 0; i < D->nc; i++)
       D->tmp[i] = D->gk[i] + h * (th * Ukin[i * D->d] + (1 - th) * D->Uprev[i * D->d]);
   }
-  if (scheme == MO_SCHEME_THETA) memcpy(D->Uprev, Ukin, (size_t)m * sizeof(double));
+  if (scheme == MO_SCHEME_THETA && D->wused) memcpy(D->Uprev, Ukin, (size_t)m * sizeof(double));
   {
     /* the step's resultants, before the end-of-step geometry replaces the candidate set: per pair,
        the force the master exerts on the slaves (world frame), and the sum of normal forces */

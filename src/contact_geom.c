@@ -737,24 +737,29 @@ static inline __attribute__((always_inline)) void compact_columns(const mo_conta
   }
 }
 
+void mo_contact_Htx1(const mo_contact *C, const mo_state *s, const double *x, int a, const double *start, double *y)
+{
+  const int d = C->dim;
+  double acc[3] = {0, 0, 0};
+  int i, j, p;
+  for (i = 0; i < d; i++) acc[i] = start ? start[i] : 0;
+  if (C->compact && a >= C->nc_static) {
+    if (d == 2) compact_columns(C, a, s, x, acc, 2);
+    else compact_columns(C, a, s, x, acc, 3);
+  } else {
+    const mo_csc *H = C->Hfull;
+    for (i = 0; i < d; i++)
+      for (j = a * d + i, p = H->p[j]; p < H->p[j + 1]; p++) acc[i] += H->x[p] * x[H->i[p]];
+  }
+  for (i = 0; i < d; i++) y[i] = start ? acc[i] : 1 * acc[i] + 0;
+}
+
 void mo_contact_Htx(const mo_contact *C, const mo_state *s, const double *x, int a0, int a1, const double *start,
                     double *y)
 {
   const int d = C->dim;
-  int a, i, j, p;
-  for (a = a0; a < a1; a++) {
-    double acc[3] = {0, 0, 0};
-    for (i = 0; i < d; i++) acc[i] = start ? start[a * d + i] : 0;
-    if (C->compact && a >= C->nc_static) {
-      if (d == 2) compact_columns(C, a, s, x, acc, 2);
-      else compact_columns(C, a, s, x, acc, 3);
-    } else {
-      const mo_csc *H = C->Hfull;
-      for (i = 0; i < d; i++)
-        for (j = a * d + i, p = H->p[j]; p < H->p[j + 1]; p++) acc[i] += H->x[p] * x[H->i[p]];
-    }
-    for (i = 0; i < d; i++) y[a * d + i] = start ? acc[i] : 1 * acc[i] + 0;
-  }
+  int a;
+  for (a = a0; a < a1; a++) mo_contact_Htx1(C, s, x, a, start ? start + (size_t)a * d : NULL, y + (size_t)a * d);
 }
 
 /* --- dual cells and P* -------------------------------------------------------------------------- */

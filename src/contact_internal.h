@@ -83,6 +83,7 @@ struct mo_contact {
   /* the broad phase's pair list kept between steps (a Verlet list), its reach (alert plus skin)
      and how many times it was built */
   const int *vl;              /* the broad phase's pair array (owned by C->broad) */
+  int knold, ksame;           /* detection: candidates of the previous set; its keys unchanged so far */
   long vl_n, vl_builds;
   double vl_reach;
   int vl_built;

@@ -114,6 +114,16 @@ typedef struct {
   double mN[4];
 } dyn_side;
 
+/* Write key (pair, slave, master, features) of detected candidate a, noting whether it differs from
+   the key a held in the previous set (C->knold keys; C->ksame: the set is the same so far). */
+static inline void set_key(mo_contact *C, int a, int pair, int sb, int mb, int sfeat, int mfeat)
+{
+  int *key = C->key + (size_t)a * MO_KEY;
+  if (a >= C->knold || key[0] != pair || key[1] != sb || key[2] != mb || key[3] != sfeat || key[4] != mfeat)
+    C->ksame = 0;
+  key[0] = pair; key[1] = sb; key[2] = mb; key[3] = sfeat; key[4] = mfeat;
+}
+
 /* Append the contact N of pair k between slave sb and master mb as a point and a candidate,
    with its frame, gap, obstacle velocity, key and law. */
 static int add_contact(mo_contact *C, const dyn_side *S, const mo_narrow *N, double t, mo_ctx *ctx)
@@ -121,7 +131,7 @@ static int add_contact(mo_contact *C, const dyn_side *S, const mo_narrow *N, dou
   const mo_scene *sc = C->sc;
   const mo_contact_pair *P = &C->pair[S->pair];
   const mo_body *M = &sc->body[S->mb];
-  int D = sc->dim, d = C->dim, a = C->nc, i, j, st, *key;
+  int D = sc->dim, d = C->dim, a = C->nc, i, j, st;
   double *F;
   if (C->compact) {
     /* the granular path: the per-candidate arrays and the point, nothing else (§12.9) */
@@ -183,8 +193,7 @@ static int add_contact(mo_contact *C, const dyn_side *S, const mo_narrow *N, dou
       for (j = 0; j < D; j++) u0 -= F[i * d + j] * M->velocity[j];
     C->U0[(size_t)a * d + i] = u0;
   }
-  key = C->key + (size_t)a * MO_KEY;
-  key[0] = S->pair; key[1] = S->sb; key[2] = S->mb; key[3] = S->sfeat; key[4] = S->mfeat;
+  set_key(C, a, S->pair, S->sb, S->mb, S->sfeat, S->mfeat);
   C->law[a] = (unsigned char)P->law;
   C->e[a] = P->e;
   (void)t;
@@ -196,7 +205,7 @@ static int add_contact(mo_contact *C, const dyn_side *S, const mo_narrow *N, dou
 static inline int compact_add(mo_contact *C, int pair, int sb, int mb, const mo_narrow *N, mo_ctx *ctx)
 {
   const int D = C->dim, a = C->nc;
-  int i, st, *key;
+  int i, st;
   double *F;
   if (a + 1 > C->nalloc && (st = mo_contact_reserve(C, a + 1, ctx))) return st;
   C->nc++;
@@ -208,8 +217,7 @@ static inline int compact_add(mo_contact *C, int pair, int sb, int mb, const mo_
   }
   C->g[a] = N->g;
   C->active[a] = 1;
-  key = C->key + (size_t)a * MO_KEY;
-  key[0] = pair; key[1] = sb; key[2] = mb; key[3] = N->fb; key[4] = N->fa;
+  set_key(C, a, pair, sb, mb, N->fb, N->fa);
   C->law[a] = (unsigned char)C->pair[pair].law;
   C->e[a] = C->pair[pair].e;
   return MO_OK;
@@ -593,23 +601,13 @@ int mo_contact_broad_stats(const mo_contact *C, long *builds, long *pairs)
   return C->nrr > 0;
 }
 
-/* 1 when the detected keys equal the previous ones (same candidates in the same order). */
-static int same_keys(const mo_contact *C, const int *old, int nold)
-{
-  int n = C->nc - C->nc_static;
-  return n == nold && (!n || !memcmp(old, C->key + (size_t)C->nc_static * MO_KEY, (size_t)n * MO_KEY * sizeof(int)));
-}
-
 int mo_contact_detect(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx)
 {
-  int k, st = MO_OK, nold = C->nc - C->nc_static;
-  int *old = NULL;
+  int k, st = MO_OK;
   body_speeds(C, s);
-  if (nold > 0) {
-    old = mo_malloc(ctx, (size_t)nold * MO_KEY * sizeof *old);
-    if (!old) return MO_ENOMEM;
-    memcpy(old, C->key + (size_t)C->nc_static * MO_KEY, (size_t)nold * MO_KEY * sizeof *old);
-  }
+  /* the new keys are compared with the old ones as they overwrite them (set_key) */
+  C->knold = C->nc;
+  C->ksame = 1;
   C->npt = C->npt_static;
   C->nc = C->nc_static;
   C->ncoef = C->ncoef_static;
@@ -626,7 +624,6 @@ int mo_contact_detect(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx)
       st = shapes_obstacle(C, k, s, t, ctx);
   }
   if (!st && C->nrr) st = rigid_pairs(C, s, t, ctx);
-  if (!st && !same_keys(C, old, nold)) C->cset_version++;
-  mo_free(old);
+  if (!st && !(C->ksame && C->nc == C->knold)) C->cset_version++;
   return st;
 }

@@ -73,7 +73,7 @@ static void nscd_free(void *state)
   mo_free(S->aux);
   mo_free(S->act);
   mo_free(S->order);
-  mo_free(S->U);
+  mo_free(S->Uown);
   mo_free(S->rold);
   mo_free(S->scale);
   mo_free(S->mu);
@@ -100,20 +100,32 @@ static int fit_set(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
   S->grains = S->bodies && P->grains;
   if (S->bodies && ((!P->H && !P->grains) || !P->Wi || !P->xfree))
     return mo_error(ctx, MO_EINTERNAL, "nscd: the core gave neither W nor the blocks of H and What");
+#define GROW(ptr, n) if (!(q = mo_realloc(ctx, ptr, (n) * sizeof *(ptr)))) return MO_ENOMEM; ptr = q
   if (nc > S->cap) {
     nc += nc / 2; /* sets grow a little at a time while grains settle */
-#define GROW(ptr, n) if (!(q = mo_realloc(ctx, ptr, (n) * sizeof *(ptr)))) return MO_ENOMEM; ptr = q
-    GROW(S->rcnt, nc); GROW(S->rcol, nc); GROW(S->rval, nc); GROW(S->diag, nc);
-    GROW(S->aux, nc * NSCD_AUX); GROW(S->act, nc); GROW(S->order, nc); GROW(S->scale, nc); GROW(S->mu, nc);
-    GROW(S->sprev, nc);
+    GROW(S->diag, nc); GROW(S->act, nc); GROW(S->order, nc); GROW(S->scale, nc); GROW(S->mu, nc);
     S->cap = nc;
+  }
+  /* what the sweep on W keeps per contact (its rows, the statuses of the previous sweep), and the
+     local solvers' data outside the records of the granular path */
+  if (!S->bodies && S->cap > S->wcap) {
+    GROW(S->rcnt, S->cap); GROW(S->rcol, S->cap); GROW(S->rval, S->cap); GROW(S->sprev, S->cap);
+    S->wcap = S->cap;
+  }
+  if (!S->grains && S->cap > S->acap) {
+    GROW(S->aux, S->cap * NSCD_AUX);
+    S->acap = S->cap;
   }
   if (m > S->mcap) {
     m += m / 2;
-    GROW(S->U, m); GROW(S->rold, m);
-#undef GROW
+    GROW(S->rold, m);
     S->mcap = m;
   }
+  if (!S->grains && S->mcap > S->ucap) {
+    GROW(S->Uown, S->mcap);
+    S->ucap = S->mcap;
+  }
+#undef GROW
   return MO_OK;
 }
 
@@ -427,6 +439,8 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
       d == 3 ? sweep3 : d == 2 ? sweep2 : sweep1;
   if (P->nc != S->nc || P->dim != S->d || (!P->W) != S->bodies || (S->bodies && !P->grains != !S->grains))
     return mo_error(ctx, MO_EINTERNAL, "nscd: the problem changed size (%d x %d, was %d x %d)", P->nc, P->dim, S->nc, S->d);
+  /* U = W r + q: the granular path keeps it in the caller's array, the others in their own */
+  S->U = S->grains ? x->U : S->Uown;
   if ((st = S->grains ? nscd_grains_prepare(S, P, ctx) : S->bodies ? nscd_bodies_prepare(S, P, ctx)
                       : prepare_matrix(S, P, ctx)))
     return st;
@@ -556,7 +570,7 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
     S->ai.rank = nu < nd ? nu : nd;
     S->ai.rcond = NAN;
   }
-  memcpy(x->U, S->U, (size_t)m * sizeof *x->U);
+  if (x->U != S->U) memcpy(x->U, S->U, (size_t)m * sizeof *x->U);
   if (S->bodies) { /* the correction is the body velocities' change: no solve left to the core */
     nscd_bodies_dx(S, P, x->dx);
     x->dx_set = 1;

@@ -112,11 +112,14 @@ typedef struct {
   double *cv;
   size_t ccap, cpcap;
   size_t cap, mcap;             /* room of the per-contact arrays (contacts) and of U, rold (m) */
+  size_t wcap, acap, ucap;      /* room of the sweep on W's arrays (rcnt, rcol, rval, sprev), of aux, of Uown */
   double *aux;                  /* nc * NSCD_AUX: per-contact data of the local solvers */
   const mo_delassus *wsrc;      /* the W the cached data were built for, and its version */
   long wver;
   int *act, nact, *order;
-  double *U;                    /* U = W r + q kept up to date by the column updates */
+  double *U;                    /* U = W r + q kept up to date by the column updates: Uown, or on the
+                                   granular path the caller's array of the solve */
+  double *Uown;
   double *rold;                 /* m: the reactions at the start of the sweep (Jean's norms) */
   double *scale;                /* nc: 1 / W_aa,nn, the scaling of (T42) (0 when W_nn = 0) */
   double *mu;                   /* nc: friction coefficients, 0 where no free dof moves the

@@ -140,6 +140,8 @@ int mo_contact_H_ensure(mo_contact *C, const mo_state *s, mo_ctx *ctx);
    as mo_csc_gatxpy on mo_contact_H_full. */
 void mo_contact_Htx(const mo_contact *C, const mo_state *s, const double *x, int a0, int a1, const double *start,
                     double *y);
+/* The same for candidate a alone, into y[0 .. d-1] (start: its d values, or NULL). */
+void mo_contact_Htx1(const mo_contact *C, const mo_state *s, const double *x, int a, const double *start, double *y);
 /* Coefficients and points of candidate alpha: cand->np entries from cand->first. */
 const int *mo_contact_cand_points(const mo_contact *C);
 const double *mo_contact_cand_coefs(const mo_contact *C);
@@ -280,7 +282,7 @@ typedef struct mo_contact_problem {
   const double *mu;          /* nc friction coefficients */
   const double *g;           /* nc gaps at the start of the step */
   const double *Uprev;       /* m local velocities at the start of the step */
-  const double *w;           /* nc candidate measures */
+  const double *w;           /* nc candidate measures (NULL on the granular path: every one is 1) */
   const double *frame;       /* nc d x d frames */
   const mo_contact *contact; /* candidates, points, pairs */
   /* local relation U' = W r + b: U' is the local velocity (theta) or displacement increment
