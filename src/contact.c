@@ -524,6 +524,21 @@ static int bodies_only(const mo_contact_driver *D, const mo_what_inverse *Wi)
   return 1;
 }
 long mo_contact_driver_failures(const mo_contact_driver *D) { return D->failures; }
+
+size_t mo_contact_driver_bytes(const mo_contact_driver *D, size_t *per_dof)
+{
+  const size_t d = (size_t)D->d, cap = (size_t)D->cap, sd = sizeof(double);
+  size_t c = cap * (5 * d * sd + 2 * d * sd + sd + 1 + 4 * sizeof(int) + MO_KEY * sizeof(int));
+  size_t n = (size_t)D->sc->ndof, nf = (size_t)D->sc->nfree, dof = (2 * n + 2 * nf) * sd;
+  if (D->rprev) c += cap * d * sd;
+  if (D->gk) c += cap * sd;
+  if (D->w) c += cap * sd;
+  if (D->ukin) c += (size_t)D->ukcap * d * sd;
+  if (D->kmap.tab) c += ((size_t)D->kmap.mask + 1) * sizeof(int);
+  if (D->gvel) dof += (size_t)D->sc->nbody * (sizeof(int) + (size_t)D->sc->dim * sd);
+  if (per_dof) *per_dof = dof;
+  return c + dof;
+}
 long mo_contact_driver_index_added(const mo_contact_driver *D) { return D->index_added; }
 
 int mo_contact_driver_redundancy(const mo_contact_driver *D, int *constraints, int *redundant, int *redundant_max,

@@ -643,6 +643,22 @@ int mo_contact_H_ensure(mo_contact *C, const mo_state *s, mo_ctx *ctx)
 
 int mo_contact_is_compact(const mo_contact *C) { return C->compact; }
 
+size_t mo_contact_bytes(const mo_contact *C, size_t *per_candidate)
+{
+  const int d = C->dim, D = C->sc->dim;
+  size_t cand = (size_t)C->nalloc * (sizeof(double) * (size_t)(1 + d * d + d + D + 1) + 2 + MO_KEY * sizeof(int));
+  size_t pts = (size_t)C->ptcap * sizeof(mo_cpoint) + (size_t)C->ccap * sizeof(mo_candidate) +
+               (size_t)C->coefcap * (sizeof(int) + sizeof(double));
+  size_t h = 0, body = 0;
+  if (C->Hfull) h += (size_t)C->hcapf * (sizeof(int) + sizeof(double)) + (size_t)C->hpcapf * sizeof(int);
+  if (C->H && C->H != C->Hfull) h += (size_t)C->hcap * (sizeof(int) + sizeof(double)) + (size_t)C->hpcap * sizeof(int);
+  if (C->ndyn) /* the detection's per-body arrays (detect.c) and the broad phase */
+    body = (size_t)C->sc->nbody * (2 * sizeof(unsigned long long) + (3 + 3 + (size_t)D + 5) * sizeof(double) + 2) +
+           mo_contact_broad_bytes(C);
+  if (per_candidate) *per_candidate = cand + pts + h;
+  return cand + pts + h + body;
+}
+
 const mo_cpoint *mo_contact_cand_point(const mo_contact *C, int a, mo_cpoint *buf)
 {
   const int *key;

@@ -140,6 +140,8 @@ int mo_contact_detect_setup(mo_contact *C, mo_ctx *ctx);
    radius, a mesh's shortest edge): the scale of the alert distance and of eps_g (T71). */
 double mo_contact_smallest_size(const mo_contact *C);
 int mo_contact_detect(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx);
+/* Bytes held by the broad phase. */
+size_t mo_contact_broad_bytes(const mo_contact *C);
 void mo_contact_detect_free(mo_contact *C);
 
 #endif

@@ -594,6 +594,8 @@ static void body_speeds(mo_contact *C, const mo_state *s)
   }
 }
 
+size_t mo_contact_broad_bytes(const mo_contact *C) { return mo_broad_bytes(C->broad); }
+
 int mo_contact_broad_stats(const mo_contact *C, long *builds, long *pairs)
 {
   *builds = C->vl_builds;

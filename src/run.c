@@ -816,6 +816,19 @@ static json_t *contact_json(const mo_contact *C, const mo_contact_driver *D)
         json_object_set_new(j, "broad", bp);
       }
     }
+    {
+      /* what the contact set and the driver hold (bytes, at their capacities; doc/theory.md §12.9) */
+      json_t *mem = json_object();
+      size_t pc = 0, pd = 0, set = mo_contact_bytes(C, &pc);
+      json_object_set_new(mem, "set", json_integer((json_int_t)set));
+      json_object_set_new(mem, "set_candidates", json_integer((json_int_t)pc));
+      if (D) {
+        size_t dr = mo_contact_driver_bytes(D, &pd);
+        json_object_set_new(mem, "driver", json_integer((json_int_t)dr));
+        json_object_set_new(mem, "driver_candidates", json_integer((json_int_t)(dr - pd)));
+      }
+      json_object_set_new(j, "memory", mem);
+    }
   }
   json_object_set_new(j, "steps_with_contact", json_integer(steps));
   json_object_set_new(j, "iterations_total", json_integer(it));

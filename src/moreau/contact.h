@@ -127,6 +127,10 @@ const mo_cpoint *mo_contact_point(const mo_contact *C, int k);
    points the set stores (not the compact records). */
 const mo_candidate *mo_contact_cand_get(const mo_contact *C, int a, mo_candidate *buf);
 const mo_cpoint *mo_contact_cand_point(const mo_contact *C, int a, mo_cpoint *buf);
+/* Bytes the contact set holds (capacities): its per-candidate arrays, points, candidates, H
+   (*per_candidate, when not NULL: those that grow with the candidates), and the detection's
+   per-body arrays with the broad phase. */
+size_t mo_contact_bytes(const mo_contact *C, size_t *per_candidate);
 /* The slave and master bodies of candidate a's representative point (master -1: none). */
 void mo_contact_cand_bodies(const mo_contact *C, int a, int *sb, int *mb);
 /* 1 when the detected candidates are compact records (no points, H on demand). */
@@ -502,6 +506,9 @@ void mo_contact_driver_totals(const mo_contact_driver *D, long *steps, long *ite
 void mo_contact_driver_keep_delassus(mo_contact_driver *D);
 /* Totals over the run of the back end's factorizations and of its solves on kept factors. */
 void mo_contact_driver_factor_totals(const mo_contact_driver *D, long *factorizations, long *reuses);
+/* Bytes the driver holds for the candidates (its per-candidate arrays and key map, at their
+   capacity) and for the dofs (*per_dof, when not NULL). */
+size_t mo_contact_driver_bytes(const mo_contact_driver *D, size_t *per_dof);
 /* Solves that did not converge over the run (non-zero only with contact.on_failure = "continue"). */
 long mo_contact_driver_failures(const mo_contact_driver *D);
 /* Candidates added to velocity-level index sets after a solve found them ending inside (§5). */
