@@ -12,7 +12,9 @@
 
 /* --- measures ------------------------------------------------------------------------------ */
 
-void mo_fc_project_cone(int d, double mu, double *z)
+/* The cone projection and the unit term, inline for the sums over contacts (the exported
+   functions below are these). */
+static inline void project_cone(int d, double mu, double *z)
 {
   double zt2 = 0, zt, pn;
   int i;
@@ -33,7 +35,7 @@ void mo_fc_project_cone(int d, double mu, double *z)
   for (i = 1; i < d; i++) z[i] = zt > 0 ? mu * pn * z[i] / zt : 0;
 }
 
-double mo_fc_natural_map_unit(int d, double mu, const double *r, const double *U)
+static inline double natural_map_unit(int d, double mu, const double *r, const double *U)
 {
   double z[3], ut2 = 0, e = 0;
   int i;
@@ -41,9 +43,16 @@ double mo_fc_natural_map_unit(int d, double mu, const double *r, const double *U
   /* z = r - (U + mu |U_t| e_n), projected; the residual is r - P_K(z) */
   z[0] = r[0] - (U[0] + mu * sqrt(ut2));
   for (i = 1; i < d; i++) z[i] = r[i] - U[i];
-  mo_fc_project_cone(d, mu, z);
+  project_cone(d, mu, z);
   for (i = 0; i < d; i++) e += (r[i] - z[i]) * (r[i] - z[i]);
   return e;
+}
+
+void mo_fc_project_cone(int d, double mu, double *z) { project_cone(d, mu, z); }
+
+double mo_fc_natural_map_unit(int d, double mu, const double *r, const double *U)
+{
+  return natural_map_unit(d, mu, r, U);
 }
 
 double mo_fc_natural_map_subset(int d, int n, const int *idx, const double *mu, const double *scale,
@@ -59,7 +68,7 @@ double mo_fc_natural_map_subset(int d, int n, const int *idx, const double *mu, 
       for (i = 0; i < d; i++) Us[i] = scale[a] * Ua[i];
       Ua = Us;
     }
-    e += mo_fc_natural_map_unit(d, mu ? mu[a] : 0, ra, Ua);
+    e += natural_map_unit(d, mu ? mu[a] : 0, ra, Ua);
     for (i = 0; i < d; i++) {
       rn += ra[i] * ra[i];
       un += Ua[i] * Ua[i];

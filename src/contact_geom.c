@@ -717,22 +717,28 @@ static inline __attribute__((always_inline)) void compact_columns(const mo_conta
   const mo_scene *sc = C->sc;
   const int *key = C->key + (size_t)a * MO_KEY;
   const double *F = C->frame + (size_t)a * D * D, *xp = C->x + (size_t)a * D;
-  const mo_body *side[2];
+  /* the centres of this geometry (detect.c's, the same sums) when s is its state */
+  const int here = s->u == C->bcur_u && s->step == C->bcur_step;
+  int side[2], dof[2], ns = 0, k, i, q;
   double cf[2];
-  int ns = 0, k, i, q;
-  if (sc->body[key[1]].type->flags & MO_BODY_F_RIGID) { side[ns] = &sc->body[key[1]]; cf[ns++] = 1; }
-  if (key[2] >= 0 && (sc->body[key[2]].type->flags & MO_BODY_F_RIGID)) { side[ns] = &sc->body[key[2]]; cf[ns++] = -1; }
-  if (ns == 2 && side[1]->dof0 < side[0]->dof0) {
-    const mo_body *b = side[0];
+  if (C->bdof[key[1]] >= 0) { side[ns] = key[1]; dof[ns] = C->bdof[key[1]]; cf[ns++] = 1; }
+  if (key[2] >= 0 && C->bdof[key[2]] >= 0) { side[ns] = key[2]; dof[ns] = C->bdof[key[2]]; cf[ns++] = -1; }
+  if (ns == 2 && dof[1] < dof[0]) {
+    int b = side[0], o = dof[0];
     side[0] = side[1];
+    dof[0] = dof[1];
     side[1] = b;
+    dof[1] = o;
     cf[0] = -1;
     cf[1] = 1;
   }
   for (k = 0; k < ns; k++) {
-    const double *u = s->u + side[k]->dof0, *xb = x + side[k]->dof0, *c0 = side[k]->xc0;
+    const double *xb = x + dof[k];
     double r[3];
-    for (q = 0; q < D; q++) r[q] = xp[q] - (c0[q] + u[q]);
+    if (here)
+      for (q = 0; q < D; q++) r[q] = xp[q] - C->bcur[(size_t)D * side[k] + q];
+    else
+      for (q = 0; q < D; q++) r[q] = xp[q] - (sc->body[side[k]].xc0[q] + s->u[dof[k] + q]);
     for (i = 0; i < D; i++) {
       const double *Fi = F + i * D;
       double t = 0;
@@ -774,7 +780,17 @@ void mo_contact_Htx(const mo_contact *C, const mo_state *s, const double *x, int
                     double *y)
 {
   const int d = C->dim;
-  int a;
+  int a, i;
+  if (C->compact && a0 >= C->nc_static && (d == 2 || d == 3)) { /* the records, without a call each */
+    for (a = a0; a < a1; a++) {
+      double acc[3] = {0, 0, 0};
+      for (i = 0; i < d; i++) acc[i] = start ? start[(size_t)a * d + i] : 0;
+      if (d == 2) compact_columns(C, a, s, x, acc, 2);
+      else compact_columns(C, a, s, x, acc, 3);
+      for (i = 0; i < d; i++) y[(size_t)a * d + i] = start ? acc[i] : 1 * acc[i] + 0;
+    }
+    return;
+  }
   for (a = a0; a < a1; a++) mo_contact_Htx1(C, s, x, a, start ? start + (size_t)a * d : NULL, y + (size_t)a * d);
 }
 

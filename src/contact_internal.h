@@ -75,6 +75,9 @@ struct mo_contact {
   int *rr;                    /* their pair numbers */
   double *bc, *br;            /* broad phase: centres and radii of the rigid bodies when the list was built */
   double *bcur;               /* D per body of the dynamic pairs: its centre at this geometry (rigid ones) */
+  const double *bcur_u;       /* the state bcur is of: its displacements and its step */
+  long bcur_step;
+  int *bdof;                  /* per body: its first dof when it is rigid, else -1 */
   double *bs, *be;            /* per body: its speed bound, and its alert margin when the pair list was built */
   double *bv, *bw;            /* per body: its translation velocity (3), and what its rotation adds (omega r_bound) */
   double *bs2;                /* per body of the broad phase: its speed relative to their mean velocity, plus bw */

@@ -35,6 +35,7 @@ void mo_contact_detect_free(mo_contact *C)
   mo_free(C->bmask);
   mo_free(C->dmask);
   mo_free(C->bcur);
+  mo_free(C->bdof);
   C->broad = NULL;
 }
 
@@ -70,6 +71,7 @@ int mo_contact_detect_setup(mo_contact *C, mo_ctx *ctx)
   C->rr = mo_malloc(ctx, ((size_t)C->npair + 1) * sizeof *C->rr);
   C->bc = mo_calloc(ctx, 3 * (size_t)sc->nbody + 1, sizeof *C->bc);
   C->bcur = mo_calloc(ctx, (size_t)sc->dim * sc->nbody + 1, sizeof *C->bcur);
+  C->bdof = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *C->bdof);
   C->br = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->br);
   C->bs = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->bs);
   C->be = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->be);
@@ -78,9 +80,10 @@ int mo_contact_detect_setup(mo_contact *C, mo_ctx *ctx)
   C->bs2 = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->bs2);
   C->bmask = mo_calloc(ctx, (size_t)sc->nbody + 1, 1);
   C->dmask = mo_calloc(ctx, (size_t)sc->nbody + 1, 1);
-  if (!C->mside || !C->sside || !C->rr || !C->bc || !C->bcur || !C->br || !C->bs || !C->be || !C->bv || !C->bw || !C->bs2 ||
+  if (!C->mside || !C->sside || !C->rr || !C->bc || !C->bcur || !C->bdof || !C->br || !C->bs || !C->be || !C->bv || !C->bw || !C->bs2 ||
       !C->bmask || !C->dmask)
     return MO_ENOMEM;
+  for (i = 0; i < sc->nbody; i++) C->bdof[i] = (sc->body[i].type->flags & MO_BODY_F_RIGID) ? sc->body[i].dof0 : -1;
   for (k = 0; k < C->npair; k++) {
     const mo_contact_pair *P = &C->pair[k];
     if (!P->dynamic) continue;
@@ -566,6 +569,8 @@ static void body_speeds(mo_contact *C, const mo_state *s)
 {
   const mo_scene *sc = C->sc;
   int b, a, i, D = sc->dim;
+  C->bcur_u = s->u;
+  C->bcur_step = s->step;
   for (b = 0; b < sc->nbody; b++) {
     const mo_body *B = &sc->body[b];
     double v2 = 0, w2 = 0, vmax = 0, *v = C->bv + 3 * (size_t)b;
