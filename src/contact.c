@@ -13,7 +13,9 @@
 
 /* --- measures ------------------------------------------------------------------------------ */
 
-void mo_fc_project_cone(int d, double mu, double *z)
+/* The cone projection and the unit term, inline for the sums over contacts (the exported
+   functions below are these). */
+static inline void project_cone(int d, double mu, double *z)
 {
   double zt2 = 0, zt, pn;
   int i;
@@ -34,7 +36,7 @@ void mo_fc_project_cone(int d, double mu, double *z)
   for (i = 1; i < d; i++) z[i] = zt > 0 ? mu * pn * z[i] / zt : 0;
 }
 
-double mo_fc_natural_map_unit(int d, double mu, const double *r, const double *U)
+static inline double natural_map_unit(int d, double mu, const double *r, const double *U)
 {
   double z[3], ut2 = 0, e = 0;
   int i;
@@ -42,9 +44,16 @@ double mo_fc_natural_map_unit(int d, double mu, const double *r, const double *U
   /* z = r - (U + mu |U_t| e_n), projected; the residual is r - P_K(z) */
   z[0] = r[0] - (U[0] + mu * sqrt(ut2));
   for (i = 1; i < d; i++) z[i] = r[i] - U[i];
-  mo_fc_project_cone(d, mu, z);
+  project_cone(d, mu, z);
   for (i = 0; i < d; i++) e += (r[i] - z[i]) * (r[i] - z[i]);
   return e;
+}
+
+void mo_fc_project_cone(int d, double mu, double *z) { project_cone(d, mu, z); }
+
+double mo_fc_natural_map_unit(int d, double mu, const double *r, const double *U)
+{
+  return natural_map_unit(d, mu, r, U);
 }
 
 double mo_fc_natural_map_subset(int d, int n, const int *idx, const double *mu, const double *scale,
@@ -60,7 +69,7 @@ double mo_fc_natural_map_subset(int d, int n, const int *idx, const double *mu, 
       for (i = 0; i < d; i++) Us[i] = scale[a] * Ua[i];
       Ua = Us;
     }
-    e += mo_fc_natural_map_unit(d, mu ? mu[a] : 0, ra, Ua);
+    e += natural_map_unit(d, mu ? mu[a] : 0, ra, Ua);
     for (i = 0; i < d; i++) {
       rn += ra[i] * ra[i];
       un += Ua[i] * Ua[i];
@@ -261,7 +270,8 @@ struct mo_contact_driver {
   int nc, m, d, cap;         /* candidates, m = d nc, capacity (candidates) of the arrays */
   double *b, *q, *U, *Uprev, *r, *rprev, *mu, *gk, *w;
   double *ukin;              /* W r of the last solve (with W), then U without the Signorini
-                                offsets: W r + b (contact_finish) */
+                                offsets: W r + b (contact_finish); allocated by the first solve on W */
+  int ukcap;
   unsigned char *active;
   int *act, nact;            /* the active candidates of the last solve, in increasing order */
   int *status;
@@ -295,6 +305,13 @@ struct mo_contact_driver {
   double pc_energy_added;    /* what the kinetic energy could not pay */
   double *pcwork;            /* 2 ndof */
   double *pc_momentum;       /* 3 per body: the linear momentum the energy compensation took */
+  /* the granular path (doc/theory.md §12.9): per body its first free dof (-1 none) and its centre */
+  mo_grains grains;
+  int *gvel;
+  double *gcentre;
+  /* the state the detected candidates' Uprev were last computed at (mo_contact_driver_uprev) */
+  long up_step;
+  const double *up_v;
 };
 
 const mo_contact_report *mo_contact_last_report(const mo_contact_driver *D) { return &D->rep; }
@@ -313,12 +330,31 @@ static int grow(mo_contact_driver *D, int nc, mo_ctx *ctx)
   while (cap < nc) cap = cap ? 2 * cap : 16;
 #define GROW(ptr, n) if (!(p = mo_realloc(ctx, ptr, (size_t)(n) * sizeof *(ptr)))) return MO_ENOMEM; ptr = p
   GROW(D->b, (size_t)cap * d); GROW(D->q, (size_t)cap * d); GROW(D->U, (size_t)cap * d);
-  GROW(D->Uprev, (size_t)cap * d); GROW(D->r, (size_t)cap * d); GROW(D->rprev, (size_t)cap * d);
-  GROW(D->ukin, (size_t)cap * d); GROW(D->tmp, (size_t)cap * d * 3);
-  GROW(D->mu, cap); GROW(D->gk, cap); GROW(D->w, cap); GROW(D->active, cap); GROW(D->act, cap + 1);
+  GROW(D->Uprev, (size_t)cap * d); GROW(D->r, (size_t)cap * d); GROW(D->tmp, (size_t)cap * d * 2);
+  GROW(D->mu, cap); GROW(D->active, cap); GROW(D->act, cap + 1);
   GROW(D->status, cap); GROW(D->key, (size_t)cap * MO_KEY); GROW(D->itmp, (size_t)cap + 1);
+  /* the reactions of the previous step for Newton's iterates (nonlinear scenes), the gaps of the
+     step's start (the compact records keep theirs through the solve), W r (the Delassus path) */
+  if (D->S && mo_stepper_nonlinear(D->S)) {
+    GROW(D->rprev, (size_t)cap * d);
+  }
+  if (!mo_contact_is_compact(D->C)) { /* the compact records' measures are all 1: P->w NULL */
+    GROW(D->gk, cap);
+    GROW(D->w, cap);
+  }
 #undef GROW
   D->cap = cap;
+  return MO_OK;
+}
+
+/* W r of the last solve on W: room for the set (allocated when a step first uses W). */
+static int ukin_room(mo_contact_driver *D, mo_ctx *ctx)
+{
+  void *p;
+  if (D->ukin && D->ukcap >= D->cap) return MO_OK;
+  if (!(p = mo_realloc(ctx, D->ukin, ((size_t)D->cap * D->d + 1) * sizeof *D->ukin))) return MO_ENOMEM;
+  D->ukin = p;
+  D->ukcap = D->cap;
   return MO_OK;
 }
 
@@ -326,13 +362,10 @@ static int grow(mo_contact_driver *D, int nc, mo_ctx *ctx)
    the step where the contact is now). */
 static void fresh_uprev(mo_contact_driver *D, const mo_state *s, int a0, int a1)
 {
-  const mo_csc *H = mo_contact_H_full(D->C);
-  const double *U0 = mo_contact_U0(D->C);
-  int j, p, d = D->d;
-  for (j = a0 * d; j < a1 * d; j++) {
-    double acc = U0[j];
-    for (p = H->p[j]; p < H->p[j + 1]; p++) acc += H->x[p] * s->v[H->i[p]];
-    D->Uprev[j] = acc;
+  if (a1 > a0) mo_contact_Htx(D->C, s, s->v, a0, a1, mo_contact_U0(D->C), D->Uprev);
+  if (a1 == D->nc || a1 == mo_contact_ncandidates(D->C)) { /* the detected ones are of s now */
+    D->up_step = s->step;
+    D->up_v = s->v;
   }
 }
 
@@ -364,7 +397,8 @@ static int fit(mo_contact_driver *D, const mo_state *s, const int *okey, int nol
   if ((st = mo_keymap_build(&D->kmap, okey, nold, ctx))) return st;
   fresh_uprev(D, s, ns, nc);
   for (a = 0; a < nc; a++) {
-    const mo_candidate *c = mo_contact_candidate(C, a);
+    mo_candidate cb;
+    const mo_candidate *c = mo_contact_cand_get(C, a, &cb);
     int o = mo_keymap_find(&D->kmap, mo_contact_key(C, a));
     for (i = 0; i < d; i++) {
       D->r[a * d + i] = o >= 0 ? nr[o * d + i] : 0;
@@ -372,7 +406,7 @@ static int fit(mo_contact_driver *D, const mo_state *s, const int *okey, int nol
     }
     D->status[a] = o >= 0 ? nst[o] : MO_CS_OPEN;
     D->mu[a] = c->mu;
-    D->w[a] = c->w;
+    if (D->w) D->w[a] = c->w;
   }
   /* the key list after the remap: okey may be D->key itself, read above */
   if (nc) memcpy(D->key, mo_contact_key(C, 0), (size_t)nc * MO_KEY * sizeof *D->key);
@@ -473,6 +507,13 @@ int mo_contact_snapshot_restore(mo_contact_driver *D, const mo_contact_snapshot 
 
 const double *mo_contact_reactions(const mo_contact_driver *D) { return D->r; }
 const double *mo_contact_local_velocity(const mo_contact_driver *D) { return D->U; }
+const double *mo_contact_driver_uprev(const mo_contact_driver *D, const mo_state *s)
+{
+  return D->cset == mo_contact_set_version(D->C) && D->nc == mo_contact_ncandidates(D->C) && D->up_step == s->step &&
+                 D->up_v == s->v
+             ? D->Uprev
+             : NULL;
+}
 const double *mo_contact_pair_forces(const mo_contact_driver *D) { return D->pforce; }
 double mo_contact_normal_force(const mo_contact_driver *D) { return D->fn_step; }
 const int *mo_contact_statuses(const mo_contact_driver *D) { return D->status; }
@@ -487,11 +528,27 @@ static int bodies_only(const mo_contact_driver *D, const mo_what_inverse *Wi)
   const mo_csc *H = D->C->H;
   int p;
   if (!(D->T->needs & MO_NEEDS_BODIES) || D->wkeep || D->C->delassus_always) return 0;
+  if (mo_contact_is_compact(D->C)) return 1; /* rigid shapes and obstacles only, by construction */
   for (p = 0; p < H->p[H->ncol]; p++)
     if (H->i[p] < Wi->nfe) return 0;
   return 1;
 }
 long mo_contact_driver_failures(const mo_contact_driver *D) { return D->failures; }
+
+size_t mo_contact_driver_bytes(const mo_contact_driver *D, size_t *per_dof)
+{
+  const size_t d = (size_t)D->d, cap = (size_t)D->cap, sd = sizeof(double);
+  size_t c = cap * (5 * d * sd + 2 * d * sd + sd + 1 + 4 * sizeof(int) + MO_KEY * sizeof(int));
+  size_t n = (size_t)D->sc->ndof, nf = (size_t)D->sc->nfree, dof = (2 * n + 2 * nf) * sd;
+  if (D->rprev) c += cap * d * sd;
+  if (D->gk) c += cap * sd;
+  if (D->w) c += cap * sd;
+  if (D->ukin) c += (size_t)D->ukcap * d * sd;
+  if (D->kmap.tab) c += ((size_t)D->kmap.mask + 1) * sizeof(int);
+  if (D->gvel) dof += (size_t)D->sc->nbody * (sizeof(int) + (size_t)D->sc->dim * sd);
+  if (per_dof) *per_dof = dof;
+  return c + dof;
+}
 long mo_contact_driver_index_added(const mo_contact_driver *D) { return D->index_added; }
 
 int mo_contact_driver_redundancy(const mo_contact_driver *D, int *constraints, int *redundant, int *redundant_max,
@@ -555,6 +612,7 @@ void mo_contact_driver_free(mo_contact_driver *D)
   mo_free(D->sv_idx); mo_free(D->sv_mu); mo_free(D->sv_q); mo_free(D->sv_r); mo_free(D->sv_U);
   mo_free(D->w); mo_free(D->ukin); mo_free(D->xnl); mo_free(D->gnl); mo_free(D->tmp); mo_free(D->itmp);
   mo_free(D->pcwork); mo_free(D->pc_momentum);
+  mo_free(D->gvel); mo_free(D->gcentre);
   mo_keymap_free(&D->kmap);
   mo_free(D->active);
   mo_free(D->act);
@@ -632,6 +690,24 @@ int mo_contact_driver_create(const mo_scene *sc, mo_contact *C, mo_stepper *S,
     mo_contact_driver_free(D);
     return st;
   }
+  if (mo_contact_is_compact(C)) {
+    /* the granular path: each body's first free dof (-1: a plane, or a body held fixed) */
+    int b;
+    D->gvel = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *D->gvel);
+    D->gcentre = mo_calloc(ctx, (size_t)sc->dim * sc->nbody + 1, sizeof *D->gcentre);
+    if (!D->gvel || !D->gcentre) {
+      mo_contact_driver_free(D);
+      return MO_ENOMEM;
+    }
+    for (b = 0; b < sc->nbody; b++) {
+      const mo_body *B = &sc->body[b];
+      D->gvel[b] = (B->type->flags & MO_BODY_F_RIGID) && B->ndof ? sc->free_of[B->dof0] : -1;
+    }
+    D->grains.D = sc->dim;
+    D->grains.key = NULL; /* the set's, at each solve */
+    D->grains.vel = D->gvel;
+    D->grains.centre = D->gcentre;
+  }
   if ((D->T->needs & MO_NEEDS_DELASSUS) && (st = mo_delassus_create(&D->W, ctx))) {
     mo_contact_driver_free(D);
     return st;
@@ -665,8 +741,10 @@ int mo_contact_driver_create(const mo_scene *sc, mo_contact *C, mo_stepper *S,
 /* "candidate 12 (pair 'p', node 13)" or, for a detected contact, its bodies. */
 static int describe(const mo_contact_driver *D, int a, char *buf, size_t n)
 {
-  const mo_candidate *c = mo_contact_candidate(D->C, a);
-  const mo_cpoint *p = mo_contact_point(D->C, c->point);
+  mo_candidate cb;
+  mo_cpoint pb;
+  const mo_candidate *c = mo_contact_cand_get(D->C, a, &cb);
+  const mo_cpoint *p = mo_contact_cand_point(D->C, a, &pb);
   const mo_contact_pair *P = mo_contact_pair_get(D->C, c->pair);
   if (P->dynamic)
     return snprintf(buf, n, "%d (pair '%s', '%s' on '%s')", a, P->name, D->sc->body[p->sb].name, D->sc->body[p->mb].name);
@@ -723,9 +801,9 @@ static double local_problem(mo_contact_driver *D, const mo_state *s, const doubl
   double h = mo_stepper_dt(D->S), theta = sc->time.theta, c, dtpos;
   const double *g = mo_contact_gaps(C);
   mo_scheme scheme = sc->time.scheme;
-  memcpy(D->gk, g, (size_t)nc * sizeof(double));
+  if (D->gk) memcpy(D->gk, g, (size_t)nc * sizeof(double));
   if (scheme == MO_SCHEME_THETA) {
-    mo_csc_gatxpy(C->Hfull, 1, D->xfull, 0, D->b);
+    mo_contact_Htx(C, s, D->xfull, 0, nc, NULL, D->b);
     for (i = 0; i < m; i++) D->b[i] += U0[i];
     c = 1;
     dtpos = h * theta;
@@ -739,7 +817,7 @@ static double local_problem(mo_contact_driver *D, const mo_state *s, const doubl
       for (i = 0; i < n; i++) du[i] = D->xfull[i] - s->u[i];
       c = 1;
     }
-    mo_csc_gatxpy(C->Hfull, 1, du, 0, D->b);
+    mo_contact_Htx(C, s, du, 0, nc, NULL, D->b);
     for (i = 0; i < m; i++) D->b[i] += U0[i] * h;
     dtpos = 1;
   }
@@ -877,7 +955,7 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
   mo_contact_problem *P = &D->P;
   mo_contact_report *rep = &D->rep;
   const mo_what_inverse *Wi = mo_stepper_inverse(S);
-  int d = D->d, m = D->m, nc = D->nc, n = sc->ndof, st, a, i, any = 0, rebuilt = 0, rounds = 0;
+  int d = D->d, m = D->m, nc = D->nc, n = sc->ndof, st, a, i, any = 0, rebuilt = 0, rounds = 0, grains;
   double h = mo_stepper_dt(S), t0, c;
   mo_scheme scheme = sc->time.scheme;
 
@@ -887,6 +965,19 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
   if (D->W && !D->wused)
     mo_note_skip(ctx, "the Delassus operator (every contact joins rigid bodies: back end %s sweeps on their velocities)",
                  D->T->name);
+  /* the compact records go to a back end that reads them; any other use builds H from them */
+  grains = mo_contact_is_compact(C) && (D->T->needs & MO_NEEDS_GRAINS) && !D->wused;
+  if (grains) {
+    const int D3 = sc->dim;
+    int b;
+    int q;
+    for (b = 0; b < sc->nbody; b++)
+      if (D->gvel[b] >= 0) /* as mo_rigid_center, D values */
+        for (q = 0; q < D3; q++) D->gcentre[(size_t)D3 * b + q] = sc->body[b].xc0[q] + s->u[sc->body[b].dof0 + q];
+    D->grains.key = C->key;
+    D->grains.x = C->x;
+  } else if ((st = mo_contact_H_ensure(C, s, ctx)))
+    return st;
   if (D->wused) {
     if ((st = mo_delassus_update(D->W, C->H, mo_contact_h_version(C), Wi, c, d, &rebuilt, ctx))) return st;
     if (rebuilt) D->wbuilds++;
@@ -898,7 +989,7 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
   P->nc = nc;
   P->m = m;
   P->mu = D->mu;
-  P->g = D->gk;
+  P->g = D->gk ? D->gk : mo_contact_gaps(C);
   P->Uprev = D->Uprev;
   P->frame = mo_contact_frames(C);
   P->contact = C;
@@ -913,7 +1004,8 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
   P->gamma = sc->time.gamma;
   P->signorini = C->signorini;
   P->nfree = sc->nfree;
-  P->H = C->H;
+  P->H = grains ? NULL : C->H;
+  P->grains = grains ? &D->grains : NULL;
   P->What = NULL;
   if ((D->T->needs & MO_NEEDS_GLOBAL) && (st = mo_stepper_matrix_full(S, &P->What, ctx))) return st;
   P->Wi = Wi;
@@ -977,6 +1069,7 @@ resolve:
   /* 6. the core's measure: U' = W r + q when W is known, else the back end's U; W r is kept
      for contact_finish */
   if (D->wused) {
+    if ((st = ukin_room(D, ctx))) return st;
     mo_delassus_mult(D->W, D->r, 0, D->ukin);
     for (i = 0; i < m; i++) D->U[i] = D->ukin[i] + D->q[i];
   }
@@ -1065,6 +1158,7 @@ resolve:
       if ((st = mo_delassus_apply_Cinv(D->W, C->H, Wi, D->r, D->dx, ctx))) return st;
     } else {
       double *rhs = D->dxfull;
+      if ((st = mo_contact_H_ensure(C, s, ctx))) return st;
       memset(rhs, 0, (size_t)n * sizeof(double));
       mo_csc_gaxpy(C->Hfull, 1, D->r, 0, rhs);
       if ((st = mo_stepper_correct(S, rhs, D->dxfull, ctx))) return st;
@@ -1209,21 +1303,30 @@ static int contact_finish(mo_contact_driver *D, mo_state *s, const double *x, mo
   double w = 0;
   /* U without the offsets of the laws (Signorini, restitution): W r + b, or the back end's U' - (q - b) */
   const double *Ukin = D->ukin;
-  if (D->wused) for (i = 0; i < m; i++) D->ukin[i] += D->b[i];
-  else for (i = 0; i < m; i++) D->ukin[i] = D->U[i] - (D->q[i] - D->b[i]);
-  for (i = 0; i < m; i++)
-    w += D->r[i] * (scheme == MO_SCHEME_THETA ? 0.5 * (Ukin[i] + D->Uprev[i]) : Ukin[i]);
+  if (!D->wused) {
+    /* without W: U+ computed, its work added and (theta) taken as U- at once */
+    for (i = 0; i < m; i++) {
+      double uk = D->U[i] - (D->q[i] - D->b[i]);
+      w += D->r[i] * (scheme == MO_SCHEME_THETA ? 0.5 * (uk + D->Uprev[i]) : uk);
+      if (scheme == MO_SCHEME_THETA) D->Uprev[i] = uk;
+    }
+    Ukin = D->Uprev;
+  } else {
+    for (i = 0; i < m; i++) D->ukin[i] += D->b[i];
+    for (i = 0; i < m; i++)
+      w += D->r[i] * (scheme == MO_SCHEME_THETA ? 0.5 * (Ukin[i] + D->Uprev[i]) : Ukin[i]);
+  }
   s->wcontact += w;
   /* the end-of-step gaps of the Signorini candidates for the position correction (T94): g_k +
      h (theta U+_n + (1 - theta) U-_n), before U- becomes U+ */
   corr = D->C->poscorr && D->C->signorini == MO_SIGNORINI_VELOCITY && scheme == MO_SCHEME_THETA && D->wused &&
-         D->nc && !mo_stepper_nonlinear(D->S);
+         D->nc && !mo_stepper_nonlinear(D->S) && D->gk; /* (compact records: no Signorini candidate) */
   if (corr) {
     double h = mo_stepper_dt(D->S), th = D->sc->time.theta;
     for (i = 0; i < D->nc; i++)
       D->tmp[i] = D->gk[i] + h * (th * Ukin[i * D->d] + (1 - th) * D->Uprev[i * D->d]);
   }
-  if (scheme == MO_SCHEME_THETA) memcpy(D->Uprev, Ukin, (size_t)m * sizeof(double));
+  if (scheme == MO_SCHEME_THETA && D->wused) memcpy(D->Uprev, Ukin, (size_t)m * sizeof(double));
   {
     /* the step's resultants, before the end-of-step geometry replaces the candidate set: per pair,
        the force the master exerts on the slaves (world frame), and the sum of normal forces */
@@ -1233,7 +1336,8 @@ static int contact_finish(mo_contact_driver *D, mo_state *s, const double *x, mo
     memset(D->pforce, 0, 3 * (size_t)D->C->npair * sizeof *D->pforce);
     D->fn_step = 0;
     for (a = 0; a < D->nc; a++) {
-      double *f = D->pforce + 3 * (size_t)mo_contact_candidate(D->C, a)->pair;
+      mo_candidate cb;
+      double *f = D->pforce + 3 * (size_t)mo_contact_cand_get(D->C, a, &cb)->pair;
       D->fn_step += D->r[a * d] * fs;
       for (i = 0; i < d; i++)
         for (j = 0; j < dim && d == dim; j++) f[j] += D->r[a * d + i] * fs * F[(size_t)a * d * d + (size_t)i * d + j];

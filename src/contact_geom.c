@@ -98,6 +98,7 @@ void mo_contact_free(mo_contact *C)
   mo_free(C->key);
   mo_free(C->law);
   mo_free(C->e);
+  mo_free(C->x);
   mo_contact_detect_free(C);
   hbuf_free(&C->hb);
   if (C->H != C->Hfull) mo_csc_free(C->H);
@@ -739,18 +740,27 @@ static int build_H(mo_contact *C, mo_ctx *ctx)
   if (C->h_alias) C->H = C->Hfull; /* every dof free, numbered in order: H over the free dofs is H */
   else if ((st = csc_reuse(&C->H, sc->nfree, m, &C->hpcap, ctx))) return st;
   for (a = 0; a < C->nc; a++) {
-    const mo_candidate *c = &C->cand[a];
     const double *F = &C->frame[a * d * d];
-    for (k = 0; k < c->np; k++) {
-      const mo_cpoint *p = &C->pt[C->cpt[c->first + k]];
-      double cf = C->ccoef[c->first + k];
-      if ((st = side_H(C, &C->hb, p->sb, p->nn, p->node, p->N, p->xs, F, cf, ctx))) goto fail;
-      if (p->mb >= 0 && !p->off && (st = side_H(C, &C->hb, p->mb, p->mn, p->mnode, p->mN, p->xm, F, -cf, ctx)))
+    if (C->compact && a >= C->nc_static) { /* a compact record: one point, coefficient 1 */
+      mo_cpoint pb;
+      const mo_cpoint *p = mo_contact_cand_point(C, a, &pb);
+      if ((st = side_H(C, &C->hb, p->sb, 0, NULL, NULL, p->xs, F, 1, ctx)) ||
+          (p->mb >= 0 && (st = side_H(C, &C->hb, p->mb, 0, NULL, NULL, p->xm, F, -1, ctx))))
         goto fail;
+    } else {
+      const mo_candidate *c = &C->cand[a];
+      for (k = 0; k < c->np; k++) {
+        const mo_cpoint *p = &C->pt[C->cpt[c->first + k]];
+        double cf = C->ccoef[c->first + k];
+        if ((st = side_H(C, &C->hb, p->sb, p->nn, p->node, p->N, p->xs, F, cf, ctx))) goto fail;
+        if (p->mb >= 0 && !p->off && (st = side_H(C, &C->hb, p->mb, p->mn, p->mnode, p->mN, p->xm, F, -cf, ctx)))
+          goto fail;
+      }
     }
     if ((st = flush_columns(sc, &C->hb, d, a * d, C->Hfull, &C->hcapf, C->H, &C->hcap, ctx))) goto fail;
   }
   C->hversion++;
+  C->hbuilt = C->cset_version;
   return MO_OK;
 fail:
   /* no half-built H left behind */
@@ -832,12 +842,180 @@ int mo_contact_geometry(mo_contact *C, const mo_state *u, double t, int repair, 
   candidates_update(C, u, t);
   /* the detected candidates of the dynamic pairs (rigid shapes), replaced at every geometry */
   if (C->ndyn) st = mo_contact_detect(C, u, t, ctx);
-  if (!st && (!C->H || changed || C->moving_h || C->cset_version != cset)) st = build_H(C, ctx);
+  /* the granular path builds H only when asked (mo_contact_H_ensure) */
+  if (!st && !C->compact && (!C->H || changed || C->moving_h || C->cset_version != cset)) st = build_H(C, ctx);
+  if (!st && C->compact) {
+    C->hbuilt = -1; /* H, if any, is of an earlier geometry */
+    C->hversion++;
+  }
   C->hstate = NULL;
   mo_phase_add(ctx, MO_PH_GEOMETRY, t0);
   /* the broad phase is its own phase */
   ctx->phase_time[MO_PH_GEOMETRY] -= ctx->phase_time[MO_PH_BROAD] - broad0;
   return st;
+}
+
+int mo_contact_H_ensure(mo_contact *C, const mo_state *s, mo_ctx *ctx)
+{
+  int st;
+  if (!C->compact || (C->H && C->hbuilt == C->cset_version)) return MO_OK;
+  C->hstate = s;
+  st = build_H(C, ctx);
+  C->hstate = NULL;
+  return st;
+}
+
+int mo_contact_is_compact(const mo_contact *C) { return C->compact; }
+
+size_t mo_contact_bytes(const mo_contact *C, size_t *per_candidate)
+{
+  const int d = C->dim, D = C->sc->dim;
+  size_t cand = (size_t)C->nalloc * (sizeof(double) * (size_t)(1 + d * d + d + D + 1) + 2 + MO_KEY * sizeof(int));
+  size_t pts = (size_t)C->ptcap * sizeof(mo_cpoint) + (size_t)C->ccap * sizeof(mo_candidate) +
+               (size_t)C->coefcap * (sizeof(int) + sizeof(double));
+  size_t h = 0, body = 0;
+  if (C->Hfull) h += (size_t)C->hcapf * (sizeof(int) + sizeof(double)) + (size_t)C->hpcapf * sizeof(int);
+  if (C->H && C->H != C->Hfull) h += (size_t)C->hcap * (sizeof(int) + sizeof(double)) + (size_t)C->hpcap * sizeof(int);
+  if (C->ndyn) /* the detection's per-body arrays (detect.c) and the broad phase */
+    body = (size_t)C->sc->nbody * (2 * sizeof(unsigned long long) + (3 + 3 + (size_t)D + 5) * sizeof(double) + 2) +
+           mo_contact_broad_bytes(C);
+  if (per_candidate) *per_candidate = cand + pts + h;
+  return cand + pts + h + body;
+}
+
+const mo_cpoint *mo_contact_cand_point(const mo_contact *C, int a, mo_cpoint *buf)
+{
+  const int *key;
+  int D = C->sc->dim, i;
+  if (!C->compact || a < C->nc_static) return &C->pt[C->cand[a].point];
+  /* a compact record: the point detect.c would have written (a shape's contact, no nodes) */
+  key = C->key + (size_t)a * MO_KEY;
+  memset(buf, 0, sizeof *buf);
+  buf->pair = key[0];
+  buf->facet = buf->mfacet = -1;
+  buf->sb = key[1];
+  buf->mb = key[2];
+  buf->sfeat = key[3];
+  buf->mfeat = key[4];
+  for (i = 0; i < D; i++) buf->xs[i] = buf->xm[i] = buf->x0[i] = C->x[(size_t)a * D + i];
+  memcpy(buf->frame, C->frame + (size_t)a * C->dim * C->dim, (size_t)(C->dim * C->dim) * sizeof(double));
+  buf->g = C->g[a];
+  return buf;
+}
+
+void mo_contact_cand_bodies(const mo_contact *C, int a, int *sb, int *mb)
+{
+  if (C->compact && a >= C->nc_static) {
+    *sb = C->key[(size_t)a * MO_KEY + 1];
+    *mb = C->key[(size_t)a * MO_KEY + 2];
+  } else {
+    const mo_cpoint *p = &C->pt[C->cand[a].point];
+    *sb = p->sb;
+    *mb = p->mb;
+  }
+}
+
+const mo_candidate *mo_contact_cand_get(const mo_contact *C, int a, mo_candidate *buf)
+{
+  const int *key;
+  if (!C->compact || a < C->nc_static) return &C->cand[a];
+  key = C->key + (size_t)a * MO_KEY;
+  memset(buf, 0, sizeof *buf);
+  buf->pair = key[0];
+  buf->first = buf->point = -1;
+  buf->np = 1;
+  buf->node = -1;
+  buf->w = 1;
+  buf->mu = C->pair[key[0]].mu;
+  return buf;
+}
+
+/* The d columns of H^T x of compact record a (every dof), added to acc: the entries side_H writes
+   for the rigid shapes at the contact point (T68), summed in increasing dof order as mo_csc_gatxpy
+   sums a column of Hfull. A side's sign (slave +, master -) is applied to the products, which IEEE
+   arithmetic makes the same as applying it to the entries; an entry H does not store (zero) adds a
+   zero product (the sums differ at most by the sign of a zero). */
+static inline __attribute__((always_inline)) void compact_columns(const mo_contact *C, int a, const mo_state *s,
+                                                                  const double *x, double *acc, const int D)
+{
+  const mo_scene *sc = C->sc;
+  const int *key = C->key + (size_t)a * MO_KEY;
+  const double *F = C->frame + (size_t)a * D * D, *xp = C->x + (size_t)a * D;
+  /* the centres of this geometry (detect.c's, the same sums) when s is its state */
+  const int here = s->u == C->bcur_u && s->step == C->bcur_step;
+  int side[2], dof[2], ns = 0, k, i, q;
+  double cf[2];
+  if (C->bdof[key[1]] >= 0) { side[ns] = key[1]; dof[ns] = C->bdof[key[1]]; cf[ns++] = 1; }
+  if (key[2] >= 0 && C->bdof[key[2]] >= 0) { side[ns] = key[2]; dof[ns] = C->bdof[key[2]]; cf[ns++] = -1; }
+  if (ns == 2 && dof[1] < dof[0]) {
+    int b = side[0], o = dof[0];
+    side[0] = side[1];
+    dof[0] = dof[1];
+    side[1] = b;
+    dof[1] = o;
+    cf[0] = -1;
+    cf[1] = 1;
+  }
+  for (k = 0; k < ns; k++) {
+    const double *xb = x + dof[k];
+    double r[3];
+    if (here)
+      for (q = 0; q < D; q++) r[q] = xp[q] - C->bcur[(size_t)D * side[k] + q];
+    else
+      for (q = 0; q < D; q++) r[q] = xp[q] - (sc->body[side[k]].xc0[q] + s->u[dof[k] + q]);
+    for (i = 0; i < D; i++) {
+      const double *Fi = F + i * D;
+      double t = 0;
+      if (D == 2) {
+        double p0 = Fi[0] * xb[0], p1 = Fi[1] * xb[1], p2 = (r[0] * Fi[1] - r[1] * Fi[0]) * xb[2];
+        if (cf[k] > 0) t = ((acc[i] + p0) + p1) + p2;
+        else t = ((acc[i] - p0) - p1) - p2;
+      } else {
+        double w0 = r[1] * Fi[2] - r[2] * Fi[1], w1 = r[2] * Fi[0] - r[0] * Fi[2], w2 = r[0] * Fi[1] - r[1] * Fi[0];
+        double p[6] = {Fi[0] * xb[0], Fi[1] * xb[1], Fi[2] * xb[2], w0 * xb[3], w1 * xb[4], w2 * xb[5]};
+        int j;
+        t = acc[i];
+        if (cf[k] > 0) for (j = 0; j < 6; j++) t += p[j];
+        else for (j = 0; j < 6; j++) t -= p[j];
+      }
+      acc[i] = t;
+    }
+  }
+}
+
+void mo_contact_Htx1(const mo_contact *C, const mo_state *s, const double *x, int a, const double *start, double *y)
+{
+  const int d = C->dim;
+  double acc[3] = {0, 0, 0};
+  int i, j, p;
+  for (i = 0; i < d; i++) acc[i] = start ? start[i] : 0;
+  if (C->compact && a >= C->nc_static) {
+    if (d == 2) compact_columns(C, a, s, x, acc, 2);
+    else compact_columns(C, a, s, x, acc, 3);
+  } else {
+    const mo_csc *H = C->Hfull;
+    for (i = 0; i < d; i++)
+      for (j = a * d + i, p = H->p[j]; p < H->p[j + 1]; p++) acc[i] += H->x[p] * x[H->i[p]];
+  }
+  for (i = 0; i < d; i++) y[i] = start ? acc[i] : 1 * acc[i] + 0;
+}
+
+void mo_contact_Htx(const mo_contact *C, const mo_state *s, const double *x, int a0, int a1, const double *start,
+                    double *y)
+{
+  const int d = C->dim;
+  int a, i;
+  if (C->compact && a0 >= C->nc_static && (d == 2 || d == 3)) { /* the records, without a call each */
+    for (a = a0; a < a1; a++) {
+      double acc[3] = {0, 0, 0};
+      for (i = 0; i < d; i++) acc[i] = start ? start[(size_t)a * d + i] : 0;
+      if (d == 2) compact_columns(C, a, s, x, acc, 2);
+      else compact_columns(C, a, s, x, acc, 3);
+      for (i = 0; i < d; i++) y[(size_t)a * d + i] = start ? acc[i] : 1 * acc[i] + 0;
+    }
+    return;
+  }
+  for (a = a0; a < a1; a++) mo_contact_Htx1(C, s, x, a, start ? start + (size_t)a * d : NULL, y + (size_t)a * d);
 }
 
 /* --- dual cells and P* -------------------------------------------------------------------------- */
@@ -942,6 +1120,7 @@ int mo_contact_reserve(mo_contact *C, int nc, mo_ctx *ctx)
   GROW(C->key, (size_t)cap * MO_KEY);
   GROW(C->law, cap);
   GROW(C->e, cap);
+  GROW(C->x, (size_t)cap * (size_t)C->sc->dim);
 #undef GROW
   C->nalloc = cap;
   return MO_OK;
@@ -1327,6 +1506,33 @@ done:
   return st;
 }
 
+/* 1 when every candidate will be a detected contact between rigid shapes (disks, spheres,
+   polygons), or a shape and a plane, each shape's dofs all free or all prescribed: what the
+   compact records describe (doc/theory.md §12.9). */
+static int compact_eligible(const mo_contact *C)
+{
+  const mo_scene *sc = C->sc;
+  int k, i, side;
+  if (C->nc_static || !C->ndyn) return 0;
+  for (k = 0; k < C->npair; k++) {
+    const mo_contact_pair *P = &C->pair[k];
+    if (!P->dynamic) return 0;
+    for (side = 0; side < 2; side++)
+      for (i = 0; i < (side ? P->nm : P->ns); i++) {
+        const mo_body *B = &sc->body[side ? P->mb[i] : P->sb[i]];
+        int j, nfree = 0;
+        if (B->type->flags & MO_BODY_F_OBSTACLE) {
+          if (!side) return 0;
+          continue;
+        }
+        if (!(B->type->flags & (MO_BODY_F_BALL | MO_BODY_F_POLYGON)) || !(B->type->flags & MO_BODY_F_RIGID)) return 0;
+        for (j = 0; j < B->ndof; j++) nfree += sc->free_of[B->dof0 + j] >= 0;
+        if (nfree && nfree != B->ndof) return 0;
+      }
+  }
+  return 1;
+}
+
 int mo_contact_build(const mo_scene *sc, mo_contact **out, mo_ctx *ctx)
 {
   const mo_case *cs = sc->cs;
@@ -1526,8 +1732,20 @@ int mo_contact_build(const mo_scene *sc, mo_contact **out, mo_ctx *ctx)
   if (C->ndyn) {
     C->moving_h = 1; /* detected contacts move with their bodies */
     C->alert = mo_cfg_float(cg, "alert", -1);
+    C->skin = mo_cfg_float(cg, "skin", -1);
     C->h = sc->time.dt;
     if ((st = mo_contact_detect_setup(C, ctx))) goto fail;
+    C->compact_ok = compact_eligible(C);
+    {
+      /* the granular path, when the back end reads compact records (an unknown name is the
+         driver's to report) and W is not wanted at every step */
+      const mo_contact_solver_type *T = mo_contact_solver_find(C->solver);
+      C->compact = C->compact_ok && T && (T->needs & MO_NEEDS_GRAINS) && !C->delassus_always &&
+                   mo_cfg_bool(cg, "compact", 1);
+      if (C->compact)
+        mo_note_skip(ctx, "contact points and H (every candidate joins rigid shapes and obstacles: compact contact "
+                     "records, doc/theory.md §12.9)");
+    }
   } else
     mo_note_skip(ctx, "contact detection (no pair with a rigid shape: the candidates are fixed)");
   {
@@ -1542,7 +1760,8 @@ int mo_contact_build(const mo_scene *sc, mo_contact **out, mo_ctx *ctx)
      push apart violently), refused beyond a millionth of the smallest body */
   for (k = C->nc_static; k < C->nc; k++)
     if (C->g[k] < -1000 * C->gtol) {
-      const mo_cpoint *p = &C->pt[C->cand[k].point];
+      mo_cpoint pb;
+      const mo_cpoint *p = mo_contact_cand_point(C, k, &pb);
       const config_setting_t *bl = config_lookup(&cs->cfg, "bodies");
       st = mo_case_error(cs, config_setting_get_elem(bl, (unsigned)sc->body[p->sb].entry), ctx,
                          "bodies '%s' and '%s' overlap by %.3g m at t = 0 (the tolerance is %.3g m): move them apart",

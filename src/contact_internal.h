@@ -51,10 +51,20 @@ struct mo_contact {
   int poscorr;               /* contact.position_correction: 0 none, 1 project (T95-T96), 2 shift (T95) */
   int delassus_always;       /* contact.delassus = "always": W at every step, no body sweep */
   int h_alias;               /* H is Hfull (every dof free, in order): one matrix built */
+  /* the granular path (doc/theory.md §12.9): every candidate is a detected contact between rigid
+     shapes, or a shape and an obstacle, whose bodies are free or held fixed, and the back end
+     reads the compact records (MO_NEEDS_GRAINS). The detection then writes only the per-candidate
+     arrays above and the contact points x: no mo_cpoint, no mo_candidate, and H only on demand
+     (mo_contact_H_ensure: levelset, FCLIB dumps, contact.delassus = "always" turn compact off) */
+  int compact;
+  int compact_ok;             /* the scene qualifies (the back end and the options aside) */
+  double *x;                  /* D per candidate: the contact point of a detected candidate */
+  long hbuilt;                /* cset_version H was last built for (compact: built on demand) */
   char *solver;
   /* detection between rigid shapes (detect.c) */
   int ndyn;                   /* dynamic pairs */
   double alert;               /* contact.alert; the automatic value when the case gives none */
+  double skin;                /* contact.skin: the Verlet list's margin (T110) */
   double gtol;                /* gaps below this are closed: round-off of resting contacts (1e-9
                                  of the smallest body of the dynamic pairs) */
   double h;                   /* the step the margin of the alert distance is taken over */
@@ -63,15 +73,21 @@ struct mo_contact {
                                         rigid-rigid pair k */
   int nrr;                    /* rigid-rigid pairs (at most 64) */
   int *rr;                    /* their pair numbers */
-  double *bc, *br;            /* broad phase: centres and radii of the rigid bodies */
+  double *bc, *br;            /* broad phase: centres and radii of the rigid bodies when the list was built */
+  double *bcur;               /* D per body of the dynamic pairs: its centre at this geometry (rigid ones) */
+  const double *bcur_u;       /* the state bcur is of: its displacements and its step */
+  long bcur_step;
+  int *bdof;                  /* per body: its first dof when it is rigid, else -1 */
   double *bs, *be;            /* per body: its speed bound, and its alert margin when the pair list was built */
   double *bv, *bw;            /* per body: its translation velocity (3), and what its rotation adds (omega r_bound) */
+  double *bs2;                /* per body of the broad phase: its speed relative to their mean velocity, plus bw */
   unsigned char *dmask;       /* per body: 1 when in a dynamic pair (its speed is needed) */
   unsigned char *bmask;
   /* the broad phase's pair list kept between steps (a Verlet list), its reach (alert plus skin)
      and how many times it was built */
-  int *vl;
-  long vl_n, vl_cap, vl_builds;
+  const int *vl;              /* the broad phase's pair array (owned by C->broad) */
+  int knold, ksame;           /* detection: candidates of the previous set; its keys unchanged so far */
+  long vl_n, vl_builds;
   double vl_reach;
   int vl_built;
 };
@@ -127,6 +143,8 @@ int mo_contact_detect_setup(mo_contact *C, mo_ctx *ctx);
    radius, a mesh's shortest edge): the scale of the alert distance and of eps_g (T71). */
 double mo_contact_smallest_size(const mo_contact *C);
 int mo_contact_detect(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx);
+/* Bytes held by the broad phase. */
+size_t mo_contact_broad_bytes(const mo_contact *C);
 void mo_contact_detect_free(mo_contact *C);
 
 #endif

@@ -71,8 +71,8 @@ double mo_contact_friction_ratio(int d, double mu, const double *r)
    of its nodes (a rigid mesh), the body's centroid (a rigid shape). */
 static void cand_node_disp(const mo_scene *sc, const mo_contact *C, int a, const mo_state *s, double *D)
 {
-  const mo_candidate *c = &C->cand[a];
-  const mo_cpoint *p = &C->pt[c->point];
+  mo_cpoint pb;
+  const mo_cpoint *p = mo_contact_cand_point(C, a, &pb);
   const mo_body *B = &sc->body[p->sb];
   int i, k;
   for (i = 0; i < sc->dim; i++) D[i] = 0;
@@ -132,8 +132,10 @@ static void cand_values_get(const mo_scene *sc, const mo_contact *C, const mo_co
 static void csv_row(FILE *f, const mo_scene *sc, const mo_contact *C, const cand_values *v, const mo_state *s,
                     int a, int with_other, const double *other)
 {
-  const mo_candidate *c = &C->cand[a];
-  const mo_cpoint *p = &C->pt[c->point];
+  mo_candidate cb;
+  mo_cpoint pb;
+  const mo_candidate *c = mo_contact_cand_get(C, a, &cb);
+  const mo_cpoint *p = mo_contact_cand_point(C, a, &pb);
   int d = C->dim, D = sc->dim, i;
   double Dd[3];
   cand_node_disp(sc, C, a, s, Dd);
@@ -380,11 +382,13 @@ int mo_contact_network(const mo_scene *sc, const mo_contact *C, const mo_contact
   fs = force_scale(sc, Dr);
   if ((st = mo_vtk_contacts_reserve(N, nc, ctx))) return st;
   for (a = 0; a < nc; a++) {
-    const mo_cpoint *p = &C->pt[C->cand[a].point];
+    mo_cpoint pb;
+    const mo_cpoint *p;
     double rt = 0;
     int n = N->n, any = status[a] != MO_CS_OPEN;
     for (i = 0; i < d; i++) any |= r[a * d + i] != 0;
     if (!any) continue;
+    p = mo_contact_cand_point(C, a, &pb);
     for (i = 1; i < d; i++) rt += r[a * d + i] * r[a * d + i];
     network_line(sc, s, p, N->end + 6 * n, N->point + 3 * n);
     N->rn[n] = r[a * d] * fs;
@@ -409,8 +413,10 @@ int mo_contact_points(const mo_scene *sc, const mo_contact *C, const mo_contact_
   cand_values_get(sc, C, Dr, &v);
   if ((st = mo_vtk_points_reserve(P, C->nc, d, ctx))) return st;
   for (a = 0; a < C->nc; a++) {
-    const mo_candidate *c = &C->cand[a];
-    const mo_cpoint *p = &C->pt[c->point];
+    mo_candidate cb;
+    mo_cpoint pb;
+    const mo_candidate *c = mo_contact_cand_get(C, a, &cb);
+    const mo_cpoint *p = mo_contact_cand_point(C, a, &pb);
     const double *F = &mo_contact_frames(C)[(size_t)a * d * d];
     int n = P->n;
     double *x = P->x + 3 * n, *f = P->force + 3 * n, *w = P->vrel + 3 * n;

@@ -31,9 +31,11 @@ void mo_contact_detect_free(mo_contact *C)
   mo_free(C->be);
   mo_free(C->bv);
   mo_free(C->bw);
+  mo_free(C->bs2);
   mo_free(C->bmask);
   mo_free(C->dmask);
-  mo_free(C->vl);
+  mo_free(C->bcur);
+  mo_free(C->bdof);
   C->broad = NULL;
 }
 
@@ -62,20 +64,26 @@ int mo_contact_detect_setup(mo_contact *C, mo_ctx *ctx)
   const mo_scene *sc = C->sc;
   int k, i, st;
   if (C->alert < 0) C->alert = 0.1 * mo_contact_smallest_size(C);
+  /* the Verlet list's skin (T110): half the smallest body, never less than the alert distance */
+  if (C->skin < 0) C->skin = fmax(C->alert, 0.5 * mo_contact_smallest_size(C));
   C->mside = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->mside);
   C->sside = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->sside);
   C->rr = mo_malloc(ctx, ((size_t)C->npair + 1) * sizeof *C->rr);
   C->bc = mo_calloc(ctx, 3 * (size_t)sc->nbody + 1, sizeof *C->bc);
+  C->bcur = mo_calloc(ctx, (size_t)sc->dim * sc->nbody + 1, sizeof *C->bcur);
+  C->bdof = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *C->bdof);
   C->br = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->br);
   C->bs = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->bs);
   C->be = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->be);
   C->bv = mo_calloc(ctx, 3 * (size_t)sc->nbody + 1, sizeof *C->bv);
   C->bw = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->bw);
+  C->bs2 = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->bs2);
   C->bmask = mo_calloc(ctx, (size_t)sc->nbody + 1, 1);
   C->dmask = mo_calloc(ctx, (size_t)sc->nbody + 1, 1);
-  if (!C->mside || !C->sside || !C->rr || !C->bc || !C->br || !C->bs || !C->be || !C->bv || !C->bw || !C->bmask ||
-      !C->dmask)
+  if (!C->mside || !C->sside || !C->rr || !C->bc || !C->bcur || !C->bdof || !C->br || !C->bs || !C->be || !C->bv || !C->bw || !C->bs2 ||
+      !C->bmask || !C->dmask)
     return MO_ENOMEM;
+  for (i = 0; i < sc->nbody; i++) C->bdof[i] = (sc->body[i].type->flags & MO_BODY_F_RIGID) ? sc->body[i].dof0 : -1;
   for (k = 0; k < C->npair; k++) {
     const mo_contact_pair *P = &C->pair[k];
     if (!P->dynamic) continue;
@@ -109,6 +117,16 @@ typedef struct {
   double mN[MO_FNODE_MAX];
 } dyn_side;
 
+/* Write key (pair, slave, master, features) of detected candidate a, noting whether it differs from
+   the key a held in the previous set (C->knold keys; C->ksame: the set is the same so far). */
+static inline void set_key(mo_contact *C, int a, int pair, int sb, int mb, int sfeat, int mfeat)
+{
+  int *key = C->key + (size_t)a * MO_KEY;
+  if (a >= C->knold || key[0] != pair || key[1] != sb || key[2] != mb || key[3] != sfeat || key[4] != mfeat)
+    C->ksame = 0;
+  key[0] = pair; key[1] = sb; key[2] = mb; key[3] = sfeat; key[4] = mfeat;
+}
+
 /* Append the contact N of pair k between slave sb and master mb as a point and a candidate,
    with its frame, gap, obstacle velocity, key and law. */
 static int add_contact(mo_contact *C, const dyn_side *S, const mo_narrow *N, double t, mo_ctx *ctx)
@@ -116,44 +134,60 @@ static int add_contact(mo_contact *C, const dyn_side *S, const mo_narrow *N, dou
   const mo_scene *sc = C->sc;
   const mo_contact_pair *P = &C->pair[S->pair];
   const mo_body *M = &sc->body[S->mb];
-  int D = sc->dim, d = C->dim, a = C->nc, i, j, st, pi = C->npt, *key;
-  double one = 1, *F;
-  mo_cpoint *p;
-  mo_candidate c;
-  /* the point is written in its slot of the set (no copy of the large struct) */
-  if ((st = mo_contact_point_room(C, ctx))) return st;
-  p = &C->pt[C->npt++];
-  memset(p, 0, sizeof *p);
-  memset(&c, 0, sizeof c);
-  p->pair = S->pair;
-  p->facet = -1;
-  p->sb = S->sb;
-  p->mb = S->mb;
-  p->sfeat = S->sfeat;
-  p->mfeat = S->mfeat;
-  if (S->snode >= 0) {
-    p->nn = 1;
-    p->node[0] = S->snode;
-    p->N[0] = 1;
+  int D = sc->dim, d = C->dim, a = C->nc, i, j, st;
+  double *F;
+  if (C->compact) {
+    /* the granular path: the per-candidate arrays and the point, nothing else (§12.9) */
+    if ((st = mo_contact_reserve(C, C->nc + 1, ctx))) return st;
+    C->nc++;
+    F = C->frame + (size_t)a * (size_t)(d * d);
+    if (d == D) mo_contact_frame_from_normal(D, N->n, F);
+    else {
+      double Fb[9];
+      mo_contact_frame_from_normal(D, N->n, Fb);
+      memcpy(F, Fb, (size_t)(d * d) * sizeof *F);
+    }
+  } else {
+    int pi = C->npt;
+    double one = 1;
+    mo_cpoint *p;
+    mo_candidate c;
+    /* the point is written in its slot of the set (no copy of the large struct) */
+    if ((st = mo_contact_point_room(C, ctx))) return st;
+    p = &C->pt[C->npt++];
+    memset(p, 0, sizeof *p);
+    memset(&c, 0, sizeof c);
+    p->pair = S->pair;
+    p->facet = -1;
+    p->sb = S->sb;
+    p->mb = S->mb;
+    p->sfeat = S->sfeat;
+    p->mfeat = S->mfeat;
+    if (S->snode >= 0) {
+      p->nn = 1;
+      p->node[0] = S->snode;
+      p->N[0] = 1;
+    }
+    p->mfacet = S->mfacet;
+    p->mn = S->mn;
+    for (i = 0; i < S->mn; i++) {
+      p->mnode[i] = S->mnode[i];
+      p->mN[i] = S->mN[i];
+    }
+    for (i = 0; i < D; i++) p->xs[i] = p->xm[i] = p->x0[i] = N->x[i];
+    mo_contact_frame_from_normal(D, N->n, p->frame);
+    p->g = N->g;
+    c.pair = S->pair;
+    c.np = 1;
+    c.node = S->snode;
+    c.point = pi;
+    c.w = 1;
+    c.mu = P->mu;
+    if ((st = mo_contact_add_candidate(C, &c, &pi, &one, ctx)) || (st = mo_contact_reserve(C, C->nc, ctx))) return st;
+    F = C->frame + (size_t)a * (size_t)(d * d);
+    memcpy(F, C->pt[pi].frame, (size_t)(d * d) * sizeof *F);
   }
-  p->mfacet = S->mfacet;
-  p->mn = S->mn;
-  for (i = 0; i < S->mn; i++) {
-    p->mnode[i] = S->mnode[i];
-    p->mN[i] = S->mN[i];
-  }
-  for (i = 0; i < D; i++) p->xs[i] = p->xm[i] = p->x0[i] = N->x[i];
-  mo_contact_frame_from_normal(D, N->n, p->frame);
-  p->g = N->g;
-  c.pair = S->pair;
-  c.np = 1;
-  c.node = S->snode;
-  c.point = pi;
-  c.w = 1;
-  c.mu = P->mu;
-  if ((st = mo_contact_add_candidate(C, &c, &pi, &one, ctx)) || (st = mo_contact_reserve(C, C->nc, ctx))) return st;
-  F = C->frame + (size_t)a * (size_t)(d * d);
-  memcpy(F, C->pt[pi].frame, (size_t)(d * d) * sizeof *F);
+  for (i = 0; i < D; i++) C->x[(size_t)a * D + i] = N->x[i];
   C->g[a] = N->g;
   C->active[a] = 1;
   for (i = 0; i < d; i++) {
@@ -162,20 +196,43 @@ static int add_contact(mo_contact *C, const dyn_side *S, const mo_narrow *N, dou
       for (j = 0; j < D; j++) u0 -= F[i * d + j] * M->velocity[j];
     C->U0[(size_t)a * d + i] = u0;
   }
-  key = C->key + (size_t)a * MO_KEY;
-  key[0] = S->pair; key[1] = S->sb; key[2] = S->mb; key[3] = S->sfeat; key[4] = S->mfeat;
+  set_key(C, a, S->pair, S->sb, S->mb, S->sfeat, S->mfeat);
   C->law[a] = (unsigned char)P->law;
   C->e[a] = P->e;
   (void)t;
   return MO_OK;
 }
 
+/* The granular path's append of a contact between two shapes (no mesh side): add_contact's
+   compact branch, without what meshes and planes need. */
+static inline int compact_add(mo_contact *C, int pair, int sb, int mb, const mo_narrow *N, mo_ctx *ctx)
+{
+  const int D = C->dim, a = C->nc;
+  int i, st;
+  double *F;
+  if (a + 1 > C->nalloc && (st = mo_contact_reserve(C, a + 1, ctx))) return st;
+  C->nc++;
+  F = C->frame + (size_t)a * (size_t)(D * D);
+  mo_contact_frame_from_normal(D, N->n, F);
+  for (i = 0; i < D; i++) {
+    C->x[(size_t)a * D + i] = N->x[i];
+    C->U0[(size_t)a * D + i] = 0;
+  }
+  C->g[a] = N->g;
+  C->active[a] = 1;
+  set_key(C, a, pair, sb, mb, N->fb, N->fa);
+  C->law[a] = (unsigned char)C->pair[pair].law;
+  C->e[a] = C->pair[pair].e;
+  return MO_OK;
+}
+
 /* --- narrow phases by the kinds of the two sides ------------------------------------------------ */
 
 /* A rigid shape's world description: centre and radius (ball), or world vertices (polygon). */
-static void shape_world(const mo_scene *sc, const mo_body *B, const mo_state *s, double *c, double *v)
+static inline void shape_world(const mo_scene *sc, const mo_body *B, const mo_state *s, double *c, double *v)
 {
-  mo_rigid_center(sc, B, s, c);
+  int k;
+  for (k = 0; k < 3; k++) c[k] = k < sc->dim ? B->xc0[k] + s->u[B->dof0 + k] : 0; /* mo_rigid_center */
   if (B->kind == MO_BODY_POLYGON) mo_polygon_world(sc, B, s, v);
 }
 
@@ -200,6 +257,13 @@ static int shape_shape(mo_contact *C, int k, int sb, int mb, const mo_state *s, 
   mo_narrow out[2];
   dyn_side ds;
   int n = 0, i, st, flip = 0;
+  if (C->compact && S->kind != MO_BODY_POLYGON && M->kind != MO_BODY_POLYGON) {
+    /* two balls on the granular path: at most one contact, appended as a compact record */
+    shape_world(sc, S, s, cs, vs);
+    shape_world(sc, M, s, cm, vm);
+    if (!mo_narrow_ball_ball(sc->dim, cm, M->radius, cs, S->radius, alert, out)) return MO_OK;
+    return compact_add(C, k, sb, mb, out, ctx);
+  }
   shape_world(sc, S, s, cs, vs);
   shape_world(sc, M, s, cm, vm);
   if (S->kind != MO_BODY_POLYGON && M->kind != MO_BODY_POLYGON)
@@ -342,13 +406,20 @@ static int shapes_obstacle(mo_contact *C, int k, const mo_state *s, double t, mo
   for (i = 0; i < P->ns; i++) {
     int sb = P->sb[i];
     const mo_body *S = &sc->body[sb];
-    double c[3], v[2 * MO_POLYGON_MAX], p[3], alert = pair_alert(C, sb, P->mb[0]);
+    double c[3], v[2 * MO_POLYGON_MAX], p[3], alert;
     mo_narrow out[MO_POLYGON_MAX];
     dyn_side ds;
-    shape_world(sc, S, s, c, v);
     if (M->type->flags & MO_BODY_F_OBSTACLE) {
+      double h = 0, reach;
       if (t > M->until) return MO_OK; /* the gate has opened */
       for (j = 0; j < sc->dim; j++) p[j] = M->point[j] + M->velocity[j] * t;
+      /* a shape whose bounding ball is farther from the plane than any alert distance of theirs
+         (pair_alert <= alert + 2 h (s_b + s_plane)) is passed over before its narrow phase */
+      reach = S->bound + (C->alert + 2 * C->h * (C->bs[sb] + C->bs[P->mb[0]])) * (1 + 1e-9);
+      for (j = 0; j < sc->dim; j++) h += (C->bcur[(size_t)sc->dim * sb + j] - p[j]) * M->normal[j];
+      if (h > reach) continue;
+      alert = pair_alert(C, sb, P->mb[0]);
+      shape_world(sc, S, s, c, v);
       n = S->kind == MO_BODY_POLYGON ? mo_narrow_plane_polygon(p, M->normal, S->nvert, v, alert, out)
                                      : mo_narrow_plane_ball(sc->dim, p, M->normal, c, S->radius, alert, out);
       memset(&ds, 0, sizeof ds);
@@ -362,60 +433,91 @@ static int shapes_obstacle(mo_contact *C, int k, const mo_state *s, double t, mo
         if ((st = add_contact(C, &ds, &out[j], t, ctx))) return st;
       }
     } else if (S->kind == MO_BODY_POLYGON) {
+      alert = pair_alert(C, sb, P->mb[0]);
+      shape_world(sc, S, s, c, v);
       for (j = 0; j < S->nvert; j++)
         if ((st = point_facets(C, k, sb, j, v + 2 * j, 0, s, alert, t, ctx))) return st;
-    } else if ((st = point_facets(C, k, sb, -1, c, S->radius, s, alert, t, ctx)))
-      return st;
+    } else {
+      alert = pair_alert(C, sb, P->mb[0]);
+      shape_world(sc, S, s, c, v);
+      if ((st = point_facets(C, k, sb, -1, c, S->radius, s, alert, t, ctx))) return st;
+    }
   }
   return MO_OK;
 }
 
+/* The mean translation velocity of the broad phase's bodies (bv), and each body's speed relative to
+   it plus what its rotation adds, s'_b = |v_b - vm| + w_b, into bs2 (doc/theory.md (T110)). */
+static void relative_speeds(mo_contact *C, int D, double *vm)
+{
+  const mo_scene *sc = C->sc;
+  int b, k, n = 0;
+  vm[0] = vm[1] = vm[2] = 0;
+  for (b = 0; b < sc->nbody; b++)
+    if (C->bmask[b]) {
+      for (k = 0; k < D; k++) vm[k] += C->bv[3 * (size_t)b + k];
+      n++;
+    }
+  for (k = 0; k < D && n; k++) vm[k] /= n;
+  for (b = 0; b < sc->nbody; b++)
+    if (C->bmask[b]) {
+      double e2 = 0;
+      for (k = 0; k < D; k++) e2 += (C->bv[3 * (size_t)b + k] - vm[k]) * (C->bv[3 * (size_t)b + k] - vm[k]);
+      C->bs2[b] = sqrt(e2) + C->bw[b];
+    }
+}
+
 /* The broad phase's pair list, kept while it holds every pair closer than its alert distance
-   (pair_alert): it was built with each body's bounding ball grown by what it could close at its
-   speed then (e_b = 2 h s_b) and a skin of one alert distance, and it stays valid while every
-   body's displacement since plus what it can close at its speed now stays within half the skin
-   plus its e_b (a Verlet list; doc/theory.md §12.3, (T77)). A falling pack rebuilds it at every
-   step (a wider margin costs more than it saves: measured on 10^5 grains). */
+   (pair_alert; doc/theory.md (T110)): built with each body's bounding ball grown by what it could
+   close relative to the others' mean motion at its speed then (e_b = 2 h s'_b, s'_b its speed
+   relative to the bodies' mean velocity plus what its rotation adds) and a skin (contact.skin),
+   it stays valid while every body's displacement relative to the bodies' mean
+   displacement since the build, plus what it can close at its relative speed now, stays within
+   half the skin plus its e_b. Grains falling together move with the mean: their list stays. */
 static int pair_list(mo_contact *C, const mo_state *s, mo_ctx *ctx)
 {
   const mo_scene *sc = C->sc;
   const int D = sc->dim;
-  const double skin = C->alert;
   const int *pairs;
   long np;
-  int b, k, st, valid = C->vl_built;
-  double t0 = mo_clock();
-  for (b = 0; b < sc->nbody && valid; b++)
-    if (C->bmask[b]) {
-      double c[3], dd = 0;
-      mo_rigid_center(sc, &sc->body[b], s, c);
-      for (k = 0; k < D; k++) {
-        double e = c[k] - C->bc[(size_t)D * b + k];
-        dd += e * e;
+  int b, k, st, valid = C->vl_built, n = 0;
+  double t0 = mo_clock(), vm[3], dm[3] = {0, 0, 0};
+  relative_speeds(C, D, vm);
+  if (valid) {
+    /* the mean displacement since the build, then each body's displacement relative to it */
+    for (b = 0; b < sc->nbody; b++)
+      if (C->bmask[b]) {
+        for (k = 0; k < D; k++) dm[k] += C->bcur[(size_t)D * b + k] - C->bc[(size_t)D * b + k];
+        n++;
       }
-      valid = sqrt(dd) + 2 * C->h * C->bs[b] <= 0.5 * skin + C->be[b];
-    }
+    for (k = 0; k < D && n; k++) dm[k] /= n;
+    for (b = 0; b < sc->nbody && valid; b++)
+      if (C->bmask[b]) {
+        double dd = 0;
+        for (k = 0; k < D; k++) {
+          double e = C->bcur[(size_t)D * b + k] - C->bc[(size_t)D * b + k] - dm[k];
+          dd += e * e;
+        }
+        valid = sqrt(dd) + 2 * C->h * C->bs2[b] <= 0.5 * C->skin + C->be[b];
+      }
+  }
   if (valid) {
     mo_phase_add(ctx, MO_PH_BROAD, t0);
     return MO_OK;
   }
   for (b = 0; b < sc->nbody; b++)
     if (C->bmask[b]) {
-      double c[3];
-      mo_rigid_center(sc, &sc->body[b], s, c);
-      memcpy(C->bc + (size_t)D * (size_t)b, c, (size_t)D * sizeof *c);
-      C->be[b] = 2 * C->h * C->bs[b];
+      memcpy(C->bc + (size_t)D * b, C->bcur + (size_t)D * b, (size_t)D * sizeof *C->bc);
+      C->be[b] = 2 * C->h * C->bs2[b];
       C->br[b] = sc->body[b].bound + C->be[b];
     }
-  C->vl_reach = C->alert + skin;
-  if ((st = mo_broad_pairs(C->broad, D, sc->nbody, C->bc, C->br, C->bmask, C->vl_reach, &pairs, &np, ctx))) return st;
-  if (np > C->vl_cap) {
-    int *p = mo_realloc(ctx, C->vl, (size_t)(2 * np) * sizeof *p);
-    if (!p) return MO_ENOMEM;
-    C->vl = p;
-    C->vl_cap = np;
+  C->vl_reach = C->alert + C->skin;
+  if ((st = mo_broad_pairs(C->broad, D, sc->nbody, C->bc, C->br, C->bmask, C->vl_reach, &pairs, &np, ctx))) {
+    C->vl_built = 0;
+    C->vl_n = 0;
+    return st;
   }
-  if (np) memcpy(C->vl, pairs, (size_t)(2 * np) * sizeof *C->vl);
+  C->vl = pairs; /* the broad phase's own list, valid until its next call */
   C->vl_n = np;
   C->vl_built = 1;
   C->vl_builds++;
@@ -423,9 +525,24 @@ static int pair_list(mo_contact *C, const mo_state *s, mo_ctx *ctx)
   return MO_OK;
 }
 
+/* Two balls (disks, spheres) of a rigid-rigid pair: a pair of the list farther apart than any
+   alert distance of theirs can be (pair_alert <= alert + 2 h (s_a + s_b)) is passed over before
+   the narrow phase, which would find it out of reach too. */
+static inline int balls_apart(const mo_contact *C, const mo_state *s, int i, int j, int D)
+{
+  const mo_body *A = &C->sc->body[i], *B = &C->sc->body[j];
+  const double *ci = C->bcur + (size_t)D * i, *cj = C->bcur + (size_t)D * j;
+  double d2 = 0, reach = A->radius + B->radius + C->alert + 2 * C->h * (C->bs[i] + C->bs[j]);
+  int k;
+  (void)s;
+  for (k = 0; k < D; k++) d2 += (cj[k] - ci[k]) * (cj[k] - ci[k]);
+  return d2 > reach * reach * (1 + 1e-9);
+}
+
 /* The pair list of the bodies of the rigid-rigid pairs, then their narrow phases. */
 static int rigid_pairs(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx)
 {
+  const mo_scene *sc = C->sc;
   long q;
   int st;
   if ((st = pair_list(C, s, ctx))) return st;
@@ -434,6 +551,8 @@ static int rigid_pairs(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx)
     unsigned long long ij = C->mside[i] & C->sside[j], ji = C->mside[j] & C->sside[i];
     unsigned long long any = ij | ji;
     if (!any) continue;
+    if ((sc->body[i].type->flags & sc->body[j].type->flags & MO_BODY_F_BALL) && balls_apart(C, s, i, j, sc->dim))
+      continue;
     for (r = 0; !(any >> r & 1ULL); r++) {}
     /* master i, slave j when pair r reads so (for a pair within a group: the lower index) */
     if (ij >> r & 1ULL) st = shape_shape(C, C->rr[r], j, i, s, t, ctx);
@@ -450,6 +569,8 @@ static void body_speeds(mo_contact *C, const mo_state *s)
 {
   const mo_scene *sc = C->sc;
   int b, a, i, D = sc->dim;
+  C->bcur_u = s->u;
+  C->bcur_step = s->step;
   for (b = 0; b < sc->nbody; b++) {
     const mo_body *B = &sc->body[b];
     double v2 = 0, w2 = 0, vmax = 0, *v = C->bv + 3 * (size_t)b;
@@ -457,6 +578,7 @@ static void body_speeds(mo_contact *C, const mo_state *s)
     v[0] = v[1] = v[2] = 0;
     C->bw[b] = 0;
     if (B->type->flags & MO_BODY_F_RIGID) {
+      for (a = 0; a < D; a++) C->bcur[(size_t)D * b + a] = B->xc0[a] + s->u[B->dof0 + a]; /* mo_rigid_center */
       for (a = 0; a < D; a++) v2 += (v[a] = s->v[B->dof0 + a]) * s->v[B->dof0 + a];
       for (a = D; a < B->ndof; a++) w2 += s->v[B->dof0 + a] * s->v[B->dof0 + a];
       C->bw[b] = sqrt(w2) * B->bound;
@@ -477,23 +599,22 @@ static void body_speeds(mo_contact *C, const mo_state *s)
   }
 }
 
-/* 1 when the detected keys equal the previous ones (same candidates in the same order). */
-static int same_keys(const mo_contact *C, const int *old, int nold)
+size_t mo_contact_broad_bytes(const mo_contact *C) { return mo_broad_bytes(C->broad); }
+
+int mo_contact_broad_stats(const mo_contact *C, long *builds, long *pairs)
 {
-  int n = C->nc - C->nc_static;
-  return n == nold && (!n || !memcmp(old, C->key + (size_t)C->nc_static * MO_KEY, (size_t)n * MO_KEY * sizeof(int)));
+  *builds = C->vl_builds;
+  *pairs = C->vl_n;
+  return C->nrr > 0;
 }
 
 int mo_contact_detect(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx)
 {
-  int k, st = MO_OK, nold = C->nc - C->nc_static;
-  int *old = NULL;
+  int k, st = MO_OK;
   body_speeds(C, s);
-  if (nold > 0) {
-    old = mo_malloc(ctx, (size_t)nold * MO_KEY * sizeof *old);
-    if (!old) return MO_ENOMEM;
-    memcpy(old, C->key + (size_t)C->nc_static * MO_KEY, (size_t)nold * MO_KEY * sizeof *old);
-  }
+  /* the new keys are compared with the old ones as they overwrite them (set_key) */
+  C->knold = C->nc;
+  C->ksame = 1;
   C->npt = C->npt_static;
   C->nc = C->nc_static;
   C->ncoef = C->ncoef_static;
@@ -510,7 +631,6 @@ int mo_contact_detect(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx)
       st = shapes_obstacle(C, k, s, t, ctx);
   }
   if (!st && C->nrr) st = rigid_pairs(C, s, t, ctx);
-  if (!st && !same_keys(C, old, nold)) C->cset_version++;
-  mo_free(old);
+  if (!st && !(C->ksame && C->nc == C->knold)) C->cset_version++;
   return st;
 }

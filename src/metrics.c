@@ -24,7 +24,7 @@ struct mo_metrics {
   /* contact */
   int nc, d;                 /* candidates: those of the last step (static ones first) */
   int cap;                   /* capacity of the per-candidate arrays: detected ones come and go */
-  double *Un, *Unprev;       /* normal relative velocities */
+  double *Unprev;            /* normal relative velocities of the previous step */
   int *prevstatus;           /* per candidate */
   double *tv;                /* total variation of U_n while closed, per candidate */
   double *dUp;               /* the last increment of U_n between bearing steps (0: none) (T93) */
@@ -65,7 +65,6 @@ void mo_metrics_free(mo_metrics *M)
 {
   if (!M) return;
   mo_free(M->work);
-  mo_free(M->Un);
   mo_free(M->Unprev);
   mo_free(M->prevstatus);
   mo_free(M->tv);
@@ -97,10 +96,10 @@ static int room(mo_metrics *M, int nc, mo_ctx *ctx)
 {
   size_t n;
   void *p;
-  if (nc <= M->cap && M->Un) return 1;
+  if (nc <= M->cap && M->Unprev) return 1;
   n = (size_t)(nc + nc / 2) + 1;
 #define GROW(ptr, k) if (!(p = mo_realloc(ctx, ptr, (k) * sizeof *(ptr)))) return 0; ptr = p
-  GROW(M->Un, n * (size_t)M->d); GROW(M->Unprev, n); GROW(M->prevstatus, n); GROW(M->tv, n);
+  GROW(M->Unprev, n); GROW(M->prevstatus, n); GROW(M->tv, n);
   GROW(M->dUp, n); GROW(M->alt, n); GROW(M->nsign, n); GROW(M->landed, n);
   GROW(M->incontact, n); GROW(M->keys, n * MO_KEY); GROW(M->tmp, 8 * n);
 #undef GROW
@@ -303,7 +302,8 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
     const int *st = D ? mo_contact_statuses(D) : NULL;
     const unsigned char *law = mo_contact_laws(C);
     double vfloor;
-    const double *r = D ? mo_contact_reactions(D) : NULL;
+    const double *r = D ? mo_contact_reactions(D) : NULL, *Up;
+    int ns;
     int d = M->d;
     double h = D ? mo_contact_driver_dt(D) : sc->time.dt;
     if (M->cset != mo_contact_set_version(C)) follow(M);
@@ -312,7 +312,11 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
       M->unmeasured++;
       return;
     }
-    mo_csc_gatxpy(mo_contact_H_full(C), 1, s->v, 0, M->Un);
+    /* the detected candidates' U- of the next step, H^T v + U0 at this geometry, is the driver's
+       (the same sum, to the bit, where U0 = 0): taken from it, the others computed candidate by
+       candidate (Un below) */
+    Up = D ? mo_contact_driver_uprev(D, s) : NULL;
+    ns = mo_contact_nstatic(C);
     M->final_pen = 0;
     /* below this a velocity moves a point by less than the gap tolerance (1e-9 h_min) in a step:
        round-off, never an impact speed (T93) */
@@ -320,7 +324,12 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
     M->vfloor = vfloor;
     if (h > 0 && 1e-9 * M->lscale / h > M->vround) M->vround = 1e-9 * M->lscale / h;
     for (a = 0; a < M->nc; a++) {
-      double un = M->Un[a * d] + U0[a * d];
+      double Un[3], un;
+      int i, zero = Up && a >= ns;
+      for (i = 0; i < d && zero; i++) zero = U0[a * d + i] == 0;
+      if (zero) Un[0] = Up[a * d];
+      else mo_contact_Htx1(C, s, s->v, a, NULL, Un);
+      un = Un[0] + U0[a * d];
       /* bearing: a compressive reaction. The jump of the normal velocity and its variation
          are measured between two bearing steps (the landing step is the impact itself); a
          release is the first step with no reaction and an open gap after bearing. Detected

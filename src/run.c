@@ -122,7 +122,8 @@ static double probe_value(const mo_scene *sc, const mo_probe *P, mo_quantity q, 
     r = mo_contact_reactions(cv->D);
     g = mo_contact_gaps(cv->C);
     for (a = 0; a < mo_contact_ncandidates(cv->C); a++) {
-      const mo_candidate *c = mo_contact_candidate(cv->C, a);
+      mo_candidate cb;
+      const mo_candidate *c = mo_contact_cand_get(cv->C, a, &cb);
       if (c->node < 0 || mo_contact_pair_get(cv->C, c->pair)->sbody != P->body) continue;
       for (k = 0; k < P->nnode; k++)
         if (P->node[k] == c->node) {
@@ -191,10 +192,11 @@ static void rigid_aggregates(const mo_scene *sc, const mo_state *s, const contac
   if (cv->C && cv->D) {
     const int *st = mo_contact_statuses(cv->D);
     for (k = 0; k < mo_contact_ncandidates(cv->C); k++) {
-      const mo_cpoint *p = mo_contact_point(cv->C, mo_contact_candidate(cv->C, k)->point);
+      int sb, mb;
       if (st[k] == MO_CS_OPEN) continue;
-      z += (sc->body[p->sb].type->flags & MO_BODY_F_RIGID) && !sc->body[p->sb].fixed;
-      z += p->mb >= 0 && (sc->body[p->mb].type->flags & MO_BODY_F_RIGID) && !sc->body[p->mb].fixed;
+      mo_contact_cand_bodies(cv->C, k, &sb, &mb);
+      z += (sc->body[sb].type->flags & MO_BODY_F_RIGID) && !sc->body[sb].fixed;
+      z += mb >= 0 && (sc->body[mb].type->flags & MO_BODY_F_RIGID) && !sc->body[mb].fixed;
     }
   }
   out[0] = mo_rigid_kinetic(sc, s);
@@ -825,6 +827,30 @@ static json_t *contact_json(const mo_contact *C, const mo_contact_driver *D)
     /* detected candidates (rigid shapes): the last step's, and the alert distance */
     json_object_set_new(j, "candidates_detected", json_integer(mo_contact_ncandidates(C) - mo_contact_nstatic(C)));
     json_object_set_new(j, "alert", jnum(mo_contact_alert(C)));
+    {
+      /* the broad phase's pair list (doc/theory.md (T110)): builds over the run, pairs now */
+      long builds, npairs;
+      if (mo_contact_broad_stats(C, &builds, &npairs)) {
+        json_t *bp = json_object();
+        json_object_set_new(bp, "builds", json_integer(builds));
+        json_object_set_new(bp, "pairs", json_integer(npairs));
+        json_object_set_new(bp, "compact", json_boolean(mo_contact_is_compact(C)));
+        json_object_set_new(j, "broad", bp);
+      }
+    }
+    {
+      /* what the contact set and the driver hold (bytes, at their capacities; doc/theory.md §12.9) */
+      json_t *mem = json_object();
+      size_t pc = 0, pd = 0, set = mo_contact_bytes(C, &pc);
+      json_object_set_new(mem, "set", json_integer((json_int_t)set));
+      json_object_set_new(mem, "set_candidates", json_integer((json_int_t)pc));
+      if (D) {
+        size_t dr = mo_contact_driver_bytes(D, &pd);
+        json_object_set_new(mem, "driver", json_integer((json_int_t)dr));
+        json_object_set_new(mem, "driver_candidates", json_integer((json_int_t)(dr - pd)));
+      }
+      json_object_set_new(j, "memory", mem);
+    }
   }
   json_object_set_new(j, "steps_with_contact", json_integer(steps));
   json_object_set_new(j, "iterations_total", json_integer(it));
@@ -1264,6 +1290,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
        written; the nodal contact forces when a probe reads them */
     if (cv.need_R && drv && (write_row || nexact)) {
       double sc_f = sc->time.scheme == MO_SCHEME_THETA ? 1 / mo_contact_driver_dt(drv) : 1;
+      if ((st = mo_contact_H_ensure(C, &s, ctx))) goto done;
       mo_csc_gaxpy(mo_contact_H_full(C), sc_f, mo_contact_reactions(drv), 0, cv.Rfull);
     }
     for (k = 0; k < nvalcol; k++) {

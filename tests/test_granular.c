@@ -160,7 +160,7 @@ static void detection_vs_brute(void)
       for (i = 0; i < 2; i++) s.u[B->dof0 + i] += amp * (2 * urand(&seed) - 1);
     }
     if ((st = mo_contact_geometry(C, &s, 0, 0, &ctx))) break;
-    for (a = mo_contact_nstatic(C); a < mo_contact_ncandidates(C); a++) nd += mo_contact_candidate(C, a)->pair == 0;
+    for (a = mo_contact_nstatic(C); a < mo_contact_ncandidates(C); a++) nd += mo_contact_key(C, a)[0] == 0;
     for (i = 0; i < sc->nrigid; i++)
       for (j = i + 1; j < sc->nrigid; j++) {
         const mo_body *A = &sc->body[sc->rigid[i]], *B = &sc->body[sc->rigid[j]];

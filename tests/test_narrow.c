@@ -548,7 +548,7 @@ static void test_broad_random(void)
   rng g = {88172645463325252u};
   mo_ctx ctx;
   mo_broad *B;
-  long np, calls;
+  long np, calls, npmax = 0;
   int dim, a, mk, i, pass;
   mo_ctx_init(&ctx);
   ok(mo_broad_create(&B, &ctx) == 0, "broad: create");
@@ -559,6 +559,7 @@ static void test_broad_random(void)
     for (a = 0; a < 3; a++)
       for (mk = 0; mk < 2; mk++) {
         pass = same_pairs(B, dim, N, c, r, mk ? mask : NULL, alerts[a], &np, &ctx);
+        if (np > npmax) npmax = np;
         ok(pass, "broad %dD: %d balls, alert %g, %s: %ld pairs as brute force", dim, N, alerts[a],
            mk ? "masked" : "no mask", np);
       }
@@ -570,11 +571,25 @@ static void test_broad_random(void)
     c[dim * 7] = -1e300;
     c[dim * 8 + 1] = 1e300;
     ok(same_pairs(B, dim, N, c, r, NULL, alerts[1], &np, &ctx), "broad %dD: outliers at +-1e300", dim);
-    ok(mo_broad_bytes(B) < 200 * (size_t)N, "broad %dD: %zu bytes held for %d balls (under 200 a ball)", dim,
-       mo_broad_bytes(B), N);
+    /* O(balls + pairs): the grid, the gathered positions and the sort's scratch per ball, the pair
+       list (with its growth) per pair of the largest call (alert 2.5) */
+    ok(mo_broad_bytes(B) < 100 * (size_t)N + 16 * (size_t)npmax, "broad %dD: %zu bytes held for %d balls and %ld pairs "
+       "(under 100 a ball plus 16 a pair)", dim, mo_broad_bytes(B), N, npmax);
     random_set(&g, dim, N, dim == 2 ? 1e4 : 2e3, c, r); /* a sparse gas: more than 4 cells a body */
     pass = same_pairs(B, dim, N, c, r, NULL, 50, &np, &ctx) && np > 0;
     ok(pass, "broad %dD: sparse set, alert 50 (%ld pairs)", dim, np);
+  }
+  for (dim = 2; dim <= 3; dim++) {
+    /* a few balls much larger than the others (fast grains grown by their speed, or big bodies):
+       the cells are sized for the others, the large ones search their own reach */
+    random_set(&g, dim, N, dim == 2 ? 112 : 30, c, r);
+    for (i = 0; i < N; i += 97) r[i] = 3 + 6 * rnd(&g);
+    r[5] = 40;
+    for (a = 0; a < 3; a++) {
+      pass = same_pairs(B, dim, N, c, r, a == 1 ? mask : NULL, alerts[a], &np, &ctx);
+      ok(pass, "broad %dD: %d balls, %d of them 3 to 40 times larger, alert %g%s: %ld pairs as brute force", dim, N,
+         N / 97 + 1, alerts[a], a == 1 ? ", masked" : "", np);
+    }
   }
   random_set(&g, 3, 100, 10, c, r);
   ok(same_pairs(B, 3, 100, c, r, NULL, 1e3, &np, &ctx) && np == 4950,

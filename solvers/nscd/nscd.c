@@ -73,13 +73,14 @@ static void nscd_free(void *state)
   mo_free(S->aux);
   mo_free(S->act);
   mo_free(S->order);
-  mo_free(S->U);
+  mo_free(S->Uown);
   mo_free(S->rold);
   mo_free(S->scale);
   mo_free(S->mu);
   mo_free(S->rng_state);
   mo_free(S->sprev);
   nscd_bodies_free(S);
+  nscd_grains_free(S);
   memset(S, 0, sizeof *S);
 }
 
@@ -96,22 +97,35 @@ static int fit_set(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
   S->wver = -1;
   /* without W, every contact joins rigid bodies (and obstacles): the sweep on body velocities */
   S->bodies = !P->W;
-  if (S->bodies && (!P->H || !P->Wi || !P->xfree))
+  S->grains = S->bodies && P->grains;
+  if (S->bodies && ((!P->H && !P->grains) || !P->Wi || !P->xfree))
     return mo_error(ctx, MO_EINTERNAL, "nscd: the core gave neither W nor the blocks of H and What");
+#define GROW(ptr, n) if (!(q = mo_realloc(ctx, ptr, (n) * sizeof *(ptr)))) return MO_ENOMEM; ptr = q
   if (nc > S->cap) {
     nc += nc / 2; /* sets grow a little at a time while grains settle */
-#define GROW(ptr, n) if (!(q = mo_realloc(ctx, ptr, (n) * sizeof *(ptr)))) return MO_ENOMEM; ptr = q
-    GROW(S->rcnt, nc); GROW(S->rcol, nc); GROW(S->rval, nc); GROW(S->diag, nc);
-    GROW(S->aux, nc * NSCD_AUX); GROW(S->act, nc); GROW(S->order, nc); GROW(S->scale, nc); GROW(S->mu, nc);
-    GROW(S->sprev, nc);
+    GROW(S->diag, nc); GROW(S->act, nc); GROW(S->order, nc); GROW(S->scale, nc); GROW(S->mu, nc);
     S->cap = nc;
+  }
+  /* what the sweep on W keeps per contact (its rows, the statuses of the previous sweep), and the
+     local solvers' data outside the records of the granular path */
+  if (!S->bodies && S->cap > S->wcap) {
+    GROW(S->rcnt, S->cap); GROW(S->rcol, S->cap); GROW(S->rval, S->cap); GROW(S->sprev, S->cap);
+    S->wcap = S->cap;
+  }
+  if (!S->grains && S->cap > S->acap) {
+    GROW(S->aux, S->cap * NSCD_AUX);
+    S->acap = S->cap;
   }
   if (m > S->mcap) {
     m += m / 2;
-    GROW(S->U, m); GROW(S->rold, m);
-#undef GROW
+    GROW(S->rold, m);
     S->mcap = m;
   }
+  if (!S->grains && S->mcap > S->ucap) {
+    GROW(S->Uown, S->mcap);
+    S->ucap = S->mcap;
+  }
+#undef GROW
   return MO_OK;
 }
 
@@ -245,6 +259,11 @@ static int prepare_matrix(nscd_state *S, const mo_contact_problem *P, mo_ctx *ct
 static void exact_U(nscd_state *S, const mo_contact_problem *P, const double *r)
 {
   int i, zero = 1;
+  if (S->grains) {
+    nscd_grains_velocities(S, P, r);
+    nscd_grains_exact_U(S, P);
+    return;
+  }
   if (S->bodies) { /* from the body velocities, which follow r */
     nscd_bodies_velocities(S, P, r);
     nscd_bodies_exact_U(S, P);
@@ -358,7 +377,8 @@ static void jean_norms(const nscd_state *S, const double *rold, const double *r,
 /* "candidate 12 (node 13)" */
 static int name_candidate(const mo_contact_problem *P, int a, char *buf, size_t n)
 {
-  const mo_candidate *c = P->contact ? mo_contact_candidate(P->contact, a) : NULL;
+  mo_candidate cb;
+  const mo_candidate *c = P->contact ? mo_contact_cand_get(P->contact, a, &cb) : NULL;
   if (c && c->node >= 0) return snprintf(buf, n, "candidate %d (node %d)", a, c->node);
   return snprintf(buf, n, "candidate %d", a);
 }
@@ -412,14 +432,18 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
 {
   nscd_state *S = state;
   const nscd_params *p = &S->p;
-  int d = S->d, m = S->m, a, k, i, st, sweeps = 0, broke = -1, conv = 0, tried = -1000, wait = 10;
+  int d = S->d, m = S->m, a, k, i, st, sweeps = 0, broke = -1, conv = 0, tried = -1000, wait = 10, rold_at = -1;
   double *r = x->r, quad = 0, maxm = 0, res = HUGE_VAL, rhist[10] = {HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL};
   const int scaled = p->stop == NSCD_STOP_SCALED;
   int (*do_sweep)(nscd_state *, const mo_contact_problem *, double *, int *) =
       d == 3 ? sweep3 : d == 2 ? sweep2 : sweep1;
-  if (P->nc != S->nc || P->dim != S->d || (!P->W) != S->bodies)
+  if (P->nc != S->nc || P->dim != S->d || (!P->W) != S->bodies || (S->bodies && !P->grains != !S->grains))
     return mo_error(ctx, MO_EINTERNAL, "nscd: the problem changed size (%d x %d, was %d x %d)", P->nc, P->dim, S->nc, S->d);
-  if ((st = S->bodies ? nscd_bodies_prepare(S, P, ctx) : prepare_matrix(S, P, ctx))) return st;
+  /* U = W r + q: the granular path keeps it in the caller's array, the others in their own */
+  S->U = S->grains ? x->U : S->Uown;
+  if ((st = S->grains ? nscd_grains_prepare(S, P, ctx) : S->bodies ? nscd_bodies_prepare(S, P, ctx)
+                      : prepare_matrix(S, P, ctx)))
+    return st;
   /* the active contacts, in the chosen order */
   S->nact = 0;
   for (a = 0; a < S->nc; a++) {
@@ -443,7 +467,13 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
   if (!p->warm_start) memset(r, 0, (size_t)m * sizeof *r);
   for (i = 0; i < m; i++)
     if (!isfinite(r[i])) { memset(r, 0, (size_t)m * sizeof *r); break; }
-  exact_U(S, P, r);
+  if (S->bodies && p->stop != NSCD_STOP_SCALED && p->stop != NSCD_STOP_NATURAL) {
+    /* the sweeps on body velocities read U from the velocities; the rules that do not stop on U
+       need it exact only at the end */
+    if (S->grains) nscd_grains_velocities(S, P, r);
+    else nscd_bodies_velocities(S, P, r);
+  } else
+    exact_U(S, P, r);
   memset(&S->lst, 0, sizeof S->lst);
   memset(&S->ai, 0, sizeof S->ai);
   S->accel_tries = 0;
@@ -455,8 +485,12 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
     /* the 3D Newton solves to 1e-2 of the last residual (never looser than 1e-4, never tighter
        than local_tol): early sweeps need no exact local solve, the last ones get it */
     if (res < HUGE_VAL) S->lp.local_tol = fmax(p->local_tol, fmin(1e-4, 1e-2 * res));
-    memcpy(S->rold, r, (size_t)m * sizeof *r);
-    broke = S->bodies ? nscd_bodies_sweep(S, P, r, x->status) : do_sweep(S, P, r, x->status);
+    /* the reactions before the sweep, for Jean's norms (T11): at every sweep for the rules that
+       stop on them and those that may stop at any sweep, before the last one for "sweeps" */
+    rold_at = p->stop != NSCD_STOP_SWEEPS || sweeps == p->max_sweeps - 1 ? sweeps : rold_at;
+    if (rold_at == sweeps) memcpy(S->rold, r, (size_t)m * sizeof *r);
+    broke = S->grains ? nscd_grains_sweep(S, P, r, x->status)
+            : S->bodies ? nscd_bodies_sweep(S, P, r, x->status) : do_sweep(S, P, r, x->status);
     sweeps++;
     if (broke >= 0) break;
     if (p->stop == NSCD_STOP_NATURAL || scaled) {
@@ -528,20 +562,24 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
   if (S->bodies && broke < 0) {
     /* redundancy on the sweep on bodies: closed unknowns against the dofs they move (T84) */
     int nu = 0, nd = 0;
-    if ((st = nscd_bodies_count(S, P, r, &nu, &nd, ctx))) return st;
+    if ((st = S->grains ? nscd_grains_count(S, P, r, &nu, &nd, ctx) : nscd_bodies_count(S, P, r, &nu, &nd, ctx)))
+      return st;
     memset(&S->ai, 0, sizeof S->ai);
     S->ai.tried = nu > 0;
     S->ai.rows = nu;
     S->ai.rank = nu < nd ? nu : nd;
     S->ai.rcond = NAN;
   }
-  memcpy(x->U, S->U, (size_t)m * sizeof *x->U);
+  if (x->U != S->U) memcpy(x->U, S->U, (size_t)m * sizeof *x->U);
   if (S->bodies) { /* the correction is the body velocities' change: no solve left to the core */
     nscd_bodies_dx(S, P, x->dx);
     x->dx_set = 1;
   }
   /* Jean's norms of the last sweep (the quad and maxm rules have them already) */
-  if (sweeps && p->stop != NSCD_STOP_QUAD && p->stop != NSCD_STOP_MAXM) jean_norms(S, S->rold, r, &quad, &maxm);
+  if (sweeps && p->stop != NSCD_STOP_QUAD && p->stop != NSCD_STOP_MAXM) {
+    if (rold_at == sweeps - 1) jean_norms(S, S->rold, r, &quad, &maxm);
+    else quad = maxm = NAN; /* "sweeps" interrupted before its last sweep */
+  }
   rep->constraints = S->ai.tried ? S->ai.rows : -1;
   rep->redundant = S->ai.tried ? S->ai.rows - S->ai.rank : -1;
   rep->rcond = S->ai.tried ? S->ai.rcond : NAN;
@@ -584,7 +622,7 @@ const mo_contact_solver_type mo_contact_solver_nscd = {
   "Jean's nonsmooth contact dynamics: nonlinear Gauss-Seidel over contacts on the Delassus operator",
   sizeof(nscd_state),
   sizeof(nscd_params),
-  MO_NEEDS_DELASSUS | MO_NEEDS_BODIES,
+  MO_NEEDS_DELASSUS | MO_NEEDS_BODIES | MO_NEEDS_GRAINS,
   (1u << MO_SCHEME_THETA) | (1u << MO_SCHEME_NEWMARK) | (1u << MO_SCHEME_QUASISTATIC),
   nscd_options,
   (int)MO_COUNT(nscd_options),

@@ -55,6 +55,25 @@ int nscd_local_solve(int d, const double *W, const double *aux, const double *q,
 /* The three local solvers (called by nscd_local_solve; exposed for the tests). */
 int nscd_local_1d(const double *W, const double *q, double *r);
 int nscd_local_2d(const double *W, const double *aux, const double *q, double mu, double *r);
+/* nscd_local_2d with its two common cases inline (open; stick inside the cone), the others
+   through it: the same result, without a call for most updates of a sweep. */
+static inline int nscd_local_2d_fast(const double *W, const double *aux, const double *q, double mu, double *r)
+{
+  double qn = q[0], qt = q[1];
+  if (qn >= 0) {
+    r[0] = r[1] = 0;
+    return MO_CS_OPEN;
+  }
+  if (W[0] > 0 && aux[6] != 0) {
+    double rn = -(aux[0] * qn + aux[1] * qt), rt = -(aux[2] * qn + aux[3] * qt);
+    if (rn > 0 && (rt < 0 ? -rt : rt) <= mu * rn) {
+      r[0] = rn;
+      r[1] = rt;
+      return MO_CS_STICK;
+    }
+  }
+  return nscd_local_2d(W, aux, q, mu, r);
+}
 int nscd_local_3d(const double *W, const double *aux, const double *q, double mu, double *r,
                   const nscd_params *p, nscd_local_stats *st);
 /* The 3D Alart-Curnier Newton, the search on the slip angle and the projection alone (tests).
@@ -93,11 +112,14 @@ typedef struct {
   double *cv;
   size_t ccap, cpcap;
   size_t cap, mcap;             /* room of the per-contact arrays (contacts) and of U, rold (m) */
+  size_t wcap, acap, ucap;      /* room of the sweep on W's arrays (rcnt, rcol, rval, sprev), of aux, of Uown */
   double *aux;                  /* nc * NSCD_AUX: per-contact data of the local solvers */
   const mo_delassus *wsrc;      /* the W the cached data were built for, and its version */
   long wver;
   int *act, nact, *order;
-  double *U;                    /* U = W r + q kept up to date by the column updates */
+  double *U;                    /* U = W r + q kept up to date by the column updates: Uown, or on the
+                                   granular path the caller's array of the solve */
+  double *Uown;
   double *rold;                 /* m: the reactions at the start of the sweep (Jean's norms) */
   double *scale;                /* nc: 1 / W_aa,nn, the scaling of (T42) (0 when W_nn = 0) */
   double *mu;                   /* nc: friction coefficients, 0 where no free dof moves the
@@ -127,6 +149,15 @@ typedef struct {
   int *bmark;                   /* per rigid block: touched by a closed contact (the count of (T84)) */
   size_t bmcap;
   size_t bcap, vcap;
+  /* the granular path (nscd_grains.c): the core gave compact records (P->grains), not H; the sweep
+     on body velocities reads per contact its sides and the moments of its frame (vb above as in
+     the sweep on H) */
+  int grains;
+  void *grec;                   /* per contact its record (nscd_grains.c): sides, c_a, W_aa, the rows of H
+                                   on the sides' rotations, the local solver's data */
+  double *giv;                  /* nfree: the diagonal of What^-1 on the rigid dofs */
+  long givver;                  /* the What^-1 version giv was taken from */
+  size_t gcap, gvcap;
 } nscd_state;
 
 /* The local data of every contact from its diagonal block S->diag[a] and mu: the friction kept
@@ -148,6 +179,16 @@ void nscd_bodies_free(nscd_state *S);
    n - dofs a lower bound of it (the rank is not computed on the sweep on bodies). */
 int nscd_bodies_count(nscd_state *S, const mo_contact_problem *P, const double *r, int *unknowns, int *dofs,
                       mo_ctx *ctx);
+
+/* The same on the compact records of the granular path (nscd_grains.c, doc/theory.md §12.9), with
+   the arithmetic of the sweep on H to the bit. */
+int nscd_grains_prepare(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx);
+void nscd_grains_velocities(nscd_state *S, const mo_contact_problem *P, const double *r);
+void nscd_grains_exact_U(nscd_state *S, const mo_contact_problem *P);
+int nscd_grains_sweep(nscd_state *S, const mo_contact_problem *P, double *r, int *status);
+int nscd_grains_count(nscd_state *S, const mo_contact_problem *P, const double *r, int *unknowns, int *dofs,
+                      mo_ctx *ctx);
+void nscd_grains_free(nscd_state *S);
 
 /* --- the status-set step and the round-off floor (nscd_accel.c, doc/theory.md (T83)-(T85)) ------ */
 

@@ -120,6 +120,32 @@ int mo_contact_npairs(const mo_contact *C);
 const mo_contact_pair *mo_contact_pair_get(const mo_contact *C, int k);
 const mo_candidate *mo_contact_candidate(const mo_contact *C, int alpha);
 const mo_cpoint *mo_contact_point(const mo_contact *C, int k);
+/* Candidate a and its representative point for any candidate: pointers into the set, or, for a
+   compact record of the granular path (doc/theory.md §12.9), the candidate and the point the
+   detection would have written, filled into buf (then valid until buf is reused). Consumers that
+   read detected candidates use these; mo_contact_candidate and mo_contact_point hold only the
+   points the set stores (not the compact records). */
+const mo_candidate *mo_contact_cand_get(const mo_contact *C, int a, mo_candidate *buf);
+const mo_cpoint *mo_contact_cand_point(const mo_contact *C, int a, mo_cpoint *buf);
+/* Bytes the contact set holds (capacities): its per-candidate arrays, points, candidates, H
+   (*per_candidate, when not NULL: those that grow with the candidates), and the detection's
+   per-body arrays with the broad phase. */
+size_t mo_contact_bytes(const mo_contact *C, size_t *per_candidate);
+/* The slave and master bodies of candidate a's representative point (master -1: none). */
+void mo_contact_cand_bodies(const mo_contact *C, int a, int *sb, int *mb);
+/* 1 when the detected candidates are compact records (no points, H on demand). */
+int mo_contact_is_compact(const mo_contact *C);
+/* H of the last geometry at its state s, built now when the granular path left it out: for
+   back ends and outputs that need H (a no-op otherwise). */
+int mo_contact_H_ensure(mo_contact *C, const mo_state *s, mo_ctx *ctx);
+/* y = H^T x over full dofs for the columns of candidates a0 .. a1-1 (d each), with H the operator
+   of the last geometry at its state s, whether H is stored or not: y_j = sum_i H_ij x_i (start
+   NULL), or start_j + sum_i H_ij x_i accumulated from start_j. The same sums, in the same order,
+   as mo_csc_gatxpy on mo_contact_H_full. */
+void mo_contact_Htx(const mo_contact *C, const mo_state *s, const double *x, int a0, int a1, const double *start,
+                    double *y);
+/* The same for candidate a alone, into y[0 .. d-1] (start: its d values, or NULL). */
+void mo_contact_Htx1(const mo_contact *C, const mo_state *s, const double *x, int a, const double *start, double *y);
 /* Coefficients and points of candidate alpha: cand->np entries from cand->first. */
 const int *mo_contact_cand_points(const mo_contact *C);
 const double *mo_contact_cand_coefs(const mo_contact *C);
@@ -152,6 +178,9 @@ int mo_keymap_find(const mo_keymap *M, const int *k);
 void mo_keymap_free(mo_keymap *M);
 /* The alert distance of the detection (0 without pairs of rigid shapes). */
 double mo_contact_alert(const mo_contact *C);
+/* The broad phase of the detection between rigid shapes: how many times its pair list was built
+   and how many pairs it holds (doc/theory.md (T110)); 0 when the scene has no such pair. */
+int mo_contact_broad_stats(const mo_contact *C, long *builds, long *pairs);
 /* Per candidate: its law and restitution coefficient. */
 const unsigned char *mo_contact_laws(const mo_contact *C);
 const double *mo_contact_restitution(const mo_contact *C);
@@ -235,6 +264,20 @@ void mo_fc_jean_norms(const mo_delassus *W, int nc, const double *r_old, const d
    VELOCITY: U+_n >= 0 _|_ r_n >= 0 on the index set of candidates predicted closed. */
 typedef enum { MO_SIGNORINI_POSITION = 0, MO_SIGNORINI_VELOCITY } mo_signorini;
 
+/* The granular contacts of a step (doc/theory.md §12.9), for a back end with MO_NEEDS_GRAINS:
+   contact a joins slave body key[a MO_KEY + 1] and master body key[a MO_KEY + 2] at the point
+   x[a D .. a D + D - 1], in the frame P->frame (rows n, t, s). The rows of H of a side on a rigid
+   body b are the side's sign (+1 slave, -1 master) times the frame's rows on b's translations and
+   the moments (x - centre_b) x F_i on its rotations (T68), with b's free velocities from vel[b] in
+   x_free (-1: a plane, or a body held fixed, whose motion is in P->b already). */
+typedef struct mo_grains {
+  int D;                     /* space dimension (2 or 3); 1 + D (2D) or 2 D (3D) dofs per body */
+  const int *key;            /* MO_KEY per contact (pair, slave, master, features) */
+  const double *x;           /* D per contact: the contact point */
+  const int *vel;            /* per body of the scene: its first free dof, or -1 */
+  const double *centre;      /* D per body: its centre at the step's start (moving bodies) */
+} mo_grains;
+
 /* The contact problem of one step, built by the core and handed to a back end. Everything is
    owned by the core and read-only for the back end. */
 typedef struct mo_contact_problem {
@@ -243,7 +286,7 @@ typedef struct mo_contact_problem {
   const double *mu;          /* nc friction coefficients */
   const double *g;           /* nc gaps at the start of the step */
   const double *Uprev;       /* m local velocities at the start of the step */
-  const double *w;           /* nc candidate measures */
+  const double *w;           /* nc candidate measures (NULL on the granular path: every one is 1) */
   const double *frame;       /* nc d x d frames */
   const mo_contact *contact; /* candidates, points, pairs */
   /* local relation U' = W r + b: U' is the local velocity (theta) or displacement increment
@@ -263,6 +306,7 @@ typedef struct mo_contact_problem {
   const mo_csc *What;        /* nfree x nfree iteration matrix */
   const mo_what_inverse *Wi; /* What^-1 by blocks (the nodal factorization, the rigid blocks) */
   const double *xfree;       /* nfree: the unconstrained step (v_free, a_free or u_free) */
+  const mo_grains *grains;   /* the granular path (MO_NEEDS_GRAINS; H NULL), else NULL */
   long cset;                 /* mo_contact_set_version: a back end re-reads what it derived from
                                 the candidates when it changes (init is called again) */
   double du_dx;              /* du = c dx over the step */
@@ -324,10 +368,14 @@ typedef struct {
 enum {
   MO_NEEDS_DELASSUS = 1,     /* W = H^T What^-1 H */
   MO_NEEDS_GLOBAL = 2,       /* H, What, its factor and x_free (KKT or Schur paths) */
-  MO_NEEDS_BODIES = 4        /* with MO_NEEDS_DELASSUS: when every candidate joins rigid bodies and
+  MO_NEEDS_BODIES = 4,       /* with MO_NEEDS_DELASSUS: when every candidate joins rigid bodies and
                                 obstacles only, the back end works from H, the blocks of What^-1
                                 and x_free instead of W, which the core then does not build (P->W
                                 NULL): the sweep on body velocities (doc/theory.md §8.6) */
+  MO_NEEDS_GRAINS = 8        /* with MO_NEEDS_BODIES: when every candidate is a detected contact of
+                                rigid shapes and obstacles, the back end reads their compact
+                                records (P->grains) instead of H, which the core then does not
+                                build (P->H NULL; doc/theory.md §12.9) */
 };
 
 typedef struct mo_contact_solver_type {
@@ -433,6 +481,10 @@ const double *mo_contact_reactions(const mo_contact_driver *D);  /* m, last step
 const double *mo_contact_pair_forces(const mo_contact_driver *D);
 double mo_contact_normal_force(const mo_contact_driver *D);
 const double *mo_contact_local_velocity(const mo_contact_driver *D);
+/* U- = H^T v + U0 of the detected candidates (from mo_contact_nstatic) at the last geometry, for the
+   step that starts at state s: the driver's, when they are of s (its set and velocities), else
+   NULL (the values of mesh candidates are not of this form: the caller computes those). */
+const double *mo_contact_driver_uprev(const mo_contact_driver *D, const mo_state *s);
 const int *mo_contact_statuses(const mo_contact_driver *D);
 const mo_contact_solver_type *mo_contact_driver_type(const mo_contact_driver *D);
 const mo_delassus *mo_contact_driver_delassus(const mo_contact_driver *D);
@@ -454,6 +506,9 @@ void mo_contact_driver_totals(const mo_contact_driver *D, long *steps, long *ite
 void mo_contact_driver_keep_delassus(mo_contact_driver *D);
 /* Totals over the run of the back end's factorizations and of its solves on kept factors. */
 void mo_contact_driver_factor_totals(const mo_contact_driver *D, long *factorizations, long *reuses);
+/* Bytes the driver holds for the candidates (its per-candidate arrays and key map, at their
+   capacity) and for the dofs (*per_dof, when not NULL). */
+size_t mo_contact_driver_bytes(const mo_contact_driver *D, size_t *per_dof);
 /* Solves that did not converge over the run (non-zero only with contact.on_failure = "continue"). */
 long mo_contact_driver_failures(const mo_contact_driver *D);
 /* Candidates added to velocity-level index sets after a solve found them ending inside (§5). */

@@ -1,0 +1,345 @@
+/* nscd_grains.c: nscd's sweep on body velocities for the granular path (doc/theory.md §12.9):
+   the contacts come as compact records (bodies, point, frame; P->grains) instead of columns of
+   H, and each contact keeps only what its updates read: its two sides' first velocities, the
+   moments of its frame about the sides' centres, W_aa and c_a. The arithmetic is that of the sweep
+   on H (nscd_bodies.c, (T79)) to the bit: the same rows of H, the same sums in the same order. */
+#include "config.h"
+#include "nscd.h"
+
+#include <math.h>
+#include <string.h>
+
+/* Dofs of a body and its rotations in a problem of contact dimension d (2D: 3 and 1, 3D: 6 and 3). */
+#define NK(d) ((d) == 3 ? 6 : 3)
+#define NR(d) ((d) == 3 ? 3 : 1)
+/* The kernels below take d as a constant of each call site: inlined, their loops unroll. */
+#define KERNEL static inline __attribute__((always_inline))
+
+/* One record per contact, what its updates read, in one block (d = 2: 144 bytes, d = 3: 344):
+   its two sides (+ (o + 1) a slave side, - (o + 1) a master side whose body's velocities start at o
+   in vb, increasing o; 0 none), c_a = q_a - H_a^T v_free, W_aa, the rows of H on the sides'
+   rotations (d x NR per side) and the local solver's data (nscd_local_prepare). */
+#define NAUX(d) ((d) == 3 ? 12 : 7)
+#define OFF_C 8
+#define OFF_W(d) (OFF_C + 8 * (d))
+#define OFF_ROT(d) (OFF_W(d) + 8 * (d) * (d))
+#define OFF_AUX(d) (OFF_ROT(d) + 16 * (d) * NR(d))
+#define RECSZ(d) ((size_t)(OFF_AUX(d) + 8 * NAUX(d)))
+#define REC(S, a, d) ((char *)(S)->grec + (size_t)(a) * RECSZ(d))
+#define R_SIDE(p) ((int *)(p))
+#define R_C(p) ((double *)((p) + OFF_C))
+#define R_W(p, d) ((double *)((p) + OFF_W(d)))
+#define R_ROT(p, d) ((double *)((p) + OFF_ROT(d)))
+#define R_AUX(p, d) ((double *)((p) + OFF_AUX(d)))
+
+void nscd_grains_free(nscd_state *S)
+{
+  mo_free(S->grec);
+  mo_free(S->giv);
+}
+
+/* Room for nc contacts and nfree velocities. */
+static int reserve(nscd_state *S, int nfree, mo_ctx *ctx)
+{
+  size_t nc = (size_t)S->nc + 1;
+  void *p;
+#define GROW(ptr, n) if (!(p = mo_realloc(ctx, ptr, (n)))) return MO_ENOMEM; ptr = p
+  if (nc > S->gcap) {
+    nc += nc / 4;
+    GROW(S->grec, nc * RECSZ(S->d));
+    S->gcap = nc;
+  }
+  if ((size_t)nfree + 1 > S->vcap) {
+    GROW(S->vb, ((size_t)nfree + 1) * sizeof *S->vb);
+    S->vcap = (size_t)nfree + 1;
+  }
+  if ((size_t)nfree + 1 > S->gvcap) {
+    GROW(S->giv, ((size_t)nfree + 1) * sizeof *S->giv);
+    S->gvcap = (size_t)nfree + 1;
+    S->givver = -1;
+  }
+#undef GROW
+  return MO_OK;
+}
+
+/* The diagonal of What^-1 over the rigid free dofs, from its blocks when they changed. The blocks
+   of disks, spheres and polygons are diagonal (diag(m, m, I) in 2D, diag(m Id, (2/5) m R^2 Id) in 3D,
+   inverted exactly by Gauss-Jordan), so inv_k G^T is the diagonal times G^T to the bit. */
+static int inverse_diagonal(nscd_state *S, const mo_what_inverse *Wi, mo_ctx *ctx)
+{
+  int k, i, j;
+  if (S->givver == Wi->version) return MO_OK;
+  for (k = 0; k < Wi->nblk; k++) {
+    int o = Wi->off[k], nk = Wi->off[k + 1] - o;
+    const double *inv = Wi->inv + Wi->ioff[k];
+    for (i = 0; i < nk; i++)
+      for (j = 0; j < nk; j++)
+        if (i != j && inv[i * nk + j] != 0)
+          return mo_error(ctx, MO_EINTERNAL, "nscd: the mass block of a rigid body of the granular path is not "
+                          "diagonal (block %d)", k);
+    for (i = 0; i < nk; i++) S->giv[o + i] = inv[i * nk + i];
+  }
+  S->givver = Wi->version;
+  return MO_OK;
+}
+
+/* Contact a's sides (see the record), in increasing o: the order of H's rows. */
+KERNEL void sides(const mo_grains *G, int a, int *gs)
+{
+  const int *key = G->key + (size_t)a * MO_KEY;
+  int os = G->vel[key[1]], om = key[2] >= 0 ? G->vel[key[2]] : -1;
+  gs[0] = gs[1] = 0;
+  if (os >= 0 && om >= 0) {
+    gs[0] = os < om ? os + 1 : -(om + 1);
+    gs[1] = os < om ? -(om + 1) : os + 1;
+  } else if (os >= 0)
+    gs[0] = os + 1;
+  else if (om >= 0)
+    gs[0] = -(om + 1);
+}
+
+/* The rows of H on a side (d x NK(d), row-major): cf F_i on the translations, cf (x - c) x F_i on
+   the rotations (T68). */
+KERNEL void side_rows(const int d, const double *F, const double *x, const double *c, double cf, double *G,
+                      double *rot)
+{
+  int i, j;
+  double r[3] = {0, 0, 0};
+  for (j = 0; j < d; j++) r[j] = x[j] - c[j];
+  for (i = 0; i < d; i++) {
+    const double *Fi = F + i * d;
+    for (j = 0; j < d; j++) G[i * NK(d) + j] = cf * Fi[j];
+    if (d == 2)
+      rot[i] = G[i * NK(d) + 2] = cf * (r[0] * Fi[1] - r[1] * Fi[0]);
+    else {
+      double w[3] = {r[1] * Fi[2] - r[2] * Fi[1], r[2] * Fi[0] - r[0] * Fi[2], r[0] * Fi[1] - r[1] * Fi[0]};
+      for (j = 0; j < 3; j++) rot[i * 3 + j] = G[i * NK(d) + 3 + j] = cf * w[j];
+    }
+  }
+}
+
+/* The records of every contact: W_aa = sum_s G inv G^T and c_a = q_a - sum_s G v_free as
+   nscd_bodies.c's prepare computes them from H (an entry H does not store, a zero, gives a zero
+   product here: the sums differ at most by the sign of a zero), then the local data as
+   nscd_prepare_local computes them. */
+KERNEL void prepare_d(nscd_state *S, const mo_contact_problem *P, const int d)
+{
+  const mo_grains *Gr = P->grains;
+  const double *iv = S->giv;
+  int a, s, i, j, k;
+  for (a = 0; a < S->nc; a++) {
+    char *rec = REC(S, a, d);
+    double *Waa = R_W(rec, d), *ca = R_C(rec), wtt = 0;
+    const double *F = P->frame + (size_t)a * d * d, *x = Gr->x + (size_t)a * d;
+    const int *key = Gr->key + (size_t)a * MO_KEY;
+    int *gs = R_SIDE(rec), act = !P->active || P->active[a];
+    sides(Gr, a, gs);
+    for (i = 0; i < d * d; i++) Waa[i] = 0;
+    for (i = 0; i < d; i++) ca[i] = P->b[a * d + i];
+    for (s = 0; s < 2 && gs[s]; s++) {
+      const int o = (gs[s] > 0 ? gs[s] : -gs[s]) - 1, b = gs[s] > 0 ? key[1] : key[2];
+      double G[3 * 6], MG[6 * 3];
+      side_rows(d, F, x, Gr->centre + (size_t)b * d, gs[s] > 0 ? 1 : -1, G, R_ROT(rec, d) + s * d * NR(d));
+      if (act) /* W_aa for the contacts of the step's problem only */
+        for (k = 0; k < NK(d); k++) /* inv_k G^T: the diagonal times G^T */
+          for (j = 0; j < d; j++) MG[k * d + j] = iv[o + k] * G[j * NK(d) + k];
+      for (i = 0; i < d; i++) {
+        if (act)
+          for (j = 0; j < d; j++) {
+            double acc = Waa[i * d + j];
+            for (k = 0; k < NK(d); k++) acc += G[i * NK(d) + k] * MG[k * d + j];
+            Waa[i * d + j] = acc;
+          }
+        for (k = 0; k < NK(d); k++) ca[i] -= G[i * NK(d) + k] * P->xfree[o + k];
+      }
+    }
+    S->diag[a] = Waa;
+    if (!act) { /* out of the step's problem: its U only (r = 0), no local data */
+      S->mu[a] = S->scale[a] = 0;
+      continue;
+    }
+    /* nscd_prepare_local: friction where a free dof moves the contact tangentially, the local
+       solvers' data, the scaling (T42) */
+    for (i = 1; i < d; i++) wtt += Waa[i * d + i];
+    S->mu[a] = P->mu && wtt > 1e-12 * Waa[0] ? P->mu[a] : 0;
+    {
+      double aux[NSCD_AUX];
+      nscd_local_prepare(d, Waa, S->mu[a], aux);
+      memcpy(R_AUX(rec, d), aux, NAUX(d) * sizeof *aux);
+    }
+    S->scale[a] = Waa[0] > 0 ? 1 / Waa[0] : 0;
+  }
+}
+
+int nscd_grains_prepare(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
+{
+  int st;
+  if (S->d != 2 && S->d != 3)
+    return mo_error(ctx, MO_EINTERNAL, "nscd: granular contacts in dimension %d", S->d);
+  if ((st = reserve(S, P->nfree, ctx)) || (st = inverse_diagonal(S, P->Wi, ctx))) return st;
+  if (S->d == 2) prepare_d(S, P, 2);
+  else prepare_d(S, P, 3);
+  return MO_OK;
+}
+
+/* u += G_s v_s over one side of sign cf: the products (cf F_ik) v_k of the sweep on H are
+   cf (F_ik v_k) to the bit, so the master side subtracts. */
+KERNEL void side_U(const int d, const double *F, const double *rot, const double *restrict v, int slave, double *u)
+{
+  int i, k;
+  for (i = 0; i < d; i++) {
+    double t = u[i];
+    if (slave)
+      for (k = 0; k < d; k++) t += F[i * d + k] * v[k];
+    else
+      for (k = 0; k < d; k++) t -= F[i * d + k] * v[k];
+    for (k = 0; k < NR(d); k++) t += rot[i * NR(d) + k] * v[d + k];
+    u[i] = t;
+  }
+}
+
+/* U_a = c_a + sum_s G_as v_s. */
+KERNEL void local_U(const nscd_state *S, const mo_contact_problem *P, const char *rec, int a, double *restrict U,
+                    const int d)
+{
+  const int *gs = R_SIDE(rec);
+  const double *F = P->frame + (size_t)a * d * d, *rot = R_ROT(rec, d), *c = R_C(rec);
+  double u[3] = {0, 0, 0};
+  int i;
+  for (i = 0; i < d; i++) u[i] = c[i];
+  if (gs[0]) {
+    side_U(d, F, rot, S->vb + (gs[0] > 0 ? gs[0] : -gs[0]) - 1, gs[0] > 0, u);
+    if (gs[1]) side_U(d, F, rot + d * NR(d), S->vb + (gs[1] > 0 ? gs[1] : -gs[1]) - 1, gs[1] > 0, u);
+  }
+  for (i = 0; i < d; i++) U[i] = u[i];
+}
+
+/* v_s += inv_s G_s^T dr on one side: (inv_k (cf F_jk)) dr_j summed over j, that is cf times the
+   same sum with F (to the bit). */
+KERNEL void side_push(const int d, const double *F, const double *rot, const double *iv, double *restrict v,
+                      int slave, const double *dr)
+{
+  int k, j;
+  for (k = 0; k < d; k++) {
+    double acc = 0;
+    for (j = 0; j < d; j++) acc += iv[k] * F[j * d + k] * dr[j];
+    if (slave) v[k] += acc;
+    else v[k] -= acc;
+  }
+  for (k = 0; k < NR(d); k++) {
+    double acc = 0;
+    for (j = 0; j < d; j++) acc += iv[d + k] * rot[j * NR(d) + k] * dr[j];
+    v[d + k] += acc;
+  }
+}
+
+KERNEL void push(nscd_state *S, const mo_contact_problem *P, const char *rec, int a, const double *dr, const int d)
+{
+  const int *gs = R_SIDE(rec);
+  const double *F = P->frame + (size_t)a * d * d, *rot = R_ROT(rec, d);
+  int o;
+  if (!gs[0]) return;
+  o = (gs[0] > 0 ? gs[0] : -gs[0]) - 1;
+  side_push(d, F, rot, S->giv + o, S->vb + o, gs[0] > 0, dr);
+  if (!gs[1]) return;
+  o = (gs[1] > 0 ? gs[1] : -gs[1]) - 1;
+  side_push(d, F, rot + d * NR(d), S->giv + o, S->vb + o, gs[1] > 0, dr);
+}
+
+void nscd_grains_velocities(nscd_state *S, const mo_contact_problem *P, const double *r)
+{
+  int a;
+  memcpy(S->vb, P->xfree, (size_t)P->nfree * sizeof *S->vb);
+  /* a contact without reaction moves nothing (its push would add zeros) */
+  if (S->d == 2) {
+    for (a = 0; a < S->nc; a++)
+      if (r[2 * a] != 0 || r[2 * a + 1] != 0) push(S, P, REC(S, a, 2), a, r + (size_t)a * 2, 2);
+  } else
+    for (a = 0; a < S->nc; a++)
+      if (r[3 * a] != 0 || r[3 * a + 1] != 0 || r[3 * a + 2] != 0) push(S, P, REC(S, a, 3), a, r + (size_t)a * 3, 3);
+}
+
+void nscd_grains_exact_U(nscd_state *S, const mo_contact_problem *P)
+{
+  int a;
+  if (S->d == 2)
+    for (a = 0; a < S->nc; a++) local_U(S, P, REC(S, a, 2), a, S->U + (size_t)a * 2, 2);
+  else
+    for (a = 0; a < S->nc; a++) local_U(S, P, REC(S, a, 3), a, S->U + (size_t)a * 3, 3);
+}
+
+KERNEL int sweep_d(nscd_state *S, const mo_contact_problem *P, double *r, int *status, const int d)
+{
+  const double omega = S->p.relax, *mu = S->mu;
+  int k, i, j;
+  for (k = 0; k < S->nact; k++) {
+    const int a = S->order[k];
+    const char *rec = REC(S, a, d);
+    const double *Waa = R_W(rec, d);
+    double *ra = r + (size_t)a * d, U[3], ql[3], rl[3], dr[3];
+    int st, nz = 0;
+    local_U(S, P, rec, a, U, d);
+    for (i = 0; i < d; i++) {
+      double acc = U[i];
+      for (j = 0; j < d; j++) acc -= Waa[i * d + j] * ra[j];
+      ql[i] = acc;
+      rl[i] = ra[i];
+    }
+    st = d == 2 ? nscd_local_2d_fast(Waa, R_AUX(rec, d), ql, mu[a], rl)
+                : nscd_local_3d(Waa, R_AUX(rec, d), ql, mu[a], rl, &S->lp, &S->lst);
+    if (st < 0) return a;
+    status[a] = st;
+    for (i = 0; i < d; i++) {
+      if (omega != 1) rl[i] = omega * rl[i] + (1 - omega) * ra[i]; /* (T37) */
+      dr[i] = rl[i] - ra[i];
+      nz |= dr[i] != 0;
+    }
+    if (nz) {
+      push(S, P, rec, a, dr, d);
+      for (i = 0; i < d; i++) ra[i] = rl[i];
+    }
+  }
+  if (S->p.stop == NSCD_STOP_SCALED || S->p.stop == NSCD_STOP_NATURAL)
+    for (k = 0; k < S->nact; k++) {
+      const int a = S->act[k];
+      local_U(S, P, REC(S, a, d), a, S->U + (size_t)a * d, d);
+    }
+  return -1;
+}
+
+int nscd_grains_sweep(nscd_state *S, const mo_contact_problem *P, double *r, int *status)
+{
+  return S->d == 2 ? sweep_d(S, P, r, status, 2) : sweep_d(S, P, r, status, 3);
+}
+
+int nscd_grains_count(nscd_state *S, const mo_contact_problem *P, const double *r, int *unknowns, int *dofs,
+                      mo_ctx *ctx)
+{
+  const int d = S->d;
+  int k, i, s, nu = 0, nd = 0;
+  if ((size_t)P->nfree + 1 > S->bmcap) {
+    int *q = mo_realloc(ctx, S->bmark, ((size_t)P->nfree + 1) * sizeof *q);
+    if (!q) return MO_ENOMEM;
+    S->bmark = q;
+    S->bmcap = (size_t)P->nfree + 1;
+  }
+  memset(S->bmark, 0, ((size_t)P->nfree + 1) * sizeof *S->bmark);
+  for (k = 0; k < S->nact; k++) {
+    const int a = S->act[k], *gs = R_SIDE(REC(S, a, d));
+    const double *ra = r + (size_t)a * d;
+    double rt = 0;
+    if (!(ra[0] > 0)) continue;
+    for (i = 1; i < d; i++) rt += ra[i] * ra[i];
+    nu += S->mu[a] == 0 || sqrt(rt) >= S->mu[a] * ra[0] * (1 - 1e-9) ? 1 : d;
+    for (s = 0; s < 2 && gs[s]; s++) {
+      int o = (gs[s] > 0 ? gs[s] : -gs[s]) - 1;
+      if (!S->bmark[o]) {
+        S->bmark[o] = 1;
+        nd += NK(d);
+      }
+    }
+  }
+  *unknowns = nu;
+  *dofs = nd;
+  return MO_OK;
+}

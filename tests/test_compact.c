@@ -1,0 +1,380 @@
+/* test_compact.c: the granular path (doc/theory.md §12.9) against the general one. A deposit of
+   disks, one of spheres and one of polygons with disks, each run with the compact contact records
+   (contact.compact = true, the default) and with points, candidates and H at every step
+   (contact.compact = false): the final states, the histories and contact.csv agree to the bit
+   (the records' sweep does the arithmetic of the sweep on H), and so do the gap law and a run that
+   dumps FCLIB problems (W built from H on demand) against contact.delassus = "always". The memory
+   of the contact set: the records hold a bounded number of bytes per candidate, a fraction of the
+   points, candidates and columns of H. levelset, which reads candidates and H, runs the same
+   scene on the general path. */
+#include "config.h"
+#include "testlib.h"
+
+#include <jansson.h>
+#include <math.h>
+
+static const char *const pairs2 =
+    "  pairs = ( { name = \"grains\"; master = \"grains\"; slave = \"grains\"; mu = 0.5; %s },\n"
+    "            { name = \"floor\"; master = \"floor\"; slave = \"grains\"; mu = 0.5; %s },\n"
+    "            { name = \"left\"; master = \"left\"; slave = \"grains\"; mu = 0.5; %s },\n"
+    "            { name = \"right\"; master = \"right\"; slave = \"grains\"; mu = 0.5; %s } );\n";
+
+/* A deposit of n disks in a box 10 lattice cells wide (as cases/disk-pile), to end, nscd held to
+   12 sweeps a step (the stop rule does not change the comparison; a fixed count keeps it short);
+   law: extra keys of every pair ("" for Moreau's impact law). */
+static void disks_text(char *buf, size_t len, int n, double end, const char *law, const char *contact_extra)
+{
+  char pairs[2048];
+  snprintf(pairs, sizeof pairs, pairs2, law, law, law, law);
+  snprintf(buf, len,
+           "title = \"disk deposit\";\n"
+           "bodies = (\n"
+           "  { name = \"floor\"; type = \"plane\"; point = [0.0, 0.0]; normal = [0.0, 1.0]; },\n"
+           "  { name = \"left\"; type = \"plane\"; point = [0.0, 0.0]; normal = [1.0, 0.0]; },\n"
+           "  { name = \"right\"; type = \"plane\"; point = [0.132, 0.0]; normal = [-1.0, 0.0]; },\n"
+           "  { name = \"grains\"; type = \"disk\"; density = 2600.0; body_force = [0.0, -9.81];\n"
+           "    pack = { count = %d; radius = 0.005; dispersion = 0.2; box = [0.0, 0.132, 0.0, 2.0]; jitter = 0.5; seed = 5; }; }\n"
+           ");\n"
+           "time = { scheme = \"theta\"; theta = 0.5; dt = 1.0e-3; end = %g; };\n"
+           "contact = {\n"
+           "  solver = \"nscd\"; on_failure = \"continue\"; %s\n"
+           "  nscd = { stop = \"sweeps\"; max_sweeps = 12; };\n"
+           "%s"
+           "};\n"
+           "output = { every = 1; vtk = { every = 50; }; };\n",
+           n, end, contact_extra, pairs);
+}
+
+/* A deposit of n spheres in a square box of side 0.0792 m (6 x 6 lattice), as cases/sphere-deposit. */
+static void spheres_text(char *buf, size_t len, int n, double end)
+{
+  snprintf(buf, len,
+           "title = \"sphere deposit\";\n"
+           "bodies = (\n"
+           "  { name = \"floor\"; type = \"plane\"; point = [0.0, 0.0, 0.0]; normal = [0.0, 1.0, 0.0]; },\n"
+           "  { name = \"x0\"; type = \"plane\"; point = [0.0, 0.0, 0.0]; normal = [1.0, 0.0, 0.0]; },\n"
+           "  { name = \"x1\"; type = \"plane\"; point = [0.0792, 0.0, 0.0]; normal = [-1.0, 0.0, 0.0]; },\n"
+           "  { name = \"z0\"; type = \"plane\"; point = [0.0, 0.0, 0.0]; normal = [0.0, 0.0, 1.0]; },\n"
+           "  { name = \"z1\"; type = \"plane\"; point = [0.0, 0.0, 0.0792]; normal = [0.0, 0.0, -1.0]; },\n"
+           "  { name = \"grains\"; type = \"sphere\"; density = 2600.0; body_force = [0.0, -9.81, 0.0];\n"
+           "    pack = { count = %d; radius = 0.005; dispersion = 0.2; box = [0.0, 0.0792, 0.0, 2.0, 0.0, 0.0792]; jitter = 0.5; seed = 2; }; }\n"
+           ");\n"
+           "time = { scheme = \"theta\"; theta = 0.5; dt = 1.0e-3; end = %g; };\n"
+           "contact = {\n"
+           "  solver = \"nscd\"; on_failure = \"continue\";\n"
+           "  nscd = { stop = \"sweeps\"; max_sweeps = 12; };\n"
+           "  pairs = ( { name = \"grains\"; master = \"grains\"; slave = \"grains\"; mu = 0.5; },\n"
+           "            { name = \"floor\"; master = \"floor\"; slave = \"grains\"; mu = 0.5; },\n"
+           "            { name = \"x0\"; master = \"x0\"; slave = \"grains\"; mu = 0.5; },\n"
+           "            { name = \"x1\"; master = \"x1\"; slave = \"grains\"; mu = 0.5; },\n"
+           "            { name = \"z0\"; master = \"z0\"; slave = \"grains\"; mu = 0.5; },\n"
+           "            { name = \"z1\"; master = \"z1\"; slave = \"grains\"; mu = 0.5; } );\n"
+           "};\n"
+           "output = { every = 1; };\n",
+           n, end);
+}
+
+/* Polygons (a triangle, a square, a pentagon, a hexagon, a rectangle) and two disks dropped in a
+   box 0.12 m wide: polygon-polygon (two points on an edge against an edge), polygon-disk,
+   polygon-plane and disk-plane contacts, every pair of bodies named (no groups). */
+static void polygons_text(char *buf, size_t len, double end)
+{
+  static const char *const name[7] = {"tri", "sq", "pent", "hex", "rect", "d1", "d2"};
+  char bodies[3000], pairs[12000];
+  int i, j, nb = 0, np = 0;
+  nb += snprintf(bodies + nb, sizeof bodies - (size_t)nb,
+                 "  { name = \"floor\"; type = \"plane\"; point = [0.0, 0.0]; normal = [0.0, 1.0]; },\n"
+                 "  { name = \"left\"; type = \"plane\"; point = [0.0, 0.0]; normal = [1.0, 0.0]; },\n"
+                 "  { name = \"right\"; type = \"plane\"; point = [0.12, 0.0]; normal = [-1.0, 0.0]; },\n"
+                 "  { name = \"tri\"; type = \"polygon\"; sides = 3; radius = 0.012; center = [0.030, 0.020]; angle = 0.3; density = 2600.0; body_force = [0.0, -9.81]; },\n"
+                 "  { name = \"sq\"; type = \"polygon\"; sides = 4; radius = 0.011; center = [0.062, 0.016]; angle = 0.1; density = 2600.0; body_force = [0.0, -9.81]; },\n"
+                 "  { name = \"pent\"; type = \"polygon\"; sides = 5; radius = 0.011; center = [0.094, 0.030]; angle = 0.2; density = 2600.0; body_force = [0.0, -9.81]; },\n"
+                 "  { name = \"hex\"; type = \"polygon\"; sides = 6; radius = 0.011; center = [0.045, 0.052]; angle = 0.0; density = 2600.0; body_force = [0.0, -9.81]; },\n"
+                 "  { name = \"rect\"; type = \"polygon\"; size = [0.03, 0.012]; center = [0.080, 0.068]; angle = -0.25; density = 2600.0; body_force = [0.0, -9.81]; },\n"
+                 "  { name = \"d1\"; type = \"disk\"; radius = 0.008; center = [0.020, 0.080]; density = 2600.0; body_force = [0.0, -9.81]; },\n"
+                 "  { name = \"d2\"; type = \"disk\"; radius = 0.007; center = [0.102, 0.095]; density = 2600.0; body_force = [0.0, -9.81]; }\n");
+  for (i = 0; i < 7; i++) {
+    for (j = i + 1; j < 7; j++)
+      np += snprintf(pairs + np, sizeof pairs - (size_t)np, "%s{ name = \"%s-%s\"; master = \"%s\"; slave = \"%s\"; mu = 0.4; }",
+                     np ? ",\n  " : "", name[i], name[j], name[i], name[j]);
+    np += snprintf(pairs + np, sizeof pairs - (size_t)np,
+                   ",\n  { name = \"floor-%s\"; master = \"floor\"; slave = \"%s\"; mu = 0.4; },\n"
+                   "  { name = \"left-%s\"; master = \"left\"; slave = \"%s\"; mu = 0.4; },\n"
+                   "  { name = \"right-%s\"; master = \"right\"; slave = \"%s\"; mu = 0.4; }",
+                   name[i], name[i], name[i], name[i], name[i], name[i]);
+  }
+  snprintf(buf, len,
+           "title = \"polygons and disks\";\n"
+           "bodies = (\n%s);\n"
+           "time = { scheme = \"theta\"; theta = 0.5; dt = 5.0e-4; end = %g; };\n"
+           "contact = {\n"
+           "  solver = \"nscd\"; on_failure = \"continue\";\n"
+           "  nscd = { stop = \"sweeps\"; max_sweeps = 20; };\n"
+           "  pairs = ( %s );\n"
+           "};\n"
+           "output = { every = 1; };\n",
+           bodies, end, pairs);
+}
+
+/* The largest difference between the numeric cells of two CSV files of one layout, relative to
+   the largest magnitude of their column (absolute when it is 0); -1 when they do not compare
+   (missing, other rows or columns, a text cell that differs). */
+static double csv_diff(const char *a, const char *b)
+{
+  tl_table A, B;
+  double worst = 0;
+  int i, j;
+  if (tl_table_read(a, &A)) return -1;
+  if (tl_table_read(b, &B)) {
+    tl_table_free(&A);
+    return -1;
+  }
+  if (A.nrow != B.nrow || A.ncol != B.ncol) worst = -1;
+  for (j = 0; j < A.ncol && worst >= 0; j++) {
+    double scale = 0;
+    for (i = 0; i < A.nrow; i++) {
+      char *e;
+      double x = strtod(A.cell[i][j], &e);
+      if (*e || e == A.cell[i][j]) continue;
+      if (fabs(x) > scale) scale = fabs(x);
+    }
+    for (i = 0; i < A.nrow && worst >= 0; i++) {
+      char *ea, *eb;
+      double x = strtod(A.cell[i][j], &ea), y = strtod(B.cell[i][j], &eb);
+      if (*ea || ea == A.cell[i][j] || *eb || eb == B.cell[i][j]) {
+        if (strcmp(A.cell[i][j], B.cell[i][j])) worst = -1; /* text, or a number against text */
+        continue;
+      }
+      if (fabs(x - y) / (scale > 0 ? scale : 1) > worst) worst = fabs(x - y) / (scale > 0 ? scale : 1);
+    }
+  }
+  tl_table_free(&A);
+  tl_table_free(&B);
+  return worst;
+}
+
+/* summary.json's contact object of a run. */
+static json_t *contact_summary(const char *out, json_t **root)
+{
+  char path[4300];
+  snprintf(path, sizeof path, "%s/summary.json", out);
+  *root = json_load_file(path, 0, NULL);
+  return *root ? json_object_get(*root, "contact") : NULL;
+}
+
+/* Run text (a case with `%s` where the compact key goes) both ways and compare the outputs. */
+static void compare(const char *what, const char *compact_text, const char *general_text, const char *dir, int vtk)
+{
+  char a[300], b[300], fa[400], fb[400];
+  static const char *const files[] = {"bodies.csv", "history.csv", "contact.csv"};
+  int k, ra, rb;
+  snprintf(a, sizeof a, "tests/out/compact/%s-records", dir);
+  snprintf(b, sizeof b, "tests/out/compact/%s-general", dir);
+  ra = tl_run_text(compact_text, a, what, NULL);
+  rb = tl_run_text(general_text, b, what, NULL);
+  if (ra || rb) {
+    ok(0, "%s: both runs complete", what);
+    return;
+  }
+  {
+    json_t *ja, *jb, *ca = contact_summary(a, &ja), *cb = contact_summary(b, &jb);
+    json_t *ba = ca ? json_object_get(ca, "broad") : NULL, *bb = cb ? json_object_get(cb, "broad") : NULL;
+    ok(ba && bb && json_is_true(json_object_get(ba, "compact")) && json_is_false(json_object_get(bb, "compact")),
+       "%s: the first run on the compact records, the second on points, candidates and H (%d candidates at the end)",
+       what, ca ? (int)json_integer_value(json_object_get(ca, "candidates")) : -1);
+    json_decref(ja);
+    json_decref(jb);
+  }
+  for (k = 0; k < 3; k++) {
+    double d;
+    snprintf(fa, sizeof fa, "%s/%s", a, files[k]);
+    snprintf(fb, sizeof fb, "%s/%s", b, files[k]);
+    d = csv_diff(fa, fb);
+    ok(d >= 0 && d <= 1e-13, "%s: %s of the two runs agree (largest difference %.1e of its column's scale)", what,
+       files[k], d);
+  }
+  if (vtk) {
+    /* the contact network of the last VTK file: the same lines */
+    FILE *f1, *f2;
+    int same = 0;
+    snprintf(fa, sizeof fa, "%s/contacts.pvd", a);
+    if ((f1 = fopen(fa, "r"))) {
+      char l1[512], l2[512], last[300] = "";
+      while (fgets(l1, sizeof l1, f1)) {
+        char *p = strstr(l1, "file=\"");
+        if (p) sscanf(p + 6, "%299[^\"]", last);
+      }
+      fclose(f1);
+      snprintf(fa, sizeof fa, "%s/%s", a, last);
+      snprintf(fb, sizeof fb, "%s/%s", b, last);
+      f1 = fopen(fa, "r");
+      f2 = fopen(fb, "r");
+      same = f1 && f2 && last[0];
+      while (same) {
+        char *x = fgets(l1, sizeof l1, f1), *y = fgets(l2, sizeof l2, f2);
+        if (!x || !y) {
+          same = !x && !y;
+          break;
+        }
+        same = !strcmp(l1, l2);
+      }
+      if (f1) fclose(f1);
+      if (f2) fclose(f2);
+    }
+    ok(same, "%s: the contact network of the last VTK file is the same", what);
+  }
+  tl_remove_dir(a);
+  tl_remove_dir(b);
+}
+
+static void disks(void)
+{
+  static char t1[8192], t2[8192];
+  disks_text(t1, sizeof t1, 80, 0.4, "", "");
+  disks_text(t2, sizeof t2, 80, 0.4, "", "compact = false;");
+  compare("80 disks, 0.4 s", t1, t2, "disks", 1);
+  disks_text(t1, sizeof t1, 60, 0.3, "law = \"gap\";", "");
+  disks_text(t2, sizeof t2, 60, 0.3, "law = \"gap\";", "compact = false;");
+  compare("60 disks, gap law (T78), 0.3 s", t1, t2, "gap", 0);
+}
+
+/* The same text with `compact = false;` after the back end's name. */
+static void general_of(const char *text, char *out, size_t len)
+{
+  const char *k = "solver = \"nscd\";", *q = strstr(text, k);
+  size_t at = (size_t)(q - text) + strlen(k);
+  snprintf(out, len, "%.*s compact = false;%s", (int)at, text, text + at);
+}
+
+static void spheres(void)
+{
+  static char t1[8192], t2[8192];
+  spheres_text(t1, sizeof t1, 72, 0.3);
+  general_of(t1, t2, sizeof t2);
+  compare("72 spheres (3D), 0.3 s", t1, t2, "spheres", 0);
+}
+
+static void polygons(void)
+{
+  static char t1[24000], t2[24000];
+  polygons_text(t1, sizeof t1, 0.25);
+  general_of(t1, t2, sizeof t2);
+  compare("5 polygons and 2 disks, 0.25 s", t1, t2, "polygons", 0);
+}
+
+/* FCLIB dumps need W: built from H, itself built from the records on demand. The same iterates
+   as contact.delassus = "always" (which builds points, candidates and H at every step). */
+static void fclib_dump(void)
+{
+  static char t1[8192], t2[8192];
+  const char *a = "tests/out/compact/dump-records", *b = "tests/out/compact/dump-always";
+  char cfg[400], dumpdir[400], fa[400], fb[400];
+  mo_run_options o;
+  char err[MO_ERRMSG_MAX];
+  FILE *f;
+  double d;
+  int st;
+  if (!mo_fclib_available()) {
+    ok(1, "# SKIP this build does not write FCLIB files");
+    return;
+  }
+  disks_text(t1, sizeof t1, 40, 0.15, "", "");
+  disks_text(t2, sizeof t2, 40, 0.15, "", "delassus = \"always\";");
+  snprintf(cfg, sizeof cfg, "%s.cfg", a);
+  snprintf(dumpdir, sizeof dumpdir, "%s-fclib", a);
+  {
+    mo_ctx ctx;
+    mo_ctx_init(&ctx);
+    mo_mkdir_p("tests/out/compact", &ctx);
+    mo_mkdir_p(dumpdir, &ctx);
+  }
+  f = fopen(cfg, "w");
+  if (f) {
+    fputs(t1, f);
+    fclose(f);
+  }
+  memset(&o, 0, sizeof o);
+  o.case_path = cfg;
+  o.outdir = a;
+  o.dump_fclib = dumpdir;
+  st = tl_run_options(&o, NULL, err, sizeof err);
+  unlink(cfg);
+  if (st) diag("%s", err);
+  if (st || tl_run_text(t2, b, "delassus always", NULL)) {
+    ok(0, "a dump of FCLIB problems runs on the compact records");
+    return;
+  }
+  snprintf(fa, sizeof fa, "%s/bodies.csv", a);
+  snprintf(fb, sizeof fb, "%s/bodies.csv", b);
+  d = csv_diff(fa, fb);
+  ok(d >= 0 && d <= 1e-13, "a dump of FCLIB problems on the compact records (W from H built on demand) ends where "
+     "contact.delassus = \"always\" does (largest difference %.1e)", d);
+  tl_remove_dir(dumpdir);
+  tl_remove_dir(a);
+  tl_remove_dir(b);
+}
+
+/* The bytes the contact set holds for its candidates: the records (g, frame, U0, x, e, key, law,
+   active: 102 bytes a candidate in 2D) at a capacity at most twice the count, against what the
+   points, candidates and columns of H take besides them on the general path. levelset reads
+   candidates and H: its run is on the general path. */
+static void memory(void)
+{
+  static char t1[8192], t2[8192];
+  const char *a = "tests/out/compact/mem-records", *b = "tests/out/compact/mem-general",
+             *c = "tests/out/compact/mem-levelset";
+  json_t *ja, *jb, *jc, *ca, *cb, *cc;
+  double pa, pb;
+  int n;
+  disks_text(t1, sizeof t1, 80, 0.3, "", "");
+  disks_text(t2, sizeof t2, 80, 0.3, "", "compact = false;");
+  if (tl_run_text(t1, a, "records", NULL) || tl_run_text(t2, b, "general", NULL)) {
+    ok(0, "the memory runs complete");
+    return;
+  }
+  ca = contact_summary(a, &ja);
+  cb = contact_summary(b, &jb);
+  n = (int)json_integer_value(json_object_get(ca, "candidates"));
+  pa = (double)json_integer_value(json_object_get(json_object_get(ca, "memory"), "set_candidates")) / n;
+  pb = (double)json_integer_value(json_object_get(json_object_get(cb, "memory"), "set_candidates")) / n;
+  ok(n > 50 && pa > 0 && pa <= 2 * 102 + 1e-9, "the compact records hold %.0f bytes a candidate (%d candidates; at most "
+     "2 x 102 at their capacity)", pa, n);
+  ok(pb >= 4 * pa, "points, candidates and H take %.0f bytes a candidate on the general path, %.1f times the records",
+     pb, pb / pa);
+  json_decref(ja);
+  json_decref(jb);
+  {
+    /* levelset on a few disks of the same kind: the general path */
+    static char t3[8192];
+    char cfg[300];
+    FILE *f;
+    disks_text(t3, sizeof t3, 6, 0.05, "", "");
+    snprintf(cfg, sizeof cfg, "%s.cfg", c);
+    if ((f = fopen(cfg, "w"))) {
+      fputs(t3, f);
+      fclose(f);
+    }
+    if (tl_run(cfg, "levelset", NULL, 0, c, "levelset", NULL)) ok(0, "the levelset run completes");
+    else {
+      cc = contact_summary(c, &jc);
+      ok(cc && !json_is_true(json_object_get(json_object_get(cc, "broad"), "compact")) &&
+             !strcmp(json_string_value(json_object_get(cc, "solver")), "levelset"),
+         "levelset (it reads candidates and H) runs a pile of disks on the general path");
+      json_decref(jc);
+    }
+    unlink(cfg);
+  }
+  tl_remove_dir(a);
+  tl_remove_dir(b);
+  tl_remove_dir(c);
+}
+
+int main(void)
+{
+  disks();
+  spheres();
+  polygons();
+  fclib_dump();
+  memory();
+  return done_testing();
+}
