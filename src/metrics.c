@@ -327,8 +327,10 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
       double Un[3], un;
       int i, zero = Up && a >= ns;
       for (i = 0; i < d && zero; i++) zero = U0[a * d + i] == 0;
-      if (zero) Un[0] = Up[a * d];
-      else mo_contact_Htx1(C, s, s->v, a, NULL, Un);
+      if (zero)
+        for (i = 0; i < d; i++) Un[i] = Up[a * d + i];
+      else
+        mo_contact_Htx1(C, s, s->v, a, NULL, Un);
       un = Un[0] + U0[a * d];
       /* bearing: a compressive reaction. The jump of the normal velocity and its variation
          are measured between two bearing steps (the landing step is the impact itself); a
@@ -346,7 +348,7 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
       {
         double u2 = 0;
         int l;
-        for (l = 0; l < d; l++) u2 += (M->Un[a * d + l] + U0[a * d + l]) * (M->Un[a * d + l] + U0[a * d + l]);
+        for (l = 0; l < d; l++) u2 += (Un[l] + U0[a * d + l]) * (Un[l] + U0[a * d + l]);
         if (sqrt(u2) > M->uscale) M->uscale = sqrt(u2);
       }
       if (inc) {
