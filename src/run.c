@@ -296,6 +296,14 @@ static json_t *parallel_json(const mo_ctx *ctx, const mo_scene *sc)
   json_object_set_new(j, "collective_calls", json_integer(ctx->par_calls));
   json_object_set_new(j, "collective_seconds", jnum(ctx->par_time));
   json_object_set_new(j, "collective_bytes", jnum(ctx->par_bytes));
+  if (ctx->par_grain_solves) {
+    /* the granular sweep over the ranks: Gauss-Seidel within each rank's slab of contacts */
+    double n = (double)ctx->par_grain_solves;
+    json_object_set_new(j, "grain_solves", json_integer(ctx->par_grain_solves));
+    json_object_set_new(j, "grain_sweeps", json_integer(ctx->par_grain_sweeps));
+    json_object_set_new(j, "grain_interface_bodies_mean", jnum(ctx->par_grain_interface / n));
+    json_object_set_new(j, "grain_slab_imbalance_mean", jnum(ctx->par_grain_imbalance / n));
+  }
   return j;
 }
 

@@ -2,6 +2,7 @@
    (J88 §3.3, (3.3)_5-6; doc/theory.md §8), its options, and its type object. */
 #include "config.h"
 #include "nscd.h"
+#include <moreau/parallel.h>
 
 #include <gsl/gsl_randist.h>
 #include <gsl/gsl_rng.h>
@@ -347,12 +348,16 @@ static int sweep3(nscd_state *S, const mo_contact_problem *P, double *r, int *st
 
 /* Jean's norms (T11) of the change of a sweep, from the reactions before and after it:
    dU_a = W_aa (r_a - rold_a), weighted by |r_a|, over the active contacts. */
-static void jean_norms(const nscd_state *S, const double *rold, const double *r, double *quad, double *maxm)
+/* The parts of Jean's norms over the contacts list[0 .. n-1]: sum |dU|^2 |r|^2, sum (W r).r, the
+   contacts with a reaction, the largest |dU| |r| (over the ranks: the sums summed, the largest
+   maximized). */
+static void jean_parts(const nscd_state *S, const int *list, int n, const double *rold, const double *r, double *sdd_,
+                       double *swrr_, double *nact_, double *mx_)
 {
   int d = S->d, k, i, j, nact = 0;
   double sdd = 0, swrr = 0, mx = 0;
-  for (k = 0; k < S->nact; k++) {
-    int a = S->act[k];
+  for (k = 0; k < n; k++) {
+    int a = list[k];
     const double *Waa = S->diag[a], *ra = r + a * d, *ro = rold + a * d;
     double dU2 = 0, rr = 0, wrr = 0;
     for (i = 0; i < d; i++) {
@@ -370,8 +375,77 @@ static void jean_norms(const nscd_state *S, const double *rold, const double *r,
     swrr += wrr;
     if (sqrt(dU2 * rr) > mx) mx = sqrt(dU2 * rr);
   }
+  *sdd_ = sdd;
+  *swrr_ = swrr;
+  *nact_ = nact;
+  *mx_ = mx;
+}
+
+/* Jean's norms (T11) from their parts. */
+static void jean_from_parts(double sdd, double swrr, double nact, double mx, double *quad, double *maxm)
+{
   *quad = swrr > 0 ? sqrt(sdd) / swrr : 0;
-  *maxm = swrr > 0 && nact ? mx / (swrr / nact) : 0;
+  *maxm = swrr > 0 && nact > 0 ? mx / (swrr / nact) : 0;
+}
+
+static void jean_norms(const nscd_state *S, const double *rold, const double *r, double *quad, double *maxm)
+{
+  double sdd, swrr, nact, mx;
+  jean_parts(S, S->act, S->nact, rold, r, &sdd, &swrr, &nact, &mx);
+  jean_from_parts(sdd, swrr, nact, mx, quad, maxm);
+}
+
+/* The parts of the natural-map residual (T10) over list[0 .. n-1]: the units' sum, |r|^2, |U|^2
+   (U scaled by (T42) when scaled). */
+static void natural_parts(const nscd_state *S, const int *list, int n, const double *r, int scaled, double *parts)
+{
+  int d = S->d, k, i;
+  parts[0] = parts[1] = parts[2] = 0;
+  for (k = 0; k < n; k++) {
+    int a = list[k];
+    const double *ra = r + (size_t)a * d, *Ua = S->U + (size_t)a * d;
+    double Us[3];
+    for (i = 0; i < d; i++) Us[i] = scaled ? S->scale[a] * Ua[i] : Ua[i];
+    parts[0] += mo_fc_natural_map_unit(d, S->mu[a], ra, Us);
+    for (i = 0; i < d; i++) {
+      parts[1] += ra[i] * ra[i];
+      parts[2] += Us[i] * Us[i];
+    }
+  }
+}
+
+/* One sweep of the granular path split over the MPI ranks (doc/parallel.md §4): the owned
+   contacts, then the interface velocities and the stopping rule's parts over every rank. Sets
+   *broke (a contact that broke down on some rank, or -1), *stop (an interrupt on some rank), and
+   the rule's values (quad, maxm or the residual). */
+static int sweep_ranks(nscd_state *S, const mo_contact_problem *P, double *r, int *status, int scaled, int *broke,
+                       int *stop, double *quad, double *maxm, double *res, mo_ctx *ctx)
+{
+  const nscd_params *p = &S->p;
+  double parts[5] = {0, 0, 0, 0, 0}, mx[2];
+  int st, natural = p->stop == NSCD_STOP_NATURAL || scaled;
+  *broke = nscd_grains_sweep_owned(S, P, r, status);
+  if (!natural) jean_parts(S, S->oorder, S->noact, S->rold, r, &parts[0], &parts[1], &parts[2], &mx[1]);
+  else mx[1] = 0;
+  parts[3] = ctx->interrupt && *ctx->interrupt;
+  mx[0] = *broke;
+  if ((st = nscd_grains_sync(S, parts, 4, mx, 2, ctx))) return st;
+  *broke = (int)mx[0];
+  *stop = parts[3] > 0;
+  if (natural) {
+    /* the residual of the state every rank now holds: U of the owned contacts from the summed
+       interface velocities (a second, 3-number sum; U taken before the first would miss the other
+       ranks' last increments and could declare convergence early) */
+    double den = sqrt(scaled ? S->qs2 : S->qn2);
+    nscd_grains_owned_U(S, P);
+    natural_parts(S, S->oorder, S->noact, r, scaled, parts);
+    if ((st = mo_par_sum(parts, 3, ctx))) return st;
+    if (sqrt(parts[1]) > den) den = sqrt(parts[1]);
+    if (sqrt(parts[2]) > den) den = sqrt(parts[2]);
+    *res = den > 1e-300 ? sqrt(parts[0]) / den : sqrt(parts[0]);
+  } else
+    jean_from_parts(parts[0], parts[1], parts[2], mx[1], quad, maxm);
+  return MO_OK;
 }
 
 /* "candidate 12 (node 13)" */
@@ -464,6 +538,9 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
   }
   for (k = 0; k < S->nact; k++) S->order[k] = S->act[p->order == NSCD_ORDER_REVERSE ? S->nact - 1 - k : k];
   if (p->order == NSCD_ORDER_SHUFFLED) gsl_ran_shuffle(&S->rng, S->order, (size_t)S->nact, sizeof(int));
+  /* over MPI ranks: each rank's slab of the contacts (doc/parallel.md §4) */
+  S->par = 0;
+  if (S->grains && ctx->nranks > 1 && (st = nscd_grains_partition(S, P, ctx))) return st;
   if (!p->warm_start) memset(r, 0, (size_t)m * sizeof *r);
   for (i = 0; i < m; i++)
     if (!isfinite(r[i])) { memset(r, 0, (size_t)m * sizeof *r); break; }
@@ -479,8 +556,8 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
   S->accel_tries = 0;
   S->lp = *p;
   while (sweeps < p->max_sweeps) {
-    if (ctx->interrupt && *ctx->interrupt) break;
-    if (sweeps && p->order == NSCD_ORDER_SHUFFLED && p->reshuffle)
+    if (!S->par && ctx->interrupt && *ctx->interrupt) break;
+    if (sweeps && p->order == NSCD_ORDER_SHUFFLED && p->reshuffle && !S->par)
       gsl_ran_shuffle(&S->rng, S->order, (size_t)S->nact, sizeof(int));
     /* the 3D Newton solves to 1e-2 of the last residual (never looser than 1e-4, never tighter
        than local_tol): early sweeps need no exact local solve, the last ones get it */
@@ -489,6 +566,21 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
        stop on them and those that may stop at any sweep, before the last one for "sweeps" */
     rold_at = p->stop != NSCD_STOP_SWEEPS || sweeps == p->max_sweeps - 1 ? sweeps : rold_at;
     if (rold_at == sweeps) memcpy(S->rold, r, (size_t)m * sizeof *r);
+    if (S->par) {
+      /* the sweep split over the ranks: its rule decided on every rank's contacts */
+      int stop = 0;
+      if ((st = sweep_ranks(S, P, r, x->status, scaled, &broke, &stop, &quad, &maxm, &res, ctx))) return st;
+      sweeps++;
+      if (broke >= 0 || stop) break;
+      if (p->stop == NSCD_STOP_NATURAL || scaled) {
+        if (res <= p->tol) { conv = 1; break; }
+        if (!isfinite(res)) break;
+      } else if ((p->stop == NSCD_STOP_QUAD && quad <= p->tol) || (p->stop == NSCD_STOP_MAXM && maxm <= p->tol)) {
+        conv = 1;
+        break;
+      }
+      continue;
+    }
     broke = S->grains ? nscd_grains_sweep(S, P, r, x->status)
             : S->bodies ? nscd_bodies_sweep(S, P, r, x->status) : do_sweep(S, P, r, x->status);
     sweeps++;
@@ -540,8 +632,10 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
   }
   /* a fixed number of sweeps was asked for: done unless interrupted */
   if (p->stop == NSCD_STOP_SWEEPS && broke < 0 && sweeps == p->max_sweeps) conv = 1;
+  /* over MPI ranks: every contact's reaction and status, every body's velocity, on every rank */
+  if (S->par && (st = nscd_grains_gather(S, P, r, x->status, ctx))) return st;
   /* U is exact already when a residual rule has just confirmed convergence */
-  if (!(conv && (scaled || p->stop == NSCD_STOP_NATURAL))) exact_U(S, P, r);
+  if (S->par || !(conv && (scaled || p->stop == NSCD_STOP_NATURAL))) exact_U(S, P, r);
   /* redundancy (T84): the rank of the closed set's problem, measured by the status-set step when
      it converged, else here for quasi-static solves (one or a few per run; dynamic steps would pay a
      dense factorization each) */
@@ -576,7 +670,8 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
     x->dx_set = 1;
   }
   /* Jean's norms of the last sweep (the quad and maxm rules have them already) */
-  if (sweeps && p->stop != NSCD_STOP_QUAD && p->stop != NSCD_STOP_MAXM) {
+  if (S->par && (p->stop == NSCD_STOP_NATURAL || scaled)) quad = maxm = NAN; /* not summed over the ranks */
+  else if (sweeps && !S->par && p->stop != NSCD_STOP_QUAD && p->stop != NSCD_STOP_MAXM) {
     if (rold_at == sweeps - 1) jean_norms(S, S->rold, r, &quad, &maxm);
     else quad = maxm = NAN; /* "sweeps" interrupted before its last sweep */
   }

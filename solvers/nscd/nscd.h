@@ -158,6 +158,21 @@ typedef struct {
   double *giv;                  /* nfree: the diagonal of What^-1 on the rigid dofs */
   long givver;                  /* the What^-1 version giv was taken from */
   size_t gcap, gvcap;
+  /* the granular path over MPI ranks (nscd_grains.c, doc/parallel.md §4): each rank sweeps the
+     contacts of its slab of space (`own`, in the sweep's order: `oorder`), the velocities of the
+     bodies that contacts of several ranks touch (`ifc`, their first velocity in vb) are summed
+     over the ranks after every sweep (Jacobi between the slabs, Gauss-Seidel within) */
+  int par;                      /* 1 when the sweep is split over the ranks */
+  int nranks, rank;
+  unsigned char *own;           /* nc: the contact is swept here */
+  int *oorder, noact;           /* the owned active contacts in the sweep's order */
+  int *ifc, nifc;               /* interface bodies */
+  int *bfirst;                  /* nfree (by first velocity): the lowest rank touching the body, -1 none */
+  unsigned char *bmulti;        /* nfree: touched by contacts of more than one rank */
+  double *pbuf;                 /* the sums of a sweep: interface increments, then the norms' parts */
+  double *ibase;                /* the interface velocities at the start of the sweep */
+  size_t pcap, pncap, pbcap;
+  long par_sweeps;              /* sweeps synchronized, for the run's log */
 } nscd_state;
 
 /* The local data of every contact from its diagonal block S->diag[a] and mu: the friction kept
@@ -186,6 +201,17 @@ int nscd_grains_prepare(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
 void nscd_grains_velocities(nscd_state *S, const mo_contact_problem *P, const double *r);
 void nscd_grains_exact_U(nscd_state *S, const mo_contact_problem *P);
 int nscd_grains_sweep(nscd_state *S, const mo_contact_problem *P, double *r, int *status);
+/* Over MPI ranks (doc/parallel.md §4): the slabs and their interface bodies for this solve
+   (after the sweep order is set); a sweep of the owned contacts; after it, the interface
+   velocities summed over the ranks with the `nparts` partial sums of the stopping rule (parts, in
+   place), then `nmax` values maximized (maxparts, in place); U of the owned contacts from the
+   synchronized velocities; at the end, the reactions, statuses
+   and velocities of every contact and body on every rank. */
+int nscd_grains_partition(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx);
+int nscd_grains_sweep_owned(nscd_state *S, const mo_contact_problem *P, double *r, int *status);
+void nscd_grains_owned_U(nscd_state *S, const mo_contact_problem *P);
+int nscd_grains_sync(nscd_state *S, double *parts, int nparts, double *maxparts, int nmax, mo_ctx *ctx);
+int nscd_grains_gather(nscd_state *S, const mo_contact_problem *P, double *r, int *status, mo_ctx *ctx);
 int nscd_grains_count(nscd_state *S, const mo_contact_problem *P, const double *r, int *unknowns, int *dofs,
                       mo_ctx *ctx);
 void nscd_grains_free(nscd_state *S);

@@ -5,6 +5,7 @@
    on H (nscd_bodies.c, (T79)) to the bit: the same rows of H, the same sums in the same order. */
 #include "config.h"
 #include "nscd.h"
+#include <moreau/parallel.h>
 
 #include <math.h>
 #include <string.h>
@@ -36,6 +37,13 @@ void nscd_grains_free(nscd_state *S)
 {
   mo_free(S->grec);
   mo_free(S->giv);
+  mo_free(S->own);
+  mo_free(S->oorder);
+  mo_free(S->ifc);
+  mo_free(S->bfirst);
+  mo_free(S->bmulti);
+  mo_free(S->pbuf);
+  mo_free(S->ibase);
 }
 
 /* Room for nc contacts and nfree velocities. */
@@ -268,12 +276,13 @@ void nscd_grains_exact_U(nscd_state *S, const mo_contact_problem *P)
     for (a = 0; a < S->nc; a++) local_U(S, P, REC(S, a, 3), a, S->U + (size_t)a * 3, 3);
 }
 
-KERNEL int sweep_d(nscd_state *S, const mo_contact_problem *P, double *r, int *status, const int d)
+KERNEL int sweep_d(nscd_state *S, const mo_contact_problem *P, double *r, int *status, const int *order, int n,
+                   const int d)
 {
   const double omega = S->p.relax, *mu = S->mu;
   int k, i, j;
-  for (k = 0; k < S->nact; k++) {
-    const int a = S->order[k];
+  for (k = 0; k < n; k++) {
+    const int a = order[k];
     const char *rec = REC(S, a, d);
     const double *Waa = R_W(rec, d);
     double *ra = r + (size_t)a * d, U[3], ql[3], rl[3], dr[3];
@@ -299,7 +308,8 @@ KERNEL int sweep_d(nscd_state *S, const mo_contact_problem *P, double *r, int *s
       for (i = 0; i < d; i++) ra[i] = rl[i];
     }
   }
-  if (S->p.stop == NSCD_STOP_SCALED || S->p.stop == NSCD_STOP_NATURAL)
+  /* over the ranks, U waits for the interface velocities of the other ranks (nscd_grains_owned_U) */
+  if (!S->par && (S->p.stop == NSCD_STOP_SCALED || S->p.stop == NSCD_STOP_NATURAL))
     for (k = 0; k < S->nact; k++) {
       const int a = S->act[k];
       local_U(S, P, REC(S, a, d), a, S->U + (size_t)a * d, d);
@@ -309,7 +319,196 @@ KERNEL int sweep_d(nscd_state *S, const mo_contact_problem *P, double *r, int *s
 
 int nscd_grains_sweep(nscd_state *S, const mo_contact_problem *P, double *r, int *status)
 {
-  return S->d == 2 ? sweep_d(S, P, r, status, 2) : sweep_d(S, P, r, status, 3);
+  return S->d == 2 ? sweep_d(S, P, r, status, S->order, S->nact, 2) : sweep_d(S, P, r, status, S->order, S->nact, 3);
+}
+
+/* --- over MPI ranks (doc/parallel.md §4) ------------------------------------------------------ */
+
+#define NBIN 4096
+
+/* Room for the per-contact and per-dof arrays of the split sweep. */
+static int par_reserve(nscd_state *S, int nfree, mo_ctx *ctx)
+{
+  size_t nc = (size_t)S->nc + 1, nf = (size_t)nfree + 1;
+  void *p;
+#define GROW(ptr, n) if (!(p = mo_realloc(ctx, ptr, (n)))) return MO_ENOMEM; ptr = p
+  if (nc > S->pcap) {
+    GROW(S->own, nc);
+    GROW(S->oorder, nc * sizeof *S->oorder);
+    S->pcap = nc;
+  }
+  if (nf > S->pncap) {
+    GROW(S->ifc, nf * sizeof *S->ifc);
+    GROW(S->bfirst, nf * sizeof *S->bfirst);
+    GROW(S->bmulti, nf);
+    GROW(S->ibase, nf * sizeof *S->ibase);
+    S->pncap = nf;
+  }
+  if (nf + 16 > S->pbcap) {
+    GROW(S->pbuf, (nf + 16) * sizeof *S->pbuf);
+    S->pbcap = nf + 16;
+  }
+#undef GROW
+  return MO_OK;
+}
+
+/* The slabs: the active contacts' points cut along the axis of their largest extent into
+   `nranks` slabs of equal counts (a histogram of NBIN bins, each bin in one slab), every rank
+   computing the same cut from the same replicated data; a contact is swept by its point's slab.
+   A body touched by contacts of more than one slab is an interface body. */
+int nscd_grains_partition(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
+{
+  const mo_grains *G = P->grains;
+  const int d = S->d, D = G->D, nk = NK(d);
+  double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL}, w;
+  int k, i, ax = 0, st, bin2rank[NBIN];
+  long cnt[NBIN], cum = 0;
+  S->nranks = ctx->nranks;
+  S->rank = ctx->rank;
+  S->par = ctx->nranks > 1;
+  if (!S->par) return MO_OK;
+  if ((st = par_reserve(S, P->nfree, ctx))) return st;
+  for (k = 0; k < S->nact; k++) {
+    const double *x = G->x + (size_t)S->act[k] * D;
+    for (i = 0; i < D; i++) {
+      if (x[i] < lo[i]) lo[i] = x[i];
+      if (x[i] > hi[i]) hi[i] = x[i];
+    }
+  }
+  for (i = 1; i < D; i++)
+    if (hi[i] - lo[i] > hi[ax] - lo[ax]) ax = i;
+  w = hi[ax] > lo[ax] ? (hi[ax] - lo[ax]) / NBIN : 1;
+  memset(cnt, 0, sizeof cnt);
+  for (k = 0; k < S->nact; k++) {
+    int b = (int)((G->x[(size_t)S->act[k] * D + ax] - lo[ax]) / w);
+    cnt[b < 0 ? 0 : b >= NBIN ? NBIN - 1 : b]++;
+  }
+  for (k = 0; k < NBIN; k++) {
+    /* the slab of the bin's first contact: slabs of S->nact / nranks contacts each */
+    long r = S->nact ? cum * S->nranks / S->nact : 0;
+    bin2rank[k] = (int)(r < S->nranks ? r : S->nranks - 1);
+    cum += cnt[k];
+  }
+  memset(S->own, 0, (size_t)S->nc);
+  for (i = 0; i < P->nfree; i++) {
+    S->bfirst[i] = -1;
+    S->bmulti[i] = 0;
+  }
+  for (k = 0; k < S->nact; k++) {
+    const int a = S->act[k];
+    int b = (int)((G->x[(size_t)a * D + ax] - lo[ax]) / w), q, s;
+    const int *gs = R_SIDE(REC(S, a, d));
+    q = bin2rank[b < 0 ? 0 : b >= NBIN ? NBIN - 1 : b];
+    S->own[a] = q == S->rank;
+    for (s = 0; s < 2 && gs[s]; s++) {
+      int o = (gs[s] > 0 ? gs[s] : -gs[s]) - 1;
+      if (S->bfirst[o] < 0) S->bfirst[o] = q;
+      else if (S->bfirst[o] != q) {
+        S->bmulti[o] = 1;
+        if (q < S->bfirst[o]) S->bfirst[o] = q;
+      }
+    }
+  }
+  for (S->nifc = 0, i = 0; i < P->nfree; i++)
+    if (S->bmulti[i]) S->ifc[S->nifc++] = i;
+  for (S->noact = 0, k = 0; k < S->nact; k++)
+    if (S->own[S->order[k]]) S->oorder[S->noact++] = S->order[k];
+  /* the slabs' balance, from the histogram every rank holds */
+  {
+    long most = 0, c = 0;
+    int q = 0;
+    for (k = 0; k <= NBIN; k++) {
+      if (k == NBIN || bin2rank[k] != q) {
+        if (c > most) most = c;
+        if (k == NBIN) break;
+        q = bin2rank[k];
+        c = 0;
+      }
+      c += cnt[k];
+    }
+    ctx->par_grain_solves++;
+    ctx->par_grain_interface += S->nifc;
+    ctx->par_grain_imbalance += S->nact ? (double)most * S->nranks / S->nact : 1.0;
+  }
+  (void)nk;
+  return MO_OK;
+}
+
+int nscd_grains_sweep_owned(nscd_state *S, const mo_contact_problem *P, double *r, int *status)
+{
+  const int nk = NK(S->d);
+  int j, i;
+  /* the interface velocities before the sweep: the ranks' increments are summed after it */
+  for (j = 0; j < S->nifc; j++)
+    for (i = 0; i < nk; i++) S->ibase[(size_t)j * nk + i] = S->vb[S->ifc[j] + i];
+  return S->d == 2 ? sweep_d(S, P, r, status, S->oorder, S->noact, 2)
+                   : sweep_d(S, P, r, status, S->oorder, S->noact, 3);
+}
+
+void nscd_grains_owned_U(nscd_state *S, const mo_contact_problem *P)
+{
+  int k;
+  for (k = 0; k < S->noact; k++) {
+    const int a = S->oorder[k];
+    if (S->d == 2) local_U(S, P, REC(S, a, 2), a, S->U + (size_t)a * 2, 2);
+    else local_U(S, P, REC(S, a, 3), a, S->U + (size_t)a * 3, 3);
+  }
+}
+
+int nscd_grains_sync(nscd_state *S, double *parts, int nparts, double *maxparts, int nmax, mo_ctx *ctx)
+{
+  const int nk = NK(S->d);
+  const size_t ni = (size_t)S->nifc * nk;
+  int j, i, st;
+  double *b = S->pbuf;
+  /* one sum: the interface increments and the stopping rule's parts */
+  for (j = 0; j < S->nifc; j++)
+    for (i = 0; i < nk; i++) b[(size_t)j * nk + i] = S->vb[S->ifc[j] + i] - S->ibase[(size_t)j * nk + i];
+  memcpy(b + ni, parts, (size_t)nparts * sizeof *b);
+  if ((st = mo_par_sum(b, (long)(ni + nparts), ctx))) return st;
+  for (j = 0; j < S->nifc; j++)
+    for (i = 0; i < nk; i++) S->vb[S->ifc[j] + i] = S->ibase[(size_t)j * nk + i] + b[(size_t)j * nk + i];
+  memcpy(parts, b + ni, (size_t)nparts * sizeof *b);
+  S->par_sweeps++;
+  ctx->par_grain_sweeps++;
+  return nmax ? mo_par_max(maxparts, nmax, ctx) : MO_OK;
+}
+
+int nscd_grains_gather(nscd_state *S, const mo_contact_problem *P, double *r, int *status, mo_ctx *ctx)
+{
+  const int d = S->d, nk = NK(d);
+  size_t m = (size_t)S->nc * d, n = m + (size_t)S->nc + (size_t)P->nfree, k;
+  double *b;
+  int a, i, st;
+  if (n + 1 > S->pbcap) {
+    void *p = mo_realloc(ctx, S->pbuf, (n + 1) * sizeof *S->pbuf);
+    if (!p) return MO_ENOMEM;
+    S->pbuf = p;
+    S->pbcap = n + 1;
+  }
+  b = S->pbuf;
+  /* each contact's reaction and status from its rank, each body's velocity change from the lowest
+     rank that touches it (interface bodies are the same on every rank after the last sync) */
+  for (a = 0; a < S->nc; a++) {
+    int mine = S->own[a];
+    for (i = 0; i < d; i++) b[(size_t)a * d + i] = mine ? r[(size_t)a * d + i] : 0;
+    b[m + a] = mine ? status[a] : 0;
+  }
+  for (k = 0; k < (size_t)P->nfree; k++) b[m + S->nc + k] = 0;
+  for (i = 0; i < P->nfree; i++)
+    if (S->bfirst[i] == S->rank) {
+      int l;
+      for (l = 0; l < nk && i + l < P->nfree; l++) b[m + S->nc + i + l] = S->vb[i + l] - P->xfree[i + l];
+    }
+  if ((st = mo_par_sum(b, (long)n, ctx))) return st;
+  for (a = 0; a < S->nc; a++) {
+    if (!S->own[a]) {
+      for (i = 0; i < d; i++) r[(size_t)a * d + i] = b[(size_t)a * d + i];
+      status[a] = (int)b[m + a];
+    }
+  }
+  for (i = 0; i < P->nfree; i++) S->vb[i] = P->xfree[i] + b[m + S->nc + i];
+  return MO_OK;
 }
 
 int nscd_grains_count(nscd_state *S, const mo_contact_problem *P, const double *r, int *unknowns, int *dofs,

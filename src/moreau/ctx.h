@@ -74,6 +74,11 @@ typedef struct mo_ctx {
   const void *par_module;  /* the PETSc module once loaded (parallel.c), else NULL */
   long par_calls;
   double par_time, par_bytes;
+  /* the granular sweep split over the ranks (nscd, doc/parallel.md §4): the solves and sweeps so
+     split, the interface bodies and the largest slab's share of the active contacts over its
+     mean, summed over those solves */
+  long par_grain_solves, par_grain_sweeps;
+  double par_grain_interface, par_grain_imbalance;
   /* contact back ends loaded at run time (moreau/backend.h): owned by the context that loaded
      them, shared by its copies (a comparison's runs), unloaded by mo_ctx_release */
   struct mo_plugins *plugins;
