@@ -1,0 +1,112 @@
+#!/bin/sh
+# mpi_scaling.sh: runs over MPI ranks, timed and counted (issue 17; doc/scaling.md). For each
+# scene, a run on 1 rank with CHOLMOD (the serial program), on 1 rank with PETSc (MUMPS), and on
+# NP ranks with PETSc, each with Open MPI's monitoring of every message (point to point and
+# collective, counted at MPI_Finalize): the wall time of the steps (less the Delassus build of the
+# first one), the factorization, the step,
+# and the messages and bytes a step sends (a run of STEPS steps less a run of one step, over
+# STEPS - 1). Strong scaling: the same scene on 1 and NP ranks; weak: a scene NP times larger
+# on NP ranks.
+#
+#   bench/mpi_scaling.sh [--np 2] [--steps 11] [--moreau build/moreau] [--out DIR] [SCENE...]
+#
+# SCENE: box:N (the H8 cube of bench/box_scaling.sh, N^3 elements, theta = 1, dt = 1e-4) or
+# pile:N (cases/disk-pile with N grains, h = 1 ms). Default: box:14 box:18 box:21 pile:1000 pile:2000.
+# Needs a build configured --with-petsc, Open MPI's mpirun and python3. On a machine with fewer
+# cores than ranks the times mean nothing (oversubscribed ranks wait for each other); the
+# message counts and sizes do not depend on the machine.
+set -eu
+here=$(cd "$(dirname "$0")" && pwd)
+root=$(dirname "$here")
+np=2
+steps=11
+moreau="$root/build/moreau"
+out=""
+scenes=""
+while [ $# -gt 0 ]; do
+  case "$1" in
+  --np) np=$2; shift ;;
+  --steps) steps=$2; shift ;;
+  --moreau) moreau=$2; shift ;;
+  --out) out=$2; shift ;;
+  -h|--help) sed -n '2,17p' "$0"; exit 0 ;;
+  box:*|pile:*) scenes="$scenes $1" ;;
+  *) echo "mpi_scaling.sh: unknown argument '$1' (--help)" >&2; exit 2 ;;
+  esac
+  shift
+done
+[ -n "$scenes" ] || scenes="box:14 box:18 box:21 pile:1000 pile:2000"
+[ -x "$moreau" ] || { echo "mpi_scaling.sh: no moreau binary at $moreau" >&2; exit 2; }
+command -v mpirun > /dev/null || { echo "mpi_scaling.sh: no mpirun (apt-get install openmpi-bin)" >&2; exit 3; }
+if [ -z "$out" ]; then
+  out=$(mktemp -d /tmp/mpi_scaling.XXXXXX)
+  trap 'rm -rf "$out"' EXIT
+fi
+mkdir -p "$out"
+export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_btl_vader_single_copy_mechanism=none
+export OMPI_MCA_rmaps_base_oversubscribe=1
+export OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1
+
+case_of() { # case_of SCENE STEPS: the case file of a scene, and its --set arguments
+  kind=${1%%:*}
+  n=${1#*:}
+  if [ "$kind" = box ]; then
+    f="$out/box$n-$2.cfg"
+    cat > "$f" <<EOF
+title = "an H8 cube of $n^3 elements pressed on a frictionless rigid plane";
+bodies = (
+  { name = "box";
+    mesh = { generator = "box"; size = [0.1, 0.1, 0.1]; elements = [$n, $n, $n]; };
+    material = { E = 2.1e11; nu = 0.3; rho = 7800.0; };
+    loads = ( { type = "pressure"; set = "zmax"; value = 1.0e6; } ); },
+  { name = "ground"; type = "plane"; point = [0.0, 0.0, 0.0]; normal = [0.0, 0.0, 1.0]; }
+);
+time = { scheme = "theta"; theta = 1.0; dt = 1.0e-4; steps = $2; };
+contact = { solver = "nscd";
+  pairs = ( { name = "base"; slave = "box"; slave_set = "zmin"; master = "ground"; mu = 0.0; } ); };
+output = { energy = false; };
+EOF
+    echo "$f"
+  else
+    echo "$root/cases/disk-pile --set bodies.grains.pack.count=$n --set time.end=$(awk "BEGIN{print $2 * 1e-3}") --set output.vtk.every=1000000 --set output.draw.frames=1 --set output.draw.gif=false"
+  fi
+}
+
+# one NAME NP SOLVER SCENE STEPS: a run, its summary and its message counts
+one() {
+  o_dir="$out/$1"
+  o_args=$(case_of "$4" "$5")
+  # shellcheck disable=SC2086
+  mpirun -np "$2" --mca pml_monitoring_enable 1 --mca pml_monitoring_enable_output 1 \
+    "$moreau" run $o_args --out "$o_dir" --quiet --set "linear_solver.type=\"$3\"" > "$o_dir.log" 2>&1 ||
+    { echo "mpi_scaling.sh: $1 failed:" >&2; tail -5 "$o_dir.log" >&2; return 1; }
+}
+
+summary() { # summary DIR EXPR
+  python3 -c "import json,sys; d=json.load(open(sys.argv[1]+'/summary.json')); print($2)" "$1"
+}
+traffic() { # traffic LOG: messages and bytes sent, point to point and collective, over the ranks
+  awk -F'\t' '$1 == "E" || $1 == "C" { split($4, b, " "); split($5, m, " "); B += b[1]; M += m[1] }
+              END { printf "%d %d\n", M, B }' "$1.log"
+}
+
+printf '%-10s %5s %-8s %10s %10s %10s %10s %12s %14s %10s\n' scene ranks solver "steps s" "factor s" "W s" "step ms" \
+  "msgs/step" "bytes/step" "setup MB"
+for scene in $scenes; do
+  for cfg in "1 cholmod" "1 petsc" "$np petsc"; do
+    set -- $cfg
+    p=$1 solver=$2
+    name="$(echo "$scene" | tr : -)-$p-$solver"
+    one "$name-1" "$p" "$solver" "$scene" 1 || continue
+    one "$name" "$p" "$solver" "$scene" "$steps" || continue
+    set -- $(traffic "$out/$name-1") $(traffic "$out/$name")
+    m1=$1 b1=$2 m=$3 b=$4
+    # the steps less the Delassus build (the first step builds W)
+    tsteps=$(summary "$out/$name" "d['timings']['steps'] - d['timings']['delassus']")
+    tfac=$(summary "$out/$name" "d['timings']['factor']")
+    tw=$(summary "$out/$name" "d['timings']['delassus']")
+    printf '%-10s %5s %-8s %10.3f %10.3f %10.3f %10.2f %12.1f %14.0f %10.2f\n' "$scene" "$p" "$solver" "$tsteps" "$tfac" "$tw" \
+      "$(awk "BEGIN{print 1e3 * $tsteps / $steps}")" "$(awk "BEGIN{print ($m - $m1) / ($steps - 1)}")" \
+      "$(awk "BEGIN{print ($b - $b1) / ($steps - 1)}")" "$(awk "BEGIN{print $b1 / 1e6}")"
+  done
+done
