@@ -8,7 +8,6 @@
 #include <limits.h>
 #include <math.h>
 #include <string.h>
-#include <unistd.h>
 
 struct mo_linsolver {
   const mo_linsolver_type *type;
@@ -148,11 +147,14 @@ int mo_linsolver_schur_inverse(mo_linsolver *S, double *G, mo_ctx *ctx)
 }
 
 /* --- BLAS threads ------------------------------------------------------------------------------
-   OpenBLAS (Debian's default BLAS) starts one thread per core and lets the idle ones spin in
-   sched_yield between calls: on the small products of the steps and the contact solves a second
-   thread only waits (issue 16). The program sets the count itself: one thread, except around the
-   large dense work (numeric factorization, the Schur inverse) where every core helps. Another
-   BLAS has no such setter and is left alone. */
+   OpenBLAS (Debian's default BLAS) lets its idle threads spin in sched_yield between calls: on
+   the small products of the steps and the contact solves a second thread only waits, and on a
+   machine shared with other jobs the spinning threads of a large factorization fight them for
+   the cores (the 14^3 box's numeric factorization took 5.2-10.9 s on two threads against
+   0.54-1.15 s on one, on the loaded 2-core machine of doc/theory.md (T155)). The program runs one
+   thread (main.c sets it); MOREAU_BLAS_THREADS=N gives N threads to the large dense work alone
+   (numeric factorizations and the Schur inverse above 1e9 flops), the rest staying on one (or
+   on OPENBLAS_NUM_THREADS when it is set). Another BLAS has no such setter and is left alone. */
 
 typedef void (*blas_setter)(int);
 
@@ -161,11 +163,21 @@ static blas_setter blas_threads_setter(void)
   return (blas_setter)dlsym(RTLD_DEFAULT, "openblas_set_num_threads");
 }
 
+static int env_threads(const char *name, int deflt)
+{
+  const char *e = getenv(name);
+  long n = e && *e ? strtol(e, NULL, 10) : deflt;
+  return n < 1 ? 1 : n > 64 ? 64 : (int)n;
+}
+
 int mo_blas_threads_max(void)
 {
-  const char *e = getenv("MOREAU_BLAS_THREADS");
-  long n = e && *e ? strtol(e, NULL, 10) : sysconf(_SC_NPROCESSORS_ONLN);
-  return n < 1 ? 1 : n > 64 ? 64 : (int)n;
+  return env_threads("MOREAU_BLAS_THREADS", env_threads("OPENBLAS_NUM_THREADS", 1));
+}
+
+int mo_blas_threads_base(void)
+{
+  return env_threads("OPENBLAS_NUM_THREADS", 1);
 }
 
 void mo_blas_threads(int n)
@@ -491,10 +503,10 @@ static int chol_factor(void *state, const mo_csc *A, int same, mo_ctx *ctx)
     if ((st = chol_memory_check(s, ctx))) goto done;
   }
   t0 = mo_clock();
-  /* every core for the dense updates of a large factorization, one thread after it */
+  /* MOREAU_BLAS_THREADS for the dense updates of a large factorization, one thread after it */
   if (s->info.flops > MO_BLAS_PARALLEL_FLOPS) mo_blas_threads(mo_blas_threads_max());
   cholmod_l_factorize(&S, s->L, &s->c);
-  mo_blas_threads(1);
+  mo_blas_threads(mo_blas_threads_base());
   s->info.t_numeric = mo_clock() - t0;
   if ((st = chol_not_posdef(s, A->ncol, ctx))) goto done;
   if (s->trailing && !s->L->is_super && !s->L->is_ll) {
@@ -686,7 +698,7 @@ static int chol_schur_inverse(void *state, double *G, mo_ctx *ctx)
   }
   if (flops > MO_BLAS_PARALLEL_FLOPS) mo_blas_threads(mo_blas_threads_max());
   if (n > 0) dpotri_("L", &n, G, &n, &info);
-  mo_blas_threads(1);
+  mo_blas_threads(mo_blas_threads_base());
   if (info) return mo_error(ctx, MO_ESINGULAR, "the Schur complement on the contact dofs is singular (LAPACK dpotri %d)", info);
   for (b = 0; b < nC; b++)
     for (a = b + 1; a < nC; a++) G[b + a * nC] = G[a + b * nC];

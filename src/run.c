@@ -1030,9 +1030,6 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   memset(&cv, 0, sizeof cv);
   memset(&net, 0, sizeof net);
 
-  /* one BLAS thread: the factorizations and the Schur inverse take every core around their
-     large dense work only (doc/theory.md (T155)) */
-  mo_blas_threads(1);
   if ((st = load_case(opt, &cs, ctx))) return st;
   if (opt->outdir) snprintf(outdir, sizeof outdir, "%s", opt->outdir);
   else default_outdir(opt->case_path, outdir, sizeof outdir);

@@ -138,11 +138,12 @@ int mo_linsolver_split(mo_linsolver *S, mo_split_op op, const double *in, double
 int mo_linsolver_schur_inverse(mo_linsolver *S, double *G, mo_ctx *ctx);
 void mo_linsolver_info_get(const mo_linsolver *S, mo_linsolver_info *I);
 
-/* BLAS threads (OpenBLAS; a no-op with a BLAS that cannot set them): the program runs one
-   thread and takes mo_blas_threads_max() (the online processors, or MOREAU_BLAS_THREADS) only
-   around large dense work (doc/theory.md (T155)). */
+/* BLAS threads (OpenBLAS; a no-op with a BLAS that cannot set them, doc/theory.md (T155)): the
+   program runs mo_blas_threads_base() (1, or OPENBLAS_NUM_THREADS) and takes
+   mo_blas_threads_max() (MOREAU_BLAS_THREADS, else the base) around large dense work only. */
 void mo_blas_threads(int n);
 int mo_blas_threads_max(void);
+int mo_blas_threads_base(void);
 
 #ifdef __cplusplus
 }
