@@ -11,11 +11,13 @@
 # the runs of that n).
 #
 #   bench/box_scaling.sh [--large] [--sizes "14 21 31 45"] [--steps 10] [--solvers nscd,levelset]
-#                        [--moreau build/moreau] [--out DIR] [--set KEY=VALUE]...
+#                        [--clock wall|cpu] [--moreau build/moreau] [--out DIR] [--set KEY=VALUE]...
 #
-# --large adds n = 68 (985 527 dofs: about 20 GB and an hour or more on 2 cores; run it alone).
-# A step's time is the run's `timings.steps` less the Delassus build, over the steps (the
-# first step builds W); the factorization is `timings.factor`. Needs python3 (summary.json).
+# --large adds n = 68 (985 527 dofs: about 25 GB; run it alone). A step's time is the run's
+# `timings.steps` less the Delassus build, over the steps (the first step builds W); the
+# factorization is `timings.factor`. --clock cpu times every phase on the thread's CPU clock
+# (MOREAU_CLOCK=cpu): on a machine shared with other jobs the time waited for a core is left out
+# (BLAS runs one thread unless MOREAU_BLAS_THREADS says otherwise). Needs python3 (summary.json).
 set -eu
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(dirname "$here")
@@ -34,6 +36,7 @@ while [ $# -gt 0 ]; do
   --moreau) moreau=$2; shift ;;
   --out) out=$2; shift ;;
   --set) sets="$sets --set $2"; shift ;;
+  --clock) [ "$2" = cpu ] && export MOREAU_CLOCK=cpu; shift ;;
   -h|--help) sed -n '2,20p' "$0"; exit 0 ;;
   *) echo "box_scaling.sh: unknown argument '$1' (--help)" >&2; exit 2 ;;
   esac

@@ -825,7 +825,7 @@ static int loads(mo_scene *sc, const config_setting_t *bl, int nentry, double *f
 
 /* Bytes per dof of a run, measured (peak RSS over dofs, FE assembly, CHOLMOD factor, state,
    outputs: doc/theory.md (T105)): 1D bars 315 B (wave-bar, 10^6 elements), 2D Q4 2.0 kB
-   (plate-vibration 200 x 200); 3D taken as 4 times 2D (more neighbours, more fill). */
+   (plate-vibration 200 x 200); 3D boxes by box_bytes (T159), other 3D meshes 4 times 2D. */
 static const double bytes_per_dof[4] = {300, 320, 2000, 8000};
 
 /* The memory a run may take: the physical memory, or the address-space limit when lower, or
