@@ -417,31 +417,40 @@ static double chol_limit(const mo_ctx *ctx)
   return ctx->max_bytes > 0 && ctx->max_bytes < m ? ctx->max_bytes : m;
 }
 
-/* Whether the factor, its workspace and what the caller reserved fit beside what the run holds. */
+/* The bytes beyond what the run holds: the factor, and the larger of the numeric factorization's
+   workspace (freed when it ends) and what the caller will allocate after it (T154). */
+static double chol_need(const chol_state *s)
+{
+  return s->info.bytes_factor + fmax(s->info.bytes_work, chol_reserve(s));
+}
+
+/* Whether they fit beside what the run holds. */
 static int chol_fits(const chol_state *s, const mo_ctx *ctx)
 {
-  return s->info.bytes_factor + s->info.bytes_work + chol_reserve(s) + mo_memory_rss() <= chol_limit(ctx);
+  return chol_need(s) + mo_memory_rss() <= chol_limit(ctx);
 }
 
 /* The memory the factorization will take against what the machine has (T154): refused with
    the figures when it does not fit; stated in the log when it is large. */
 static int chol_memory_check(chol_state *s, mo_ctx *ctx)
 {
-  double reserve = chol_reserve(s), need = s->info.bytes_factor + s->info.bytes_work + reserve,
+  double reserve = chol_reserve(s), need = chol_need(s),
          have = mo_memory_rss(), limit = chol_limit(ctx);
   s->info.bytes_reserve = reserve;
   s->info.bytes_before = have;
   s->info.bytes_limit = limit;
   if (need + have > 2e9 || ctx->verbosity >= 3)
-    mo_log(ctx, 1, "moreau: factorization of %d dofs: nnz(L) = %.4g (%.2f GB with its indices), workspace %.2f GB, "
-           "the Delassus operator and its Schur inverse %.2f GB, %.2f GB in use: %.2f GB of the %.2f GB this run may take\n",
+    mo_log(ctx, 1, "moreau: factorization of %d dofs: nnz(L) = %.4g (%.2f GB with its indices), then its workspace "
+           "(%.2f GB) or the Delassus operator and its Schur inverse (%.2f GB), beside %.2f GB in use: %.2f GB of the "
+           "%.2f GB this run may take\n",
            s->n, s->info.nnz_L, s->info.bytes_factor / 1e9, s->info.bytes_work / 1e9, reserve / 1e9, have / 1e9,
            (need + have) / 1e9, limit / 1e9);
   if (need + have > limit)
     return mo_error(ctx, MO_ELIMIT,
                     "the factorization of the iteration matrix (%d dofs) needs %.2f GB: the factor L (nnz(L) = %.4g, "
-                    "%.2f GB with its indices), the workspace of its numeric factorization (%.2f GB) and the Delassus "
-                    "operator with its Schur inverse (%.2f GB), beside the %.2f GB the run holds already; this machine "
+                    "%.2f GB with its indices), then the larger of the workspace of its numeric factorization (%.2f GB) "
+                    "and the Delassus operator with its Schur inverse (%.2f GB), beside the %.2f GB the run holds "
+                    "already; this machine "
                     "gives a run %.2f GB (physical memory, or RLIMIT_AS when lower; doc/theory.md (T154)). Refused "
                     "before the numeric factorization: a coarser mesh, or a machine with more memory",
                     s->n, (need + have) / 1e9, s->info.nnz_L, s->info.bytes_factor / 1e9, s->info.bytes_work / 1e9,
@@ -492,7 +501,7 @@ static int chol_factor(void *state, const mo_csc *A, int same, mo_ctx *ctx)
     if (s->trailing && !chol_fits(s, ctx)) {
       /* the contact dofs last fill more (T154): when that does not fit, CHOLMOD's own order, W by
          solves */
-      s->info.bytes_trailing = s->info.bytes_factor + s->info.bytes_work + chol_reserve(s);
+      s->info.bytes_trailing = chol_need(s);
       mo_log(ctx, 1, "moreau: the factorization with the contact dofs last would need %.2f GB (nnz(L) = %.4g) beside "
              "the %.2f GB in use, more than the %.2f GB this run may take: CHOLMOD's own order instead, the "
              "Delassus operator by solves (doc/theory.md (T154))\n", s->info.bytes_trailing / 1e9, s->info.nnz_L,
