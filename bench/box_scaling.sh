@@ -6,9 +6,10 @@
 # switched off: the step is then the unconstrained step, two triangular solves and the products
 # that build their right-hand side: the limit a contact step is measured against), then one run
 # per back end. One line per run, then the table: dofs, contacts, nnz(L), the numeric
-# factorization, the Delassus build, the step without contact ("2 solves"), the step of each back
-# end, their ratios to the limit and to each other, and the peak resident size (the largest of
-# the runs of that n).
+# factorization, the Delassus build, the step without contact ("2 solves"), the mean forward and
+# backward solve of the contact run's own factor ("own 2 solves": the contact dofs last fill it
+# more), the step of each back end, their ratios to both and to each other, and the peak resident
+# size (the largest of the runs of that n).
 #
 #   bench/box_scaling.sh [--large] [--sizes "14 21 31 45"] [--steps 10] [--solvers nscd,levelset]
 #                        [--clock wall|cpu] [--moreau build/moreau] [--out DIR] [--set KEY=VALUE]...
@@ -90,9 +91,9 @@ steps = max(1, s['time'].get('steps_done', 1))
 step = (T['steps'] - T.get('delassus', 0)) / steps
 c = s.get('contact', {})
 print('n=%s run=%s status=%s dofs=%s contacts=%s nnz_L=%s factor_s=%.3f delassus_s=%.3f step_ms=%.2f '
-      'iterations=%s peak_rss_MB=%.0f' % (n, label, s['status'], L.get('n', 'nan'), c.get('candidates', 0),
-      L.get('nnz_L', 'nan'), T['factor'], T.get('delassus', 0), 1e3 * step,
-      c.get('iterations_mean', 'nan'), s.get('peak_rss_bytes', 0) / 1e6))
+      'own_2solves_ms=%.2f iterations=%s peak_rss_MB=%.0f' % (n, label, s['status'], L.get('n', 'nan'),
+      c.get('candidates', 0), L.get('nnz_L', 'nan'), T['factor'], T.get('delassus', 0), 1e3 * step,
+      1e3 * L.get('two_solves_seconds', float('nan')), c.get('iterations_mean', 'nan'), s.get('peak_rss_bytes', 0) / 1e6))
 PY
 }
 
@@ -117,8 +118,9 @@ def num(x):
         return float(x)
     except (TypeError, ValueError):
         return float('nan')
-head = ['n^3', 'dofs', 'contacts', 'nnz(L)', 'factor s', 'Delassus s', '2 solves ms'] + \
-       ['step %s ms' % s for s in solvers] + ['%s / 2 solves' % s for s in solvers]
+head = ['n^3', 'dofs', 'contacts', 'nnz(L)', 'factor s', 'Delassus s', '2 solves ms', 'own 2 solves ms'] + \
+       ['step %s ms' % s for s in solvers] + ['%s / 2 solves' % s for s in solvers] + \
+       ['%s / own 2 solves' % s for s in solvers]
 if len(solvers) == 2:
     head.append('%s / %s' % (solvers[1], solvers[0]))
 head.append('peak RSS MB')
@@ -134,8 +136,11 @@ for n in sorted(rows):
              '%.3g' % num(ref.get('nnz_L')) if ref.get('nnz_L', 'nan') != 'nan' else 'n/a',
              '%.2f' % num(ref.get('factor_s')), '%.2f' % max(num(r.get(s, {}).get('delassus_s')) for s in solvers),
              '%.1f' % lim]
+    own = num(ref.get('own_2solves_ms'))
+    cells.append('%.1f' % own if own == own else 'n/a')
     cells += ['%.1f' % t if o else 'failed' for t, o in zip(st, ok)]
     cells += ['%.2f' % (t / lim) if o else '-' for t, o in zip(st, ok)]
+    cells += ['%.2f' % (t / own) if o and own == own else '-' for t, o in zip(st, ok)]
     if len(solvers) == 2:
         cells.append('%.2f' % (st[1] / st[0]) if all(ok) else '-')
     cells.append('%.0f' % max(num(x.get('peak_rss_MB')) for x in r.values()))

@@ -119,7 +119,7 @@ int mo_linsolver_nlast(const mo_linsolver *S)
 void mo_linsolver_info_get(const mo_linsolver *S, mo_linsolver_info *I)
 {
   memset(I, 0, sizeof *I);
-  I->nnz_L = NAN;
+  I->nnz_L = I->two_solves = NAN;
   if (S->type->info) S->type->info(S->state, I);
 }
 
@@ -218,6 +218,8 @@ typedef struct {
   long s0;                  /* supernodal: the first supernode holding a trailing column */
   double *w, *tmp;          /* n: permuted vectors; the largest supernode's rows */
   cholmod_dense *Bd;        /* a view for split solves */
+  double t_full, t_fw, t_bw; /* seconds in whole, forward and backward solves of one right-hand side */
+  long n_full, n_fw, n_bw;
   mo_linsolver_info info;
 } chol_state;
 
@@ -567,7 +569,14 @@ static int chol_sys(chol_state *s, int sys, size_t nrhs, const double *B, double
 
 static int chol_solve(void *state, int nrhs, const double *B, double *X, mo_ctx *ctx)
 {
-  return chol_sys(state, CHOLMOD_A, (size_t)nrhs, B, X, ctx);
+  chol_state *s = state;
+  double t0 = mo_clock();
+  int st = chol_sys(s, CHOLMOD_A, (size_t)nrhs, B, X, ctx);
+  if (nrhs == 1) {
+    s->t_full += mo_clock() - t0;
+    s->n_full++;
+  }
+  return st;
 }
 
 /* --- the trailing block L22 (T151): its solves and the Schur inverse --------------------------- */
@@ -658,13 +667,19 @@ static int chol_split(void *state, mo_split_op op, const double *in, double *out
   sslong k, n = s->n, nI = n - s->nlast;
   int st;
   if (!s->trailing) return mo_error(ctx, MO_EINTERNAL, "split solve on a factor without a trailing block");
+  double t0 = mo_clock();
   switch (op) {
   case MO_SPLIT_FORWARD:           /* out = L^-1 P in */
     for (k = 0; k < n; k++) s->w[k] = in[Perm[k]];
-    return chol_sys(s, CHOLMOD_L, 1, s->w, out, ctx);
+    st = chol_sys(s, CHOLMOD_L, 1, s->w, out, ctx);
+    s->t_fw += mo_clock() - t0;
+    s->n_fw++;
+    return st;
   case MO_SPLIT_BACKWARD:          /* out = P^T L^-T in */
     if ((st = chol_sys(s, CHOLMOD_Lt, 1, in, s->w, ctx))) return st;
     for (k = 0; k < n; k++) out[Perm[k]] = s->w[k];
+    s->t_bw += mo_clock() - t0;
+    s->n_bw++;
     return MO_OK;
   case MO_SPLIT_TRAIL_FORWARD:     /* out = L22^-1 in (nlast values) */
     if (out != in) memcpy(out, in, (size_t)s->nlast * sizeof *out);
@@ -719,6 +734,7 @@ static void chol_info(const void *state, mo_linsolver_info *I)
   const chol_state *s = state;
   *I = s->info;
   if (!s->L) I->nnz_L = NAN;
+  I->two_solves = s->n_fw && s->n_bw ? s->t_fw / s->n_fw + s->t_bw / s->n_bw : s->n_full ? s->t_full / s->n_full : NAN;
 }
 
 static void chol_free(void *state)

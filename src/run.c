@@ -726,6 +726,7 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
         json_object_set_new(ls, "contact_dofs_last", json_integer(I.trailing ? I.nlast : 0));
         json_object_set_new(ls, "analyze_seconds", jnum(I.t_analyze));
         json_object_set_new(ls, "numeric_seconds", jnum(I.t_numeric));
+        if (I.two_solves == I.two_solves) json_object_set_new(ls, "two_solves_seconds", jnum(I.two_solves));
         json_object_set_new(ls, "bytes_factor", jnum(I.bytes_factor));
         json_object_set_new(ls, "bytes_workspace", jnum(I.bytes_work));
         json_object_set_new(ls, "bytes_delassus", jnum(I.bytes_reserve));

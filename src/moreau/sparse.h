@@ -88,6 +88,8 @@ typedef struct mo_linsolver_info {
   double bytes_limit;    /* the memory this run may take (mo_memory_limit) */
   double bytes_trailing; /* when the contact dofs last did not fit: what they would have needed (else 0) */
   double t_analyze, t_numeric; /* seconds: symbolic analyses (all), the last numeric factorization */
+  double two_solves;     /* mean seconds of a forward and a backward solve on one right-hand side
+                            (the split ones, or whole solves; NaN before any) */
   const char *ordering;  /* "amd", "metis", ...: of the rows not ordered last */
   int nlast, trailing;   /* rows ordered last, and whether the factor holds them as its trailing block */
   int supernodal, long_indices;
