@@ -945,6 +945,7 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
   P->t = s->t;
   P->w = D->w;
   P->cset = D->cset;
+  P->u_measured = D->wused; /* step 6 recomputes U = W r + q */
   memset(rep, 0, sizeof *rep);
   rep->constraints = rep->redundant = -1;
   rep->rcond = NAN;

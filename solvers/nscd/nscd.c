@@ -623,7 +623,9 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
   /* a fixed number of sweeps was asked for: done unless interrupted */
   if (p->stop == NSCD_STOP_SWEEPS && broke < 0 && sweeps == p->max_sweeps) conv = 1;
   /* U is exact already when a residual rule has just confirmed convergence */
-  if (!(conv && (scaled || p->stop == NSCD_STOP_NATURAL)) || !S->u_full) exact_U(S, P, r, 1);
+  if (!(conv && (scaled || p->stop == NSCD_STOP_NATURAL))) exact_U(S, P, r, 1);
+  /* the tangential U of frictionless contacts, unless the core measures U itself (T156) */
+  else if (!S->u_full && !P->u_measured) exact_U(S, P, r, 1);
   /* redundancy (T84): the rank of the closed set's problem, measured by the status-set step when
      it converged, else here for quasi-static solves (one or a few per run; dynamic steps would pay a
      dense factorization each) */

@@ -281,6 +281,10 @@ typedef struct mo_contact_problem {
   double du_dx;              /* du = c dx over the step */
   long step;                 /* step being computed (1-based) */
   double t;                  /* time at the start of the step */
+  int u_measured;            /* 1: the core computes U = W r + q after the solve (its measure), so
+                                that a back end on W may return U exact only where the law reads
+                                it (the normal components of frictionless contacts): a pass over W
+                                saved (doc/theory.md (T156)) */
 } mo_contact_problem;
 
 /* What a back end returns. r holds the previous step's reactions on entry (warm start). */
