@@ -217,6 +217,7 @@ typedef struct {
   double reserve;           /* bytes the caller will need beside the factor (the Delassus) */
   long s0;                  /* supernodal: the first supernode holding a trailing column */
   double *w, *tmp;          /* n: permuted vectors; the largest supernode's rows */
+  double *invd;             /* n: a simplicial LL' factor's inverse diagonal (a product, not a division, per column) */
   cholmod_dense *Bd;        /* a view for split solves */
   double t_full, t_fw, t_bw; /* seconds in whole, forward and backward solves of one right-hand side */
   long n_full, n_fw, n_bw;
@@ -496,7 +497,9 @@ static int chol_factor(void *state, const mo_csc *A, int same, mo_ctx *ctx)
   if (!same || !s->L || s->last_new) {
     mo_free(s->w);
     mo_free(s->tmp);
+    mo_free(s->invd);
     s->tmp = NULL;
+    s->invd = NULL;
     if (!(s->w = mo_malloc(ctx, ((size_t)A->ncol + 1) * sizeof *s->w))) { st = MO_ENOMEM; goto done; }
     if ((st = chol_analyze(s, &S, 1, ctx))) goto done;
     chol_memory(s);
@@ -523,6 +526,13 @@ static int chol_factor(void *state, const mo_csc *A, int same, mo_ctx *ctx)
   if (s->trailing && !s->L->is_super && !s->L->is_ll) {
     st = mo_error(ctx, MO_EINTERNAL, "CHOLMOD left a simplicial LDL' factor where LL' was asked");
     goto done;
+  }
+  if (s->trailing && !s->L->is_super) {
+    const sslong *Lp = s->L->p;
+    const double *Lx = s->L->x;
+    sslong j;
+    if (!s->invd && !(s->invd = mo_malloc(ctx, ((size_t)A->ncol + 1) * sizeof *s->invd))) { st = MO_ENOMEM; goto done; }
+    for (j = 0; j < A->ncol; j++) s->invd[j] = 1 / Lx[Lp[j]];
   }
   if (s->trailing && !s->tmp) {
     /* the first supernode holding a trailing column, and room for a supernode's rows */
@@ -588,6 +598,32 @@ extern void dgemv_(const char *trans, const int *m, const int *n, const double *
                    const int *incy);
 extern void dpotri_(const char *uplo, const int *n, double *a, const int *lda, int *info);
 
+/* A simplicial LL' factor's columns j0 .. n-1 (their rows are all >= j0): z = L(j0:, j0:)^-1 z and
+   z = L(j0:, j0:)^-T z, z indexed from j0. Column by column; also the whole solves of a simplicial
+   factor (j0 = 0), where a call of cholmod_solve2 costs more than the solve itself (a 1D bar). */
+static void simplicial_lsolve(const cholmod_factor *L, const double *invd, sslong j0, double *z)
+{
+  const double *Lx = L->x;
+  const sslong *Lp = L->p, *Li = L->i, *Lnz = L->nz;
+  sslong j, p, n = (sslong)L->n;
+  for (j = j0; j < n; j++) {
+    double zj = z[j - j0] *= invd[j];
+    for (p = Lp[j] + 1; p < Lp[j] + Lnz[j]; p++) z[Li[p] - j0] -= Lx[p] * zj;
+  }
+}
+
+static void simplicial_ltsolve(const cholmod_factor *L, const double *invd, sslong j0, double *z)
+{
+  const double *Lx = L->x;
+  const sslong *Lp = L->p, *Li = L->i, *Lnz = L->nz;
+  sslong j, p;
+  for (j = (sslong)L->n - 1; j >= j0; j--) {
+    double acc = z[j - j0];
+    for (p = Lp[j] + 1; p < Lp[j] + Lnz[j]; p++) acc -= Lx[p] * z[Li[p] - j0];
+    z[j - j0] = acc * invd[j];
+  }
+}
+
 /* z = L22^-1 z (z: the nlast trailing values). Supernode by supernode from the first one that
    holds a trailing column: the part of its diagonal block on trailing columns, then the rows
    below (all trailing). Simplicial LL': column by column. */
@@ -595,14 +631,10 @@ static void trail_lsolve(chol_state *s, double *z)
 {
   const cholmod_factor *L = s->L;
   const double *Lx = L->x;
-  sslong nI = (sslong)s->n - s->nlast, j, p;
+  sslong nI = (sslong)s->n - s->nlast;
   static const int one = 1;
   if (!L->is_super) {
-    const sslong *Lp = L->p, *Li = L->i, *Lnz = L->nz;
-    for (j = nI; j < (sslong)s->n; j++) {
-      double zj = z[j - nI] /= Lx[Lp[j]];
-      for (p = Lp[j] + 1; p < Lp[j] + Lnz[j]; p++) z[Li[p] - nI] -= Lx[p] * zj;
-    }
+    simplicial_lsolve(L, s->invd, nI, z);
     return;
   }
   {
@@ -629,15 +661,10 @@ static void trail_ltsolve(chol_state *s, double *z)
 {
   const cholmod_factor *L = s->L;
   const double *Lx = L->x;
-  sslong nI = (sslong)s->n - s->nlast, j, p;
+  sslong nI = (sslong)s->n - s->nlast;
   static const int one = 1;
   if (!L->is_super) {
-    const sslong *Lp = L->p, *Li = L->i, *Lnz = L->nz;
-    for (j = (sslong)s->n - 1; j >= nI; j--) {
-      double acc = z[j - nI];
-      for (p = Lp[j] + 1; p < Lp[j] + Lnz[j]; p++) acc -= Lx[p] * z[Li[p] - nI];
-      z[j - nI] = acc / Lx[Lp[j]];
-    }
+    simplicial_ltsolve(L, s->invd, nI, z);
     return;
   }
   {
@@ -670,13 +697,23 @@ static int chol_split(void *state, mo_split_op op, const double *in, double *out
   double t0 = mo_clock();
   switch (op) {
   case MO_SPLIT_FORWARD:           /* out = L^-1 P in */
-    for (k = 0; k < n; k++) s->w[k] = in[Perm[k]];
-    st = chol_sys(s, CHOLMOD_L, 1, s->w, out, ctx);
+    if (!s->L->is_super) {
+      for (k = 0; k < n; k++) out[k] = in[Perm[k]];
+      simplicial_lsolve(s->L, s->invd, 0, out);
+      st = MO_OK;
+    } else {
+      for (k = 0; k < n; k++) s->w[k] = in[Perm[k]];
+      st = chol_sys(s, CHOLMOD_L, 1, s->w, out, ctx);
+    }
     s->t_fw += mo_clock() - t0;
     s->n_fw++;
     return st;
   case MO_SPLIT_BACKWARD:          /* out = P^T L^-T in */
-    if ((st = chol_sys(s, CHOLMOD_Lt, 1, in, s->w, ctx))) return st;
+    if (!s->L->is_super) {
+      memcpy(s->w, in, (size_t)n * sizeof *s->w);
+      simplicial_ltsolve(s->L, s->invd, 0, s->w);
+    } else if ((st = chol_sys(s, CHOLMOD_Lt, 1, in, s->w, ctx)))
+      return st;
     for (k = 0; k < n; k++) out[Perm[k]] = s->w[k];
     s->t_bw += mo_clock() - t0;
     s->n_bw++;
@@ -743,6 +780,7 @@ static void chol_free(void *state)
   mo_free(s->last);
   mo_free(s->w);
   mo_free(s->tmp);
+  mo_free(s->invd);
   if (!s->started) return;
   if (s->L) cholmod_l_free_factor(&s->L, &s->c);
   if (s->X) cholmod_l_free_dense(&s->X, &s->c);
