@@ -917,8 +917,11 @@ static int estimate_size(const mo_case *cs, const config_setting_t *bl, int nent
                            mo_cfg_string(bg, "name", "?"), c * nn, c * ne, c * nn * d, c * eb / 1e9, why);
     }
   }
-  (void)nodes;
-  (void)elems;
+  /* a large scene says what it expects to take before it builds anything (T105, T159); the
+     factorization states its exact figure after its symbolic analysis (T154) */
+  if (bytes > 2e9)
+    mo_log(ctx, 1, "moreau: %.3g nodes, %.3g elements, %.3g dofs: about %.3g GB estimated before building (of the "
+           "%.3g GB this run may take; doc/theory.md (T159))\n", nodes, elems, dofs, bytes / 1e9, mem / 1e9);
   return MO_OK;
 }
 
