@@ -589,7 +589,11 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
            frictional one) never above the sweeps' so far, and after a step that did not
            converge, twice as many sweeps before the next */
         double nclosed = 0, nb = 0;
-        if (stable && sweeps >= 10 && res > 0.5 * rhist[sweeps % 10] && sweeps - tried >= wait)
+        /* on a large contact set the first LU of a run (T157) is tried after 10 sweeps, without
+           waiting for stable statuses and the stall of (T83) (its status iteration settles the
+           statuses): the sweeps converge slowly there, and the LU serves the steps after */
+        int early = !S->lu.builds && S->nact >= NSCD_EARLY_LU;
+        if (sweeps >= 10 && ((stable && res > 0.5 * rhist[sweeps % 10]) || early) && sweeps - tried >= wait)
           for (k = 0; k < S->nact; k++) {
             nclosed += r[S->act[k] * d] > 0 ? (S->mu[S->act[k]] > 0 ? d : 1) : 0; /* unknowns, at most */
             nb += S->rcnt[S->act[k]];

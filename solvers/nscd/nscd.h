@@ -176,6 +176,8 @@ int nscd_bodies_count(nscd_state *S, const mo_contact_problem *P, const double *
    a direction of it is taken as redundant, and the multiple of DBL_EPSILON |W| |r| taken as the
    round-off of U. */
 #define NSCD_ACCEL_MAX 5000
+/* Active contacts from which the first LU of a run is taken without waiting for a stall (T157) */
+#define NSCD_EARLY_LU 1000
 #define NSCD_RANK_TOL 1e-10
 #define NSCD_ROUNDOFF 64
 /* Status iterations of one status-set step (each a dense solve) */
