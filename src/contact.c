@@ -312,6 +312,8 @@ struct mo_contact_driver {
   /* the state the detected candidates' Uprev were last computed at (mo_contact_driver_uprev) */
   long up_step;
   const double *up_v;
+  int split;                 /* this step is split (doc/theory.md (T153)): x_free known on the contact
+                                dofs only until the correction's backward solve */
 };
 
 const mo_contact_report *mo_contact_last_report(const mo_contact_driver *D) { return &D->rep; }
@@ -940,6 +942,31 @@ static int equilibrium_check(mo_contact_driver *D, const mo_state *s, mo_ctx *ct
   return MO_OK;
 }
 
+/* Step 7 of a split step (doc/theory.md (T153)): x = What^-1 (rhs + H r) by the trailing forward
+   solve of H r and one backward solve, into D->xfull; a back end that wrote dx itself (the KKT
+   path) has x_free completed by the backward solve, then dx added. */
+static int split_correction(mo_contact_driver *D, const mo_state *s, mo_ctx *ctx)
+{
+  const mo_scene *sc = D->sc;
+  int i, st;
+  if (D->x.dx_set) {
+    if ((st = mo_stepper_complete_split(D->S, D->xfull, ctx))) return st;
+    for (i = 0; i < sc->nfree; i++) D->xfull[sc->full_of[i]] += D->dx[i];
+  } else {
+    mo_csc_gaxpy(D->C->Hfull, 1, D->r, 0, D->dxfull);
+    if ((st = mo_stepper_correct_split(D->S, D->dxfull, D->xfull, ctx))) return st;
+  }
+  return D->eqf ? equilibrium_check(D, s, ctx) : MO_OK;
+}
+
+/* Whether the step splits (T153): the factorization holds the contact dofs last and every row
+   of H is among them, and the back end works on W (not on the bodies' blocks, which read x_free
+   in full). */
+static int split_step(const mo_contact_driver *D)
+{
+  return D->W && !bodies_only(D, mo_stepper_inverse(D->S)) && mo_stepper_split_covers(D->S, D->C->H);
+}
+
 /* Steps 2-7 of a step (doc/theory.md §5): from the unconstrained iterate D->xfull (full; D->xf
    its free part) and the gaps at the start of the step, the local problem, the back end's
    solve, the core's measure, and the correction dx (free dofs) added to D->xfull. rstep: the
@@ -1015,6 +1042,7 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
   P->t = s->t;
   P->w = D->w;
   P->cset = D->cset;
+  P->u_measured = D->wused; /* step 6 recomputes U = W r + q */
   memset(rep, 0, sizeof *rep);
   rep->constraints = rep->redundant = -1;
   rep->rcond = NAN;
@@ -1153,6 +1181,7 @@ resolve:
     }
   }
   /* 7. correction */
+  if (D->split) return split_correction(D, s, ctx);
   if (!D->x.dx_set) {
     if (D->wused) {
       if ((st = mo_delassus_apply_Cinv(D->W, C->H, Wi, D->r, D->dx, ctx))) return st;
@@ -1355,21 +1384,27 @@ int mo_contact_step(mo_contact_driver *D, mo_state *s, mo_ctx *ctx)
   const mo_scene *sc = D->sc;
   int st, any, k, n = sc->ndof;
   const double *xfree;
+  double t0, inner0;
 
   if (mo_stepper_nonlinear(S)) {
     /* Newton on the smooth part (doc/theory.md §11.2), the contact problem solved on the
        linearized step of every iterate; the reactions of the previous step set the index set
        and the warm start */
     memcpy(D->rprev, D->r, (size_t)D->m * sizeof(double));
+    D->split = 0;
     D->any_step = D->it_step = 0;
     memset(D->loops_step, 0, sizeof D->loops_step);
     mo_stepper_guess(S, s, D->xnl);
     if ((st = mo_newton_begin(S, s, D->xnl, D->gnl, ctx))) return st;
     while ((st = mo_newton_iterate(S, s, D->xnl, D->gnl, &xfree, ctx)) == MO_NEWTON_LINEARIZED) {
       int iter = mo_stepper_newton_report(S)->iterations - 1;
+      t0 = mo_clock();
+      inner0 = mo_phase_total(ctx);
       memcpy(D->xfull, xfree, (size_t)n * sizeof *D->xfull);
       mo_stepper_gather(S, D->xfull, D->xf);
-      if ((st = contact_solve(D, s, D->rprev, iter, &any, ctx))) return st;
+      st = contact_solve(D, s, D->rprev, iter, &any, ctx);
+      mo_phase_rest(ctx, MO_PH_LOCAL, t0, inner0);
+      if (st) return st;
       memcpy(D->xnl, D->xfull, (size_t)n * sizeof *D->xnl);
       /* g = What (x - x_free) = H r over free dofs (the KKT path's dv solves What dv = H_C r) */
       mo_csc_gaxpy(D->C->Hfull, 1, D->r, 0, D->gnl);
@@ -1386,13 +1421,24 @@ int mo_contact_step(mo_contact_driver *D, mo_state *s, mo_ctx *ctx)
       D->iterations += D->it_step;
       if (D->it_step > D->max_iterations) D->max_iterations = D->it_step;
     }
-    return contact_finish(D, s, D->xnl, ctx);
+    t0 = mo_clock();
+    inner0 = mo_phase_total(ctx);
+    st = contact_finish(D, s, D->xnl, ctx);
+    mo_phase_rest(ctx, MO_PH_LOCAL, t0, inner0);
+    return st;
   }
-  /* 1. the unconstrained step (bodies), 2-7. the contact problem, its solve and the correction */
-  if ((st = mo_stepper_predict(S, s, D->xfull, ctx))) return st;
+  /* 1. the unconstrained step (bodies), 2-7. the contact problem, its solve and the correction;
+     split (T153): the forward solve and the contact dofs first, one backward solve at the end */
+  D->split = split_step(D);
+  if ((st = D->split ? mo_stepper_predict_split(S, s, D->xfull, ctx) : mo_stepper_predict(S, s, D->xfull, ctx)))
+    return st;
+  t0 = mo_clock();
+  inner0 = mo_phase_total(ctx);
   mo_stepper_gather(S, D->xfull, D->xf);
-  if ((st = contact_solve(D, s, D->r, -1, &any, ctx))) return st;
-  return contact_finish(D, s, D->xfull, ctx);
+  st = contact_solve(D, s, D->r, -1, &any, ctx);
+  if (!st) st = contact_finish(D, s, D->xfull, ctx);
+  mo_phase_rest(ctx, MO_PH_LOCAL, t0, inner0); /* the core's own part of the contact step */
+  return st;
 }
 
 int mo_contact_driver_local_problem(const mo_contact_driver *D, double **W, double **q, double **mu,

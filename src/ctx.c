@@ -5,7 +5,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/resource.h>
 #include <time.h>
+#include <unistd.h>
 
 void mo_ctx_init(mo_ctx *ctx)
 {
@@ -153,11 +155,48 @@ void mo_phase_add(mo_ctx *ctx, mo_phase ph, double t0)
   ctx->phase_calls[ph]++;
 }
 
+double mo_phase_total(const mo_ctx *ctx)
+{
+  double t = 0;
+  int p;
+  for (p = 0; p < MO_PH_N; p++) t += ctx->phase_time[p];
+  return t;
+}
+
+void mo_phase_rest(mo_ctx *ctx, mo_phase ph, double t0, double inner0)
+{
+  double rest = (mo_clock() - t0) - (mo_phase_total(ctx) - inner0);
+  if (rest > 0) ctx->phase_time[ph] += rest;
+  ctx->phase_calls[ph]++;
+}
+
 const char *mo_phase_name(mo_phase ph)
 {
   static const char *names[MO_PH_N] = {"setup",    "assembly", "factor", "solve",
-                                       "geometry", "delassus", "contact", "output", "broad"};
+                                       "geometry", "delassus", "contact", "output", "broad",
+                                       "correct",  "local",    "metrics"};
   return (unsigned)ph < MO_PH_N ? names[ph] : "?";
+}
+
+double mo_memory_limit(void)
+{
+  double mem = (double)sysconf(_SC_PHYS_PAGES) * (double)sysconf(_SC_PAGE_SIZE);
+  struct rlimit rl;
+  if (!(mem > 0)) mem = 8e9;
+  if (getrlimit(RLIMIT_AS, &rl) == 0 && rl.rlim_cur != RLIM_INFINITY && (double)rl.rlim_cur < mem)
+    mem = (double)rl.rlim_cur;
+  return mem;
+}
+
+double mo_memory_rss(void)
+{
+  long pages = 0, rss = 0;
+  FILE *f = fopen("/proc/self/statm", "r");
+  if (f) {
+    if (fscanf(f, "%ld %ld", &pages, &rss) != 2) rss = 0;
+    fclose(f);
+  }
+  return (double)rss * (double)sysconf(_SC_PAGE_SIZE);
 }
 
 void mo_note_skip(mo_ctx *ctx, const char *fmt, ...)

@@ -2,7 +2,9 @@
    shared factorization by chunks of right-hand sides (doc/theory.md §4.4). */
 #include "config.h"
 #include <moreau/contact.h>
+#include "contact_internal.h"
 
+#include <limits.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -27,6 +29,8 @@ struct mo_delassus {
   int nfe, nbf;     /* nodal free dofs; candidates touching them */
   int *fecol;       /* nb: each candidate's block column in C, or -1 */
   double *work;     /* nfree */
+  double *y;        /* nfe: the forward solve of a correction on the trailing block (T153) */
+  int schur;        /* the last build came from the factor's trailing block (T151) */
 };
 
 int mo_delassus_create(mo_delassus **out, mo_ctx *ctx)
@@ -45,9 +49,11 @@ static void clear(mo_delassus *D)
   mo_free(D->C);
   mo_free(D->work);
   mo_free(D->fecol);
+  mo_free(D->y);
   D->rowp = D->colb = D->fecol = NULL;
-  D->val = D->C = D->work = NULL;
+  D->val = D->C = D->work = D->y = NULL;
   D->built = 0;
+  D->schur = 0;
 }
 
 void mo_delassus_free(mo_delassus *D)
@@ -61,6 +67,7 @@ int mo_delassus_m(const mo_delassus *D) { return D->m; }
 int mo_delassus_dim(const mo_delassus *D) { return D->d; }
 long mo_delassus_nblocks(const mo_delassus *D) { return D->nblocks; }
 int mo_delassus_has_columns(const mo_delassus *D) { return D->C != NULL; }
+int mo_delassus_from_schur(const mo_delassus *D) { return D->schur; }
 
 /* --- rows of blocks under construction ------------------------------------------------------ */
 
@@ -166,6 +173,9 @@ static int rows_compress(rows *R, mo_delassus *D, mo_ctx *ctx)
 
 /* --- the build (doc/theory.md §4.4, (T72)) -------------------------------------------------- */
 
+static int apply_Cinv(mo_delassus *D, const mo_csc *H, const mo_what_inverse *Wi, const double *r, double *dx,
+                      mo_ctx *ctx);
+
 /* The nodal part: c H_a^T What_fe^-1 H_b for the candidates whose columns touch the nodal block
    (rows 0 .. nfe-1), by chunks of right-hand sides through the factorization; the columns
    What_fe^-1 H are kept when they fit. */
@@ -231,6 +241,224 @@ done:
   mo_free(fe);
   mo_free(B);
   mo_free(X);
+  return st;
+}
+
+/* --- the nodal part from the factor's trailing block (doc/theory.md (T151)) ----------------- */
+
+/* Each candidate's entries of H on the contact dofs: ep (nb + 1) into ec (the row's place among
+   the contact dofs), el (the local direction 0 .. d-1), ev (the value). NULL when some nodal row
+   of H is not a contact dof of the factor (the old path then). */
+typedef struct {
+  int *ep, *ec, *el;
+  double *ev;
+} cand_entries;
+
+static void cand_entries_free(cand_entries *E)
+{
+  mo_free(E->ep);
+  mo_free(E->ec);
+  mo_free(E->el);
+  mo_free(E->ev);
+  memset(E, 0, sizeof *E);
+}
+
+static int cand_entries_build(const mo_csc *H, const mo_what_inverse *Wi, int d, cand_entries *E, int *covered,
+                              mo_ctx *ctx)
+{
+  int nfe = Wi->nfe, nb = H->ncol / d, *pos = NULL, j, p, k, q = 0, st = MO_OK;
+  memset(E, 0, sizeof *E);
+  *covered = 0;
+  if (!Wi->ls || !Wi->nlast || !nfe) return MO_OK;
+  if (!(pos = mo_malloc(ctx, (size_t)nfe * sizeof *pos))) return MO_ENOMEM;
+  for (k = 0; k < nfe; k++) pos[k] = -1;
+  for (k = 0; k < Wi->nlast; k++) pos[Wi->last[k]] = k;
+  for (j = 0; j < H->ncol; j++)
+    for (p = H->p[j]; p < H->p[j + 1]; p++)
+      if (H->i[p] < nfe) {
+        if (pos[H->i[p]] < 0) goto done; /* a row the factor did not order last */
+        q++;
+      }
+  E->ep = mo_malloc(ctx, ((size_t)nb + 1) * sizeof *E->ep);
+  E->ec = mo_malloc(ctx, ((size_t)q + 1) * sizeof *E->ec);
+  E->el = mo_malloc(ctx, ((size_t)q + 1) * sizeof *E->el);
+  E->ev = mo_malloc(ctx, ((size_t)q + 1) * sizeof *E->ev);
+  if (!E->ep || !E->ec || !E->el || !E->ev) { st = MO_ENOMEM; goto done; }
+  q = 0;
+  E->ep[0] = 0;
+  for (k = 0; k < nb; k++) {
+    for (j = k * d; j < k * d + d; j++)
+      for (p = H->p[j]; p < H->p[j + 1]; p++)
+        if (H->i[p] < nfe) {
+          E->ec[q] = pos[H->i[p]];
+          E->el[q] = j - k * d;
+          E->ev[q++] = H->x[p];
+        }
+    E->ep[k + 1] = q;
+  }
+  *covered = 1;
+done:
+  mo_free(pos);
+  if (st || !*covered) cand_entries_free(E);
+  return st;
+}
+
+/* Row a of the nodal part, W_ab = c H_a^T G H_b for every candidate b with entries: g_i =
+   sum over a's entries in direction i of v G(:, row) (G symmetric: its columns), then
+   W_ab(i, j) = c sum over b's entries in direction j of v g_i(row). blk: nb d x d blocks. */
+static void schur_row(const cand_entries *E, const double *G, int nC, int d, int nb, int a, double c, double *g,
+                      double *blk)
+{
+  int p, q, i, b, r;
+  memset(g, 0, (size_t)d * (size_t)nC * sizeof *g);
+  for (p = E->ep[a]; p < E->ep[a + 1]; p++) {
+    const double *Gc = G + (size_t)E->ec[p] * (size_t)nC, v = E->ev[p];
+    double *gi = g + (size_t)E->el[p] * (size_t)nC;
+    for (r = 0; r < nC; r++) gi[r] += v * Gc[r];
+  }
+  for (b = 0; b < nb; b++) {
+    double *B = blk + (size_t)b * (size_t)(d * d);
+    memset(B, 0, (size_t)(d * d) * sizeof *B);
+    for (q = E->ep[b]; q < E->ep[b + 1]; q++)
+      for (i = 0; i < d; i++) B[i * d + E->el[q]] += c * E->ev[q] * g[(size_t)i * (size_t)nC + (size_t)E->ec[q]];
+  }
+}
+
+static int block_nonzero(const double *B, int dd)
+{
+  int k;
+  for (k = 0; k < dd; k++)
+    if (B[k] != 0) return 1;
+  return 0;
+}
+
+/* The nodal part from G = (What^-1)_CC, the inverse of the Schur complement on the contact dofs
+   (T151): into the rows R (when rigid blocks add theirs), or straight into D's block rows in two
+   passes (count, then fill), so that W is never held twice. */
+static int build_schur(mo_delassus *D, const mo_csc *H, const mo_what_inverse *Wi, const cand_entries *E, double c,
+                       rows *R, mo_ctx *ctx)
+{
+  int d = D->d, dd = d * d, nb = D->nb, nC = Wi->nlast, a, b, pass, st = MO_OK;
+  double *G = NULL, *g = NULL, *blk = NULL;
+  long nz;
+  G = mo_malloc(ctx, (size_t)nC * (size_t)nC * sizeof *G + 1);
+  g = mo_malloc(ctx, (size_t)d * (size_t)nC * sizeof *g + 1);
+  blk = mo_malloc(ctx, (size_t)nb * (size_t)dd * sizeof *blk + 1);
+  if (!G || !g || !blk) { st = MO_ENOMEM; goto done; }
+  if ((st = mo_linsolver_schur_inverse(Wi->ls, G, ctx))) goto done;
+  if (R) {
+    for (a = 0; a < nb; a++) {
+      if (E->ep[a] == E->ep[a + 1]) continue;
+      schur_row(E, G, nC, d, nb, a, c, g, blk);
+      for (b = 0; b < nb; b++)
+        if (E->ep[b] < E->ep[b + 1] && block_nonzero(blk + (size_t)b * dd, dd) &&
+            (st = rows_add(R, a, b, blk + (size_t)b * dd, ctx)))
+          goto done;
+    }
+    goto done;
+  }
+  if (!(D->rowp = mo_calloc(ctx, (size_t)nb + 1, sizeof *D->rowp))) { st = MO_ENOMEM; goto done; }
+  for (pass = 0; pass < 2; pass++) {
+    for (a = 0, nz = 0; a < nb; a++) {
+      if (E->ep[a] < E->ep[a + 1]) {
+        schur_row(E, G, nC, d, nb, a, c, g, blk);
+        for (b = 0; b < nb; b++) {
+          const double *B = blk + (size_t)b * dd;
+          if (E->ep[b] == E->ep[b + 1] || !block_nonzero(B, dd)) continue;
+          if (pass) {
+            D->colb[nz] = b;
+            memcpy(D->val + (size_t)nz * dd, B, (size_t)dd * sizeof *B);
+          }
+          nz++;
+        }
+      }
+      if (!pass) D->rowp[a + 1] = (int)nz;
+    }
+    if (!pass) {
+      if (nz > INT_MAX) { st = mo_error(ctx, MO_ELIMIT, "the Delassus operator has %ld blocks (more than %d)", nz, INT_MAX); goto done; }
+      D->colb = mo_malloc(ctx, ((size_t)nz + 1) * sizeof *D->colb);
+      D->val = mo_malloc(ctx, ((size_t)nz * (size_t)dd + 1) * sizeof *D->val);
+      if (!D->colb || !D->val) { st = MO_ENOMEM; goto done; }
+      D->nblocks = nz;
+    }
+  }
+done:
+  mo_free(G);
+  mo_free(g);
+  mo_free(blk);
+  return st;
+}
+
+/* The free nodal dofs the contact acts on, for the factorization to order last (T150): the
+   rows of H over the candidates fixed at build, every dof of their slave nodes, and every node
+   of the master facet sets of deformable masters (a point may pair again with any facet of its
+   master); none when a detected pair touches a deformable body (its rows change every step).
+   In the order of the candidates. *reserve: the bytes of W (T154). */
+int mo_delassus_contact_dofs(const mo_contact *C, int **dofs, int *n, double *reserve, mo_ctx *ctx)
+{
+  const mo_scene *sc = C->sc;
+  const mo_csc *H = C->H;
+  int nfe = sc->nfe_free, dim = sc->dim, k, j, p, i, a, cnt = 0, st = MO_OK;
+  unsigned char *mark = NULL;
+  int *list = NULL;
+  *dofs = NULL;
+  *n = 0;
+  *reserve = 0;
+  if (!nfe || !H) return MO_OK;
+  for (k = 0; k < C->npair; k++) {
+    const mo_contact_pair *P = &C->pair[k];
+    for (i = 0; P->dynamic && i < P->ns + P->nm; i++) {
+      int b = i < P->ns ? P->sb[i] : P->mb[i - P->ns];
+      if (sc->body[b].kind == MO_BODY_DEFORMABLE) return MO_OK;
+    }
+  }
+  mark = mo_calloc(ctx, (size_t)nfe, 1);
+  list = mo_malloc(ctx, (size_t)nfe * sizeof *list);
+  if (!mark || !list) { st = MO_ENOMEM; goto done; }
+#define ADD(fi) do { int f_ = (fi); if (f_ >= 0 && f_ < nfe && !mark[f_]) { mark[f_] = 1; list[cnt++] = f_; } } while (0)
+  for (a = 0; a < C->nc_static; a++) {
+    const mo_candidate *cd = &C->cand[a];
+    for (j = a * dim; j < (a + 1) * dim && j < H->ncol; j++)
+      for (p = H->p[j]; p < H->p[j + 1]; p++) ADD(H->i[p]);
+    for (p = cd->first; p < cd->first + cd->np; p++) {
+      const mo_cpoint *pt = &C->pt[C->cpt[p]];
+      const mo_body *B = &sc->body[pt->sb];
+      if (B->kind != MO_BODY_DEFORMABLE) continue;
+      for (k = 0; k < pt->nn; k++)
+        for (i = 0; i < dim; i++) ADD(sc->free_of[B->dof0 + pt->node[k] * dim + i]);
+    }
+  }
+  for (k = 0; k < C->npair; k++) {
+    const mo_contact_pair *P = &C->pair[k];
+    const mo_body *B;
+    const mo_facetset *fs;
+    if (P->dynamic || P->master != MO_MASTER_FACETS || !P->mset) continue;
+    B = &sc->body[P->mbody];
+    if (B->kind != MO_BODY_DEFORMABLE || !(fs = mo_mesh_find_facetset(B->mesh, P->mset))) continue;
+    for (j = 0; j < fs->n * fs->nfn; j++)
+      for (i = 0; i < dim; i++) ADD(sc->free_of[B->dof0 + fs->node[j] * dim + i]);
+  }
+#undef ADD
+  if (cnt) {
+    double m = (double)C->nc_static * dim;
+    *dofs = list;
+    list = NULL;
+    *n = cnt;
+    *reserve = 8.0 * m * m;
+  }
+done:
+  mo_free(mark);
+  mo_free(list);
+  return st;
+}
+
+int mo_stepper_create_contact(const mo_scene *sc, const mo_contact *C, int order_last, mo_stepper **S, mo_ctx *ctx)
+{
+  int *dofs = NULL, n = 0, st = MO_OK;
+  double reserve = 0;
+  if (C && order_last && (st = mo_delassus_contact_dofs(C, &dofs, &n, &reserve, ctx))) return st;
+  st = mo_stepper_create_ordered(sc, n, dofs, reserve, S, ctx);
+  mo_free(dofs);
   return st;
 }
 
@@ -313,10 +541,11 @@ done:
 int mo_delassus_update(mo_delassus *D, const mo_csc *H, long hversion, const mo_what_inverse *Wi, double c, int dim,
                        int *rebuilt, mo_ctx *ctx)
 {
-  int m = H->ncol, n = H->nrow, st;
+  int m = H->ncol, n = H->nrow, st, covered = 0, rigid = 0, k;
   long fv = Wi->version * 1000003L;
   double t0;
   rows R;
+  cand_entries E;
   if (rebuilt) *rebuilt = 0;
   if (Wi->ls) {
     long nf;
@@ -327,6 +556,7 @@ int mo_delassus_update(mo_delassus *D, const mo_csc *H, long hversion, const mo_
   if (n != Wi->n) return mo_error(ctx, MO_EINTERNAL, "Delassus: H has %d rows, What %d", n, Wi->n);
   t0 = mo_clock();
   clear(D);
+  memset(&R, 0, sizeof R);
   D->m = m;
   D->d = dim;
   D->nb = m / dim;
@@ -334,10 +564,18 @@ int mo_delassus_update(mo_delassus *D, const mo_csc *H, long hversion, const mo_
   D->nfe = Wi->nfe;
   D->c = c;
   D->work = mo_malloc(ctx, ((size_t)n + 1) * sizeof(double));
-  if (!D->work) { mo_phase_add(ctx, MO_PH_DELASSUS, t0); return MO_ENOMEM; }
-  if ((st = rows_init(&R, D->nb, dim, ctx)) || (st = build_nodal(D, H, Wi, c, &R, ctx)) ||
-      (st = build_rigid(D, H, Wi, c, &R, ctx)) || (st = rows_compress(&R, D, ctx)))
+  D->y = mo_malloc(ctx, ((size_t)Wi->nfe + 1) * sizeof(double));
+  if (!D->work || !D->y) { mo_phase_add(ctx, MO_PH_DELASSUS, t0); return MO_ENOMEM; }
+  if ((st = cand_entries_build(H, Wi, dim, &E, &covered, ctx))) goto done;
+  for (k = 0; k < H->p[m] && !rigid; k++) rigid = H->i[k] >= Wi->nfe;
+  if (covered && !rigid) {
+    /* the factor's trailing block alone: W written once, in place */
+    if ((st = build_schur(D, H, Wi, &E, c, NULL, ctx))) goto done;
+  } else if ((st = rows_init(&R, D->nb, dim, ctx)) ||
+             (st = covered ? build_schur(D, H, Wi, &E, c, &R, ctx) : build_nodal(D, H, Wi, c, &R, ctx)) ||
+             (st = build_rigid(D, H, Wi, c, &R, ctx)) || (st = rows_compress(&R, D, ctx)))
     goto done;
+  D->schur = covered;
   D->hversion = hversion;
   D->fversion = fv;
   D->built = 1;
@@ -345,6 +583,7 @@ int mo_delassus_update(mo_delassus *D, const mo_csc *H, long hversion, const mo_
   if (rebuilt) *rebuilt = 1;
 done:
   rows_free(&R);
+  cand_entries_free(&E);
   if (st) clear(D);
   mo_phase_add(ctx, MO_PH_DELASSUS, t0);
   return st;
@@ -394,16 +633,45 @@ int mo_delassus_dense(const mo_delassus *D, double **out, mo_ctx *ctx)
   return MO_OK;
 }
 
+/* dx = What^-1 (H r) when H's nodal rows are the factor's trailing ones (T153): the forward
+   solve of H r is L22's alone (zero above), then one backward solve; the rigid rows by their
+   blocks. work holds H r. */
+static int apply_trailing(mo_delassus *D, const mo_what_inverse *Wi, double *dx, mo_ctx *ctx)
+{
+  int n = D->nfree, nfe = Wi->nfe, nC = Wi->nlast, nI = nfe - nC, k, st;
+  mo_what_inverse Wr = *Wi;
+  memset(D->y, 0, (size_t)nI * sizeof *D->y);
+  for (k = 0; k < nC; k++) D->y[nI + k] = D->work[Wi->last[k]];
+  if ((st = mo_linsolver_split(Wi->ls, MO_SPLIT_TRAIL_FORWARD, D->y + nI, D->y + nI, ctx)) ||
+      (st = mo_linsolver_split(Wi->ls, MO_SPLIT_BACKWARD, D->y, dx, ctx)))
+    return st;
+  if (n == nfe) return MO_OK;
+  Wr.nfe = 0; /* the rigid blocks alone, on their rows of work */
+  if ((st = mo_what_solve(&Wr, 1, D->work, D->work, ctx))) return st;
+  memcpy(dx + nfe, D->work + nfe, (size_t)(n - nfe) * sizeof(double));
+  return MO_OK;
+}
+
 int mo_delassus_apply_Cinv(mo_delassus *D, const mo_csc *H, const mo_what_inverse *Wi, const double *r,
                            double *dx, mo_ctx *ctx)
 {
+  double t0 = mo_clock();
+  int st = apply_Cinv(D, H, Wi, r, dx, ctx);
+  mo_phase_add(ctx, MO_PH_CORRECT, t0);
+  return st;
+}
+
+static int apply_Cinv(mo_delassus *D, const mo_csc *H, const mo_what_inverse *Wi, const double *r, double *dx,
+                      mo_ctx *ctx)
+{
   int n = H->nrow, m = H->ncol, nfe = Wi->nfe, d = D->d, j, i, p, st;
-  /* What^-1 (H r): the rigid rows by their blocks; the nodal rows from the kept columns, or by
-     one solve */
+  /* What^-1 (H r): the rigid rows by their blocks; the nodal rows from the trailing block, from
+     the kept columns, or by one solve */
   memset(D->work, 0, (size_t)n * sizeof(double));
   for (j = 0; j < m; j++)
     if (r[j] != 0)
       for (p = H->p[j]; p < H->p[j + 1]; p++) D->work[H->i[p]] += H->x[p] * r[j];
+  if (D->schur && nfe) return apply_trailing(D, Wi, dx, ctx);
   if (!D->C || !nfe) return mo_what_solve(Wi, 1, D->work, dx, ctx);
   memset(dx, 0, (size_t)nfe * sizeof(double));
   for (j = 0; j < m; j++) {

@@ -112,6 +112,7 @@ int mo_local_solver_solve(mo_local_solver *L, double *r, double *U, int *status,
     if (L->T->init && (st = L->T->init(L->state, L->params, &L->P, ctx))) return st;
     L->ready = 1;
   }
+  L->P.u_measured = !L->noverify; /* U = W r + q is recomputed below */
   memset(&x, 0, sizeof x);
   x.r = r;
   x.U = U;

@@ -744,6 +744,28 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
     json_object_set_new(ls, "factorizations", json_integer(nf));
     json_object_set_new(ls, "symbolic_analyses", json_integer(nsym));
     json_object_set_new(ls, "solves", json_integer(nsol));
+    {
+      /* what the factorization measured of itself (doc/theory.md (T154)) */
+      mo_linsolver_info I;
+      mo_linsolver_info_get(mo_stepper_solver((mo_stepper *)S), &I);
+      if (I.nnz_L == I.nnz_L) {
+        json_object_set_new(ls, "nnz_L", jnum(I.nnz_L));
+        json_object_set_new(ls, "flops", jnum(I.flops));
+        json_object_set_new(ls, "ordering", json_string(I.ordering ? I.ordering : "?"));
+        json_object_set_new(ls, "supernodal", json_boolean(I.supernodal));
+        json_object_set_new(ls, "long_indices", json_boolean(I.long_indices));
+        json_object_set_new(ls, "contact_dofs_last", json_integer(I.trailing ? I.nlast : 0));
+        json_object_set_new(ls, "analyze_seconds", jnum(I.t_analyze));
+        json_object_set_new(ls, "numeric_seconds", jnum(I.t_numeric));
+        if (I.two_solves == I.two_solves) json_object_set_new(ls, "two_solves_seconds", jnum(I.two_solves));
+        json_object_set_new(ls, "bytes_factor", jnum(I.bytes_factor));
+        json_object_set_new(ls, "bytes_workspace", jnum(I.bytes_work));
+        json_object_set_new(ls, "bytes_delassus", jnum(I.bytes_reserve));
+        json_object_set_new(ls, "bytes_before_factor", jnum(I.bytes_before));
+        json_object_set_new(ls, "bytes_limit", jnum(I.bytes_limit));
+        if (I.bytes_trailing > 0) json_object_set_new(ls, "bytes_contact_last_refused", jnum(I.bytes_trailing));
+      }
+    }
     json_object_set_new(root, "linear_solver", ls);
   } else
     json_decref(ls);
@@ -966,13 +988,16 @@ static int curable(int st)
 static int one_step(stepping *T, mo_state *s, int cut, mo_ctx *ctx)
 {
   int st;
+  double t0;
   if (T->drv) {
     if ((st = mo_contact_step(T->drv, s, ctx))) return st;
     /* a cut step's substeps share their step number: their problems are not dumped */
     if (T->dump && !cut && ctx->rank == 0 && (st = dump_fclib(T->dump, T->drv, s->step, ctx))) return st;
   } else if ((st = mo_stepper_step(T->S, s, ctx)))
     return st;
+  t0 = mo_clock();
   mo_metrics_step(T->met, s, T->drv);
+  mo_phase_add(ctx, MO_PH_METRICS, t0);
   return MO_OK;
 }
 
@@ -983,10 +1008,13 @@ static int advance(stepping *T, mo_state *s, int level, double h, mo_ctx *ctx)
   if ((st = mo_stepper_set_dt(T->S, h, ctx))) return st;
   if (h < T->hmin) T->hmin = h;
   if (level < T->max_cuts) {
+    /* the state kept for step cutting */
+    double t0 = mo_clock();
     if (!T->save[level].u && (st = mo_state_alloc(T->sc, &T->save[level], ctx))) return st;
     if (T->drv && !T->csave[level] && (st = mo_contact_snapshot_create(T->drv, &T->csave[level], ctx))) return st;
     mo_state_copy(T->sc, s, &T->save[level]);
     if (T->drv && (st = mo_contact_snapshot_save(T->drv, T->csave[level], ctx))) return st;
+    mo_phase_add(ctx, MO_PH_METRICS, t0);
   }
   st = one_step(T, s, level > 0, ctx);
   /* the substeps of a cut step keep its number (take_step sets it when they are done) */
@@ -1045,7 +1073,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   contact_view cv;
   char **names = NULL, *namebuf = NULL, outdir[4096], path[4200];
   double *row = NULL, *work = NULL, *p0 = NULL, start = mo_clock(), e0 = 0, e1 = 0, drift = 0, balance = 0;
-  double emax_growth = 0, eratio0 = 0;
+  double emax_growth = 0, eratio0 = 0, inner_start = mo_phase_total(ctx), tloop = 0, iloop = 0;
   int ratio_col = 1;
   int st, ncol = 0, nprobecol = 0, nexact = 0, k, p, complete = 0, ecol0 = 0, ccol0 = 0, table = 0, x0col;
   int nl = 0, necol = 0, ncol0 = 0, cutcol = 0, nvalcol = 0, nrigcol = 0, agcol = 0, pfcol = 0;
@@ -1092,7 +1120,14 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
     for (i = 0; i < nw; i++)
       if (sc->time.explicit_cd) mo_log(ctx, 1, "%s: warning: %s\n", mo_case_file(cs), w[i]);
   }
-  if ((st = mo_stepper_create(sc, &S, ctx))) goto done;
+  {
+    /* the contact dofs last in the factorization (doc/theory.md §13) */
+    const char *order = "contact_last";
+    mo_case_lookup_string(cs, "contact.factor_order", &order);
+    if (C && strcmp(order, "contact_last"))
+      mo_note_skip(ctx, "the contact dofs last in the factorization (contact.factor_order = \"solver\")");
+    if ((st = mo_stepper_create_contact(sc, C, !strcmp(order, "contact_last"), &S, ctx))) goto done;
+  }
   if (C && (st = mo_contact_driver_create(sc, C, S, &drv, ctx))) goto done;
   if (drv && opt->dump_fclib) mo_contact_driver_keep_delassus(drv);
   if ((st = mo_state_alloc(sc, &s, ctx))) goto done;
@@ -1260,6 +1295,9 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   if (!C) mo_note_skip(ctx, "contact (no contact pairs)");
 
   prog.on = io && opt->progress && isatty(2) && ctx->verbosity >= 1;
+  /* everything before the first step that no phase took (reading and checking the case, the
+     contact set, the output folder, the metrics) is set-up */
+  mo_phase_rest(ctx, MO_PH_SETUP, start, inner_start);
   prog.start = prog.last = mo_clock();
   e0 = mo_energy_kinetic(sc, &s, work) + mo_energy_stored(sc, &s, work) + s.wplastic;
   if (!(p0 = mo_malloc(ctx, (3 * (size_t)sc->nbody + 1) * sizeof *p0))) {
@@ -1384,7 +1422,6 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
         goto done;
       if (dframe && (st = mo_draw_frame(draw, sc, &s, &net, ctx))) goto done;
     }
-    mo_phase_add(ctx, MO_PH_OUTPUT, t0);
     progress_draw(&prog, s.step, sc->time.steps, s.t, last, drv);
     {
       /* every rank's outputs of the step went through (rank 0's disk may be full), and an
@@ -1398,6 +1435,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
     }
     /* the collections list a frame once every rank's pieces of it are there */
     if (vtk && (st = mo_vtk_index(vtk, sc, ctx))) goto done;
+    mo_phase_add(ctx, MO_PH_OUTPUT, t0);
     if (last) break;
     {
       double ts = mo_clock();
@@ -1407,6 +1445,8 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
     }
   }
   complete = 1;
+  tloop = mo_clock();
+  iloop = mo_phase_total(ctx);
 
 done:
   /* a rank that failed alone tells the others, which wait for it at the step's agreement */
@@ -1420,6 +1460,7 @@ done:
     int stc = mo_contact_history_close(chist, ctx);
     if (stc && !st) st = stc;
   }
+  if (tloop > 0) mo_phase_rest(ctx, MO_PH_OUTPUT, tloop, iloop); /* closing the histories */
   res->steps = s.step;
   res->t = s.t;
   res->wall = mo_clock() - start;

@@ -892,18 +892,28 @@ static int loads(mo_scene *sc, const config_setting_t *bl, int nentry, double *f
 
 /* Bytes per dof of a run, measured (peak RSS over dofs, FE assembly, CHOLMOD factor, state,
    outputs: doc/theory.md (T105)): 1D bars 315 B (wave-bar, 10^6 elements), 2D Q4 2.0 kB
-   (plate-vibration 200 x 200); 3D taken as 4 times 2D (more neighbours, more fill). */
+   (plate-vibration 200 x 200); 3D boxes by box_bytes (T159), other 3D meshes 4 times 2D. */
 static const double bytes_per_dof[4] = {300, 320, 2000, 8000};
 
-/* The memory a run may take: the physical memory, or the address-space limit when lower. */
-static double memory_limit(void)
+/* The memory a run may take: the physical memory, or the address-space limit when lower, or
+   the context's limit (mo_ctx.max_bytes). */
+static double memory_limit(const mo_ctx *ctx)
 {
-  double mem = (double)sysconf(_SC_PHYS_PAGES) * (double)sysconf(_SC_PAGE_SIZE);
-  struct rlimit rl;
-  if (!(mem > 0)) mem = 8e9;
-  if (getrlimit(RLIMIT_AS, &rl) == 0 && rl.rlim_cur != RLIM_INFINITY && (double)rl.rlim_cur < mem)
-    mem = (double)rl.rlim_cur;
-  return mem;
+  double mem = mo_memory_limit();
+  return ctx->max_bytes > 0 && ctx->max_bytes < mem ? ctx->max_bytes : mem;
+}
+
+/* A 3D box of n[0] x n[1] x n[2] H8 (doc/theory.md (T159)): its factor grows faster than its
+   dofs N. Nested dissection of a grid gives nnz(L) = kappa N sqrt(s), s the dofs of the smallest
+   cross-section (the top separator); kappa = 18.3 fits CHOLMOD's nnz(L) of the cubes 14^3 ..
+   68^3 at the top (12.7 at 14^3), the supernodal storage holds 1.2 nnz(L) and the numeric
+   factorization's largest update matrix s^2; the other matrices (K, M, What) and vectors take
+   3 kB per dof (the 45^3 run: 5.0 GB peak, 3.9 GB of them the factor). */
+static double box_bytes(const double *n)
+{
+  double a = n[0] + 1, b = n[1] + 1, c = n[2] + 1, N = 3 * a * b * c, s;
+  s = 3 * fmin(a * b, fmin(b * c, a * c));
+  return 3000 * N + 8 * (1.2 * 18.3 * N * sqrt(s) + s * s);
 }
 
 /* The scene's size from the case alone, before anything is built (T105): nodes, elements and
@@ -912,13 +922,13 @@ static double memory_limit(void)
    and printing the estimate. Mesh files are bounded by their size and the reader's limits. */
 static int estimate_size(const mo_case *cs, const config_setting_t *bl, int nentry, mo_ctx *ctx)
 {
-  double limit = ctx->max_dofs > 0 ? (double)ctx->max_dofs : 2e7, mem = memory_limit();
+  double limit = ctx->max_dofs > 0 ? (double)ctx->max_dofs : 2e7, mem = memory_limit(ctx);
   double nodes = 0, elems = 0, dofs = 0, bytes = 0;
   int e;
   for (e = 0; e < nentry; e++) {
     const config_setting_t *bg = config_setting_get_elem(bl, (unsigned)e), *mg, *key;
     const mo_body_type *T = mo_body_type_find(mo_cfg_string(bg, "type", "deformable"));
-    double c, nn = 0, ne = 0, n[3];
+    double c, nn = 0, ne = 0, n[3], eb;
     const char *gen;
     int d = 0, k;
     if (!T) continue;
@@ -965,7 +975,8 @@ static int estimate_size(const mo_case *cs, const config_setting_t *bl, int nent
     nodes += c * nn;
     elems += c * ne;
     dofs += c * nn * d;
-    bytes += c * nn * d * bytes_per_dof[d];
+    eb = d == 3 && !strcmp(gen, "box") ? box_bytes(n) : nn * d * bytes_per_dof[d];
+    bytes += c * eb;
     if (c * ne > 1e7 || dofs > limit || bytes > mem) {
       char why[160];
       if (c * ne > 1e7) snprintf(why, sizeof why, "more than the limit of 10^7 elements");
@@ -973,12 +984,14 @@ static int estimate_size(const mo_case *cs, const config_setting_t *bl, int nent
       else snprintf(why, sizeof why, "the scene's %.3g GB pass the %.3g GB of memory there are", bytes / 1e9, mem / 1e9);
       return mo_case_error(cs, key, ctx, "body '%s' makes an estimated %.3g nodes, %.3g elements, %.3g dofs (about "
                            "%.3g GB): %s; refused before anything is built (a coarser mesh, please)",
-                           mo_cfg_string(bg, "name", "?"), c * nn, c * ne, c * nn * d, c * nn * d * bytes_per_dof[d] / 1e9,
-                           why);
+                           mo_cfg_string(bg, "name", "?"), c * nn, c * ne, c * nn * d, c * eb / 1e9, why);
     }
   }
-  (void)nodes;
-  (void)elems;
+  /* a large scene says what it expects to take before it builds anything (T105, T159); the
+     factorization states its exact figure after its symbolic analysis (T154) */
+  if (bytes > 2e9)
+    mo_log(ctx, 1, "moreau: %.3g nodes, %.3g elements, %.3g dofs: about %.3g GB estimated before building (of the "
+           "%.3g GB this run may take; doc/theory.md (T159))\n", nodes, elems, dofs, bytes / 1e9, mem / 1e9);
   return MO_OK;
 }
 

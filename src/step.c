@@ -118,6 +118,10 @@ void mo_stepper_free(mo_stepper *S)
   mo_free(S->rig_M);
   mo_free(S->gyro);
   mo_csc_free(S->Wall);
+  mo_free(S->last);
+  mo_free(S->islast);
+  mo_free(S->ysplit);
+  mo_free(S->cw);
   mo_free(S);
 }
 
@@ -236,6 +240,7 @@ static int rigid_setup(mo_stepper *S, mo_ctx *ctx)
   S->Wi.ioff = S->blk_ioff;
   S->Wi.inv = S->blk_inv;
   S->Wi.blkof = S->blk_of;
+  S->Wi.last = mo_stepper_contact_dofs(S, &S->Wi.nlast);
   return mo_stepper_rigid_update(S, NULL, ctx);
 }
 
@@ -375,6 +380,7 @@ static int create_nonlinear(mo_stepper *S, mo_ctx *ctx)
   if (st) return mo_error_prefix(ctx, "the initial configuration");
   t0 = mo_clock();
   st = make_solver(S, ctx);
+  if (!st) st = mo_linsolver_set_last(S->ls, S->nlast, S->last, S->reserve, ctx);
   if (!st) st = mo_linsolver_factor(S->ls, S->W, ctx);
   mo_phase_add(ctx, MO_PH_FACTOR, t0);
   if (st)
@@ -504,7 +510,39 @@ static int quasistatic_rigid_modes(const mo_scene *sc, mo_ctx *ctx)
   return MO_OK;
 }
 
+/* The contact dofs to order last: free nodal indices, each once. */
+static int set_contact_dofs(mo_stepper *S, int nlast, const int *last, double reserve, mo_ctx *ctx)
+{
+  const mo_scene *sc = S->sc;
+  unsigned char *seen;
+  int k;
+  if (!nlast || !sc->nfe_free) return MO_OK;
+  if (!(seen = mo_calloc(ctx, (size_t)sc->nfe_free, 1))) return MO_ENOMEM;
+  for (k = 0; k < nlast; k++) {
+    if (last[k] < 0 || last[k] >= sc->nfe_free || seen[last[k]]) {
+      mo_free(seen);
+      return mo_error(ctx, MO_EINTERNAL, "contact dof %d (free index %d) is not a nodal free dof, or twice", k, last[k]);
+    }
+    seen[last[k]] = 1;
+  }
+  S->islast = seen;
+  S->last = mo_malloc(ctx, (size_t)nlast * sizeof *S->last);
+  S->ysplit = mo_malloc(ctx, (size_t)sc->nfe_free * sizeof *S->ysplit);
+  S->cw = mo_malloc(ctx, (size_t)nlast * sizeof *S->cw);
+  if (!S->last || !S->ysplit || !S->cw) return MO_ENOMEM;
+  memcpy(S->last, last, (size_t)nlast * sizeof *last);
+  S->nlast = nlast;
+  S->reserve = reserve;
+  return MO_OK;
+}
+
 int mo_stepper_create(const mo_scene *sc, mo_stepper **out, mo_ctx *ctx)
+{
+  return mo_stepper_create_ordered(sc, 0, NULL, 0, out, ctx);
+}
+
+int mo_stepper_create_ordered(const mo_scene *sc, int nlast, const int *last, double reserve, mo_stepper **out,
+                              mo_ctx *ctx)
 {
   mo_stepper *S;
   mo_csc *Wf = NULL;
@@ -514,6 +552,10 @@ int mo_stepper_create(const mo_scene *sc, mo_stepper **out, mo_ctx *ctx)
   S = mo_calloc(ctx, 1, sizeof *S);
   if (!S) return MO_ENOMEM;
   S->sc = sc;
+  if ((st = set_contact_dofs(S, nlast, last, reserve, ctx))) {
+    mo_stepper_free(S);
+    return st;
+  }
   S->scheme = sc->time.scheme;
   S->h = sc->time.dt;
   S->theta = sc->time.theta;
@@ -567,6 +609,7 @@ int mo_stepper_create(const mo_scene *sc, mo_stepper **out, mo_ctx *ctx)
   }
   t0 = mo_clock();
   st = make_solver(S, ctx);
+  if (!st) st = mo_linsolver_set_last(S->ls, S->nlast, S->last, S->reserve, ctx);
   if (!st) st = mo_linsolver_factor(S->ls, S->W, ctx);
   mo_phase_add(ctx, MO_PH_FACTOR, t0);
   if (st) {
@@ -784,11 +827,13 @@ int mo_stepper_init_state(mo_stepper *S, mo_state *s, mo_ctx *ctx)
   return MO_OK;
 }
 
-int mo_stepper_predict(mo_stepper *S, const mo_state *s, double *x, mo_ctx *ctx)
+/* The right-hand side of the unconstrained step at s (S->rhs over free dofs, rigid rows
+   included) and the prescribed values of the unknown at t+ in x (full, 0 elsewhere). */
+static int predict_rhs(mo_stepper *S, const mo_state *s, double *x, mo_ctx *ctx)
 {
   const mo_scene *sc = S->sc;
   int n = sc->ndof, i, st;
-  double h = S->h, tn = s->t + h, t0 = mo_clock();
+  double h = S->h, tn = s->t + h;
   double *f1 = S->w1, *w = S->w2, *z = S->w3;
   if (S->nl)
     return mo_error(ctx, MO_EUNSUPPORTED, "mo_stepper_predict: a nonlinear scene's step is "
@@ -842,9 +887,124 @@ int mo_stepper_predict(mo_stepper *S, const mo_state *s, double *x, mo_ctx *ctx)
   (void)z;
   mo_stepper_gather(S, f1, S->rhs);
   if (S->nblk) rigid_rhs(S, s, x, S->rhs);
-  st = mo_stepper_what_solve(S, 1, S->rhs, S->xf, ctx);
+  return MO_OK;
+}
+
+int mo_stepper_predict(mo_stepper *S, const mo_state *s, double *x, mo_ctx *ctx)
+{
+  double t0 = mo_clock();
+  int st = predict_rhs(S, s, x, ctx);
+  S->split_state = 0;
+  if (!st) st = mo_stepper_what_solve(S, 1, S->rhs, S->xf, ctx);
   if (!st) mo_stepper_scatter(S, S->xf, x);
   mo_phase_add(ctx, MO_PH_SOLVE, t0);
+  return st;
+}
+
+/* --- the split step (doc/theory.md (T153)) ---------------------------------------------------- */
+
+int mo_stepper_split_ready(const mo_stepper *S)
+{
+  return S->ls && !S->nl && S->nlast > 0 && mo_linsolver_nlast(S->ls) == S->nlast;
+}
+
+int mo_stepper_split_covers(const mo_stepper *S, const mo_csc *H)
+{
+  int p;
+  if (!mo_stepper_split_ready(S)) return 0;
+  for (p = 0; p < H->p[H->ncol]; p++)
+    if (H->i[p] < S->nfe && !S->islast[H->i[p]]) return 0;
+  return 1;
+}
+
+const int *mo_stepper_contact_dofs(const mo_stepper *S, int *nlast)
+{
+  *nlast = S->ls && mo_linsolver_nlast(S->ls) == S->nlast ? S->nlast : 0;
+  return *nlast ? S->last : NULL;
+}
+
+/* The rigid rows of x = What^-1 b (free vectors): their blocks. */
+static void rigid_rows(const mo_stepper *S, const double *b, double *x, int add)
+{
+  int k, i, j;
+  for (k = 0; k < S->nblk; k++) {
+    int o = S->blk_off[k], nk = S->blk_off[k + 1] - o;
+    const double *Ai = S->blk_inv + S->blk_ioff[k];
+    double y[6];
+    for (i = 0; i < nk; i++) {
+      y[i] = add ? x[o + i] : 0;
+      for (j = 0; j < nk; j++) y[i] += Ai[i * nk + j] * b[o + j];
+    }
+    memcpy(x + o, y, (size_t)nk * sizeof *y);
+  }
+}
+
+int mo_stepper_predict_split(mo_stepper *S, const mo_state *s, double *x, mo_ctx *ctx)
+{
+  const mo_scene *sc = S->sc;
+  int nfe = S->nfe, nI = nfe - S->nlast, i, k, st;
+  double t0 = mo_clock();
+  if (!mo_stepper_split_ready(S)) return mo_error(ctx, MO_EINTERNAL, "split step without contact dofs last");
+  if ((st = predict_rhs(S, s, x, ctx))) goto done;
+  /* y = L^-1 P rhs, kept; the contact dofs of x_free from its trailing block alone */
+  if ((st = mo_linsolver_split(S->ls, MO_SPLIT_FORWARD, S->rhs, S->ysplit, ctx))) goto done;
+  if ((st = mo_linsolver_split(S->ls, MO_SPLIT_TRAIL_BACKWARD, S->ysplit + nI, S->cw, ctx))) goto done;
+  for (i = 0; i < nfe; i++) S->xf[i] = NAN; /* not computed until the correction */
+  for (k = 0; k < S->nlast; k++) S->xf[S->last[k]] = S->cw[k];
+  rigid_rows(S, S->rhs, S->xf, 0);
+  mo_stepper_scatter(S, S->xf, x);
+  S->split_state = 1;
+  (void)sc;
+done:
+  mo_phase_add(ctx, MO_PH_SOLVE, t0);
+  return st;
+}
+
+/* x_free = What^-1 (rhs + imp) from the kept forward solve (imp_full NULL: no impulse). */
+static int split_finish(mo_stepper *S, const double *imp_full, double *x, mo_ctx *ctx)
+{
+  int nfe = S->nfe, nI = nfe - S->nlast, i, k, st, inside = 1;
+  if (S->split_state != 1) return mo_error(ctx, MO_EINTERNAL, "split correction without its prediction");
+  S->split_state = 2;
+  if (imp_full) {
+    mo_stepper_gather(S, imp_full, S->rhs);
+    for (k = 0; k < S->nlast; k++) {
+      S->cw[k] = S->rhs[S->last[k]];
+      S->rhs[S->last[k]] = 0;
+    }
+    for (i = 0; i < nfe && inside; i++) inside = S->rhs[i] == 0;
+    if (inside) {
+      /* the impulse lives on the contact dofs: its forward solve is L22's alone */
+      if ((st = mo_linsolver_split(S->ls, MO_SPLIT_TRAIL_FORWARD, S->cw, S->cw, ctx))) return st;
+      for (k = 0; k < S->nlast; k++) S->ysplit[nI + k] += S->cw[k];
+    } else {
+      double *y = S->w1; /* full-size work, free here */
+      for (k = 0; k < S->nlast; k++) S->rhs[S->last[k]] = S->cw[k];
+      if ((st = mo_linsolver_split(S->ls, MO_SPLIT_FORWARD, S->rhs, y, ctx))) return st;
+      for (i = 0; i < nfe; i++) S->ysplit[i] += y[i];
+    }
+  }
+  if ((st = mo_linsolver_split(S->ls, MO_SPLIT_BACKWARD, S->ysplit, S->xf, ctx))) return st;
+  /* the rigid rows: x_free there (from the prediction) plus their blocks times the impulse */
+  for (i = nfe; i < S->sc->nfree; i++) S->xf[i] = x[S->sc->full_of[i]];
+  if (imp_full) rigid_rows(S, S->rhs, S->xf, 1);
+  mo_stepper_scatter(S, S->xf, x);
+  return MO_OK;
+}
+
+int mo_stepper_correct_split(mo_stepper *S, const double *imp_full, double *x, mo_ctx *ctx)
+{
+  double t0 = mo_clock();
+  int st = split_finish(S, imp_full, x, ctx);
+  mo_phase_add(ctx, MO_PH_CORRECT, t0);
+  return st;
+}
+
+int mo_stepper_complete_split(mo_stepper *S, double *x, mo_ctx *ctx)
+{
+  double t0 = mo_clock();
+  int st = split_finish(S, NULL, x, ctx);
+  mo_phase_add(ctx, MO_PH_CORRECT, t0);
   return st;
 }
 

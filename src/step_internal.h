@@ -54,6 +54,15 @@ struct mo_stepper {
   mo_what_inverse Wi;
   mo_csc *Wall;         /* What over every free dof (the nodal block and the rigid blocks), on demand */
   long Wall_version;    /* blk_version + factorizations it was assembled at */
+  /* the split step (doc/theory.md (T153)): the nodal free dofs contact acts on, ordered last in
+     the factorization (nlast of them, last[k] their free indices), the forward solve y of the
+     step's right-hand side kept between the prediction and the correction (nfe), and its
+     rigid rows (x_free there, nfree - nfe) */
+  int nlast, *last;
+  unsigned char *islast;  /* nfe: 1 on the contact dofs */
+  double reserve;
+  double *ysplit, *cw;  /* nfe; nlast */
+  int split_state;      /* 0 none, 1 predicted (y holds the forward solve), 2 corrected */
 };
 
 /* step.c: What^-1 by blocks over free vectors (nrhs columns, leading dimension nfree), and the

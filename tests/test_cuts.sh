@@ -20,8 +20,10 @@ for c in rods-1d cylinder-wall; do
 done
 
 # 2. theta = 1/2 (the energy balance is exact), nscd limited to 20 sweeps at h = 20 us: step 2
-#    does not converge
-half="--set time.dt=2e-5 --set time.theta=0.5 --set time.theta_f=0.5 --set contact.nscd.max_sweeps=20"
+#    does not converge. The impact is predicted at the end of step 1 to round-off (its end-of-step
+#    gap is 0.01 - 500 h); CHOLMOD's own order keeps the rounding of the runs this scenario was
+#    made on (with the contact dofs last the cylinder lands one step earlier and every step converges)
+half="--set time.dt=2e-5 --set time.theta=0.5 --set time.theta_f=0.5 --set contact.nscd.max_sweeps=20 --set contact.factor_order=solver"
 "$MOREAU" run "$CW" --out "$OUT/fail" --quiet $small $half 2> "$OUT/fail.err"
 is "$?" "1" "without cutting, the run stops at step 2 (exit status 1)"
 is "$(json "$OUT/fail/summary.json" "d['status']")" "incomplete" "and summary.json says incomplete"

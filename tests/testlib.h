@@ -55,7 +55,12 @@ static int tl_steps_open(tl_steps *R, const char *src, const char *text_name, co
   if (!st) st = mo_case_validate(R->cs, &R->ctx);
   if (!st) st = mo_scene_build(R->cs, &R->sc, &R->ctx);
   if (!st) st = mo_contact_build(R->sc, &R->C, &R->ctx);
-  if (!st) st = mo_stepper_create(R->sc, &R->S, &R->ctx);
+  if (!st) {
+    /* as mo_run does: the contact dofs last unless the case says otherwise */
+    const char *order = "contact_last";
+    mo_case_lookup_string(R->cs, "contact.factor_order", &order);
+    st = mo_stepper_create_contact(R->sc, R->C, !strcmp(order, "contact_last"), &R->S, &R->ctx);
+  }
   if (!st) st = mo_contact_driver_create(R->sc, R->C, R->S, &R->D, &R->ctx);
   if (!st) st = mo_state_alloc(R->sc, &R->s, &R->ctx);
   if (!st) st = mo_stepper_init_state(R->S, &R->s, &R->ctx);

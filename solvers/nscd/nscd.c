@@ -80,6 +80,10 @@ static void nscd_free(void *state)
   mo_free(S->mu);
   mo_free(S->rng_state);
   mo_free(S->sprev);
+  mo_free(S->wn);
+  mo_free(S->wnc);
+  mo_free(S->wnp);
+  nscd_status_cache_free(S);
   nscd_bodies_free(S);
   nscd_grains_free(S);
   memset(S, 0, sizeof *S);
@@ -96,6 +100,7 @@ static int fit_set(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
   S->m = P->m;
   S->wsrc = NULL;
   S->wver = -1;
+  S->lu.valid = 0; /* its kinds are those of the old set's candidates */
   /* without W, every contact joins rigid bodies (and obstacles): the sweep on body velocities */
   S->bodies = !P->W;
   S->grains = S->bodies && P->grains;
@@ -167,6 +172,39 @@ void nscd_prepare_local(nscd_state *S, const mo_contact_problem *P)
     nscd_local_prepare(d, S->diag[a], S->mu[a], S->aux + (size_t)a * NSCD_AUX);
     S->scale[a] = S->diag[a][0] > 0 ? 1 / S->diag[a][0] : 0;
   }
+}
+
+/* Frictionless contacts (T156): the normal entries of W's rows (and of the transposed copy), one
+   double per block, for the sweeps on r_n alone. */
+static int prepare_normal(nscd_state *S, mo_ctx *ctx)
+{
+  int a, k, nb = S->nc, dd = S->d * S->d;
+  size_t nnz = 0, q = 0;
+  void *p;
+  S->nonly = S->d > 1 && nb > 0;
+  for (a = 0; a < nb && S->nonly; a++) S->nonly = S->mu[a] == 0;
+  if (!S->nonly) return MO_OK;
+  for (a = 0; a < nb; a++) nnz += (size_t)S->rcnt[a];
+  if ((size_t)nb + 1 > S->wnccap || !S->wnp) {
+    if (!(p = mo_realloc(ctx, S->wnp, ((size_t)nb + 1) * sizeof *S->wnp))) return MO_ENOMEM;
+    S->wnp = p;
+  }
+  if (nnz + 1 > S->wncap) {
+    if (!(p = mo_realloc(ctx, S->wn, (nnz + 1) * sizeof *S->wn))) return MO_ENOMEM;
+    S->wn = p;
+    if (!(p = mo_realloc(ctx, S->wnc, (nnz + 1) * sizeof *S->wnc))) return MO_ENOMEM;
+    S->wnc = p;
+    S->wncap = nnz + 1;
+  }
+  S->wnccap = (size_t)nb + 1;
+  for (a = 0; a < nb; a++) {
+    S->wnp[a] = q;
+    for (k = 0; k < S->rcnt[a]; k++) S->wn[q++] = S->rval[a][(size_t)k * dd];
+  }
+  S->wnp[nb] = q;
+  if (!S->sym)
+    for (q = 0; q < (size_t)S->cp[nb]; q++) S->wnc[q] = S->cv[q * dd]; /* W_ba,nn of the transposed blocks */
+  return MO_OK;
 }
 
 /* Rows of W, and what depends on W only when it changed: its columns and the local data. */
@@ -253,11 +291,29 @@ static int prepare_matrix(nscd_state *S, const mo_contact_problem *P, mo_ctx *ct
       }
     mo_log(ctx, 3, "nscd: W is not symmetric; columns copied (%zu blocks)\n", nnz);
   }
-  return MO_OK;
+  return prepare_normal(S, ctx);
 }
 
 /* U = W r + q over every candidate (exact; also resets the drift of the column updates). */
-static void exact_U(nscd_state *S, const mo_contact_problem *P, const double *r)
+void nscd_normal_mult(const nscd_state *S, const mo_contact_problem *P, const double *r, double *U)
+{
+  const int d = S->d;
+  int a, k;
+  for (a = 0; a < S->nc; a++) {
+    const double *w = S->wn + S->wnp[a];
+    const int *cb = S->rcol[a];
+    double acc = P->b[(size_t)a * d];
+    int i;
+    for (k = 0; k < S->rcnt[a]; k++) acc += w[k] * r[(size_t)cb[k] * d];
+    U[(size_t)a * d] = acc;
+    for (i = 1; i < d; i++) U[(size_t)a * d + i] = P->b[(size_t)a * d + i]; /* finite, not exact */
+  }
+}
+
+/* U = W r + q over every candidate (exact; also resets the drift of the column updates). Without
+   friction (T156) and full = 0: its normal components only, the tangential ones are made exact
+   before the solve returns (S->u_full says which). */
+static void exact_U(nscd_state *S, const mo_contact_problem *P, const double *r, int full)
 {
   int i, zero = 1;
   if (S->grains) {
@@ -271,8 +327,14 @@ static void exact_U(nscd_state *S, const mo_contact_problem *P, const double *r)
     return;
   }
   for (i = 0; i < S->m && zero; i++) zero = r[i] == 0;
+  S->u_full = 1;
   if (zero) { /* a cold start: U = q */
     memcpy(S->U, P->b, (size_t)S->m * sizeof *S->U);
+    return;
+  }
+  if (S->nonly && !full) {
+    nscd_normal_mult(S, P, r, S->U);
+    S->u_full = 0;
     return;
   }
   mo_delassus_mult(P->W, r, 0, S->U);
@@ -337,6 +399,44 @@ static inline int sweep(nscd_state *S, const mo_contact_problem *P, double *r, i
           Ub[0] += B[0] * dr[0];
       }
       for (i = 0; i < d; i++) ra[i] = rl[i];
+    }
+  }
+  return -1;
+}
+
+/* One sweep of frictionless contacts on r_n alone (T156): r_t stays 0, U_n is kept equal to W r +
+   q through the normal column of each change; U_t is left behind (exact_U after the sweeps). The
+   local solution is the frictionless one of nscd_local_2d and nscd_local_3d: r_n = -q_n / W_nn
+   when q_n < 0, a closed contact being "sliding". */
+static int sweep_normal(nscd_state *S, const mo_contact_problem *P, double *r, int *status)
+{
+  const int d = S->d, sym = S->sym;
+  const double omega = S->p.relax;
+  int k, j;
+  (void)P;
+  for (k = 0; k < S->nact; k++) {
+    const int a = S->order[k];
+    const double wnn = S->diag[a][0];
+    double *ra = r + (size_t)a * d, ql = S->U[(size_t)a * d] - wnn * ra[0], rl, dr;
+    int s;
+    if (ql >= 0) {
+      rl = 0;
+      s = MO_CS_OPEN;
+    } else if (!(wnn > 0))
+      return a;
+    else {
+      rl = -ql / wnn;
+      s = MO_CS_SLIDE;
+    }
+    status[a] = s;
+    if (omega != 1) rl = omega * rl + (1 - omega) * ra[0];       /* (T37) */
+    dr = rl - ra[0];
+    if (dr != 0) {
+      const int n = sym ? S->rcnt[a] : S->cp[a + 1] - S->cp[a];
+      const int *cb = sym ? S->rcol[a] : S->cb + S->cp[a];
+      const double *w = sym ? S->wn + S->wnp[a] : S->wnc + S->cp[a];
+      for (j = 0; j < n; j++) S->U[(size_t)cb[j] * d] += w[j] * dr;
+      ra[0] = rl;
     }
   }
   return -1;
@@ -518,6 +618,7 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
   if ((st = S->grains ? nscd_grains_prepare(S, P, ctx) : S->bodies ? nscd_bodies_prepare(S, P, ctx)
                       : prepare_matrix(S, P, ctx)))
     return st;
+  if (!S->bodies && S->nonly) do_sweep = sweep_normal;
   /* the active contacts, in the chosen order */
   S->nact = 0;
   for (a = 0; a < S->nc; a++) {
@@ -544,18 +645,29 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
   if (!p->warm_start) memset(r, 0, (size_t)m * sizeof *r);
   for (i = 0; i < m; i++)
     if (!isfinite(r[i])) { memset(r, 0, (size_t)m * sizeof *r); break; }
+  if (!S->bodies && S->nonly) /* frictionless: no tangential reaction, whatever the warm start */
+    for (a = 0; a < S->nc; a++)
+      for (i = 1; i < d; i++) r[(size_t)a * d + i] = 0;
   if (S->bodies && p->stop != NSCD_STOP_SCALED && p->stop != NSCD_STOP_NATURAL) {
     /* the sweeps on body velocities read U from the velocities; the rules that do not stop on U
        need it exact only at the end */
     if (S->grains) nscd_grains_velocities(S, P, r);
     else nscd_bodies_velocities(S, P, r);
   } else
-    exact_U(S, P, r);
+    exact_U(S, P, r, 0);
   memset(&S->lst, 0, sizeof S->lst);
   memset(&S->ai, 0, sizeof S->ai);
   S->accel_tries = 0;
   S->lp = *p;
-  while (sweeps < p->max_sweeps) {
+  if (scaled && p->accelerate && !S->bodies && S->lu.valid && S->nact) {
+    /* the statuses of the warm start are those of the kept LU (T157): the direct solve first */
+    nscd_accel_info ai;
+    memset(&ai, 0, sizeof ai);
+    if ((st = nscd_status_step(S, P, r, x->status, p->tol, &res, &ai, 1, ctx))) return st;
+    if (ai.tried) { S->ai = ai; S->accel_tries++; }
+    if (ai.accepted) conv = 1;
+  }
+  while (!conv && sweeps < p->max_sweeps) {
     if (!S->par && ctx->interrupt && *ctx->interrupt) break;
     if (sweeps && p->order == NSCD_ORDER_SHUFFLED && p->reshuffle && !S->par)
       gsl_ran_shuffle(&S->rng, S->order, (size_t)S->nact, sizeof(int));
@@ -590,7 +702,7 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
       if (res <= p->tol || !isfinite(res) || (scaled && !S->bodies && sweeps % 10 == 0 && res < 1e-6)) {
         /* confirm on the exact U (the column updates drift by round-off); every 10 sweeps, whether
            the residual is at its round-off floor (T85): then no sweep can lower it further */
-        exact_U(S, P, r);
+        exact_U(S, P, r, 1);
         res = residual(S, r, scaled);
         if (res <= p->tol || (scaled && !S->bodies && res <= nscd_roundoff_floor(S, P, r))) { conv = 1; break; }
         if (!isfinite(res)) break;
@@ -603,17 +715,25 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
            frictional one) never above the sweeps' so far, and after a step that did not
            converge, twice as many sweeps before the next */
         double nclosed = 0, nb = 0;
-        if (stable && sweeps >= 10 && res > 0.5 * rhist[sweeps % 10] && sweeps - tried >= wait)
+        /* on a large contact set the first LU of a run (T157) is tried after 10 sweeps, without
+           waiting for stable statuses and the stall of (T83) (its status iteration settles the
+           statuses): the sweeps converge slowly there, and the LU serves the steps after */
+        int early = !S->lu.builds && S->nact >= NSCD_EARLY_LU;
+        if (sweeps >= 10 && ((stable && res > 0.5 * rhist[sweeps % 10]) || early) && sweeps - tried >= wait)
           for (k = 0; k < S->nact; k++) {
             nclosed += r[S->act[k] * d] > 0 ? (S->mu[S->act[k]] > 0 ? d : 1) : 0; /* unknowns, at most */
             nb += S->rcnt[S->act[k]];
           }
-        if (nb > 0 && 2.0 / 3.0 * pow(nclosed, 3) <= (double)sweeps * nb * 2 * d * d) {
+        /* a factorization kept for the next steps (T157) pays for itself while it is reused: the
+           first one of a run, and more as long as each was reused once on average, whatever the
+           sweeps cost so far */
+        if (nb > 0 && (2.0 / 3.0 * pow(nclosed, 3) <= (double)sweeps * nb * 2 * (S->nonly ? 1 : d * d) ||
+                       S->lu.builds == 0 || S->lu.hits >= S->lu.builds)) {
           nscd_accel_info ai;
           memset(&ai, 0, sizeof ai);
           tried = sweeps;
-          exact_U(S, P, r);
-          if ((st = nscd_status_step(S, P, r, x->status, p->tol, &res, &ai, ctx))) return st;
+          exact_U(S, P, r, 0);
+          if ((st = nscd_status_step(S, P, r, x->status, p->tol, &res, &ai, 0, ctx))) return st;
           if (ai.tried) { S->ai = ai; S->accel_tries++; }
           if (ai.accepted) { conv = 1; break; }
           wait *= 2;
@@ -635,7 +755,9 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
   /* over MPI ranks: every contact's reaction and status, every body's velocity, on every rank */
   if (S->par && (st = nscd_grains_gather(S, P, r, x->status, ctx))) return st;
   /* U is exact already when a residual rule has just confirmed convergence */
-  if (S->par || !(conv && (scaled || p->stop == NSCD_STOP_NATURAL))) exact_U(S, P, r);
+  if (S->par || !(conv && (scaled || p->stop == NSCD_STOP_NATURAL))) exact_U(S, P, r, 1);
+  /* the tangential U of frictionless contacts, unless the core measures U itself (T156) */
+  else if (!S->u_full && !P->u_measured) exact_U(S, P, r, 1);
   /* redundancy (T84): the rank of the closed set's problem, measured by the status-set step when
      it converged, else here for quasi-static solves (one or a few per run; dynamic steps would pay a
      dense factorization each) */
@@ -645,7 +767,7 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
     memset(&ai, 0, sizeof ai);
     /* with the scaled rule and accelerate, the direct solution replaces the sweeps' when it
        satisfies the law: the minimum-norm reactions when they are not unique */
-    if ((st = nscd_status_step(S, P, r, x->status, scaled && p->accelerate ? p->tol : -1, &rdummy, &ai, ctx)))
+    if ((st = nscd_status_step(S, P, r, x->status, scaled && p->accelerate ? p->tol : -1, &rdummy, &ai, 0, ctx)))
       return st;
     if (ai.tried) S->ai = ai;
     if (ai.accepted) {

@@ -134,6 +134,27 @@ typedef struct {
   nscd_accel_info ai;           /* the last status-set step of the solve */
   int accel_tries;
   nscd_params lp;               /* the parameters the local solvers see in this sweep */
+  /* frictionless contacts in 2D or 3D (every mu = 0): a sweep needs the normal entries W_ab,nn
+     only, one double per block instead of d^2, copied out of the rows (wn, row a from wnp[a]) and,
+     for a W that is not symmetric, out of the transposed copy (wnc, parallel to cb); U_t is then
+     left out of the sweeps and made exact after them (doc/theory.md (T156)) */
+  int nonly, u_full;             /* u_full: U exact in every component (not only the normal) */
+  double *wn, *wnc;
+  size_t *wnp;
+  size_t wncap, wnccap;
+  /* the status-set step's LU (T157), kept while W (its version) and the kinds of the closed
+     contacts are the same, so that a step whose closed set did not change solves with it */
+  struct {
+    int valid, n;
+    const mo_delassus *W;
+    long wver;
+    int *kind;                  /* nc: the kinds it was built for */
+    double *E;                  /* nc d: the sliding directions it was built for */
+    double *LU, rcond;
+    int *ipiv;
+    size_t ncap, kcap;
+    long builds, hits;
+  } lu;
   /* the sweep on body velocities (nscd_bodies.c), when the core gave no W: every contact joins
      rigid bodies and obstacles (doc/theory.md §8.6) */
   int bodies;
@@ -221,7 +242,9 @@ void nscd_grains_free(nscd_state *S);
 /* Largest status-set problem solved densely (unknowns), the relative singular value below which
    a direction of it is taken as redundant, and the multiple of DBL_EPSILON |W| |r| taken as the
    round-off of U. */
-#define NSCD_ACCEL_MAX 1500
+#define NSCD_ACCEL_MAX 5000
+/* Active contacts from which the first LU of a run is taken without waiting for a stall (T157) */
+#define NSCD_EARLY_LU 1000
 #define NSCD_RANK_TOL 1e-10
 #define NSCD_ROUNDOFF 64
 /* Status iterations of one status-set step (each a dense solve) */
@@ -237,7 +260,12 @@ void nscd_grains_free(nscd_state *S);
    otherwise r is kept and S->U is recomputed exactly. tol < 0: measure the rank only, never
    accept. MO_OK or MO_ENOMEM. */
 int nscd_status_step(nscd_state *S, const mo_contact_problem *P, double *r, int *status, double tol,
-                     double *res, nscd_accel_info *info, mo_ctx *ctx);
+                     double *res, nscd_accel_info *info, int cached_only, mo_ctx *ctx);
+/* cached_only: solve only when the kinds of r are those of the kept LU (no factorization). */
+/* Frictionless (S->nonly): the normal components of U = W r + q from the normal entries of W;
+   the tangential ones get q_t (finite, not exact: U_t is made exact before the solve returns). */
+void nscd_normal_mult(const nscd_state *S, const mo_contact_problem *P, const double *r, double *U);
+void nscd_status_cache_free(nscd_state *S);
 /* The round-off level of the scaled residual at r (T85): 0 on the sweep on bodies. */
 double nscd_roundoff_floor(const nscd_state *S, const mo_contact_problem *P, const double *r);
 

@@ -77,14 +77,72 @@ static int set_kinds(const nscd_state *S, const double *r, const double *U, doub
   return changed;
 }
 
+void nscd_status_cache_free(nscd_state *S)
+{
+  mo_free(S->lu.kind);
+  mo_free(S->lu.E);
+  mo_free(S->lu.LU);
+  mo_free(S->lu.ipiv);
+  memset(&S->lu, 0, sizeof S->lu);
+}
+
+/* Whether the kept LU (T157) is the one of the kinds kind, E on P's W. */
+static int cache_matches(const nscd_state *S, const mo_contact_problem *P, int n, const int *kind, const double *E)
+{
+  int a, i, d = S->d;
+  if (!S->lu.valid || S->lu.n != n || S->lu.W != P->W || S->lu.wver != mo_delassus_version(P->W)) return 0;
+  for (a = 0; a < S->nc; a++) {
+    if (S->lu.kind[a] != kind[a]) return 0;
+    if (kind[a] == K_SLIDE)
+      for (i = 0; i < d; i++)
+        if (S->lu.E[(size_t)a * d + i] != E[(size_t)a * d + i]) return 0;
+  }
+  return 1;
+}
+
+/* Keep the LU of the kinds kind, E (its factors are copied). */
+static int cache_keep(nscd_state *S, const mo_contact_problem *P, int n, const int *kind, const double *E,
+                      const double *LU, const int *ipiv, double rcond, mo_ctx *ctx)
+{
+  size_t nn = (size_t)n * (size_t)n;
+  void *q;
+  S->lu.valid = 0;
+  if (nn > S->lu.ncap) {
+    mo_free(S->lu.LU);
+    if (!(S->lu.LU = mo_malloc(ctx, nn * sizeof *S->lu.LU))) { S->lu.ncap = 0; return MO_ENOMEM; }
+    if (!(q = mo_realloc(ctx, S->lu.ipiv, (size_t)n * sizeof *S->lu.ipiv))) return MO_ENOMEM;
+    S->lu.ipiv = q;
+    S->lu.ncap = nn;
+  }
+  if ((size_t)S->nc > S->lu.kcap) {
+    if (!(q = mo_realloc(ctx, S->lu.kind, (size_t)S->nc * sizeof *S->lu.kind))) return MO_ENOMEM;
+    S->lu.kind = q;
+    if (!(q = mo_realloc(ctx, S->lu.E, (size_t)S->nc * (size_t)S->d * sizeof *S->lu.E))) return MO_ENOMEM;
+    S->lu.E = q;
+    S->lu.kcap = (size_t)S->nc;
+  }
+  memcpy(S->lu.LU, LU, nn * sizeof *LU);
+  memcpy(S->lu.ipiv, ipiv, (size_t)n * sizeof *ipiv);
+  memcpy(S->lu.kind, kind, (size_t)S->nc * sizeof *kind);
+  memcpy(S->lu.E, E, (size_t)S->nc * (size_t)S->d * sizeof *E);
+  S->lu.n = n;
+  S->lu.W = P->W;
+  S->lu.wver = mo_delassus_version(P->W);
+  S->lu.rcond = rcond;
+  S->lu.valid = 1;
+  S->lu.builds++;
+  return MO_OK;
+}
+
 int nscd_status_step(nscd_state *S, const mo_contact_problem *P, double *r, int *status, double tol,
-                     double *res, nscd_accel_info *info, mo_ctx *ctx)
+                     double *res, nscd_accel_info *info, int cached_only, mo_ctx *ctx)
 {
   const int d = S->d, dd = d * d;
   int k, a, i, j, n, it, st = MO_OK, nmax = S->nact * d;
   int *kind = NULL, *off = NULL, *ipiv = NULL, *iw = NULL;
   double *A = NULL, *rhs = NULL, *E = NULL, *LU = NULL, *w = NULL, *rnew = NULL, *Unew = NULL, *sv = NULL;
   double res1 = HUGE_VAL, resprev = HUGE_VAL, tiny = 0, qscale = 0;
+  size_t acap = 0;
   info->accepted = 0;
   if (!nmax) return MO_OK;
   kind = mo_malloc(ctx, ((size_t)S->nc + 1) * sizeof *kind);
@@ -119,16 +177,39 @@ int nscd_status_step(nscd_state *S, const mo_contact_problem *P, double *r, int 
     info->rcond = 1;
     info->min_norm = 0;
     if (n == 0 || n > NSCD_ACCEL_MAX) break; /* nothing to do, or too large for a dense step */
+    if (cache_matches(S, P, n, kind, E)) {
+      /* the closed set of the kept LU (T157): its right-hand side alone */
+      int one = 1, inf = 0;
+      info->tried = 1;
+      info->rcond = S->lu.rcond;
+      S->lu.hits++;
+      if (!rhs && !(rhs = mo_malloc(ctx, (size_t)nmax * sizeof *rhs))) { st = MO_ENOMEM; goto done; }
+      for (k = 0; k < S->nact; k++) {
+        a = S->act[k];
+        if (kind[a] == K_OPEN) continue;
+        for (i = 0; i < (kind[a] == K_STICK ? d : 1); i++) rhs[off[a] + i] = -P->b[(size_t)a * d + i];
+      }
+      dgetrs_("N", &n, &one, S->lu.LU, &n, S->lu.ipiv, rhs, &n, &inf);
+      goto solved;
+    }
+    if (cached_only) break;
     info->tried = 1;
-    if (!A) {
-      A = mo_malloc(ctx, (size_t)nmax * (size_t)nmax * sizeof *A);
-      LU = mo_malloc(ctx, (size_t)nmax * (size_t)nmax * sizeof *LU);
-      rhs = mo_malloc(ctx, (size_t)nmax * sizeof *rhs);
+    if ((size_t)n * (size_t)n > acap) {
+      /* the closed set's matrix and its LU, n x n (grown when a status iteration closes more) */
+      mo_free(A);
+      mo_free(LU);
+      acap = (size_t)n * (size_t)n;
+      A = mo_malloc(ctx, acap * sizeof *A);
+      LU = mo_malloc(ctx, acap * sizeof *LU);
+      if (!A || !LU) { st = MO_ENOMEM; goto done; }
+    }
+    if (!ipiv) {
+      if (!rhs) rhs = mo_malloc(ctx, (size_t)nmax * sizeof *rhs);
       ipiv = mo_malloc(ctx, (size_t)nmax * sizeof *ipiv);
       iw = mo_malloc(ctx, (size_t)nmax * sizeof *iw);
       w = mo_malloc(ctx, 4 * (size_t)nmax * sizeof *w);
       sv = mo_malloc(ctx, (size_t)nmax * sizeof *sv);
-      if (!A || !LU || !rhs || !ipiv || !iw || !w || !sv) { st = MO_ENOMEM; goto done; }
+      if (!rhs || !ipiv || !iw || !w || !sv) { st = MO_ENOMEM; goto done; }
     }
     /* A x = rhs: R_a (sum_b W_ab E_b x_b + q_a) = 0 over the closed contacts (column-major A) */
     memset(A, 0, (size_t)n * (size_t)n * sizeof *A);
@@ -172,6 +253,7 @@ int nscd_status_step(nscd_state *S, const mo_contact_problem *P, double *r, int 
     if (rc > NSCD_RANK_TOL) {
       int one = 1, inf = 0;
       dgetrs_("N", &n, &one, LU, &n, ipiv, rhs, &n, &inf);
+      if ((st = cache_keep(S, P, n, kind, E, LU, ipiv, rc, ctx))) goto done;
     } else {
       int one = 1, inf = 0, lwork = -1, liwork = 0, *iwork;
       double wq = 0, rcond = NSCD_RANK_TOL, *work;
@@ -190,6 +272,7 @@ int nscd_status_step(nscd_state *S, const mo_contact_problem *P, double *r, int 
       info->rcond = sv[0] > 0 ? sv[rank > 0 ? rank - 1 : 0] / sv[0] : 0;
       info->min_norm = 1;
     }
+  solved:
     /* the reactions of the solution, checked against the law on the exact U */
     for (k = 0; k < S->nact; k++) {
       double *rb = rnew + (size_t)(a = S->act[k]) * d;
@@ -202,8 +285,12 @@ int nscd_status_step(nscd_state *S, const mo_contact_problem *P, double *r, int 
     }
     for (i = 0; i < S->m && isfinite(rnew[i]); i++) {}
     if (i < S->m) break;
-    mo_delassus_mult(P->W, rnew, 0, Unew);
-    for (i = 0; i < S->m; i++) Unew[i] += P->b[i];
+    if (S->nonly) /* frictionless: the law reads U_n alone (T156) */
+      nscd_normal_mult(S, P, rnew, Unew);
+    else {
+      mo_delassus_mult(P->W, rnew, 0, Unew);
+      for (i = 0; i < S->m; i++) Unew[i] += P->b[i];
+    }
     res1 = mo_fc_natural_map_subset(d, S->nact, S->act, S->mu, S->scale, rnew, Unew, sqrt(S->qs2));
     if (tol >= 0 && (res1 <= tol || res1 <= nscd_roundoff_floor(S, P, rnew))) {
       info->accepted = 1;
@@ -219,6 +306,7 @@ int nscd_status_step(nscd_state *S, const mo_contact_problem *P, double *r, int 
   if (info->accepted) {
     memcpy(r, rnew, (size_t)S->m * sizeof *r);
     memcpy(S->U, Unew, (size_t)S->m * sizeof *S->U);
+    S->u_full = !S->nonly;
     for (k = 0; k < S->nact; k++) {
       a = S->act[k];
       status[a] = kind[a] == K_OPEN ? MO_CS_OPEN : kind[a] == K_STICK ? MO_CS_STICK : MO_CS_SLIDE;

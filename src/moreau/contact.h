@@ -233,6 +233,19 @@ long mo_delassus_nblocks(const mo_delassus *D);
    unchanged means the blocks are the same, so a back end may keep what it derived from them. */
 long mo_delassus_version(const mo_delassus *D);
 int mo_delassus_has_columns(const mo_delassus *D);
+/* 1 when the last build took the nodal part from the factor's trailing block (the contact dofs
+   ordered last, doc/theory.md (T151)) instead of one solve per column. */
+int mo_delassus_from_schur(const mo_delassus *D);
+/* The free nodal dofs of a contact set for the factorization to order last (doc/theory.md
+   (T150)): rows of H and every dof of the slave nodes of the candidates fixed at build, the nodes
+   of deformable masters' facet sets; none (n = 0) when a detected pair touches a deformable
+   body. *dofs is allocated (free with mo_free); *reserve: the bytes W will take (dense),
+   for the memory check of the factorization (mo_stepper_create_ordered). */
+int mo_delassus_contact_dofs(const mo_contact *C, int **dofs, int *n, double *reserve, mo_ctx *ctx);
+/* The stepper of a scene with contact C (NULL: none): with order_last, the contact dofs ordered
+   last in its factorization (mo_delassus_contact_dofs, mo_stepper_create_ordered); else
+   mo_stepper_create. */
+int mo_stepper_create_contact(const mo_scene *sc, const mo_contact *C, int order_last, mo_stepper **S, mo_ctx *ctx);
 
 /* --- accuracy measures common to every back end ---------------------------------------------- */
 
@@ -312,6 +325,10 @@ typedef struct mo_contact_problem {
   double du_dx;              /* du = c dx over the step */
   long step;                 /* step being computed (1-based) */
   double t;                  /* time at the start of the step */
+  int u_measured;            /* 1: the core computes U = W r + q after the solve (its measure), so
+                                that a back end on W may return U exact only where the law reads
+                                it (the normal components of frictionless contacts): a pass over W
+                                saved (doc/theory.md (T156)) */
 } mo_contact_problem;
 
 /* What a back end returns. r holds the previous step's reactions on entry (warm start). */

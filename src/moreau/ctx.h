@@ -38,6 +38,12 @@ typedef enum {
   MO_PH_CONTACT,   /* the back end's solve */
   MO_PH_OUTPUT,    /* histories, fields, summaries */
   MO_PH_BROAD,     /* the broad phase of the rigid shapes (Verlet list and cell grid), out of geometry */
+  MO_PH_CORRECT,   /* the correction What^-1 H r of a contact impulse (with the split step's backward solve) */
+  MO_PH_LOCAL,     /* the core's part of a contact step that no other phase takes: the local
+                      problem (H^T x_free, offsets, index set), the measure of the solve (U = W r +
+                      q, residual), the impulse H r, the contact work, the candidate set's arrays */
+  MO_PH_METRICS,   /* the run's per-step records: chatter, penetration and momenta metrics, and the
+                      state kept for step cutting */
   MO_PH_N
 } mo_phase;
 
@@ -82,6 +88,9 @@ typedef struct mo_ctx {
   /* contact back ends loaded at run time (moreau/backend.h): owned by the context that loaded
      them, shared by its copies (a comparison's runs), unloaded by mo_ctx_release */
   struct mo_plugins *plugins;
+  /* the memory a run may take (bytes; 0: the machine's, mo_memory_limit): the factorization's
+     check against it (doc/theory.md (T154)) */
+  double max_bytes;
 } mo_ctx;
 
 /* 1 when the program was asked to stop (SIGINT, SIGTERM): the long loops of loading and
@@ -121,7 +130,17 @@ void mo_free(void *p);
 double mo_clock(void);
 /* Add the time since t0 to phase ph. */
 void mo_phase_add(mo_ctx *ctx, mo_phase ph, double t0);
+/* The time of every phase so far; and the time since t0 that no phase took since then (the
+   phases' total was `inner0` at t0) added to phase ph: the work of a section around calls that
+   time themselves. */
+double mo_phase_total(const mo_ctx *ctx);
+void mo_phase_rest(mo_ctx *ctx, mo_phase ph, double t0, double inner0);
 const char *mo_phase_name(mo_phase ph);
+
+/* Memory (bytes): what a run may take (the physical memory, or RLIMIT_AS when lower) and its
+   resident size now. */
+double mo_memory_limit(void);
+double mo_memory_rss(void);
 
 /* Record (once) a piece of work the scene did not need. */
 void mo_note_skip(mo_ctx *ctx, const char *fmt, ...) __attribute__((format(printf, 2, 3)));

@@ -74,6 +74,36 @@ typedef struct mo_linsolver_settings {
   double rtol;
   int spd;
 } mo_linsolver_settings;
+/* The split solves of a factor P A P^T = L L^T whose trailing rows are the ones ordered last
+   (mo_linsolver_set_last), with L = [L11 0; L21 L22] (doc/theory.md (T150)-(T153)):
+   FORWARD         out = L^-1 P in            (n values in, n out: the factor's order)
+   BACKWARD        out = P^T L^-T in          (n in the factor's order, n out)
+   TRAIL_FORWARD   out = L22^-1 in            (the nlast trailing values; out may alias in)
+   TRAIL_BACKWARD  out = L22^-T in            (likewise)
+   so that A^-1 b = BACKWARD(FORWARD(b)), the last rows of x = A^-1 b are TRAIL_BACKWARD of the
+   last nlast values of FORWARD(b), and the forward solve of a right-hand side that vanishes
+   outside the last rows is TRAIL_FORWARD of its last rows (zero above them). */
+typedef enum {
+  MO_SPLIT_FORWARD = 0, MO_SPLIT_BACKWARD, MO_SPLIT_TRAIL_FORWARD, MO_SPLIT_TRAIL_BACKWARD
+} mo_split_op;
+
+/* What a factorization measured of itself (NaN or 0 where the type does not say). */
+typedef struct mo_linsolver_info {
+  double nnz_L;          /* entries of the factor (without the zeros of supernodal amalgamation) */
+  double flops;          /* of the numeric factorization */
+  double bytes_factor;   /* the factor's values and indices */
+  double bytes_work;     /* the largest workspace of the numeric factorization */
+  double bytes_reserve;  /* what the caller said it needs beside (mo_linsolver_set_last) */
+  double bytes_before;   /* resident size when the numeric factorization started */
+  double bytes_limit;    /* the memory this run may take (mo_memory_limit) */
+  double bytes_trailing; /* when the contact dofs last did not fit: what they would have needed (else 0) */
+  double t_analyze, t_numeric; /* seconds: symbolic analyses (all), the last numeric factorization */
+  double two_solves;     /* mean seconds of a forward and a backward solve on one right-hand side
+                            (the split ones, or whole solves; NaN before any) */
+  const char *ordering;  /* "amd", "metis", ...: of the rows not ordered last */
+  int nlast, trailing;   /* rows ordered last, and whether the factor holds them as its trailing block */
+  int supernodal, long_indices;
+} mo_linsolver_info;
 
 typedef struct mo_linsolver_type {
   const char *name;   /* "cholmod", "umfpack" */
@@ -86,6 +116,16 @@ typedef struct mo_linsolver_type {
   void (*free)(void *state);
   /* Optional: take settings before the first factorization (NULL: the type has none). */
   int (*configure)(void *state, const mo_linsolver_settings *set, mo_ctx *ctx);
+  /* Optional (NULL where the type has none). Order the nlast rows and columns last[] last, in
+     that order, from the next factorization on; reserve: bytes the caller will need beside the
+     factor (the Delassus operator; the type adds the Schur inverse when it orders them last),
+     counted in the memory check before the numeric factorization. When the ordered factor does
+     not fit in memory the type may fall back to its own order (mo_linsolver_nlast then 0). */
+  int (*set_last)(void *state, int nlast, const int *last, double reserve, mo_ctx *ctx);
+  int (*split)(void *state, mo_split_op op, const double *in, double *out, mo_ctx *ctx);
+  /* G = (A^-1)_CC over the rows ordered last (nlast x nlast, column-major, both triangles). */
+  int (*schur_inverse)(void *state, double *G, mo_ctx *ctx);
+  void (*info)(const void *state, mo_linsolver_info *I);
 } mo_linsolver_type;
 
 extern const mo_linsolver_type mo_linsolver_cholmod;
@@ -109,6 +149,22 @@ int mo_linsolver_n(const mo_linsolver *S);
 void mo_linsolver_stats(const mo_linsolver *S, long *nfactor, long *nsymbolic, long *nsolve);
 const char *mo_linsolver_name(const mo_linsolver *S);
 void mo_linsolver_free(mo_linsolver *S);
+/* Rows and columns ordered last from the next factorization on (a new symbolic analysis when
+   they change; nlast = 0 clears), and bytes the caller will need beside the factor (counted in
+   the memory check). MO_EUNSUPPORTED from a type that cannot order (nlast > 0). */
+int mo_linsolver_set_last(mo_linsolver *S, int nlast, const int *last, double reserve, mo_ctx *ctx);
+/* The rows the factor holds as its trailing block (0: none, the split solves do not apply). */
+int mo_linsolver_nlast(const mo_linsolver *S);
+int mo_linsolver_split(mo_linsolver *S, mo_split_op op, const double *in, double *out, mo_ctx *ctx);
+int mo_linsolver_schur_inverse(mo_linsolver *S, double *G, mo_ctx *ctx);
+void mo_linsolver_info_get(const mo_linsolver *S, mo_linsolver_info *I);
+
+/* BLAS threads (OpenBLAS; a no-op with a BLAS that cannot set them, doc/theory.md (T155)): the
+   program runs mo_blas_threads_base() (1, or OPENBLAS_NUM_THREADS) and takes
+   mo_blas_threads_max() (MOREAU_BLAS_THREADS, else the base) around large dense work only. */
+void mo_blas_threads(int n);
+int mo_blas_threads_max(void);
+int mo_blas_threads_base(void);
 
 #ifdef __cplusplus
 }

@@ -55,6 +55,14 @@ typedef struct mo_stepper mo_stepper;
    §11): the pattern is analysed once, and What is factored here at the initial state (u0, a
    virgin material), then at every iterate. */
 int mo_stepper_create(const mo_scene *sc, mo_stepper **out, mo_ctx *ctx);
+/* The same, with the free nodal dofs contact acts on (free indices below the scene's
+   nfe_free, nlast of them: mo_delassus_contact_dofs) ordered last in the factorization, so that
+   the Delassus operator comes from its trailing block and the step splits into a forward solve,
+   the contact problem on the trailing block and one backward solve (doc/theory.md §13), and the
+   bytes the Delassus operator will take counted in the memory check before the numeric
+   factorization (reserve). nlast = 0: mo_stepper_create. */
+int mo_stepper_create_ordered(const mo_scene *sc, int nlast, const int *last, double reserve, mo_stepper **out,
+                              mo_ctx *ctx);
 void mo_stepper_free(mo_stepper *S);
 
 /* Initial state: t = 0, u0, v0, prescribed values; Newmark also a0 from M a0 = f0 - K u0. */
@@ -75,6 +83,24 @@ int mo_stepper_finish(mo_stepper *S, mo_state *s, const double *x_full, mo_ctx *
 /* 4. (optional) a position correction after finish: u += du on the free dofs, v unchanged, the
       external work and the support reactions updated (linear scenes; doc/theory.md (T95)). */
 int mo_stepper_shift(mo_stepper *S, mo_state *s, const double *du_free, mo_ctx *ctx);
+/* The split step (doc/theory.md (T153)), for linear scenes whose factorization holds the contact
+   dofs as its trailing block (mo_stepper_split_ready):
+   predict_split: as mo_stepper_predict, but the nodal free dofs are left NaN except the contact
+      dofs (their values from the trailing block of the forward solve, which is kept);
+   correct_split: x = What^-1 (rhs + imp) over every free dof, imp the impulse (force) over full
+      dofs: the trailing forward solve of imp added to the kept one (a full forward solve when imp
+      reaches beyond the contact dofs), then one backward solve; prescribed dofs untouched;
+   complete_split: the same without impulse (x_free in full).
+   After predict_split exactly one of the two must follow before the next prediction. */
+int mo_stepper_split_ready(const mo_stepper *S);
+/* 1 when the split step applies to a contact operator H (free rows): every nodal row of H is a
+   contact dof of the factorization. */
+int mo_stepper_split_covers(const mo_stepper *S, const mo_csc *H);
+int mo_stepper_predict_split(mo_stepper *S, const mo_state *s, double *x_full, mo_ctx *ctx);
+int mo_stepper_correct_split(mo_stepper *S, const double *imp_full, double *x_full, mo_ctx *ctx);
+int mo_stepper_complete_split(mo_stepper *S, double *x_full, mo_ctx *ctx);
+/* The contact dofs of the factorization (free indices; NULL when none) and how many. */
+const int *mo_stepper_contact_dofs(const mo_stepper *S, int *nlast);
 /* One step without contact: predict + finish (linear scenes), solve + finish (nonlinear). */
 int mo_stepper_step(mo_stepper *S, mo_state *s, mo_ctx *ctx);
 
@@ -133,6 +159,10 @@ typedef struct mo_what_inverse {
   const double *inv;
   const int *blkof;       /* n - nfe: the block of each rigid free dof (index i - nfe) */
   long version;           /* changes whenever the factorization or a block changes */
+  /* the nodal free dofs the factorization holds last, as its trailing block (doc/theory.md §13),
+     in its order: (What^-1)_CC is ls's Schur inverse; 0 and NULL when it holds none */
+  int nlast;
+  const int *last;
 } mo_what_inverse;
 const mo_what_inverse *mo_stepper_inverse(const mo_stepper *S);
 /* X = What^-1 B over free dofs (nrhs columns, leading dimension n; X may alias B). */
