@@ -429,7 +429,7 @@ static void petsc_free(void *state)
 }
 
 static const mo_linsolver_type petsc_type = {"petsc", 0, sizeof(petsc_state), petsc_factor, petsc_solve,
-                                             petsc_free, petsc_configure};
+                                             petsc_free, petsc_configure, NULL, NULL, NULL, NULL};
 
 /* The module's one export (petsc_module.h). */
 extern const mo_petsc_module mo_petsc_module_v1;
