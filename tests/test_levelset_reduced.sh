@@ -39,7 +39,10 @@ run drop-rloop "$C/block-drop" --solver levelset --set "$LOOP"
 run drop-nscd "$C/block-drop" --solver nscd
 K=base.uy,base.vx,base.vy,base.cy,energy.total
 w=$(diff_runs drop-rloop drop-dense $K)
-ok $(below "$w" 1e-12) "block-drop, threshold loop: the reduced path gives the dense path's histories to $w (<= 1e-12)"
+# (history.csv prints 10 significant digits: the split step of the contact dofs ordered last
+# (doc/theory.md (T153)) rounds the two paths' corrections differently, which flips a last digit;
+# with contact.factor_order = "solver" they agree to the bit)
+ok $(below "$w" 1e-9) "block-drop, threshold loop: the reduced path gives the dense path's histories to $w (<= 1e-9, the printed digits)"
 w=$(diff_runs drop-auto drop-dense $K)
 ok $(below "$w" 1e-8) "block-drop: the coupled threshold gives the threshold loop's histories to $w (<= 1e-8; the loop stops at threshold_tol 1e-10)"
 w=$(diff_runs drop-auto drop-nscd $K)
