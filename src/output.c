@@ -80,18 +80,29 @@ int mo_atomic_open(mo_atomic_file *A, const char *path, mo_ctx *ctx)
 
 int mo_atomic_commit(mo_atomic_file *A, int ok, mo_ctx *ctx)
 {
-  int e = 0, st = MO_OK;
+  int e = 0, st = MO_OK, named = 0;
   if (!A->f) return MO_OK;
   errno = 0;
   if (ok && (fflush(A->f) != 0 || ferror(A->f) || (!A->nosync && fsync(fileno(A->f)) != 0))) e = errno ? errno : EIO;
   if (ok && !e && A->anon) {
+    /* the name and the rename in two consecutive calls, the stream closed after them (a close
+       between the two widened the window in which a SIGKILL leaves PATH.tmp.PID behind) */
     char proc[64];
     snprintf(proc, sizeof proc, "/proc/self/fd/%d", fileno(A->f));
     remove(A->tmp); /* a leftover of an earlier process of the same id */
     if (linkat(AT_FDCWD, proc, AT_FDCWD, A->tmp, AT_SYMLINK_FOLLOW) != 0) e = errno ? errno : EIO;
+    else if (rename(A->tmp, A->path) != 0) {
+      e = errno ? errno : EIO;
+      remove(A->tmp);
+      fclose(A->f);
+      A->f = NULL;
+      return mo_error(ctx, MO_EOUTPUT, "cannot replace '%s': %s", A->path, strerror(e));
+    } else
+      named = 1;
   }
-  if (fclose(A->f) != 0 && ok && !e) e = errno;
+  if (fclose(A->f) != 0 && ok && !e) e = errno ? errno : EIO;
   A->f = NULL;
+  if (named) return e ? mo_error(ctx, MO_EOUTPUT, "cannot write '%s': %s", A->path, strerror(e)) : MO_OK;
   if (!ok || e) {
     if (!A->anon || e) remove(A->tmp);
     if (e) st = mo_error(ctx, MO_EOUTPUT, "cannot write '%s': %s", A->path, strerror(e));
