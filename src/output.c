@@ -65,7 +65,7 @@ int mo_atomic_open(mo_atomic_file *A, const char *path, mo_ctx *ctx)
       snprintf(A->tmp, sizeof A->tmp, "%s.tmp.%ld", path, (long)getpid()) >= (int)sizeof A->tmp)
     return mo_error(ctx, MO_EIO, "path too long (%zu characters): '%.200s...'", strlen(path), path);
   slash = strrchr(path, '/');
-  if (slash) snprintf(dir, sizeof dir, "%.*s", (int)(slash - path ? slash - path : 1), path);
+  if (slash) snprintf(dir, sizeof dir, "%.*s", (int)((slash - path) ? (slash - path) : 1), path);
   else snprintf(dir, sizeof dir, ".");
 #ifdef O_TMPFILE
   fd = open(dir, O_TMPFILE | O_WRONLY | O_CLOEXEC, 0666);
