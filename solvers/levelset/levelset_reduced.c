@@ -561,6 +561,7 @@ int ls_reduced_step(ls_reduced *R, const ls_system *S, const mo_delassus *W, con
       int jc = R->sc[s];
       double D;
       slide_dir(1, y + offl + jc, U + jc * nr + 1, S->h2_t, R->es + s, &D);
+      if (S->edir) R->es[s] = S->edir[S->cset[jc]];
       R->scode[s] = 3 * S->cset[jc] + 1 + (R->es[s] > 0) - (R->es[s] < 0);
       nks++;
     }

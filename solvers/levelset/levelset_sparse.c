@@ -150,7 +150,7 @@ int ls_sparse_step(ls_sparse *Z, ls_reduced *R, const ls_system *S, const mo_del
     for (s = 0; s < R->nS; s++) {
       int jc = R->sc[s];
       double G = y[offl + jc] + S->h2_t * U[jc * nr + 1];
-      R->es[s] = G > 0 ? 1 : G < 0 ? -1 : 0;
+      R->es[s] = S->edir ? S->edir[S->cset[jc]] : G > 0 ? 1 : G < 0 ? -1 : 0;
       nks++;
     }
   if ((st = assemble(Z, R, S, W, eps, dW, nks, &M, ctx))) return st;
