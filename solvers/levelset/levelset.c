@@ -44,7 +44,7 @@ typedef struct {
   int coupled;               /* the threshold is coupled in this solve (T134) */
   int glob;                  /* the damped level-set loop on the natural map (T140) in this solve */
   double *rk, *Uk, *rs, *Us; /* m: the damped loop's iterate and the frozen solution (impulses, U') */
-  double *edir;              /* nc: the sliding directions the damped loop freezes */
+  double *edir;              /* nc x 2: the sliding directions the damped loop freezes */
   int frozen_solve;          /* a frozen-threshold (dense) solve since the last threshold update */
   unsigned char *phi;        /* nc: where friction acts with the coupled threshold (S_v = 1, mu > 0) */
   /* the proximal loop (T136): the local problem (W + eps D, q - eps D r_c) */
@@ -106,7 +106,7 @@ static const mo_option_spec ls_options[] = {
   {"proximal", MO_OPT_DOUBLE, OFF(proximal), NULL, 0, 1, "0 (automatic)",
    "Proximal term on the impulses (doc/theory.md (T136)): each pass solves the problem with W + eps D and q - eps D r_c (D the diagonal of W, r_c the previous pass's impulses) until the term falls below newton_tol, so that a frozen status whose impulses are not unique (redundant contacts: piles, masonry) has one solution, the nearest to r_c, and the law holds at the end. 0: eps = 1e-8 where the reduced path finds redundant normal impulses (or a contact set too large for dense algebra between rigid bodies), none elsewhere."},
   {"globalization", MO_OPT_ENUM, OFF(globalization), "auto|none|line_search", NAN, NAN, "\"auto\"",
-   "The level-set loop with the coupled threshold (2D, the reduced path): line_search moves from the current impulses toward the frozen-status solution by the step that decreases the natural-map residual of the contact law (Armijo backtracking) and takes the sign fields of the point reached (doc/theory.md (T140)-(T142)); none takes the whole step (BDZ07 Fig. 2); auto is line_search on sets of more than 400 local unknowns between rigid bodies (piles), none elsewhere."},
+   "The level-set loop on the reduced path with the coupled threshold: line_search moves from the current impulses toward the frozen-status solution by the step that decreases the natural-map residual of the contact law (Armijo backtracking) and takes the sign fields of the point reached (doc/theory.md (T140)-(T143); in 3D with the sliding directions frozen at the iterate); none takes the whole step (BDZ07 Fig. 2); auto is line_search on 2D sets of more than 400 local unknowns between rigid bodies (piles), none elsewhere."},
   {"proximal_max", MO_OPT_INT, OFF(proximal_max), NULL, 1, 10000, "50",
    "Proximal loop: iteration limit."},
   {"threshold_max", MO_OPT_INT, OFF(threshold_max), NULL, 1, 100000, "200",
@@ -196,7 +196,7 @@ static int ls_init(void *state, const void *params, const mo_contact_problem *P,
     return MO_ENOMEM;
   if (!(L->rk = mo_calloc(ctx, (size_t)m + 1, sizeof(double))) || !(L->Uk = mo_calloc(ctx, (size_t)m + 1, sizeof(double))) ||
       !(L->rs = mo_calloc(ctx, (size_t)m + 1, sizeof(double))) || !(L->Us = mo_calloc(ctx, (size_t)m + 1, sizeof(double))) ||
-      !(L->edir = mo_calloc(ctx, n1, sizeof(double))))
+      !(L->edir = mo_calloc(ctx, 2 * n1, sizeof(double))))
     return MO_ENOMEM;
   nm1 = (size_t)L->A.nm + 1;
   L->su = mo_calloc(ctx, n1, 1); L->sv = mo_calloc(ctx, n1, 1); L->sf = mo_calloc(ctx, n1, 1);
@@ -978,20 +978,30 @@ static int level_set_loop(ls_state *L, ls_pass *Q, mo_contact_report *rep, mo_ct
 /* The natural map of the contact law at candidate j (pressure units, T140), from its impulse rj
    and U'_j: with p = r_n / (c w), s = -r_t / (c w) (= mu p Lam), a = p - rho_n U'_n and
    z = s + k_t U'_t,
-     F_n = p - max(0, a),   F_t = s - P_[-mu a+, mu a+](z);
-   *a and *z are what the sign fields test (T141). */
+     F_n = p - max(0, a),   F_t = s - P_B(mu a+)(z)   (B(t): the disk of radius t);
+   *ft is |F_t|, *a and z (dt components, *zn = |z|) are what the sign fields test (T141). */
 static void natural_map(const ls_state *L, const ls_pass *Q, int j, const double *rj, const double *Uj,
-                        double *fn, double *ft, double *a, double *z)
+                        double *fn, double *ft, double *a, double *z, double *zn)
 {
   const double cw = Q->c * Q->P->w[j], p = rj[0] / cw;
+  int t;
   *a = p - Q->rho_n * Uj[0];
   *fn = p - fmax(0, *a);
-  *ft = 0;
-  *z = 0;
+  *ft = *zn = 0;
+  z[0] = z[1] = 0;
   if (Q->dt && L->mu[j] > 0) {
-    double s = -rj[1] / cw, thr = L->mu[j] * fmax(0, *a);
-    *z = s + Q->kt * Uj[1];
-    *ft = s - fmax(-thr, fmin(thr, *z));
+    double thr = L->mu[j] * fmax(0, *a), f = 0, sc;
+    for (t = 0; t < Q->dt; t++) {
+      z[t] = -rj[1 + t] / cw + Q->kt * Uj[1 + t];
+      *zn += z[t] * z[t];
+    }
+    *zn = sqrt(*zn);
+    sc = *zn > thr ? thr / *zn : 1;
+    for (t = 0; t < Q->dt; t++) {
+      double ft_t = -rj[1 + t] / cw - sc * z[t];
+      f += ft_t * ft_t;
+    }
+    *ft = sqrt(f);
   }
 }
 
@@ -1000,7 +1010,7 @@ static void natural_map(const ls_state *L, const ls_pass *Q, int j, const double
 static double merit_at(ls_state *L, const ls_pass *Q, double alpha, int take)
 {
   const int nc = L->nc, d = L->d;
-  double m = 0, fn, ft, a, z, r[3], U[3];
+  double m = 0, fn, ft, a, z[2], zn, r[3], U[3];
   int j, t;
   for (j = 0; j < nc; j++) {
     if (!L->su[j]) continue;
@@ -1014,7 +1024,7 @@ static double merit_at(ls_state *L, const ls_pass *Q, double alpha, int take)
         L->Umag[i] = fabs(L->b[i]) + fabs(U[t] - L->b[i]);
       }
     }
-    natural_map(L, Q, j, r, U, &fn, &ft, &a, &z);
+    natural_map(L, Q, j, r, U, &fn, &ft, &a, z, &zn);
     m += fn * fn + ft * ft;
   }
   return m;
@@ -1029,27 +1039,30 @@ static double damped_signs(ls_state *L, ls_pass *Q)
   const ls_space *A = &L->A;
   const int nc = L->nc, d = L->d, dt = Q->dt;
   double emax = 0;
-  int j;
+  int j, t;
   for (j = 0; j < nc; j++) L->ph[j] = L->su[j] ? L->r[j * d] / (Q->c * Q->P->w[j]) : 0;
   sign_tolerances(L, d, dt, Q->rho_n, Q->rho_t, &Q->tol_v, &Q->tol_f, &Q->scale_v);
   for (j = 0; j < nc; j++) {
-    double fn, ft, a, z, p = L->ph[j];
+    double fn, ft, a, z[2], zn, p = L->ph[j];
     int q = A->rp[j], mi = A->ri[q];
     L->pm[mi] = p;
     L->lm[2 * mi] = L->lm[2 * mi + 1] = 0;
     if (!L->su[j]) { L->sv[j] = 0; continue; }
-    natural_map(L, Q, j, L->r + j * d, L->U + j * d, &fn, &ft, &a, &z);
+    natural_map(L, Q, j, L->r + j * d, L->U + j * d, &fn, &ft, &a, z, &zn);
     emax = fmax(emax, fabs(fn) / (Q->tol_v + 1e-300));
     L->sv[j] = L->sv[j] ? a >= -Q->tol_v : a > Q->tol_v;
     if (!dt) continue;
     emax = fmax(emax, fabs(ft) / (Q->tol_f + 1e-300));
     L->pg[j] = L->sv[j] && p > 0 ? p : 0;
     if (L->mu[j] > 0) {
-      double thr = L->mu[j] * fmax(0, a), s = -L->r[j * d + 1] / (Q->c * Q->P->w[j]);
-      L->sf[j] = L->sf[j] ? fabs(z) <= thr + Q->tol_f : fabs(z) < thr - Q->tol_f;
-      L->edir[j] = z > 0 ? 1 : z < 0 ? -1 : 0;
-      L->lam[j * 2] = p > 0 ? s / (L->mu[j] * p) : 0;
-      L->lm[2 * mi] = L->lam[j * 2];
+      double thr = L->mu[j] * fmax(0, a);
+      L->sf[j] = L->sf[j] ? zn <= thr + Q->tol_f : zn < thr - Q->tol_f;
+      for (t = 0; t < dt; t++) {
+        double s = -L->r[j * d + 1 + t] / (Q->c * Q->P->w[j]);
+        L->edir[2 * j + t] = zn > 0 ? z[t] / zn : 0;
+        L->lam[j * 2 + t] = p > 0 ? s / (L->mu[j] * p) : 0;
+        L->lm[2 * mi + t] = L->lam[j * 2 + t];
+      }
     }
   }
   return emax;
@@ -1244,10 +1257,12 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
   Q.dt = L->friction ? L->d - 1 : 0;
   Q.c = P->scheme == MO_SCHEME_THETA ? P->h : 1;
   solve_scales(L, &Q);
-  L->coupled = L->reduced && !Q.kkt && Q.dt == 1 && L->par.threshold != LS_THR_LOOP;
-  L->glob = L->coupled && L->par.k_n == 0 && L->par.k_t == 0 &&
-            (L->par.globalization == LS_GLOB_LINE_SEARCH ||
-             (L->par.globalization == LS_GLOB_AUTO && L->rigid && P->nc * P->dim > LS_DENSE_MAX));
+  /* the damped loop (T140): where asked, or on large rigid sets (piles); in 3D it brings the
+     coupled threshold with frozen sliding directions (T143) */
+  L->glob = L->reduced && !Q.kkt && Q.dt > 0 && L->par.threshold != LS_THR_LOOP && L->par.k_n == 0 &&
+            L->par.k_t == 0 && (L->par.globalization == LS_GLOB_LINE_SEARCH ||
+            (L->par.globalization == LS_GLOB_AUTO && Q.dt == 1 && L->rigid && P->nc * P->dim > LS_DENSE_MAX));
+  L->coupled = L->reduced && !Q.kkt && (Q.dt == 1 || (Q.dt == 2 && L->glob)) && L->par.threshold != LS_THR_LOOP;
   for (;;) {
     L->prox_request = 0;
     proximal_setup(L, &Q, x);
