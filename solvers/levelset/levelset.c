@@ -973,7 +973,7 @@ static int level_set_loop(ls_state *L, ls_pass *Q, mo_contact_report *rep, mo_ct
   }
 }
 
-/* --- the damped level-set loop (T140)-(T142) ------------------------------------------------------- */
+/* --- the damped level-set loop (T140)-(T143) ------------------------------------------------------- */
 
 /* The natural map of the contact law at candidate j (pressure units, T140), from its impulse rj
    and U'_j: with p = r_n / (c w), s = -r_t / (c w) (= mu p Lam), a = p - rho_n U'_n and
@@ -1031,7 +1031,7 @@ static double merit_at(ls_state *L, const ls_pass *Q, double alpha, int take)
 }
 
 /* The sign fields of the iterate (L->r, L->U) from its natural map (T141), with the bands of (T88)
-   (a status changes only beyond tol_v, tol_f), the frozen sliding directions e = sign z, the
+   (a status changes only beyond tol_v, tol_f), the frozen sliding directions e = z / |z|, the
    pressures, semi-multipliers and coupled thresholds that the frozen system and the outputs read;
    returns the largest residual in units of its tolerance (<= 1: the law holds, T142). */
 static double damped_signs(ls_state *L, ls_pass *Q)
@@ -1070,9 +1070,9 @@ static double damped_signs(ls_state *L, ls_pass *Q)
 
 /* The damped level-set loop (T140)-(T142): from the iterate r_k (the warm start), the sign fields
    of its natural map freeze a status, the frozen system gives r*, and the step r_k + alpha (r* -
-   r_k) is the longest of 1, 1/2, 1/4, ... that decreases the merit |F|^2 by the Armijo factor; until
-   the natural map vanishes to the sign tests' tolerances. The coupled threshold, 2D, the reduced
-   path. */
+   r_k) is the longest of 1, 1/2, 1/4, ... that decreases the merit |F|^2 by the Armijo factor (the
+   whole step when none does); until the natural map vanishes to the sign tests' tolerances. The
+   reduced path with the coupled threshold (in 3D with the directions frozen, T143). */
 static int damped_loop(ls_state *L, ls_pass *Q, mo_contact_report *rep, mo_ctx *ctx)
 {
   const mo_contact_problem *P = Q->P;
