@@ -42,6 +42,9 @@ typedef struct {
   int want_prox;             /* the automatic proximal term is on (T136) */
   int prox_request;          /* a frozen status met redundant normal impulses without it */
   int coupled;               /* the threshold is coupled in this solve (T134) */
+  int glob;                  /* the damped level-set loop on the natural map (T140) in this solve */
+  double *rk, *Uk, *rs, *Us; /* m: the damped loop's iterate and the frozen solution (impulses, U') */
+  double *edir;              /* nc x 2: the sliding directions the damped loop freezes */
   int frozen_solve;          /* a frozen-threshold (dense) solve since the last threshold update */
   unsigned char *phi;        /* nc: where friction acts with the coupled threshold (S_v = 1, mu > 0) */
   /* the proximal loop (T136): the local problem (W + eps D, q - eps D r_c) */
@@ -102,6 +105,8 @@ static const mo_option_spec ls_options[] = {
    "Friction threshold p^g: loop freezes it in each frozen-status solve and updates it to the pressure after (the outer loop of BDZ07 Fig. 2); coupled makes every closed candidate's threshold its own pressure inside the frozen system, r_t = -mu r_n e when sliding (the same discrete problem in one pass; 2D, the reduced path; doc/theory.md (T134)); auto is coupled where it applies, else loop."},
   {"proximal", MO_OPT_DOUBLE, OFF(proximal), NULL, 0, 1, "0 (automatic)",
    "Proximal term on the impulses (doc/theory.md (T136)): each pass solves the problem with W + eps D and q - eps D r_c (D the diagonal of W, r_c the previous pass's impulses) until the term falls below newton_tol, so that a frozen status whose impulses are not unique (redundant contacts: piles, masonry) has one solution, the nearest to r_c, and the law holds at the end. 0: eps = 1e-8 where the reduced path finds redundant normal impulses (or a contact set too large for dense algebra between rigid bodies), none elsewhere."},
+  {"globalization", MO_OPT_ENUM, OFF(globalization), "auto|none|line_search", NAN, NAN, "\"auto\"",
+   "The level-set loop on the reduced path with the coupled threshold: line_search moves from the current impulses toward the frozen-status solution by the step that decreases the natural-map residual of the contact law (Armijo backtracking) and takes the sign fields of the point reached (doc/theory.md (T140)-(T143); in 3D with the sliding directions frozen at the iterate); none takes the whole step (BDZ07 Fig. 2); auto is line_search on 2D sets of more than 400 local unknowns between rigid bodies (piles), none elsewhere."},
   {"proximal_max", MO_OPT_INT, OFF(proximal_max), NULL, 1, 10000, "50",
    "Proximal loop: iteration limit."},
   {"threshold_max", MO_OPT_INT, OFF(threshold_max), NULL, 1, 100000, "200",
@@ -149,6 +154,7 @@ static void ls_free(void *state)
   ls_reduced_free(&L->red);
   ls_sparse_free(&L->sp);
   mo_free(L->phi);
+  mo_free(L->rk); mo_free(L->Uk); mo_free(L->rs); mo_free(L->Us); mo_free(L->edir);
   mo_free(L->qeff); mo_free(L->rc); mo_free(L->dW);
   mo_free(L->wcc_cset);
   mo_free(L->su); mo_free(L->sv); mo_free(L->sf); mo_free(L->nsu); mo_free(L->nsv); mo_free(L->nsf);
@@ -187,6 +193,10 @@ static int ls_init(void *state, const void *params, const mo_contact_problem *P,
     L->rigid = mo_contact_pair_get(P->contact, mo_contact_candidate(P->contact, j)->pair)->dynamic;
   if (!(L->phi = mo_calloc(ctx, n1, 1)) || !(L->qeff = mo_calloc(ctx, (size_t)m + 1, sizeof(double))) ||
       !(L->rc = mo_calloc(ctx, (size_t)m + 1, sizeof(double))) || !(L->dW = mo_calloc(ctx, (size_t)m + 1, sizeof(double))))
+    return MO_ENOMEM;
+  if (!(L->rk = mo_calloc(ctx, (size_t)m + 1, sizeof(double))) || !(L->Uk = mo_calloc(ctx, (size_t)m + 1, sizeof(double))) ||
+      !(L->rs = mo_calloc(ctx, (size_t)m + 1, sizeof(double))) || !(L->Us = mo_calloc(ctx, (size_t)m + 1, sizeof(double))) ||
+      !(L->edir = mo_calloc(ctx, 2 * n1, sizeof(double))))
     return MO_ENOMEM;
   nm1 = (size_t)L->A.nm + 1;
   L->su = mo_calloc(ctx, n1, 1); L->sv = mo_calloc(ctx, n1, 1); L->sf = mo_calloc(ctx, n1, 1);
@@ -447,6 +457,12 @@ static int ls_newton(ls_state *L, const mo_contact_problem *P, int kkt, int *its
     if (kkt) ls_kkt_velocity(S, P, L->dv, L->Uc, L->Umc);
     else if (sparse) ls_sparse_velocity(S, P->W, L->b, L->eps, L->dW, L->y, L->Uc, L->Umc);
     else if (it > 0 || L->uc_gen != L->wcc_gen) ls_schur_velocity(S, L->WCC, L->b, L->y, L->Uc, L->Umc);
+    if (L->glob && reduced && it > 0) {
+      /* the damped loop (T140): the frozen system is linear with the directions frozen, one
+         step solves it; the natural map, not (T17)'s direction test, judges the point */
+      *conv = 1;
+      break;
+    }
     /* the reduced step needs F only to test convergence, and to find y = 0 a solution */
     if (!reduced || it > 0 || !nonzero(L->y, ny)) ls_system_eval(S, A, L->y, L->Uc, L->Umc);
     if (it > 0 && ls_system_converged(S, L->par.newton_tol)) { *conv = 1; break; }
@@ -957,6 +973,166 @@ static int level_set_loop(ls_state *L, ls_pass *Q, mo_contact_report *rep, mo_ct
   }
 }
 
+/* --- the damped level-set loop (T140)-(T143) ------------------------------------------------------- */
+
+/* The natural map of the contact law at candidate j (pressure units, T140), from its impulse rj
+   and U'_j: with p = r_n / (c w), s = -r_t / (c w) (= mu p Lam), a = p - rho_n U'_n and
+   z = s + k_t U'_t,
+     F_n = p - max(0, a),   F_t = s - P_B(mu a+)(z)   (B(t): the disk of radius t);
+   *ft is |F_t|, *a and z (dt components, *zn = |z|) are what the sign fields test (T141). */
+static void natural_map(const ls_state *L, const ls_pass *Q, int j, const double *rj, const double *Uj,
+                        double *fn, double *ft, double *a, double *z, double *zn)
+{
+  const double cw = Q->c * Q->P->w[j], p = rj[0] / cw;
+  int t;
+  *a = p - Q->rho_n * Uj[0];
+  *fn = p - fmax(0, *a);
+  *ft = *zn = 0;
+  z[0] = z[1] = 0;
+  if (Q->dt && L->mu[j] > 0) {
+    double thr = L->mu[j] * fmax(0, *a), f = 0, sc;
+    for (t = 0; t < Q->dt; t++) {
+      z[t] = -rj[1 + t] / cw + Q->kt * Uj[1 + t];
+      *zn += z[t] * z[t];
+    }
+    *zn = sqrt(*zn);
+    sc = *zn > thr ? thr / *zn : 1;
+    for (t = 0; t < Q->dt; t++) {
+      double ft_t = -rj[1 + t] / cw - sc * z[t];
+      f += ft_t * ft_t;
+    }
+    *ft = sqrt(f);
+  }
+}
+
+/* The merit sum_j F_n,j^2 + F_t,j^2 over S_u = 1 at r = rk + alpha (rs - rk), U' = Uk + alpha (Us -
+   Uk) (U' is affine in r); with `take`, that point becomes the iterate L->r, L->U. */
+static double merit_at(ls_state *L, const ls_pass *Q, double alpha, int take)
+{
+  const int nc = L->nc, d = L->d;
+  double m = 0, fn, ft, a, z[2], zn, r[3], U[3];
+  int j, t;
+  for (j = 0; j < nc; j++) {
+    if (!L->su[j]) continue;
+    for (t = 0; t < d; t++) {
+      int i = j * d + t;
+      r[t] = L->rk[i] + alpha * (L->rs[i] - L->rk[i]);
+      U[t] = L->Uk[i] + alpha * (L->Us[i] - L->Uk[i]);
+      if (take) {
+        L->r[i] = r[t];
+        L->U[i] = U[t];
+        L->Umag[i] = fabs(L->b[i]) + fabs(U[t] - L->b[i]);
+      }
+    }
+    natural_map(L, Q, j, r, U, &fn, &ft, &a, z, &zn);
+    m += fn * fn + ft * ft;
+  }
+  return m;
+}
+
+/* The sign fields of the iterate (L->r, L->U) from its natural map (T141), with the bands of (T88)
+   (a status changes only beyond tol_v, tol_f), the frozen sliding directions e = z / |z|, the
+   pressures, semi-multipliers and coupled thresholds that the frozen system and the outputs read;
+   returns the largest residual in units of its tolerance (<= 1: the law holds, T142). */
+static double damped_signs(ls_state *L, ls_pass *Q)
+{
+  const ls_space *A = &L->A;
+  const int nc = L->nc, d = L->d, dt = Q->dt;
+  double emax = 0;
+  int j, t;
+  for (j = 0; j < nc; j++) L->ph[j] = L->su[j] ? L->r[j * d] / (Q->c * Q->P->w[j]) : 0;
+  sign_tolerances(L, d, dt, Q->rho_n, Q->rho_t, &Q->tol_v, &Q->tol_f, &Q->scale_v);
+  for (j = 0; j < nc; j++) {
+    double fn, ft, a, z[2], zn, p = L->ph[j];
+    int q = A->rp[j], mi = A->ri[q];
+    L->pm[mi] = p;
+    L->lm[2 * mi] = L->lm[2 * mi + 1] = 0;
+    if (!L->su[j]) { L->sv[j] = 0; continue; }
+    natural_map(L, Q, j, L->r + j * d, L->U + j * d, &fn, &ft, &a, z, &zn);
+    emax = fmax(emax, fabs(fn) / (Q->tol_v + 1e-300));
+    L->sv[j] = L->sv[j] ? a >= -Q->tol_v : a > Q->tol_v;
+    if (!dt) continue;
+    emax = fmax(emax, fabs(ft) / (Q->tol_f + 1e-300));
+    L->pg[j] = L->sv[j] && p > 0 ? p : 0;
+    if (L->mu[j] > 0) {
+      double thr = L->mu[j] * fmax(0, a);
+      L->sf[j] = L->sf[j] ? zn <= thr + Q->tol_f : zn < thr - Q->tol_f;
+      for (t = 0; t < dt; t++) {
+        double s = -L->r[j * d + 1 + t] / (Q->c * Q->P->w[j]);
+        L->edir[2 * j + t] = zn > 0 ? z[t] / zn : 0;
+        L->lam[j * 2 + t] = p > 0 ? s / (L->mu[j] * p) : 0;
+        L->lm[2 * mi + t] = L->lam[j * 2 + t];
+      }
+    }
+  }
+  return emax;
+}
+
+/* The damped level-set loop (T140)-(T142): from the iterate r_k (the warm start), the sign fields
+   of its natural map freeze a status, the frozen system gives r*, and the step r_k + alpha (r* -
+   r_k) is the longest of 1, 1/2, 1/4, ... that decreases the merit |F|^2 by the Armijo factor (the
+   whole step when none does); until the natural map vanishes to the sign tests' tolerances. The
+   reduced path with the coupled threshold (in 3D with the directions frozen, T143). */
+static int damped_loop(ls_state *L, ls_pass *Q, mo_contact_report *rep, mo_ctx *ctx)
+{
+  const mo_contact_problem *P = Q->P;
+  ls_system *S = &L->S;
+  const ls_space *A = &L->A;
+  const int nc = L->nc, m = L->m;
+  int it, j, st, its, conv, k;
+  double m0, emax;
+  full_velocity(L, P, 0);
+  emax = damped_signs(L, Q);
+  m0 = merit_at(L, Q, 0, 0);
+  for (it = 0;; it++) {
+    double alpha = 1, ma = 0;
+    if (emax <= 1) return MO_OK;
+    if (it >= L->par.levelset_max) {
+      rep->reason = MO_CR_MAXITER;
+      snprintf(rep->message, sizeof rep->message, "the damped level-set loop reached levelset_max = %d "
+               "(natural-map residual %.3e of its tolerance)", L->par.levelset_max, emax);
+      return MO_OK;
+    }
+    for (j = 0; j < nc; j++) L->phi[j] = L->sv[j] && L->mu[j] > 0;
+    S->phi = L->phi;
+    S->edir = L->edir;
+    friction_scales(L, Q->kt, &Q->rho_t);
+    memcpy(L->rk, L->r, (size_t)m * sizeof(double));
+    memcpy(L->Uk, L->U, (size_t)m * sizeof(double));
+    if ((st = ls_system_setup(S, A, nc, ctx))) return st;
+    L->uc_gen = -1; /* the iterate moved: Uc does not hold its U' */
+    st = ls_newton(L, P, Q->kkt, &its, &conv, ctx);
+    S->edir = NULL;
+    Q->nnewt += its;
+    Q->nls++;
+    if (L->prox_request) return MO_OK;
+    if (st == MO_ESINGULAR || st == MO_ENAN) {
+      report_breakdown(st, rep, ctx);
+      return MO_OK;
+    }
+    if (st) return st;
+    take_solution(L, Q);
+    if (L->u_partial) {
+      /* U' of the frozen solution over Cset; the rest of the candidates (S_u = 0) carry no law */
+      for (k = 0; k < S->nC; k++) {
+        int i = S->cset[k] * L->d;
+        memcpy(L->Us + i, L->U + i, (size_t)L->d * sizeof(double));
+      }
+    } else
+      memcpy(L->Us, L->U, (size_t)m * sizeof(double));
+    memcpy(L->rs, L->r, (size_t)m * sizeof(double));
+    for (k = 0; k < 30; k++, alpha *= 0.5) {
+      ma = merit_at(L, Q, alpha, 0);
+      if (ma <= (1 - 1e-4 * alpha) * m0) break;
+    }
+    if (k == 30) alpha = 1, ma = merit_at(L, Q, 1, 0);
+    L->u_partial = 1;
+    m0 = ma;
+    merit_at(L, Q, alpha, 1);
+    emax = damped_signs(L, Q);
+  }
+}
+
 /* The friction-threshold loop (BDZ04 Fig. 1, loop 3): the level-set loop with the threshold
    frozen, then lambda^g <- max(lambda, 0), until it repeats to threshold_tol (one pass with the
    coupled threshold, T134, unless a dense solve froze it). */
@@ -982,7 +1158,7 @@ static int threshold_loop(ls_state *L, ls_pass *Q, mo_contact_report *rep, mo_ct
         L->sf[j] = (unsigned char)stick_sign(L, j, sqrt(g), L->sf[j], Q->tol_f);
       }
     }
-    if ((st = level_set_loop(L, Q, rep, ctx))) return st;
+    if ((st = (L->glob ? damped_loop : level_set_loop)(L, Q, rep, ctx))) return st;
     if (rep->reason < 0 || !dt || L->prox_request) return MO_OK;
     /* coupled: every solve took p^g = p, the threshold holds already */
     if (L->coupled && !L->frozen_solve) return MO_OK;
@@ -1081,7 +1257,12 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
   Q.dt = L->friction ? L->d - 1 : 0;
   Q.c = P->scheme == MO_SCHEME_THETA ? P->h : 1;
   solve_scales(L, &Q);
-  L->coupled = L->reduced && !Q.kkt && Q.dt == 1 && L->par.threshold != LS_THR_LOOP;
+  /* the damped loop (T140): where asked, or on large rigid sets (piles); in 3D it brings the
+     coupled threshold with frozen sliding directions (T143) */
+  L->glob = L->reduced && !Q.kkt && Q.dt > 0 && L->par.threshold != LS_THR_LOOP && L->par.k_n == 0 &&
+            L->par.k_t == 0 && (L->par.globalization == LS_GLOB_LINE_SEARCH ||
+            (L->par.globalization == LS_GLOB_AUTO && Q.dt == 1 && L->rigid && P->nc * P->dim > LS_DENSE_MAX));
+  L->coupled = L->reduced && !Q.kkt && (Q.dt == 1 || (Q.dt == 2 && L->glob)) && L->par.threshold != LS_THR_LOOP;
   for (;;) {
     L->prox_request = 0;
     proximal_setup(L, &Q, x);

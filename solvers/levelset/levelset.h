@@ -13,6 +13,7 @@ enum { LS_STAB_PROJECTED = 0, LS_STAB_UNPROJECTED };
 enum { LS_SU_INDEX_SET = 0, LS_SU_END_GAP };
 enum { LS_PATH_AUTO = 0, LS_PATH_SCHUR, LS_PATH_KKT, LS_PATH_REDUCED };
 enum { LS_THR_AUTO = 0, LS_THR_LOOP, LS_THR_COUPLED };
+enum { LS_GLOB_AUTO = 0, LS_GLOB_NONE, LS_GLOB_LINE_SEARCH };
 
 typedef struct {
   int multipliers;        /* LS_MULT_*: the multiplier space H_h of BDZ07 (65) */
@@ -23,6 +24,7 @@ typedef struct {
   int path;               /* LS_PATH_* */
   int threshold;          /* LS_THR_*: the friction threshold frozen in an outer loop, or coupled (T134) */
   double proximal;        /* eps of the proximal term (T136); 0 = automatic */
+  int globalization;      /* LS_GLOB_*: the damped level-set loop on the natural map (T140) */
   int threshold_max, levelset_max, newton_max, proximal_max;
   double threshold_tol, newton_tol, status_tol;
 } ls_params;
@@ -62,6 +64,8 @@ typedef struct {
   const double *pg;       /* friction threshold p^g (pressure) */
   const unsigned char *phi; /* where a friction threshold acts; NULL: where mu p^g > 0 (the
                              threshold loop); the coupled threshold (T134): the closed candidates */
+  const double *edir;     /* nc: the coupled sliders' directions e_j set by the damped loop (T140);
+                             NULL: sign(Lam + h2_t U'_t) at the iterate */
   const double *w, *mu;
   double c;               /* r = c x force: h (theta) or 1 (quasistatic) */
   double h_n, k_n, k_t, h1_t, h2_t;

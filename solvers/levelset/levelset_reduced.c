@@ -90,7 +90,7 @@ int ls_reduced_classify(ls_reduced *R, const ls_system *S, const ls_space *A, in
   }
   R->nu = nu;
   R->nX = R->nS = 0;
-  R->coupled = coupled && dt == 1;
+  R->coupled = coupled && (dt == 1 || S->edir); /* 3D: the damped loop's frozen directions (T143) */
   for (jc = 0; jc < S->nC; jc++) {
     int j = S->cset[jc], q = A->rp[j], phi;
     /* A = I with the multipliers numbered as the candidates of Cset (ls_system_setup) */
@@ -213,10 +213,13 @@ static void gather(const ls_reduced *R, const ls_system *S, const double *WCC, i
   for (k = 0; k < n; k++)
     for (i = 0; i < n; i++) a[(size_t)k * n + i] = WCC[(size_t)R->xc[i] * nu + R->xc[k]];
   for (s = 0; s < nks; s++) {
-    int jc = R->sc[s], cn = jc * nr, ct = cn + 1, b;
-    double c = -S->mu[S->cset[jc]] * R->es[s];
+    int jc = R->sc[s], cn = jc * nr, b, t;
     for (b = 0; b < n && R->xc[b] != cn; b++) continue;
-    for (i = 0; b < n && i < n; i++) a[(size_t)b * n + i] += WCC[(size_t)R->xc[i] * nu + ct] * c;
+    for (t = 0; t < S->dt; t++) {
+      int ct = cn + 1 + t;
+      double c = -S->mu[S->cset[jc]] * R->es[s * S->dt + t];
+      for (i = 0; b < n && i < n; i++) a[(size_t)b * n + i] += WCC[(size_t)R->xc[i] * nu + ct] * c;
+    }
   }
 }
 
@@ -553,18 +556,21 @@ int ls_reduced_step(ls_reduced *R, const ls_system *S, const mo_delassus *W, con
                     mo_ctx *ctx)
 {
   const int nr = S->nr, dt = S->dt, nu = R->nu, n = R->nX, offl = nu + S->nM;
-  int e, i, k, s, t, st, fresh, nks = 0, three = dt == 2 && R->nS > 0;
+  int e, i, k, s, t, st, fresh, nks = 0, three = dt == 2 && R->nS > 0 && !R->coupled;
   *fallback = 0;
-  /* the coupled sliders' directions from the current iterate: part of the matrix */
+  /* the coupled sliders' directions from the current iterate (or frozen by the damped loop):
+     part of the matrix */
   if (R->coupled)
     for (s = 0; s < R->nS; s++) {
       int jc = R->sc[s];
       double D;
-      slide_dir(1, y + offl + jc, U + jc * nr + 1, S->h2_t, R->es + s, &D);
-      R->scode[s] = 3 * S->cset[jc] + 1 + (R->es[s] > 0) - (R->es[s] < 0);
+      if (dt == 1) slide_dir(1, y + offl + jc, U + jc * nr + 1, S->h2_t, R->es + s, &D);
+      for (t = 0; S->edir && t < dt; t++) R->es[s * dt + t] = S->edir[2 * S->cset[jc] + t];
+      R->scode[s] = 3 * S->cset[jc] + 1 + (R->es[s * dt] > 0) - (R->es[s * dt] < 0);
       nks++;
     }
-  fresh = !factor_current(R, S, W, WCC, nks);
+  /* a 3D direction is not in the key: a new factor for every matrix */
+  fresh = (dt == 2 && nks > 0) || !factor_current(R, S, W, WCC, nks);
   if (fresh && (st = red_factor(R, S, W, WCC, nks, ctx))) return st;
   if (R->kind == LS_RED_PINV && R->normal_null) {
     /* redundant normal impulses: the proximal term makes them unique (T136) */
@@ -592,7 +598,7 @@ int ls_reduced_step(ls_reduced *R, const ls_system *S, const mo_delassus *W, con
     if (R->cls[e] == LS_CLS_FIXED) target = 0;
     else if (R->coupled) {
       while (R->sc[s] != jc) s++;
-      target = -S->mu[S->cset[jc]] * R->es[s] * y[jc * nr];
+      target = -S->mu[S->cset[jc]] * R->es[s * dt + (e % nr) - 1] * y[jc * nr];
     } else if (dt == 1) {
       double ev, D;
       slide_dir(1, y + offl + jc, U + e, S->h2_t, &ev, &D);
@@ -640,9 +646,10 @@ int ls_reduced_step(ls_reduced *R, const ls_system *S, const mo_delassus *W, con
     int jc = e / nr;
     if (R->cls[e] != LS_CLS_SLIDE) continue;
     if (R->coupled) {
+      int t1 = (e % nr) - 1;
       while (R->sc[s] != jc) s++;
-      y[offl + jc] = R->es[s];
-      y[e] = -S->mu[S->cset[jc]] * R->es[s] * y[jc * nr];
+      y[offl + jc * dt + t1] = R->es[s * dt + t1];
+      y[e] = -S->mu[S->cset[jc]] * R->es[s * dt + t1] * y[jc * nr];
     } else if (dt == 1) {
       double ev, D;
       slide_dir(1, y + offl + jc, U + e, S->h2_t, &ev, &D); /* as for r' above: Lam = e */
@@ -661,7 +668,7 @@ int ls_reduced_step(ls_reduced *R, const ls_system *S, const mo_delassus *W, con
         double dr = three ? -tau_of(S, S->cset[R->sc[s]]) * R->t1[n + 2 * s + t] : 0;
         if (R->coupled) {
           for (i = 0; i < n && R->xc[i] != R->sc[s] * nr; i++) continue;
-          dr = -S->mu[S->cset[R->sc[s]]] * R->es[s] * R->bx[i];
+          dr = -S->mu[S->cset[R->sc[s]]] * R->es[s * dt + t] * R->bx[i];
         }
         if (dr != 0)
           for (e = 0; e < nu; e++) R->up[e] += WCC[(size_t)e * nu + c] * dr;

@@ -92,8 +92,7 @@ static int assemble(ls_sparse *Z, const ls_reduced *R, const ls_system *S, const
     }
   }
   for (s = 0; s < nks; s++) {
-    int jc = R->sc[s], j = S->cset[jc], bn = Z->pos[jc * nr], cnt;
-    double c = -S->mu[j] * R->es[s];
+    int jc = R->sc[s], j = S->cset[jc], bn = Z->pos[jc * nr], cnt, t;
     const int *beta;
     const double *blk;
     cnt = mo_delassus_row(W, j, &beta, &blk);
@@ -102,7 +101,9 @@ static int assemble(ls_sparse *Z, const ls_reduced *R, const ls_system *S, const
       if (kc < 0) continue;
       for (k = 0; k < nr; k++) {
         int a = Z->pos[kc * nr + k];
-        double v = blk[(size_t)p * d * d + (size_t)(1 * d + k)] * c; /* W(t(s), x_a) = W(x_a, t(s)) */
+        double v = 0;
+        /* W(t(s), x_a) = W(x_a, t(s)), times -mu e_t (T134, T143) */
+        for (t = 0; t < S->dt; t++) v += blk[(size_t)p * d * d + (size_t)((1 + t) * d + k)] * -S->mu[j] * R->es[s * S->dt + t];
         if (a >= 0 && v != 0 && (st = mo_triplet_add(&T, a, bn, v, ctx))) goto done;
       }
     }
@@ -149,8 +150,11 @@ int ls_sparse_step(ls_sparse *Z, ls_reduced *R, const ls_system *S, const mo_del
   if (R->coupled)
     for (s = 0; s < R->nS; s++) {
       int jc = R->sc[s];
-      double G = y[offl + jc] + S->h2_t * U[jc * nr + 1];
-      R->es[s] = G > 0 ? 1 : G < 0 ? -1 : 0;
+      double G = y[offl + jc * dt] + S->h2_t * U[jc * nr + 1];
+      int t;
+      if (S->edir)
+        for (t = 0; t < dt; t++) R->es[s * dt + t] = S->edir[2 * S->cset[jc] + t];
+      else R->es[s] = G > 0 ? 1 : G < 0 ? -1 : 0;
       nks++;
     }
   if ((st = assemble(Z, R, S, W, eps, dW, nks, &M, ctx))) return st;
@@ -186,7 +190,7 @@ int ls_sparse_step(ls_sparse *Z, ls_reduced *R, const ls_system *S, const mo_del
       if (R->cls[e] == LS_CLS_FIXED) target = 0;
       else {
         while (R->sc[s] != jc) s++;
-        target = -S->mu[S->cset[jc]] * R->es[s] * y[jc * nr];
+        target = -S->mu[S->cset[jc]] * R->es[s * dt + (e % nr) - 1] * y[jc * nr];
       }
       delta = target - y[e];
       if (delta == 0) continue;
@@ -200,8 +204,8 @@ int ls_sparse_step(ls_sparse *Z, ls_reduced *R, const ls_system *S, const mo_del
       int jc = e / nr;
       if (R->cls[e] != LS_CLS_SLIDE) continue;
       while (R->sc[s] != jc) s++;
-      y[offl + jc * dt] = R->es[s];
-      y[e] = -S->mu[S->cset[jc]] * R->es[s] * y[jc * nr];
+      y[offl + jc * dt + (e % nr) - 1] = R->es[s * dt + (e % nr) - 1];
+      y[e] = -S->mu[S->cset[jc]] * R->es[s * dt + (e % nr) - 1] * y[jc * nr];
     }
     if (S->k_n != 0 || S->k_t != 0) ls_sparse_velocity(S, W, b, eps, dW, y, up, bx);
     ls_reduced_multipliers(R, S, up, y, pg);
