@@ -173,10 +173,19 @@ int mo_contact_write_csv(const char *path, const mo_scene *sc, const mo_contact 
   mo_atomic_file A;
   A.f = NULL;
   cand_values_get(sc, C, Dr, &v);
-  other = mo_calloc(ctx, (size_t)C->nc * (size_t)d + 1, sizeof(double));
-  has_other = mo_calloc(ctx, (size_t)C->nc + 1, sizeof(int));
-  if (!other || !has_other) { st = MO_ENOMEM; goto done; }
+  /* the other representation's columns: only pairs with facets (P*) have one */
   for (k = 0; k < C->npair; k++) {
+    const double *P;
+    const int *cands;
+    int n;
+    if (!mo_contact_pair_P(C, k, &P, &n, &cands)) break;
+  }
+  if (k < C->npair) {
+    other = mo_calloc(ctx, (size_t)C->nc * (size_t)d + 1, sizeof(double));
+    has_other = mo_calloc(ctx, (size_t)C->nc + 1, sizeof(int));
+    if (!other || !has_other) { st = MO_ENOMEM; goto done; }
+  }
+  for (k = 0; other && k < C->npair; k++) {
     const double *P;
     const int *cands;
     int n;
@@ -195,7 +204,7 @@ int mo_contact_write_csv(const char *path, const mo_scene *sc, const mo_contact 
   /* streamed: a pile of 10^5 grains has 2 10^5 candidates */
   if ((st = mo_atomic_open(&A, path, ctx))) goto done;
   csv_header(A.f, sc->dim, d, 1);
-  for (a = 0; a < C->nc; a++) csv_row(A.f, sc, C, &v, s, a, 1, has_other[a] ? &other[a * d] : NULL);
+  for (a = 0; a < C->nc; a++) csv_row(A.f, sc, C, &v, s, a, 1, has_other && has_other[a] ? &other[a * d] : NULL);
   st = mo_atomic_commit(&A, 1, ctx);
   A.f = NULL;
 done:
