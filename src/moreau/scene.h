@@ -27,8 +27,8 @@ typedef struct mo_body {
   char *name;
   char *group;          /* the entry that generated it with others (an arch's voussoirs), or NULL */
   int entry;            /* its entry in the case's bodies list */
+  mo_body_kind kind;    /* (the int-sized fields in pairs: no padding, 376 bytes a body) */
   const struct mo_body_type *type;
-  mo_body_kind kind;
   mo_mesh *mesh;        /* deformable and rigid-mesh bodies */
   mo_material mat;
   int lumped;           /* lumped mass */
@@ -36,6 +36,7 @@ typedef struct mo_body {
      forces and tangents come from the kernels of fe_nonlinear.c, not from the scene's K */
   int nl;
   int npoint;           /* quadrature points per element (state blocks per element) */
+  int nvert;            /* polygon: its vertices (vert below) */
   size_t q0;            /* offset of its first state block in mo_state.q (doubles) */
   int dof0, ndof;       /* global dofs dof0 .. dof0+ndof-1; node a, component i: dof0+a*dim+i */
   double mass;          /* total mass (kg, or kg per unit thickness as the hypothesis says) */
@@ -46,7 +47,6 @@ typedef struct mo_body {
   double xc0[3];        /* centroid in the reference configuration */
   double theta0;        /* 2D: orientation in the reference configuration (rad) */
   double radius;        /* disk, sphere */
-  int nvert;
   double *vert;         /* polygon: vertices about the centroid in the body frame, counter-clockwise */
   double thickness;     /* 2D rigid bodies: out-of-plane thickness the mass is computed with */
   int orient;           /* 3D rigid bodies: index of the quaternion in mo_state.orient, else -1 */
