@@ -44,8 +44,7 @@ struct mo_metrics {
   long cset;                 /* the candidate set the arrays follow (mo_contact_set_version) */
   int *keys;                 /* its keys, to carry a detected candidate's history to the next set */
   mo_keymap kmap;
-  cand_hist *hold;           /* remapping scratch: the old set's histories */
-  double *wold;              /* and its dUp, alt (watch_any) */
+  int *map;                  /* remapping: each candidate's place in the old set (-1: new) */
   double tv_gone;            /* the largest variation of the candidates that left the set */
   long unmeasured;           /* steps left out of the contact measures (no memory to follow the set) */
   double max_pen, max_vn_closed, vscale, impulse, first_release, t_prev;
@@ -79,8 +78,7 @@ void mo_metrics_free(mo_metrics *M)
   mo_free(M->dUp);
   mo_free(M->alt);
   mo_free(M->keys);
-  mo_free(M->hold);
-  mo_free(M->wold);
+  mo_free(M->map);
   mo_keymap_free(&M->kmap);
   mo_free(M);
 }
@@ -105,9 +103,9 @@ static int room(mo_metrics *M, int nc, mo_ctx *ctx)
   if (nc <= M->cap && M->hist) return 1;
   n = (size_t)(nc + nc / 2) + 1;
 #define GROW(ptr, k) if (!(p = mo_realloc(ctx, ptr, (k) * sizeof *(ptr)))) return 0; ptr = p
-  GROW(M->hist, n); GROW(M->hold, n); GROW(M->keys, n * MO_KEY);
+  GROW(M->hist, n); GROW(M->map, n); GROW(M->keys, n * MO_KEY);
   if (M->watch_any) {
-    GROW(M->dUp, n); GROW(M->alt, n); GROW(M->wold, 2 * n);
+    GROW(M->dUp, n); GROW(M->alt, n);
     memset(M->dUp + old, 0, (n - old) * sizeof *M->dUp);
     memset(M->alt + old, 0, (n - old) * sizeof *M->alt);
   }
@@ -117,39 +115,77 @@ static int room(mo_metrics *M, int nc, mo_ctx *ctx)
   return 1;
 }
 
+/* Candidate o's history to place a. */
+static void move_hist(mo_metrics *M, int a, int o)
+{
+  M->hist[a] = M->hist[o];
+  if (M->dUp) {
+    M->dUp[a] = M->dUp[o];
+    M->alt[a] = M->alt[o];
+  }
+}
+
 /* After a new detection: the per-candidate histories carried to the new set by key (a new
    candidate starts open, with no history; one that left keeps its variation in tv_gone).
    0 on failure (the histories are then restarted). */
 static int follow(mo_metrics *M)
 {
   const mo_contact *C = M->C;
-  int nold = M->nc, nc = mo_contact_ncandidates(C), a, ok;
+  int nold = M->nc, nc = mo_contact_ncandidates(C), a, ok, mono = 1, last = -1;
+  cand_hist *copy = NULL;
+  double *wcopy = NULL;
   ok = room(M, nc > nold ? nc : nold, NULL) && !mo_keymap_build(&M->kmap, M->keys, nold, NULL);
   if (!ok) nold = 0;
-  else {
-    /* the old values aside */
-    memcpy(M->hold, M->hist, (size_t)nold * sizeof *M->hold);
-    for (a = 0; a < nold; a++) {
-      if (M->hist[a].tv > M->tv_gone) M->tv_gone = M->hist[a].tv;
-      if (M->hist[a].nsign > M->nsign_gone) M->nsign_gone = M->hist[a].nsign;
-    }
-    if (M->watch_any)
-      for (a = 0; a < nold; a++) {
-        if (M->alt[a] > M->alt_max) M->alt_max = M->alt[a];
-        M->wold[2 * a] = M->dUp[a];
-        M->wold[2 * a + 1] = M->alt[a];
-      }
+  for (a = 0; a < nold; a++) {
+    if (M->hist[a].tv > M->tv_gone) M->tv_gone = M->hist[a].tv;
+    if (M->hist[a].nsign > M->nsign_gone) M->nsign_gone = M->hist[a].nsign;
+    if (M->alt && M->alt[a] > M->alt_max) M->alt_max = M->alt[a];
   }
   nc = nc < M->cap ? nc : M->cap;
+  /* each candidate's place in the old set, in increasing order so far (the detection's) */
   for (a = 0; a < nc; a++) {
-    int o = nold ? mo_keymap_find(&M->kmap, mo_contact_key(C, a)) : -1;
-    if (o >= 0) M->hist[a] = M->hold[o];
-    else memset(&M->hist[a], 0, sizeof M->hist[a]);
-    if (M->watch_any) {
-      M->dUp[a] = o >= 0 ? M->wold[2 * o] : 0;
-      M->alt[a] = o >= 0 ? M->wold[2 * o + 1] : 0;
-    }
+    int o = M->map[a] = nold ? mo_keymap_find(&M->kmap, mo_contact_key(C, a)) : -1;
+    if (o >= 0 && o <= last) mono = 0;
+    if (o >= 0) last = o;
   }
+  if (nold && !mono) {
+    /* out of order: from a copy of the moment (none: the histories restart) */
+    copy = mo_malloc(NULL, (size_t)nold * sizeof *copy);
+    wcopy = M->dUp ? mo_malloc(NULL, 2 * (size_t)nold * sizeof *wcopy) : NULL;
+    if (!copy || (M->dUp && !wcopy)) {
+      ok = 0;
+      for (a = 0; a < nc; a++) M->map[a] = -1;
+    } else {
+      memcpy(copy, M->hist, (size_t)nold * sizeof *copy);
+      if (M->dUp) {
+        memcpy(wcopy, M->dUp, (size_t)nold * sizeof *wcopy);
+        memcpy(wcopy + nold, M->alt, (size_t)nold * sizeof *wcopy);
+      }
+      for (a = 0; a < nc; a++) {
+        int o = M->map[a];
+        if (o < 0) continue;
+        M->hist[a] = copy[o];
+        if (M->dUp) {
+          M->dUp[a] = wcopy[o];
+          M->alt[a] = wcopy[nold + o];
+        }
+      }
+    }
+  } else {
+    /* in place: those that move down from the front, those that move up from the back */
+    for (a = 0; a < nc; a++)
+      if (M->map[a] > a) move_hist(M, a, M->map[a]);
+    for (a = nc - 1; a >= 0; a--)
+      if (M->map[a] >= 0 && M->map[a] < a) move_hist(M, a, M->map[a]);
+  }
+  /* a new candidate starts open, with no history */
+  for (a = 0; a < nc; a++)
+    if (M->map[a] < 0) {
+      memset(&M->hist[a], 0, sizeof M->hist[a]);
+      if (M->dUp) M->dUp[a] = M->alt[a] = 0;
+    }
+  mo_free(copy);
+  mo_free(wcopy);
   if (nc) memcpy(M->keys, mo_contact_key(C, 0), (size_t)nc * MO_KEY * sizeof *M->keys);
   M->nc = nc;
   M->cset = mo_contact_set_version(C);
