@@ -277,8 +277,9 @@ struct mo_contact_driver {
   int *status;
   int *key;                  /* nc * MO_KEY: the candidates the arrays hold */
   double *xfull, *xf, *dx, *dxfull, *xnl, *gnl;
-  double *tmp;               /* remapping scratch (m values) */
-  int *itmp;
+  double *tmp;               /* the general path's remapping scratch (2 m + nc values) and the position
+                                correction's; NULL on the granular path */
+  int *itmp;                 /* fit: each candidate's place in the old set */
   mo_keymap kmap;            /* fit: the old keys' positions */
   int any_step, it_step, loops_step[4]; /* nonlinear steps: totals over the Newton iterations */
   /* the problem of the last solve on its index set, kept when wkeep (FCLIB dumps): sv_n
@@ -332,7 +333,7 @@ static int grow(mo_contact_driver *D, int nc, mo_ctx *ctx)
   while (cap < nc) cap = cap ? 2 * cap : 16;
 #define GROW(ptr, n) if (!(p = mo_realloc(ctx, ptr, (size_t)(n) * sizeof *(ptr)))) return MO_ENOMEM; ptr = p
   GROW(D->b, (size_t)cap * d); GROW(D->q, (size_t)cap * d); GROW(D->U, (size_t)cap * d);
-  GROW(D->Uprev, (size_t)cap * d); GROW(D->r, (size_t)cap * d); GROW(D->tmp, (size_t)cap * d * 2);
+  GROW(D->Uprev, (size_t)cap * d); GROW(D->r, (size_t)cap * d);
   GROW(D->mu, cap); GROW(D->active, cap); GROW(D->act, cap + 1);
   GROW(D->status, cap); GROW(D->key, (size_t)cap * MO_KEY); GROW(D->itmp, (size_t)cap + 1);
   /* the reactions of the previous step for Newton's iterates (nonlinear scenes), the gaps of the
@@ -343,6 +344,9 @@ static int grow(mo_contact_driver *D, int nc, mo_ctx *ctx)
   if (!mo_contact_is_compact(D->C)) { /* the compact records' measures are all 1: P->w NULL */
     GROW(D->gk, cap);
     GROW(D->w, cap);
+    /* the remap's scratch and the position correction's (T95); the compact records' remap is in
+       place (fit) */
+    GROW(D->tmp, (size_t)cap * d * 2 + cap + 1);
   }
 #undef GROW
   D->cap = cap;
@@ -378,8 +382,9 @@ static int fit(mo_contact_driver *D, const mo_state *s, const int *okey, int nol
 {
   const mo_contact *C = D->C;
   int nc = mo_contact_ncandidates(C), d = D->d, a, i, st, ns = mo_contact_nstatic(C);
-  double *nr, *nU;
-  int *nst, own = okey == D->key;
+  int *map, own = okey == D->key, mono = 1, last = -1;
+  double *spare = NULL;
+  const double *ostd = NULL; /* the old statuses, when copied aside */
   if ((st = grow(D, nc > nold ? nc : nold, ctx))) return st;
   if (own) { /* grow may have moved the driver's own arrays (their contents kept) */
     okey = D->key;
@@ -387,26 +392,66 @@ static int fit(mo_contact_driver *D, const mo_state *s, const int *okey, int nol
     oU = D->U;
     ost = D->status;
   }
-  /* the old values aside (they may be the arrays about to be rewritten) */
-  nr = D->tmp;
-  nU = D->tmp + (size_t)D->cap * d;
-  nst = D->itmp;
-  if (nold) {
-    memcpy(nr, orr, (size_t)nold * d * sizeof *nr);
-    memcpy(nU, oU, (size_t)nold * d * sizeof *nU);
-    memcpy(nst, ost, (size_t)nold * sizeof *nst);
-  }
+  /* each new candidate's place in the old set (-1: new), in increasing order so far: the
+     detection keeps its order from set to set */
   if ((st = mo_keymap_build(&D->kmap, okey, nold, ctx))) return st;
+  map = D->itmp;
+  for (a = 0; a < nc; a++) {
+    int o = map[a] = mo_keymap_find(&D->kmap, mo_contact_key(C, a));
+    if (o >= 0 && o <= last) mono = 0;
+    if (o >= 0) last = o;
+  }
+  if (own && nold && (D->tmp || !mono)) {
+    /* the old values aside, the arrays about to be rewritten: in the scratch of the general path,
+       or for a map out of order in a copy of the moment */
+    double *nr = D->tmp;
+    if (!nr && !(nr = spare = mo_malloc(ctx, ((size_t)nold * (2 * (size_t)d + 1) + 1) * sizeof *nr))) return MO_ENOMEM;
+    memcpy(nr, orr, (size_t)nold * d * sizeof *nr);
+    memcpy(nr + (size_t)nold * d, oU, (size_t)nold * d * sizeof *nr);
+    for (a = 0; a < nold; a++) nr[(size_t)nold * 2 * d + a] = ost[a]; /* statuses (0, 1, 2) exactly */
+    orr = nr;
+    oU = nr + (size_t)nold * d;
+    ostd = nr + (size_t)nold * 2 * d;
+    own = 0;
+  }
   fresh_uprev(D, s, ns, nc);
+  if (own) {
+    /* in place (an increasing map): the candidates that move down first, from the front, then
+       those that move up, from the back, so that each reads its old values before they are
+       overwritten; then the new ones */
+    for (a = 0; a < nc; a++)
+      if (map[a] > a) {
+        memcpy(D->r + (size_t)a * d, D->r + (size_t)map[a] * d, (size_t)d * sizeof *D->r);
+        memcpy(D->U + (size_t)a * d, D->U + (size_t)map[a] * d, (size_t)d * sizeof *D->U);
+        D->status[a] = D->status[map[a]];
+      }
+    for (a = nc - 1; a >= 0; a--)
+      if (map[a] >= 0 && map[a] < a) {
+        memcpy(D->r + (size_t)a * d, D->r + (size_t)map[a] * d, (size_t)d * sizeof *D->r);
+        memcpy(D->U + (size_t)a * d, D->U + (size_t)map[a] * d, (size_t)d * sizeof *D->U);
+        D->status[a] = D->status[map[a]];
+      }
+    for (a = 0; a < nc; a++)
+      if (map[a] < 0) {
+        for (i = 0; i < d; i++) {
+          D->r[a * d + i] = 0;
+          D->U[a * d + i] = D->Uprev[a * d + i];
+        }
+        D->status[a] = MO_CS_OPEN;
+      }
+  } else
+    for (a = 0; a < nc; a++) {
+      int o = map[a];
+      for (i = 0; i < d; i++) {
+        D->r[a * d + i] = o >= 0 ? orr[o * d + i] : 0;
+        D->U[a * d + i] = o >= 0 ? oU[o * d + i] : D->Uprev[a * d + i];
+      }
+      D->status[a] = o < 0 ? MO_CS_OPEN : ostd ? (int)ostd[o] : ost[o];
+    }
+  mo_free(spare);
   for (a = 0; a < nc; a++) {
     mo_candidate cb;
     const mo_candidate *c = mo_contact_cand_get(C, a, &cb);
-    int o = mo_keymap_find(&D->kmap, mo_contact_key(C, a));
-    for (i = 0; i < d; i++) {
-      D->r[a * d + i] = o >= 0 ? nr[o * d + i] : 0;
-      D->U[a * d + i] = o >= 0 ? nU[o * d + i] : D->Uprev[a * d + i];
-    }
-    D->status[a] = o >= 0 ? nst[o] : MO_CS_OPEN;
     D->mu[a] = c->mu;
     if (D->w) D->w[a] = c->w;
   }
@@ -540,11 +585,12 @@ long mo_contact_driver_failures(const mo_contact_driver *D) { return D->failures
 size_t mo_contact_driver_bytes(const mo_contact_driver *D, size_t *per_dof)
 {
   const size_t d = (size_t)D->d, cap = (size_t)D->cap, sd = sizeof(double);
-  size_t c = cap * (5 * d * sd + 2 * d * sd + sd + 1 + 4 * sizeof(int) + MO_KEY * sizeof(int));
+  size_t c = cap * (5 * d * sd + sd + 1 + 4 * sizeof(int) + MO_KEY * sizeof(int));
   size_t n = (size_t)D->sc->ndof, nf = (size_t)D->sc->nfree, dof = (2 * n + 2 * nf) * sd;
   if (D->rprev) c += cap * d * sd;
   if (D->gk) c += cap * sd;
   if (D->w) c += cap * sd;
+  if (D->tmp) c += (cap * (2 * d + 1) + 1) * sd;
   if (D->ukin) c += (size_t)D->ukcap * d * sd;
   if (D->kmap.tab) c += ((size_t)D->kmap.mask + 1) * sizeof(int);
   if (D->gvel) dof += (size_t)D->sc->nbody * (sizeof(int) + (size_t)D->sc->dim * sd);

@@ -173,10 +173,19 @@ int mo_contact_write_csv(const char *path, const mo_scene *sc, const mo_contact 
   mo_atomic_file A;
   A.f = NULL;
   cand_values_get(sc, C, Dr, &v);
-  other = mo_calloc(ctx, (size_t)C->nc * (size_t)d + 1, sizeof(double));
-  has_other = mo_calloc(ctx, (size_t)C->nc + 1, sizeof(int));
-  if (!other || !has_other) { st = MO_ENOMEM; goto done; }
+  /* the other representation's columns: only pairs with facets (P*) have one */
   for (k = 0; k < C->npair; k++) {
+    const double *P;
+    const int *cands;
+    int n;
+    if (!mo_contact_pair_P(C, k, &P, &n, &cands)) break;
+  }
+  if (k < C->npair) {
+    other = mo_calloc(ctx, (size_t)C->nc * (size_t)d + 1, sizeof(double));
+    has_other = mo_calloc(ctx, (size_t)C->nc + 1, sizeof(int));
+    if (!other || !has_other) { st = MO_ENOMEM; goto done; }
+  }
+  for (k = 0; other && k < C->npair; k++) {
     const double *P;
     const int *cands;
     int n;
@@ -195,7 +204,7 @@ int mo_contact_write_csv(const char *path, const mo_scene *sc, const mo_contact 
   /* streamed: a pile of 10^5 grains has 2 10^5 candidates */
   if ((st = mo_atomic_open(&A, path, ctx))) goto done;
   csv_header(A.f, sc->dim, d, 1);
-  for (a = 0; a < C->nc; a++) csv_row(A.f, sc, C, &v, s, a, 1, has_other[a] ? &other[a * d] : NULL);
+  for (a = 0; a < C->nc; a++) csv_row(A.f, sc, C, &v, s, a, 1, has_other && has_other[a] ? &other[a * d] : NULL);
   st = mo_atomic_commit(&A, 1, ctx);
   A.f = NULL;
 done:
@@ -365,23 +374,20 @@ static void network_line(const mo_scene *sc, const mo_state *s, const mo_cpoint 
   else memcpy(ends + 3, cp, 3 * sizeof *ends);
 }
 
-int mo_contact_network(const mo_scene *sc, const mo_contact *C, const mo_contact_driver *Dr,
-                       const mo_state *s, mo_vtk_contacts *N, mo_ctx *ctx)
+/* The next chunk of the network: the lines from candidate src.cursor on. */
+static int network_fill(mo_vtk_contacts *N, mo_ctx *ctx)
 {
-  const double *r, *g;
-  const int *status;
-  double fs;
-  int a, i, d, nc, st;
-  N->n = 0;
-  if (!C || !Dr) return MO_OK;
-  d = C->dim;
-  nc = mo_contact_ncandidates(C);
-  r = mo_contact_reactions(Dr);
-  g = mo_contact_gaps(C);
-  status = mo_contact_statuses(Dr);
-  fs = force_scale(sc, Dr);
-  if ((st = mo_vtk_contacts_reserve(N, nc, ctx))) return st;
-  for (a = 0; a < nc; a++) {
+  const mo_scene *sc = N->src.sc;
+  const mo_contact *C = N->src.C;
+  const mo_contact_driver *Dr = N->src.D;
+  const mo_state *s = N->src.s;
+  const double *r = mo_contact_reactions(Dr), *g = mo_contact_gaps(C), fs = force_scale(sc, Dr);
+  const int *status = mo_contact_statuses(Dr);
+  long want = N->total - N->first;
+  int a, i, d = C->dim, nc = mo_contact_ncandidates(C);
+  (void)ctx;
+  if (want > N->cap) want = N->cap;
+  for (a = (int)N->src.cursor; a < nc && N->n < want; a++) {
     mo_cpoint pb;
     const mo_cpoint *p;
     double rt = 0;
@@ -399,28 +405,55 @@ int mo_contact_network(const mo_scene *sc, const mo_contact *C, const mo_contact
     N->body[2 * n + 1] = p->mb;
     N->n++;
   }
+  N->src.cursor = a;
   return MO_OK;
 }
 
-int mo_contact_points(const mo_scene *sc, const mo_contact *C, const mo_contact_driver *Dr, const mo_state *s,
-                      int closed_only, mo_vtk_points *P, mo_ctx *ctx)
+int mo_contact_network(const mo_scene *sc, const mo_contact *C, const mo_contact_driver *Dr,
+                       const mo_state *s, mo_vtk_contacts *N, mo_ctx *ctx)
 {
   cand_values v;
-  int a, i, l, d, st;
-  P->n = 0;
+  long total = 0;
+  int a, st;
+  N->total = 0;
+  N->fill = NULL;
+  mo_vtk_contacts_rewind(N);
   if (!C || !Dr) return MO_OK;
-  d = C->dim;
   cand_values_get(sc, C, Dr, &v);
-  if ((st = mo_vtk_points_reserve(P, C->nc, d, ctx))) return st;
-  for (a = 0; a < C->nc; a++) {
+  for (a = 0; a < mo_contact_ncandidates(C); a++) total += cand_closed(&v, C->dim, a);
+  if ((st = mo_vtk_contacts_reserve(N, total < MO_VTK_CHUNK ? (int)total : MO_VTK_CHUNK, ctx))) return st;
+  N->src.sc = sc;
+  N->src.C = C;
+  N->src.D = Dr;
+  N->src.s = s;
+  N->total = total;
+  N->fill = network_fill;
+  return MO_OK;
+}
+
+/* The next chunk of the contact points: from candidate src.cursor on. */
+static int points_fill(mo_vtk_points *P, mo_ctx *ctx)
+{
+  const mo_scene *sc = P->src.sc;
+  const mo_contact *C = P->src.C;
+  const mo_state *s = P->src.s;
+  cand_values v;
+  long want = P->total - P->first;
+  int a, i, l, d = C->dim;
+  (void)ctx;
+  cand_values_get(sc, C, P->src.D, &v);
+  if (want > P->cap) want = P->cap;
+  for (a = (int)P->src.cursor; a < C->nc && P->n < want; a++) {
     mo_candidate cb;
     mo_cpoint pb;
-    const mo_candidate *c = mo_contact_cand_get(C, a, &cb);
-    const mo_cpoint *p = mo_contact_cand_point(C, a, &pb);
+    const mo_candidate *c;
+    const mo_cpoint *p;
     const double *F = &mo_contact_frames(C)[(size_t)a * d * d];
     int n = P->n;
     double *x = P->x + 3 * n, *f = P->force + 3 * n, *w = P->vrel + 3 * n;
-    if (closed_only && !cand_closed(&v, d, a)) continue;
+    if (P->src.closed_only && !cand_closed(&v, d, a)) continue;
+    c = mo_contact_cand_get(C, a, &cb);
+    p = mo_contact_cand_point(C, a, &pb);
     network_material(sc, s, p->sb, p->nn, p->node, p->N, p->xs, x);
     memset(P->x0 + 3 * n, 0, 3 * sizeof(double));
     memcpy(P->x0 + 3 * n, p->x0, (size_t)sc->dim * sizeof(double));
@@ -451,5 +484,29 @@ int mo_contact_points(const mo_scene *sc, const mo_contact *C, const mo_contact_
     P->body[2 * n + 1] = p->mb;
     P->n++;
   }
+  P->src.cursor = a;
+  return MO_OK;
+}
+
+int mo_contact_points(const mo_scene *sc, const mo_contact *C, const mo_contact_driver *Dr, const mo_state *s,
+                      int closed_only, mo_vtk_points *P, mo_ctx *ctx)
+{
+  cand_values v;
+  long total = 0;
+  int a, st;
+  P->total = 0;
+  P->fill = NULL;
+  mo_vtk_points_rewind(P);
+  if (!C || !Dr) return MO_OK;
+  cand_values_get(sc, C, Dr, &v);
+  for (a = 0; a < C->nc; a++) total += !closed_only || cand_closed(&v, C->dim, a);
+  if ((st = mo_vtk_points_reserve(P, total < MO_VTK_CHUNK ? (int)total : MO_VTK_CHUNK, C->dim, ctx))) return st;
+  P->src.sc = sc;
+  P->src.C = C;
+  P->src.D = Dr;
+  P->src.s = s;
+  P->src.closed_only = closed_only;
+  P->total = total;
+  P->fill = points_fill;
   return MO_OK;
 }

@@ -69,7 +69,7 @@ int mo_contact_detect_setup(mo_contact *C, mo_ctx *ctx)
   C->mside = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->mside);
   C->sside = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->sside);
   C->rr = mo_malloc(ctx, ((size_t)C->npair + 1) * sizeof *C->rr);
-  C->bc = mo_calloc(ctx, 3 * (size_t)sc->nbody + 1, sizeof *C->bc);
+  C->bc = mo_calloc(ctx, (size_t)sc->dim * sc->nbody + 1, sizeof *C->bc); /* D per body (T110) */
   C->bcur = mo_calloc(ctx, (size_t)sc->dim * sc->nbody + 1, sizeof *C->bcur);
   C->bdof = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *C->bdof);
   C->br = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->br);

@@ -345,24 +345,27 @@ static void body_outline(mo_draw *d, const mo_scene *sc, const mo_state *s, int 
   }
 }
 
-/* The contact network: x y dx dy rn, from the slave side to the master side. */
-static void frame_network(mo_draw *d, const mo_scene *sc, const mo_vtk_contacts *net)
+/* The contact network: x y dx dy rn, from the slave side to the master side (chunk by chunk). */
+static int frame_network(mo_draw *d, const mo_scene *sc, mo_vtk_contacts *net, mo_ctx *ctx)
 {
-  int k;
-  for (k = 0; k < net->n; k++) {
-    const double *e = net->end + 6 * k;
-    double y0 = sc->dim > 1 ? e[1] : 0, y1 = sc->dim > 1 ? e[4] : 0;
-    fprintf(d->f, "%.9g %.9g %.9g %.9g %.9g\n", e[0], y0, e[3] - e[0], y1 - y0, net->rn[k]);
-    bb_add(d, e[0], y0, 0);
-    bb_add(d, e[3], y1, 0);
-    if (net->rn[k] > d->rnmax) d->rnmax = net->rn[k];
-  }
+  int k, st;
+  mo_vtk_contacts_rewind(net);
+  while (!(st = mo_vtk_contacts_next(net, ctx)) && net->n)
+    for (k = 0; k < net->n; k++) {
+      const double *e = net->end + 6 * k;
+      double y0 = sc->dim > 1 ? e[1] : 0, y1 = sc->dim > 1 ? e[4] : 0;
+      fprintf(d->f, "%.9g %.9g %.9g %.9g %.9g\n", e[0], y0, e[3] - e[0], y1 - y0, net->rn[k]);
+      bb_add(d, e[0], y0, 0);
+      bb_add(d, e[3], y1, 0);
+      if (net->rn[k] > d->rnmax) d->rnmax = net->rn[k];
+    }
+  return st;
 }
 
-int mo_draw_frame(mo_draw *d, const mo_scene *sc, const mo_state *s, const mo_vtk_contacts *net, mo_ctx *ctx)
+int mo_draw_frame(mo_draw *d, const mo_scene *sc, const mo_state *s, mo_vtk_contacts *net, mo_ctx *ctx)
 {
   frame_info *fi;
-  int b;
+  int b, st;
   if (!d->f) return MO_OK;
   if (d->nframe == d->cap) {
     int cap = d->cap ? 2 * d->cap : 64;
@@ -381,7 +384,7 @@ int mo_draw_frame(mo_draw *d, const mo_scene *sc, const mo_state *s, const mo_vt
   fputs("\n\n# outlines\nNaN NaN\n", d->f);
   for (b = 0; b < sc->nbody; b++) body_outline(d, sc, s, b);
   fputs("\n\n# contact network\nNaN NaN NaN NaN NaN\n", d->f);
-  if (d->forces && net) frame_network(d, sc, net);
+  if (d->forces && net && (st = frame_network(d, sc, net, ctx))) return st;
   fputs("\n\n", d->f);
   if (ferror(d->f)) return mo_error(ctx, MO_EOUTPUT, "cannot write '%s/draw.dat'", d->dir);
   d->nframe++;

@@ -19,7 +19,7 @@ int mo_draw_wants(const mo_draw *d, long step);
 /* Append the geometry of state s to plots/draw.dat (bodies in the current configuration, the
    contact network net when output.draw.forces; net may be NULL). Nothing is kept in memory but
    the frame's step and time and the bounding box. */
-int mo_draw_frame(mo_draw *d, const mo_scene *sc, const mo_state *s, const mo_vtk_contacts *net, mo_ctx *ctx);
+int mo_draw_frame(mo_draw *d, const mo_scene *sc, const mo_state *s, mo_vtk_contacts *net, mo_ctx *ctx);
 /* Close draw.dat (planes clipped to the view appended), write plots/draw.gp, and render it when
    gnuplot is on PATH; logs "draw: N figures, M rendered". A gnuplot that fails is reported,
    not an error of the run. */

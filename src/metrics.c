@@ -11,6 +11,17 @@
 
 #define MAX_IMPACTS 64
 
+/* One candidate's history, carried from set to set by its key (24 bytes): what the contact
+   measures of every law read. */
+typedef struct {
+  double Unprev;             /* the normal relative velocity of the previous step */
+  double tv;                 /* the total variation of U_n while closed */
+  int nsign;                 /* the sign changes of U_n while closed (T97) */
+  signed char prevstatus;    /* the status of the previous step (MO_CS_*) */
+  unsigned char incontact;   /* in contact at the previous step */
+  unsigned char landed;      /* it has borne once (its first landing is behind) */
+} cand_hist;
+
 struct mo_metrics {
   const mo_scene *sc;
   const mo_contact *C;
@@ -24,17 +35,16 @@ struct mo_metrics {
   /* contact */
   int nc, d;                 /* candidates: those of the last step (static ones first) */
   int cap;                   /* capacity of the per-candidate arrays: detected ones come and go */
-  double *Unprev;            /* normal relative velocities of the previous step */
-  int *prevstatus;           /* per candidate */
-  double *tv;                /* total variation of U_n while closed, per candidate */
+  cand_hist *hist;           /* per candidate */
+  /* the chatter detector's (T93), for the laws it watches (Signorini, the gap law) only: NULL
+     when no pair has one of them (granular scenes under Moreau's impact law) */
+  int watch_any;
   double *dUp;               /* the last increment of U_n between bearing steps (0: none) (T93) */
   double *alt;               /* per candidate: alternations of the sign of that increment (T93) */
-  int *nsign;                /* sign changes of U_n while closed, per candidate (T97) */
-  unsigned char *landed;     /* per candidate: it has borne once (its first landing is behind) */
   long cset;                 /* the candidate set the arrays follow (mo_contact_set_version) */
   int *keys;                 /* its keys, to carry a detected candidate's history to the next set */
   mo_keymap kmap;
-  double *tmp;               /* remapping scratch */
+  int *map;                  /* remapping: each candidate's place in the old set (-1: new) */
   double tv_gone;            /* the largest variation of the candidates that left the set */
   long unmeasured;           /* steps left out of the contact measures (no memory to follow the set) */
   double max_pen, max_vn_closed, vscale, impulse, first_release, t_prev;
@@ -52,7 +62,6 @@ struct mo_metrics {
   int nsign_gone;            /* the most sign changes of the candidates that left the set */
   long flips;
   int closed_prev;           /* number of candidates in contact at the previous step */
-  unsigned char *incontact;  /* per candidate, at the previous step */
   double gtol;               /* a gap above this is open (1e-9 of the smallest element) */
   int nimpact, nimpact_total;    /* the first MAX_IMPACTS are listed, all are counted */
   double impact_energy[MAX_IMPACTS], impact_time[MAX_IMPACTS], last_impact_energy, last_impact_time;
@@ -65,16 +74,11 @@ void mo_metrics_free(mo_metrics *M)
 {
   if (!M) return;
   mo_free(M->work);
-  mo_free(M->Unprev);
-  mo_free(M->prevstatus);
-  mo_free(M->tv);
+  mo_free(M->hist);
   mo_free(M->dUp);
   mo_free(M->alt);
-  mo_free(M->nsign);
-  mo_free(M->landed);
-  mo_free(M->incontact);
   mo_free(M->keys);
-  mo_free(M->tmp);
+  mo_free(M->map);
   mo_keymap_free(&M->kmap);
   mo_free(M);
 }
@@ -94,25 +98,31 @@ double mo_metrics_hmin(const mo_scene *sc)
 /* Room for nc candidates in the per-candidate arrays (contents kept); 0 on failure. */
 static int room(mo_metrics *M, int nc, mo_ctx *ctx)
 {
-  size_t n;
+  size_t n, old = (size_t)M->cap;
   void *p;
-  if (nc <= M->cap && M->Unprev) return 1;
+  if (nc <= M->cap && M->hist) return 1;
   n = (size_t)(nc + nc / 2) + 1;
 #define GROW(ptr, k) if (!(p = mo_realloc(ctx, ptr, (k) * sizeof *(ptr)))) return 0; ptr = p
-  GROW(M->Unprev, n); GROW(M->prevstatus, n); GROW(M->tv, n);
-  GROW(M->dUp, n); GROW(M->alt, n); GROW(M->nsign, n); GROW(M->landed, n);
-  GROW(M->incontact, n); GROW(M->keys, n * MO_KEY); GROW(M->tmp, 8 * n);
+  GROW(M->hist, n); GROW(M->map, n); GROW(M->keys, n * MO_KEY);
+  if (M->watch_any) {
+    GROW(M->dUp, n); GROW(M->alt, n);
+    memset(M->dUp + old, 0, (n - old) * sizeof *M->dUp);
+    memset(M->alt + old, 0, (n - old) * sizeof *M->alt);
+  }
 #undef GROW
-  memset(M->Unprev + M->cap, 0, (n - (size_t)M->cap) * sizeof *M->Unprev);
-  memset(M->prevstatus + M->cap, 0, (n - (size_t)M->cap) * sizeof *M->prevstatus);
-  memset(M->tv + M->cap, 0, (n - (size_t)M->cap) * sizeof *M->tv);
-  memset(M->dUp + M->cap, 0, (n - (size_t)M->cap) * sizeof *M->dUp);
-  memset(M->alt + M->cap, 0, (n - (size_t)M->cap) * sizeof *M->alt);
-  memset(M->nsign + M->cap, 0, (n - (size_t)M->cap) * sizeof *M->nsign);
-  memset(M->landed + M->cap, 0, n - (size_t)M->cap);
-  memset(M->incontact + M->cap, 0, n - (size_t)M->cap);
+  memset(M->hist + old, 0, (n - old) * sizeof *M->hist); /* MO_CS_OPEN is 0 */
   M->cap = (int)n - 1;
   return 1;
+}
+
+/* Candidate o's history to place a. */
+static void move_hist(mo_metrics *M, int a, int o)
+{
+  M->hist[a] = M->hist[o];
+  if (M->dUp) {
+    M->dUp[a] = M->dUp[o];
+    M->alt[a] = M->alt[o];
+  }
 }
 
 /* After a new detection: the per-candidate histories carried to the new set by key (a new
@@ -121,46 +131,61 @@ static int room(mo_metrics *M, int nc, mo_ctx *ctx)
 static int follow(mo_metrics *M)
 {
   const mo_contact *C = M->C;
-  int nold = M->nc, nc = mo_contact_ncandidates(C), a, ok;
-  double *oUp, *otv, *ost, *oin, *odU, *oalt, *ons, *ola;
+  int nold = M->nc, nc = mo_contact_ncandidates(C), a, ok, mono = 1, last = -1;
+  cand_hist *copy = NULL;
+  double *wcopy = NULL;
   ok = room(M, nc > nold ? nc : nold, NULL) && !mo_keymap_build(&M->kmap, M->keys, nold, NULL);
   if (!ok) nold = 0;
-  else {
-    /* the old values aside: tmp holds 6 values per candidate */
-    oUp = M->tmp;
-    otv = oUp + nold;
-    ost = otv + nold;
-    oin = ost + nold;
-    odU = oin + nold;
-    oalt = odU + nold;
-    ons = oalt + nold;
-    ola = ons + nold;
-    for (a = 0; a < nold; a++) {
-      odU[a] = M->dUp[a];
-      oalt[a] = M->alt[a];
-      if (M->alt[a] > M->alt_max) M->alt_max = M->alt[a];
-      oUp[a] = M->Unprev[a];
-      otv[a] = M->tv[a];
-      ost[a] = M->prevstatus[a];
-      oin[a] = M->incontact[a];
-      ons[a] = M->nsign[a];
-      ola[a] = M->landed[a];
-      if (M->tv[a] > M->tv_gone) M->tv_gone = M->tv[a];
-      if (M->nsign[a] > M->nsign_gone) M->nsign_gone = M->nsign[a];
-    }
+  for (a = 0; a < nold; a++) {
+    if (M->hist[a].tv > M->tv_gone) M->tv_gone = M->hist[a].tv;
+    if (M->hist[a].nsign > M->nsign_gone) M->nsign_gone = M->hist[a].nsign;
+    if (M->alt && M->alt[a] > M->alt_max) M->alt_max = M->alt[a];
   }
   nc = nc < M->cap ? nc : M->cap;
+  /* each candidate's place in the old set, in increasing order so far (the detection's) */
   for (a = 0; a < nc; a++) {
-    int o = nold ? mo_keymap_find(&M->kmap, mo_contact_key(C, a)) : -1;
-    M->Unprev[a] = o >= 0 ? oUp[o] : 0;
-    M->tv[a] = o >= 0 ? otv[o] : 0;
-    M->dUp[a] = o >= 0 ? odU[o] : 0;
-    M->alt[a] = o >= 0 ? oalt[o] : 0;
-    M->prevstatus[a] = o >= 0 ? (int)ost[o] : MO_CS_OPEN;
-    M->incontact[a] = o >= 0 ? (unsigned char)oin[o] : 0;
-    M->nsign[a] = o >= 0 ? (int)ons[o] : 0;
-    M->landed[a] = o >= 0 ? (unsigned char)ola[o] : 0;
+    int o = M->map[a] = nold ? mo_keymap_find(&M->kmap, mo_contact_key(C, a)) : -1;
+    if (o >= 0 && o <= last) mono = 0;
+    if (o >= 0) last = o;
   }
+  if (nold && !mono) {
+    /* out of order: from a copy of the moment (none: the histories restart) */
+    copy = mo_malloc(NULL, (size_t)nold * sizeof *copy);
+    wcopy = M->dUp ? mo_malloc(NULL, 2 * (size_t)nold * sizeof *wcopy) : NULL;
+    if (!copy || (M->dUp && !wcopy)) {
+      ok = 0;
+      for (a = 0; a < nc; a++) M->map[a] = -1;
+    } else {
+      memcpy(copy, M->hist, (size_t)nold * sizeof *copy);
+      if (M->dUp) {
+        memcpy(wcopy, M->dUp, (size_t)nold * sizeof *wcopy);
+        memcpy(wcopy + nold, M->alt, (size_t)nold * sizeof *wcopy);
+      }
+      for (a = 0; a < nc; a++) {
+        int o = M->map[a];
+        if (o < 0) continue;
+        M->hist[a] = copy[o];
+        if (M->dUp) {
+          M->dUp[a] = wcopy[o];
+          M->alt[a] = wcopy[nold + o];
+        }
+      }
+    }
+  } else {
+    /* in place: those that move down from the front, those that move up from the back */
+    for (a = 0; a < nc; a++)
+      if (M->map[a] > a) move_hist(M, a, M->map[a]);
+    for (a = nc - 1; a >= 0; a--)
+      if (M->map[a] >= 0 && M->map[a] < a) move_hist(M, a, M->map[a]);
+  }
+  /* a new candidate starts open, with no history */
+  for (a = 0; a < nc; a++)
+    if (M->map[a] < 0) {
+      memset(&M->hist[a], 0, sizeof M->hist[a]);
+      if (M->dUp) M->dUp[a] = M->alt[a] = 0;
+    }
+  mo_free(copy);
+  mo_free(wcopy);
   if (nc) memcpy(M->keys, mo_contact_key(C, 0), (size_t)nc * MO_KEY * sizeof *M->keys);
   M->nc = nc;
   M->cset = mo_contact_set_version(C);
@@ -195,7 +220,7 @@ static double oscillation_index(const mo_metrics *M)
 {
   double osc = M->tv_gone, V = oscillation_scale(M);
   int a;
-  for (a = 0; a < M->nc; a++) if (M->tv[a] > osc) osc = M->tv[a];
+  for (a = 0; a < M->nc; a++) if (M->hist[a].tv > osc) osc = M->hist[a].tv;
   return V > 0 ? osc / V : 0;
 }
 
@@ -213,8 +238,13 @@ int mo_metrics_create(const mo_scene *sc, const mo_contact *C, mo_metrics **out,
   M->fields = R->type != MO_REF_NONE && R->type != MO_REF_ENERGY && R->type < MO_REF_BOUNCE && R->body >= 0 &&
               sc->body[R->body].kind == MO_BODY_DEFORMABLE && sc->body[R->body].mesh->dim == 1;
   if (C) {
+    int k;
     M->d = mo_contact_dim(C);
     M->nc = mo_contact_ncandidates(C);
+    for (k = 0; k < mo_contact_npairs(C); k++) {
+      mo_contact_law law = mo_contact_pair_get(C, k)->law;
+      M->watch_any |= law == MO_LAW_SIGNORINI || law == MO_LAW_GAP;
+    }
     M->cset = mo_contact_set_version(C);
     if (!room(M, M->nc, ctx)) { mo_metrics_free(M); return MO_ENOMEM; }
     if (M->nc) memcpy(M->keys, mo_contact_key(C, 0), (size_t)M->nc * MO_KEY * sizeof *M->keys);
@@ -324,6 +354,7 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
     M->vfloor = vfloor;
     if (h > 0 && 1e-9 * M->lscale / h > M->vround) M->vround = 1e-9 * M->lscale / h;
     for (a = 0; a < M->nc; a++) {
+      cand_hist *H = &M->hist[a];
       double Un[3], un;
       int i, zero = Up && a >= ns;
       for (i = 0; i < d && zero; i++) zero = U0[a * d + i] == 0;
@@ -353,39 +384,39 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
       }
       if (inc) {
         closed++;
-        if (M->incontact[a]) {
+        if (H->incontact) {
           /* chatter measures: the increments of U_n between bearing steps that exceed 1e-2 of
              the landing speed and how often their sign alternates (T93, reported); the sign
              changes of U_n itself above a floor (T97, the verdict's) */
-          double du = un - M->Unprev[a], thr = 1e-2 * (M->vland > vfloor ? M->vland : vfloor);
+          double du = un - H->Unprev, thr = 1e-2 * (M->vland > vfloor ? M->vland : vfloor);
           double floor = MO_CHATTER_VN_FLOOR * (M->vimpact > M->vscale ? M->vimpact : M->vscale);
           if (fabs(un) > M->max_vn_closed) M->max_vn_closed = fabs(un);
           if (watch && fabs(un) > M->max_vn_watch) M->max_vn_watch = fabs(un);
-          M->tv[a] += fabs(du);
+          H->tv += fabs(du);
           if (watch && fabs(du) > thr) {
             if (M->dUp[a] != 0 && (du > 0) != (M->dUp[a] > 0)) M->alt[a] += 1;
             M->dUp[a] = du;
-          } else
+          } else if (M->dUp)
             M->dUp[a] = 0;
-          if ((un > floor && M->Unprev[a] < -floor) || (un < -floor && M->Unprev[a] > floor)) M->nsign[a]++;
+          if ((un > floor && H->Unprev < -floor) || (un < -floor && H->Unprev > floor)) H->nsign++;
         } else {
           /* a landing: the approach speed of the step before it (any landing: T93; the
              candidate's first landing: T97, later ones may be the chatter's own bounces) */
-          if (watch && fabs(M->Unprev[a]) > M->vland) M->vland = fabs(M->Unprev[a]);
-          if (!M->landed[a] && -M->Unprev[a] > M->vimpact) M->vimpact = -M->Unprev[a];
-          M->dUp[a] = 0;
+          if (watch && fabs(H->Unprev) > M->vland) M->vland = fabs(H->Unprev);
+          if (!H->landed && -H->Unprev > M->vimpact) M->vimpact = -H->Unprev;
+          if (M->dUp) M->dUp[a] = 0;
         }
-        M->landed[a] = 1;
-      } else if (M->incontact[a] && g[a] > M->gtol && isnan(M->first_release))
+        H->landed = 1;
+      } else if (H->incontact && g[a] > M->gtol && isnan(M->first_release))
         M->first_release = s->t;
       if (s->step > 0 && st) {
-        if (st[a] != M->prevstatus[a]) M->flips++;
-        M->prevstatus[a] = st[a];
+        if (st[a] != H->prevstatus) M->flips++;
+        H->prevstatus = (signed char)st[a];
       }
       /* a bearing contact stays "in contact" through steps that close the gap without
          reaction (grazing), so that chatter at a closed gap is not a release */
-      M->incontact[a] = (unsigned char)(inc || (M->incontact[a] && g[a] <= M->gtol));
-      M->Unprev[a] = un;
+      H->incontact = (unsigned char)(inc || (H->incontact && g[a] <= M->gtol));
+      H->Unprev = un;
       if (r && s->step > 0)
         M->impulse += r[a * d] * (sc->time.scheme == MO_SCHEME_THETA ? 1 : h);
     }
@@ -409,7 +440,7 @@ void mo_metrics_chatter(const mo_metrics *M, mo_chatter *ch)
   int a;
   memset(ch, 0, sizeof *ch);
   if (!M->C) return;
-  for (a = 0; a < M->nc; a++) if (M->alt[a] > alt) alt = M->alt[a];
+  for (a = 0; M->alt && a < M->nc; a++) if (M->alt[a] > alt) alt = M->alt[a];
   /* no landing seen (the run started in contact): the largest |U_n| stands for it */
   ch->vimpact = M->vland > 0 ? M->vland : M->vscale_watch;
   if (ch->vimpact < M->vfloor) ch->vimpact = M->vfloor;
@@ -465,7 +496,7 @@ json_t *mo_metrics_json(const mo_metrics *M)
     json_object_set_new(c, "restitution", json_real(restitution(M)));
     {
       int ns = M->nsign_gone;
-      for (a = 0; a < M->nc; a++) if (M->nsign[a] > ns) ns = M->nsign[a];
+      for (a = 0; a < M->nc; a++) if (M->hist[a].nsign > ns) ns = M->hist[a].nsign;
       json_object_set_new(c, "vn_sign_changes", json_integer(ns));
     }
     json_object_set_new(c, "status_flips", json_integer(M->flips));
@@ -517,7 +548,7 @@ void mo_metrics_chatter_input(const mo_metrics *M, mo_chatter_input *in)
 {
   int a, ns = M->nsign_gone;
   for (a = 0; a < M->nc; a++)
-    if (M->nsign[a] > ns) ns = M->nsign[a];
+    if (M->hist[a].nsign > ns) ns = M->hist[a].nsign;
   in->impact_velocity = M->vimpact;
   in->velocity_scale = M->vscale;
   in->max_vn_in_contact = M->max_vn_closed;

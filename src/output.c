@@ -275,7 +275,11 @@ int mo_csv_close(mo_csv *c, mo_ctx *ctx)
    the values in the machine's byte order, which the file names), exact to the last bit and read
    by VTK, ParaView and meshio. A file is written in two passes of the same code: the first
    writes the XML, each array declared with its offset; the second its values. An array whose
-   values do not fill what was declared is an internal error, never a file. */
+   values do not fill what was declared is an internal error, never a file. The contact network
+   and points come by chunks (MO_VTK_CHUNK entries, moreau/output.h): their second pass runs once
+   per chunk, each array's slice of values put at its place in the file (vtu_slice). */
+
+#define VTU_MAXARR 32
 
 typedef enum { VT_F64 = 8, VT_I32 = 4, VT_U8 = 1 } vtu_type;
 
@@ -288,6 +292,12 @@ typedef struct {
   int short_array;      /* an array got fewer or more values than it declared */
   unsigned char buf[1 << 16];
   size_t nbuf;
+  /* values by slices (sliced): every array's offset and bytes (pass 0), the file position of
+     the first byte count, the entries of the file, those written, the current slice */
+  int sliced, narr, karr;
+  uint64_t aoff[VTU_MAXARR], abytes[VTU_MAXARR];
+  off_t base;
+  long stotal, sdone, sfirst, sn;
 } vtu;
 
 static void vtu_flush(vtu *w)
@@ -336,10 +346,29 @@ static int vtu_array(vtu *w, const char *name, vtu_type type, int ncomp, long n)
                   "offset=\"%llu\"/>\n",
             type == VT_F64 ? "Float64" : type == VT_I32 ? "Int32" : "UInt8", name, ncomp,
             (unsigned long long)w->offset);
+    if (w->narr < VTU_MAXARR) {
+      w->aoff[w->narr] = w->offset;
+      w->abytes[w->narr] = bytes;
+    }
+    w->narr++;
     w->offset += sizeof bytes + bytes;
     return 0;
   }
   if (w->left) w->short_array = 1;
+  if (w->sliced) {
+    /* this slice's values of array k: bytes per entry times the slice's entries, at the entry's place */
+    int k = w->karr++;
+    uint64_t per = k < w->narr && k < VTU_MAXARR && w->stotal > 0 ? w->abytes[k] / (uint64_t)w->stotal : 0;
+    vtu_flush(w);
+    w->left = 0;
+    if (k >= w->narr || k >= VTU_MAXARR || per * (uint64_t)w->stotal != w->abytes[k] || bytes != per * (uint64_t)w->sn ||
+        fseeko(w->f, w->base + (off_t)(w->aoff[k] + sizeof bytes + per * (uint64_t)w->sfirst), SEEK_SET)) {
+      w->short_array = 1;
+      return 1;
+    }
+    w->left = bytes;
+    return 1;
+  }
   w->left = sizeof bytes;
   vtu_bytes(w, &bytes, sizeof bytes);
   w->left = bytes;
@@ -368,6 +397,7 @@ static int vtu_open(vtu *w, const char *path, long npoint, long ncell, double t,
   w->offset = w->left = 0;
   w->short_array = 0;
   w->nbuf = 0;
+  w->sliced = w->narr = w->karr = 0;
   if (npoint > INT_MAX || ncell > INT_MAX)
     return mo_error(ctx, MO_ELIMIT, "'%s': more than %d points or cells", path, INT_MAX);
   if ((st = mo_atomic_open(&w->A, path, ctx))) return st;
@@ -389,6 +419,32 @@ static void vtu_values(vtu *w)
   w->pass = 1;
 }
 
+/* The same, for values that come by slices of a file of `total` entries (every array's values
+   a fixed number per entry): every byte count is written now, the values by vtu_slice. */
+static void vtu_values_sliced(vtu *w, long total)
+{
+  int k;
+  vtu_values(w);
+  w->sliced = 1;
+  w->stotal = total;
+  w->sdone = 0;
+  w->base = ftello(w->f);
+  if (w->base < 0 || w->narr > VTU_MAXARR) w->short_array = 1;
+  for (k = 0; !w->short_array && k < w->narr; k++)
+    if (fseeko(w->f, w->base + (off_t)w->aoff[k], SEEK_SET) || fwrite(&w->abytes[k], sizeof w->abytes[k], 1, w->f) != 1)
+      w->short_array = 1;
+}
+
+/* The next slice: entries first .. first + n - 1, following the previous one. */
+static void vtu_slice(vtu *w, long first, long n)
+{
+  if (first != w->sdone || n < 0 || first + n > w->stotal) w->short_array = 1;
+  w->sdone = first + n;
+  w->sfirst = first;
+  w->sn = n;
+  w->karr = 0;
+}
+
 /* Close the file and put it in place; `ok` 0 (an error of the caller): removed. */
 static int vtu_close(vtu *w, int ok, mo_ctx *ctx)
 {
@@ -396,6 +452,9 @@ static int vtu_close(vtu *w, int ok, mo_ctx *ctx)
   if (ok) {
     if (w->left) w->short_array = 1;
     vtu_flush(w);
+    /* by slices: every entry written, then the end of the values */
+    if (w->sliced && (w->sdone != w->stotal || fseeko(w->f, w->base + (off_t)w->offset, SEEK_SET)))
+      w->short_array = 1;
     fputs("\n</AppendedData>\n</VTKFile>\n", w->f);
   }
   w->f = NULL;
@@ -407,19 +466,21 @@ static int vtu_close(vtu *w, int ok, mo_ctx *ctx)
 }
 
 /* Cells of one type with nv vertices each, numbered in order (vertices, lines): connectivity,
-   offsets, types. */
-static void vtu_uniform_cells(vtu *w, long ncell, int nv, int type)
+   offsets, types; ncell cells from cell c0 (a slice: c0 its first entry). */
+static void vtu_cells_from(vtu *w, long c0, long ncell, int nv, int type)
 {
   long c;
   vtu_xml(w, "<Cells>\n");
   if (vtu_array(w, "connectivity", VT_I32, 1, ncell * nv))
-    for (c = 0; c < ncell * nv; c++) put_i32(w, c);
+    for (c = 0; c < ncell * nv; c++) put_i32(w, c0 * nv + c);
   if (vtu_array(w, "offsets", VT_I32, 1, ncell))
-    for (c = 0; c < ncell; c++) put_i32(w, (c + 1) * nv);
+    for (c = 0; c < ncell; c++) put_i32(w, (c0 + c + 1) * nv);
   if (vtu_array(w, "types", VT_U8, 1, ncell))
     for (c = 0; c < ncell; c++) put_u8(w, type);
   vtu_xml(w, "</Cells>\n");
 }
+
+static void vtu_uniform_cells(vtu *w, long ncell, int nv, int type) { vtu_cells_from(w, 0, ncell, nv, type); }
 
 struct mo_vtk {
   char *dir;
@@ -517,6 +578,20 @@ void mo_vtk_contacts_release(mo_vtk_contacts *N)
   memset(N, 0, sizeof *N);
 }
 
+void mo_vtk_contacts_rewind(mo_vtk_contacts *N)
+{
+  N->first = 0;
+  N->n = 0;
+  N->src.cursor = 0;
+}
+
+int mo_vtk_contacts_next(mo_vtk_contacts *N, mo_ctx *ctx)
+{
+  N->first += N->n;
+  N->n = 0;
+  return N->first < N->total && N->fill ? N->fill(N, ctx) : MO_OK;
+}
+
 int mo_vtk_points_reserve(mo_vtk_points *P, int n, int d, mo_ctx *ctx)
 {
   int cap = P->cap ? P->cap : 16;
@@ -542,6 +617,20 @@ void mo_vtk_points_release(mo_vtk_points *P)
   mo_free(P->force); mo_free(P->vrel); mo_free(P->gap); mo_free(P->lambda); mo_free(P->measure);
   mo_free(P->cand); mo_free(P->pair); mo_free(P->node); mo_free(P->status); mo_free(P->body);
   memset(P, 0, sizeof *P);
+}
+
+void mo_vtk_points_rewind(mo_vtk_points *P)
+{
+  P->first = 0;
+  P->n = 0;
+  P->src.cursor = 0;
+}
+
+int mo_vtk_points_next(mo_vtk_points *P, mo_ctx *ctx)
+{
+  P->first += P->n;
+  P->n = 0;
+  return P->first < P->total && P->fill ? P->fill(P, ctx) : MO_OK;
 }
 
 /* The tubes' radius in particles.py: a tenth of the smallest rigid body. */
@@ -1037,91 +1126,125 @@ static int write_polygons(const mo_vtk *v, int frame, const mo_scene *sc, const 
 }
 
 /* contacts_NNNNN.vtu: the network as lines, two points of their own each. */
-static int write_contacts(const mo_vtk *v, int frame, double t, const mo_vtk_contacts *net, mo_ctx *ctx)
+/* The arrays of contacts_NNNNN.vtu for lines 0 .. n - 1 of net (pass 0: n the frame's lines; by
+   slices: the chunk's, c0 its first line). */
+static void contacts_arrays(vtu *w, const mo_vtk_contacts *net, long c0, long n)
 {
   static const char *names[] = {"rn", "rt", "gap", "point", "status", "slave", "master"};
+  long a;
+  int f, i;
+  vtu_xml(w, "<Points>\n");
+  if (vtu_array(w, "points", VT_F64, 3, 6 * n))
+    for (a = 0; a < 6 * n; a++) put_f64(w, net->end[a]);
+  vtu_xml(w, "</Points>\n");
+  vtu_cells_from(w, c0, n, 2, 3); /* VTK_LINE */
+  vtu_xml(w, "<CellData Scalars=\"rn\">\n");
+  for (f = 0; f < 7; f++) {
+    int nc = f == 3 ? 3 : 1;
+    if (!vtu_array(w, names[f], f >= 4 ? VT_I32 : VT_F64, nc, nc * n)) continue;
+    for (a = 0; a < n; a++)
+      switch (f) {
+      case 0: put_f64(w, net->rn[a]); break;
+      case 1: put_f64(w, net->rt[a]); break;
+      case 2: put_f64(w, net->gap[a]); break;
+      case 3: for (i = 0; i < 3; i++) put_f64(w, net->point[3 * a + i]); break;
+      case 4: put_i32(w, net->status[a]); break;
+      default: put_i32(w, net->body[2 * a + f - 5]); break;
+      }
+  }
+  vtu_xml(w, "</CellData>\n");
+}
+
+static int write_contacts(const mo_vtk *v, int frame, double t, mo_vtk_contacts *net, mo_ctx *ctx)
+{
   char path[4200];
   vtu w;
-  long n = net ? net->n : 0, a;
-  int st, f, i;
+  long n = net ? net->total : 0;
+  int st;
   if ((st = frame_path(path, sizeof path, v, "contacts", frame, ctx)) || (st = vtu_open(&w, path, 2 * n, n, t, ctx)))
     return st;
-  for (; w.pass < 2; w.pass++) {
-    if (w.pass) vtu_values(&w);
-    vtu_xml(&w, "<Points>\n");
-    if (vtu_array(&w, "points", VT_F64, 3, 6 * n))
-      for (a = 0; a < 6 * n; a++) put_f64(&w, net->end[a]);
-    vtu_xml(&w, "</Points>\n");
-    vtu_uniform_cells(&w, n, 2, 3); /* VTK_LINE */
-    vtu_xml(&w, "<CellData Scalars=\"rn\">\n");
-    for (f = 0; f < 7; f++) {
-      int nc = f == 3 ? 3 : 1;
-      if (!vtu_array(&w, names[f], f >= 4 ? VT_I32 : VT_F64, nc, nc * n)) continue;
-      for (a = 0; a < n; a++)
-        switch (f) {
-        case 0: put_f64(&w, net->rn[a]); break;
-        case 1: put_f64(&w, net->rt[a]); break;
-        case 2: put_f64(&w, net->gap[a]); break;
-        case 3: for (i = 0; i < 3; i++) put_f64(&w, net->point[3 * a + i]); break;
-        case 4: put_i32(&w, net->status[a]); break;
-        default: put_i32(&w, net->body[2 * a + f - 5]); break;
-        }
+  contacts_arrays(&w, net, 0, n);
+  vtu_values_sliced(&w, n);
+  if (net) {
+    mo_vtk_contacts_rewind(net);
+    while (!(st = mo_vtk_contacts_next(net, ctx)) && net->n) {
+      vtu_slice(&w, net->first, net->n);
+      contacts_arrays(&w, net, net->first, net->n);
     }
-    vtu_xml(&w, "</CellData>\n");
+  }
+  if (st) {
+    vtu_close(&w, 0, ctx);
+    return st;
   }
   return vtu_close(&w, 1, ctx);
 }
 
 /* --- contact points and planes ---------------------------------------------------------------- */
 
+/* The arrays of contact_points_NNNNN.vtu for points 0 .. n - 1 of P (pass 0: n the frame's points;
+   by slices: the chunk's, c0 its first point). */
+static void points_arrays(vtu *w, const mo_vtk_points *P, long c0, long n)
+{
+  /* the integer arrays, then the vectors of 3, then the local ones of d, then the scalars */
+  static const char *iname[] = {"candidate", "pair", "node", "status", "slave", "master"};
+  static const char *vname[] = {"displacement", "normal", "force", "relative_velocity", "reference"};
+  static const char *lname[] = {"R", "U"};
+  static const char *sname[] = {"gap", "lambda", "measure"};
+  int d = P && P->d ? P->d : 1, k;
+  long a;
+  vtu_xml(w, "<Points>\n");
+  if (vtu_array(w, "points", VT_F64, 3, 3 * n))
+    for (a = 0; a < 3 * n; a++) put_f64(w, P->x[a]);
+  vtu_xml(w, "</Points>\n");
+  vtu_cells_from(w, c0, n, 1, 1); /* VTK_VERTEX */
+  vtu_xml(w, "<PointData Scalars=\"gap\" Vectors=\"force\">\n");
+  for (k = 0; k < 6; k++)
+    if (vtu_array(w, iname[k], VT_I32, 1, n))
+      for (a = 0; a < n; a++)
+        put_i32(w, k == 0 ? P->cand[a] : k == 1 ? P->pair[a] : k == 2 ? P->node[a] : k == 3 ? P->status[a]
+                                                                                 : P->body[2 * a + k - 4]);
+  for (k = 0; k < 5; k++) {
+    const double *src = P ? (k == 0 ? P->disp : k == 1 ? P->normal : k == 2 ? P->force : k == 3 ? P->vrel : P->x0) : NULL;
+    if (vtu_array(w, vname[k], VT_F64, 3, 3 * n))
+      for (a = 0; a < 3 * n; a++) put_f64(w, src[a]);
+  }
+  for (k = 0; k < 2; k++)
+    if (vtu_array(w, lname[k], VT_F64, d, d * n))
+      for (a = 0; a < n; a++) {
+        int i;
+        for (i = 0; i < d; i++) put_f64(w, (k ? P->U : P->R)[3 * a + i]);
+      }
+  for (k = 0; k < 3; k++)
+    if (vtu_array(w, sname[k], VT_F64, 1, n))
+      for (a = 0; a < n; a++) put_f64(w, (k == 0 ? P->gap : k == 1 ? P->lambda : P->measure)[a]);
+  vtu_xml(w, "</PointData>\n");
+}
+
 /* contact_points_NNNNN.vtu: a vertex per candidate (mo_vtk_points: every one, or the closed
    ones) at its slave point in the current configuration, with its contact.csv row as point
    data: candidate, pair, node, displacement (D1..), gap, U and R (local, normal first: UN UT
    US, RN RT RS; R as forces), status, measure, lambda, slave, master; and in world axes its
    normal, the force on the slave (sum_l R_l F_l) and the relative velocity (sum_l U_l F_l). */
-static int write_points(const mo_vtk *v, int frame, double t, const mo_vtk_points *P, mo_ctx *ctx)
+static int write_points(const mo_vtk *v, int frame, double t, mo_vtk_points *P, mo_ctx *ctx)
 {
   char path[4200];
   vtu w;
-  long n = P ? P->n : 0, a;
-  int st, d = P && P->d ? P->d : 1, k;
+  long n = P ? P->total : 0;
+  int st;
   if ((st = frame_path(path, sizeof path, v, "contact_points", frame, ctx)) || (st = vtu_open(&w, path, n, n, t, ctx)))
     return st;
-  for (; w.pass < 2; w.pass++) {
-    if (w.pass) vtu_values(&w);
-    vtu_xml(&w, "<Points>\n");
-    if (vtu_array(&w, "points", VT_F64, 3, 3 * n))
-      for (a = 0; a < 3 * n; a++) put_f64(&w, P->x[a]);
-    vtu_xml(&w, "</Points>\n");
-    vtu_uniform_cells(&w, n, 1, 1); /* VTK_VERTEX */
-    vtu_xml(&w, "<PointData Scalars=\"gap\" Vectors=\"force\">\n");
-    {
-      /* the integer arrays, then the vectors of 3, then the local ones of d, then the scalars */
-      static const char *iname[] = {"candidate", "pair", "node", "status", "slave", "master"};
-      static const char *vname[] = {"displacement", "normal", "force", "relative_velocity", "reference"};
-      static const char *lname[] = {"R", "U"};
-      static const char *sname[] = {"gap", "lambda", "measure"};
-      for (k = 0; k < 6; k++)
-        if (vtu_array(&w, iname[k], VT_I32, 1, n))
-          for (a = 0; a < n; a++)
-            put_i32(&w, k == 0 ? P->cand[a] : k == 1 ? P->pair[a] : k == 2 ? P->node[a] : k == 3 ? P->status[a]
-                                                                                       : P->body[2 * a + k - 4]);
-      for (k = 0; k < 5; k++) {
-        const double *src = k == 0 ? P->disp : k == 1 ? P->normal : k == 2 ? P->force : k == 3 ? P->vrel : P->x0;
-        if (vtu_array(&w, vname[k], VT_F64, 3, 3 * n))
-          for (a = 0; a < 3 * n; a++) put_f64(&w, src[a]);
-      }
-      for (k = 0; k < 2; k++)
-        if (vtu_array(&w, lname[k], VT_F64, d, d * n))
-          for (a = 0; a < n; a++) {
-            int i;
-            for (i = 0; i < d; i++) put_f64(&w, (k ? P->U : P->R)[3 * a + i]);
-          }
-      for (k = 0; k < 3; k++)
-        if (vtu_array(&w, sname[k], VT_F64, 1, n))
-          for (a = 0; a < n; a++) put_f64(&w, (k == 0 ? P->gap : k == 1 ? P->lambda : P->measure)[a]);
+  points_arrays(&w, P, 0, n);
+  vtu_values_sliced(&w, n);
+  if (P) {
+    mo_vtk_points_rewind(P);
+    while (!(st = mo_vtk_points_next(P, ctx)) && P->n) {
+      vtu_slice(&w, P->first, P->n);
+      points_arrays(&w, P, P->first, P->n);
     }
-    vtu_xml(&w, "</PointData>\n");
+  }
+  if (st) {
+    vtu_close(&w, 0, ctx);
+    return st;
   }
   return vtu_close(&w, 1, ctx);
 }
@@ -1278,8 +1401,8 @@ static int write_series_pvd(const mo_vtk *v, const char *prefix, mo_ctx *ctx)
   return st;
 }
 
-int mo_vtk_frame(mo_vtk *v, const mo_scene *sc, const mo_state *s, const mo_vtk_contacts *net,
-                 const mo_vtk_points *pts, mo_ctx *ctx)
+int mo_vtk_frame(mo_vtk *v, const mo_scene *sc, const mo_state *s, mo_vtk_contacts *net, mo_vtk_points *pts,
+                 mo_ctx *ctx)
 {
   char path[4200];
   int b, st = MO_OK, k;

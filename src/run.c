@@ -541,7 +541,7 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
                          const char *const *names, double e0, double e1, double drift,
                          double balance, double growth, int complete, const char *reason,
                          double wall, double steps_wall, const double *p0, long cuts, double dtmin,
-                         const char *blowup, mo_ctx *ctx)
+                         const char *blowup, double *work, mo_ctx *ctx)
 {
   double *pw = NULL, *p1 = NULL, *pcm = NULL;
   int pw_fail = 0;
@@ -565,7 +565,7 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
     json_object_set_new(scene, "hmin", jnum(mo_metrics_hmin(sc)));
     if (p0 && s && sc->M) {
       /* the bodies' momenta at the end, beside p0 at the start */
-      pw = mo_malloc(ctx, ((size_t)sc->ndof + 1) * sizeof *pw);
+      pw = work ? work : mo_malloc(ctx, ((size_t)sc->ndof + 1) * sizeof *pw); /* the run's scratch */
       p1 = mo_malloc(ctx, (3 * (size_t)sc->nbody + 1) * sizeof *p1);
       if (pw && p1) body_momenta(sc, s->v, pw, p1);
       else pw_fail = 1;
@@ -778,7 +778,7 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
     if (getrusage(RUSAGE_SELF, &ru) == 0)
       json_object_set_new(root, "peak_rss_bytes", json_integer((json_int_t)ru.ru_maxrss * 1024));
   }
-  mo_free(pw);
+  if (pw != work) mo_free(pw);
   mo_free(p1);
   mo_free(pcm);
   if (pw_fail) {
@@ -1504,7 +1504,7 @@ done:
     mo_ctx_clear_error(ctx);
     st2 = write_summary(outdir, cs, sc, S, s.u ? &s : NULL, C, drv, met, cols, cols ? nvalcol : 0,
                         (const char *const *)names, e0, e1, drift, balance, emax_growth, complete, reason,
-                        res->wall, res->step_wall, p0, stepper.cuts, stepper.hmin, blowup, ctx);
+                        res->wall, res->step_wall, p0, stepper.cuts, stepper.hmin, blowup, work, ctx);
     if (st2) {
       /* the "running" summary must not outlive the run */
       snprintf(path, sizeof path, "%s/summary.json", outdir);

@@ -569,9 +569,12 @@ int mo_stepper_create_ordered(const mo_scene *sc, int nlast, const int *last, do
   S->w2 = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
   S->w3 = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
   S->uprev = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
-  S->vprev = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
-  S->fprev = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
-  if (!S->rhs || !S->xf || !S->w1 || !S->w2 || !S->w3 || !S->uprev || !S->vprev || !S->fprev) {
+  /* the velocities and forces of the step's start: the reactions of prescribed dofs only */
+  if (sc->npresc) {
+    S->vprev = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
+    S->fprev = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
+  }
+  if (!S->rhs || !S->xf || !S->w1 || !S->w2 || !S->w3 || !S->uprev || (sc->npresc && (!S->vprev || !S->fprev))) {
     mo_stepper_free(S);
     return MO_ENOMEM;
   }
@@ -1150,8 +1153,8 @@ int mo_stepper_finish(mo_stepper *S, mo_state *s, const double *x, mo_ctx *ctx)
   for (i = 0; i < n; i++)
     if (!isfinite(x[i])) return nan_diagnosis(S, s, x, i, ctx);
   memcpy(S->uprev, s->u, (size_t)n * sizeof(double));
-  memcpy(S->vprev, s->v, (size_t)n * sizeof(double));
-  memcpy(S->fprev, s->f, (size_t)n * sizeof(double));
+  if (S->vprev) memcpy(S->vprev, s->v, (size_t)n * sizeof(double));
+  if (S->fprev) memcpy(S->fprev, s->f, (size_t)n * sizeof(double));
   switch (S->scheme) {
   case MO_SCHEME_THETA:
     for (i = 0; i < n; i++) {

@@ -15,7 +15,7 @@ struct mo_stepper {
   mo_linsolver *ls; /* its factorization */
   double *rhs, *xf; /* free-size work */
   double *w1, *w2, *w3; /* full-size work */
-  double *uprev, *vprev, *fprev; /* previous state for reactions */
+  double *uprev, *vprev, *fprev; /* previous state for reactions (vprev, fprev: prescribed dofs only) */
   /* nonlinear scenes (newton.c); all NULL for linear ones */
   int nl;
   double *Wlin;         /* values of cm M + ck K on the pattern of W (the linear bodies' part) */

@@ -111,4 +111,27 @@ is "$(py "p, c, a = read('$OUT/s/particles_00004.vtu'); print(p, a['orientation'
 ok $(relerr "$(py "p, c, a = read('$OUT/s/contacts_00004.vtu'); print(sum(a['rn'][1]))")" \
             "$("$PY" -c "import math; print(1000 * 4 / 3 * math.pi * 0.1**3 * 9.81)")" 1e-6) "3D: rn of the sphere = rho 4/3 pi R^3 g"
 ok $(test ! -e "$OUT/s/polygons.pvd"; echo $?) "3D: no polygons series without polygons or rigid meshes"
+
+# a frame of more contacts than a chunk (MO_VTK_CHUNK = 512, moreau/output.h): the pile of 1000
+# disks at 0.3 s (about 2000 candidates, 1500 closed), its last frame read by VTK against contact.csv
+p="$OUT/pile"
+"$MOREAU" run "$MOREAU_SRCDIR/cases/disk-pile" --out "$p" --quiet --set time.end=0.3 --set output.vtk.every=300
+ok $? "run: the 1000-disk pile to 0.3 s, VTK at steps 0 and 300"
+ok $(py "import csv
+rows = list(csv.DictReader(open('$p/contact.csv')))
+n, (pn, cn, a) = len(rows), read('$p/contact_points_00001.vtu')
+ok = pn == n == cn > 3 * 512 and a['candidate'][1] == tuple(range(n)) and a['connectivity'][1] == tuple(range(n))
+ok = ok and a['offsets'][1] == tuple(range(1, n + 1)) and set(a['types'][1]) == {1}
+rel = lambda x, y: abs(x - y) <= 1e-9 * max(abs(x), abs(y)) + 1e-300
+ok = ok and all(rel(a['R'][1][2 * k], float(r['RN'])) and rel(a['gap'][1][k], float(r['gap'])) and
+                rel(a['U'][1][2 * k + 1], float(r['UT'])) for k, r in enumerate(rows))
+print(0 if ok else 1)") "pile: contact_points has contact.csv's rows in order (candidate, cells, R_N, U_T, gap), more than 3 chunks"
+ok $(py "import csv
+rows = [r for r in csv.DictReader(open('$p/contact.csv')) if r['status'] != 'open' or float(r['RN']) != 0 or float(r['RT']) != 0]
+n, (pn, cn, a) = len(rows), read('$p/contacts_00001.vtu')
+rel = lambda x, y: abs(x - y) <= 1e-9 * max(abs(x), abs(y)) + 1e-300
+ok = cn == n > 2 * 512 and pn == 2 * n and a['connectivity'][1] == tuple(range(2 * n)) and a['offsets'][1] == tuple(range(2, 2 * n + 1, 2))
+ok = ok and all(rel(a['rn'][1][k], float(r['RN'])) and rel(a['rt'][1][k], abs(float(r['RT']))) and rel(a['gap'][1][k], float(r['gap']))
+                for k, r in enumerate(rows))
+print(0 if ok else 1)") "pile: the network has a line per closed row of contact.csv, in order (cells, rn, rt, gap), more than 2 chunks"
 done_testing

@@ -602,18 +602,20 @@ int mo_fclib_read(const char *path, int *d, int *nc, mo_csc **W, double **q, dou
 /* --- the contact network for the outputs (moreau/output.h) ------------------------------------ */
 
 struct mo_vtk_contacts;
-/* The network of the last step into N (N->n lines; its arrays grown as needed): every candidate
-   closed or with a non-zero reaction, as a line from the slave side (a rigid shape's centre, or
+/* The network of the last step as the source of N (N->total lines, made by chunks as the writers
+   read them: mo_vtk_contacts_next, moreau/output.h; the state, the set and the driver must stay
+   as they are until then): every candidate closed or with a non-zero reaction, as a line from the slave side (a rigid shape's centre, or
    the material point of a mesh at state s) to the master side (a rigid shape's centre, or the
    contact point on a plane or a mesh), with its forces (reactions over mo_contact_driver_dt for
    the theta-scheme), status and gap. C or D NULL: an empty network. */
 int mo_contact_network(const mo_scene *sc, const mo_contact *C, const mo_contact_driver *D,
                        const mo_state *s, struct mo_vtk_contacts *N, mo_ctx *ctx);
 struct mo_vtk_points;
-/* The contact points of the last step into P (contact_points_NNNNN.vtu): every candidate, or
+/* The contact points of the last step as the source of P (contact_points_NNNNN.vtu; P->total
+   points made by chunks, as the network's): every candidate, or
    (closed_only) those with a status other than open or a reaction, with the values of their
    contact.csv rows and, in world axes, the normal, the force on the slave and the relative
-   velocity. C or D NULL: none. O(candidates). */
+   velocity. C or D NULL: none. O(candidates), and O(MO_VTK_CHUNK) memory. */
 int mo_contact_points(const mo_scene *sc, const mo_contact *C, const mo_contact_driver *D, const mo_state *s,
                       int closed_only, struct mo_vtk_points *P, mo_ctx *ctx);
 

@@ -52,11 +52,26 @@ int mo_csv_open(const char *path, const char *const *names, int ncol, int precis
 int mo_csv_row(mo_csv *c, const double *vals, mo_ctx *ctx);
 int mo_csv_close(mo_csv *c, mo_ctx *ctx);
 
-/* The contact network of one frame, as the VTK series and the drawings show it: one line per
-   candidate that is closed or carries a reaction (filled by mo_contact_network, moreau/contact.h,
-   so that the writers need not know the contact layer). Each array holds n entries; cap is the
-   room allocated. The owner releases the arrays with mo_vtk_contacts_release. */
+/* The contact network and the contact points of one frame are made by chunks of at most
+   MO_VTK_CHUNK entries, each written before the next is filled, so that a frame of 10^5 contacts
+   holds a few hundred kilobytes and not 350 bytes a contact (doc/theory.md §12.11). Their source
+   (mo_contact_network, mo_contact_points in moreau/contact.h, so that the writers need not know
+   the contact layer) sets total, the frame's entries, and next, which fills the chunk after the
+   current one: first its first entry, n its entries (0 past the end). A reader goes through the
+   frame as: mo_vtk_*_rewind; while (!(st = mo_vtk_*_next(X, ctx)) && X->n) use entries 0..n-1. */
+#define MO_VTK_CHUNK 512
+
+/* What a source keeps between chunks (its own, opaque to the writers). */
+typedef struct mo_vtk_source {
+  const void *sc, *C, *D, *s;
+  long cursor;          /* the source's next item (a candidate) */
+  int closed_only;
+} mo_vtk_source;
+
+/* The contact network: one line per candidate that is closed or carries a reaction. cap is the
+   room of the arrays (entries). The owner releases them with mo_vtk_contacts_release. */
 typedef struct mo_vtk_contacts {
+  long total, first;
   int n, cap;
   double *end;      /* 6 n: the two ends (x, y, z): the slave side, then the master side: a rigid
                        shape's centre, or the material point (mesh slave) and the contact point
@@ -66,17 +81,21 @@ typedef struct mo_vtk_contacts {
   double *gap;      /* n: the gap of the step's geometry */
   int *status;      /* n: 0 open, 1 stick, 2 slide (MO_CS_*) */
   int *body;        /* 2 n: slave and master body (index in mo_scene.body; -1: none) */
+  int (*fill)(struct mo_vtk_contacts *N, mo_ctx *ctx); /* fills the chunk at first (n entries) */
+  mo_vtk_source src;
 } mo_vtk_contacts;
-/* Room for n lines (n and the contents kept). */
+/* Room for n lines in the arrays (the contents kept). */
 int mo_vtk_contacts_reserve(mo_vtk_contacts *N, int n, mo_ctx *ctx);
+void mo_vtk_contacts_rewind(mo_vtk_contacts *N);
+int mo_vtk_contacts_next(mo_vtk_contacts *N, mo_ctx *ctx);
 void mo_vtk_contacts_release(mo_vtk_contacts *N);
 
-/* The contact points of one frame, as contact_points_NNNNN.vtu shows them (filled by
-   mo_contact_points, moreau/contact.h): one entry per candidate of the step (output.vtk.contacts
-   = "all") or per closed one ("closed": a status other than open, or a reaction), in contact.csv's
-   order, with contact.csv's values. d is the local dimension (1, 2 or 3); R and U hold 3 values
-   per entry, the first d used. The owner releases the arrays with mo_vtk_points_release. */
+/* The contact points: one entry per candidate of the step (output.vtk.contacts = "all") or per
+   closed one ("closed": a status other than open, or a reaction), in contact.csv's order, with
+   contact.csv's values. d is the local dimension (1, 2 or 3); R and U hold 3 values per entry,
+   the first d used. The owner releases the arrays with mo_vtk_points_release. */
 typedef struct mo_vtk_points {
+  long total, first;
   int n, cap, d;
   double *x;        /* 3 n: the slave point in the current configuration (x0 + displacement for
                        a mesh point; the contact point of a detected one) */
@@ -90,9 +109,13 @@ typedef struct mo_vtk_points {
   int *cand, *pair, *node, *status; /* n: candidate (contact.csv's), pair index, slave node (-1: none),
                                        MO_CS_* */
   int *body;        /* 2 n: slave and master body (index in mo_scene.body; -1: none) */
+  int (*fill)(struct mo_vtk_points *P, mo_ctx *ctx); /* fills the chunk at first (n entries) */
+  mo_vtk_source src;
 } mo_vtk_points;
-/* Room for n points of local dimension d (n and the contents kept). */
+/* Room for n points of local dimension d in the arrays (the contents kept). */
 int mo_vtk_points_reserve(mo_vtk_points *P, int n, int d, mo_ctx *ctx);
+void mo_vtk_points_rewind(mo_vtk_points *P);
+int mo_vtk_points_next(mo_vtk_points *P, mo_ctx *ctx);
 void mo_vtk_points_release(mo_vtk_points *P);
 
 typedef struct mo_vtk mo_vtk;
@@ -126,8 +149,8 @@ int mo_vtk_open(const char *dir, const mo_scene *sc, int contact, mo_vtk **out, 
 /* Write frame mo_vtk_frames(v) of state s: the fields, the contact points `pts`, the planes,
    and for a scene with rigid bodies the rigid series with the network `net` (NULL: no
    contact). */
-int mo_vtk_frame(mo_vtk *v, const mo_scene *sc, const mo_state *s, const mo_vtk_contacts *net,
-                 const mo_vtk_points *pts, mo_ctx *ctx);
+int mo_vtk_frame(mo_vtk *v, const mo_scene *sc, const mo_state *s, mo_vtk_contacts *net, mo_vtk_points *pts,
+                 mo_ctx *ctx);
 /* The collections that list the frames written (the .pvd of each series, and in MPI runs the
    .pvtu joining the ranks' pieces of each body): after mo_vtk_frame, once every rank's pieces are
    written (rank 0 writes them; a no-op on the others). */

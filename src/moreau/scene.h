@@ -27,8 +27,8 @@ typedef struct mo_body {
   char *name;
   char *group;          /* the entry that generated it with others (an arch's voussoirs), or NULL */
   int entry;            /* its entry in the case's bodies list */
+  mo_body_kind kind;    /* (the int-sized fields in pairs: no padding, 296 bytes a body) */
   const struct mo_body_type *type;
-  mo_body_kind kind;
   mo_mesh *mesh;        /* deformable and rigid-mesh bodies */
   mo_material mat;
   int lumped;           /* lumped mass */
@@ -36,17 +36,25 @@ typedef struct mo_body {
      forces and tangents come from the kernels of fe_nonlinear.c, not from the scene's K */
   int nl;
   int npoint;           /* quadrature points per element (state blocks per element) */
+  int nvert;            /* polygon: its vertices (vert below) */
   size_t q0;            /* offset of its first state block in mo_state.q (doubles) */
   int dof0, ndof;       /* global dofs dof0 .. dof0+ndof-1; node a, component i: dof0+a*dim+i */
   double mass;          /* total mass (kg, or kg per unit thickness as the hypothesis says) */
-  double point[3], normal[3], velocity[3]; /* plane obstacles (unit normal) */
-  double until;         /* plane: gone after this time (a gate that opens); HUGE_VAL: always there */
-  /* rigid bodies: disk, sphere, polygon, rigid mesh (doc/theory.md §12) */
-  double J[9];          /* inertia about the centroid in the body frame (2D: J[0] = I) */
-  double xc0[3];        /* centroid in the reference configuration */
+  /* a plane's fields and a rigid body's share their memory (a body is one or the other, and
+     nothing reads the other's: 80 bytes less a grain) */
+  union {
+    struct {
+      double point[3], normal[3], velocity[3]; /* plane obstacles (unit normal) */
+      double until;     /* plane: gone after this time (a gate that opens); HUGE_VAL: always there */
+    };
+    /* rigid bodies: disk, sphere, polygon, rigid mesh (doc/theory.md §12) */
+    struct {
+      double J[9];      /* inertia about the centroid in the body frame (2D: J[0] = I) */
+      double xc0[3];    /* centroid in the reference configuration */
+    };
+  };
   double theta0;        /* 2D: orientation in the reference configuration (rad) */
   double radius;        /* disk, sphere */
-  int nvert;
   double *vert;         /* polygon: vertices about the centroid in the body frame, counter-clockwise */
   double thickness;     /* 2D rigid bodies: out-of-plane thickness the mass is computed with */
   int orient;           /* 3D rigid bodies: index of the quaternion in mo_state.orient, else -1 */
