@@ -888,6 +888,31 @@ static void report_breakdown(int st, mo_contact_report *rep, mo_ctx *ctx)
 /* The level-set loop (BDZ07 Fig. 2): solve the frozen system by Newton, update the sign fields,
    until they repeat (T22: cycling detected and reported; T89: a solution that satisfies the law
    ends it). rep->reason < 0 on failure; MO_ESINGULAR / MO_ENAN become reasons too. */
+/* One frozen-status solve: the system of the current statuses, its Newton iterations (the frozen
+   sliding directions of the damped loop released after them) and the solution taken. *done = 1
+   when the pass ends here: a proximal term requested, or a breakdown of the frozen system
+   (singular, non-finite), reported as the solve's reason rather than an error of the run. */
+static int frozen_solve(ls_state *L, ls_pass *Q, int *its, int *conv, int *done, mo_contact_report *rep,
+                        mo_ctx *ctx)
+{
+  int st;
+  *done = 1;
+  if ((st = ls_system_setup(&L->S, &L->A, L->nc, ctx))) return st;
+  st = ls_newton(L, Q->P, Q->kkt, its, conv, ctx);
+  L->S.edir = NULL;
+  Q->nnewt += *its;
+  Q->nls++;
+  if (L->prox_request) return MO_OK;
+  if (st == MO_ESINGULAR || st == MO_ENAN) {
+    report_breakdown(st, rep, ctx);
+    return MO_OK;
+  }
+  if (st) return st;
+  take_solution(L, Q);
+  *done = 0;
+  return MO_OK;
+}
+
 static int level_set_loop(ls_state *L, ls_pass *Q, mo_contact_report *rep, mo_ctx *ctx)
 {
   const mo_contact_problem *P = Q->P;
@@ -898,7 +923,7 @@ static int level_set_loop(ls_state *L, ls_pass *Q, mo_contact_report *rep, mo_ct
   for (j = 0; j < nc; j++) L->hist[j] = (unsigned char)(L->su[j] | L->sv[j] << 1 | L->sf[j] << 2);
   nhist = 1;
   for (lsit = 0;; lsit++) {
-    int its, same = 1, k0 = -1, k;
+    int its, done, same = 1, k0 = -1, k;
     S->phi = NULL;
     if (L->coupled) {
       /* friction acts on the closed candidates, with their own pressure as threshold */
@@ -906,18 +931,7 @@ static int level_set_loop(ls_state *L, ls_pass *Q, mo_contact_report *rep, mo_ct
       S->phi = L->phi;
       if (lsit > 0) friction_scales(L, Q->kt, &Q->rho_t);
     }
-    if ((st = ls_system_setup(S, A, nc, ctx))) return st;
-    st = ls_newton(L, P, Q->kkt, &its, &conv, ctx);
-    Q->nnewt += its;
-    Q->nls++;
-    if (L->prox_request) return MO_OK;
-    if (st == MO_ESINGULAR || st == MO_ENAN) {
-      /* a breakdown of the frozen system is reported, not an error of the run */
-      report_breakdown(st, rep, ctx);
-      return MO_OK;
-    }
-    if (st) return st;
-    take_solution(L, Q);
+    if ((st = frozen_solve(L, Q, &its, &conv, &done, rep, ctx)) || done) return st;
     new_signs(L, Q);
     for (j = 0; j < nc; j++)
       same &= L->nsu[j] == L->su[j] && L->nsv[j] == L->sv[j] && L->nsf[j] == L->sf[j];
@@ -1077,9 +1091,8 @@ static int damped_loop(ls_state *L, ls_pass *Q, mo_contact_report *rep, mo_ctx *
 {
   const mo_contact_problem *P = Q->P;
   ls_system *S = &L->S;
-  const ls_space *A = &L->A;
   const int nc = L->nc, m = L->m;
-  int it, j, st, its, conv, k;
+  int it, j, st, its, conv, done, k;
   double m0, emax;
   full_velocity(L, P, 0);
   emax = damped_signs(L, Q);
@@ -1099,19 +1112,8 @@ static int damped_loop(ls_state *L, ls_pass *Q, mo_contact_report *rep, mo_ctx *
     friction_scales(L, Q->kt, &Q->rho_t);
     memcpy(L->rk, L->r, (size_t)m * sizeof(double));
     memcpy(L->Uk, L->U, (size_t)m * sizeof(double));
-    if ((st = ls_system_setup(S, A, nc, ctx))) return st;
     L->uc_gen = -1; /* the iterate moved: Uc does not hold its U' */
-    st = ls_newton(L, P, Q->kkt, &its, &conv, ctx);
-    S->edir = NULL;
-    Q->nnewt += its;
-    Q->nls++;
-    if (L->prox_request) return MO_OK;
-    if (st == MO_ESINGULAR || st == MO_ENAN) {
-      report_breakdown(st, rep, ctx);
-      return MO_OK;
-    }
-    if (st) return st;
-    take_solution(L, Q);
+    if ((st = frozen_solve(L, Q, &its, &conv, &done, rep, ctx)) || done) return st;
     if (L->u_partial) {
       /* U' of the frozen solution over Cset; the rest of the candidates (S_u = 0) carry no law */
       for (k = 0; k < S->nC; k++) {
