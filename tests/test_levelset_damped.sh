@@ -64,26 +64,14 @@ ok $([ "$it" -le 300 ] && [ "$im" -le 20 ] && echo 0 || echo 1) "the damped loop
 
 # 3D: the coupled threshold with the sliding directions frozen at the iterate (T143). A box sliding
 # on a plane (the scene of tests/test_levelset_reduced.sh, mu = 0.3, 200 steps)
-cat >"$OUT/slide3d.cfg" <<'CFG'
-bodies = (
-  { name = "box"; mesh = { generator = "box"; size = [0.1, 0.1, 0.02]; elements = [2, 2, 1]; };
-    material = { E = 1.0e8; nu = 0.3; rho = 1000.0; }; body_force = [0.0, 0.0, -9.81];
-    initial = { velocity = [0.2, 0.1, 0.0]; }; },
-  { name = "floor"; type = "plane"; point = [0.0, 0.0, 0.0]; normal = [0.0, 0.0, 1.0]; }
-);
-time = { theta = 1.0; theta_f = 1.0; dt = 1.0e-3; end = 0.2; };
-contact = { solver = "levelset"; signorini = "velocity";
-            pairs = ( { slave = "box"; slave_set = "zmin"; master = "floor"; mu = 0.3; } ); };
-output = { every = 5; probes = ( { name = "base"; set = "zmin"; quantities = ["ux", "uy", "vx", "vy", "cz", "cx", "cy"]; } ); };
-CFG
-run3() { # run3 NAME CFG ARGS...
+run3() { # run3 NAME CFG ARGS... (CFG: a path)
   name=$1 cfg=$2
   shift 2
-  "$MOREAU" run "$OUT/$cfg" --out "$OUT/$name" --quiet "$@" 2>"$OUT/$name.err"
+  "$MOREAU" run "$cfg" --out "$OUT/$name" --quiet "$@" 2>"$OUT/$name.err"
   ok $? "$name runs $(head -c 300 "$OUT/$name.err")"
 }
-run3 box-damped slide3d.cfg --set 'contact.levelset.globalization="line_search"'
-run3 box-nscd slide3d.cfg --solver nscd
+run3 box-damped "$MOREAU_SRCDIR/tests/scenes/slide3d.cfg" --set 'contact.levelset.globalization="line_search"'
+run3 box-nscd "$MOREAU_SRCDIR/tests/scenes/slide3d.cfg" --solver nscd
 # the largest difference of the base's probes between two runs, over the second's largest magnitude
 hdiff() {
   /usr/bin/python3 - "$OUT/$1/history.csv" "$OUT/$2/history.csv" <<'PY'
@@ -97,7 +85,7 @@ for key in ("base.ux", "base.uy", "base.vx", "base.vy", "base.cz", "base.cx", "b
 print("%.3e" % worst)
 PY
 }
-run3 box-none slide3d.cfg --set 'contact.levelset.globalization="none"'
+run3 box-none "$MOREAU_SRCDIR/tests/scenes/slide3d.cfg" --set 'contact.levelset.globalization="none"'
 w=$(hdiff box-damped box-none)
 ok $(below "$w" 1e-9) "3D sliding box: the damped loop's histories = the undamped threshold loop's to $w (<= 1e-9)"
 w=$(hdiff box-damped box-nscd)
@@ -131,8 +119,8 @@ contact = {
 };
 output = { every = 10; };
 CFG
-run3 sph-none spheres8.cfg
-run3 sph-damped spheres8.cfg --set 'contact.levelset.globalization="line_search"'
+run3 sph-none "$OUT/spheres8.cfg"
+run3 sph-damped "$OUT/spheres8.cfg" --set 'contact.levelset.globalization="line_search"'
 fn=$(sum sph-none failed_solves) fd=$(sum sph-damped failed_solves)
 ok $([ "$fd" -lt "$fn" ] && echo 0 || echo 1) "8 spheres: the damped loop fails fewer contact steps ($fd) than the undamped threshold loop ($fn) (15 and 22 measured)"
 done_testing

@@ -84,20 +84,8 @@ is "$(sum rock failed_solves)" 0 "rocking-block: no failed solve"
 
 # 5. a 3D box sliding on a plane (the threshold loop in 3D; the sliders' directions by the Schur
 #    complement of (T133)): the reduced path runs the dense path's Newton iterations
-cat > "$OUT/slide3d.cfg" <<'CFG'
-bodies = (
-  { name = "box"; mesh = { generator = "box"; size = [0.1, 0.1, 0.02]; elements = [2, 2, 1]; };
-    material = { E = 1.0e8; nu = 0.3; rho = 1000.0; }; body_force = [0.0, 0.0, -9.81];
-    initial = { velocity = [0.2, 0.1, 0.0]; }; },
-  { name = "floor"; type = "plane"; point = [0.0, 0.0, 0.0]; normal = [0.0, 0.0, 1.0]; }
-);
-time = { theta = 1.0; theta_f = 1.0; dt = 1.0e-3; end = 0.2; };
-contact = { solver = "levelset"; signorini = "velocity";
-            pairs = ( { slave = "box"; slave_set = "zmin"; master = "floor"; mu = 0.3; } ); };
-output = { every = 5; probes = ( { name = "base"; set = "zmin"; quantities = ["ux", "uy", "vx", "vy", "cz", "cx", "cy"]; } ); };
-CFG
-run slide3d "$OUT/slide3d.cfg"
-run slide3d-dense "$OUT/slide3d.cfg" --set "$DENSE"
+run slide3d "$MOREAU_SRCDIR/tests/scenes/slide3d.cfg"
+run slide3d-dense "$MOREAU_SRCDIR/tests/scenes/slide3d.cfg" --set "$DENSE"
 w=$(diff_runs slide3d slide3d-dense base.ux,base.uy,base.vx,base.vy,base.cz,base.cx,base.cy)
 ok $(below "$w" 1e-9) "3D sliding box: reduced path = dense path to $w (<= 1e-9, Newton's tolerance)"
 is "$(sum slide3d iterations_total)" "$(sum slide3d-dense iterations_total)" "3D sliding box: the same Newton iterations ($(sum slide3d iterations_total))"
