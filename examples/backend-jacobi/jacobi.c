@@ -94,7 +94,9 @@ static double lambda_max(jacobi_state *S, const mo_contact_problem *P)
 {
   int d = S->d, k, i, it;
   double lam = 1;
+  /* W multiplies every candidate's entries of z: those of the inactive ones stay zero */
   memset(S->y, 0, (size_t)S->m * sizeof *S->y);
+  memset(S->z, 0, (size_t)S->m * sizeof *S->z);
   for (k = 0; k < S->nact; k++)
     for (i = 0; i < d; i++) S->y[S->act[k] * d + i] = 1;
   for (it = 0; it < 50; it++) {
