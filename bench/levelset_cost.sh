@@ -6,6 +6,9 @@
 # levelset run's outcome. A scene levelset refuses or fails shows the reason instead of a ratio.
 #
 #   bench/levelset_cost.sh [CASE...]       (MOREAU=path/to/moreau, default build/moreau)
+#   LEVELSET_ARGS='--set contact.levelset.globalization="hybrid"' bench/levelset_cost.sh CASE...
+#                                          (options added to the levelset runs only; no spaces
+#                                          inside one option)
 #
 # The phase timers count the thread's CPU time (MOREAU_CLOCK=cpu), not the wall clock that a
 # loaded machine inflates; each scene still runs REPEAT times per back end (alternating) and the
@@ -83,7 +86,10 @@ for name in "$@"; do
   for k in $(seq "$REPEAT"); do
     for s in nscd levelset; do
       rm -rf "$OUT/$name-$s"
-      timeout -k 5 "$LIMIT" "$MOREAU" run "$d" --solver $s --out "$OUT/$name-$s" $args >"$OUT/$name-$s.log" 2>&1
+      extra=""
+      [ $s = levelset ] && extra=${LEVELSET_ARGS:-}
+      # shellcheck disable=SC2086
+      timeout -k 5 "$LIMIT" "$MOREAU" run "$d" --solver $s --out "$OUT/$name-$s" $args $extra >"$OUT/$name-$s.log" 2>&1
     done
     set -- $(field "$OUT/$name-nscd/summary.json")
     tn=$(least "$tn" "$1")

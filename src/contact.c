@@ -290,6 +290,7 @@ struct mo_contact_driver {
   double *sv_q, *sv_mu, *sv_r, *sv_U, sv_residual;
   long steps, iterations, max_iterations, wbuilds, failures;
   long factorizations, factor_reuses;
+  long sweeps;               /* smoother sweeps inside the back end's Newton method (levelset's hybrid) */
   long index_added;          /* candidates added to velocity-level index sets after a solve (§5) */
   double max_residual;
   double *eqf, *eqk;         /* quasi-static linear scenes: f + H r and K u (the equilibrium check, T82) */
@@ -634,6 +635,11 @@ void mo_contact_driver_factor_totals(const mo_contact_driver *D, long *factoriza
 {
   if (factorizations) *factorizations = D->factorizations;
   if (reuses) *reuses = D->factor_reuses;
+}
+
+long mo_contact_driver_sweeps(const mo_contact_driver *D)
+{
+  return D->sweeps;
 }
 
 void mo_contact_driver_totals(const mo_contact_driver *D, long *steps, long *iterations,
@@ -1133,6 +1139,7 @@ resolve:
   mo_phase_add(ctx, MO_PH_CONTACT, t0);
   D->factorizations += rep->factorizations;
   D->factor_reuses += rep->factor_reuses;
+  D->sweeps += rep->sweeps;
   for (i = 0; i < m; i++)
     if (!isfinite(D->r[i])) {
       char who[200];

@@ -897,6 +897,9 @@ static json_t *contact_json(const mo_contact *C, const mo_contact_driver *D)
       json_object_set_new(j, "factorizations", json_integer(nf));
       json_object_set_new(j, "factor_reuses", json_integer(nreuse));
     }
+    /* the smoother sweeps of levelset's hybrid globalization (T144); absent without */
+    if (mo_contact_driver_sweeps(D) > 0)
+      json_object_set_new(j, "smoother_sweeps", json_integer(mo_contact_driver_sweeps(D)));
   }
   /* solves that did not converge and that contact.on_failure = "continue" let the run go on */
   json_object_set_new(j, "failed_solves", json_integer(mo_contact_driver_failures(D)));

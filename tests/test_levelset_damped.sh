@@ -62,6 +62,56 @@ ok $(below 0.3 "$w") "the undamped loop's final pile is $w radii from nscd's (>=
 it=$(sum damped iterations_total) im=$(sum damped iterations_max)
 ok $([ "$it" -le 300 ] && [ "$im" -le 20 ] && echo 0 || echo 1) "the damped loop: $it Newton solves over the run (<= 300; 236 measured), at most $im in a step (<= 20)"
 
+# the hybrid (T144): the damped loop with projected block Gauss-Seidel sweeps on the same law where
+# it traps. The 10-disk pile: every step converges, the final pile = nscd's (measured 0.009 radius),
+# the sweeps counted in summary.json
+run hybrid --solver levelset --set 'contact.levelset.globalization="hybrid"'
+ok $([ "$(sum hybrid failed_solves)" -eq 0 ] && echo 0 || echo 1) "hybrid, 10 disks: every contact step converges ($(sum hybrid failed_solves) failed)"
+w=$(moved hybrid nscd)
+ok $(below "$w" 0.03) "hybrid, 10 disks: the final pile = nscd's to $w radius (<= 0.03)"
+it=$(sum hybrid iterations_total) im=$(sum hybrid iterations_max) sw=$(sum hybrid smoother_sweeps)
+ok $([ "$it" -le 300 ] && [ "$im" -le 20 ] && echo 0 || echo 1) "hybrid, 10 disks: $it Newton solves (<= 300; 256 measured), at most $im in a step (<= 20)"
+ok $([ "$sw" -gt 0 ] && [ "$sw" -le 2000 ] && echo 0 || echo 1) "hybrid, 10 disks: summary.json counts $sw smoother sweeps (271 measured)"
+
+# 20 and 40 disks (0.3 s) at nscd's tolerance on these piles (status_tol = 1e-4, the law still
+# checked on the final iterate): the hybrid converges at every step where the damped loop alone
+# fails (measured 30 of 283 steps on 40 disks); at the default status_tol = 1e-10 it fails 1 of 283
+# (20 disks) and 8 of 283 (40; the damped loop alone 2 and 42): Gauss-Seidel's rate on these piles
+# stalls within ten times that tolerance (doc/theory.md §6.4.3)
+pile() { # pile NAME N WIDTH ARGS...
+  name=$1 n=$2 wd=$3
+  shift 3
+  run "$name" --set bodies.grains.pack.count=$n --set "bodies.right.point=[$wd,0.0]" \
+      --set "bodies.grains.pack.box=[0.0,$wd,0.0,2.0]" --set time.end=0.3 "$@"
+}
+# the mean height of the grains' final centres, in radii
+height() {
+  /usr/bin/python3 - "$OUT/$1/bodies.csv" <<'PY'
+import csv, sys
+g = [r for r in csv.DictReader(open(sys.argv[1])) if r['group'] == 'grains']
+print("%.6f" % (sum(float(r['y']) for r in g) / len(g) / float(g[0]['radius'])))
+PY
+}
+HY='contact.levelset.globalization="hybrid"'
+pile p20-nscd 20 0.04 --solver nscd
+pile p20-hybrid 20 0.04 --solver levelset --set "$HY" --set contact.levelset.status_tol=1e-4
+pile p40-nscd 40 0.06 --solver nscd
+pile p40-hybrid 40 0.06 --solver levelset --set "$HY" --set contact.levelset.status_tol=1e-4
+pile p40-damped 40 0.06 --solver levelset --set 'contact.levelset.globalization="line_search"' --set contact.levelset.status_tol=1e-4
+for n in 20 40; do
+  f=$(sum p$n-hybrid failed_solves) s=$(sum p$n-hybrid steps_with_contact)
+  ok $([ "$f" -eq 0 ] && [ "$s" -ge 250 ] && echo 0 || echo 1) "hybrid, $n disks: every one of the $s contact steps converges ($f failed)"
+done
+f=$(sum p40-damped failed_solves)
+ok $([ "$f" -ge 10 ] && echo 0 || echo 1) "the damped loop alone, 40 disks: $f contact steps fail (>= 10; 30 measured)"
+w=$(moved p20-hybrid p20-nscd)
+ok $(below "$w" 0.1) "hybrid, 20 disks: the final pile = nscd's to $w radius (<= 0.1; 0.044 measured)"
+w=$(/usr/bin/python3 -c "import sys; print('%.3e' % abs(float(sys.argv[1]) - float(sys.argv[2])))" "$(height p40-hybrid)" "$(height p40-nscd)")
+ok $(below "$w" 0.1) "hybrid, 40 disks: the grains' mean final height (7.5 radii) = nscd's to $w radius (<= 0.1; 0.054 measured; the grains' own places part by 2 radii, a chaotic pile)"
+it=$(sum p40-hybrid iterations_total) im=$(sum p40-hybrid iterations_max) sw=$(sum p40-hybrid smoother_sweeps)
+ok $([ "$it" -le 1500 ] && [ "$im" -le 50 ] && echo 0 || echo 1) "hybrid, 40 disks: $it Newton solves (<= 1500; 1217 measured), at most $im in a step (<= 50; 34)"
+ok $([ "$sw" -gt 0 ] && [ "$sw" -le 20000 ] && echo 0 || echo 1) "hybrid, 40 disks: $sw smoother sweeps (<= 20000; 10249 measured; nscd 26947)"
+
 # 3D: the coupled threshold with the sliding directions frozen at the iterate (T143). A box sliding
 # on a plane (the scene of tests/test_levelset_reduced.sh, mu = 0.3, 200 steps)
 run3() { # run3 NAME CFG ARGS... (CFG: a path)
@@ -123,4 +173,10 @@ run3 sph-none "$OUT/spheres8.cfg"
 run3 sph-damped "$OUT/spheres8.cfg" --set 'contact.levelset.globalization="line_search"'
 fn=$(sum sph-none failed_solves) fd=$(sum sph-damped failed_solves)
 ok $([ "$fd" -lt "$fn" ] && echo 0 || echo 1) "8 spheres: the damped loop fails fewer contact steps ($fd) than the undamped threshold loop ($fn) (15 and 22 measured)"
+# the hybrid (T144) in 3D at status_tol = 1e-4: every step converges (measured: the damped loop
+# alone fails 5 of 182 there, nscd at its tolerance 1e-4 stops on max_sweeps at 3)
+run3 sph-hybrid "$OUT/spheres8.cfg" --set 'contact.levelset.globalization="hybrid"' --set contact.levelset.status_tol=1e-4
+f=$(sum sph-hybrid failed_solves) it=$(sum sph-hybrid iterations_total)
+ok $([ "$f" -eq 0 ] && echo 0 || echo 1) "8 spheres, hybrid at status_tol = 1e-4: every contact step converges ($f failed)"
+ok $([ "$it" -le 1000 ] && echo 0 || echo 1) "8 spheres, hybrid: $it Newton solves (<= 1000; 762 measured; the damped loop alone 1301)"
 done_testing

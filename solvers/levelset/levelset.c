@@ -71,6 +71,7 @@ typedef struct {
   int kkt, end_gap, dt;
   double c, kt, rho_n, rho_t, tol_v, tol_f, scale_v;
   int nls, nnewt, nthr;
+  int nsweep;                /* the hybrid's smoother sweeps (T144) */
 } ls_pass;
 
 #define LS_PROX_EPS 1e-8      /* the automatic proximal eps (T136) */
@@ -105,8 +106,16 @@ static const mo_option_spec ls_options[] = {
    "Friction threshold p^g: loop freezes it in each frozen-status solve and updates it to the pressure after (the outer loop of BDZ07 Fig. 2); coupled makes every closed candidate's threshold its own pressure inside the frozen system, r_t = -mu r_n e when sliding (the same discrete problem in one pass; 2D, the reduced path; doc/theory.md (T134)); auto is coupled where it applies, else loop."},
   {"proximal", MO_OPT_DOUBLE, OFF(proximal), NULL, 0, 1, "0 (automatic)",
    "Proximal term on the impulses (doc/theory.md (T136)): each pass solves the problem with W + eps D and q - eps D r_c (D the diagonal of W, r_c the previous pass's impulses) until the term falls below newton_tol, so that a frozen status whose impulses are not unique (redundant contacts: piles, masonry) has one solution, the nearest to r_c, and the law holds at the end. 0: eps = 1e-8 where the reduced path finds redundant normal impulses (or a contact set too large for dense algebra between rigid bodies), none elsewhere."},
-  {"globalization", MO_OPT_ENUM, OFF(globalization), "auto|none|line_search", NAN, NAN, "\"auto\"",
-   "The level-set loop on the reduced path with the coupled threshold: line_search moves from the current impulses toward the frozen-status solution by the step that decreases the natural-map residual of the contact law (Armijo backtracking) and takes the sign fields of the point reached (doc/theory.md (T140)-(T143); in 3D with the sliding directions frozen at the iterate); none takes the whole step (BDZ07 Fig. 2); auto is line_search on 2D sets of more than 400 local unknowns between rigid bodies (piles), none elsewhere."},
+  {"globalization", MO_OPT_ENUM, OFF(globalization), "auto|none|line_search|hybrid", NAN, NAN, "\"auto\"",
+   "The level-set loop on the reduced path with the coupled threshold: line_search moves from the current impulses toward the frozen-status solution by the step that decreases the natural-map residual of the contact law (Armijo backtracking) and takes the sign fields of the point reached (doc/theory.md (T140)-(T143); in 3D with the sliding directions frozen at the iterate); hybrid is line_search with a smoother where it traps: sweeps of projected block Gauss-Seidel on the same law, each candidate's contact law solved exactly against the current impulses of the others (doc/theory.md (T144)); none takes the whole step (BDZ07 Fig. 2); auto is line_search on 2D sets of more than 400 local unknowns between rigid bodies (piles), none elsewhere."},
+  {"smoother_sweeps", MO_OPT_INT, OFF(smooth_sweeps), NULL, 1, 100000, "500",
+   "Hybrid globalization: the most Gauss-Seidel sweeps over the contact set where the damped loop traps (doc/theory.md (T144))."},
+  {"smoother_drop", MO_OPT_DOUBLE, OFF(smooth_drop), NULL, 0, 1, "0.01",
+   "Hybrid globalization: the sweeps at a trap stop once the natural-map merit is below this fraction of its value at the trap (0: always smoother_sweeps)."},
+  {"smoother_pre", MO_OPT_INT, OFF(smooth_pre), NULL, 0, 100000, "0",
+   "Hybrid globalization: Gauss-Seidel sweeps before the first Newton step of every solve."},
+  {"smoother_alpha", MO_OPT_DOUBLE, OFF(smooth_alpha), NULL, 0, 1, "0.001",
+   "Hybrid globalization: a line-search step shorter than this (or none decreasing the merit) is a trap, where the smoother sweeps instead."},
   {"proximal_max", MO_OPT_INT, OFF(proximal_max), NULL, 1, 10000, "50",
    "Proximal loop: iteration limit."},
   {"threshold_max", MO_OPT_INT, OFF(threshold_max), NULL, 1, 100000, "200",
@@ -136,6 +145,10 @@ static void ls_defaults(void *params)
   p->proximal_max = 50;
   p->threshold_tol = 1e-10;
   p->levelset_max = 100;
+  p->smooth_sweeps = 500;
+  p->smooth_drop = 1e-2;
+  p->smooth_pre = 0;
+  p->smooth_alpha = 1e-3;
   p->newton_max = 50;
   p->newton_tol = 1e-10;
   p->status_tol = 1e-10;
@@ -1082,6 +1095,192 @@ static double damped_signs(ls_state *L, ls_pass *Q)
   return emax;
 }
 
+/* --- the hybrid's smoother: projected block Gauss-Seidel on the same law (T144) -------------------- */
+
+/* Solve the n x n system A x = b (n <= 3) by Gaussian elimination with partial pivoting; A and b
+   are overwritten. Returns 0 when a pivot vanishes. */
+static int small_solve(int n, double *A, double *b)
+{
+  int i, k, c;
+  for (k = 0; k < n; k++) {
+    int piv = k;
+    for (i = k + 1; i < n; i++)
+      if (fabs(A[i * n + k]) > fabs(A[piv * n + k])) piv = i;
+    if (!(fabs(A[piv * n + k]) > 0)) return 0;
+    if (piv != k) {
+      double t;
+      for (c = 0; c < n; c++) t = A[k * n + c], A[k * n + c] = A[piv * n + c], A[piv * n + c] = t;
+      t = b[k], b[k] = b[piv], b[piv] = t;
+    }
+    for (i = k + 1; i < n; i++) {
+      double f = A[i * n + k] / A[k * n + k];
+      for (c = k; c < n; c++) A[i * n + c] -= f * A[k * n + c];
+      b[i] -= f * b[k];
+    }
+  }
+  for (k = n - 1; k >= 0; k--) {
+    for (c = k + 1; c < n; c++) b[k] -= A[k * n + c] * b[c];
+    b[k] /= A[k * n + k];
+  }
+  return 1;
+}
+
+/* A sliding solution of one candidate's law: r_t = -mu r_n e, U'_n = f_n + (W_nn - mu W_nt e) r_n
+   = 0 with r_n > 0 and U'_t = f_t + W_tn r_n + W_tt r_t along e (2D: e = +-1 as given; 3D: e found
+   by a damped fixed point from the given one). Returns 1 with r set when one is found. */
+static int local_slide(int d, const double *Wl, const double *f, double mu, double *e, double *r)
+{
+  const int dt = d - 1;
+  int it, t, k;
+  for (it = 0; it < (dt == 1 ? 1 : 60); it++) {
+    double den = Wl[0], ut[2], un = 0, en[2], diff = 0;
+    for (t = 0; t < dt; t++) den -= mu * Wl[1 + t] * e[t];
+    if (!(den > 0)) return 0;
+    r[0] = -f[0] / den;
+    for (t = 0; t < dt; t++) r[1 + t] = -mu * r[0] * e[t];
+    for (t = 0; t < dt; t++) {
+      ut[t] = f[1 + t];
+      for (k = 0; k < d; k++) ut[t] += Wl[(1 + t) * d + k] * r[k];
+      un += ut[t] * ut[t];
+    }
+    un = sqrt(un);
+    if (dt == 1) return ut[0] * e[0] >= 0;
+    if (!(un > 0)) return 1;
+    for (t = 0; t < dt; t++) {
+      en[t] = ut[t] / un;
+      diff = fmax(diff, fabs(en[t] - e[t]));
+    }
+    if (diff < 1e-12) return 1;
+    /* e <- the normalized mean of e and the direction of the slip it gives */
+    un = 0;
+    for (t = 0; t < dt; t++) {
+      e[t] = 0.5 * (e[t] + en[t]);
+      un += e[t] * e[t];
+    }
+    if (!(un > 0)) return 0;
+    for (t = 0; t < dt; t++) e[t] /= sqrt(un);
+  }
+  return r[0] > 0;
+}
+
+/* One candidate's contact law (closed: r_n >= 0, U'_n >= 0, r_n U'_n = 0; Coulomb's with the
+   threshold mu r_n: sticking U'_t = 0 inside the cone, sliding r_t = -mu r_n U'_t / |U'_t|) solved
+   exactly for its impulse r (d components) with U'_j = f + Wl r, the others' impulses fixed: the
+   zero of the natural map (T140) of this candidate alone. Open where f_n >= 0, else sticking when
+   Wl r = -f lies in the cone, else sliding. Returns 0 (r untouched) when none is found. */
+static int local_law(int d, const double *Wl, const double *f, double mu, double *r)
+{
+  double A[9], b[3] = {0, 0, 0}, e[2] = {0, 0}, x[3] = {0, 0, 0}, tn = 0;
+  int i, t;
+  if (f[0] >= 0) {
+    for (i = 0; i < d; i++) r[i] = 0;
+    return 1;
+  }
+  if (!(mu > 0) || d == 1) {
+    if (!(Wl[0] > 0)) return 0;
+    r[0] = -f[0] / Wl[0];
+    for (i = 1; i < d; i++) r[i] = 0;
+    return 1;
+  }
+  memcpy(A, Wl, (size_t)(d * d) * sizeof(double));
+  for (i = 0; i < d; i++) b[i] = -f[i];
+  if (small_solve(d, A, b)) {
+    for (t = 1; t < d; t++) tn += b[t] * b[t];
+    tn = sqrt(tn);
+    if (b[0] >= 0 && tn <= mu * b[0]) {
+      memcpy(r, b, (size_t)d * sizeof(double));
+      return 1;
+    }
+  }
+  /* sliding: against the sticking impulse's tangent where it exists, the free slip's otherwise */
+  for (t = 1; t < d; t++) e[t - 1] = tn > 0 ? -b[t] / tn : f[t];
+  if (!(tn > 0)) {
+    double n = d == 2 ? fabs(e[0]) : hypot(e[0], e[1]);
+    if (!(n > 0)) return 0;
+    for (t = 0; t < d - 1; t++) e[t] /= n;
+  }
+  if (local_slide(d, Wl, f, mu, e, x)) {
+    memcpy(r, x, (size_t)d * sizeof(double));
+    return 1;
+  }
+  if (d == 2) {
+    e[0] = -e[0];
+    if (local_slide(d, Wl, f, mu, e, x)) {
+      memcpy(r, x, (size_t)d * sizeof(double));
+      return 1;
+    }
+  }
+  return 0;
+}
+
+/* The merit Psi (T140) at the iterate L->r, L->U; *emax: its largest residual in units of the sign
+   tests' tolerances of the last sign fields (<= 1: the law holds, as (T142) tests it). */
+static double merit_here(const ls_state *L, const ls_pass *Q, double *emax)
+{
+  double m = 0, fn, ft, a, z[2], zn;
+  int j;
+  *emax = 0;
+  for (j = 0; j < L->nc; j++) {
+    if (!L->su[j]) continue;
+    natural_map(L, Q, j, L->r + j * L->d, L->U + j * L->d, &fn, &ft, &a, z, &zn);
+    m += fn * fn + ft * ft;
+    *emax = fmax(*emax, fmax(fabs(fn) / (Q->tol_v + 1e-300), fabs(ft) / (Q->tol_f + 1e-300)));
+  }
+  return m;
+}
+
+/* nsweep sweeps of projected block Gauss-Seidel over the candidates of S_u = 1, alternately forward
+   and backward: each candidate's law solved exactly (local_law) with W's diagonal block (plus the
+   proximal term) against the current impulses of the others, and U' = W r + q_eff updated along
+   W's block row. L->U must hold U' over the candidates of S_u = 1 on entry; on return it does over
+   all of them that W's rows reach (full_velocity refreshes the rest). */
+static void smoother(ls_state *L, ls_pass *Q, int nsweep, double drop)
+{
+  const mo_delassus *W = Q->P->W;
+  const int nc = L->nc, d = L->d;
+  double e, m0 = merit_here(L, Q, &e);
+  int s, jj, i, k, p;
+  for (s = 0; s < nsweep; s++) {
+    for (jj = 0; jj < nc; jj++) {
+      const int j = (s & 1) ? nc - 1 - jj : jj;
+      const double *Wjj;
+      const int *beta;
+      const double *blk;
+      double Wl[9], f[3], rn[3], dr[3], *rj = L->r + j * d, *Uj = L->U + j * d;
+      int n, moved = 0;
+      if (!L->su[j] || !(Wjj = mo_delassus_block(W, j, j))) continue;
+      memcpy(Wl, Wjj, (size_t)(d * d) * sizeof(double));
+      if (L->eps > 0)
+        for (i = 0; i < d; i++) Wl[i * d + i] += L->eps * L->dW[j * d + i];
+      for (i = 0; i < d; i++) {
+        f[i] = Uj[i];
+        for (k = 0; k < d; k++) f[i] -= Wl[i * d + k] * rj[k];
+      }
+      memcpy(rn, rj, (size_t)d * sizeof(double));
+      if (!local_law(d, Wl, f, Q->dt ? L->mu[j] : 0, rn)) continue;
+      for (i = 0; i < d; i++) {
+        dr[i] = rn[i] - rj[i];
+        moved |= dr[i] != 0;
+      }
+      if (!moved) continue;
+      memcpy(rj, rn, (size_t)d * sizeof(double));
+      /* U'_b += W_bj dr = W_jb^T dr (W symmetric: row j's blocks) */
+      n = mo_delassus_row(W, j, &beta, &blk);
+      for (p = 0; p < n; p++) {
+        const double *bl = blk + (size_t)p * (size_t)(d * d);
+        double *Ub = L->U + beta[p] * d;
+        for (k = 0; k < d; k++)
+          for (i = 0; i < d; i++) Ub[k] += bl[i * d + k] * dr[i];
+      }
+      if (L->eps > 0)
+        for (i = 0; i < d; i++) Uj[i] += L->eps * L->dW[j * d + i] * dr[i];
+    }
+    Q->nsweep++;
+    /* enough: the merit down by the factor drop, or the law holding (the sign fields' test) */
+    if (merit_here(L, Q, &e) <= drop * m0 || e <= 1) return;
+  }
+}
+
 /* The damped level-set loop (T140)-(T142): from the iterate r_k (the warm start), the sign fields
    of its natural map freeze a status, the frozen system gives r*, and the step r_k + alpha (r* -
    r_k) is the longest of 1, 1/2, 1/4, ... that decreases the merit |F|^2 by the Armijo factor (the
@@ -1092,13 +1291,20 @@ static int damped_loop(ls_state *L, ls_pass *Q, mo_contact_report *rep, mo_ctx *
   const mo_contact_problem *P = Q->P;
   ls_system *S = &L->S;
   const int nc = L->nc, m = L->m;
+  const int hybrid = L->par.globalization == LS_GLOB_HYBRID;
   int it, j, st, its, conv, done, k;
   double m0, emax;
   full_velocity(L, P, 0);
+  if (hybrid && L->par.smooth_pre > 0) {
+    damped_signs(L, Q); /* the sign tests' tolerances, which the smoother's stop reads */
+    smoother(L, Q, L->par.smooth_pre, 0);
+    full_velocity(L, P, 0);
+  }
   emax = damped_signs(L, Q);
   m0 = merit_at(L, Q, 0, 0);
   for (it = 0;; it++) {
     double alpha = 1, ma = 0;
+    int trap;
     if (emax <= 1) return MO_OK;
     if (it >= L->par.levelset_max) {
       rep->reason = MO_CR_MAXITER;
@@ -1127,10 +1333,20 @@ static int damped_loop(ls_state *L, ls_pass *Q, mo_contact_report *rep, mo_ctx *
       ma = merit_at(L, Q, alpha, 0);
       if (ma <= (1 - 1e-4 * alpha) * m0) break;
     }
-    if (k == 30) alpha = 1, ma = merit_at(L, Q, 1, 0);
+    /* a trap (no decrease, or a step below smoother_alpha): the hybrid sweeps from the iterate
+       (or the short step's point) instead of the whole step (T144) */
+    trap = hybrid && (k == 30 || alpha < L->par.smooth_alpha);
+    if (k == 30) alpha = trap ? 0 : 1, ma = merit_at(L, Q, alpha, 0);
     L->u_partial = 1;
     m0 = ma;
     merit_at(L, Q, alpha, 1);
+    if (trap) {
+      smoother(L, Q, L->par.smooth_sweeps, L->par.smooth_drop);
+      full_velocity(L, P, 0);
+      memcpy(L->rk, L->r, (size_t)m * sizeof(double));
+      memcpy(L->Uk, L->U, (size_t)m * sizeof(double));
+      m0 = merit_at(L, Q, 0, 0);
+    }
     emax = damped_signs(L, Q);
   }
 }
@@ -1262,7 +1478,7 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
   /* the damped loop (T140): where asked, or on large rigid sets (piles); in 3D it brings the
      coupled threshold with frozen sliding directions (T143) */
   L->glob = L->reduced && !Q.kkt && Q.dt > 0 && L->par.threshold != LS_THR_LOOP && L->par.k_n == 0 &&
-            L->par.k_t == 0 && (L->par.globalization == LS_GLOB_LINE_SEARCH ||
+            L->par.k_t == 0 && (L->par.globalization == LS_GLOB_LINE_SEARCH || L->par.globalization == LS_GLOB_HYBRID ||
             (L->par.globalization == LS_GLOB_AUTO && Q.dt == 1 && L->rigid && P->nc * P->dim > LS_DENSE_MAX));
   L->coupled = L->reduced && !Q.kkt && (Q.dt == 1 || (Q.dt == 2 && L->glob)) && L->par.threshold != LS_THR_LOOP;
   for (;;) {
@@ -1294,6 +1510,7 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
   rep->factorizations = (int)(L->lu.factorizations - nfact0);
   rep->factor_reuses = (int)(L->lu.reuses - nreuse0);
   rep->iterations = Q.nnewt;
+  rep->sweeps = Q.nsweep;
   mo_log(ctx, 3, "levelset step %ld: loops geometry %d, threshold %d, level-set %d, Newton %d (%s)\n",
          P->step, rep->loops[0], rep->loops[1], rep->loops[2], rep->loops[3],
          mo_contact_reason_name(rep->reason));

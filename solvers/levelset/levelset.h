@@ -13,7 +13,7 @@ enum { LS_STAB_PROJECTED = 0, LS_STAB_UNPROJECTED };
 enum { LS_SU_INDEX_SET = 0, LS_SU_END_GAP };
 enum { LS_PATH_AUTO = 0, LS_PATH_SCHUR, LS_PATH_KKT, LS_PATH_REDUCED };
 enum { LS_THR_AUTO = 0, LS_THR_LOOP, LS_THR_COUPLED };
-enum { LS_GLOB_AUTO = 0, LS_GLOB_NONE, LS_GLOB_LINE_SEARCH };
+enum { LS_GLOB_AUTO = 0, LS_GLOB_NONE, LS_GLOB_LINE_SEARCH, LS_GLOB_HYBRID };
 
 typedef struct {
   int multipliers;        /* LS_MULT_*: the multiplier space H_h of BDZ07 (65) */
@@ -25,6 +25,10 @@ typedef struct {
   int threshold;          /* LS_THR_*: the friction threshold frozen in an outer loop, or coupled (T134) */
   double proximal;        /* eps of the proximal term (T136); 0 = automatic */
   int globalization;      /* LS_GLOB_*: the damped level-set loop on the natural map (T140) */
+  int smooth_sweeps;      /* hybrid: Gauss-Seidel sweeps at a trap of the damped loop (T144) */
+  int smooth_pre;         /* hybrid: sweeps before the first Newton step of a solve */
+  double smooth_drop;     /* hybrid: the sweeps at a trap stop at this fraction of the merit */
+  double smooth_alpha;    /* hybrid: a step shorter than this is a trap */
   int threshold_max, levelset_max, newton_max, proximal_max;
   double threshold_tol, newton_tol, status_tol;
 } ls_params;

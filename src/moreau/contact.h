@@ -367,6 +367,8 @@ typedef struct mo_contact_report {
   int min_norm;              /* the reactions reported are the minimum-norm ones */
   int factorizations;        /* matrices the back end factored in the solve (levelset: Newton */
   int factor_reuses;         /*   matrices), and solves on factors kept from an earlier one */
+  int sweeps;                /* local-solver sweeps of a smoother inside a Newton method (levelset's
+                                hybrid globalization, doc/theory.md (T144)) */
 } mo_contact_report;
 
 /* Typed options of a back end: the case keys contact.<name>.<option> and --set. */
@@ -523,6 +525,9 @@ void mo_contact_driver_totals(const mo_contact_driver *D, long *steps, long *ite
 void mo_contact_driver_keep_delassus(mo_contact_driver *D);
 /* Totals over the run of the back end's factorizations and of its solves on kept factors. */
 void mo_contact_driver_factor_totals(const mo_contact_driver *D, long *factorizations, long *reuses);
+/* Smoother sweeps the back end ran inside its Newton method over the run (levelset's hybrid
+   globalization, doc/theory.md (T144)). */
+long mo_contact_driver_sweeps(const mo_contact_driver *D);
 /* Bytes the driver holds for the candidates (its per-candidate arrays and key map, at their
    capacity) and for the dofs (*per_dof, when not NULL). */
 size_t mo_contact_driver_bytes(const mo_contact_driver *D, size_t *per_dof);
