@@ -1,8 +1,8 @@
 #!/bin/sh
-# test_levelset_damped.sh: levelset's damped level-set loop (doc/theory.md §6.4.3, (T140)-(T143)) on
-# a small frictional pile (10 disks, mu = 0.5, 0.2 s), a 3D box sliding on a plane and a small
-# sphere deposit: against the undamped loop of BDZ07 Fig. 2 and against nscd's motion; counts from
-# summary.json, never the clock.
+# test_levelset_damped.sh: levelset's damped level-set loop (doc/theory.md §6.4.3, (T140)-(T143)) and
+# its hybrid with Gauss-Seidel sweeps (T144) on small frictional piles (10 disks, 0.2 s; 20 and 40
+# disks, 0.3 s; mu = 0.5), a 3D box sliding on a plane and a small sphere deposit: against the
+# undamped loop of BDZ07 Fig. 2 and against nscd's motion; counts from summary.json, never the clock.
 . "$MOREAU_SRCDIR/tests/tap.sh"
 cat >"$OUT/pile10.cfg" <<'CFG'
 title = "ten disks poured into a narrow box, mu = 0.5";
