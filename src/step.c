@@ -611,14 +611,15 @@ int mo_stepper_create_ordered(const mo_scene *sc, int nlast, const int *last, do
   S->xf = mo_calloc(ctx, (size_t)(sc->nfree ? sc->nfree : 1), sizeof(double));
   S->w1 = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
   S->w2 = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
-  S->w3 = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
+  /* w3: Newton's work, or the unknown of a step without contact (mo_stepper_step, made there) */
+  S->w3 = sc->nonlinear ? mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double)) : NULL;
   S->uprev = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
   /* the velocities and forces of the step's start: the reactions of prescribed dofs only */
   if (sc->npresc) {
     S->vprev = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
     S->fprev = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
   }
-  if (!S->rhs || !S->xf || !S->w1 || !S->w2 || !S->w3 || !S->uprev || (sc->npresc && (!S->vprev || !S->fprev))) {
+  if (!S->rhs || !S->xf || !S->w1 || !S->w2 || (sc->nonlinear && !S->w3) || !S->uprev || (sc->npresc && (!S->vprev || !S->fprev))) {
     mo_stepper_free(S);
     return MO_ENOMEM;
   }
@@ -880,7 +881,7 @@ static int predict_rhs(mo_stepper *S, const mo_state *s, double *x, mo_ctx *ctx)
   const mo_scene *sc = S->sc;
   int n = sc->ndof, i, st;
   double h = S->h, tn = s->t + h;
-  double *f1 = S->w1, *w = S->w2, *z = S->w3;
+  double *f1 = S->w1, *w = S->w2;
   if (S->nl)
     return mo_error(ctx, MO_EUNSUPPORTED, "mo_stepper_predict: a nonlinear scene's step is "
                     "mo_stepper_solve (Newton)");
@@ -930,7 +931,6 @@ static int predict_rhs(mo_stepper *S, const mo_state *s, double *x, mo_ctx *ctx)
     memcpy(x, w, (size_t)n * sizeof(double));
     break;
   }
-  (void)z;
   mo_stepper_gather(S, f1, S->rhs);
   if (S->nblk) rigid_rhs(S, s, x, S->rhs);
   return MO_OK;
