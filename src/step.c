@@ -290,9 +290,36 @@ static int rigid_setup(mo_stepper *S, mo_ctx *ctx)
 
 const mo_what_inverse *mo_stepper_inverse(const mo_stepper *S) { return &S->Wi; }
 
+/* Block k's rows of x = (add ? x : 0) + What^-1 b: the full block's sums, or with the diagonal
+   storage their value to the bit for finite b: a sum s + 0 b_j of the full block leaves s unless
+   s is a zero, and only a -0 start depends on the signs of the zero products (then summed as the
+   full block does, zeros included). */
+static inline void block_apply(const mo_what_inverse *Wi, int k, const double *b, double *x, int add)
+{
+  int o = Wi->off[k], nk = Wi->off[k + 1] - o, i, j;
+  double y[6];
+  if (Wi->dinv) {
+    const double *dv = Wi->dinv + (o - Wi->off[0]);
+    for (i = 0; i < nk; i++) {
+      double acc = add ? x[o + i] : 0;
+      if (acc != 0 || !signbit(acc)) acc += dv[i] * b[o + i];
+      else
+        for (j = 0; j < nk; j++) acc += (j == i ? dv[i] : 0.0) * b[o + j];
+      y[i] = acc;
+    }
+  } else {
+    const double *Ai = Wi->inv + Wi->ioff[k];
+    for (i = 0; i < nk; i++) {
+      y[i] = add ? x[o + i] : 0;
+      for (j = 0; j < nk; j++) y[i] += Ai[i * nk + j] * b[o + j];
+    }
+  }
+  memcpy(x + o, y, (size_t)nk * sizeof *y);
+}
+
 int mo_what_solve(const mo_what_inverse *Wi, int nrhs, const double *B, double *X, mo_ctx *ctx)
 {
-  int n = Wi->n, nfe = Wi->nfe, c, k, i, j, st;
+  int n = Wi->n, nfe = Wi->nfe, c, k, st;
   if (nfe > 0) {
     if (n == nfe) {
       if ((st = mo_linsolver_solve_multi(Wi->ls, nrhs, B, X, ctx))) return st;
@@ -302,16 +329,8 @@ int mo_what_solve(const mo_what_inverse *Wi, int nrhs, const double *B, double *
   }
   for (c = 0; c < nrhs; c++) {
     const double *b = B + (size_t)c * n;
-    double *x = X + (size_t)c * n, y[6], Ai[36];
-    for (k = 0; k < Wi->nblk; k++) {
-      int o = Wi->off[k], nk = Wi->off[k + 1] - o;
-      mo_what_block(Wi, k, Ai);
-      for (i = 0; i < nk; i++) {
-        y[i] = 0;
-        for (j = 0; j < nk; j++) y[i] += Ai[i * nk + j] * b[o + j];
-      }
-      memcpy(x + o, y, (size_t)nk * sizeof *y);
-    }
+    double *x = X + (size_t)c * n;
+    for (k = 0; k < Wi->nblk; k++) block_apply(Wi, k, b, x, 0);
   }
   return MO_OK;
 }
@@ -799,10 +818,24 @@ static void rigid_rhs(const mo_stepper *S, const mo_state *s, const double *x, d
     for (i = 0; i < nk; i++) {
       double g = S->gyro ? S->gyro[B->dof0 + loc[i]] : 0;
       double acc = S->scheme == MO_SCHEME_THETA ? S->h * g : g;
-      for (j = 0; j < nd; j++) {
-        double Mij = rig_mass(S, r, nd, loc[i], j);
-        if (S->scheme == MO_SCHEME_THETA) acc += Mij * v[j];
-        if (sc->free_of[B->dof0 + j] < 0) acc -= Mij * xb[j];
+      /* a diagonal block: the full row's sum to the bit for finite v (block_apply), its zeros'
+         products summed only after a -0 start or with prescribed dofs */
+      if (S->blk_diag && nk == nd && S->scheme == MO_SCHEME_THETA && (acc != 0 || !signbit(acc)))
+        acc += S->rig_M[(size_t)r * (size_t)nd + (size_t)loc[i]] * v[loc[i]];
+      else if (S->blk_diag) { /* the full row's sums, its zeros' products (signed zeros) kept */
+        const int li = loc[i];
+        const double mii = S->rig_M[(size_t)r * (size_t)nd + (size_t)li];
+        for (j = 0; j < nd; j++) {
+          double Mij = j == li ? mii : 0.0;
+          if (S->scheme == MO_SCHEME_THETA) acc += Mij * v[j];
+          if (sc->free_of[B->dof0 + j] < 0) acc -= Mij * xb[j];
+        }
+      } else {
+        const double *Mi = S->rig_M + (size_t)r * (size_t)(nd * nd) + (size_t)(loc[i] * nd);
+        for (j = 0; j < nd; j++) {
+          if (S->scheme == MO_SCHEME_THETA) acc += Mi[j] * v[j];
+          if (sc->free_of[B->dof0 + j] < 0) acc -= Mi[j] * xb[j];
+        }
       }
       rhs[o + i] += acc;
     }
@@ -972,17 +1005,8 @@ const int *mo_stepper_contact_dofs(const mo_stepper *S, int *nlast)
 /* The rigid rows of x = What^-1 b (free vectors): their blocks. */
 static void rigid_rows(const mo_stepper *S, const double *b, double *x, int add)
 {
-  int k, i, j;
-  for (k = 0; k < S->nblk; k++) {
-    int o = S->blk_off[k], nk = S->blk_off[k + 1] - o;
-    double y[6], Ai[36];
-    mo_what_block(&S->Wi, k, Ai);
-    for (i = 0; i < nk; i++) {
-      y[i] = add ? x[o + i] : 0;
-      for (j = 0; j < nk; j++) y[i] += Ai[i * nk + j] * b[o + j];
-    }
-    memcpy(x + o, y, (size_t)nk * sizeof *y);
-  }
+  int k;
+  for (k = 0; k < S->nblk; k++) block_apply(&S->Wi, k, b, x, add);
 }
 
 int mo_stepper_predict_split(mo_stepper *S, const mo_state *s, double *x, mo_ctx *ctx)
