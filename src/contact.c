@@ -292,6 +292,7 @@ struct mo_contact_driver {
   long factorizations, factor_reuses;
   long sweeps;               /* smoother sweeps inside the back end's Newton method (levelset's hybrid) */
   long index_added;          /* candidates added to velocity-level index sets after a solve (§5) */
+  int nc_max;                /* the most candidates a step had */
   double max_residual;
   double *eqf, *eqk;         /* quasi-static linear scenes: f + H r and K u (the equilibrium check, T82) */
   double eq_residual, max_eq_residual;
@@ -459,6 +460,7 @@ static int fit(mo_contact_driver *D, const mo_state *s, const int *okey, int nol
   /* the key list after the remap: okey may be D->key itself, read above */
   if (nc) memcpy(D->key, mo_contact_key(C, 0), (size_t)nc * MO_KEY * sizeof *D->key);
   D->nc = nc;
+  if (nc > D->nc_max) D->nc_max = nc;
   D->m = nc * d;
   if (D->initialised && D->cset != mo_contact_set_version(C)) {
     /* the back end derived its state from the old set: set it up again at the next solve */
@@ -599,6 +601,7 @@ size_t mo_contact_driver_bytes(const mo_contact_driver *D, size_t *per_dof)
   return c + dof;
 }
 long mo_contact_driver_index_added(const mo_contact_driver *D) { return D->index_added; }
+int mo_contact_driver_candidates_max(const mo_contact_driver *D) { return D->nc_max > D->nc ? D->nc_max : D->nc; }
 
 int mo_contact_driver_redundancy(const mo_contact_driver *D, int *constraints, int *redundant, int *redundant_max,
                                  int *redundant_steps, double *rcond, double *rcond_min, int *min_norm)

@@ -499,8 +499,9 @@ static int build_rigid(mo_delassus *D, const mo_csc *H, const mo_what_inverse *W
   cnt[0] = 0;
   for (k = 0; k < nblk; k++) {
     int e0 = cnt[k], e1 = cnt[k + 1], nk = Wi->off[k + 1] - Wi->off[k], nc = 0, a, b, i, jj, q;
-    const double *inv = Wi->inv + Wi->ioff[k];
+    double inv[36];
     if (e0 == e1) continue;
+    mo_what_block(Wi, k, inv);
     /* the candidates on the block and their H_ak (nk x d, row-major), then G_ak = inv_k H_ak */
     mo_free(cand); mo_free(Hk); mo_free(Gk);
     cand = mo_malloc(ctx, (size_t)(e1 - e0) * sizeof *cand);

@@ -323,8 +323,10 @@ int mo_stepper_solve(mo_stepper *S, const mo_state *s, double *x, mo_ctx *ctx)
 /* One step without contact: predict and finish (linear scenes), Newton and finish (nonlinear). */
 int mo_stepper_step(mo_stepper *S, mo_state *s, mo_ctx *ctx)
 {
-  double *x = S->w3;
+  double *x;
   int st;
+  if (!S->w3 && !(S->w3 = mo_calloc(ctx, (size_t)S->sc->ndof + 1, sizeof(double)))) return MO_ENOMEM;
+  x = S->w3;
   if (S->nl) {
     x = S->xs; /* w1..w3 are Newton's work */
     mo_stepper_guess(S, s, x);

@@ -856,6 +856,7 @@ static json_t *contact_json(const mo_contact *C, const mo_contact_driver *D)
   if (mo_contact_ncandidates(C) > mo_contact_nstatic(C) || mo_contact_alert(C) > 0) {
     /* detected candidates (rigid shapes): the last step's, and the alert distance */
     json_object_set_new(j, "candidates_detected", json_integer(mo_contact_ncandidates(C) - mo_contact_nstatic(C)));
+    if (D) json_object_set_new(j, "candidates_max", json_integer(mo_contact_driver_candidates_max(D)));
     json_object_set_new(j, "alert", jnum(mo_contact_alert(C)));
     {
       /* the broad phase's pair list (doc/theory.md (T110)): builds over the run, pairs now */

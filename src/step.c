@@ -165,13 +165,37 @@ static int anisotropic(const mo_body *B)
          fabs(J[0] - J[4]) > 1e-14 * t || fabs(J[0] - J[8]) > 1e-14 * t;
 }
 
+/* 1 when the n x n matrix M (row-major) is diagonal. */
+static int is_diagonal(int n, const double *M)
+{
+  int i, j;
+  for (i = 0; i < n; i++)
+    for (j = 0; j < n; j++)
+      if (i != j && M[i * n + j] != 0) return 0;
+  return 1;
+}
+
+/* Entry (i, j) of the mass block of rigid body r (scene order), full or diagonal storage. */
+static inline double rig_mass(const mo_stepper *S, int r, int nd, int i, int j)
+{
+  if (S->blk_diag) return i == j ? S->rig_M[(size_t)r * (size_t)nd + (size_t)i] : 0;
+  return S->rig_M[(size_t)r * (size_t)(nd * nd) + (size_t)(i * nd + j)];
+}
+
 int mo_stepper_rigid_update(mo_stepper *S, const mo_state *s, mo_ctx *ctx)
 {
   const mo_scene *sc = S->sc;
   int nd = mo_rigid_ndof(sc->dim), k, r, i, j;
   for (r = 0; r < sc->nrigid; r++) {
     const mo_body *B = &sc->body[sc->rigid[r]];
-    mo_rigid_mass(sc, B, s, S->rig_M + (size_t)r * (size_t)(nd * nd));
+    double Md[36];
+    if (!S->blk_diag) mo_rigid_mass(sc, B, s, S->rig_M + (size_t)r * (size_t)(nd * nd));
+    else {
+      mo_rigid_mass(sc, B, s, Md);
+      if (!is_diagonal(nd, Md))
+        return mo_error(ctx, MO_EINTERNAL, "rigid body '%s': its mass block is not diagonal", B->name);
+      for (i = 0; i < nd; i++) S->rig_M[(size_t)r * (size_t)nd + (size_t)i] = Md[i * nd + i];
+    }
     if (s && S->gyro) mo_rigid_gyroscopic(sc, B, s, s->v + B->dof0, S->gyro + B->dof0);
   }
   for (k = 0; k < S->nblk; k++) {
@@ -180,6 +204,16 @@ int mo_stepper_rigid_update(mo_stepper *S, const mo_state *s, mo_ctx *ctx)
     double Mff[36];
     const double *M;
     ri = S->blk_rig[k];
+    if (S->blk_diag) { /* small_inverse's Gauss-Jordan on a diagonal block: 1 / M_ii to the bit */
+      for (i = 0; i < nk; i++) {
+        double piv = S->rig_M[(size_t)ri * (size_t)nd + (size_t)loc[i]];
+        if (!(fabs(piv) > 0))
+          return mo_error(ctx, MO_ESINGULAR, "rigid body '%s': its mass matrix is singular (zero mass or "
+                          "inertia on a free dof)", sc->body[b].name);
+        S->blk_inv[S->blk_off[k] - S->nfe + i] = 1 / piv;
+      }
+      continue;
+    }
     M = S->rig_M + (size_t)ri * (size_t)(nd * nd);
     for (i = 0; i < nk; i++)
       for (j = 0; j < nk; j++) Mff[i * nk + j] = M[loc[i] * nd + loc[j]];
@@ -196,18 +230,27 @@ int mo_stepper_rigid_update(mo_stepper *S, const mo_state *s, mo_ctx *ctx)
 static int rigid_setup(mo_stepper *S, mo_ctx *ctx)
 {
   const mo_scene *sc = S->sc;
-  int r, k = 0, nfree_r = sc->nfree - sc->nfe_free, ninv = 0, i;
+  int r, k = 0, nfree_r = sc->nfree - sc->nfe_free, ninv = 0, i, nd = mo_rigid_ndof(sc->dim);
   S->nfe = sc->nfe_free;
+  /* diagonal storage when every body's block is diagonal at the reference and never turns (2D;
+     3D with isotropic inertia): nd values a body instead of nd^2, and as many inverses */
+  S->blk_diag = 1;
+  for (r = 0; r < sc->nrigid && S->blk_diag; r++) {
+    const mo_body *B = &sc->body[sc->rigid[r]];
+    double M[36];
+    mo_rigid_mass(sc, B, NULL, M);
+    S->blk_diag = !(sc->dim == 3 && anisotropic(B)) && is_diagonal(nd, M);
+  }
   S->blk_body = mo_malloc(ctx, ((size_t)sc->nrigid + 1) * sizeof *S->blk_body);
   S->blk_rig = mo_malloc(ctx, ((size_t)sc->nrigid + 1) * sizeof *S->blk_rig);
   S->blk_off = mo_malloc(ctx, ((size_t)sc->nrigid + 2) * sizeof *S->blk_off);
-  S->blk_ioff = mo_malloc(ctx, ((size_t)sc->nrigid + 1) * sizeof *S->blk_ioff);
+  S->blk_ioff = S->blk_diag ? NULL : mo_malloc(ctx, ((size_t)sc->nrigid + 1) * sizeof *S->blk_ioff);
   S->blk_loc = mo_malloc(ctx, ((size_t)nfree_r + 1) * sizeof *S->blk_loc);
-  /* nd x nd per body; the gyroscopic forces exist in 3D only */
-  S->rig_M = mo_calloc(ctx, (size_t)(mo_rigid_ndof(sc->dim) * mo_rigid_ndof(sc->dim)) * (size_t)sc->nrigid + 1,
-                       sizeof *S->rig_M);
+  /* nd x nd per body (nd with blk_diag); the gyroscopic forces exist in 3D only */
+  S->rig_M = mo_calloc(ctx, (size_t)(S->blk_diag ? nd : nd * nd) * (size_t)sc->nrigid + 1, sizeof *S->rig_M);
   S->gyro = sc->dim == 3 ? mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof *S->gyro) : NULL;
-  if (!S->blk_body || !S->blk_rig || !S->blk_off || !S->blk_ioff || !S->blk_loc || !S->rig_M || (sc->dim == 3 && !S->gyro))
+  if (!S->blk_body || !S->blk_rig || !S->blk_off || (!S->blk_diag && !S->blk_ioff) || !S->blk_loc || !S->rig_M ||
+      (sc->dim == 3 && !S->gyro))
     return MO_ENOMEM;
   S->blk_off[0] = S->nfe;
   for (r = 0; r < sc->nrigid; r++) {
@@ -219,8 +262,8 @@ static int rigid_setup(mo_stepper *S, mo_ctx *ctx)
     if (!nk) continue;
     S->blk_body[k] = sc->rigid[r];
     S->blk_rig[k] = r;
-    S->blk_ioff[k] = ninv;
-    ninv += nk * nk;
+    if (!S->blk_diag) S->blk_ioff[k] = ninv;
+    ninv += S->blk_diag ? nk : nk * nk;
     S->blk_off[k + 1] = S->blk_off[k] + nk;
     k++;
   }
@@ -238,7 +281,8 @@ static int rigid_setup(mo_stepper *S, mo_ctx *ctx)
   S->Wi.nblk = S->nblk;
   S->Wi.off = S->blk_off;
   S->Wi.ioff = S->blk_ioff;
-  S->Wi.inv = S->blk_inv;
+  S->Wi.inv = S->blk_diag ? NULL : S->blk_inv;
+  S->Wi.dinv = S->blk_diag ? S->blk_inv : NULL;
   S->Wi.blkof = S->blk_of;
   S->Wi.last = mo_stepper_contact_dofs(S, &S->Wi.nlast);
   return mo_stepper_rigid_update(S, NULL, ctx);
@@ -246,9 +290,36 @@ static int rigid_setup(mo_stepper *S, mo_ctx *ctx)
 
 const mo_what_inverse *mo_stepper_inverse(const mo_stepper *S) { return &S->Wi; }
 
+/* Block k's rows of x = (add ? x : 0) + What^-1 b: the full block's sums, or with the diagonal
+   storage their value to the bit for finite b: a sum s + 0 b_j of the full block leaves s unless
+   s is a zero, and only a -0 start depends on the signs of the zero products (then summed as the
+   full block does, zeros included). */
+static inline void block_apply(const mo_what_inverse *Wi, int k, const double *b, double *x, int add)
+{
+  int o = Wi->off[k], nk = Wi->off[k + 1] - o, i, j;
+  double y[6];
+  if (Wi->dinv) {
+    const double *dv = Wi->dinv + (o - Wi->off[0]);
+    for (i = 0; i < nk; i++) {
+      double acc = add ? x[o + i] : 0;
+      if (acc != 0 || !signbit(acc)) acc += dv[i] * b[o + i];
+      else
+        for (j = 0; j < nk; j++) acc += (j == i ? dv[i] : 0.0) * b[o + j];
+      y[i] = acc;
+    }
+  } else {
+    const double *Ai = Wi->inv + Wi->ioff[k];
+    for (i = 0; i < nk; i++) {
+      y[i] = add ? x[o + i] : 0;
+      for (j = 0; j < nk; j++) y[i] += Ai[i * nk + j] * b[o + j];
+    }
+  }
+  memcpy(x + o, y, (size_t)nk * sizeof *y);
+}
+
 int mo_what_solve(const mo_what_inverse *Wi, int nrhs, const double *B, double *X, mo_ctx *ctx)
 {
-  int n = Wi->n, nfe = Wi->nfe, c, k, i, j, st;
+  int n = Wi->n, nfe = Wi->nfe, c, k, st;
   if (nfe > 0) {
     if (n == nfe) {
       if ((st = mo_linsolver_solve_multi(Wi->ls, nrhs, B, X, ctx))) return st;
@@ -258,16 +329,8 @@ int mo_what_solve(const mo_what_inverse *Wi, int nrhs, const double *B, double *
   }
   for (c = 0; c < nrhs; c++) {
     const double *b = B + (size_t)c * n;
-    double *x = X + (size_t)c * n, y[6];
-    for (k = 0; k < Wi->nblk; k++) {
-      int o = Wi->off[k], nk = Wi->off[k + 1] - o;
-      const double *Ai = Wi->inv + Wi->ioff[k];
-      for (i = 0; i < nk; i++) {
-        y[i] = 0;
-        for (j = 0; j < nk; j++) y[i] += Ai[i * nk + j] * b[o + j];
-      }
-      memcpy(x + o, y, (size_t)nk * sizeof *y);
-    }
+    double *x = X + (size_t)c * n;
+    for (k = 0; k < Wi->nblk; k++) block_apply(Wi, k, b, x, 0);
   }
   return MO_OK;
 }
@@ -285,10 +348,10 @@ void mo_stepper_mass_apply(const mo_stepper *S, const double *x, double *y)
   else memset(y, 0, (size_t)sc->ndof * sizeof *y); /* quasi-static: no inertia */
   for (r = 0; r < sc->nrigid; r++) {
     const mo_body *B = &sc->body[sc->rigid[r]];
-    const double *M = S->rig_M + (size_t)r * (size_t)(nd * nd), *xb = x + B->dof0;
+    const double *xb = x + B->dof0;
     for (i = 0; i < nd; i++) {
       double acc = 0;
-      for (j = 0; j < nd; j++) acc += M[i * nd + j] * xb[j];
+      for (j = 0; j < nd; j++) acc += rig_mass(S, r, nd, i, j) * xb[j];
       y[B->dof0 + i] = acc;
     }
   }
@@ -316,12 +379,12 @@ int mo_stepper_matrix_full(mo_stepper *S, const mo_csc **W, mo_ctx *ctx)
   for (k = 0; k < S->nblk; k++) {
     int o = S->blk_off[k], nk = S->blk_off[k + 1] - o, r, nd = mo_rigid_ndof(sc->dim);
     const int *loc = S->blk_loc + (o - S->nfe);
-    const double *M;
     r = S->blk_rig[k];
-    M = S->rig_M + (size_t)r * (size_t)(nd * nd);
     for (i = 0; i < nk; i++)
-      for (j = 0; j < nk; j++)
-        if (M[loc[i] * nd + loc[j]] != 0 && (st = mo_triplet_add(&T, o + i, o + j, M[loc[i] * nd + loc[j]], ctx))) goto done;
+      for (j = 0; j < nk; j++) {
+        double Mij = rig_mass(S, r, nd, loc[i], loc[j]);
+        if (Mij != 0 && (st = mo_triplet_add(&T, o + i, o + j, Mij, ctx))) goto done;
+      }
   }
   mo_csc_free(S->Wall);
   S->Wall = NULL;
@@ -567,14 +630,15 @@ int mo_stepper_create_ordered(const mo_scene *sc, int nlast, const int *last, do
   S->xf = mo_calloc(ctx, (size_t)(sc->nfree ? sc->nfree : 1), sizeof(double));
   S->w1 = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
   S->w2 = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
-  S->w3 = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
+  /* w3: Newton's work, or the unknown of a step without contact (mo_stepper_step, made there) */
+  S->w3 = sc->nonlinear ? mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double)) : NULL;
   S->uprev = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
   /* the velocities and forces of the step's start: the reactions of prescribed dofs only */
   if (sc->npresc) {
     S->vprev = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
     S->fprev = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
   }
-  if (!S->rhs || !S->xf || !S->w1 || !S->w2 || !S->w3 || !S->uprev || (sc->npresc && (!S->vprev || !S->fprev))) {
+  if (!S->rhs || !S->xf || !S->w1 || !S->w2 || (sc->nonlinear && !S->w3) || !S->uprev || (sc->npresc && (!S->vprev || !S->fprev))) {
     mo_stepper_free(S);
     return MO_ENOMEM;
   }
@@ -749,16 +813,29 @@ static void rigid_rhs(const mo_stepper *S, const mo_state *s, const double *x, d
     const mo_body *B = &sc->body[S->blk_body[k]];
     int o = S->blk_off[k], nk = S->blk_off[k + 1] - o;
     const int *loc = S->blk_loc + (o - S->nfe);
-    const double *M, *v = s->v + B->dof0, *xb = x + B->dof0;
+    const double *v = s->v + B->dof0, *xb = x + B->dof0;
     r = S->blk_rig[k];
-    M = S->rig_M + (size_t)r * (size_t)(nd * nd);
     for (i = 0; i < nk; i++) {
-      const double *Mi = M + loc[i] * nd;
       double g = S->gyro ? S->gyro[B->dof0 + loc[i]] : 0;
       double acc = S->scheme == MO_SCHEME_THETA ? S->h * g : g;
-      for (j = 0; j < nd; j++) {
-        if (S->scheme == MO_SCHEME_THETA) acc += Mi[j] * v[j];
-        if (sc->free_of[B->dof0 + j] < 0) acc -= Mi[j] * xb[j];
+      /* a diagonal block: the full row's sum to the bit for finite v (block_apply), its zeros'
+         products summed only after a -0 start or with prescribed dofs */
+      if (S->blk_diag && nk == nd && S->scheme == MO_SCHEME_THETA && (acc != 0 || !signbit(acc)))
+        acc += S->rig_M[(size_t)r * (size_t)nd + (size_t)loc[i]] * v[loc[i]];
+      else if (S->blk_diag) { /* the full row's sums, its zeros' products (signed zeros) kept */
+        const int li = loc[i];
+        const double mii = S->rig_M[(size_t)r * (size_t)nd + (size_t)li];
+        for (j = 0; j < nd; j++) {
+          double Mij = j == li ? mii : 0.0;
+          if (S->scheme == MO_SCHEME_THETA) acc += Mij * v[j];
+          if (sc->free_of[B->dof0 + j] < 0) acc -= Mij * xb[j];
+        }
+      } else {
+        const double *Mi = S->rig_M + (size_t)r * (size_t)(nd * nd) + (size_t)(loc[i] * nd);
+        for (j = 0; j < nd; j++) {
+          if (S->scheme == MO_SCHEME_THETA) acc += Mi[j] * v[j];
+          if (sc->free_of[B->dof0 + j] < 0) acc -= Mi[j] * xb[j];
+        }
       }
       rhs[o + i] += acc;
     }
@@ -837,7 +914,7 @@ static int predict_rhs(mo_stepper *S, const mo_state *s, double *x, mo_ctx *ctx)
   const mo_scene *sc = S->sc;
   int n = sc->ndof, i, st;
   double h = S->h, tn = s->t + h;
-  double *f1 = S->w1, *w = S->w2, *z = S->w3;
+  double *f1 = S->w1, *w = S->w2;
   if (S->nl)
     return mo_error(ctx, MO_EUNSUPPORTED, "mo_stepper_predict: a nonlinear scene's step is "
                     "mo_stepper_solve (Newton)");
@@ -887,7 +964,6 @@ static int predict_rhs(mo_stepper *S, const mo_state *s, double *x, mo_ctx *ctx)
     memcpy(x, w, (size_t)n * sizeof(double));
     break;
   }
-  (void)z;
   mo_stepper_gather(S, f1, S->rhs);
   if (S->nblk) rigid_rhs(S, s, x, S->rhs);
   return MO_OK;
@@ -929,17 +1005,8 @@ const int *mo_stepper_contact_dofs(const mo_stepper *S, int *nlast)
 /* The rigid rows of x = What^-1 b (free vectors): their blocks. */
 static void rigid_rows(const mo_stepper *S, const double *b, double *x, int add)
 {
-  int k, i, j;
-  for (k = 0; k < S->nblk; k++) {
-    int o = S->blk_off[k], nk = S->blk_off[k + 1] - o;
-    const double *Ai = S->blk_inv + S->blk_ioff[k];
-    double y[6];
-    for (i = 0; i < nk; i++) {
-      y[i] = add ? x[o + i] : 0;
-      for (j = 0; j < nk; j++) y[i] += Ai[i * nk + j] * b[o + j];
-    }
-    memcpy(x + o, y, (size_t)nk * sizeof *y);
-  }
+  int k;
+  for (k = 0; k < S->nblk; k++) block_apply(&S->Wi, k, b, x, add);
 }
 
 int mo_stepper_predict_split(mo_stepper *S, const mo_state *s, double *x, mo_ctx *ctx)
@@ -1046,13 +1113,11 @@ static double rigid_inertia(const mo_stepper *S, const mo_state *s, int d)
   const mo_scene *sc = S->sc;
   int r = rigid_of_dof(sc, d), nd = mo_rigid_ndof(sc->dim), j;
   const mo_body *B;
-  const double *Mi;
   double acc = 0;
   if (r < 0) return 0;
   B = &sc->body[sc->rigid[r]];
-  Mi = S->rig_M + (size_t)r * (size_t)(nd * nd) + (d - B->dof0) * nd;
   for (j = 0; j < nd; j++)
-    acc += Mi[j] * (S->scheme == MO_SCHEME_NEWMARK ? s->a[B->dof0 + j]
+    acc += rig_mass(S, r, nd, d - B->dof0, j) * (S->scheme == MO_SCHEME_NEWMARK ? s->a[B->dof0 + j]
                                                    : (s->v[B->dof0 + j] - S->vprev[B->dof0 + j]) / S->h);
   return acc;
 }

@@ -45,9 +45,11 @@ struct mo_stepper {
   int *blk_of;          /* per free rigid dof (index - nfe): its block */
   int *blk_off;         /* nblk + 1: free index of each block's first dof (blk_off[0] = nfe) */
   int *blk_loc;         /* per free rigid dof (index - nfe): its local dof in the body */
-  int *blk_ioff;        /* nblk: offset of the block's inverse in blk_inv */
-  double *blk_inv;
-  double *rig_M;        /* per rigid body (scene order), its full mass block (ndof^2, 36 max) */
+  int *blk_ioff;        /* nblk: offset of the block's inverse in blk_inv (NULL when blk_diag) */
+  double *blk_inv;      /* the blocks' inverses, or with blk_diag their diagonals (one per rigid free dof) */
+  double *rig_M;        /* per rigid body (scene order), its full mass block (ndof^2, 36 max), or
+                           with blk_diag its diagonal (ndof) */
+  int blk_diag;         /* every rigid body's mass block is diagonal and fixed: diagonals stored */
   int blk_varies;       /* some block turns with its body (3D, anisotropic inertia) */
   long blk_version;     /* changes with the blocks */
   double *gyro;         /* full: the gyroscopic forces at the start of the step (rigid rows) */

@@ -176,7 +176,9 @@ typedef struct {
   int grains;
   void *grec;                   /* per contact its record (nscd_grains.c): sides, c_a, W_aa, the rows of H
                                    on the sides' rotations, the local solver's data */
-  double *giv;                  /* nfree: the diagonal of What^-1 on the rigid dofs */
+  double *giv;                  /* nfree: the diagonal of What^-1 on the rigid dofs, when the stepper's
+                                   (What^-1's dinv) cannot serve */
+  const double *gi;             /* the one the sweep reads (giv or dinv), indexed by free dof */
   long givver;                  /* the What^-1 version giv was taken from */
   size_t gcap, gvcap;
   /* the granular path over MPI ranks (nscd_grains.c, doc/parallel.md §4): each rank sweeps the

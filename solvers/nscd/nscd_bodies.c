@@ -92,7 +92,9 @@ static inline int prepare_d(nscd_state *S, const mo_contact_problem *P, const in
     for (i = 0; i < d; i++) ca[i] = P->b[a * d + i];
     for (s = 0; s < S->nsd[a]; s++) {
       int kb = S->sblk[2 * a + s], o = Wi->off[kb], nk = Wi->off[kb + 1] - o;
-      const double *G = S->G + (size_t)(2 * a + s) * d * NK(d), *inv = Wi->inv + Wi->ioff[kb];
+      const double *G = S->G + (size_t)(2 * a + s) * d * NK(d);
+      double inv[36];
+      mo_what_block(Wi, kb, inv);
       S->soff[2 * a + s] = nk == NK(d) ? o : -1;
       double *MG = S->MG + (size_t)(2 * a + s) * d * NK(d); /* inv G^T: nk x d (stride d) */
       if (nk == NK(d)) { /* a free body: the sizes are constants, the loops unroll */

@@ -61,25 +61,35 @@ static int reserve(nscd_state *S, int nfree, mo_ctx *ctx)
     GROW(S->vb, ((size_t)nfree + 1) * sizeof *S->vb);
     S->vcap = (size_t)nfree + 1;
   }
-  if ((size_t)nfree + 1 > S->gvcap) {
-    GROW(S->giv, ((size_t)nfree + 1) * sizeof *S->giv);
-    S->gvcap = (size_t)nfree + 1;
-    S->givver = -1;
-  }
 #undef GROW
   return MO_OK;
 }
 
-/* The diagonal of What^-1 over the rigid free dofs, from its blocks when they changed. The blocks
-   of disks, spheres and polygons are diagonal (diag(m, m, I) in 2D, diag(m Id, (2/5) m R^2 Id) in 3D,
-   inverted exactly by Gauss-Jordan), so inv_k G^T is the diagonal times G^T to the bit. */
-static int inverse_diagonal(nscd_state *S, const mo_what_inverse *Wi, mo_ctx *ctx)
+/* The diagonal of What^-1 over the rigid free dofs (S->gi): the stepper's own when it stores the
+   blocks' diagonals and no nodal dof comes first, otherwise a copy (giv) from its blocks when they
+   changed. The blocks of disks, spheres and polygons are diagonal (diag(m, m, I) in 2D,
+   diag(m Id, (2/5) m R^2 Id) in 3D, inverted exactly by Gauss-Jordan), so inv_k G^T is the diagonal
+   times G^T to the bit. */
+static int inverse_diagonal(nscd_state *S, const mo_what_inverse *Wi, int nfree, mo_ctx *ctx)
 {
   int k, i, j;
+  if (Wi->dinv && Wi->off[0] == 0) {
+    S->gi = Wi->dinv;
+    return MO_OK;
+  }
+  if ((size_t)nfree + 1 > S->gvcap) {
+    void *p = mo_realloc(ctx, S->giv, ((size_t)nfree + 1) * sizeof *S->giv);
+    if (!p) return MO_ENOMEM;
+    S->giv = p;
+    S->gvcap = (size_t)nfree + 1;
+    S->givver = -1;
+  }
+  S->gi = S->giv;
   if (S->givver == Wi->version) return MO_OK;
   for (k = 0; k < Wi->nblk; k++) {
     int o = Wi->off[k], nk = Wi->off[k + 1] - o;
-    const double *inv = Wi->inv + Wi->ioff[k];
+    double inv[36];
+    mo_what_block(Wi, k, inv);
     for (i = 0; i < nk; i++)
       for (j = 0; j < nk; j++)
         if (i != j && inv[i * nk + j] != 0)
@@ -133,7 +143,7 @@ KERNEL void side_rows(const int d, const double *F, const double *x, const doubl
 KERNEL void prepare_d(nscd_state *S, const mo_contact_problem *P, const int d)
 {
   const mo_grains *Gr = P->grains;
-  const double *iv = S->giv;
+  const double *iv = S->gi;
   int a, s, i, j, k;
   for (a = 0; a < S->nc; a++) {
     char *rec = REC(S, a, d);
@@ -184,7 +194,7 @@ int nscd_grains_prepare(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
   int st;
   if (S->d != 2 && S->d != 3)
     return mo_error(ctx, MO_EINTERNAL, "nscd: granular contacts in dimension %d", S->d);
-  if ((st = reserve(S, P->nfree, ctx)) || (st = inverse_diagonal(S, P->Wi, ctx))) return st;
+  if ((st = reserve(S, P->nfree, ctx)) || (st = inverse_diagonal(S, P->Wi, P->nfree, ctx))) return st;
   if (S->d == 2) prepare_d(S, P, 2);
   else prepare_d(S, P, 3);
   return MO_OK;
@@ -248,10 +258,10 @@ KERNEL void push(nscd_state *S, const mo_contact_problem *P, const char *rec, in
   int o;
   if (!gs[0]) return;
   o = (gs[0] > 0 ? gs[0] : -gs[0]) - 1;
-  side_push(d, F, rot, S->giv + o, S->vb + o, gs[0] > 0, dr);
+  side_push(d, F, rot, S->gi + o, S->vb + o, gs[0] > 0, dr);
   if (!gs[1]) return;
   o = (gs[1] > 0 ? gs[1] : -gs[1]) - 1;
-  side_push(d, F, rot + d * NR(d), S->giv + o, S->vb + o, gs[1] > 0, dr);
+  side_push(d, F, rot + d * NR(d), S->gi + o, S->vb + o, gs[1] > 0, dr);
 }
 
 void nscd_grains_velocities(nscd_state *S, const mo_contact_problem *P, const double *r)

@@ -535,6 +535,8 @@ size_t mo_contact_driver_bytes(const mo_contact_driver *D, size_t *per_dof);
 long mo_contact_driver_failures(const mo_contact_driver *D);
 /* Candidates added to velocity-level index sets after a solve found them ending inside (§5). */
 long mo_contact_driver_index_added(const mo_contact_driver *D);
+/* The most candidates a step of the run had (the peak the memory figures per candidate divide by). */
+int mo_contact_driver_candidates_max(const mo_contact_driver *D);
 /* The last step's local problem over every candidate (W dense, q, mu), the inactive ones
    included: what the step solved only when every candidate was in its index set (quasi-static
    and position-level steps with every candidate active). Tests. */

@@ -149,14 +149,18 @@ const mo_newton_report *mo_stepper_newton_report(const mo_stepper *S);
 
 /* What^-1 by blocks (doc/theory.md (T70)): the nodal block (free indices 0 .. nfe-1, the
    deformable bodies) through its factorization, then one dense block per rigid body with free
-   dofs (the free-free part of its mass matrix, inverted). */
+   dofs (the free-free part of its mass matrix, inverted). When every block is diagonal (disks,
+   polygons, spheres: the grains' diag(m, m, I) and diag(m Id, I Id)), only the diagonals are
+   stored: dinv, and ioff and inv are NULL; mo_what_block gives a block either way. */
 typedef struct mo_what_inverse {
   int n, nfe;             /* free dofs; nodal free dofs */
   mo_linsolver *ls;       /* factorization of the nodal block (NULL when nfe = 0) */
   int nblk;
   const int *off;         /* nblk + 1: free index of each block's first dof (off[0] = nfe) */
-  const int *ioff;        /* nblk: offset of each block's inverse (row-major) in inv */
+  const int *ioff;        /* nblk: offset of each block's inverse (row-major) in inv; NULL with dinv */
   const double *inv;
+  const double *dinv;     /* the diagonal blocks' inverses, one per rigid free dof i (at i - off[0];
+                             off[0], not nfe, which a caller may zero to act on the blocks alone), or NULL */
   const int *blkof;       /* n - nfe: the block of each rigid free dof (index i - nfe) */
   long version;           /* changes whenever the factorization or a block changes */
   /* the nodal free dofs the factorization holds last, as its trailing block (doc/theory.md §13),
@@ -165,6 +169,14 @@ typedef struct mo_what_inverse {
   const int *last;
 } mo_what_inverse;
 const mo_what_inverse *mo_stepper_inverse(const mo_stepper *S);
+/* Block k of What^-1 (nk x nk, row-major, nk = off[k + 1] - off[k] <= 6) into A. */
+static inline void mo_what_block(const mo_what_inverse *Wi, int k, double *A)
+{
+  int o = Wi->off[k], nk = Wi->off[k + 1] - o, i, j;
+  for (i = 0; i < nk; i++)
+    for (j = 0; j < nk; j++)
+      A[i * nk + j] = Wi->dinv ? (i == j ? Wi->dinv[o - Wi->off[0] + i] : 0) : Wi->inv[Wi->ioff[k] + i * nk + j];
+}
 /* X = What^-1 B over free dofs (nrhs columns, leading dimension n; X may alias B). */
 int mo_what_solve(const mo_what_inverse *Wi, int nrhs, const double *B, double *X, mo_ctx *ctx);
 
