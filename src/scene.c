@@ -195,6 +195,7 @@ void mo_scene_free(mo_scene *sc)
   }
   mo_free(sc->rigid);
   mo_free(sc->asm_elems);
+  mo_free(sc->asm_seconds);
   mo_free(sc->body);
   for (i = 0; i < sc->npresc; i++) mo_expr_free(sc->presc[i].disp);
   mo_free(sc->presc);
@@ -406,21 +407,42 @@ static void element_block(const mo_scene *sc, const mo_ctx *ctx, long *lo, long 
 
 /* The ranks' sums of K and M (each holds the pattern of every element and the values of its
    own), the zeros of that pattern dropped: the matrices one process assembles, to rounding (the
-   sums are taken in another order), and the count of elements each rank computed. */
-static int assemble_reduce(mo_scene *sc, long mine, mo_ctx *ctx)
+   sums are taken in another order). */
+static int assemble_reduce(mo_scene *sc, mo_ctx *ctx)
 {
-  int st, r, *one;
-  double cnt = (double)mine;
+  int st;
   if ((st = mo_par_sum(sc->K->x, mo_csc_nnz(sc->K), ctx))) return st;
   if (sc->M && (st = mo_par_sum(sc->M->x, mo_csc_nnz(sc->M), ctx))) return st;
   mo_csc_drop_zeros(sc->K);
   if (sc->M) mo_csc_drop_zeros(sc->M);
-  if (!(sc->asm_elems = mo_calloc(ctx, (size_t)ctx->nranks, sizeof *sc->asm_elems)) ||
-      !(one = mo_malloc(ctx, (size_t)ctx->nranks * sizeof *one)))
+  return MO_OK;
+}
+
+/* Every rank's count of elements and seconds in the element loop (one gather; one process: its
+   own). */
+static int assemble_counts(mo_scene *sc, long mine, double secs, mo_ctx *ctx)
+{
+  int st, r, *two;
+  double me[2], *all;
+  size_t n = (size_t)ctx->nranks;
+  me[0] = (double)mine;
+  me[1] = secs;
+  if (!(sc->asm_elems = mo_calloc(ctx, n, sizeof *sc->asm_elems)) ||
+      !(sc->asm_seconds = mo_calloc(ctx, n, sizeof *sc->asm_seconds)))
     return MO_ENOMEM;
-  for (r = 0; r < ctx->nranks; r++) one[r] = 1;
-  st = mo_par_gatherv(&cnt, one, sc->asm_elems, ctx);
-  mo_free(one);
+  if (!(two = mo_malloc(ctx, n * sizeof *two))) return MO_ENOMEM;
+  if (!(all = mo_malloc(ctx, 2 * n * sizeof *all))) {
+    mo_free(two);
+    return MO_ENOMEM;
+  }
+  for (r = 0; r < ctx->nranks; r++) two[r] = 2;
+  st = mo_par_gatherv(me, two, all, ctx);
+  for (r = 0; !st && r < ctx->nranks; r++) {
+    sc->asm_elems[r] = all[2 * r];
+    sc->asm_seconds[r] = all[2 * r + 1];
+  }
+  mo_free(two);
+  mo_free(all);
   return st;
 }
 
@@ -432,7 +454,7 @@ static int assemble(mo_scene *sc, int with_mass, mo_ctx *ctx)
   int split = ctx->nranks > 1 && mo_parallel_started(ctx);
   long g = 0, lo = 0, hi = 0, mine = 0;
   size_t hint = 0;
-  double t0 = mo_clock();
+  double t0 = mo_clock(), t1;
   if (split) element_block(sc, ctx, &lo, &hi);
   for (b = 0; b < sc->nbody; b++)
     if (sc->body[b].kind == MO_BODY_DEFORMABLE) {
@@ -473,6 +495,7 @@ static int assemble(mo_scene *sc, int with_mass, mo_ctx *ctx)
         if (with_mass && own && (st = mo_elem_mass(m, e, &B->mat, B->lumped, Me, ctx))) break;
         if (with_mass && (st = mo_triplet_add_pattern(&TM, dofs, nd, dofs, nd, own ? Me : NULL, ctx))) break;
       } else {
+        g++;
         if (!B->nl) {
           if ((st = mo_elem_stiffness(m, e, &B->mat, Ke, ctx))) break;
           if ((st = mo_triplet_add_block(&TK, dofs, nd, dofs, nd, Ke, ctx))) break;
@@ -492,7 +515,10 @@ static int assemble(mo_scene *sc, int with_mass, mo_ctx *ctx)
   mo_triplet_release(&TM);
   /* every rank reaches the sums: a failure above is the same on every rank (the same case), but
      a rank that failed alone (memory) must not leave the others waiting in them */
-  if (split && !(st = mo_par_agree(st, ctx))) st = assemble_reduce(sc, mine, ctx);
+  if (!split) mine = g;
+  t1 = mo_clock() - t0;
+  if (split && !(st = mo_par_agree(st, ctx))) st = assemble_reduce(sc, ctx);
+  if (!st) st = assemble_counts(sc, mine, t1, ctx);
   mo_phase_add(ctx, MO_PH_ASSEMBLY, t0);
   return st;
 }
