@@ -5,8 +5,11 @@
 # collective, counted at MPI_Finalize): the wall time of the steps (less the Delassus build of the
 # first one), the factorization, the step,
 # and the messages and bytes a step sends (a run of STEPS steps less a run of one step, over
-# STEPS - 1). Strong scaling: the same scene on 1 and NP ranks; weak: a scene NP times larger
-# on NP ranks.
+# STEPS - 1); the element loop of the assembly (the slowest rank's seconds, summary.json
+# parallel.element_seconds: each rank computes the matrices of its block of elements) and the
+# largest peak memory of a rank (GNU time's maximum resident set, when /usr/bin/time is
+# installed: apt-get install time; "-" without it). Strong scaling: the same scene on 1 and NP
+# ranks; weak: a scene NP times larger on NP ranks.
 #
 #   bench/mpi_scaling.sh [--np 2] [--steps 11] [--moreau build/moreau] [--out DIR] [SCENE...]
 #
@@ -29,7 +32,7 @@ while [ $# -gt 0 ]; do
   --steps) steps=$2; shift ;;
   --moreau) moreau=$2; shift ;;
   --out) out=$2; shift ;;
-  -h|--help) sed -n '2,17p' "$0"; exit 0 ;;
+  -h|--help) sed -n '2,21p' "$0"; exit 0 ;;
   box:*|pile:*) scenes="$scenes $1" ;;
   *) echo "mpi_scaling.sh: unknown argument '$1' (--help)" >&2; exit 2 ;;
   esac
@@ -76,12 +79,19 @@ EOF
 one() {
   o_dir="$out/$1"
   o_args=$(case_of "$4" "$5")
+  rm -f "$o_dir.rss"
+  timer=""
+  [ -x /usr/bin/time ] && timer="/usr/bin/time -a -f %M -o $o_dir.rss"
   # shellcheck disable=SC2086
-  mpirun -np "$2" --mca pml_monitoring_enable 1 --mca pml_monitoring_enable_output 1 \
+  mpirun -np "$2" --mca pml_monitoring_enable 1 --mca pml_monitoring_enable_output 1 $timer \
     "$moreau" run $o_args --out "$o_dir" --quiet --set "linear_solver.type=\"$3\"" > "$o_dir.log" 2>&1 ||
     { echo "mpi_scaling.sh: $1 failed:" >&2; tail -5 "$o_dir.log" >&2; return 1; }
 }
 
+# each rank's peak resident memory (kB), one line per rank appended to NAME.rss
+rss() { # rss DIR: the largest rank's peak memory, MB
+  if [ -s "$1.rss" ]; then awk '$1 ~ /^[0-9]+$/ && $1 > m { m = $1 } END { printf "%.1f", m / 1024 }' "$1.rss"; else echo -; fi
+}
 summary() { # summary DIR EXPR
   python3 -c "import json,sys; d=json.load(open(sys.argv[1]+'/summary.json')); print($2)" "$1"
 }
@@ -90,8 +100,8 @@ traffic() { # traffic LOG: messages and bytes sent, point to point and collectiv
               END { printf "%d %d\n", M, B }' "$1.log"
 }
 
-printf '%-10s %5s %-8s %10s %10s %10s %10s %12s %14s %10s\n' scene ranks solver "steps s" "factor s" "W s" "step ms" \
-  "msgs/step" "bytes/step" "setup MB"
+printf '%-10s %5s %-8s %10s %10s %10s %10s %12s %14s %10s %8s %10s\n' scene ranks solver "steps s" "factor s" "W s" "step ms" \
+  "msgs/step" "bytes/step" "setup MB" "elem s" "rank MB"
 for scene in $scenes; do
   for cfg in "1 cholmod" "1 petsc" "$np petsc"; do
     set -- $cfg
@@ -105,8 +115,9 @@ for scene in $scenes; do
     tsteps=$(summary "$out/$name" "d['timings']['steps'] - d['timings']['delassus']")
     tfac=$(summary "$out/$name" "d['timings']['factor']")
     tw=$(summary "$out/$name" "d['timings']['delassus']")
-    printf '%-10s %5s %-8s %10.3f %10.3f %10.3f %10.2f %12.1f %14.0f %10.2f\n' "$scene" "$p" "$solver" "$tsteps" "$tfac" "$tw" \
+    telem=$(summary "$out/$name" "max(d['parallel']['element_seconds'])")
+    printf '%-10s %5s %-8s %10.3f %10.3f %10.3f %10.2f %12.1f %14.0f %10.2f %8.3f %10s\n' "$scene" "$p" "$solver" "$tsteps" "$tfac" "$tw" \
       "$(awk "BEGIN{print 1e3 * $tsteps / $steps}")" "$(awk "BEGIN{print ($m - $m1) / ($steps - 1)}")" \
-      "$(awk "BEGIN{print ($b - $b1) / ($steps - 1)}")" "$(awk "BEGIN{print $b1 / 1e6}")"
+      "$(awk "BEGIN{print ($b - $b1) / ($steps - 1)}")" "$(awk "BEGIN{print $b1 / 1e6}")" "$telem" "$(rss "$out/$name")"
   done
 done

@@ -293,6 +293,17 @@ static json_t *parallel_json(const mo_ctx *ctx, const mo_scene *sc)
              strcmp(sc->lin.pc, "lu") && strcmp(sc->lin.pc, "cholesky") ? "" : sc->lin.package);
     json_object_set_new(j, "petsc", json_string(desc));
   }
+  if (sc->asm_elems) {
+    /* the element matrices each rank computed, and its seconds in that loop (doc/parallel.md §3) */
+    json_t *a = json_array(), *t = json_array();
+    int r;
+    for (r = 0; r < ctx->nranks; r++) {
+      json_array_append_new(a, json_integer((json_int_t)sc->asm_elems[r]));
+      json_array_append_new(t, jnum(sc->asm_seconds[r]));
+    }
+    json_object_set_new(j, "elements_assembled", a);
+    json_object_set_new(j, "element_seconds", t);
+  }
   json_object_set_new(j, "collective_calls", json_integer(ctx->par_calls));
   json_object_set_new(j, "collective_seconds", jnum(ctx->par_time));
   json_object_set_new(j, "collective_bytes", jnum(ctx->par_bytes));

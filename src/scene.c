@@ -194,6 +194,8 @@ void mo_scene_free(mo_scene *sc)
     if (!i || sc->body[i - 1].group != B->group) mo_free(B->group); /* one string per group */
   }
   mo_free(sc->rigid);
+  mo_free(sc->asm_elems);
+  mo_free(sc->asm_seconds);
   mo_free(sc->body);
   for (i = 0; i < sc->npresc; i++) mo_expr_free(sc->presc[i].disp);
   mo_free(sc->presc);
@@ -388,12 +390,72 @@ int mo_scene_add_load(mo_scene *sc, const double *f, mo_expr *amp, mo_ctx *ctx)
 
 /* --- assembly -------------------------------------------------------------------------------- */
 
+/* Over MPI ranks (doc/parallel.md §3): the deformable bodies' elements, numbered body after
+   body, in contiguous blocks of nelem / nranks (the first ranks one more); rank r computes the
+   matrices of [*lo, *hi). */
+static void element_block(const mo_scene *sc, const mo_ctx *ctx, long *lo, long *hi)
+{
+  long n = 0, q, m;
+  int b;
+  for (b = 0; b < sc->nbody; b++)
+    if (sc->body[b].kind == MO_BODY_DEFORMABLE) n += sc->body[b].mesh->nelem;
+  q = n / ctx->nranks;
+  m = n % ctx->nranks;
+  *lo = ctx->rank * q + (ctx->rank < m ? ctx->rank : m);
+  *hi = *lo + q + (ctx->rank < m);
+}
+
+/* The ranks' sums of K and M (each holds the pattern of every element and the values of its
+   own), the zeros of that pattern dropped: the matrices one process assembles, to rounding (the
+   sums are taken in another order). */
+static int assemble_reduce(mo_scene *sc, mo_ctx *ctx)
+{
+  int st;
+  if ((st = mo_par_sum(sc->K->x, mo_csc_nnz(sc->K), ctx))) return st;
+  if (sc->M && (st = mo_par_sum(sc->M->x, mo_csc_nnz(sc->M), ctx))) return st;
+  mo_csc_drop_zeros(sc->K);
+  if (sc->M) mo_csc_drop_zeros(sc->M);
+  return MO_OK;
+}
+
+/* Every rank's count of elements and seconds in the element loop (one gather; one process: its
+   own). */
+static int assemble_counts(mo_scene *sc, long mine, double secs, mo_ctx *ctx)
+{
+  int st, r, *two;
+  double me[2], *all;
+  size_t n = (size_t)ctx->nranks;
+  me[0] = (double)mine;
+  me[1] = secs;
+  if (!(sc->asm_elems = mo_calloc(ctx, n, sizeof *sc->asm_elems)) ||
+      !(sc->asm_seconds = mo_calloc(ctx, n, sizeof *sc->asm_seconds)))
+    return MO_ENOMEM;
+  if (!(two = mo_malloc(ctx, n * sizeof *two))) return MO_ENOMEM;
+  if (!(all = mo_malloc(ctx, 2 * n * sizeof *all))) {
+    mo_free(two);
+    return MO_ENOMEM;
+  }
+  for (r = 0; r < ctx->nranks; r++) two[r] = 2;
+  st = mo_par_gatherv(me, two, all, ctx);
+  for (r = 0; !st && r < ctx->nranks; r++) {
+    sc->asm_elems[r] = all[2 * r];
+    sc->asm_seconds[r] = all[2 * r + 1];
+  }
+  mo_free(two);
+  mo_free(all);
+  return st;
+}
+
 static int assemble(mo_scene *sc, int with_mass, mo_ctx *ctx)
 {
   mo_triplet TK, TM;
   int b, e, a, c, st = MO_OK, D = sc->dim;
+  /* over MPI ranks each computes its block of elements (element_block) */
+  int split = ctx->nranks > 1 && mo_parallel_started(ctx);
+  long g = 0, lo = 0, hi = 0, mine = 0;
   size_t hint = 0;
-  double t0 = mo_clock();
+  double t0 = mo_clock(), t1;
+  if (split) element_block(sc, ctx, &lo, &hi);
   for (b = 0; b < sc->nbody; b++)
     if (sc->body[b].kind == MO_BODY_DEFORMABLE) {
       int nd = sc->body[b].mesh->nen * D;
@@ -423,13 +485,25 @@ static int assemble(mo_scene *sc, int with_mass, mo_ctx *ctx)
         for (c = 0; c < D; c++) dofs[a * D + c] = B->dof0 + m->conn[e * m->nen + a] * D + c;
       /* finite-strain bodies have no constant stiffness: their forces and tangents are
          computed by the stepper at every Newton iterate (doc/theory.md §11) */
-      if (!B->nl) {
-        if ((st = mo_elem_stiffness(m, e, &B->mat, Ke, ctx))) break;
-        if ((st = mo_triplet_add_block(&TK, dofs, nd, dofs, nd, Ke, ctx))) break;
-      }
-      if (with_mass) {
-        if ((st = mo_elem_mass(m, e, &B->mat, B->lumped, Me, ctx))) break;
-        if ((st = mo_triplet_add_block(&TM, dofs, nd, dofs, nd, Me, ctx))) break;
+      if (split) {
+        /* another rank's element: its pattern only, its values come with the sums */
+        int own = g >= lo && g < hi;
+        g++;
+        mine += own;
+        if (!B->nl && own && (st = mo_elem_stiffness(m, e, &B->mat, Ke, ctx))) break;
+        if (!B->nl && (st = mo_triplet_add_pattern(&TK, dofs, nd, dofs, nd, own ? Ke : NULL, ctx))) break;
+        if (with_mass && own && (st = mo_elem_mass(m, e, &B->mat, B->lumped, Me, ctx))) break;
+        if (with_mass && (st = mo_triplet_add_pattern(&TM, dofs, nd, dofs, nd, own ? Me : NULL, ctx))) break;
+      } else {
+        g++;
+        if (!B->nl) {
+          if ((st = mo_elem_stiffness(m, e, &B->mat, Ke, ctx))) break;
+          if ((st = mo_triplet_add_block(&TK, dofs, nd, dofs, nd, Ke, ctx))) break;
+        }
+        if (with_mass) {
+          if ((st = mo_elem_mass(m, e, &B->mat, B->lumped, Me, ctx))) break;
+          if ((st = mo_triplet_add_block(&TM, dofs, nd, dofs, nd, Me, ctx))) break;
+        }
       }
       B->mass += B->mat.rho * mo_elem_measure(m, e, &B->mat);
     }
@@ -439,6 +513,12 @@ static int assemble(mo_scene *sc, int with_mass, mo_ctx *ctx)
   if (!st && with_mass) st = mo_triplet_to_csc(&TM, 1, &sc->M, ctx);
   mo_triplet_release(&TK);
   mo_triplet_release(&TM);
+  /* every rank reaches the sums: a failure above is the same on every rank (the same case), but
+     a rank that failed alone (memory) must not leave the others waiting in them */
+  if (!split) mine = g;
+  t1 = mo_clock() - t0;
+  if (split && !(st = mo_par_agree(st, ctx))) st = assemble_reduce(sc, ctx);
+  if (!st) st = assemble_counts(sc, mine, t1, ctx);
   mo_phase_add(ctx, MO_PH_ASSEMBLY, t0);
   return st;
 }

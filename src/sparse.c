@@ -110,6 +110,39 @@ int mo_triplet_add_block(mo_triplet *T, const int *rows, int nr, const int *cols
   return MO_OK;
 }
 
+int mo_triplet_add_pattern(mo_triplet *T, const int *rows, int nr, const int *cols, int nc,
+                           const double *blk, mo_ctx *ctx)
+{
+  int a, b;
+  if (grow(T, T->n + (size_t)nr * (size_t)nc, ctx)) return MO_ENOMEM;
+  for (a = 0; a < nr; a++) {
+    if (rows[a] < 0) continue;
+    for (b = 0; b < nc; b++) {
+      if (cols[b] < 0) continue;
+      T->i[T->n] = rows[a];
+      T->j[T->n] = cols[b];
+      T->x[T->n] = blk ? blk[a * nc + b] : 0;
+      T->n++;
+    }
+  }
+  return MO_OK;
+}
+
+void mo_csc_drop_zeros(mo_csc *A)
+{
+  int j, p, q = 0, start;
+  for (j = 0; j < A->ncol; j++) {
+    start = A->p[j];
+    A->p[j] = q;
+    for (p = start; p < A->p[j + 1]; p++)
+      if (A->x[p] != 0) {
+        A->i[q] = A->i[p];
+        A->x[q++] = A->x[p];
+      }
+  }
+  A->p[A->ncol] = q;
+}
+
 int mo_csc_alloc(int nrow, int ncol, int nnz, mo_csc **out, mo_ctx *ctx)
 {
   mo_csc *A = mo_calloc(ctx, 1, sizeof *A);

@@ -2,7 +2,9 @@
 # test_mpi.sh: runs over MPI ranks equal the serial run (doc/parallel.md). The PETSc solver type
 # on 2 ranks against CHOLMOD (tests/test_parallel), then `mpirun -np 2 moreau run` against the
 # serial run on rods-3d (dynamic impacts, the Delassus operator from distributed solves) and the
-# 14^3 H8 box pressed on a plane (quasi-static), to 1e-8 of every history column. Skipped by
+# 14^3 H8 box pressed on a plane (quasi-static), to 1e-8 of every history column, each rank
+# computing the element matrices of half of the elements (K and M against one process's
+# assembly: tests/test_parallel). Skipped by
 # builds without PETSc. The 2 ranks share CI's 2 cores with nothing else: oversubscription
 # allowed, as the CI machine's MPI would refuse it otherwise.
 . "$MOREAU_SRCDIR/tests/tap.sh"
@@ -46,6 +48,11 @@ run_pair() { # run_pair NAME CASE ARGS...: serial and 2-rank runs, then their co
   is "$(json "$OUT/$name-2/summary.json" "d['parallel']['ranks']")" "2" "$name: summary.json says 2 ranks"
   is "$(json "$OUT/$name-2/summary.json" "d['parallel']['linear_solver']")" "petsc" "$name: the 2-rank run solved with PETSc"
   is "$(ls "$OUT/$name-2" | grep -c '\.tmp\.')" "0" "$name: one set of outputs, no temporary left by another rank"
+  # the element matrices split over the ranks (doc/parallel.md §3): each rank its half of the
+  # elements the serial run lists, none twice
+  is "$(json "$OUT/$name-2/summary.json" "(lambda n, a: [len(a), sum(a) == n, max(a) - min(a) <= 1, min(a) > 0])( \
+         sum(b.get('elements', 0) for b in d['scene']['bodies']), d['parallel']['elements_assembled'])")" "[2, True, True, True]" \
+    "$name: each rank computed half of the elements ($(json "$OUT/$name-2/summary.json" "d['parallel'].get('elements_assembled')"))"
 }
 check_runs() { # check_runs A B TOL NAME [grains]
   /usr/bin/python3 "$MOREAU_SRCDIR/tests/compare_runs.py" "$1" "$2" "$3" $5 > "$OUT/cmp" 2>&1 || echo "1	compare_runs.py crashed: $(tail -1 "$OUT/cmp")" >> "$OUT/cmp"

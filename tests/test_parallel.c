@@ -1,9 +1,12 @@
 /* test_parallel.c: the PETSc linear-solver type on one or more MPI ranks against CHOLMOD on the
-   same matrices (doc/parallel.md §2), and the collective calls. Run alone, or under mpirun by
+   same matrices (doc/parallel.md §2), the collective calls, and K and M assembled by the ranks
+   each from its block of elements against one process's assembly (§3). Run alone, or under mpirun by
    tests/test_mpi.sh; every rank checks, rank 0 prints. */
 #include "config.h"
 #include <moreau/parallel.h>
 #include <moreau/sparse.h>
+#include <moreau/case.h>
+#include <moreau/scene.h>
 #include "tap.h"
 
 /* A 2D Laplacian on an nx x ny grid plus a mass-like diagonal: SPD, with the pattern of a
@@ -92,6 +95,70 @@ static void solver_checks(mo_ctx *ctx, const char *ksp, const char *pc, double t
   free(Y);
 }
 
+/* The largest entry of A - B over the largest of B (the sum of the two patterns: an entry
+   one lacks counts as a zero of it), or 1 when A - B cannot be formed. */
+static double mat_diff(const mo_csc *A, const mo_csc *B, mo_ctx *ctx)
+{
+  mo_csc *D = NULL;
+  double d = 0, m = 0;
+  int p;
+  if (A->nrow != B->nrow || A->ncol != B->ncol || mo_csc_add(A, B, 1, -1, &D, ctx)) return 1;
+  for (p = 0; p < mo_csc_nnz(D); p++)
+    if (fabs(D->x[p]) > d) d = fabs(D->x[p]);
+  for (p = 0; p < mo_csc_nnz(B); p++)
+    if (fabs(B->x[p]) > m) m = fabs(B->x[p]);
+  mo_csc_free(D);
+  return m > 0 ? d / m : d;
+}
+
+/* A case's scene built over the ranks (each its block of elements, then the sums) and by this
+   process alone (ctx.nranks 1: no collective call), K and M compared. */
+static void assembly_checks(mo_ctx *ctx, const char *name, const char *set)
+{
+  const char *src = getenv("MOREAU_SRCDIR");
+  char path[4096];
+  mo_case *cs = NULL;
+  mo_scene *par = NULL, *one = NULL;
+  int nr = ctx->nranks, st, r, b;
+  double dk = 1, dm = 0, tot = 0, lo = 1e300, hi = 0, n = 0;
+  snprintf(path, sizeof path, "%s/cases/%s", src ? src : ".", name);
+  st = mo_case_load(path, &cs, ctx);
+  if (!st && set) st = mo_case_set(cs, set, ctx);
+  if (!st) st = mo_case_validate(cs, ctx);
+  if (!st) st = mo_scene_build(cs, &par, ctx);
+  ctx->nranks = 1;
+  if (!st) st = mo_scene_build(cs, &one, ctx);
+  ctx->nranks = nr;
+  ok(agree_all(!st, ctx), "%s: scenes built over %d rank(s) and by one process (%s)", name, nr, st ? ctx->errmsg : "ok");
+  if (st) goto done;
+  /* the patterns may differ by the entries whose contributions cancel exactly (one process
+     keeps them as zeros, the ranks' sums drop every zero): compared by value */
+  dk = mat_diff(par->K, one->K, ctx);
+  if (one->M) dm = par->M ? mat_diff(par->M, one->M, ctx) : 1;
+  ok(agree_all(dk <= 1e-12 && dm <= 1e-12, ctx),
+     "%s: K and M assembled by the ranks equal one process's to %.1e and %.1e of their largest entry "
+     "(%d and %d entries, %d and %d)", name, dk, dm, mo_csc_nnz(par->K), par->M ? mo_csc_nnz(par->M) : 0,
+     mo_csc_nnz(one->K), one->M ? mo_csc_nnz(one->M) : 0);
+  for (b = 0; b < one->nbody; b++)
+    if (one->body[b].kind == MO_BODY_DEFORMABLE) n += one->body[b].mesh->nelem;
+  if (nr == 1) {
+    ok(par->asm_elems && par->asm_elems[0] == n, "%s: one process: all %.0f elements assembled by it", name, n);
+    goto done;
+  }
+  for (r = 0; par->asm_elems && r < nr; r++) {
+    tot += par->asm_elems[r];
+    if (par->asm_elems[r] < lo) lo = par->asm_elems[r];
+    if (par->asm_elems[r] > hi) hi = par->asm_elems[r];
+  }
+  ok(par->asm_elems && tot == n && hi - lo <= 1 && lo >= 1,
+     "%s: the ranks computed %.0f to %.0f of the %.0f elements, %.0f in all", name, lo, hi, n, tot);
+done:
+  mo_scene_free(par);
+  mo_scene_free(one);
+  mo_case_free(cs);
+  mo_ctx_clear_error(ctx);
+}
+
 int main(int argc, char **argv)
 {
   mo_ctx ctx;
@@ -127,6 +194,8 @@ int main(int argc, char **argv)
   solver_checks(&ctx, "preonly", "cholesky", 1e-12);
   solver_checks(&ctx, "preonly", "lu", 1e-12);
   solver_checks(&ctx, "cg", "jacobi", 1e-9);
+  assembly_checks(&ctx, "rods-3d", NULL);
+  assembly_checks(&ctx, "box-on-plane", "bodies.box.mesh.elements=[7,6,5]");
   printf("1..%d\n", tap_n);
   mo_parallel_finish(&ctx);
   return tap_failed != 0;

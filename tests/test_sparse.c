@@ -105,6 +105,35 @@ int main(void)
     mo_csc_free(N);
     mo_triplet_release(&U);
   }
+  {
+    /* the pattern of two 2x2 blocks kept whatever their values (a block of zeros, a block with
+       a zero), then the zeros dropped: what add_block gives (scene.c over MPI ranks) */
+    mo_triplet P, Q;
+    mo_csc *Pc = NULL, *Qc = NULL;
+    int r0[2] = {0, 2}, r1[2] = {2, -1}, same;
+    double blk[4] = {1, 0, 0, 3}, blk1[4] = {5, 7, 0, 0};
+    mo_triplet_init(&P, 3, 3, 1, &ctx);
+    mo_triplet_init(&Q, 3, 3, 1, &ctx);
+    mo_triplet_add_pattern(&P, r0, 2, r0, 2, NULL, &ctx);
+    mo_triplet_add_pattern(&P, r0, 2, r0, 2, blk, &ctx);
+    mo_triplet_add_pattern(&P, r1, 2, r1, 2, blk1, &ctx);
+    mo_triplet_add_block(&Q, r0, 2, r0, 2, blk, &ctx);
+    mo_triplet_add_block(&Q, r1, 2, r1, 2, blk1, &ctx);
+    same = mo_triplet_to_csc(&P, 1, &Pc, &ctx) == MO_OK;
+    ok(same && mo_csc_nnz(Pc) == 4 && mo_csc_get(Pc, 0, 2) == 0, "pattern kept with its zeros (4 entries: %d)",
+       same ? mo_csc_nnz(Pc) : -1);
+    mo_triplet_to_csc(&Q, 1, &Qc, &ctx);
+    mo_csc_drop_zeros(Pc);
+    same = mo_csc_nnz(Pc) == mo_csc_nnz(Qc) && mo_csc_nnz(Pc) == 2;
+    for (i = 0; same && i <= 3; i++) same = Pc->p[i] == Qc->p[i];
+    for (i = 0; same && i < 2; i++) same = Pc->i[i] == Qc->i[i] && Pc->x[i] == Qc->x[i];
+    ok(same && mo_csc_get(Pc, 0, 0) == 1 && mo_csc_get(Pc, 2, 2) == 8,
+       "zeros dropped: the matrix of add_block (entries (0,0) 1 and (2,2) 3 + 5)");
+    mo_csc_free(Pc);
+    mo_csc_free(Qc);
+    mo_triplet_release(&P);
+    mo_triplet_release(&Q);
+  }
   mo_csc_free(A); mo_csc_free(B); mo_csc_free(C); mo_csc_free(AT); mo_csc_free(S);
   mo_triplet_release(&T);
   return done_testing();

@@ -242,6 +242,9 @@ typedef struct mo_scene {
                      bodies only (finite-strain bodies have no constant stiffness) */
   double *u0, *v0;
   double mass_total;
+  /* the elements whose K and M each rank computed, and its seconds in that loop (nranks values
+     each; one process: its count and time; doc/parallel.md §3) */
+  double *asm_elems, *asm_seconds;
   int has_moving_presc; /* some prescribed dof moves: coupling terms needed */
   int nonlinear;        /* some body has a finite-strain material: Newton steps (§11) */
   size_t nq;            /* doubles of material state over the finite-strain bodies */

@@ -31,6 +31,10 @@ int mo_triplet_add(mo_triplet *T, int i, int j, double v, mo_ctx *ctx);
    skipped (eliminated dofs). */
 int mo_triplet_add_block(mo_triplet *T, const int *rows, int nr, const int *cols, int nc,
                          const double *blk, mo_ctx *ctx);
+/* The same, keeping the zeros (blk NULL: a block of zeros): the pattern of the block whatever
+   its values, so that ranks that computed different elements hold one pattern (scene.c). */
+int mo_triplet_add_pattern(mo_triplet *T, const int *rows, int nr, const int *cols, int nc,
+                           const double *blk, mo_ctx *ctx);
 void mo_triplet_release(mo_triplet *T);
 /* Convert once to CSC through CHOLMOD (cholmod_triplet_to_sparse: duplicates summed, sorted). */
 int mo_triplet_to_csc(const mo_triplet *T, int symmetric, mo_csc **A, mo_ctx *ctx);
@@ -39,6 +43,8 @@ int mo_csc_alloc(int nrow, int ncol, int nnz, mo_csc **A, mo_ctx *ctx);
 void mo_csc_free(mo_csc *A);
 int mo_csc_nnz(const mo_csc *A);
 int mo_csc_copy(const mo_csc *A, mo_csc **B, mo_ctx *ctx);
+/* Remove the entries equal to zero, in place (the pattern shrinks; the arrays keep their size). */
+void mo_csc_drop_zeros(mo_csc *A);
 /* y = alpha A x + beta y (beta = 0 ignores y's contents). */
 void mo_csc_gaxpy(const mo_csc *A, double alpha, const double *x, double beta, double *y);
 /* y = alpha A^T x + beta y. */
