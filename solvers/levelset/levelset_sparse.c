@@ -6,7 +6,35 @@
 #include "levelset.h"
 
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
+
+extern void dpotrf_(const char *uplo, const int *n, double *a, const int *lda, int *info);
+extern void dpotrs_(const char *uplo, const int *n, const int *nrhs, const double *a, const int *lda,
+                    double *b, const int *ldb, int *info);
+extern void dgetrf_(const int *m, const int *n, double *a, const int *lda, int *ipiv, int *info);
+extern void dgetrs_(const char *trans, const int *n, const int *nrhs, const double *a, const int *lda,
+                    const int *ipiv, double *b, const int *ldb, int *info);
+
+int ls_dense_max(void)
+{
+  const char *v = getenv("MOREAU_LEVELSET_DENSE_MAX");
+  char *end;
+  long n;
+  if (!v || !*v) return LS_DENSE_MAX;
+  n = strtol(v, &end, 10);
+  return *end || n < 0 || n > 1000000000L ? LS_DENSE_MAX : (int)n;
+}
+
+double ls_dense_fill(void)
+{
+  const char *v = getenv("MOREAU_LEVELSET_DENSE_FILL");
+  char *end;
+  double f;
+  if (!v || !*v) return LS_DENSE_FILL;
+  f = strtod(v, &end);
+  return *end || !(f >= 0) ? LS_DENSE_FILL : f;
+}
 
 void ls_sparse_free(ls_sparse *Z)
 {
@@ -16,6 +44,8 @@ void ls_sparse_free(ls_sparse *Z)
   mo_csc_free(Z->M);
   mo_free(Z->pos);
   mo_free(Z->x);
+  mo_free(Z->F);
+  mo_free(Z->ipiv);
   memset(Z, 0, sizeof *Z);
 }
 
@@ -122,6 +152,44 @@ static int same_matrix(const mo_csc *A, const mo_csc *B)
          !memcmp(A->x, B->x, (size_t)nnz * sizeof *A->x);
 }
 
+/* M (both triangles) factored by LAPACK into Z->F: Cholesky without coupled sliders (W_XX + eps
+   D, symmetric), LU with them (T137a). MO_ESINGULAR when a pivot is not positive (Cholesky) or
+   zero (LU), as CHOLMOD and UMFPACK report. */
+static int dense_factor(ls_sparse *Z, const mo_csc *M, int lu, mo_ctx *ctx)
+{
+  const int n = M->ncol;
+  int j, p, info = 0;
+  size_t nn = (size_t)n * (size_t)n;
+  if (!Z->F || Z->fcap < nn) {
+    double *F = mo_realloc(ctx, Z->F, (nn + 1) * sizeof *F);
+    int *piv;
+    if (!F) return MO_ENOMEM;
+    Z->F = F;
+    if (!(piv = mo_realloc(ctx, Z->ipiv, ((size_t)n + 1) * sizeof *piv))) return MO_ENOMEM;
+    Z->ipiv = piv;
+    Z->fcap = nn;
+  }
+  memset(Z->F, 0, nn * sizeof *Z->F);
+  for (j = 0; j < n; j++)
+    for (p = M->p[j]; p < M->p[j + 1]; p++) Z->F[(size_t)j * n + M->i[p]] = M->x[p];
+  if (lu) dgetrf_(&n, &n, Z->F, &n, Z->ipiv, &info);
+  else dpotrf_("L", &n, Z->F, &n, &info);
+  if (info < 0) return mo_error(ctx, MO_EINTERNAL, "levelset: %s argument %d", lu ? "dgetrf" : "dpotrf", -info);
+  if (info > 0)
+    return mo_error(ctx, MO_ESINGULAR, "levelset: the frozen status's matrix of %d unknowns is %s (pivot %d)", n,
+                    lu ? "singular" : "not positive definite", info);
+  return MO_OK;
+}
+
+static int dense_solve(const ls_sparse *Z, int n, double *b, mo_ctx *ctx)
+{
+  const int one = 1;
+  int info = 0;
+  if (Z->kind) dgetrs_("N", &n, &one, Z->F, &n, Z->ipiv, b, &n, &info);
+  else dpotrs_("L", &n, &one, Z->F, &n, b, &n, &info);
+  return info ? mo_error(ctx, MO_EINTERNAL, "levelset: %s argument %d", Z->kind ? "dgetrs" : "dpotrs", -info) : MO_OK;
+}
+
 int ls_sparse_step(ls_sparse *Z, ls_reduced *R, const ls_system *S, const mo_delassus *W, double eps,
                    const double *dW, const double *b, const double *U, double *y, double *pg, long *nfact,
                    long *nreuse, int *fallback, mo_ctx *ctx)
@@ -166,8 +234,12 @@ int ls_sparse_step(ls_sparse *Z, ls_reduced *R, const ls_system *S, const mo_del
     mo_csc_free(Z->M);
     Z->M = M;
     Z->kind = nks > 0;
-    if (!*ls && (st = mo_linsolver_create(nks ? &mo_linsolver_umfpack : &mo_linsolver_cholmod, ls, ctx))) return st;
-    if ((st = mo_linsolver_factor(*ls, M, ctx))) {
+    /* dense by fill, not size (T137a) */
+    Z->dense = n > 0 && (double)mo_csc_nnz(M) >= ls_dense_fill() * (double)n * (double)n;
+    if (Z->dense) st = dense_factor(Z, M, nks > 0, ctx);
+    else if (!*ls && (st = mo_linsolver_create(nks ? &mo_linsolver_umfpack : &mo_linsolver_cholmod, ls, ctx))) return st;
+    else st = mo_linsolver_factor(*ls, M, ctx);
+    if (st) {
       /* singular: redundant impulses without the proximal term, or a coupled matrix that
          friction makes singular */
       mo_csc_free(Z->M);
@@ -198,7 +270,9 @@ int ls_sparse_step(ls_sparse *Z, ls_reduced *R, const ls_system *S, const mo_del
       y[e] = target;
     }
     for (i = 0; i < n; i++) bx[i] = -up[R->xc[i]];
-    if ((st = mo_linsolver_solve(nks ? Z->umf : Z->chol, bx, bx, ctx))) return st;
+    if (Z->dense) st = dense_solve(Z, n, bx, ctx);
+    else st = mo_linsolver_solve(nks ? Z->umf : Z->chol, bx, bx, ctx);
+    if (st) return st;
     for (i = 0; i < n; i++) y[R->xc[i]] += bx[i];
     for (e = 0, s = 0; e < nu; e++) {
       int jc = e / nr;
