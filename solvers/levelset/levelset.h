@@ -241,10 +241,10 @@ typedef struct {
   mo_linsolver *chol, *umf;
   mo_csc *M;               /* the matrix factored (kept: UMFPACK reads it, and it is the key) */
   int kind;                /* 1: UMFPACK or dgetrf (coupled sliders), 0: CHOLMOD or dpotrf */
-  int dense;               /* 1: the kept factor is LAPACK's, in F (and ipiv for dgetrf) */
-  double *F;               /* the dense factor, column-major n x n */
+  int dense, nd;           /* 1: the kept factor is LAPACK's, in F (and ipiv for dgetrf), of nd rows */
+  double *Md, *Mw, *F;     /* column-major n x n: the matrix factored (the key), the new one, the factor */
   int *ipiv;
-  size_t fcap;             /* capacity of F in n^2, of ipiv in n */
+  size_t fcap;             /* capacity of Md, Mw and F in n^2, of ipiv in n */
   int *pos;                /* Cset component -> position in X, or -1 */
   double *x;               /* work: U' and the right-hand side */
   size_t cap;
