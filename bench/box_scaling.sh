@@ -15,7 +15,9 @@
 #                        [--clock wall|cpu] [--moreau build/moreau] [--out DIR] [--set KEY=VALUE]...
 #
 # --large adds n = 68 (985 527 dofs: about 25 GB; run it alone). A step's time is the run's
-# `timings.steps` less the Delassus build, over the steps (the first step builds W); the
+# `timings.steps` less the Delassus build, over the steps (the first step builds W); "first" is
+# `timings.first_step` less the Delassus build, "steady" the mean of steps 2..n (the contact set
+# and W fixed: the linear scene of issue 16's limit); the
 # factorization is `timings.factor`. --clock cpu times every phase on the thread's CPU clock
 # (MOREAU_CLOCK=cpu): on a machine shared with other jobs the time waited for a core is left out
 # (BLAS runs one thread unless MOREAU_BLAS_THREADS says otherwise). Needs python3 (summary.json).
@@ -38,7 +40,7 @@ while [ $# -gt 0 ]; do
   --out) out=$2; shift ;;
   --set) sets="$sets --set $2"; shift ;;
   --clock) [ "$2" = cpu ] && export MOREAU_CLOCK=cpu; shift ;;
-  -h|--help) sed -n '2,20p' "$0"; exit 0 ;;
+  -h|--help) sed -n '2,23p' "$0"; exit 0 ;;
   *) echo "box_scaling.sh: unknown argument '$1' (--help)" >&2; exit 2 ;;
   esac
   shift
@@ -89,10 +91,15 @@ except (OSError, ValueError):
 T, L = s['timings'], s.get('linear_solver', {})
 steps = max(1, s['time'].get('steps_done', 1))
 step = (T['steps'] - T.get('delassus', 0)) / steps
+# the first step (less the Delassus build) and the steady one (steps 2..n: the contact set and W fixed)
+first = T.get('first_step', float('nan')) - T.get('delassus', 0)
+steady = (T['steps'] - T.get('first_step', float('nan'))) / (steps - 1) if steps > 1 else float('nan')
 c = s.get('contact', {})
 print('n=%s run=%s status=%s dofs=%s contacts=%s nnz_L=%s factor_s=%.3f delassus_s=%.3f step_ms=%.2f '
+      'first_ms=%.2f steady_ms=%.2f '
       'own_2solves_ms=%.2f iterations=%s peak_rss_MB=%.0f' % (n, label, s['status'], L.get('n', 'nan'),
       c.get('candidates', 0), L.get('nnz_L', 'nan'), T['factor'], T.get('delassus', 0), 1e3 * step,
+      1e3 * first, 1e3 * steady,
       1e3 * L.get('two_solves_seconds', float('nan')), c.get('iterations_mean', 'nan'), s.get('peak_rss_bytes', 0) / 1e6))
 PY
 }
@@ -120,9 +127,11 @@ def num(x):
         return float('nan')
 head = ['n^3', 'dofs', 'contacts', 'nnz(L)', 'factor s', 'Delassus s', '2 solves ms', 'own 2 solves ms'] + \
        ['step %s ms' % s for s in solvers] + ['%s / 2 solves' % s for s in solvers] + \
-       ['%s / own 2 solves' % s for s in solvers]
+       ['%s / own 2 solves' % s for s in solvers] + \
+       ['first %s ms' % s for s in solvers] + ['steady %s ms' % s for s in solvers] + \
+       ['steady %s / own 2 solves' % s for s in solvers]
 if len(solvers) == 2:
-    head.append('%s / %s' % (solvers[1], solvers[0]))
+    head += ['%s / %s' % (solvers[1], solvers[0]), 'steady %s / %s' % (solvers[1], solvers[0])]
 head.append('peak RSS MB')
 print('| ' + ' | '.join(head) + ' |')
 print('|' + '---|' * len(head))
@@ -141,8 +150,14 @@ for n in sorted(rows):
     cells += ['%.1f' % t if o else 'failed' for t, o in zip(st, ok)]
     cells += ['%.2f' % (t / lim) if o else '-' for t, o in zip(st, ok)]
     cells += ['%.2f' % (t / own) if o and own == own else '-' for t, o in zip(st, ok)]
+    fi = [num(r.get(s, {}).get('first_ms')) for s in solvers]
+    sd = [num(r.get(s, {}).get('steady_ms')) for s in solvers]
+    cells += ['%.1f' % t if o else '-' for t, o in zip(fi, ok)]
+    cells += ['%.1f' % t if o else '-' for t, o in zip(sd, ok)]
+    cells += ['%.2f' % (t / own) if o and own == own else '-' for t, o in zip(sd, ok)]
     if len(solvers) == 2:
         cells.append('%.2f' % (st[1] / st[0]) if all(ok) else '-')
+        cells.append('%.2f' % (sd[1] / sd[0]) if all(ok) else '-')
     cells.append('%.0f' % max(num(x.get('peak_rss_MB')) for x in r.values()))
     print('| ' + ' | '.join(cells) + ' |')
 PY

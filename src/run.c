@@ -263,7 +263,7 @@ static void progress_draw(progress *p, long step, long steps, double t, int fina
 
 /* --- summary ------------------------------------------------------------------------------------ */
 
-static json_t *timings_json(const mo_ctx *ctx, double wall, double steps)
+static json_t *timings_json(const mo_ctx *ctx, double wall, double steps, double first)
 {
   json_t *j = json_object(), *calls = json_object();
   int p;
@@ -275,6 +275,9 @@ static json_t *timings_json(const mo_ctx *ctx, double wall, double steps)
   /* the time of the steps alone (setup, the t = 0 state and every output left out): what
      `moreau compare` times a run by (doc/theory.md (T99)) */
   json_object_set_new(j, "steps", jnum(steps));
+  /* of which the first step (its Delassus build and status iterations: a linear scene's later
+     steps reuse both), so that the steady step is (steps - first_step) / (n - 1) */
+  if (first >= 0) json_object_set_new(j, "first_step", jnum(first));
   json_object_set_new(j, "calls", calls);
   return j;
 }
@@ -551,7 +554,7 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
                          const mo_contact_driver *drv, const mo_metrics *met, const column *cols, int ncol,
                          const char *const *names, double e0, double e1, double drift,
                          double balance, double growth, int complete, const char *reason,
-                         double wall, double steps_wall, const double *p0, long cuts, double dtmin,
+                         double wall, double steps_wall, double first_step, const double *p0, long cuts, double dtmin,
                          const char *blowup, double *work, mo_ctx *ctx)
 {
   double *pw = NULL, *p1 = NULL, *pcm = NULL;
@@ -780,7 +783,7 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
     json_object_set_new(root, "linear_solver", ls);
   } else
     json_decref(ls);
-  json_object_set_new(root, "timings", timings_json(ctx, wall, steps_wall));
+  json_object_set_new(root, "timings", timings_json(ctx, wall, steps_wall, first_step));
   json_object_set_new(root, "parallel", parallel_json(ctx, sc));
   for (k = 0; k < ctx->nskip; k++) json_array_append_new(skipped, json_string(ctx->skipped[k]));
   json_object_set_new(root, "skipped", skipped);
@@ -1088,7 +1091,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   contact_view cv;
   char **names = NULL, *namebuf = NULL, outdir[4096], path[4200];
   double *row = NULL, *work = NULL, *p0 = NULL, start = mo_clock(), e0 = 0, e1 = 0, drift = 0, balance = 0;
-  double emax_growth = 0, eratio0 = 0, inner_start = mo_phase_total(ctx), tloop = 0, iloop = 0;
+  double emax_growth = 0, first_step = -1, eratio0 = 0, inner_start = mo_phase_total(ctx), tloop = 0, iloop = 0;
   int ratio_col = 1;
   int st, ncol = 0, nprobecol = 0, nexact = 0, k, p, complete = 0, ecol0 = 0, ccol0 = 0, table = 0, x0col;
   int nl = 0, necol = 0, ncol0 = 0, cutcol = 0, nvalcol = 0, nrigcol = 0, agcol = 0, pfcol = 0;
@@ -1456,6 +1459,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
       double ts = mo_clock();
       st = take_step(&stepper, &s, ctx);
       res->step_wall += mo_clock() - ts;
+      if (first_step < 0) first_step = res->step_wall;
       if (st) goto done;
     }
   }
@@ -1519,7 +1523,7 @@ done:
     mo_ctx_clear_error(ctx);
     st2 = write_summary(outdir, cs, sc, S, s.u ? &s : NULL, C, drv, met, cols, cols ? nvalcol : 0,
                         (const char *const *)names, e0, e1, drift, balance, emax_growth, complete, reason,
-                        res->wall, res->step_wall, p0, stepper.cuts, stepper.hmin, blowup, work, ctx);
+                        res->wall, res->step_wall, first_step, p0, stepper.cuts, stepper.hmin, blowup, work, ctx);
     if (st2) {
       /* the "running" summary must not outlive the run */
       snprintf(path, sizeof path, "%s/summary.json", outdir);

@@ -442,7 +442,7 @@ static int phase_sums(const char *name, double *total, double *wall)
   t = sum ? json_object_get(sum, "timings") : NULL;
   json_object_foreach(t, key, v) {
     if (!strcmp(key, "wall")) *wall = json_real_value(v);
-    else if (json_is_number(v) && strcmp(key, "steps")) *total += json_number_value(v);
+    else if (json_is_number(v) && strcmp(key, "steps") && strcmp(key, "first_step")) *total += json_number_value(v);
   }
   json_decref(sum);
   tl_remove_dir(out);

@@ -418,7 +418,7 @@ static int ls_newton(ls_state *L, const mo_contact_problem *P, int kkt, int *its
   const ls_space *A = &L->A;
   int ny = S->ny, nu = S->nC * S->nr, it, e, k, col, st, mi, t, hit, reduced;
   /* the sparse path (T137) for sets too large for dense algebra on the reduced path */
-  const int sparse = !kkt && L->reduced && nu > LS_DENSE_MAX;
+  const int sparse = !kkt && L->reduced && nu > ls_dense_max();
   *its = 0;
   *conv = 0;
   memset(L->rev, 0, (size_t)L->nc);

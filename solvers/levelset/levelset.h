@@ -232,10 +232,23 @@ void ls_reduced_multipliers(const ls_reduced *R, const ls_system *S, const doubl
    no dense W_CC; products from W's block rows, the frozen status's matrix sparse, factored by
    CHOLMOD or UMFPACK and kept while it repeats (pattern and values). */
 #define LS_DENSE_MAX 400
+/* The frozen status's matrix on the sparse path is factored by LAPACK (dpotrf, dgetrf with
+   coupled sliders) when its fill nnz / n^2 is at least this (T137a): W_XX of a box pressed on a
+   plane is dense, where CHOLMOD's supernodes run at a fraction of LAPACK's rate. */
+#define LS_DENSE_FILL 0.3
+/* LS_DENSE_MAX, or MOREAU_LEVELSET_DENSE_MAX from the environment (tests force the sparse path
+   on small sets with it) */
+int ls_dense_max(void);
+/* LS_DENSE_FILL, or MOREAU_LEVELSET_DENSE_FILL (0: LAPACK always, above 1: never) */
+double ls_dense_fill(void);
 typedef struct {
   mo_linsolver *chol, *umf;
   mo_csc *M;               /* the matrix factored (kept: UMFPACK reads it, and it is the key) */
-  int kind;                /* 1: UMFPACK (coupled sliders), 0: CHOLMOD */
+  int kind;                /* 1: UMFPACK or dgetrf (coupled sliders), 0: CHOLMOD or dpotrf */
+  int dense, nd;           /* 1: the kept factor is LAPACK's, in F (and ipiv for dgetrf), of nd rows */
+  double *Md, *Mw, *F;     /* column-major n x n: the matrix factored (the key), the new one, the factor */
+  int *ipiv;
+  size_t fcap;             /* capacity of Md, Mw and F in n^2, of ipiv in n */
   int *pos;                /* Cset component -> position in X, or -1 */
   double *x;               /* work: U' and the right-hand side */
   size_t cap;

@@ -6,7 +6,35 @@
 #include "levelset.h"
 
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
+
+extern void dpotrf_(const char *uplo, const int *n, double *a, const int *lda, int *info);
+extern void dpotrs_(const char *uplo, const int *n, const int *nrhs, const double *a, const int *lda,
+                    double *b, const int *ldb, int *info);
+extern void dgetrf_(const int *m, const int *n, double *a, const int *lda, int *ipiv, int *info);
+extern void dgetrs_(const char *trans, const int *n, const int *nrhs, const double *a, const int *lda,
+                    const int *ipiv, double *b, const int *ldb, int *info);
+
+int ls_dense_max(void)
+{
+  const char *v = getenv("MOREAU_LEVELSET_DENSE_MAX");
+  char *end;
+  long n;
+  if (!v || !*v) return LS_DENSE_MAX;
+  n = strtol(v, &end, 10);
+  return *end || n < 0 || n > 1000000000L ? LS_DENSE_MAX : (int)n;
+}
+
+double ls_dense_fill(void)
+{
+  const char *v = getenv("MOREAU_LEVELSET_DENSE_FILL");
+  char *end;
+  double f;
+  if (!v || !*v) return LS_DENSE_FILL;
+  f = strtod(v, &end);
+  return *end || !(f >= 0) ? LS_DENSE_FILL : f;
+}
 
 void ls_sparse_free(ls_sparse *Z)
 {
@@ -16,6 +44,10 @@ void ls_sparse_free(ls_sparse *Z)
   mo_csc_free(Z->M);
   mo_free(Z->pos);
   mo_free(Z->x);
+  mo_free(Z->F);
+  mo_free(Z->Md);
+  mo_free(Z->Mw);
+  mo_free(Z->ipiv);
   memset(Z, 0, sizeof *Z);
 }
 
@@ -67,13 +99,47 @@ static void add_column(const ls_system *S, const mo_delassus *W, double eps, con
 
 /* The matrix of the frozen status over X, sparse (both triangles): W_XX (+ eps D), and for the
    coupled sliders (T134) W_XS C_e added to their normals' columns. */
+/* The entries of W_XX from W's block rows (the fill of the frozen status's matrix without its
+   coupled sliders' columns), without assembling it. */
+static double count_fill(const ls_sparse *Z, const ls_reduced *R, const ls_system *S, const mo_delassus *W)
+{
+  const int nr = S->nr;
+  double nnz = 0;
+  int b, p, k;
+  for (b = 0; b < R->nX; b++) {
+    const int *beta;
+    const double *blk;
+    int e = R->xc[b], cnt = mo_delassus_row(W, S->cset[e / nr], &beta, &blk);
+    for (p = 0; p < cnt; p++) {
+      int kc = S->cpos[beta[p]];
+      if (kc < 0) continue;
+      for (k = 0; k < nr; k++) nnz += Z->pos[kc * nr + k] >= 0;
+    }
+  }
+  return nnz;
+}
+
+/* Entry (a, b) of the matrix: into the dense column-major A when given, else into T. */
+static int put(mo_triplet *T, double *A, int n, int a, int b, double v, mo_ctx *ctx)
+{
+  if (A) {
+    A[(size_t)b * n + a] += v;
+    return MO_OK;
+  }
+  return mo_triplet_add(T, a, b, v, ctx);
+}
+
+/* assemble, into the dense column-major n x n matrix A (zeroed here) when A is given, else into
+   the CSC *out */
 static int assemble(ls_sparse *Z, const ls_reduced *R, const ls_system *S, const mo_delassus *W, double eps,
-                    const double *dW, int nks, mo_csc **out, mo_ctx *ctx)
+                    const double *dW, int nks, mo_csc **out, double *A, mo_ctx *ctx)
 {
   const int nr = S->nr, d = S->d, n = R->nX;
   mo_triplet T;
-  int b, p, k, s, st;
-  if ((st = mo_triplet_init(&T, n, n, (size_t)n * 9 + 1, ctx))) return st;
+  int b, p, k, s, st = MO_OK;
+  memset(&T, 0, sizeof T);
+  if (A) memset(A, 0, (size_t)n * (size_t)n * sizeof *A);
+  else if ((st = mo_triplet_init(&T, n, n, (size_t)n * 9 + 1, ctx))) return st;
   for (b = 0; b < n; b++) {
     int e = R->xc[b], jc = e / nr, i = e % nr, j = S->cset[jc], cnt;
     const int *beta;
@@ -87,7 +153,7 @@ static int assemble(ls_sparse *Z, const ls_reduced *R, const ls_system *S, const
         double v = blk[(size_t)p * d * d + (size_t)(i * d + k)];
         if (a < 0) continue;
         if (a == b && eps > 0) v += eps * dW[j * d + i];
-        if (v != 0 && (st = mo_triplet_add(&T, a, b, v, ctx))) goto done;
+        if (v != 0 && (st = put(&T, A, n, a, b, v, ctx))) goto done;
       }
     }
   }
@@ -104,13 +170,13 @@ static int assemble(ls_sparse *Z, const ls_reduced *R, const ls_system *S, const
         double v = 0;
         /* W(t(s), x_a) = W(x_a, t(s)), times -mu e_t (T134, T143) */
         for (t = 0; t < S->dt; t++) v += blk[(size_t)p * d * d + (size_t)((1 + t) * d + k)] * -S->mu[j] * R->es[s * S->dt + t];
-        if (a >= 0 && v != 0 && (st = mo_triplet_add(&T, a, bn, v, ctx))) goto done;
+        if (a >= 0 && v != 0 && (st = put(&T, A, n, a, bn, v, ctx))) goto done;
       }
     }
   }
-  st = mo_triplet_to_csc(&T, nks == 0, out, ctx);
+  if (!A) st = mo_triplet_to_csc(&T, nks == 0, out, ctx);
 done:
-  mo_triplet_release(&T);
+  if (!A) mo_triplet_release(&T);
   return st;
 }
 
@@ -122,12 +188,57 @@ static int same_matrix(const mo_csc *A, const mo_csc *B)
          !memcmp(A->x, B->x, (size_t)nnz * sizeof *A->x);
 }
 
+/* The dense matrix: room for n x n in Mw (the new matrix), Md (the kept one, the key) and F (its
+   factor). */
+static int dense_reserve(ls_sparse *Z, int n, mo_ctx *ctx)
+{
+  size_t nn = (size_t)n * (size_t)n;
+  double *a;
+  int *piv;
+  if (Z->F && Z->fcap >= nn) return MO_OK;
+  if (!(a = mo_realloc(ctx, Z->F, (nn + 1) * sizeof *a))) return MO_ENOMEM;
+  Z->F = a;
+  if (!(a = mo_realloc(ctx, Z->Md, (nn + 1) * sizeof *a))) return MO_ENOMEM;
+  Z->Md = a;
+  if (!(a = mo_realloc(ctx, Z->Mw, (nn + 1) * sizeof *a))) return MO_ENOMEM;
+  Z->Mw = a;
+  if (!(piv = mo_realloc(ctx, Z->ipiv, ((size_t)n + 1) * sizeof *piv))) return MO_ENOMEM;
+  Z->ipiv = piv;
+  Z->fcap = nn;
+  return MO_OK;
+}
+
+/* Md factored by LAPACK into F: Cholesky without coupled sliders (W_XX + eps D, symmetric), LU
+   with them (T137a). MO_ESINGULAR when a pivot is not positive (Cholesky) or zero (LU), as
+   CHOLMOD and UMFPACK report. */
+static int dense_factor(ls_sparse *Z, int n, int lu, mo_ctx *ctx)
+{
+  int info = 0;
+  memcpy(Z->F, Z->Md, (size_t)n * (size_t)n * sizeof *Z->F);
+  if (lu) dgetrf_(&n, &n, Z->F, &n, Z->ipiv, &info);
+  else dpotrf_("L", &n, Z->F, &n, &info);
+  if (info < 0) return mo_error(ctx, MO_EINTERNAL, "levelset: %s argument %d", lu ? "dgetrf" : "dpotrf", -info);
+  if (info > 0)
+    return mo_error(ctx, MO_ESINGULAR, "levelset: the frozen status's matrix of %d unknowns is %s (pivot %d)", n,
+                    lu ? "singular" : "not positive definite", info);
+  return MO_OK;
+}
+
+static int dense_solve(const ls_sparse *Z, int n, double *b, mo_ctx *ctx)
+{
+  const int one = 1;
+  int info = 0;
+  if (Z->kind) dgetrs_("N", &n, &one, Z->F, &n, Z->ipiv, b, &n, &info);
+  else dpotrs_("L", &n, &one, Z->F, &n, b, &n, &info);
+  return info ? mo_error(ctx, MO_EINTERNAL, "levelset: %s argument %d", Z->kind ? "dgetrs" : "dpotrs", -info) : MO_OK;
+}
+
 int ls_sparse_step(ls_sparse *Z, ls_reduced *R, const ls_system *S, const mo_delassus *W, double eps,
                    const double *dW, const double *b, const double *U, double *y, double *pg, long *nfact,
                    long *nreuse, int *fallback, mo_ctx *ctx)
 {
   const int nr = S->nr, dt = S->dt, nu = R->nu, n = R->nX, offl = nu + S->nM;
-  int e, i, s, st, nks = 0;
+  int e, i, s, st, nks = 0, dense;
   mo_csc *M = NULL;
   *fallback = 0;
   if (R->nS > 0 && !R->coupled) {
@@ -157,8 +268,16 @@ int ls_sparse_step(ls_sparse *Z, ls_reduced *R, const ls_system *S, const mo_del
       else R->es[s] = G > 0 ? 1 : G < 0 ? -1 : 0;
       nks++;
     }
-  if ((st = assemble(Z, R, S, W, eps, dW, nks, &M, ctx))) return st;
-  if (Z->M && Z->kind == (nks > 0) && same_matrix(M, Z->M)) {
+  /* dense by fill, not size (T137a): assembled and keyed dense, never as a CSC */
+  dense = n > 0 && count_fill(Z, R, S, W) >= ls_dense_fill() * (double)n * (double)n;
+  if (dense) {
+    if ((st = dense_reserve(Z, n, ctx)) || (st = assemble(Z, R, S, W, eps, dW, nks, NULL, Z->Mw, ctx))) return st;
+  } else if ((st = assemble(Z, R, S, W, eps, dW, nks, &M, NULL, ctx)))
+    return st;
+  if (dense && Z->dense && Z->nd == n && Z->kind == (nks > 0) &&
+      !memcmp(Z->Mw, Z->Md, (size_t)n * (size_t)n * sizeof *Z->Md)) {
+    (*nreuse)++;
+  } else if (!dense && Z->M && !Z->dense && Z->kind == (nks > 0) && same_matrix(M, Z->M)) {
     mo_csc_free(M);
     (*nreuse)++;
   } else {
@@ -166,12 +285,24 @@ int ls_sparse_step(ls_sparse *Z, ls_reduced *R, const ls_system *S, const mo_del
     mo_csc_free(Z->M);
     Z->M = M;
     Z->kind = nks > 0;
-    if (!*ls && (st = mo_linsolver_create(nks ? &mo_linsolver_umfpack : &mo_linsolver_cholmod, ls, ctx))) return st;
-    if ((st = mo_linsolver_factor(*ls, M, ctx))) {
+    Z->dense = dense;
+    Z->nd = dense ? n : 0;
+    if (dense) {
+      double *t = Z->Md;
+      Z->Md = Z->Mw;
+      Z->Mw = t;
+      st = dense_factor(Z, n, nks > 0, ctx);
+    } else if (!*ls && (st = mo_linsolver_create(nks ? &mo_linsolver_umfpack : &mo_linsolver_cholmod, ls, ctx)))
+      return st;
+    else
+      st = mo_linsolver_factor(*ls, M, ctx);
+    if (st) {
       /* singular: redundant impulses without the proximal term, or a coupled matrix that
          friction makes singular */
       mo_csc_free(Z->M);
       Z->M = NULL;
+      Z->dense = 0;
+      Z->nd = 0;
       if (st != MO_ESINGULAR) return st;
       mo_ctx_clear_error(ctx);
       *fallback = 2;
@@ -198,7 +329,9 @@ int ls_sparse_step(ls_sparse *Z, ls_reduced *R, const ls_system *S, const mo_del
       y[e] = target;
     }
     for (i = 0; i < n; i++) bx[i] = -up[R->xc[i]];
-    if ((st = mo_linsolver_solve(nks ? Z->umf : Z->chol, bx, bx, ctx))) return st;
+    if (Z->dense) st = dense_solve(Z, n, bx, ctx);
+    else st = mo_linsolver_solve(nks ? Z->umf : Z->chol, bx, bx, ctx);
+    if (st) return st;
     for (i = 0; i < n; i++) y[R->xc[i]] += bx[i];
     for (e = 0, s = 0; e < nu; e++) {
       int jc = e / nr;
