@@ -91,16 +91,18 @@ int mo_triplet_add(mo_triplet *T, int i, int j, double v, mo_ctx *ctx)
   return MO_OK;
 }
 
-int mo_triplet_add_block(mo_triplet *T, const int *rows, int nr, const int *cols, int nc,
-                         const double *blk, mo_ctx *ctx)
+/* One element block's entries, the rows and columns < 0 left out; zeros left out too unless
+   keep_zeros (a pattern: a NULL blk adds zeros). */
+static int add_entries(mo_triplet *T, const int *rows, int nr, const int *cols, int nc,
+                       const double *blk, int keep_zeros, mo_ctx *ctx)
 {
   int a, b;
   if (grow(T, T->n + (size_t)nr * (size_t)nc, ctx)) return MO_ENOMEM;
   for (a = 0; a < nr; a++) {
     if (rows[a] < 0) continue;
     for (b = 0; b < nc; b++) {
-      double v = blk[a * nc + b];
-      if (cols[b] < 0 || v == 0) continue;
+      double v = blk ? blk[a * nc + b] : 0;
+      if (cols[b] < 0 || (v == 0 && !keep_zeros)) continue;
       T->i[T->n] = rows[a];
       T->j[T->n] = cols[b];
       T->x[T->n] = v;
@@ -110,22 +112,16 @@ int mo_triplet_add_block(mo_triplet *T, const int *rows, int nr, const int *cols
   return MO_OK;
 }
 
+int mo_triplet_add_block(mo_triplet *T, const int *rows, int nr, const int *cols, int nc,
+                         const double *blk, mo_ctx *ctx)
+{
+  return add_entries(T, rows, nr, cols, nc, blk, 0, ctx);
+}
+
 int mo_triplet_add_pattern(mo_triplet *T, const int *rows, int nr, const int *cols, int nc,
                            const double *blk, mo_ctx *ctx)
 {
-  int a, b;
-  if (grow(T, T->n + (size_t)nr * (size_t)nc, ctx)) return MO_ENOMEM;
-  for (a = 0; a < nr; a++) {
-    if (rows[a] < 0) continue;
-    for (b = 0; b < nc; b++) {
-      if (cols[b] < 0) continue;
-      T->i[T->n] = rows[a];
-      T->j[T->n] = cols[b];
-      T->x[T->n] = blk ? blk[a * nc + b] : 0;
-      T->n++;
-    }
-  }
-  return MO_OK;
+  return add_entries(T, rows, nr, cols, nc, blk, 1, ctx);
 }
 
 void mo_csc_drop_zeros(mo_csc *A)
