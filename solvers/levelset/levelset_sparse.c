@@ -97,8 +97,6 @@ static void add_column(const ls_system *S, const mo_delassus *W, double eps, con
   if (eps > 0) U[e] += eps * dW[j * d + i] * delta;
 }
 
-/* The matrix of the frozen status over X, sparse (both triangles): W_XX (+ eps D), and for the
-   coupled sliders (T134) W_XS C_e added to their normals' columns. */
 /* The entries of W_XX from W's block rows (the fill of the frozen status's matrix without its
    coupled sliders' columns), without assembling it. */
 static double count_fill(const ls_sparse *Z, const ls_reduced *R, const ls_system *S, const mo_delassus *W)
@@ -129,8 +127,9 @@ static int put(mo_triplet *T, double *A, int n, int a, int b, double v, mo_ctx *
   return mo_triplet_add(T, a, b, v, ctx);
 }
 
-/* assemble, into the dense column-major n x n matrix A (zeroed here) when A is given, else into
-   the CSC *out */
+/* The matrix of the frozen status over X: W_XX (+ eps D), and for the coupled sliders (T134)
+   W_XS C_e added to their normals' columns; into the dense column-major n x n matrix A (zeroed
+   here) when A is given, else into the CSC *out (both triangles). */
 static int assemble(ls_sparse *Z, const ls_reduced *R, const ls_system *S, const mo_delassus *W, double eps,
                     const double *dW, int nks, mo_csc **out, double *A, mo_ctx *ctx)
 {
