@@ -159,27 +159,66 @@ static void sort_key(int *k, int n)
   }
 }
 
+/* Sorts the n facets of one bucket (they share key[0]) by cmp_facet_sorted: insertion for the
+   few facets a node usually starts, qsort past that (a fan of many elements around one node). */
+static void sort_bucket(mo_facet *F, size_t n)
+{
+  size_t i, j;
+  if (n > 32) {
+    qsort(F, n, sizeof *F, cmp_facet_sorted);
+    return;
+  }
+  for (i = 1; i < n; i++) {
+    mo_facet v = F[i];
+    for (j = i; j > 0 && cmp_facet_sorted(&F[j - 1], &v) > 0; j--) F[j] = F[j - 1];
+    F[j] = v;
+  }
+}
+
+/* The facets are distributed by their smallest node (a counting sort: key[0] is a node number,
+   the first field of the order), then each node's few facets sorted: the order of one qsort by
+   cmp_facet_sorted, in O(facets) (4e6 elements: 3 s of qsort before), and an interrupt is
+   honoured between buckets. */
 int mo_mesh_all_facets(const mo_mesh *m, mo_facet **out, size_t *nout, mo_ctx *ctx)
 {
   const mo_eltype_info *T = &eltypes[m->type];
-  size_t nf = (size_t)m->nelem * (size_t)T->nfacet, i;
-  mo_facet *F;
-  int e, f, a;
+  size_t nf = (size_t)m->nelem * (size_t)T->nfacet, i, *start = NULL;
+  mo_facet *F, *G = NULL;
+  int e, f, a, v;
   if (MO_INTERRUPTED(ctx)) return mo_error(ctx, MO_EINTERRUPT, "interrupted while building the mesh (its facets)");
-  F = mo_malloc(ctx, (nf ? nf : 1) * sizeof *F);
   *out = NULL;
   *nout = 0;
-  if (!F) return MO_ENOMEM;
+  F = mo_malloc(ctx, (nf ? nf : 1) * sizeof *F);
+  if (F) G = mo_malloc(ctx, (nf ? nf : 1) * sizeof *G);
+  if (G) start = mo_calloc(ctx, (size_t)m->nnode + 1, sizeof *start);
+  if (!start) {
+    mo_free(F);
+    mo_free(G);
+    return MO_ENOMEM;
+  }
   for (e = 0, i = 0; e < m->nelem; e++)
     for (f = 0; f < T->nfacet; f++, i++) {
       for (a = 0; a < 4; a++)
-        F[i].key[a] = a < T->nfv ? m->conn[(size_t)e * (size_t)m->nen + (size_t)T->facet[f][a]]
+        G[i].key[a] = a < T->nfv ? m->conn[(size_t)e * (size_t)m->nen + (size_t)T->facet[f][a]]
                                  : -1;
-      sort_key(F[i].key, T->nfv);
-      F[i].elem = e;
-      F[i].lface = f;
+      sort_key(G[i].key, T->nfv);
+      G[i].elem = e;
+      G[i].lface = f;
+      start[G[i].key[0] + 1]++;
     }
-  qsort(F, nf, sizeof *F, cmp_facet_sorted);
+  for (v = 0; v < m->nnode; v++) start[v + 1] += start[v];
+  for (i = 0; i < nf; i++) F[start[G[i].key[0]]++] = G[i]; /* start[v] moves to bucket v's end */
+  mo_free(G);
+  for (v = 0; v < m->nnode; v++) {
+    size_t b = v ? start[v - 1] : 0;
+    if (!(v & 0xffff) && MO_INTERRUPTED(ctx)) {
+      mo_free(start);
+      mo_free(F);
+      return mo_error(ctx, MO_EINTERRUPT, "interrupted while building the mesh (its facets)");
+    }
+    sort_bucket(F + b, start[v] - b);
+  }
+  mo_free(start);
   *out = F;
   *nout = nf;
   return MO_OK;
