@@ -1015,17 +1015,20 @@ static int level_set_loop(ls_state *L, ls_pass *Q, mo_contact_report *rep, mo_ct
    z = s + k_t U'_t,
      F_n = p - max(0, a),   F_t = s - P_B(mu a+)(z)   (B(t): the disk of radius t);
    *ft is |F_t|, *a and z (dt components, *zn = |z|) are what the sign fields test (T141). */
-static void natural_map(const ls_state *L, const ls_pass *Q, int j, const double *rj, const double *Uj,
-                        double *fn, double *ft, double *a, double *z, double *zn)
+static inline __attribute__((always_inline)) void natural_map(const ls_state *L, const ls_pass *Q, int j,
+                                                               const double *rj, const double *Uj, double *fn,
+                                                               double *ft, double *a, double *z, double *zn)
 {
   const double cw = Q->c * Q->P->w[j], p = rj[0] / cw;
+  double ap;
   int t;
   *a = p - Q->rho_n * Uj[0];
-  *fn = p - fmax(0, *a);
+  ap = *a > 0 ? *a : 0; /* max(0, a), 0 for a NaN as fmax gives */
+  *fn = p - ap;
   *ft = *zn = 0;
   z[0] = z[1] = 0;
   if (Q->dt && L->mu[j] > 0) {
-    double thr = L->mu[j] * fmax(0, *a), f = 0, sc;
+    double thr = L->mu[j] * ap, f = 0, sc;
     for (t = 0; t < Q->dt; t++) {
       z[t] = -rj[1 + t] / cw + Q->kt * Uj[1 + t];
       *zn += z[t] * z[t];
