@@ -37,6 +37,9 @@ typedef struct {
   ls_lu_cache lu;            /* the factors of the last Newton matrix (T86) */
   ls_reduced red;            /* the reduced path's partition and kept factor of W_XX (T130-T133) */
   ls_sparse sp;              /* its sparse algebra on large sets (T137) */
+  ls_bodies bd;              /* the smoother's sweep on body velocities (T145) */
+  double *wd;                /* nc d^2: the smoother's diagonal blocks of W + eps D (S_u = 1) */
+  int bodies;                /* bd applies in this solve */
   int rigid;                 /* some candidate joins two rigid bodies (a dynamic pair) */
   int reduced;               /* the reduced path applies (A = I and the path allows it) */
   int want_prox;             /* the automatic proximal term is on (T136) */
@@ -116,6 +119,8 @@ static const mo_option_spec ls_options[] = {
    "Hybrid globalization: Gauss-Seidel sweeps before the first Newton step of every solve."},
   {"smoother_alpha", MO_OPT_DOUBLE, OFF(smooth_alpha), NULL, 0, 1, "0.001",
    "Hybrid globalization: a line-search step shorter than this (or none decreasing the merit) is a trap, where the smoother sweeps instead."},
+  {"smoother_path", MO_OPT_ENUM, OFF(smooth_path), "auto|bodies|delassus", NAN, NAN, "\"auto\"",
+   "Hybrid globalization: the smoother's sweep through the bodies' velocities (v = What^-1 H r kept up to date candidate by candidate, one local update O(1), as nscd's sweep on bodies) or through W's block rows; bodies needs every candidate between rigid bodies and obstacles; auto is delassus (on the piles measured the two cost the same within a few per cent; doc/theory.md (T145))."},
   {"proximal_max", MO_OPT_INT, OFF(proximal_max), NULL, 1, 10000, "50",
    "Proximal loop: iteration limit."},
   {"threshold_max", MO_OPT_INT, OFF(threshold_max), NULL, 1, 100000, "200",
@@ -166,6 +171,8 @@ static void ls_free(void *state)
   ls_lu_cache_free(&L->lu);
   ls_reduced_free(&L->red);
   ls_sparse_free(&L->sp);
+  ls_bodies_free(&L->bd);
+  mo_free(L->wd);
   mo_free(L->phi);
   mo_free(L->rk); mo_free(L->Uk); mo_free(L->rs); mo_free(L->Us); mo_free(L->edir);
   mo_free(L->qeff); mo_free(L->rc); mo_free(L->dW);
@@ -228,10 +235,11 @@ static int ls_init(void *state, const void *params, const mo_contact_problem *P,
   L->mu = mo_calloc(ctx, n1, sizeof(double));
   L->rev = mo_calloc(ctx, n1, 1);
   L->viol = mo_calloc(ctx, n1, sizeof(double));
+  L->wd = mo_calloc(ctx, n1 * (size_t)(d * d), sizeof *L->wd);
   L->dv = mo_calloc(ctx, (size_t)P->nfree + 1, sizeof(double));
   L->ddv = mo_calloc(ctx, (size_t)P->nfree + 1, sizeof(double));
   if (!L->su || !L->sv || !L->sf || !L->nsu || !L->nsv || !L->nsf || !L->pg || !L->ph || !L->lam ||
-      !L->ph_prev || !L->lam_prev || !L->U || !L->Umag || !L->r || !L->pm || !L->lm || !L->dv || !L->ddv || !L->gdir || !L->mu || !L->rev || !L->viol)
+      !L->ph_prev || !L->lam_prev || !L->U || !L->Umag || !L->r || !L->pm || !L->lm || !L->dv || !L->ddv || !L->gdir || !L->mu || !L->rev || !L->viol || !L->wd)
     return MO_ENOMEM;
   return MO_OK;
 }
@@ -1007,17 +1015,20 @@ static int level_set_loop(ls_state *L, ls_pass *Q, mo_contact_report *rep, mo_ct
    z = s + k_t U'_t,
      F_n = p - max(0, a),   F_t = s - P_B(mu a+)(z)   (B(t): the disk of radius t);
    *ft is |F_t|, *a and z (dt components, *zn = |z|) are what the sign fields test (T141). */
-static void natural_map(const ls_state *L, const ls_pass *Q, int j, const double *rj, const double *Uj,
-                        double *fn, double *ft, double *a, double *z, double *zn)
+static inline __attribute__((always_inline)) void natural_map(const ls_state *L, const ls_pass *Q, int j,
+                                                               const double *rj, const double *Uj, double *fn,
+                                                               double *ft, double *a, double *z, double *zn)
 {
   const double cw = Q->c * Q->P->w[j], p = rj[0] / cw;
+  double ap;
   int t;
   *a = p - Q->rho_n * Uj[0];
-  *fn = p - fmax(0, *a);
+  ap = *a > 0 ? *a : 0; /* max(0, a), 0 for a NaN as fmax gives */
+  *fn = p - ap;
   *ft = *zn = 0;
   z[0] = z[1] = 0;
   if (Q->dt && L->mu[j] > 0) {
-    double thr = L->mu[j] * fmax(0, *a), f = 0, sc;
+    double thr = L->mu[j] * ap, f = 0, sc;
     for (t = 0; t < Q->dt; t++) {
       z[t] = -rj[1 + t] / cw + Q->kt * Uj[1 + t];
       *zn += z[t] * z[t];
@@ -1099,7 +1110,7 @@ static double damped_signs(ls_state *L, ls_pass *Q)
 
 /* Solve the n x n system A x = b (n <= 3) by Gaussian elimination with partial pivoting; A and b
    are overwritten. Returns 0 when a pivot vanishes. */
-static int small_solve(int n, double *A, double *b)
+static inline __attribute__((always_inline)) int small_solve(int n, double *A, double *b)
 {
   int i, k, c;
   for (k = 0; k < n; k++) {
@@ -1168,7 +1179,8 @@ static int local_slide(int d, const double *Wl, const double *f, double mu, doub
    exactly for its impulse r (d components) with U'_j = f + Wl r, the others' impulses fixed: the
    zero of the natural map (T140) of this candidate alone. Open where f_n >= 0, else sticking when
    Wl r = -f lies in the cone, else sliding. Returns 0 (r untouched) when none is found. */
-static int local_law(int d, const double *Wl, const double *f, double mu, double *r)
+static inline __attribute__((always_inline)) int local_law(int d, const double *Wl, const double *f, double mu,
+                                                            double *r)
 {
   double A[9], b[3] = {0, 0, 0}, e[2] = {0, 0}, x[3] = {0, 0, 0}, tn = 0;
   int i, t;
@@ -1229,53 +1241,119 @@ static double merit_here(const ls_state *L, const ls_pass *Q, double *emax)
   return m;
 }
 
+/* U'_j = H_j^T v + q_eff,j (+ eps D_j r_j with the proximal term) from the bodies' velocities
+   (T145): what W's block row j accumulates in the sweep on W. */
+static inline __attribute__((always_inline)) void body_U(ls_state *L, int j, const int d)
+{
+  double *Uj = L->U + j * d;
+  int i;
+  ls_bodies_U(&L->bd, j, Uj, d);
+  for (i = 0; i < d; i++) Uj[i] += L->b[j * d + i];
+  if (L->eps > 0)
+    for (i = 0; i < d; i++) Uj[i] += L->eps * L->dW[j * d + i] * L->r[j * d + i];
+}
+
+/* One sweep (forward, or backward with back) over the candidates of S_u = 1 with diagonal blocks
+   Wd + j d^2 (the proximal term included; d: a constant at the call). Returns the merit of the candidates' natural map (T140) as
+   each met it, before its update (its largest residual in units of the tolerances in *emax): the
+   smoother's cue to test the law on the iterate itself. */
+static inline __attribute__((always_inline)) double sweep(ls_state *L, const ls_pass *Q, const double *Wd, int back,
+                                                          double *emax, const int d)
+{
+  double vm = 0, ve = 0;
+  const mo_delassus *W = Q->P->W;
+  const int nc = L->nc, bodies = L->bodies;
+  int jj, i, k, p;
+  for (jj = 0; jj < nc; jj++) {
+    const int j = back ? nc - 1 - jj : jj;
+    const int *beta;
+    const double *blk;
+    double Wl[9], f[3], rn[3], dr[3], *rj = L->r + j * d, *Uj = L->U + j * d;
+    int n, moved = 0;
+    if (!L->su[j] || isnan(Wd[j * d * d])) continue;
+    for (i = 0; i < d * d; i++) Wl[i] = Wd[j * d * d + i];
+    if (bodies) body_U(L, j, d);
+    {
+      double fn, ft, a, z[2], zn;
+      natural_map(L, Q, j, rj, Uj, &fn, &ft, &a, z, &zn);
+      vm += fn * fn + ft * ft;
+      fn = fabs(fn) / (Q->tol_v + 1e-300);
+      ft /= Q->tol_f + 1e-300;
+      ve = fn > ve ? fn : ve;
+      ve = ft > ve ? ft : ve;
+    }
+    for (i = 0; i < d; i++) {
+      f[i] = Uj[i];
+      for (k = 0; k < d; k++) f[i] -= Wl[i * d + k] * rj[k];
+      rn[i] = rj[i];
+    }
+    if (!local_law(d, Wl, f, Q->dt ? L->mu[j] : 0, rn)) continue;
+    for (i = 0; i < d; i++) {
+      dr[i] = rn[i] - rj[i];
+      moved |= dr[i] != 0;
+    }
+    if (!moved) continue;
+    for (i = 0; i < d; i++) rj[i] = rn[i];
+    if (bodies) {
+      ls_bodies_push(&L->bd, j, dr, d);
+      continue;
+    }
+    /* U'_b += W_bj dr = W_jb^T dr (W symmetric: row j's blocks) */
+    n = mo_delassus_row(W, j, &beta, &blk);
+    for (p = 0; p < n; p++) {
+      const double *bl = blk + (size_t)p * (size_t)(d * d);
+      double *Ub = L->U + beta[p] * d;
+      for (k = 0; k < d; k++)
+        for (i = 0; i < d; i++) Ub[k] += bl[i * d + k] * dr[i];
+    }
+    if (L->eps > 0)
+      for (i = 0; i < d; i++) Uj[i] += L->eps * L->dW[j * d + i] * dr[i];
+  }
+  *emax = ve;
+  return vm;
+}
+
 /* nsweep sweeps of projected block Gauss-Seidel over the candidates of S_u = 1, alternately forward
    and backward: each candidate's law solved exactly (local_law) with W's diagonal block (plus the
-   proximal term) against the current impulses of the others, and U' = W r + q_eff updated along
-   W's block row. L->U must hold U' over the candidates of S_u = 1 on entry; on return it does over
-   all of them that W's rows reach (full_velocity refreshes the rest). */
+   proximal term) against the current impulses of the others. U' = W r + q_eff follows the impulse
+   changes along W's block row, or (L->bodies, T145) through the bodies' velocities v = What^-1 H r,
+   U'_j read from them before each local solve. The sweeps stop on the merit and the law of the
+   iterate itself (U' over S_u = 1 from v), tested after a sweep whose candidates met the merit's
+   drop or the law as they were visited. L->U must hold U' over the candidates of S_u = 1 on entry;
+   on return it does over all of them that W's rows reach (full_velocity refreshes the rest). L->wd
+   (nc) is work for the diagonal blocks. */
 static void smoother(ls_state *L, ls_pass *Q, int nsweep, double drop)
 {
-  const mo_delassus *W = Q->P->W;
   const int nc = L->nc, d = L->d;
-  double e, m0 = merit_here(L, Q, &e);
-  int s, jj, i, k, p;
-  for (s = 0; s < nsweep; s++) {
-    for (jj = 0; jj < nc; jj++) {
-      const int j = (s & 1) ? nc - 1 - jj : jj;
-      const double *Wjj;
-      const int *beta;
-      const double *blk;
-      double Wl[9], f[3], rn[3], dr[3], *rj = L->r + j * d, *Uj = L->U + j * d;
-      int n, moved = 0;
-      if (!L->su[j] || !(Wjj = mo_delassus_block(W, j, j))) continue;
-      memcpy(Wl, Wjj, (size_t)(d * d) * sizeof(double));
-      if (L->eps > 0)
-        for (i = 0; i < d; i++) Wl[i * d + i] += L->eps * L->dW[j * d + i];
-      for (i = 0; i < d; i++) {
-        f[i] = Uj[i];
-        for (k = 0; k < d; k++) f[i] -= Wl[i * d + k] * rj[k];
-      }
-      memcpy(rn, rj, (size_t)d * sizeof(double));
-      if (!local_law(d, Wl, f, Q->dt ? L->mu[j] : 0, rn)) continue;
-      for (i = 0; i < d; i++) {
-        dr[i] = rn[i] - rj[i];
-        moved |= dr[i] != 0;
-      }
-      if (!moved) continue;
-      memcpy(rj, rn, (size_t)d * sizeof(double));
-      /* U'_b += W_bj dr = W_jb^T dr (W symmetric: row j's blocks) */
-      n = mo_delassus_row(W, j, &beta, &blk);
-      for (p = 0; p < n; p++) {
-        const double *bl = blk + (size_t)p * (size_t)(d * d);
-        double *Ub = L->U + beta[p] * d;
-        for (k = 0; k < d; k++)
-          for (i = 0; i < d; i++) Ub[k] += bl[i * d + k] * dr[i];
-      }
-      if (L->eps > 0)
-        for (i = 0; i < d; i++) Uj[i] += L->eps * L->dW[j * d + i] * dr[i];
+  double e, m0 = merit_here(L, Q, &e), vm;
+  int s, j;
+  /* the diagonal blocks (with the proximal term), side by side: read at every visit */
+  for (j = 0; j < nc; j++) {
+    const double *Wjj = L->su[j] ? mo_delassus_block(Q->P->W, j, j) : NULL;
+    double *Wl = L->wd + (size_t)j * d * d;
+    int i;
+    if (!Wjj) {
+      Wl[0] = NAN; /* no block: the sweeps pass it by */
+      continue;
     }
+    memcpy(Wl, Wjj, (size_t)(d * d) * sizeof *Wl);
+    if (L->eps > 0)
+      for (i = 0; i < d; i++) Wl[i * d + i] += L->eps * L->dW[j * d + i];
+  }
+  if (L->bodies) ls_bodies_velocity(&L->bd, Q->P, L->r);
+  for (s = 0; s < nsweep; s++) {
+    if (d == 2) vm = sweep(L, Q, L->wd, s & 1, &e, 2);
+    else if (d == 3) vm = sweep(L, Q, L->wd, s & 1, &e, 3);
+    else vm = sweep(L, Q, L->wd, s & 1, &e, 1);
     Q->nsweep++;
+    if (vm > drop * m0 && e > 1 && s + 1 < nsweep) continue;
+    if (L->bodies)
+      for (j = 0; j < nc; j++) {
+        if (!L->su[j]) continue;
+        if (d == 2) body_U(L, j, 2);
+        else if (d == 3) body_U(L, j, 3);
+        else body_U(L, j, 1);
+      }
     /* enough: the merit down by the factor drop, or the law holding (the sign fields' test) */
     if (merit_here(L, Q, &e) <= drop * m0 || e <= 1) return;
   }
@@ -1481,6 +1559,16 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
             L->par.k_t == 0 && (L->par.globalization == LS_GLOB_LINE_SEARCH || L->par.globalization == LS_GLOB_HYBRID ||
             (L->par.globalization == LS_GLOB_AUTO && Q.dt == 1 && L->rigid && P->nc * P->dim > LS_DENSE_MAX));
   L->coupled = L->reduced && !Q.kkt && (Q.dt == 1 || (Q.dt == 2 && L->glob)) && L->par.threshold != LS_THR_LOOP;
+  /* the hybrid's sweep on body velocities, where asked and every candidate joins rigid bodies
+     (T145; auto keeps W's rows: on the piles measured the two cost the same within 2-4 %) */
+  L->bodies = 0;
+  if (L->glob && L->par.globalization == LS_GLOB_HYBRID && L->par.smooth_path == LS_SMOOTH_BODIES) {
+    if ((st = ls_bodies_build(&L->bd, P, ctx))) return st;
+    L->bodies = L->bd.ok;
+    if (!L->bodies && L->par.smooth_path == LS_SMOOTH_BODIES)
+      return mo_error(ctx, MO_EINPUT, "contact.levelset.smoother_path = \"bodies\" needs every candidate "
+                      "between rigid bodies and obstacles (step %ld has one on a deformable body)", P->step);
+  }
   for (;;) {
     L->prox_request = 0;
     proximal_setup(L, &Q, x);

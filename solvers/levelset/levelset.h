@@ -14,6 +14,7 @@ enum { LS_SU_INDEX_SET = 0, LS_SU_END_GAP };
 enum { LS_PATH_AUTO = 0, LS_PATH_SCHUR, LS_PATH_KKT, LS_PATH_REDUCED };
 enum { LS_THR_AUTO = 0, LS_THR_LOOP, LS_THR_COUPLED };
 enum { LS_GLOB_AUTO = 0, LS_GLOB_NONE, LS_GLOB_LINE_SEARCH, LS_GLOB_HYBRID };
+enum { LS_SMOOTH_AUTO = 0, LS_SMOOTH_BODIES, LS_SMOOTH_DELASSUS };
 
 typedef struct {
   int multipliers;        /* LS_MULT_*: the multiplier space H_h of BDZ07 (65) */
@@ -29,6 +30,7 @@ typedef struct {
   int smooth_pre;         /* hybrid: sweeps before the first Newton step of a solve */
   double smooth_drop;     /* hybrid: the sweeps at a trap stop at this fraction of the merit */
   double smooth_alpha;    /* hybrid: a step shorter than this is a trap */
+  int smooth_path;        /* LS_SMOOTH_*: the sweep on body velocities or on W's rows (T145) */
   int threshold_max, levelset_max, newton_max, proximal_max;
   double threshold_tol, newton_tol, status_tol;
 } ls_params;
@@ -263,5 +265,69 @@ int ls_sparse_step(ls_sparse *Z, ls_reduced *R, const ls_system *S, const mo_del
                    const double *dW, const double *b, const double *U, double *y, double *pg, long *nfact,
                    long *nreuse, int *fallback, mo_ctx *ctx);
 void ls_sparse_free(ls_sparse *Z);
+
+/* --- the smoother's sweep on body velocities (levelset_bodies.c, doc/theory.md (T145)) ------------
+   Where every candidate joins rigid bodies and obstacles (H's columns on rigid blocks only, at most
+   two a candidate): per candidate its sides (block, G = H's rows on the block's dofs, What_k^-1 G^T)
+   and v = What^-1 H r, so that U'_j = H_j^T v + q_j costs O(1). */
+#define LS_BODY_NK 6        /* the stride of a side's rows: a rigid block has at most 6 dofs */
+typedef struct {
+  int ok;                  /* the last build applies: every candidate rigid */
+  int *nsd, *blk;          /* per candidate: its sides (0..2) and their blocks (2 per candidate) */
+  int *so;                 /* per side: the block's first free dof (its place in v) */
+  unsigned char *snk;      /* per side: the block's free dofs */
+  double *G, *MG;          /* per side: G (d x 6, stride 6) and What_k^-1 G^T (nk x d) */
+  double *v;               /* nfree: What^-1 H r */
+  size_t cap, vcap;
+} ls_bodies;
+
+int ls_bodies_build(ls_bodies *B, const mo_contact_problem *P, mo_ctx *ctx);
+/* v = What^-1 H r */
+void ls_bodies_velocity(ls_bodies *B, const mo_contact_problem *P, const double *r);
+void ls_bodies_free(ls_bodies *B);
+
+/* A free rigid block's dofs in a problem of local dimension d (2D 3, 3D 6): the constant sizes of
+   the loops below, which then unroll (a block with fixed components takes the generic loop). */
+#define LS_BODY_FULL(d) ((d) == 3 ? 6 : (d) == 2 ? 3 : 1)
+
+/* v += What^-1 H_j dr over candidate j's sides (d: a constant at the call) */
+static inline void ls_bodies_push(ls_bodies *B, int j, const double *dr, const int d)
+{
+  int s, k, t;
+  for (s = 0; s < B->nsd[j]; s++) {
+    const double *MG = B->MG + (size_t)(2 * j + s) * 3 * LS_BODY_NK;
+    double *restrict v = B->v + B->so[2 * j + s];
+    const int nk = B->snk[2 * j + s];
+    if (nk == LS_BODY_FULL(d))
+      for (k = 0; k < LS_BODY_FULL(d); k++) {
+        double acc = 0;
+        for (t = 0; t < d; t++) acc += MG[k * d + t] * dr[t];
+        v[k] += acc;
+      }
+    else
+      for (k = 0; k < nk; k++) {
+        double acc = 0;
+        for (t = 0; t < d; t++) acc += MG[k * d + t] * dr[t];
+        v[k] += acc;
+      }
+  }
+}
+
+/* u = H_j^T v (d components) */
+static inline void ls_bodies_U(const ls_bodies *B, int j, double *restrict u, const int d)
+{
+  int s, i, k;
+  for (i = 0; i < d; i++) u[i] = 0;
+  for (s = 0; s < B->nsd[j]; s++) {
+    const double *G = B->G + (size_t)(2 * j + s) * 3 * LS_BODY_NK, *v = B->v + B->so[2 * j + s];
+    const int nk = B->snk[2 * j + s];
+    if (nk == LS_BODY_FULL(d))
+      for (i = 0; i < d; i++)
+        for (k = 0; k < LS_BODY_FULL(d); k++) u[i] += G[i * LS_BODY_NK + k] * v[k];
+    else
+      for (i = 0; i < d; i++)
+        for (k = 0; k < nk; k++) u[i] += G[i * LS_BODY_NK + k] * v[k];
+  }
+}
 
 #endif
