@@ -189,6 +189,7 @@ typedef struct {
   int kind, nkey, nkeys, rank;
   const mo_delassus *W;
   long version;
+  double eps;              /* the proximal term on the factored matrix's diagonal (T136) */
   int *key, *keys;         /* the global components X and the coupled sliders' codes of the factor */
   double *f, *kval, *ds, *cs, *ev; /* kval: the matrix factored, unscaled (the values' key) */
   int *piv;
@@ -231,6 +232,9 @@ void ls_reduced_free(ls_reduced *R);
    singular, LU when coupled: kind); ls_reduced_solve replaces b = -U'_X by the step dr_X (the
    impulses of smallest weighted norm for a singular W_XX, from the iterate y). */
 int ls_reduced_matrix(ls_reduced *R, int nks, double **A, mo_ctx *ctx);
+/* 1 when the kept factor is that of the current partition's matrix without looking at it: the
+   same key, W of the same version and the same proximal term (T160). */
+int ls_reduced_kept(const ls_reduced *R, const ls_system *S, const mo_delassus *W, int nks);
 int ls_reduced_factor(ls_reduced *R, const ls_system *S, const mo_delassus *W, int nks, int *fresh, mo_ctx *ctx);
 int ls_reduced_solve(ls_reduced *R, const ls_system *S, const double *y, double *b, mo_ctx *ctx);
 /* The pressures, thresholds (coupled: p^g = p where friction acts) and semi-multipliers of the new

@@ -226,19 +226,30 @@ static void gather(const ls_reduced *R, const ls_system *S, const double *WCC, i
 /* 1 when the kept factor is that of the current matrix (T131): the same X and coupled sliders
    with their directions, and W the same, or rebuilt with the same values on these rows (a body
    that translates: the core rebuilds W at every step of a dynamic pair). */
+static int same_key(const ls_reduced *R, int nks)
+{
+  const int n = R->nX;
+  return R->kind != LS_RED_NONE && R->nkey == n && R->nkeys == nks && !memcmp(R->key, R->xg, (size_t)n * sizeof *R->key) &&
+         !memcmp(R->keys, R->scode, (size_t)nks * sizeof *R->keys);
+}
+
+int ls_reduced_kept(const ls_reduced *R, const ls_system *S, const mo_delassus *W, int nks)
+{
+  return same_key(R, nks) && R->W == W && R->version == mo_delassus_version(W) && R->eps == S->eps;
+}
+
 static int factor_current(ls_reduced *R, const ls_system *S, const mo_delassus *W, const double *WCC, int nks)
 {
   const int n = R->nX;
   size_t nn = (size_t)n * (size_t)n;
-  if (R->kind == LS_RED_NONE || R->nkey != n || R->nkeys != nks ||
-      memcmp(R->key, R->xg, (size_t)n * sizeof *R->key) || memcmp(R->keys, R->scode, (size_t)nks * sizeof *R->keys))
-    return 0;
-  if (R->W == W && R->version == mo_delassus_version(W)) return 1;
+  if (!same_key(R, nks)) return 0;
+  if (ls_reduced_kept(R, S, W, nks)) return 1;
   if (nn > R->cap_w) return 0;
   gather(R, S, WCC, nks, R->wk);
   if (memcmp(R->wk, R->kval, nn * sizeof *R->wk)) return 0;
   R->W = W;
   R->version = mo_delassus_version(W);
+  R->eps = S->eps;
   return 1;
 }
 
@@ -361,6 +372,7 @@ static int red_factor_kval(ls_reduced *R, const ls_system *S, const mo_delassus 
   R->nkeys = nks;
   R->W = W;
   R->version = mo_delassus_version(W);
+  R->eps = S->eps;
   return MO_OK;
 }
 
@@ -387,9 +399,12 @@ int ls_reduced_factor(ls_reduced *R, const ls_system *S, const mo_delassus *W, i
   const int n = R->nX;
   size_t nn = (size_t)n * (size_t)n;
   *fresh = 0;
-  if (R->kind != LS_RED_NONE && R->nkey == n && R->nkeys == nks && !memcmp(R->key, R->xg, (size_t)n * sizeof *R->key) &&
-      !memcmp(R->keys, R->scode, (size_t)nks * sizeof *R->keys) && !memcmp(R->wk, R->kval, nn * sizeof *R->wk))
+  if (same_key(R, nks) && !memcmp(R->wk, R->kval, nn * sizeof *R->wk)) {
+    R->W = W;
+    R->version = mo_delassus_version(W);
+    R->eps = S->eps;
     return MO_OK;
+  }
   *fresh = 1;
   memcpy(R->kval, R->wk, nn * sizeof *R->kval);
   return red_factor_kval(R, S, W, nks, ctx);

@@ -214,9 +214,16 @@ int ls_sparse_step(ls_sparse *Z, ls_reduced *R, const ls_system *S, const mo_del
       nks++;
     }
   /* dense by fill, not size (T137a): assembled dense and factored as the reduced path's, whose kept
-     factor it shares */
-  Z->dense = n > 0 && count_fill(Z, R, S, W) >= ls_dense_fill() * (double)n * (double)n;
+     factor it shares; not even assembled when its key, W and eps say it is the kept one (T160; a 3D
+     coupled slider's direction is not in the key) */
+  Z->dense = n > 0 && !(dt == 2 && nks > 0) && ls_reduced_kept(R, S, W, nks);
   if (Z->dense) {
+    if (R->kind == LS_RED_SINGULAR || (R->kind == LS_RED_PINV && R->normal_null)) {
+      *fallback = 2;
+      return MO_OK;
+    }
+    (*nreuse)++;
+  } else if ((Z->dense = n > 0 && count_fill(Z, R, S, W) >= ls_dense_fill() * (double)n * (double)n)) {
     double *A;
     int fresh;
     if ((st = ls_reduced_matrix(R, nks, &A, ctx)) || (st = assemble(Z, R, S, W, eps, dW, nks, NULL, A, ctx)) ||
