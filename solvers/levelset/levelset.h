@@ -233,7 +233,7 @@ void ls_reduced_free(ls_reduced *R);
    impulses of smallest weighted norm for a singular W_XX, from the iterate y). */
 int ls_reduced_matrix(ls_reduced *R, int nks, double **A, mo_ctx *ctx);
 /* 1 when the kept factor is that of the current partition's matrix without looking at it: the
-   same key, W of the same version and the same proximal term (T160). */
+   same key, W of the same version and the same proximal term (T162). */
 int ls_reduced_kept(const ls_reduced *R, const ls_system *S, const mo_delassus *W, int nks);
 int ls_reduced_factor(ls_reduced *R, const ls_system *S, const mo_delassus *W, int nks, int *fresh, mo_ctx *ctx);
 int ls_reduced_solve(ls_reduced *R, const ls_system *S, const double *y, double *b, mo_ctx *ctx);

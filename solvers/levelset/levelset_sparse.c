@@ -214,7 +214,7 @@ int ls_sparse_step(ls_sparse *Z, ls_reduced *R, const ls_system *S, const mo_del
       nks++;
     }
   /* dense by fill, not size (T137a): assembled dense and factored as the reduced path's, whose kept
-     factor it shares; not even assembled when its key, W and eps say it is the kept one (T160; a 3D
+     factor it shares; not even assembled when its key, W and eps say it is the kept one (T162; a 3D
      coupled slider's direction is not in the key) */
   Z->dense = n > 0 && !(dt == 2 && nks > 0) && ls_reduced_kept(R, S, W, nks);
   if (Z->dense) {
