@@ -5,7 +5,7 @@
    of the (n + 1)^2 bottom nodes (doc/theory.md (T150)-(T152), (T154)).
 
      cc -O2 -I/usr/include/suitesparse bench/box_ordering.c -lcholmod -o /tmp/box_ordering
-     /tmp/box_ordering 45 [68 ...]
+     /tmp/box_ordering [--only NAME,NAME] 45 [68 ...]
 
    One line per ordering: nnz(L), the supernodal storage xsize and the bytes of (T154)'s factor
    term, 8 (xsize + ssize + 3 nsuper):
@@ -13,7 +13,10 @@
      I:amd      AMD on A_II, C last in the given order (CHOLMOD's default picks AMD or METIS)
      I:metis    METIS on A_II, C last
      I:nesdis   CHOLMOD's nested dissection on A_II, C last
-     camd       CAMD on A with C constrained last (one ordering, C's order its own) */
+     I:metis-n  METIS on A_II, only the normal (z) dofs of C last: a frictionless pair's W is
+                W_nn alone, 1 of the 3 dofs of each contact node (T160)
+     camd       CAMD on A with C constrained last (one ordering, C's order its own)
+   --only runs the named ones alone (the 68^3 box takes about 2 min for each). */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -113,13 +116,35 @@ done:
   free(perm);
 }
 
+static const char *only = NULL;
+
+/* whether the ordering NAME is asked for (--only: a comma-separated list) */
+static int wanted(const char *name)
+{
+  size_t l = strlen(name);
+  const char *p = only;
+  if (!only) return 1;
+  while ((p = strstr(p, name))) {
+    if ((p == only || p[-1] == ',') && (p[l] == ',' || p[l] == 0)) return 1;
+    p += l;
+  }
+  return 0;
+}
+
 int main(int argc, char **argv)
 {
   int a;
   for (a = 1; a < argc; a++) {
-    int n = atoi(argv[a]);
-    sl m = n + 1, nC = 3 * m * m, k, N;
-    sl *Cset;
+    int n;
+    sl m, nC, k, N;
+    sl *Cset, *Cz;
+    if (!strcmp(argv[a], "--only") && a + 1 < argc) {
+      only = argv[++a];
+      continue;
+    }
+    n = atoi(argv[a]);
+    m = n + 1;
+    nC = 3 * m * m;
     cholmod_common c;
     cholmod_sparse *A;
     cholmod_factor *L;
@@ -129,21 +154,27 @@ int main(int argc, char **argv)
     if (!(A = grid(n, &c))) return 1;
     N = A->ncol;
     Cset = malloc(nC * sizeof *Cset);
+    Cz = malloc(m * m * sizeof *Cz);
     for (k = 0; k < nC; k++) Cset[k] = k; /* the bottom layer's nodes come first in the grid */
+    for (k = 0; k < m * m; k++) Cz[k] = 3 * k + 2; /* their z dofs */
     printf("n = %d: %ld dofs, nnz(A) %ld (lower), %ld contact dofs\n", n, (long)N, (long)((sl *)A->p)[N], (long)nC);
     fflush(stdout);
-    c.nmethods = 0; /* CHOLMOD's default choice */
-    L = cholmod_l_analyze(A, &c);
-    report("whole", L, &c);
-    cholmod_l_free_factor(&L, &c);
+    if (wanted("whole")) {
+      c.nmethods = 0; /* CHOLMOD's default choice */
+      L = cholmod_l_analyze(A, &c);
+      report("whole", L, &c);
+      cholmod_l_free_factor(&L, &c);
+      fflush(stdout);
+    }
+    if (wanted("I:amd")) ordered("I:amd", A, Cset, nC, CHOLMOD_AMD, &c);
     fflush(stdout);
-    ordered("I:amd", A, Cset, nC, CHOLMOD_AMD, &c);
+    if (wanted("I:metis")) ordered("I:metis", A, Cset, nC, CHOLMOD_METIS, &c);
     fflush(stdout);
-    ordered("I:metis", A, Cset, nC, CHOLMOD_METIS, &c);
+    if (wanted("I:metis-n")) ordered("I:metis-n", A, Cz, m * m, CHOLMOD_METIS, &c);
     fflush(stdout);
-    ordered("I:nesdis", A, Cset, nC, CHOLMOD_NESDIS, &c);
+    if (wanted("I:nesdis")) ordered("I:nesdis", A, Cset, nC, CHOLMOD_NESDIS, &c);
     fflush(stdout);
-    {
+    if (wanted("camd")) {
       sl *Cm = malloc(N * sizeof *Cm), *perm = malloc(N * sizeof *perm);
       for (k = 0; k < N; k++) Cm[k] = k < nC;
       if (!cholmod_l_camd(A, NULL, 0, Cm, perm, &c)) printf("  camd      failed (status %d)\n", c.status);
@@ -161,6 +192,7 @@ int main(int argc, char **argv)
     }
     cholmod_l_free_sparse(&A, &c);
     free(Cset);
+    free(Cz);
     cholmod_l_finish(&c);
   }
   return 0;

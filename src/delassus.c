@@ -607,13 +607,20 @@ int mo_delassus_row(const mo_delassus *D, int a, const int **beta, const double 
 
 void mo_delassus_mult(const mo_delassus *D, const double *x, double beta, double *y)
 {
-  int d = D->d, a, p, i, j;
+  int d = D->d, a, p, i, j, nonly = d > 1;
+  /* x without tangential components (frictionless contacts' impulses): the normal column of each
+     block alone, a third of the reads in 3D and the same sums (the skipped terms are zeros) (T160) */
+  for (a = 0; a < D->nb && nonly; a++)
+    for (i = 1; i < d; i++) nonly &= x[a * d + i] == 0;
   for (a = 0; a < D->nb; a++) {
     double acc[3] = {0, 0, 0};
     for (p = D->rowp[a]; p < D->rowp[a + 1]; p++) {
       const double *blk = D->val + (size_t)p * (size_t)(d * d), *xb = x + D->colb[p] * d;
-      for (i = 0; i < d; i++)
-        for (j = 0; j < d; j++) acc[i] += blk[i * d + j] * xb[j];
+      if (nonly)
+        for (i = 0; i < d; i++) acc[i] += blk[i * d] * xb[0];
+      else
+        for (i = 0; i < d; i++)
+          for (j = 0; j < d; j++) acc[i] += blk[i * d + j] * xb[j];
     }
     for (i = 0; i < d; i++) y[a * d + i] = acc[i] + (beta == 0 ? 0 : beta * y[a * d + i]);
   }

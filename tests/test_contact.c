@@ -341,6 +341,27 @@ static void test_delassus(void)
     for (j = 0; j < m; j++) if (fabs(Wd[i * m + j] - Wd[j * m + i]) > asym) asym = fabs(Wd[i * m + j] - Wd[j * m + i]);
   ok(maxd < 1e-12 * maxw, "W matches the dense LAPACK reference (max diff %.2e of %.2e)", maxd, maxw);
   ok(asym < 1e-12 * maxw, "W is symmetric (%.2e)", asym);
+  {
+    /* W x by blocks against the dense product: x in full, and x without tangential components
+       (the normal columns alone, T160) */
+    double *x = malloc((size_t)m * sizeof *x), *y = malloc((size_t)m * sizeof *y), e[2] = {0, 0}, ymax[2] = {0, 0};
+    int pass, d = mo_delassus_dim(D);
+    for (pass = 0; pass < 2; pass++) {
+      for (i = 0; i < m; i++) x[i] = pass == 1 && i % d ? 0 : sin(1.0 + i) * 1e-3;
+      mo_delassus_mult(D, x, 0, y);
+      for (i = 0; i < m; i++) {
+        double s = 0;
+        for (j = 0; j < m; j++) s += Wd[i * m + j] * x[j];
+        e[pass] = fmax(e[pass], fabs(y[i] - s));
+        ymax[pass] = fmax(ymax[pass], fabs(s));
+      }
+    }
+    ok(d > 1 && e[0] <= 1e-14 * ymax[0] && e[1] <= 1e-14 * ymax[1],
+       "W x by blocks = the dense product, x full (%.2e of %.2e) and normal only (%.2e of %.2e)", e[0], ymax[0], e[1],
+       ymax[1]);
+    free(x);
+    free(y);
+  }
   ev = malloc((size_t)m * sizeof *ev);
   memcpy(A, Wd, (size_t)m * m * sizeof *A);
   dsyev_("N", "U", &m, A, &m, ev, work, &lwork, &info);

@@ -1,9 +1,10 @@
 #!/bin/sh
 # test_levelset_dense.sh: on the reduced path's sparse algebra (T137) the frozen status's matrix is
-# factored by LAPACK when its fill is high (T137a): the same solution as CHOLMOD's (sparse) and as
-# the dense reduced path's on sets small enough for it (T131), to 1e-12. The sparse path is forced
-# on a small set with MOREAU_LEVELSET_DENSE_MAX=0, the factorization with MOREAU_LEVELSET_DENSE_FILL
-# (0: LAPACK, 2: CHOLMOD).
+# assembled dense when its fill is high and factored by the dense reduced path's kept factor
+# (T137a): the same solution as CHOLMOD's (sparse) and as the dense reduced path's on sets small
+# enough for it (T131), to 1e-12. The sparse path is forced on a small set with
+# MOREAU_LEVELSET_DENSE_MAX=0, the factorization with MOREAU_LEVELSET_DENSE_FILL (0: the dense
+# factor, 2: CHOLMOD).
 . "$MOREAU_SRCDIR/tests/tap.sh"
 
 # an H8 block pressed on a frictionless plane: 5 x 5 candidates, W_XX dense (every node of the

@@ -662,6 +662,55 @@ static void test_asymmetric(void)
 
 /* Every allocation of the back end and of the local-problem layer may fail: an error, no leak,
    no crash (valgrind and ASan watch). */
+extern void dgetrf_(const int *m, const int *n, double *a, const int *lda, int *ipiv, int *info);
+extern void dgetrs_(const char *tr, const int *n, const int *nrhs, const double *a, const int *lda,
+                    const int *ipiv, double *b, const int *ldb, int *info);
+
+/* The bordered LU of the status iteration (T160): A x = b solved with it, against the residual
+   |A x - b| / (|A| |x|) and the solution of A's own LU, on random nonsymmetric matrices (pivoting
+   in both blocks), with no border, and with no leading block. */
+static void test_lu_border(void)
+{
+  static const int sizes[][2] = {{12, 8}, {40, 33}, {7, 7}, {5, 0}, {1, 0}, {30, 1}};
+  unsigned long long seed = 0x9e3779b97f4a7c15ULL;
+  size_t t;
+  for (t = 0; t < sizeof sizes / sizeof *sizes; t++) {
+    int n = sizes[t][0], n0 = sizes[t][1], i, j, info = 0, one = 1;
+    double *A = malloc((size_t)n * n * sizeof *A), *F0 = malloc(((size_t)n0 * n0 + 1) * sizeof *F0);
+    double *LU = malloc((size_t)n * n * sizeof *LU), *F = malloc((size_t)n * n * sizeof *F);
+    double *b = malloc((size_t)n * sizeof *b), *x = malloc((size_t)n * sizeof *x), *y = malloc((size_t)n * sizeof *y);
+    int *piv = malloc((size_t)n * sizeof *piv), *piv2 = malloc((size_t)n * sizeof *piv2);
+    double anorm = 0, xn = 0, res = 0, diff = 0;
+    for (j = 0; j < n; j++)
+      for (i = 0; i < n; i++) A[(size_t)j * n + i] = nrand(&seed) + (i == j ? 0.5 : 0);
+    for (i = 0; i < n; i++) b[i] = nrand(&seed);
+    for (j = 0; j < n0; j++) memcpy(F0 + (size_t)j * n0, A + (size_t)j * n, (size_t)n0 * sizeof *F0);
+    if (n0) dgetrf_(&n0, &n0, F0, &n0, piv, &info);
+    nscd_lu_border(n, n0, A, F0, LU, piv, &info);
+    memcpy(x, b, (size_t)n * sizeof *x);
+    if (info == 0) dgetrs_("N", &n, &one, LU, &n, piv, x, &n, &info);
+    memcpy(F, A, (size_t)n * n * sizeof *F);
+    memcpy(y, b, (size_t)n * sizeof *y);
+    dgetrf_(&n, &n, F, &n, piv2, &info);
+    dgetrs_("N", &n, &one, F, &n, piv2, y, &n, &info);
+    for (i = 0; i < n; i++) {
+      double r = -b[i], a = 0;
+      for (j = 0; j < n; j++) {
+        r += A[(size_t)j * n + i] * x[j];
+        a += fabs(A[(size_t)j * n + i]);
+      }
+      anorm = fmax(anorm, a);
+      xn = fmax(xn, fabs(x[i]));
+      res = fmax(res, fabs(r));
+      diff = fmax(diff, fabs(x[i] - y[i]));
+    }
+    ok(info == 0 && res <= 1e-13 * anorm * xn && diff <= 1e-10 * xn,
+       "bordered LU %d + %d: residual %.2e of |A| |x| (< 1e-13), %.2e from A's own LU (< 1e-10)", n0, n - n0,
+       res / (anorm * xn), diff / xn);
+    free(A); free(F0); free(LU); free(F); free(b); free(x); free(y); free(piv); free(piv2);
+  }
+}
+
 static void test_alloc_failures(void)
 {
   unsigned long long s = 5;
@@ -703,6 +752,7 @@ int main(void)
   test_options();
   test_breakdown();
   test_asymmetric();
+  test_lu_border();
   test_alloc_failures();
   return done_testing();
 }

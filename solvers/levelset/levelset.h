@@ -191,6 +191,7 @@ typedef struct {
   int kind, nkey, nkeys, rank;
   const mo_delassus *W;
   long version;
+  double eps;              /* the proximal term on the factored matrix's diagonal (T136) */
   int *key, *keys;         /* the global components X and the coupled sliders' codes of the factor */
   double *f, *kval, *ds, *cs, *ev; /* kval: the matrix factored, unscaled (the values' key) */
   int *piv;
@@ -225,6 +226,19 @@ int ls_reduced_step(ls_reduced *R, const ls_system *S, const mo_delassus *W, con
                     const double *U, double *y, double *pg, long *nfact, long *nreuse, int *fallback,
                     mo_ctx *ctx);
 void ls_reduced_free(ls_reduced *R);
+/* The kept factor for a matrix its caller assembles (the sparse path's dense sets, T137a): *A is
+   room for the n x n matrix of the current partition (column-major, unscaled: W_XX, plus W_XS C_e
+   in the coupled sliders' normal columns, their codes in scode); ls_reduced_factor keeps the factor
+   when the key (X, the sliders' codes) and the values are those factored (*fresh = 0), else factors
+   it as ls_reduced_step does (Cholesky of the equilibrated matrix or its eigen-decomposition when
+   singular, LU when coupled: kind); ls_reduced_solve replaces b = -U'_X by the step dr_X (the
+   impulses of smallest weighted norm for a singular W_XX, from the iterate y). */
+int ls_reduced_matrix(ls_reduced *R, int nks, double **A, mo_ctx *ctx);
+/* 1 when the kept factor is that of the current partition's matrix without looking at it: the
+   same key, W of the same version and the same proximal term (T162). */
+int ls_reduced_kept(const ls_reduced *R, const ls_system *S, const mo_delassus *W, int nks);
+int ls_reduced_factor(ls_reduced *R, const ls_system *S, const mo_delassus *W, int nks, int *fresh, mo_ctx *ctx);
+int ls_reduced_solve(ls_reduced *R, const ls_system *S, const double *y, double *b, mo_ctx *ctx);
 /* The pressures, thresholds (coupled: p^g = p where friction acts) and semi-multipliers of the new
    iterate y from its impulses, by the linear rows of (T17)-(T20); U over Cset at the new iterate
    (read only with k_n or k_t). */
@@ -234,9 +248,10 @@ void ls_reduced_multipliers(const ls_reduced *R, const ls_system *S, const doubl
    no dense W_CC; products from W's block rows, the frozen status's matrix sparse, factored by
    CHOLMOD or UMFPACK and kept while it repeats (pattern and values). */
 #define LS_DENSE_MAX 400
-/* The frozen status's matrix on the sparse path is factored by LAPACK (dpotrf, dgetrf with
-   coupled sliders) when its fill nnz / n^2 is at least this (T137a): W_XX of a box pressed on a
-   plane is dense, where CHOLMOD's supernodes run at a fraction of LAPACK's rate. */
+/* The frozen status's matrix on the sparse path is assembled dense and factored as the reduced
+   path's (ls_reduced_factor: LAPACK's Cholesky, LU with coupled sliders) when its fill nnz / n^2 is
+   at least this (T137a): W_XX of a box pressed on a plane is dense, where CHOLMOD's supernodes run
+   at a fraction of LAPACK's rate. */
 #define LS_DENSE_FILL 0.3
 /* LS_DENSE_MAX, or MOREAU_LEVELSET_DENSE_MAX from the environment (tests force the sparse path
    on small sets with it) */
@@ -246,11 +261,8 @@ double ls_dense_fill(void);
 typedef struct {
   mo_linsolver *chol, *umf;
   mo_csc *M;               /* the matrix factored (kept: UMFPACK reads it, and it is the key) */
-  int kind;                /* 1: UMFPACK or dgetrf (coupled sliders), 0: CHOLMOD or dpotrf */
-  int dense, nd;           /* 1: the kept factor is LAPACK's, in F (and ipiv for dgetrf), of nd rows */
-  double *Md, *Mw, *F;     /* column-major n x n: the matrix factored (the key), the new one, the factor */
-  int *ipiv;
-  size_t fcap;             /* capacity of Md, Mw and F in n^2, of ipiv in n */
+  int kind;                /* 1: UMFPACK (coupled sliders), 0: CHOLMOD */
+  int dense;               /* 1: this step solves with the reduced path's kept factor (dense by fill) */
   int *pos;                /* Cset component -> position in X, or -1 */
   double *x;               /* work: U' and the right-hand side */
   size_t cap;

@@ -226,19 +226,30 @@ static void gather(const ls_reduced *R, const ls_system *S, const double *WCC, i
 /* 1 when the kept factor is that of the current matrix (T131): the same X and coupled sliders
    with their directions, and W the same, or rebuilt with the same values on these rows (a body
    that translates: the core rebuilds W at every step of a dynamic pair). */
+static int same_key(const ls_reduced *R, int nks)
+{
+  const int n = R->nX;
+  return R->kind != LS_RED_NONE && R->nkey == n && R->nkeys == nks && !memcmp(R->key, R->xg, (size_t)n * sizeof *R->key) &&
+         !memcmp(R->keys, R->scode, (size_t)nks * sizeof *R->keys);
+}
+
+int ls_reduced_kept(const ls_reduced *R, const ls_system *S, const mo_delassus *W, int nks)
+{
+  return same_key(R, nks) && R->W == W && R->version == mo_delassus_version(W) && R->eps == S->eps;
+}
+
 static int factor_current(ls_reduced *R, const ls_system *S, const mo_delassus *W, const double *WCC, int nks)
 {
   const int n = R->nX;
   size_t nn = (size_t)n * (size_t)n;
-  if (R->kind == LS_RED_NONE || R->nkey != n || R->nkeys != nks ||
-      memcmp(R->key, R->xg, (size_t)n * sizeof *R->key) || memcmp(R->keys, R->scode, (size_t)nks * sizeof *R->keys))
-    return 0;
-  if (R->W == W && R->version == mo_delassus_version(W)) return 1;
+  if (!same_key(R, nks)) return 0;
+  if (ls_reduced_kept(R, S, W, nks)) return 1;
   if (nn > R->cap_w) return 0;
   gather(R, S, WCC, nks, R->wk);
   if (memcmp(R->wk, R->kval, nn * sizeof *R->wk)) return 0;
   R->W = W;
   R->version = mo_delassus_version(W);
+  R->eps = S->eps;
   return 1;
 }
 
@@ -331,31 +342,72 @@ static void factor_coupled(ls_reduced *R)
   }
 }
 
-/* Factor the current matrix and remember its key and values. */
-static int red_factor(ls_reduced *R, const ls_system *S, const mo_delassus *W, const double *WCC, int nks,
-                      mo_ctx *ctx)
+/* Room for the kept factor of the nX unknowns of the current partition with nks coupled sliders
+   (wk: n^2 for a matrix to compare with the kept one, and LAPACK's work). */
+static int red_reserve(ls_reduced *R, int nks, mo_ctx *ctx)
 {
   const int n = R->nX;
   size_t nn = (size_t)n * (size_t)n;
   int st;
-  R->kind = LS_RED_NONE;
-  R->zvalid = 0;
   if ((st = grow(&R->f, &R->cap_f, nn, ctx)) || (st = grow(&R->kval, &R->cap_kv, nn, ctx)) ||
       (st = grow(&R->ds, &R->cap_d, (size_t)n, ctx)) || (st = grow(&R->cs, &R->cap_cs, (size_t)n, ctx)) ||
       (st = grow(&R->ev, &R->cap_e, (size_t)n, ctx)) || (st = grow(&R->wk, &R->cap_w, nn + 4 * (size_t)n, ctx)) ||
       (st = grow_int(&R->iwk, &R->cap_i, (size_t)n, ctx)) || (st = grow_int(&R->piv, &R->cap_pv, (size_t)n, ctx)) ||
       (st = grow_int(&R->key, &R->cap_k, (size_t)n, ctx)) || (st = grow_int(&R->keys, &R->cap_ks, (size_t)nks, ctx)))
     return st;
-  gather(R, S, WCC, nks, R->kval);
+  return MO_OK;
+}
+
+/* Factor kval, the matrix of the current partition, and key it to X, the coupled sliders and W. */
+static int red_factor_kval(ls_reduced *R, const ls_system *S, const mo_delassus *W, int nks, mo_ctx *ctx)
+{
+  int st;
+  R->kind = LS_RED_NONE;
+  R->zvalid = 0;
   if (nks) factor_coupled(R);
   else if ((st = factor_spd(R, S->nr, ctx))) return st;
-  memcpy(R->key, R->xg, (size_t)n * sizeof *R->key);
+  memcpy(R->key, R->xg, (size_t)R->nX * sizeof *R->key);
   memcpy(R->keys, R->scode, (size_t)nks * sizeof *R->keys);
-  R->nkey = n;
+  R->nkey = R->nX;
   R->nkeys = nks;
   R->W = W;
   R->version = mo_delassus_version(W);
+  R->eps = S->eps;
   return MO_OK;
+}
+
+/* Factor the current matrix and remember its key and values. */
+static int red_factor(ls_reduced *R, const ls_system *S, const mo_delassus *W, const double *WCC, int nks,
+                      mo_ctx *ctx)
+{
+  int st;
+  R->kind = LS_RED_NONE;
+  if ((st = red_reserve(R, nks, ctx))) return st;
+  gather(R, S, WCC, nks, R->kval);
+  return red_factor_kval(R, S, W, nks, ctx);
+}
+
+int ls_reduced_matrix(ls_reduced *R, int nks, double **A, mo_ctx *ctx)
+{
+  int st = red_reserve(R, nks, ctx);
+  *A = st ? NULL : R->wk;
+  return st;
+}
+
+int ls_reduced_factor(ls_reduced *R, const ls_system *S, const mo_delassus *W, int nks, int *fresh, mo_ctx *ctx)
+{
+  const int n = R->nX;
+  size_t nn = (size_t)n * (size_t)n;
+  *fresh = 0;
+  if (same_key(R, nks) && !memcmp(R->wk, R->kval, nn * sizeof *R->wk)) {
+    R->W = W;
+    R->version = mo_delassus_version(W);
+    R->eps = S->eps;
+    return MO_OK;
+  }
+  *fresh = 1;
+  memcpy(R->kval, R->wk, nn * sizeof *R->kval);
+  return red_factor_kval(R, S, W, nks, ctx);
 }
 
 /* x = M^-1 b in place for nrhs right-hand sides (leading dimension ld): Cholesky or LU, the
@@ -458,6 +510,30 @@ static int slider_blocks(ls_reduced *R, const ls_system *S, const double *WCC, m
   memcpy(R->zkey, R->sc, (size_t)R->nS * sizeof *R->sc);
   R->nzkey = R->nS;
   R->zvalid = 1;
+  return MO_OK;
+}
+
+int ls_reduced_solve(ls_reduced *R, const ls_system *S, const double *y, double *b, mo_ctx *ctx)
+{
+  const int n = R->nX, nr = S->nr;
+  int i, k, st;
+  double *m;
+  if (R->kind != LS_RED_PINV) {
+    factor_solve(R, b, 1, n);
+    return MO_OK;
+  }
+  /* the impulses themselves, of smallest weighted norm: W_XX x = W_XX r_X - U'_X (kval is W_XX:
+     no coupled sliders with this factor) */
+  if ((st = grow(&R->t1, &R->cap_t1, (size_t)n, ctx))) return st;
+  m = R->t1;
+  for (i = 0; i < n; i++) {
+    int j = S->cset[R->xc[i] / nr];
+    for (k = 0; k < n; k++) b[i] += R->kval[(size_t)k * n + i] * y[R->xc[k]];
+    m[i] = R->xc[i] % nr == 0 ? S->c * S->w[j] : tau_of(S, j);
+    if (!(m[i] > 0)) m[i] = 1;
+  }
+  if ((st = pinv_solve(R, m, b, ctx))) return st;
+  for (i = 0; i < n; i++) b[i] -= y[R->xc[i]];
   return MO_OK;
 }
 
@@ -611,19 +687,7 @@ int ls_reduced_step(ls_reduced *R, const ls_system *S, const mo_delassus *W, con
     y[e] = target;
   }
   for (i = 0; i < n; i++) R->bx[i] = -R->up[R->xc[i]];
-  if (R->kind == LS_RED_PINV) {
-    /* the impulses themselves, of smallest weighted norm: W_XX x = W_XX r_X - U'_X */
-    double *m = R->t1;
-    for (i = 0; i < n; i++) {
-      const double *row = WCC + (size_t)R->xc[i] * nu;
-      int j = S->cset[R->xc[i] / nr];
-      for (k = 0; k < n; k++) R->bx[i] += row[R->xc[k]] * y[R->xc[k]];
-      m[i] = R->xc[i] % nr == 0 ? S->c * S->w[j] : tau_of(S, j);
-      if (!(m[i] > 0)) m[i] = 1;
-    }
-    if ((st = pinv_solve(R, m, R->bx, ctx))) return st;
-    for (i = 0; i < n; i++) R->bx[i] -= y[R->xc[i]];
-  } else if (three) {
+  if (three) {
     double *b2 = R->t1 + n;
     if ((st = slider_blocks(R, S, WCC, ctx))) return st;
     memcpy(R->t1, R->bx, (size_t)n * sizeof *R->t1);
@@ -637,8 +701,8 @@ int ls_reduced_step(ls_reduced *R, const ls_system *S, const mo_delassus *W, con
     }
     for (s = 0; s < R->nS; s++)
       for (t = 0; t < 2; t++) y[offl + R->sc[s] * 2 + t] += b2[2 * s + t];
-  } else
-    factor_solve(R, R->bx, 1, n);
+  } else if ((st = ls_reduced_solve(R, S, y, R->bx, ctx)))
+    return st;
   /* the new iterate: r_X += dr_X; the sliders' Lam (2D: e) and impulses (3D: -tau Lam_new,
      coupled: -mu e r_n of the new r_n) */
   for (i = 0; i < n; i++) y[R->xc[i]] += R->bx[i];

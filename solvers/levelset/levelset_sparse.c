@@ -1,20 +1,14 @@
 /* levelset_sparse.c: the reduced path of the levelset back end on contact sets too large for dense
    algebra (doc/theory.md §6.4.2, (T137)): W restricted to the contact set is never formed; its
    products come from the Delassus operator's block rows, and the matrix of a frozen status is
-   assembled sparse and factored by CHOLMOD (W_XX + eps D) or UMFPACK (coupled sliders). */
+   assembled sparse and factored by CHOLMOD (W_XX + eps D) or UMFPACK (coupled sliders), or, dense by
+   fill, assembled dense and factored as the reduced path's (T137a). */
 #include "config.h"
 #include "levelset.h"
 
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-
-extern void dpotrf_(const char *uplo, const int *n, double *a, const int *lda, int *info);
-extern void dpotrs_(const char *uplo, const int *n, const int *nrhs, const double *a, const int *lda,
-                    double *b, const int *ldb, int *info);
-extern void dgetrf_(const int *m, const int *n, double *a, const int *lda, int *ipiv, int *info);
-extern void dgetrs_(const char *trans, const int *n, const int *nrhs, const double *a, const int *lda,
-                    const int *ipiv, double *b, const int *ldb, int *info);
 
 int ls_dense_max(void)
 {
@@ -44,10 +38,6 @@ void ls_sparse_free(ls_sparse *Z)
   mo_csc_free(Z->M);
   mo_free(Z->pos);
   mo_free(Z->x);
-  mo_free(Z->F);
-  mo_free(Z->Md);
-  mo_free(Z->Mw);
-  mo_free(Z->ipiv);
   memset(Z, 0, sizeof *Z);
 }
 
@@ -187,57 +177,12 @@ static int same_matrix(const mo_csc *A, const mo_csc *B)
          !memcmp(A->x, B->x, (size_t)nnz * sizeof *A->x);
 }
 
-/* The dense matrix: room for n x n in Mw (the new matrix), Md (the kept one, the key) and F (its
-   factor). */
-static int dense_reserve(ls_sparse *Z, int n, mo_ctx *ctx)
-{
-  size_t nn = (size_t)n * (size_t)n;
-  double *a;
-  int *piv;
-  if (Z->F && Z->fcap >= nn) return MO_OK;
-  if (!(a = mo_realloc(ctx, Z->F, (nn + 1) * sizeof *a))) return MO_ENOMEM;
-  Z->F = a;
-  if (!(a = mo_realloc(ctx, Z->Md, (nn + 1) * sizeof *a))) return MO_ENOMEM;
-  Z->Md = a;
-  if (!(a = mo_realloc(ctx, Z->Mw, (nn + 1) * sizeof *a))) return MO_ENOMEM;
-  Z->Mw = a;
-  if (!(piv = mo_realloc(ctx, Z->ipiv, ((size_t)n + 1) * sizeof *piv))) return MO_ENOMEM;
-  Z->ipiv = piv;
-  Z->fcap = nn;
-  return MO_OK;
-}
-
-/* Md factored by LAPACK into F: Cholesky without coupled sliders (W_XX + eps D, symmetric), LU
-   with them (T137a). MO_ESINGULAR when a pivot is not positive (Cholesky) or zero (LU), as
-   CHOLMOD and UMFPACK report. */
-static int dense_factor(ls_sparse *Z, int n, int lu, mo_ctx *ctx)
-{
-  int info = 0;
-  memcpy(Z->F, Z->Md, (size_t)n * (size_t)n * sizeof *Z->F);
-  if (lu) dgetrf_(&n, &n, Z->F, &n, Z->ipiv, &info);
-  else dpotrf_("L", &n, Z->F, &n, &info);
-  if (info < 0) return mo_error(ctx, MO_EINTERNAL, "levelset: %s argument %d", lu ? "dgetrf" : "dpotrf", -info);
-  if (info > 0)
-    return mo_error(ctx, MO_ESINGULAR, "levelset: the frozen status's matrix of %d unknowns is %s (pivot %d)", n,
-                    lu ? "singular" : "not positive definite", info);
-  return MO_OK;
-}
-
-static int dense_solve(const ls_sparse *Z, int n, double *b, mo_ctx *ctx)
-{
-  const int one = 1;
-  int info = 0;
-  if (Z->kind) dgetrs_("N", &n, &one, Z->F, &n, Z->ipiv, b, &n, &info);
-  else dpotrs_("L", &n, &one, Z->F, &n, b, &n, &info);
-  return info ? mo_error(ctx, MO_EINTERNAL, "levelset: %s argument %d", Z->kind ? "dgetrs" : "dpotrs", -info) : MO_OK;
-}
-
 int ls_sparse_step(ls_sparse *Z, ls_reduced *R, const ls_system *S, const mo_delassus *W, double eps,
                    const double *dW, const double *b, const double *U, double *y, double *pg, long *nfact,
                    long *nreuse, int *fallback, mo_ctx *ctx)
 {
   const int nr = S->nr, dt = S->dt, nu = R->nu, n = R->nX, offl = nu + S->nM;
-  int e, i, s, st, nks = 0, dense;
+  int e, i, s, st, nks = 0;
   mo_csc *M = NULL;
   *fallback = 0;
   if (R->nS > 0 && !R->coupled) {
@@ -265,18 +210,35 @@ int ls_sparse_step(ls_sparse *Z, ls_reduced *R, const ls_system *S, const mo_del
       if (S->edir)
         for (t = 0; t < dt; t++) R->es[s * dt + t] = S->edir[2 * S->cset[jc] + t];
       else R->es[s] = G > 0 ? 1 : G < 0 ? -1 : 0;
+      R->scode[s] = 3 * S->cset[jc] + 1 + (R->es[s * dt] > 0) - (R->es[s * dt] < 0);
       nks++;
     }
-  /* dense by fill, not size (T137a): assembled and keyed dense, never as a CSC */
-  dense = n > 0 && count_fill(Z, R, S, W) >= ls_dense_fill() * (double)n * (double)n;
-  if (dense) {
-    if ((st = dense_reserve(Z, n, ctx)) || (st = assemble(Z, R, S, W, eps, dW, nks, NULL, Z->Mw, ctx))) return st;
-  } else if ((st = assemble(Z, R, S, W, eps, dW, nks, &M, NULL, ctx)))
-    return st;
-  if (dense && Z->dense && Z->nd == n && Z->kind == (nks > 0) &&
-      !memcmp(Z->Mw, Z->Md, (size_t)n * (size_t)n * sizeof *Z->Md)) {
+  /* dense by fill, not size (T137a): assembled dense and factored as the reduced path's, whose kept
+     factor it shares; not even assembled when its key, W and eps say it is the kept one (T162; a 3D
+     coupled slider's direction is not in the key) */
+  Z->dense = n > 0 && !(dt == 2 && nks > 0) && ls_reduced_kept(R, S, W, nks);
+  if (Z->dense) {
+    if (R->kind == LS_RED_SINGULAR || (R->kind == LS_RED_PINV && R->normal_null)) {
+      *fallback = 2;
+      return MO_OK;
+    }
     (*nreuse)++;
-  } else if (!dense && Z->M && !Z->dense && Z->kind == (nks > 0) && same_matrix(M, Z->M)) {
+  } else if ((Z->dense = n > 0 && count_fill(Z, R, S, W) >= ls_dense_fill() * (double)n * (double)n)) {
+    double *A;
+    int fresh;
+    if ((st = ls_reduced_matrix(R, nks, &A, ctx)) || (st = assemble(Z, R, S, W, eps, dW, nks, NULL, A, ctx)) ||
+        (st = ls_reduced_factor(R, S, W, nks, &fresh, ctx)))
+      return st;
+    if (R->kind == LS_RED_SINGULAR || (R->kind == LS_RED_PINV && R->normal_null)) {
+      /* redundant normal impulses, or a coupled matrix that friction makes singular */
+      *fallback = 2;
+      return MO_OK;
+    }
+    if (fresh) (*nfact)++;
+    else (*nreuse)++;
+  } else if ((st = assemble(Z, R, S, W, eps, dW, nks, &M, NULL, ctx))) {
+    return st;
+  } else if (Z->M && Z->kind == (nks > 0) && same_matrix(M, Z->M)) {
     mo_csc_free(M);
     (*nreuse)++;
   } else {
@@ -284,24 +246,12 @@ int ls_sparse_step(ls_sparse *Z, ls_reduced *R, const ls_system *S, const mo_del
     mo_csc_free(Z->M);
     Z->M = M;
     Z->kind = nks > 0;
-    Z->dense = dense;
-    Z->nd = dense ? n : 0;
-    if (dense) {
-      double *t = Z->Md;
-      Z->Md = Z->Mw;
-      Z->Mw = t;
-      st = dense_factor(Z, n, nks > 0, ctx);
-    } else if (!*ls && (st = mo_linsolver_create(nks ? &mo_linsolver_umfpack : &mo_linsolver_cholmod, ls, ctx)))
-      return st;
-    else
-      st = mo_linsolver_factor(*ls, M, ctx);
-    if (st) {
+    if (!*ls && (st = mo_linsolver_create(nks ? &mo_linsolver_umfpack : &mo_linsolver_cholmod, ls, ctx))) return st;
+    if ((st = mo_linsolver_factor(*ls, M, ctx))) {
       /* singular: redundant impulses without the proximal term, or a coupled matrix that
          friction makes singular */
       mo_csc_free(Z->M);
       Z->M = NULL;
-      Z->dense = 0;
-      Z->nd = 0;
       if (st != MO_ESINGULAR) return st;
       mo_ctx_clear_error(ctx);
       *fallback = 2;
@@ -328,7 +278,7 @@ int ls_sparse_step(ls_sparse *Z, ls_reduced *R, const ls_system *S, const mo_del
       y[e] = target;
     }
     for (i = 0; i < n; i++) bx[i] = -up[R->xc[i]];
-    if (Z->dense) st = dense_solve(Z, n, bx, ctx);
+    if (Z->dense) st = ls_reduced_solve(R, S, y, bx, ctx);
     else st = mo_linsolver_solve(nks ? Z->umf : Z->chol, bx, bx, ctx);
     if (st) return st;
     for (i = 0; i < n; i++) y[R->xc[i]] += bx[i];

@@ -149,6 +149,7 @@ typedef struct {
     const mo_delassus *W;
     long wver;
     int *kind;                  /* nc: the kinds it was built for */
+    int *off;                   /* nc: the first unknown of each closed contact (T160) */
     double *E;                  /* nc d: the sliding directions it was built for */
     double *LU, rcond;
     int *ipiv;
@@ -249,6 +250,12 @@ void nscd_grains_free(nscd_state *S);
 #define NSCD_EARLY_LU 1000
 #define NSCD_RANK_TOL 1e-10
 #define NSCD_ROUNDOFF 64
+/* The LU of the n x n matrix A (column-major) whose leading n0 x n0 block is the one the LU F0
+   (leading dimension n0, pivots ipiv[0 .. n0)) factors, without factoring that block again: the
+   unknowns of the contacts a status iteration closes follow the others (T160). LAPACK's layout
+   (ipiv[n0 .. n) those of the trailing block, shifted by n0), read by dgetrs and dgecon as
+   dgetrf's; *lu_info as dgetrf's. */
+void nscd_lu_border(int n, int n0, const double *A, const double *F0, double *LU, int *ipiv, int *lu_info);
 /* Status iterations of one status-set step (each a dense solve) */
 #define NSCD_STATUS_ITER 8
 /* A contact with no reaction is closed when its scaled velocity is below this fraction of the

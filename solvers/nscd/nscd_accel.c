@@ -13,6 +13,13 @@
 extern void dgetrf_(const int *m, const int *n, double *a, const int *lda, int *ipiv, int *info);
 extern void dgetrs_(const char *tr, const int *n, const int *nrhs, const double *a, const int *lda,
                     const int *ipiv, double *b, const int *ldb, int *info);
+extern void dlaswp_(const int *n, double *a, const int *lda, const int *k1, const int *k2, const int *ipiv,
+                    const int *incx);
+extern void dtrsm_(const char *side, const char *uplo, const char *transa, const char *diag, const int *m,
+                   const int *n, const double *alpha, const double *a, const int *lda, double *b, const int *ldb);
+extern void dgemm_(const char *ta, const char *tb, const int *m, const int *n, const int *k, const double *alpha,
+                   const double *a, const int *lda, const double *b, const int *ldb, const double *beta, double *c,
+                   const int *ldc);
 extern void dgecon_(const char *norm, const int *n, const double *a, const int *lda, const double *anorm,
                     double *rcond, double *work, int *iwork, int *info);
 extern void dgelsd_(const int *m, const int *n, const int *nrhs, double *a, const int *lda, double *b,
@@ -80,6 +87,7 @@ static int set_kinds(const nscd_state *S, const double *r, const double *U, doub
 void nscd_status_cache_free(nscd_state *S)
 {
   mo_free(S->lu.kind);
+  mo_free(S->lu.off);
   mo_free(S->lu.E);
   mo_free(S->lu.LU);
   mo_free(S->lu.ipiv);
@@ -101,8 +109,8 @@ static int cache_matches(const nscd_state *S, const mo_contact_problem *P, int n
 }
 
 /* Keep the LU of the kinds kind, E (its factors are copied). */
-static int cache_keep(nscd_state *S, const mo_contact_problem *P, int n, const int *kind, const double *E,
-                      const double *LU, const int *ipiv, double rcond, mo_ctx *ctx)
+static int cache_keep(nscd_state *S, const mo_contact_problem *P, int n, const int *kind, const int *off,
+                      const double *E, const double *LU, const int *ipiv, double rcond, mo_ctx *ctx)
 {
   size_t nn = (size_t)n * (size_t)n;
   void *q;
@@ -117,6 +125,8 @@ static int cache_keep(nscd_state *S, const mo_contact_problem *P, int n, const i
   if ((size_t)S->nc > S->lu.kcap) {
     if (!(q = mo_realloc(ctx, S->lu.kind, (size_t)S->nc * sizeof *S->lu.kind))) return MO_ENOMEM;
     S->lu.kind = q;
+    if (!(q = mo_realloc(ctx, S->lu.off, (size_t)S->nc * sizeof *S->lu.off))) return MO_ENOMEM;
+    S->lu.off = q;
     if (!(q = mo_realloc(ctx, S->lu.E, (size_t)S->nc * (size_t)S->d * sizeof *S->lu.E))) return MO_ENOMEM;
     S->lu.E = q;
     S->lu.kcap = (size_t)S->nc;
@@ -124,6 +134,7 @@ static int cache_keep(nscd_state *S, const mo_contact_problem *P, int n, const i
   memcpy(S->lu.LU, LU, nn * sizeof *LU);
   memcpy(S->lu.ipiv, ipiv, (size_t)n * sizeof *ipiv);
   memcpy(S->lu.kind, kind, (size_t)S->nc * sizeof *kind);
+  memcpy(S->lu.off, off, (size_t)S->nc * sizeof *off);
   memcpy(S->lu.E, E, (size_t)S->nc * (size_t)S->d * sizeof *E);
   S->lu.n = n;
   S->lu.W = P->W;
@@ -134,23 +145,53 @@ static int cache_keep(nscd_state *S, const mo_contact_problem *P, int n, const i
   return MO_OK;
 }
 
+/* The bordered LU (T160):
+     P0 A11 = L11 U11,  U12 = L11^-1 P0 A12,  L21 = A21 U11^-1,  P2 (A22 - L21 U12) = L22 U22. */
+void nscd_lu_border(int n, int n0, const double *A, const double *F0, double *LU, int *ipiv, int *lu_info)
+{
+  const int k = n - n0, one = 1;
+  const double p1 = 1, m1 = -1;
+  int j;
+  for (j = 0; j < n0; j++) {
+    memcpy(LU + (size_t)j * n, F0 + (size_t)j * n0, (size_t)n0 * sizeof *LU);
+    memcpy(LU + (size_t)j * n + n0, A + (size_t)j * n + n0, (size_t)k * sizeof *LU);
+  }
+  for (j = n0; j < n; j++) memcpy(LU + (size_t)j * n, A + (size_t)j * n, (size_t)n * sizeof *LU);
+  *lu_info = 0;
+  if (k == 0 || n0 == 0) {
+    if (n0 == 0) dgetrf_(&n, &n, LU, &n, ipiv, lu_info);
+    return;
+  }
+  dlaswp_(&k, LU + (size_t)n0 * n, &n, &one, &n0, ipiv, &one);
+  dtrsm_("L", "L", "N", "U", &n0, &k, &p1, LU, &n, LU + (size_t)n0 * n, &n);
+  dtrsm_("R", "U", "N", "N", &k, &n0, &p1, LU, &n, LU + n0, &n);
+  dgemm_("N", "N", &k, &k, &n0, &m1, LU + n0, &n, LU + (size_t)n0 * n, &n, &p1, LU + (size_t)n0 * n + n0, &n);
+  dgetrf_(&k, &k, LU + (size_t)n0 * n + n0, &n, ipiv + n0, lu_info);
+  if (*lu_info > 0) *lu_info += n0;
+  dlaswp_(&n0, LU + n0, &n, &one, &k, ipiv + n0, &one);
+  for (j = n0; j < n; j++) ipiv[j] += n0;
+}
+
 int nscd_status_step(nscd_state *S, const mo_contact_problem *P, double *r, int *status, double tol,
                      double *res, nscd_accel_info *info, int cached_only, mo_ctx *ctx)
 {
   const int d = S->d, dd = d * d;
   int k, a, i, j, n, it, st = MO_OK, nmax = S->nact * d;
-  int *kind = NULL, *off = NULL, *ipiv = NULL, *iw = NULL;
+  int *kind = NULL, *off = NULL, *ipiv = NULL, *iw = NULL, *pkind = NULL, n0 = 0;
   double *A = NULL, *rhs = NULL, *E = NULL, *LU = NULL, *w = NULL, *rnew = NULL, *Unew = NULL, *sv = NULL;
+  double *pE = NULL, *LU0 = NULL;
   double res1 = HUGE_VAL, resprev = HUGE_VAL, tiny = 0, qscale = 0;
   size_t acap = 0;
   info->accepted = 0;
   if (!nmax) return MO_OK;
   kind = mo_malloc(ctx, ((size_t)S->nc + 1) * sizeof *kind);
   off = mo_malloc(ctx, ((size_t)S->nc + 1) * sizeof *off);
+  pkind = mo_malloc(ctx, ((size_t)S->nc + 1) * sizeof *pkind);
   E = mo_calloc(ctx, (size_t)S->nc * (size_t)d + 1, sizeof *E);
+  pE = mo_malloc(ctx, ((size_t)S->nc * (size_t)d + 1) * sizeof *pE);
   rnew = mo_malloc(ctx, (size_t)S->m * sizeof *rnew);
   Unew = mo_malloc(ctx, (size_t)S->m * sizeof *Unew);
-  if (!kind || !off || !E || !rnew || !Unew) { st = MO_ENOMEM; goto done; }
+  if (!kind || !off || !pkind || !E || !pE || !rnew || !Unew) { st = MO_ENOMEM; goto done; }
   for (a = 0; a < S->nc; a++) kind[a] = K_OPEN;
   /* the scale of the reactions: a velocity below 100 tol of it (1e-9 at least), scaled, is zero */
   for (k = 0; k < S->nact; k++)
@@ -166,12 +207,23 @@ int nscd_status_step(nscd_state *S, const mo_contact_problem *P, double *r, int 
      the law holds or the kinds stop changing (a semismooth Newton on the closed set) */
   for (it = 0; it < NSCD_STATUS_ITER; it++) {
     double anorm = 0, rc;
-    int rank = 0, lu_info = 0;
-    for (n = 0, k = 0; k < S->nact; k++) {
+    int rank = 0, lu_info = 0, border = n0 > 0;
+    /* the last iteration's LU is bordered (T160) when this one only closes contacts: the kinds
+       and directions of the contacts closed there unchanged; their unknowns keep their places,
+       the new ones follow */
+    for (k = 0; k < S->nact && border; k++) {
       a = S->act[k];
+      if (pkind[a] == K_OPEN) continue;
+      border = kind[a] == pkind[a];
+      for (i = 0; border && kind[a] == K_SLIDE && i < d; i++) border = E[(size_t)a * d + i] == pE[(size_t)a * d + i];
+    }
+    for (n = border ? n0 : 0, k = 0; k < S->nact; k++) {
+      a = S->act[k];
+      if (border && pkind[a] != K_OPEN) continue;
       off[a] = n;
       n += kind[a] == K_OPEN ? 0 : kind[a] == K_STICK ? d : 1;
     }
+    if (!border) n0 = 0;
     info->rows = n;
     info->rank = n;
     info->rcond = 1;
@@ -183,7 +235,10 @@ int nscd_status_step(nscd_state *S, const mo_contact_problem *P, double *r, int 
       info->tried = 1;
       info->rcond = S->lu.rcond;
       S->lu.hits++;
+      n0 = 0;
       if (!rhs && !(rhs = mo_malloc(ctx, (size_t)nmax * sizeof *rhs))) { st = MO_ENOMEM; goto done; }
+      /* its unknowns in its own order (a bordered LU's new contacts last) */
+      for (k = 0; k < S->nact; k++) off[S->act[k]] = S->lu.off[S->act[k]];
       for (k = 0; k < S->nact; k++) {
         a = S->act[k];
         if (kind[a] == K_OPEN) continue;
@@ -195,13 +250,23 @@ int nscd_status_step(nscd_state *S, const mo_contact_problem *P, double *r, int 
     if (cached_only) break;
     info->tried = 1;
     if ((size_t)n * (size_t)n > acap) {
-      /* the closed set's matrix and its LU, n x n (grown when a status iteration closes more) */
+      /* the closed set's matrix and its LU, n x n (grown when a status iteration closes more),
+         and the last iteration's LU to border */
+      double *L1;
       mo_free(A);
-      mo_free(LU);
       acap = (size_t)n * (size_t)n;
       A = mo_malloc(ctx, acap * sizeof *A);
+      L1 = mo_malloc(ctx, acap * sizeof *L1);
+      if (L1 && n0) memcpy(L1, LU, (size_t)n0 * (size_t)n0 * sizeof *L1);
+      mo_free(LU);
+      mo_free(LU0);
       LU = mo_malloc(ctx, acap * sizeof *LU);
-      if (!A || !LU) { st = MO_ENOMEM; goto done; }
+      LU0 = L1;
+      if (!A || !LU || !LU0) { st = MO_ENOMEM; goto done; }
+    } else if (n0) {
+      double *t = LU0;
+      LU0 = LU;
+      LU = t;
     }
     if (!ipiv) {
       if (!rhs) rhs = mo_malloc(ctx, (size_t)nmax * sizeof *rhs);
@@ -246,14 +311,19 @@ int nscd_status_step(nscd_state *S, const mo_contact_problem *P, double *r, int 
     }
     /* LU when the matrix is well conditioned, else the minimum-norm solution (SVD) with its
        numerical rank: the closed constraints the bodies' dofs make independent (T84) */
-    memcpy(LU, A, (size_t)n * (size_t)n * sizeof *LU);
-    dgetrf_(&n, &n, LU, &n, ipiv, &lu_info);
+    if (n0) nscd_lu_border(n, n0, A, LU0, LU, ipiv, &lu_info);
+    else {
+      memcpy(LU, A, (size_t)n * (size_t)n * sizeof *LU);
+      dgetrf_(&n, &n, LU, &n, ipiv, &lu_info);
+    }
     rc = lu_info ? 0 : lu_rcond(n, LU, anorm, w, iw);
+    n0 = 0;
     info->rcond = rc;
     if (rc > NSCD_RANK_TOL) {
       int one = 1, inf = 0;
       dgetrs_("N", &n, &one, LU, &n, ipiv, rhs, &n, &inf);
-      if ((st = cache_keep(S, P, n, kind, E, LU, ipiv, rc, ctx))) goto done;
+      if ((st = cache_keep(S, P, n, kind, off, E, LU, ipiv, rc, ctx))) goto done;
+      n0 = n;
     } else {
       int one = 1, inf = 0, lwork = -1, liwork = 0, *iwork;
       double wq = 0, rcond = NSCD_RANK_TOL, *work;
@@ -300,6 +370,8 @@ int nscd_status_step(nscd_state *S, const mo_contact_problem *P, double *r, int 
        a sticking reaction outside the cone slides, a sliding one whose slip reverses sticks; as
        long as the residual decreases (undamped, the iteration can wander: on the box with
        friction 0.3 it went from 7.5e-5 to 6.1e-3 in 8 iterations) */
+    memcpy(pkind, kind, (size_t)S->nc * sizeof *pkind);
+    memcpy(pE, E, (size_t)S->nc * (size_t)d * sizeof *pE);
     if (tol < 0 || !(res1 < resprev) || !set_kinds(S, rnew, Unew, tiny, 1, kind, E)) break;
     resprev = res1;
   }
@@ -318,7 +390,8 @@ int nscd_status_step(nscd_state *S, const mo_contact_problem *P, double *r, int 
     for (i = 0; i < S->m; i++) S->U[i] += P->b[i];
   }
 done:
-  mo_free(kind); mo_free(off); mo_free(E); mo_free(A); mo_free(LU); mo_free(rhs); mo_free(ipiv);
+  mo_free(kind); mo_free(off); mo_free(pkind); mo_free(E); mo_free(pE); mo_free(A); mo_free(LU); mo_free(LU0);
+  mo_free(rhs); mo_free(ipiv);
   mo_free(iw); mo_free(w); mo_free(rnew); mo_free(Unew); mo_free(sv);
   return st;
 }
