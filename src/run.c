@@ -416,8 +416,8 @@ static json_t *plasticity_json(const mo_scene *sc, const mo_state *s)
     for (e = 0; e < B->mesh->nelem; e++) {
       const double *q = s->q + B->q0 + (size_t)e * ns;
       double vm, ep, p, w;
-      if (mo_elem_nl_fields(B->mesh, e, &B->mat, q, NULL, &vm, &ep) == MO_OK && ep > epmax) epmax = ep;
-      if (mo_elem_nl_energy(B->mesh, e, &B->mat, q, &p, &w) == MO_OK) {
+      if (mo_elem_nl_fields(B->mesh, e, B->mat, q, NULL, &vm, &ep) == MO_OK && ep > epmax) epmax = ep;
+      if (mo_elem_nl_energy(B->mesh, e, B->mat, q, &p, &w) == MO_OK) {
         psi += p;
         wp += w;
       }
@@ -611,7 +611,7 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
         json_object_set_new(jb, "element", json_string(mo_eltype_get(B->mesh->type)->name));
         json_object_set_new(jb, "nodes", json_integer(B->mesh->nnode));
         json_object_set_new(jb, "elements", json_integer(B->mesh->nelem));
-        json_object_set_new(jb, "hypothesis", json_string(mo_hyp_name(B->mat.hyp)));
+        json_object_set_new(jb, "hypothesis", json_string(mo_hyp_name(B->mat->hyp)));
         json_object_set_new(jb, "mass", jnum(B->mass));
         if (pw && p1) {
           json_t *ji = json_array(), *jf = json_array();
