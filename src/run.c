@@ -1151,7 +1151,9 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   if ((st = mo_state_alloc(sc, &s, ctx))) goto done;
   if ((st = mo_stepper_init_state(S, &s, ctx))) goto done;
   table = mo_case_lookup_bool(cs, "output.contact_table");
-  if ((st = mo_metrics_create(sc, C, &met, ctx))) goto done;
+  /* the run's scratch, lent to the metrics too (their calls and the run's uses do not overlap) */
+  if (!(work = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof *work))) { st = MO_ENOMEM; goto done; }
+  if ((st = mo_metrics_create(sc, C, work, &met, ctx))) goto done;
   stepper.sc = sc;
   stepper.S = S;
   stepper.drv = drv;
@@ -1230,8 +1232,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   names = mo_calloc(ctx, (size_t)ncol, sizeof *names);
   namebuf = mo_calloc(ctx, (size_t)ncol, 80);
   row = mo_calloc(ctx, (size_t)ncol, sizeof *row);
-  work = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof *work);
-  if (!names || !namebuf || !row || !work) { st = MO_ENOMEM; goto done; }
+  if (!names || !namebuf || !row) { st = MO_ENOMEM; goto done; }
   for (k = 0; k < ncol; k++) names[k] = namebuf + 80 * k;
   snprintf(names[0], 80, "t");
   for (k = 0; k < nvalcol; k++)
