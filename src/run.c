@@ -578,7 +578,8 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
     json_object_set_new(scene, "mass", jnum(sc->mass_total));
     json_object_set_new(scene, "hmin", jnum(mo_metrics_hmin(sc)));
     if (p0 && s && sc->M) {
-      /* the bodies' momenta at the end, beside p0 at the start */
+      /* the bodies' momenta at the end, beside p0 at the start (made when a body is deformable:
+         only theirs are written) */
       pw = work ? work : mo_malloc(ctx, ((size_t)sc->ndof + 1) * sizeof *pw); /* the run's scratch */
       p1 = mo_malloc(ctx, (3 * (size_t)sc->nbody + 1) * sizeof *p1);
       if (pw && p1) body_momenta(sc, s->v, pw, p1);
@@ -1319,11 +1320,16 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   mo_phase_rest(ctx, MO_PH_SETUP, start, inner_start);
   prog.start = prog.last = mo_clock();
   e0 = mo_energy_kinetic(sc, &s, work) + mo_energy_stored(sc, &s, work) + s.wplastic;
-  if (!(p0 = mo_malloc(ctx, (3 * (size_t)sc->nbody + 1) * sizeof *p0))) {
-    st = MO_ENOMEM;
-    goto done;
+  /* the bodies' momenta at the start, for summary.json's deformable bodies (none: no p0, and no
+     momenta at the end either) */
+  for (k = 0; k < sc->nbody && sc->body[k].kind != MO_BODY_DEFORMABLE; k++) {}
+  if (k < sc->nbody) {
+    if (!(p0 = mo_malloc(ctx, (3 * (size_t)sc->nbody + 1) * sizeof *p0))) {
+      st = MO_ENOMEM;
+      goto done;
+    }
+    body_momenta(sc, s.v, work, p0);
   }
-  body_momenta(sc, s.v, work, p0);
 
   for (;;) {
     int last = s.step == sc->time.steps, write_row = s.step % sc->out.every == 0 || last;
