@@ -667,11 +667,11 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
   }
   S->qn2 = S->qs2 = 0;
   for (k = 0; k < S->nact; k++) {
-    double q2 = 0;
+    double q2 = 0, sa;
     a = S->act[k];
     for (i = 0; i < d; i++) q2 += P->b[a * d + i] * P->b[a * d + i];
     S->qn2 += q2;
-    double sa = nscd_scale(S, a);
+    sa = nscd_scale(S, a);
     S->qs2 += sa * sa * q2;
   }
   for (k = 0; k < S->nact; k++) S->order[k] = S->act[p->order == NSCD_ORDER_REVERSE ? S->nact - 1 - k : k];
