@@ -438,7 +438,7 @@ static int build_loads(mo_scene *sc, const mo_case *cs, const config_setting_t *
       }
       for (k = 0; !st && k < fs->n; k++) {
         T.facet = k;
-        if ((st = mo_facet_load(m, fs, k, &B->mat, traction_cb, &T, fe, ctx))) break;
+        if ((st = mo_facet_load(m, fs, k, B->mat, traction_cb, &T, fe, ctx))) break;
         for (a = 0; a < fs->nfn; a++)
           for (c = 0; c < D; c++) f[B->dof0 + fs->node[k * fs->nfn + a] * D + c] += fe[a * D + c];
       }
@@ -471,7 +471,7 @@ static int build_body_force(mo_scene *sc, const mo_case *cs, const config_settin
     double Me[MO_ND_MAX * MO_ND_MAX], ctr[3] = {0, 0, 0}, bv[3];
     int nen = m->nen, nd = nen * D, b2;
     const int *cn = &m->conn[el * nen];
-    if ((st = mo_elem_mass(m, el, &B->mat, 0, Me, ctx))) break;
+    if ((st = mo_elem_mass(m, el, B->mat, 0, Me, ctx))) break;
     for (a = 0; a < nen; a++)
       for (c = 0; c < D; c++) ctr[c] += m->x[cn[a] * D + c] / nen;
     for (c = 0; c < D; c++) bv[c] = mo_expr_eval(e[c], ctr);
@@ -544,10 +544,11 @@ static int deformable_read(mo_body *B, int member, int dim, const mo_case *cs, c
   if (dim && B->mesh->dim != dim)
     return mo_case_error(cs, mo_cfg_member(bg, "mesh"), ctx, "body '%s' is %dD but an earlier body is %dD", B->name,
                          B->mesh->dim, dim);
-  if ((st = build_material(cs, mo_cfg_member(bg, "material"), B->mesh, &B->mat, ctx))) return st;
+  if (!(B->mat = mo_calloc(ctx, 1, sizeof *B->mat))) return MO_ENOMEM;
+  if ((st = build_material(cs, mo_cfg_member(bg, "material"), B->mesh, B->mat, ctx))) return st;
   if (strcmp(mo_cfg_string(mo_cfg_member(bg, "material"), "model", "elastic"), "elastic")) {
     B->nl = 1;
-    B->npoint = mo_elem_nl_npoint(B->mesh->type, B->mat.hyp);
+    B->npoint = mo_elem_nl_npoint(B->mesh->type, B->mat->hyp);
   }
   {
     /* the explicit scheme is central differences with a lumped (row-sum) mass (T100) */

@@ -381,12 +381,12 @@ static int rigid_mesh_read(mo_body *B, int member, int dim, const mo_case *cs, c
   if ((st = mesh_mass(B, rho, ctx))) return mo_scene_relocate(cs, mo_cfg_member(bg, "mesh"), ctx);
   /* the facets' measures of its contact sets (dual cells, Gauss weights) read the material's
      hypothesis and thickness */
-  memset(&B->mat, 0, sizeof B->mat);
-  B->mat.model = MO_MAT_ELASTIC;
-  B->mat.rho = rho;
-  B->mat.hyp = B->mesh->dim == 3 ? MO_HYP_3D : MO_HYP_PLANE_STRAIN;
-  B->mat.thickness = B->thickness;
-  B->mat.area = 1;
+  if (!(B->mat = mo_calloc(ctx, 1, sizeof *B->mat))) return MO_ENOMEM;
+  B->mat->model = MO_MAT_ELASTIC;
+  B->mat->rho = rho;
+  B->mat->hyp = B->mesh->dim == 3 ? MO_HYP_3D : MO_HYP_PLANE_STRAIN;
+  B->mat->thickness = B->thickness;
+  B->mat->area = 1;
   B->theta0 = 0;
   B->ndof = mo_rigid_ndof(B->mesh->dim);
   return read_inertia(B, B->mesh->dim, cs, bg, ctx);

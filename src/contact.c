@@ -268,7 +268,8 @@ struct mo_contact_driver {
   mo_contact_vars x;
   mo_contact_report rep;
   int nc, m, d, cap;         /* candidates, m = d nc, capacity (candidates) of the arrays */
-  double *b, *q, *U, *Uprev, *r, *rprev, *mu, *gk, *w;
+  double *q, *U, *Uprev, *r, *rprev, *mu, *gk, *w;
+  double *bn;                /* nc: the normal component of b (q's tangential ones are b's) */
   double *ukin;              /* W r of the last solve (with W), then U without the Signorini
                                 offsets: W r + b (contact_finish); allocated by the first solve on W */
   int ukcap;
@@ -334,7 +335,7 @@ static int grow(mo_contact_driver *D, int nc, mo_ctx *ctx)
   if (nc <= cap) return MO_OK;
   while (cap < nc) cap = cap ? 2 * cap : 16;
 #define GROW(ptr, n) if (!(p = mo_realloc(ctx, ptr, (size_t)(n) * sizeof *(ptr)))) return MO_ENOMEM; ptr = p
-  GROW(D->b, (size_t)cap * d); GROW(D->q, (size_t)cap * d); GROW(D->U, (size_t)cap * d);
+  GROW(D->bn, cap); GROW(D->q, (size_t)cap * d); GROW(D->U, (size_t)cap * d);
   GROW(D->Uprev, (size_t)cap * d); GROW(D->r, (size_t)cap * d);
   GROW(D->mu, cap); GROW(D->active, cap); GROW(D->act, cap + 1);
   GROW(D->status, cap); GROW(D->key, (size_t)cap * MO_KEY); GROW(D->itmp, (size_t)cap + 1);
@@ -588,7 +589,7 @@ long mo_contact_driver_failures(const mo_contact_driver *D) { return D->failures
 size_t mo_contact_driver_bytes(const mo_contact_driver *D, size_t *per_dof)
 {
   const size_t d = (size_t)D->d, cap = (size_t)D->cap, sd = sizeof(double);
-  size_t c = cap * (5 * d * sd + sd + 1 + 4 * sizeof(int) + MO_KEY * sizeof(int));
+  size_t c = cap * (4 * d * sd + 2 * sd + 1 + 4 * sizeof(int) + MO_KEY * sizeof(int));
   size_t n = (size_t)D->sc->ndof, nf = (size_t)D->sc->nfree, dof = (2 * n + 2 * nf) * sd;
   if (D->rprev) c += cap * d * sd;
   if (D->gk) c += cap * sd;
@@ -662,7 +663,7 @@ void mo_contact_driver_free(mo_contact_driver *D)
   mo_free(D->state);
   mo_free(D->params);
   mo_delassus_free(D->W);
-  mo_free(D->b); mo_free(D->q); mo_free(D->U); mo_free(D->Uprev); mo_free(D->r); mo_free(D->rprev);
+  mo_free(D->bn); mo_free(D->q); mo_free(D->U); mo_free(D->Uprev); mo_free(D->r); mo_free(D->rprev);
   mo_free(D->eqf); mo_free(D->eqk);
   mo_free(D->xfull); mo_free(D->xf); mo_free(D->dx); mo_free(D->dxfull); mo_free(D->mu); mo_free(D->gk);
   mo_free(D->pforce);
@@ -860,8 +861,8 @@ static double local_problem(mo_contact_driver *D, const mo_state *s, const doubl
   mo_scheme scheme = sc->time.scheme;
   if (D->gk) memcpy(D->gk, g, (size_t)nc * sizeof(double));
   if (scheme == MO_SCHEME_THETA) {
-    mo_contact_Htx(C, s, D->xfull, 0, nc, NULL, D->b);
-    for (i = 0; i < m; i++) D->b[i] += U0[i];
+    mo_contact_Htx(C, s, D->xfull, 0, nc, NULL, D->q);
+    for (i = 0; i < m; i++) D->q[i] += U0[i];
     c = 1;
     dtpos = h * theta;
   } else {
@@ -874,11 +875,12 @@ static double local_problem(mo_contact_driver *D, const mo_state *s, const doubl
       for (i = 0; i < n; i++) du[i] = D->xfull[i] - s->u[i];
       c = 1;
     }
-    mo_contact_Htx(C, s, du, 0, nc, NULL, D->b);
-    for (i = 0; i < m; i++) D->b[i] += U0[i] * h;
+    mo_contact_Htx(C, s, du, 0, nc, NULL, D->q);
+    for (i = 0; i < m; i++) D->q[i] += U0[i] * h;
     dtpos = 1;
   }
-  memcpy(D->q, D->b, (size_t)m * sizeof(double));
+  /* q = b, then the laws' offsets on the normal components: b's normal ones kept aside */
+  for (a = 0; a < nc; a++) D->bn[a] = D->q[a * d];
   D->nact = 0;
   for (a = 0; a < nc; a++) {
     int act = C->active[a];
@@ -896,7 +898,7 @@ static double local_problem(mo_contact_driver *D, const mo_state *s, const doubl
          and those that carried a compressive impulse in the previous step (doc/theory.md §5):
          a theta = 1 landing step leaves the gap it started with, and the contact must stay
          in the set until the back end releases it (r = 0), not drop out on that gap */
-      if (g[a] + h * (theta * D->b[a * d] + (1 - theta) * D->Uprev[a * d]) > 0 && !(rstep[a * d] > 0))
+      if (g[a] + h * (theta * D->bn[a] + (1 - theta) * D->Uprev[a * d]) > 0 && !(rstep[a * d] > 0))
         act = 0;
     } else
       D->q[a * d] += g[a];
@@ -1383,7 +1385,7 @@ static int position_correction(mo_contact_driver *D, mo_state *s, const double *
    (r, b and W are those of that solve). */
 static int contact_finish(mo_contact_driver *D, mo_state *s, const double *x, mo_ctx *ctx)
 {
-  int m = D->m, i, st, corr;
+  int m = D->m, d = D->d, i, st, corr;
   mo_scheme scheme = D->sc->time.scheme;
   double w = 0;
   /* U without the offsets of the laws (Signorini, restitution): W r + b, or the back end's U' - (q - b) */
@@ -1391,13 +1393,13 @@ static int contact_finish(mo_contact_driver *D, mo_state *s, const double *x, mo
   if (!D->wused) {
     /* without W: U+ computed, its work added and (theta) taken as U- at once */
     for (i = 0; i < m; i++) {
-      double uk = D->U[i] - (D->q[i] - D->b[i]);
+      double uk = D->U[i] - (D->q[i] - (i % d ? D->q[i] : D->bn[i / d]));
       w += D->r[i] * (scheme == MO_SCHEME_THETA ? 0.5 * (uk + D->Uprev[i]) : uk);
       if (scheme == MO_SCHEME_THETA) D->Uprev[i] = uk;
     }
     Ukin = D->Uprev;
   } else {
-    for (i = 0; i < m; i++) D->ukin[i] += D->b[i];
+    for (i = 0; i < m; i++) D->ukin[i] += i % d ? D->q[i] : D->bn[i / d];
     for (i = 0; i < m; i++)
       w += D->r[i] * (scheme == MO_SCHEME_THETA ? 0.5 * (Ukin[i] + D->Uprev[i]) : Ukin[i]);
   }
@@ -1417,7 +1419,7 @@ static int contact_finish(mo_contact_driver *D, mo_state *s, const double *x, mo
        the force the master exerts on the slaves (world frame), and the sum of normal forces */
     const double *F = mo_contact_frames(D->C);
     const double fs = scheme == MO_SCHEME_THETA ? 1 / mo_stepper_dt(D->S) : 1;
-    int a, j, d = D->d, dim = D->sc->dim;
+    int a, j, dim = D->sc->dim;
     memset(D->pforce, 0, 3 * (size_t)D->C->npair * sizeof *D->pforce);
     D->fn_step = 0;
     for (a = 0; a < D->nc; a++) {

@@ -1032,7 +1032,7 @@ static int facet_cells(const mo_scene *sc, int b, const mo_facetset *fs, int f, 
 {
   int nfn = fs->nfn, a, s, q, r;
   static const double gp[2] = {-0.5773502691896257645, 0.5773502691896257645};
-  const mo_material *mat = &sc->body[b].mat;
+  const mo_material *mat = sc->body[b].mat;
   memset(A, 0, MO_FNODE_MAX * MO_FNODE_MAX * sizeof(double));
   memset(meas, 0, MO_FNODE_MAX * sizeof(double));
   if (nfn == 1) {
@@ -1388,7 +1388,7 @@ static int build_pair(mo_contact *C, int k, const config_setting_t *pg, mo_ctx *
         c.np = 1;
         c.node = -1;
         c.point = pi;
-        c.w = nseg ? seg[q].w : jac * Q.w[q] * facet_factor(&sc->body[P->sbody].mat, x);
+        c.w = nseg ? seg[q].w : jac * Q.w[q] * facet_factor(sc->body[P->sbody].mat, x);
         c.mu = P->mu;
         if ((st = mo_contact_add_candidate(C, &c, &pi, &one, ctx))) break;
       }

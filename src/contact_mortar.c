@@ -172,7 +172,7 @@ int mo_contact_segment_facet(const mo_scene *sc, int sb, const mo_facetset *sfs,
 {
   const int D = sc->dim, nfn = sfs->nfn;
   const int nvs = sfs->kind == MO_FK_TRI3 ? 3 : 4, nvm = mfs->kind == MO_FK_TRI3 ? 3 : 4;
-  const mo_material *mat = &sc->body[sb].mat;
+  const mo_material *mat = sc->body[sb].mat;
   double X[4][3], c[3] = {0, 0, 0}, ns[3] = {0, 0, 0}, e1[3] = {0, 0, 0}, e2[3] = {0, 0, 0}, zs[4][2];
   double N[MO_FNODE_MAX], x[3], xi0[2] = {0, 0}, diam = 0, reach, As, covered = 0, dmin = HUGE_VAL;
   piece *pc = NULL;

@@ -229,8 +229,10 @@ int mo_draw_open(const char *outdir, const mo_scene *sc, const mo_case *cs, mo_d
     d->many = nb > 32;
   }
   if ((st = read_settings(d, sc, cs, g, ctx))) goto fail;
-  if (!(d->out = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *d->out))) goto fail;
-  for (b = 0; b < sc->nbody; b++)
+  /* the meshes' outlines, per body when some body has a mesh (a pile has none: no array) */
+  for (b = 0; b < sc->nbody && !sc->body[b].mesh; b++) {}
+  if (b < sc->nbody && !(d->out = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *d->out))) goto fail;
+  for (b = 0; d->out && b < sc->nbody; b++)
     if (sc->body[b].mesh && (st = outline_build(sc->body[b].mesh, &d->out[b], ctx))) goto fail;
   if ((st = mo_mkdir_p(d->dir, ctx))) goto fail;
   snprintf(path, sizeof path, "%s/draw.dat", d->dir);
@@ -317,7 +319,7 @@ static void frame_balls(mo_draw *d, const mo_scene *sc, const mo_state *s)
 static void body_outline(mo_draw *d, const mo_scene *sc, const mo_state *s, int b)
 {
   const mo_body *B = &sc->body[b];
-  const outline *o = &d->out[b];
+  const outline *o = d->out ? &d->out[b] : NULL;
   double x[3], R[9], v[2 * MO_POLYGON_MAX + 2];
   int k, a;
   if (B->kind == MO_BODY_DISK || B->kind == MO_BODY_SPHERE) {
@@ -336,7 +338,7 @@ static void body_outline(mo_draw *d, const mo_scene *sc, const mo_state *s, int 
     fputc('\n', d->f);
     for (a = 0; a <= B->nvert; a++) put_xy(d, sc, v + 2 * a);
   }
-  for (k = 0; k < o->n; k++) {
+  for (k = 0; o && k < o->n; k++) {
     fputc('\n', d->f);
     for (a = 0; a < o->nfn + (o->nfn > 2 && !o->open); a++) {
       node_pos(sc, s, B, o->node[k * o->nfn + a % o->nfn], x);

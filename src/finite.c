@@ -76,8 +76,10 @@ void mo_finite_cause(const mo_scene *sc, double t, char *buf, size_t n)
   /* 3. the materials: a modulus or a density far from any material, a wave speed past 1e100 */
   for (b = 0; b < sc->nbody; b++) {
     const mo_body *B = &sc->body[b];
-    double E = B->mat.E, rho = B->mat.rho;
-    if (B->kind != MO_BODY_DEFORMABLE) continue;
+    double E, rho;
+    if (B->kind != MO_BODY_DEFORMABLE) continue; /* (the others have no material) */
+    E = B->mat->E;
+    rho = B->mat->rho;
     if (extreme(E) || extreme(1 / rho) || extreme(rho) || (rho > 0 && extreme(sqrt(E / rho)))) {
       snprintf(buf, n, "The likely cause: bodies.%s.material: E = %g, rho = %g (wave speed %g m/s)",
                entry_name(sc, b), E, rho, rho > 0 ? sqrt(E / rho) : HUGE_VAL);
@@ -145,8 +147,10 @@ void mo_matrix_cause(const mo_scene *sc, char *buf, size_t n)
   }
   for (b = 0; b < sc->nbody; b++) {
     const mo_body *B = &sc->body[b];
-    double E = B->mat.E, rho = B->mat.rho, r;
-    if (B->kind != MO_BODY_DEFORMABLE) continue;
+    double E, rho, r;
+    if (B->kind != MO_BODY_DEFORMABLE) continue; /* (the others have no material) */
+    E = B->mat->E;
+    rho = B->mat->rho;
     r = c > 0 && rho > 0 && h > 0 && isfinite(h) ? c * E / (rho * h * h) : 0;
     if (extreme(E) || extreme(rho) || extreme(1 / rho) || !isfinite(r) || r > 1e15) {
       snprintf(buf, n, "; the likely cause: bodies.%s.material: E = %g, rho = %g with time.dt = %g and elements "

@@ -25,7 +25,8 @@ typedef struct {
 struct mo_metrics {
   const mo_scene *sc;
   const mo_contact *C;
-  double *work;              /* ndof */
+  double *work;              /* ndof: the run's scratch, or its own (own_work) */
+  int own_work;
   double e0, eshift;         /* E(0), and the shift to the reference's exact energy */
   /* field errors (1D bars against a bar reference) */
   int fields;
@@ -73,7 +74,7 @@ static double restitution(const mo_metrics *M);
 void mo_metrics_free(mo_metrics *M)
 {
   if (!M) return;
-  mo_free(M->work);
+  if (M->own_work) mo_free(M->work);
   mo_free(M->hist);
   mo_free(M->dUp);
   mo_free(M->alt);
@@ -224,7 +225,7 @@ static double oscillation_index(const mo_metrics *M)
   return V > 0 ? osc / V : 0;
 }
 
-int mo_metrics_create(const mo_scene *sc, const mo_contact *C, mo_metrics **out, mo_ctx *ctx)
+int mo_metrics_create(const mo_scene *sc, const mo_contact *C, double *work, mo_metrics **out, mo_ctx *ctx)
 {
   mo_metrics *M = mo_calloc(ctx, 1, sizeof *M);
   const mo_reference *R = &sc->ref;
@@ -232,7 +233,8 @@ int mo_metrics_create(const mo_scene *sc, const mo_contact *C, mo_metrics **out,
   if (!M) return MO_ENOMEM;
   M->sc = sc;
   M->C = C;
-  M->work = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof(double));
+  M->own_work = !work;
+  M->work = work ? work : mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof(double));
   if (!M->work) { mo_metrics_free(M); return MO_ENOMEM; }
   M->first_release = NAN;
   M->fields = R->type != MO_REF_NONE && R->type != MO_REF_ENERGY && R->type < MO_REF_BOUNCE && R->body >= 0 &&

@@ -15,7 +15,9 @@ typedef struct mo_metrics mo_metrics;
    the gap tolerance here and of the penetration `moreau compare` judges (summary.json
    scene.hmin). */
 double mo_metrics_hmin(const mo_scene *sc);
-int mo_metrics_create(const mo_scene *sc, const mo_contact *C, mo_metrics **out, mo_ctx *ctx);
+/* work: a scratch of ndof + 1 doubles the caller lends for the metrics' life (NULL: their own),
+   free between the calls */
+int mo_metrics_create(const mo_scene *sc, const mo_contact *C, double *work, mo_metrics **out, mo_ctx *ctx);
 /* Record the state after a step (and at t = 0, with D = NULL before the first step). */
 void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *D);
 /* Energy ratio E(t) / E0 (doc/theory.md §10): kinetic + elastic - external and support work,

@@ -767,7 +767,7 @@ static void element_fields(const mo_scene *sc, const mo_body *B, const mo_state 
                            double *vm, double *ep)
 {
   const mo_mesh *m = B->mesh;
-  int D = sc->dim, a, c, e, w, nc = mo_hyp_ncomp(B->mat.hyp);
+  int D = sc->dim, a, c, e, w, nc = mo_hyp_ncomp(B->mat->hyp);
   for (e = 0; e < m->nelem; e++) {
     double ue[MO_ND_MAX], ee[6], se[6];
     ep[e] = 0;
@@ -775,11 +775,11 @@ static void element_fields(const mo_scene *sc, const mo_body *B, const mo_state 
       for (c = 0; c < D; c++) ue[a * D + c] = s->u[B->dof0 + m->conn[e * m->nen + a] * D + c];
     if (B->nl) {
       const double *q = s->q + B->q0 + (size_t)e * (size_t)B->npoint * MO_J2_NSTATE;
-      mo_elem_nl_fields(m, e, &B->mat, q, se, &vm[e], &ep[e]);
-      green_lagrange(m, e, &B->mat, ue, ee);
+      mo_elem_nl_fields(m, e, B->mat, q, se, &vm[e], &ep[e]);
+      green_lagrange(m, e, B->mat, ue, ee);
     } else {
-      mo_elem_stress(m, e, &B->mat, ue, ee, se);
-      vm[e] = mo_von_mises(B->mat.hyp, se);
+      mo_elem_stress(m, e, B->mat, ue, ee, se);
+      vm[e] = mo_von_mises(B->mat->hyp, se);
     }
     for (w = 0; w < 2; w++) {
       const double *in = w ? se : ee;

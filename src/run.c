@@ -416,8 +416,8 @@ static json_t *plasticity_json(const mo_scene *sc, const mo_state *s)
     for (e = 0; e < B->mesh->nelem; e++) {
       const double *q = s->q + B->q0 + (size_t)e * ns;
       double vm, ep, p, w;
-      if (mo_elem_nl_fields(B->mesh, e, &B->mat, q, NULL, &vm, &ep) == MO_OK && ep > epmax) epmax = ep;
-      if (mo_elem_nl_energy(B->mesh, e, &B->mat, q, &p, &w) == MO_OK) {
+      if (mo_elem_nl_fields(B->mesh, e, B->mat, q, NULL, &vm, &ep) == MO_OK && ep > epmax) epmax = ep;
+      if (mo_elem_nl_energy(B->mesh, e, B->mat, q, &p, &w) == MO_OK) {
         psi += p;
         wp += w;
       }
@@ -578,7 +578,8 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
     json_object_set_new(scene, "mass", jnum(sc->mass_total));
     json_object_set_new(scene, "hmin", jnum(mo_metrics_hmin(sc)));
     if (p0 && s && sc->M) {
-      /* the bodies' momenta at the end, beside p0 at the start */
+      /* the bodies' momenta at the end, beside p0 at the start (made when a body is deformable:
+         only theirs are written) */
       pw = work ? work : mo_malloc(ctx, ((size_t)sc->ndof + 1) * sizeof *pw); /* the run's scratch */
       p1 = mo_malloc(ctx, (3 * (size_t)sc->nbody + 1) * sizeof *p1);
       if (pw && p1) body_momenta(sc, s->v, pw, p1);
@@ -611,7 +612,7 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
         json_object_set_new(jb, "element", json_string(mo_eltype_get(B->mesh->type)->name));
         json_object_set_new(jb, "nodes", json_integer(B->mesh->nnode));
         json_object_set_new(jb, "elements", json_integer(B->mesh->nelem));
-        json_object_set_new(jb, "hypothesis", json_string(mo_hyp_name(B->mat.hyp)));
+        json_object_set_new(jb, "hypothesis", json_string(mo_hyp_name(B->mat->hyp)));
         json_object_set_new(jb, "mass", jnum(B->mass));
         if (pw && p1) {
           json_t *ji = json_array(), *jf = json_array();
@@ -1151,7 +1152,9 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   if ((st = mo_state_alloc(sc, &s, ctx))) goto done;
   if ((st = mo_stepper_init_state(S, &s, ctx))) goto done;
   table = mo_case_lookup_bool(cs, "output.contact_table");
-  if ((st = mo_metrics_create(sc, C, &met, ctx))) goto done;
+  /* the run's scratch, lent to the metrics too (their calls and the run's uses do not overlap) */
+  if (!(work = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof *work))) { st = MO_ENOMEM; goto done; }
+  if ((st = mo_metrics_create(sc, C, work, &met, ctx))) goto done;
   stepper.sc = sc;
   stepper.S = S;
   stepper.drv = drv;
@@ -1230,8 +1233,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   names = mo_calloc(ctx, (size_t)ncol, sizeof *names);
   namebuf = mo_calloc(ctx, (size_t)ncol, 80);
   row = mo_calloc(ctx, (size_t)ncol, sizeof *row);
-  work = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof *work);
-  if (!names || !namebuf || !row || !work) { st = MO_ENOMEM; goto done; }
+  if (!names || !namebuf || !row) { st = MO_ENOMEM; goto done; }
   for (k = 0; k < ncol; k++) names[k] = namebuf + 80 * k;
   snprintf(names[0], 80, "t");
   for (k = 0; k < nvalcol; k++)
@@ -1318,11 +1320,16 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   mo_phase_rest(ctx, MO_PH_SETUP, start, inner_start);
   prog.start = prog.last = mo_clock();
   e0 = mo_energy_kinetic(sc, &s, work) + mo_energy_stored(sc, &s, work) + s.wplastic;
-  if (!(p0 = mo_malloc(ctx, (3 * (size_t)sc->nbody + 1) * sizeof *p0))) {
-    st = MO_ENOMEM;
-    goto done;
+  /* the bodies' momenta at the start, for summary.json's deformable bodies (none: no p0, and no
+     momenta at the end either) */
+  for (k = 0; k < sc->nbody && sc->body[k].kind != MO_BODY_DEFORMABLE; k++) {}
+  if (k < sc->nbody) {
+    if (!(p0 = mo_malloc(ctx, (3 * (size_t)sc->nbody + 1) * sizeof *p0))) {
+      st = MO_ENOMEM;
+      goto done;
+    }
+    body_momenta(sc, s.v, work, p0);
   }
-  body_momenta(sc, s.v, work, p0);
 
   for (;;) {
     int last = s.step == sc->time.steps, write_row = s.step % sc->out.every == 0 || last;

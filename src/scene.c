@@ -95,7 +95,7 @@ double mo_scene_dt_crit(const mo_scene *sc, int *body, int *elem)
     double c;
     if (B->kind != MO_BODY_DEFORMABLE || !m) continue;
     T = mo_eltype_get(m->type);
-    c = wave_speed(&B->mat);
+    c = wave_speed(B->mat);
     if (!(c > 0) || !isfinite(c)) continue;
     for (e = 0; e < m->nelem; e++) {
       double meas = 0, fmax = 0, l;
@@ -191,6 +191,7 @@ void mo_scene_free(mo_scene *sc)
     mo_mesh_free(B->mesh); /* a body whose reading failed before its type was set */
     mo_free(B->vert);
     mo_free(B->name);
+    mo_free(B->mat);
     if (!i || sc->body[i - 1].group != B->group) mo_free(B->group); /* one string per group */
   }
   mo_free(sc->rigid);
@@ -490,22 +491,22 @@ static int assemble(mo_scene *sc, int with_mass, mo_ctx *ctx)
         int own = g >= lo && g < hi;
         g++;
         mine += own;
-        if (!B->nl && own && (st = mo_elem_stiffness(m, e, &B->mat, Ke, ctx))) break;
+        if (!B->nl && own && (st = mo_elem_stiffness(m, e, B->mat, Ke, ctx))) break;
         if (!B->nl && (st = mo_triplet_add_pattern(&TK, dofs, nd, dofs, nd, own ? Ke : NULL, ctx))) break;
-        if (with_mass && own && (st = mo_elem_mass(m, e, &B->mat, B->lumped, Me, ctx))) break;
+        if (with_mass && own && (st = mo_elem_mass(m, e, B->mat, B->lumped, Me, ctx))) break;
         if (with_mass && (st = mo_triplet_add_pattern(&TM, dofs, nd, dofs, nd, own ? Me : NULL, ctx))) break;
       } else {
         g++;
         if (!B->nl) {
-          if ((st = mo_elem_stiffness(m, e, &B->mat, Ke, ctx))) break;
+          if ((st = mo_elem_stiffness(m, e, B->mat, Ke, ctx))) break;
           if ((st = mo_triplet_add_block(&TK, dofs, nd, dofs, nd, Ke, ctx))) break;
         }
         if (with_mass) {
-          if ((st = mo_elem_mass(m, e, &B->mat, B->lumped, Me, ctx))) break;
+          if ((st = mo_elem_mass(m, e, B->mat, B->lumped, Me, ctx))) break;
           if ((st = mo_triplet_add_block(&TM, dofs, nd, dofs, nd, Me, ctx))) break;
         }
       }
-      B->mass += B->mat.rho * mo_elem_measure(m, e, &B->mat);
+      B->mass += B->mat->rho * mo_elem_measure(m, e, B->mat);
     }
     sc->mass_total += B->mass;
   }

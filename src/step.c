@@ -421,7 +421,7 @@ static void init_material(const mo_scene *sc, double *q)
   int b;
   for (b = 0; b < sc->nbody; b++)
     if (sc->body[b].nl)
-      mo_j2_state_init(sc->body[b].mat.hyp, q + sc->body[b].q0, sc->body[b].mesh->nelem * sc->body[b].npoint);
+      mo_j2_state_init(sc->body[b].mat->hyp, q + sc->body[b].q0, sc->body[b].mesh->nelem * sc->body[b].npoint);
 }
 
 /* A nonlinear scene: the tangent pattern, then What at the initial state (u0, a virgin
@@ -500,7 +500,7 @@ static int quasistatic_rigid_modes(const mo_scene *sc, mo_ctx *ctx)
     char what[400];
     size_t len = 0;
     if (B->kind != MO_BODY_DEFORMABLE || !me || !me->nnode) continue;
-    nm = dim == 1 ? 1 : dim == 2 ? (B->mat.hyp == MO_HYP_AXISYMMETRIC ? 1 : 3) : 6;
+    nm = dim == 1 ? 1 : dim == 2 ? (B->mat->hyp == MO_HYP_AXISYMMETRIC ? 1 : 3) : 6;
     for (a = 0; a < me->nnode; a++)
       for (i = 0; i < dim; i++) xc[i] += me->x[a * dim + i] / me->nnode;
     for (a = 0; a < me->nnode; a++) {

@@ -187,7 +187,7 @@ int mo_tangent_forces(mo_stepper *S, const double *u, const double *q, double *f
       size_t off = B->q0 + (size_t)e * (size_t)ns;
       for (a = 0; a < nen; a++)
         for (c = 0; c < D; c++) ue[a * D + c] = u[B->dof0 + cn[a] * D + c];
-      st = mo_elem_nl_force(m, e, &B->mat, 0, ue, q + off, S->qt + off, fe, tangent ? Ke : NULL, ctx);
+      st = mo_elem_nl_force(m, e, B->mat, 0, ue, q + off, S->qt + off, fe, tangent ? Ke : NULL, ctx);
       if (st == MO_ENAN) {
         /* an inverted element: collect them all for the diagnosis, then stop */
         if (!nbad++) snprintf(first, sizeof first, "%s", ctx->errmsg);
@@ -244,7 +244,7 @@ void mo_tangent_energies(const mo_stepper *S, const double *q, double *psi, doub
     ns = (size_t)B->npoint * MO_J2_NSTATE;
     for (e = 0; e < B->mesh->nelem; e++) {
       double p, w;
-      if (mo_elem_nl_energy(B->mesh, e, &B->mat, q + B->q0 + (size_t)e * ns, &p, &w) == MO_OK) {
+      if (mo_elem_nl_energy(B->mesh, e, B->mat, q + B->q0 + (size_t)e * ns, &p, &w) == MO_OK) {
         *psi += p;
         *wp += w;
       }

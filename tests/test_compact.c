@@ -2,7 +2,8 @@
    disks, one of spheres and one of polygons with disks, each run with the compact contact records
    (contact.compact = true, the default) and with points, candidates and H at every step
    (contact.compact = false): the final states, the histories and contact.csv agree to the bit
-   (the records' sweep does the arithmetic of the sweep on H), and so do the gap law and a run that
+   (the records' sweep does the arithmetic of the sweep on H; under Jean's Quad rule too, whose
+   parts it sums as it sweeps), and so do the gap law and a run that
    dumps FCLIB problems (W built from H on demand) against contact.delassus = "always". The memory
    of the contact set: the records hold a bounded number of bytes per candidate, a fraction of the
    points, candidates and columns of H. levelset, which reads candidates and H, runs the same
@@ -22,6 +23,7 @@ static const char *const pairs2 =
 /* A deposit of n disks in a box 10 lattice cells wide (as cases/disk-pile), to end, nscd held to
    12 sweeps a step (the stop rule does not change the comparison; a fixed count keeps it short);
    law: extra keys of every pair ("" for Moreau's impact law). */
+static const char *nscd_opts = "stop = \"sweeps\"; max_sweeps = 12;";
 static void disks_text(char *buf, size_t len, int n, double end, const char *law, const char *contact_extra)
 {
   char pairs[2048];
@@ -38,11 +40,11 @@ static void disks_text(char *buf, size_t len, int n, double end, const char *law
            "time = { scheme = \"theta\"; theta = 0.5; dt = 1.0e-3; end = %g; };\n"
            "contact = {\n"
            "  solver = \"nscd\"; on_failure = \"continue\"; %s\n"
-           "  nscd = { stop = \"sweeps\"; max_sweeps = 12; };\n"
+           "  nscd = { %s };\n"
            "%s"
            "};\n"
            "output = { every = 1; vtk = { every = 50; }; };\n",
-           n, end, contact_extra, pairs);
+           n, end, contact_extra, nscd_opts, pairs);
 }
 
 /* A deposit of n spheres in a square box of side 0.0792 m (6 x 6 lattice), as cases/sphere-deposit. */
@@ -236,6 +238,13 @@ static void disks(void)
   disks_text(t1, sizeof t1, 60, 0.3, "law = \"gap\";", "");
   disks_text(t2, sizeof t2, 60, 0.3, "law = \"gap\";", "compact = false;");
   compare("60 disks, gap law (T78), 0.3 s", t1, t2, "gap", 0);
+  /* Jean's Quad rule (T11): the records' sweep sums its parts as it updates each contact, the
+     sweep on H from the reactions kept before the sweep; the same sweeps end every step */
+  nscd_opts = "stop = \"quad\"; tol = 1.0e-4; max_sweeps = 1000;";
+  disks_text(t1, sizeof t1, 60, 0.3, "", "");
+  disks_text(t2, sizeof t2, 60, 0.3, "", "compact = false;");
+  compare("60 disks, stop = quad, 0.3 s", t1, t2, "quad", 0);
+  nscd_opts = "stop = \"sweeps\"; max_sweeps = 12;";
 }
 
 /* The same text with `compact = false;` after the back end's name. */

@@ -173,8 +173,8 @@ static void dt_crit_check(void)
       for (e = 0; e < m->nelem; e++) {
         double Ke[MO_ND_MAX * MO_ND_MAX], Me[MO_ND_MAX * MO_ND_MAX];
         int nd = m->nen * D;
-        mo_elem_stiffness(m, e, &sc->body[0].mat, Ke, &ctx);
-        mo_elem_mass(m, e, &sc->body[0].mat, 1, Me, &ctx);
+        mo_elem_stiffness(m, e, sc->body[0].mat, Ke, &ctx);
+        mo_elem_mass(m, e, sc->body[0].mat, 1, Me, &ctx);
         for (a = 0; a < nd; a++)
           for (b = 0; b < nd; b++) {
             int i = m->conn[e * m->nen + a / D] * D + a % D, j = m->conn[e * m->nen + b / D] * D + b % D;

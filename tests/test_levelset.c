@@ -435,7 +435,7 @@ static int patch_run(const char *const *sets, int nset, patch_result *P)
     int k, i;
     for (k = 0; k < 4; k++)
       for (i = 0; i < 2; i++) ue[2 * k + i] = R.s.u[B->dof0 + 2 * B->mesh->conn[4 * e + k] + i];
-    mo_elem_stress(B->mesh, e, &B->mat, ue, eps, sig);
+    mo_elem_stress(B->mesh, e, B->mat, ue, eps, sig);
     if (sig[1] < P->syy_min) P->syy_min = sig[1];
     if (sig[1] > P->syy_max) P->syy_max = sig[1];
   }

@@ -117,7 +117,7 @@ static int patch_run(int dim, int ns, int nm, const char *mult, const char *cons
       int nen = m->nen;
       for (k = 0; k < nen; k++)
         for (i = 0; i < D; i++) ue[D * k + i] = R.s.u[B->dof0 + D * m->conn[nen * e + k] + i];
-      mo_elem_stress(m, e, &B->mat, ue, eps, sig);
+      mo_elem_stress(m, e, B->mat, ue, eps, sig);
       if (fabs(sig[nrm] + p) / p > E->es) E->es = fabs(sig[nrm] + p) / p;
     }
   }

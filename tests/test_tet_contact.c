@@ -196,7 +196,7 @@ static void test_weighted_t4(void)
   fs = mo_mesh_find_facetset(sc->body[0].mesh, "zmin");
   for (f = 0; f < fs->n; f++) {
     double fe[3 * MO_FNODE_MAX]; /* the plane's push p along +z on the bottom */
-    mo_facet_load(sc->body[0].mesh, fs, f, &sc->body[0].mat, up_cb, &p, fe, &ctx);
+    mo_facet_load(sc->body[0].mesh, fs, f, sc->body[0].mat, up_cb, &p, fe, &ctx);
     for (a = 0; a < fs->nfn; a++) Fref[fs->node[f * fs->nfn + a] * 3 + 2] += fe[3 * a + 2];
   }
   for (i = 0; i < sc->ndof; i++) {

@@ -109,8 +109,19 @@ static int fit_set(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
 #define GROW(ptr, n) if (!(q = mo_realloc(ctx, ptr, (n) * sizeof *(ptr)))) return MO_ENOMEM; ptr = q
   if (nc > S->cap) {
     nc += nc / 2; /* sets grow a little at a time while grains settle */
-    GROW(S->diag, nc); GROW(S->act, nc); GROW(S->order, nc); GROW(S->scale, nc); GROW(S->mu, nc);
+    GROW(S->act, nc); GROW(S->order, nc); GROW(S->mu, nc);
     S->cap = nc;
+  }
+  /* W_aa's pointers and the scaling: the granular path reads them from its records */
+  if (S->grains) {
+    mo_free(S->diag);
+    mo_free(S->scale);
+    S->diag = NULL;
+    S->scale = NULL;
+    S->dcap = 0;
+  } else if (S->cap > S->dcap) {
+    GROW(S->diag, S->cap); GROW(S->scale, S->cap);
+    S->dcap = S->cap;
   }
   /* what the sweep on W keeps per contact (its rows, the statuses of the previous sweep), and the
      local solvers' data outside the records of the granular path */
@@ -124,8 +135,17 @@ static int fit_set(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
   }
   if (m > S->mcap) {
     m += m / 2;
-    GROW(S->rold, m);
     S->mcap = m;
+  }
+  /* the reactions before a sweep, for Jean's norms: the granular sweep on one rank sums their
+     parts as it goes (S->jp) */
+  if (S->grains && ctx->nranks <= 1) {
+    mo_free(S->rold);
+    S->rold = NULL;
+    S->rcap = 0;
+  } else if (S->mcap > S->rcap) {
+    GROW(S->rold, S->mcap);
+    S->rcap = S->mcap;
   }
   if (!S->grains && S->mcap > S->ucap) {
     GROW(S->Uown, S->mcap);
@@ -343,8 +363,16 @@ static void exact_U(nscd_state *S, const mo_contact_problem *P, const double *r,
 
 /* The natural-map residual over the active candidates: as the core computes it (T10), or of the
    problem whose local velocities are scaled contact by contact by 1 / W_aa,nn (T42). */
+static void natural_parts(const nscd_state *S, const int *list, int n, const double *r, int scaled, double *parts);
 static double residual(const nscd_state *S, const double *r, int scaled)
 {
+  if (scaled && !S->scale) { /* the granular path: the scaling from the records (the same sums) */
+    double parts[3], den = sqrt(S->qs2);
+    natural_parts(S, S->act, S->nact, r, 1, parts);
+    if (sqrt(parts[1]) > den) den = sqrt(parts[1]);
+    if (sqrt(parts[2]) > den) den = sqrt(parts[2]);
+    return den > 1e-300 ? sqrt(parts[0]) / den : sqrt(parts[0]);
+  }
   return mo_fc_natural_map_subset(S->d, S->nact, S->act, S->mu, scaled ? S->scale : NULL, r, S->U,
                                   sqrt(scaled ? S->qs2 : S->qn2));
 }
@@ -458,7 +486,7 @@ static void jean_parts(const nscd_state *S, const int *list, int n, const double
   double sdd = 0, swrr = 0, mx = 0;
   for (k = 0; k < n; k++) {
     int a = list[k];
-    const double *Waa = S->diag[a], *ra = r + a * d, *ro = rold + a * d;
+    const double *Waa = nscd_waa(S, a), *ra = r + a * d, *ro = rold + a * d;
     double dU2 = 0, rr = 0, wrr = 0;
     for (i = 0; i < d; i++) {
       double wi = 0, di = 0;
@@ -495,6 +523,14 @@ static void jean_norms(const nscd_state *S, const double *rold, const double *r,
   jean_from_parts(sdd, swrr, nact, mx, quad, maxm);
 }
 
+/* Jean's norms of the sweep just done: from the reactions kept before it, or the parts the
+   granular sweep summed (jwant). */
+static void sweep_jean(const nscd_state *S, const double *r, double *quad, double *maxm)
+{
+  if (S->jwant) jean_from_parts(S->jp[0], S->jp[1], S->jp[2], S->jp[3], quad, maxm);
+  else jean_norms(S, S->rold, r, quad, maxm);
+}
+
 /* The parts of the natural-map residual (T10) over list[0 .. n-1]: the units' sum, |r|^2, |U|^2
    (U scaled by (T42) when scaled). */
 static void natural_parts(const nscd_state *S, const int *list, int n, const double *r, int scaled, double *parts)
@@ -504,8 +540,8 @@ static void natural_parts(const nscd_state *S, const int *list, int n, const dou
   for (k = 0; k < n; k++) {
     int a = list[k];
     const double *ra = r + (size_t)a * d, *Ua = S->U + (size_t)a * d;
-    double Us[3];
-    for (i = 0; i < d; i++) Us[i] = scaled ? S->scale[a] * Ua[i] : Ua[i];
+    double Us[3], sa = scaled ? nscd_scale(S, a) : 1;
+    for (i = 0; i < d; i++) Us[i] = scaled ? sa * Ua[i] : Ua[i];
     parts[0] += mo_fc_natural_map_unit(d, S->mu[a], ra, Us);
     for (i = 0; i < d; i++) {
       parts[1] += ra[i] * ra[i];
@@ -631,11 +667,12 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
   }
   S->qn2 = S->qs2 = 0;
   for (k = 0; k < S->nact; k++) {
-    double q2 = 0;
+    double q2 = 0, sa;
     a = S->act[k];
     for (i = 0; i < d; i++) q2 += P->b[a * d + i] * P->b[a * d + i];
     S->qn2 += q2;
-    S->qs2 += S->scale[a] * S->scale[a] * q2;
+    sa = nscd_scale(S, a);
+    S->qs2 += sa * sa * q2;
   }
   for (k = 0; k < S->nact; k++) S->order[k] = S->act[p->order == NSCD_ORDER_REVERSE ? S->nact - 1 - k : k];
   if (p->order == NSCD_ORDER_SHUFFLED) gsl_ran_shuffle(&S->rng, S->order, (size_t)S->nact, sizeof(int));
@@ -675,9 +712,14 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
        than local_tol): early sweeps need no exact local solve, the last ones get it */
     if (res < HUGE_VAL) S->lp.local_tol = fmax(p->local_tol, fmin(1e-4, 1e-2 * res));
     /* the reactions before the sweep, for Jean's norms (T11): at every sweep for the rules that
-       stop on them and those that may stop at any sweep, before the last one for "sweeps" */
-    rold_at = p->stop != NSCD_STOP_SWEEPS || sweeps == p->max_sweeps - 1 ? sweeps : rold_at;
-    if (rold_at == sweeps) memcpy(S->rold, r, (size_t)m * sizeof *r);
+       stop on them and (but on the granular path) those that may stop at any sweep, before the
+       last one for "sweeps"; the granular sweep on one rank sums the norms' parts itself instead
+       (S->jwant) */
+    if (p->stop == NSCD_STOP_SWEEPS ? sweeps == p->max_sweeps - 1
+                                    : !(S->grains && (p->stop == NSCD_STOP_NATURAL || scaled)))
+      rold_at = sweeps;
+    S->jwant = rold_at == sweeps && S->grains && !S->par;
+    if (rold_at == sweeps && S->rold) memcpy(S->rold, r, (size_t)m * sizeof *r);
     if (S->par) {
       /* the sweep split over the ranks: its rule decided on every rank's contacts */
       int stop = 0;
@@ -743,7 +785,7 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
         for (k = 0; k < S->nact; k++) S->sprev[S->act[k]] = x->status[S->act[k]];
       }
     } else if (p->stop == NSCD_STOP_QUAD || p->stop == NSCD_STOP_MAXM) {
-      jean_norms(S, S->rold, r, &quad, &maxm);
+      sweep_jean(S, r, &quad, &maxm);
       if ((p->stop == NSCD_STOP_QUAD ? quad : maxm) <= p->tol) {
         conv = 1;
         break;
@@ -794,8 +836,9 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
   /* Jean's norms of the last sweep (the quad and maxm rules have them already) */
   if (S->par && (p->stop == NSCD_STOP_NATURAL || scaled)) quad = maxm = NAN; /* not summed over the ranks */
   else if (sweeps && !S->par && p->stop != NSCD_STOP_QUAD && p->stop != NSCD_STOP_MAXM) {
-    if (rold_at == sweeps - 1) jean_norms(S, S->rold, r, &quad, &maxm);
-    else quad = maxm = NAN; /* "sweeps" interrupted before its last sweep */
+    if (rold_at == sweeps - 1) sweep_jean(S, r, &quad, &maxm);
+    else quad = maxm = NAN; /* "sweeps" interrupted before its last sweep; the residual rules on the
+                               granular path */
   }
   rep->constraints = S->ai.tried ? S->ai.rows : -1;
   rep->redundant = S->ai.tried ? S->ai.rows - S->ai.rank : -1;
@@ -808,7 +851,7 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
   rep->quad = quad;
   rep->maxm = maxm;
   if (broke >= 0) {
-    const double *Waa = S->diag[broke];
+    const double *Waa = nscd_waa(S, broke);
     char nm[64];
     name_candidate(P, broke, nm, sizeof nm);
     rep->reason = MO_CR_BREAKDOWN;

@@ -104,7 +104,7 @@ typedef struct {
   int *rcnt;
   const int **rcol;
   const double **rval;
-  const double **diag;          /* W_aa */
+  const double **diag;          /* W_aa (NULL on the granular path: nscd_waa reads its record) */
   /* columns: the rows transposed (sym) or a transposed copy (W not symmetric), whose blocks
      are stored transposed (W_ba^T) like the rows' blocks W_ab = W_ba^T of a symmetric W */
   int sym;
@@ -113,6 +113,8 @@ typedef struct {
   size_t ccap, cpcap;
   size_t cap, mcap;             /* room of the per-contact arrays (contacts) and of U, rold (m) */
   size_t wcap, acap, ucap;      /* room of the sweep on W's arrays (rcnt, rcol, rval, sprev), of aux, of Uown */
+  size_t dcap, rcap;            /* room of diag and scale (contacts), of rold (m): not made on the
+                                   granular path (rold: on one rank) */
   double *aux;                  /* nc * NSCD_AUX: per-contact data of the local solvers */
   const mo_delassus *wsrc;      /* the W the cached data were built for, and its version */
   long wver;
@@ -120,8 +122,10 @@ typedef struct {
   double *U;                    /* U = W r + q kept up to date by the column updates: Uown, or on the
                                    granular path the caller's array of the solve */
   double *Uown;
-  double *rold;                 /* m: the reactions at the start of the sweep (Jean's norms) */
-  double *scale;                /* nc: 1 / W_aa,nn, the scaling of (T42) (0 when W_nn = 0) */
+  double *rold;                 /* m: the reactions at the start of the sweep (Jean's norms); not on the
+                                   granular path on one rank, whose sweep sums Jean's parts itself */
+  double *scale;                /* nc: 1 / W_aa,nn, the scaling of (T42) (0 when W_nn = 0); NULL on the
+                                   granular path (nscd_scale computes it from the record's W_aa) */
   double *mu;                   /* nc: friction coefficients, 0 where no free dof moves the
                                    contact tangentially (W_tt = 0, e.g. on a symmetry axis: its
                                    friction impulse acts on nothing, any r_t in the cone would do) */
@@ -182,6 +186,13 @@ typedef struct {
   const double *gi;             /* the one the sweep reads (giv or dinv), indexed by free dof */
   long givver;                  /* the What^-1 version giv was taken from */
   size_t gcap, gvcap;
+  const char *gw;               /* the first record's W_aa, and the records' size: nscd_waa */
+  size_t gstride;
+  /* Jean's norms (T11) of a sweep on the granular path, summed by the sweep itself when jwant (the
+     reactions before it are not kept): sum |dU|^2 |r|^2, sum (W r).r, the contacts with a reaction,
+     the largest |dU| |r| (jean_parts in nscd.c) */
+  int jwant;
+  double jp[4];
   /* the granular path over MPI ranks (nscd_grains.c, doc/parallel.md §4): each rank sweeps the
      contacts of its slab of space (`own`, in the sweep's order: `oorder`), the velocities of the
      bodies that contacts of several ranks touch (`ifc`, their first velocity in vb) are summed
@@ -198,6 +209,20 @@ typedef struct {
   size_t pcap, pncap, pbcap;
   long par_sweeps;              /* sweeps synchronized, for the run's log */
 } nscd_state;
+
+/* W_aa of contact a, and its scaling 1 / W_aa,nn of (T42) (0 when W_aa,nn = 0; the granular path
+   computes it from its record: the same division, the same value). */
+static inline const double *nscd_waa(const nscd_state *S, int a)
+{
+  return S->grains ? (const double *)(const void *)(S->gw + (size_t)a * S->gstride) : S->diag[a];
+}
+static inline double nscd_scale(const nscd_state *S, int a)
+{
+  const double *w;
+  if (S->scale) return S->scale[a];
+  w = nscd_waa(S, a);
+  return w[0] > 0 ? 1 / w[0] : 0;
+}
 
 /* The local data of every contact from its diagonal block S->diag[a] and mu: the friction kept
    where a free dof moves the contact tangentially, the local solvers' data, the scaling (T42). */

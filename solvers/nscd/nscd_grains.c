@@ -171,9 +171,8 @@ KERNEL void prepare_d(nscd_state *S, const mo_contact_problem *P, const int d)
         for (k = 0; k < NK(d); k++) ca[i] -= G[i * NK(d) + k] * P->xfree[o + k];
       }
     }
-    S->diag[a] = Waa;
-    if (!act) { /* out of the step's problem: its U only (r = 0), no local data */
-      S->mu[a] = S->scale[a] = 0;
+    if (!act) { /* out of the step's problem: its U only (r = 0), no local data; W_aa = 0 (its scaling 0) */
+      S->mu[a] = 0;
       continue;
     }
     /* nscd_prepare_local: friction where a free dof moves the contact tangentially, the local
@@ -185,7 +184,6 @@ KERNEL void prepare_d(nscd_state *S, const mo_contact_problem *P, const int d)
       nscd_local_prepare(d, Waa, S->mu[a], aux);
       memcpy(R_AUX(rec, d), aux, NAUX(d) * sizeof *aux);
     }
-    S->scale[a] = Waa[0] > 0 ? 1 / Waa[0] : 0;
   }
 }
 
@@ -195,6 +193,8 @@ int nscd_grains_prepare(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
   if (S->d != 2 && S->d != 3)
     return mo_error(ctx, MO_EINTERNAL, "nscd: granular contacts in dimension %d", S->d);
   if ((st = reserve(S, P->nfree, ctx)) || (st = inverse_diagonal(S, P->Wi, P->nfree, ctx))) return st;
+  S->gw = REC(S, 0, S->d) + OFF_W(S->d); /* nscd_waa */
+  S->gstride = RECSZ(S->d);
   if (S->d == 2) prepare_d(S, P, 2);
   else prepare_d(S, P, 3);
   return MO_OK;
@@ -286,10 +286,34 @@ void nscd_grains_exact_U(nscd_state *S, const mo_contact_problem *P)
     for (a = 0; a < S->nc; a++) local_U(S, P, REC(S, a, 3), a, S->U + (size_t)a * 3, 3);
 }
 
+/* Contact a's terms of Jean's norms (T11) after its update dr (r_a now holds the new reaction):
+   those of jean_parts (nscd.c) with r_a - rold_a = dr, in the same operations. */
+KERNEL void jean_add(const int d, const double *Waa, const double *ra, const double *dr, double *jp)
+{
+  int i, j;
+  double dU2 = 0, rr = 0, wrr = 0;
+  for (i = 0; i < d; i++) {
+    double wi = 0, di = 0;
+    for (j = 0; j < d; j++) {
+      di += Waa[i * d + j] * dr[j];
+      wi += Waa[i * d + j] * ra[j];
+    }
+    dU2 += di * di;
+    rr += ra[i] * ra[i];
+    wrr += wi * ra[i];
+  }
+  if (rr > 0) jp[2]++;
+  jp[0] += dU2 * rr;
+  jp[1] += wrr;
+  if (sqrt(dU2 * rr) > jp[3]) jp[3] = sqrt(dU2 * rr);
+}
+
 KERNEL int sweep_d(nscd_state *S, const mo_contact_problem *P, double *r, int *status, const int *order, int n,
                    const int d)
 {
   const double omega = S->p.relax, *mu = S->mu;
+  const int jw = S->jwant;
+  double jp[4] = {0, 0, 0, 0};
   int k, i, j;
   for (k = 0; k < n; k++) {
     const int a = order[k];
@@ -317,7 +341,10 @@ KERNEL int sweep_d(nscd_state *S, const mo_contact_problem *P, double *r, int *s
       push(S, P, rec, a, dr, d);
       for (i = 0; i < d; i++) ra[i] = rl[i];
     }
+    /* a contact is updated once a sweep: r_a - rold_a is dr (0 when nz is 0) */
+    if (jw) jean_add(d, Waa, ra, dr, jp);
   }
+  if (jw) memcpy(S->jp, jp, sizeof jp);
   /* over the ranks, U waits for the interface velocities of the other ranks (nscd_grains_owned_U) */
   if (!S->par && (S->p.stop == NSCD_STOP_SCALED || S->p.stop == NSCD_STOP_NATURAL))
     for (k = 0; k < S->nact; k++) {

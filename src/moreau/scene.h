@@ -27,10 +27,11 @@ typedef struct mo_body {
   char *name;
   char *group;          /* the entry that generated it with others (an arch's voussoirs), or NULL */
   int entry;            /* its entry in the case's bodies list */
-  mo_body_kind kind;    /* (the int-sized fields in pairs: no padding, 296 bytes a body) */
+  mo_body_kind kind;    /* (the int-sized fields in pairs: no padding, 232 bytes a body) */
   const struct mo_body_type *type;
   mo_mesh *mesh;        /* deformable and rigid-mesh bodies */
-  mo_material mat;
+  mo_material *mat;     /* bodies with a mesh (deformable, rigid mesh; owned), NULL for shapes and
+                           planes: 64 bytes a grain less */
   int lumped;           /* lumped mass */
   /* finite-strain bodies (material models hencky and j2, moreau/material.h): their internal
      forces and tangents come from the kernels of fe_nonlinear.c, not from the scene's K */
