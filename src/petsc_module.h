@@ -14,7 +14,7 @@
 #include <moreau/sparse.h>
 
 /* Raised whenever a member changes meaning or position. */
-#define MO_PETSC_ABI 1
+#define MO_PETSC_ABI 2
 #define MO_PETSC_SYMBOL "mo_petsc_module_v1"
 #define MO_PETSC_MODULE_NAME "moreau_petsc.so"
 
@@ -42,6 +42,24 @@ typedef struct mo_petsc_module {
   /* (status, -rank) pairs reduced by MAXLOC, then the failing rank's message to every rank. */
   int (*agree)(int st, mo_ctx *ctx);
   const mo_linsolver_type *linsolver;
+  /* A distributed n x n matrix assembled from element blocks (doc/parallel.md §3): dof k is
+     PETSc's row and column perm[k] (NULL: k), this rank owns the rows rstart .. rend-1; every
+     index passed in or out is a dof (perm applied inside). Two passes over the same elements: dmat_add with the pattern
+     (values ignored), dmat_assemble (the matrix preallocated exactly from that pattern, the
+     off-rank rows exchanged), dmat_add with the values (ADD_VALUES: off-rank rows through PETSc's
+     stash), dmat_assemble. Every call but dmat_add and dmat_row is collective. */
+  int (*dmat_create)(int n, int rstart, int rend, const int *perm, void **A, mo_ctx *ctx);
+  int (*dmat_add)(void *A, int nd, const int *dofs, const double *Ae, mo_ctx *ctx);
+  int (*dmat_assemble)(void *A, mo_ctx *ctx);
+  /* y = A x, x and y whole on every rank (x's owned rows in, y gathered to every rank). */
+  int (*dmat_mult)(void *A, const double *x, double *y, mo_ctx *ctx);
+  /* The row of dof `row` (owned): its nonzeros' columns (dofs) and values (at most cap), their
+     count in *nz. */
+  int (*dmat_row)(void *A, int row, int cap, int *nz, int *cols, double *vals, mo_ctx *ctx);
+  /* Entries stored on this rank (its rows'), and the element entries it sent to other ranks'
+     rows in the values' pass (through the stash). */
+  void (*dmat_counts)(void *A, long *nnz, long *sent);
+  void (*dmat_free)(void *A);
 } mo_petsc_module;
 
 #endif
