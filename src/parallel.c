@@ -212,7 +212,8 @@ struct mo_dmat {
   void *h;
 };
 
-int mo_dmat_create(int n, int rstart, int rend, const int *perm, mo_dmat **A, mo_ctx *ctx)
+int mo_dmat_create(int n, int rstart, int rend, const int *perm, const int *dnnz, const int *onnz, mo_dmat **A,
+                   mo_ctx *ctx)
 {
 #ifdef HAVE_PETSC
   mo_dmat *D;
@@ -222,7 +223,7 @@ int mo_dmat_create(int n, int rstart, int rend, const int *perm, mo_dmat **A, mo
     return mo_error(ctx, MO_EUNSUPPORTED, "a distributed matrix needs MPI started (mo_parallel_start)");
   if (!(D = mo_calloc(ctx, 1, sizeof *D))) return MO_ENOMEM;
   D->module = ctx->par_module;
-  if ((st = MODULE(ctx)->dmat_create(n, rstart, rend, perm, &D->h, ctx))) {
+  if ((st = MODULE(ctx)->dmat_create(n, rstart, rend, perm, dnnz, onnz, &D->h, ctx))) {
     MODULE(ctx)->dmat_free(D->h);
     mo_free(D);
     return st;
@@ -234,6 +235,8 @@ int mo_dmat_create(int n, int rstart, int rend, const int *perm, mo_dmat **A, mo
   (void)rstart;
   (void)rend;
   (void)perm;
+  (void)dnnz;
+  (void)onnz;
   *A = NULL;
   return mo_error(ctx, MO_EUNSUPPORTED, "this build of moreau has no PETSc: configure it --with-petsc "
                   "(Debian: apt-get install petsc-dev openmpi-bin)");
@@ -284,11 +287,11 @@ int mo_dmat_row(mo_dmat *A, int row, int cap, int *nz, int *cols, double *vals, 
 #endif
 }
 
-void mo_dmat_counts(const mo_dmat *A, long *nnz, long *sent)
+void mo_dmat_counts(const mo_dmat *A, long *nnz, long *allocated, long *sent)
 {
-  *nnz = *sent = 0;
+  *nnz = *allocated = *sent = 0;
 #ifdef HAVE_PETSC
-  if (A) DMOD(A)->dmat_counts(A->h, nnz, sent);
+  if (A) DMOD(A)->dmat_counts(A->h, nnz, allocated, sent);
 #else
   (void)A;
 #endif

@@ -2,7 +2,7 @@
    (doc/parallel.md §3). Each rank computes the element matrices of its block of elements and
    owns the rows of the dofs its block reaches first, so that most element entries land in its
    own rows; the others go to their ranks through PETSc's stash. The rows are preallocated
-   exactly from a first pass over the same blocks' connectivity. */
+   exactly from a pass over the connectivity of every element that reaches them. */
 #include "config.h"
 #include <moreau/parallel.h>
 #include <moreau/scene.h>
@@ -80,11 +80,100 @@ static int row_order(const mo_scene *sc, long nel, int *start, int *perm, mo_ctx
   return MO_OK;
 }
 
-/* One pass over this rank's elements: the pattern (values NULL: zeros) or the values. */
-static int add_elements(const mo_scene *sc, long lo, long hi, int with_mass, mo_dist_assembly *A, int values,
-                        double *inrows, mo_ctx *ctx)
+/* The entries of this rank's rows of K and M (in and out of its diagonal block), from the
+   connectivity of every element that reaches them: a node's rows couple every dof of the nodes it
+   shares an element with (a lumped mass: its own dof only; finite-strain bodies: no constant
+   stiffness). Per body, the elements of each node (a count, then a fill), and a stamp per node. */
+static int count_rows(const mo_scene *sc, const mo_dist_assembly *A, int with_mass, int *dk, int *ok, int *dm,
+                      int *om, mo_ctx *ctx)
 {
-  static const double zero[MO_ND_MAX * MO_ND_MAX];
+  int b, D = sc->dim, nloc = A->rend - A->rstart;
+  memset(dk, 0, (size_t)nloc * sizeof *dk);
+  memset(ok, 0, (size_t)nloc * sizeof *ok);
+  if (with_mass) {
+    memset(dm, 0, (size_t)nloc * sizeof *dm);
+    memset(om, 0, (size_t)nloc * sizeof *om);
+  }
+  for (b = 0; b < sc->nbody; b++) {
+    const mo_body *B = &sc->body[b];
+    const mo_mesh *m = B->mesh;
+    int *ptr, *elem, *stamp, a, e, k, p, c;
+    if (B->kind != MO_BODY_DEFORMABLE) continue;
+    ptr = mo_calloc(ctx, (size_t)m->nnode + 1, sizeof *ptr);
+    elem = mo_malloc(ctx, ((size_t)m->nelem * m->nen + 1) * sizeof *elem);
+    stamp = mo_malloc(ctx, ((size_t)m->nnode + 1) * sizeof *stamp);
+    if (!ptr || !elem || !stamp) {
+      mo_free(ptr);
+      mo_free(elem);
+      mo_free(stamp);
+      return MO_ENOMEM;
+    }
+    for (k = 0; k < m->nelem * m->nen; k++) ptr[m->conn[k] + 1]++;
+    for (a = 0; a < m->nnode; a++) {
+      ptr[a + 1] += ptr[a];
+      stamp[a] = -1;
+    }
+    for (e = 0; e < m->nelem; e++)
+      for (k = 0; k < m->nen; k++) elem[ptr[m->conn[e * m->nen + k]]++] = e;
+    for (a = m->nnode; a > 0; a--) ptr[a] = ptr[a - 1];
+    ptr[0] = 0;
+    for (a = 0; a < m->nnode; a++) {
+      int row = A->row[B->dof0 + a * D] - A->rstart, in = 0, out = 0;
+      if (row < 0 || row >= nloc) continue;
+      for (p = ptr[a]; p < ptr[a + 1]; p++)
+        for (k = 0; k < m->nen; k++) {
+          int q = m->conn[elem[p] * m->nen + k], r = A->row[B->dof0 + q * D];
+          if (stamp[q] == a) continue;
+          stamp[q] = a;
+          if (r >= A->rstart && r < A->rend) in += D;
+          else out += D;
+        }
+      for (c = 0; c < D; c++) {
+        int i = A->row[B->dof0 + a * D + c] - A->rstart;
+        if (!B->nl) {
+          dk[i] = in;
+          ok[i] = out;
+        }
+        /* a consistent mass couples a dof with the same component of its neighbours only */
+        if (with_mass) {
+          dm[i] = B->lumped ? 1 : in / D;
+          om[i] = B->lumped ? 0 : out / D;
+        }
+      }
+    }
+    mo_free(ptr);
+    mo_free(elem);
+    mo_free(stamp);
+  }
+  return MO_OK;
+}
+
+/* An element's mass into M: a lumped mass its diagonal, a consistent one a block per component
+   (m_ab I: the entries between components are zeros), as the rows were counted. */
+static int add_mass(mo_dmat *M, int D, int nd, const int *dofs, const double *Me, int lumped, mo_ctx *ctx)
+{
+  int nen = nd / D, a, b, c, k, st, sub[MO_NEN_MAX];
+  double Mc[MO_NEN_MAX * MO_NEN_MAX];
+  if (lumped) {
+    for (k = 0; k < nd; k++)
+      if ((st = mo_dmat_add(M, 1, dofs + k, Me + k * nd + k, ctx))) return st;
+    return MO_OK;
+  }
+  for (c = 0; c < D; c++) {
+    for (a = 0; a < nen; a++) {
+      sub[a] = dofs[a * D + c];
+      for (b = 0; b < nen; b++) Mc[b * nen + a] = Me[(b * D + c) * nd + a * D + c];
+    }
+    if ((st = mo_dmat_add(M, nen, sub, Mc, ctx))) return st;
+  }
+  return MO_OK;
+}
+
+/* This rank's elements into K and M (K's blocks whole, their zeros included: the entries of
+   the pattern counted above). */
+static int add_elements(const mo_scene *sc, long lo, long hi, int with_mass, mo_dist_assembly *A, double *inrows,
+                        mo_ctx *ctx)
+{
   double Ke[MO_ND_MAX * MO_ND_MAX], Me[MO_ND_MAX * MO_ND_MAX];
   int b, e, k, st, dofs[MO_ND_MAX];
   long g = 0;
@@ -96,21 +185,16 @@ static int add_elements(const mo_scene *sc, long lo, long hi, int with_mass, mo_
     for (e = 0; e < ne; e++, g++) {
       int nd;
       if (g < lo || g >= hi) continue;
-      nd = element_dofs(sc, B, e, dofs);
-      if (!values) {
-        /* finite-strain bodies have no constant stiffness (scene.c's assemble) */
-        if (!B->nl && (st = mo_dmat_add(A->K, nd, dofs, zero, ctx))) return st;
-        if (with_mass && (st = mo_dmat_add(A->M, nd, dofs, zero, ctx))) return st;
-        for (k = 0; k < nd; k++) inrows[A->row[dofs[k]] >= A->rstart && A->row[dofs[k]] < A->rend]++;
-        continue;
-      }
       if (!(e & 0xffff) && MO_INTERRUPTED(ctx))
         return mo_error(ctx, MO_EINTERRUPT, "interrupted while assembling body '%s' (element %d of %d)", B->name, e, ne);
+      nd = element_dofs(sc, B, e, dofs);
+      for (k = 0; k < nd; k++) inrows[A->row[dofs[k]] >= A->rstart && A->row[dofs[k]] < A->rend]++;
+      /* finite-strain bodies have no constant stiffness (scene.c's assemble) */
       if (!B->nl && ((st = mo_elem_stiffness(B->mesh, e, &B->mat, Ke, ctx)) ||
                      (st = mo_dmat_add(A->K, nd, dofs, Ke, ctx))))
         return st;
       if (with_mass && ((st = mo_elem_mass(B->mesh, e, &B->mat, B->lumped, Me, ctx)) ||
-                        (st = mo_dmat_add(A->M, nd, dofs, Me, ctx))))
+                        (st = add_mass(A->M, sc->dim, nd, dofs, Me, B->lumped, ctx))))
         return st;
     }
   }
@@ -120,37 +204,42 @@ static int add_elements(const mo_scene *sc, long lo, long hi, int with_mass, mo_
 int mo_scene_assemble_distributed(const mo_scene *sc, int with_mass, mo_dist_assembly *out, mo_ctx *ctx)
 {
   long nel = count_elements(sc), q, m, lo, hi;
-  int *start = NULL, st, agreed;
+  int *start = NULL, *nz = NULL, st, nloc = 0;
   double t0 = mo_clock(), inrows[2] = {0, 0};
   memset(out, 0, sizeof *out);
-  if (!(start = mo_malloc(ctx, ((size_t)ctx->nranks + 1) * sizeof *start))) return mo_par_agree(MO_ENOMEM, ctx);
   q = nel / ctx->nranks;
   m = nel % ctx->nranks;
   lo = ctx->rank * q + (ctx->rank < m ? ctx->rank : m);
   hi = lo + q + (ctx->rank < m);
-  if (!(out->row = mo_malloc(ctx, ((size_t)sc->ndof + 1) * sizeof *out->row))) st = MO_ENOMEM;
-  else st = row_order(sc, nel, start, out->row, ctx);
+  if (!(start = mo_malloc(ctx, ((size_t)ctx->nranks + 1) * sizeof *start)) ||
+      !(out->row = mo_malloc(ctx, ((size_t)sc->ndof + 1) * sizeof *out->row)))
+    st = MO_ENOMEM;
+  else
+    st = row_order(sc, nel, start, out->row, ctx);
+  if (!st) {
+    out->rstart = start[ctx->rank];
+    out->rend = start[ctx->rank + 1];
+    out->elements = hi - lo;
+    nloc = out->rend - out->rstart;
+    if (!(nz = mo_malloc(ctx, (4 * (size_t)nloc + 1) * sizeof *nz))) st = MO_ENOMEM;
+  }
+  if (!st) st = count_rows(sc, out, with_mass, nz, nz + nloc, nz + 2 * nloc, nz + 3 * nloc, ctx);
   /* a rank that failed alone must not leave the others in the collective calls below */
   if ((st = mo_par_agree(st, ctx))) goto done;
-  out->rstart = start[ctx->rank];
-  out->rend = start[ctx->rank + 1];
-  out->elements = hi - lo;
-  st = mo_dmat_create(sc->ndof, out->rstart, out->rend, out->row, &out->K, ctx);
-  if (!st && with_mass) st = mo_dmat_create(sc->ndof, out->rstart, out->rend, out->row, &out->M, ctx);
-  if (!st) st = add_elements(sc, lo, hi, with_mass, out, 0, inrows, ctx);
-  if ((st = mo_par_agree(st, ctx))) goto done;
-  if ((st = mo_dmat_assemble(out->K, ctx)) || (with_mass && (st = mo_dmat_assemble(out->M, ctx)))) goto done;
-  st = add_elements(sc, lo, hi, with_mass, out, 1, inrows, ctx);
+  st = mo_dmat_create(sc->ndof, out->rstart, out->rend, out->row, nz, nz + nloc, &out->K, ctx);
+  if (!st && with_mass) st = mo_dmat_create(sc->ndof, out->rstart, out->rend, out->row, nz + 2 * nloc, nz + 3 * nloc,
+                                            &out->M, ctx);
+  if (!st) st = add_elements(sc, lo, hi, with_mass, out, inrows, ctx);
   if ((st = mo_par_agree(st, ctx))) goto done;
   if ((st = mo_dmat_assemble(out->K, ctx)) || (with_mass && (st = mo_dmat_assemble(out->M, ctx)))) goto done;
   out->seconds = mo_clock() - t0;
   if ((st = mo_par_sum(inrows, 2, ctx))) goto done;
   out->local = inrows[0] + inrows[1] > 0 ? inrows[1] / (inrows[0] + inrows[1]) : 1;
 done:
-  agreed = st;
   mo_free(start);
-  if (agreed) mo_dist_assembly_free(out);
-  return agreed;
+  mo_free(nz);
+  if (st) mo_dist_assembly_free(out);
+  return st;
 }
 
 void mo_dist_assembly_free(mo_dist_assembly *a)

@@ -435,8 +435,7 @@ static const mo_linsolver_type petsc_type = {"petsc", 0, sizeof(petsc_state), pe
 /* --- a matrix assembled from element blocks (doc/parallel.md §3) -------------------------------- */
 
 typedef struct {
-  Mat pre;                  /* the pattern's pass: PETSc's preallocator */
-  Mat A;                    /* the values' pass, preallocated from pre */
+  Mat A;
   int n, rstart, rend;
   int *perm, *iperm;        /* dof -> PETSc's row, and back */
   Vec x, y, yall;           /* for dmat_mult: the owned rows of x and y, y whole */
@@ -448,7 +447,6 @@ static void dmat_free(void *h)
 {
   dmat *D = h;
   if (!D) return;
-  if (D->pre) MatDestroy(&D->pre);
   if (D->A) MatDestroy(&D->A);
   if (D->x) VecDestroy(&D->x);
   if (D->y) VecDestroy(&D->y);
@@ -459,10 +457,12 @@ static void dmat_free(void *h)
   mo_free(D);
 }
 
-static int dmat_create(int n, int rstart, int rend, const int *perm, void **h, mo_ctx *ctx)
+static int dmat_create(int n, int rstart, int rend, const int *perm, const int *dnnz, const int *onnz, void **h,
+                       mo_ctx *ctx)
 {
   dmat *D;
-  PetscInt nloc = rend - rstart;
+  PetscInt nloc = rend - rstart, *dn, *on;
+  PetscErrorCode e;
   int k;
   *h = NULL;
   if (!(D = mo_calloc(ctx, 1, sizeof *D))) return MO_ENOMEM;
@@ -480,47 +480,62 @@ static int dmat_create(int n, int rstart, int rend, const int *perm, void **h, m
     D->perm[k] = r;
     D->iperm[r] = k;
   }
-  P(MatCreate(PETSC_COMM_WORLD, &D->pre));
-  P(MatSetSizes(D->pre, nloc, nloc, n, n));
-  P(MatSetType(D->pre, MATPREALLOCATOR));
-  P(MatSetUp(D->pre));
+  P(MatCreate(PETSC_COMM_WORLD, &D->A));
+  P(MatSetSizes(D->A, nloc, nloc, n, n));
+  P(MatSetType(D->A, MATAIJ));
+  /* d_nnz and o_nnz of every owned row, counted by the caller from the connectivity */
+  dn = mo_malloc(ctx, ((size_t)nloc + 1) * sizeof *dn);
+  on = mo_malloc(ctx, ((size_t)nloc + 1) * sizeof *on);
+  if (!dn || !on) {
+    mo_free(dn);
+    mo_free(on);
+    return MO_ENOMEM;
+  }
+  for (k = 0; k < nloc; k++) {
+    dn[k] = dnnz[k];
+    on[k] = onnz[k];
+  }
+  e = MatSeqAIJSetPreallocation(D->A, 0, dn);
+  if (!e) e = MatMPIAIJSetPreallocation(D->A, 0, dn, 0, on);
+  mo_free(dn);
+  mo_free(on);
+  if (e) return petsc_fail(ctx, e, "MatMPIAIJSetPreallocation");
+  P(MatSetOption(D->A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));
   return MO_OK;
 }
 
 static int dmat_add(void *h, int nd, const int *dofs, const double *Ae, mo_ctx *ctx)
 {
   dmat *D = h;
-  PetscInt idx[MO_ND_MAX];
-  int k;
+  PetscInt idx[MO_ND_MAX], at[MO_ND_MAX];
+  PetscScalar v[MO_ND_MAX * MO_ND_MAX];
+  int i, j;
   if (nd > MO_ND_MAX) return mo_error(ctx, MO_EINTERNAL, "an element block of %d dofs (at most %d)", nd, MO_ND_MAX);
-  for (k = 0; k < nd; k++) idx[k] = D->perm[dofs[k]];
-  /* the preallocator reads the pattern only; the values' pass adds (ADD_VALUES: the rows of
-     other ranks go to PETSc's stash, sent at dmat_assemble) */
-  P(MatSetValues(D->A ? D->A : D->pre, nd, idx, nd, idx, Ae, ADD_VALUES));
+  /* the rows in increasing order (PETSc searches each row's columns from the last one found):
+     insertion sort of the element's dofs, the block permuted alike */
+  for (i = 0; i < nd; i++) {
+    PetscInt r = D->perm[dofs[i]];
+    for (j = i; j > 0 && idx[j - 1] > r; j--) {
+      idx[j] = idx[j - 1];
+      at[j] = at[j - 1];
+    }
+    idx[j] = r;
+    at[j] = i;
+  }
+  /* v row-major (PETSc's default), Ae column-major */
+  for (i = 0; i < nd; i++)
+    for (j = 0; j < nd; j++) v[i * nd + j] = Ae[at[j] * nd + at[i]];
+  /* ADD_VALUES: the rows of other ranks go to PETSc's stash, sent at dmat_assemble */
+  P(MatSetValues(D->A, nd, idx, nd, idx, v, ADD_VALUES));
   return MO_OK;
 }
 
 static int dmat_assemble(void *h, mo_ctx *ctx)
 {
   dmat *D = h;
-  if (!D->A) {
-    PetscInt nloc = D->rend - D->rstart;
-    P(MatAssemblyBegin(D->pre, MAT_FINAL_ASSEMBLY));
-    P(MatAssemblyEnd(D->pre, MAT_FINAL_ASSEMBLY));
-    P(MatCreate(PETSC_COMM_WORLD, &D->A));
-    P(MatSetSizes(D->A, nloc, nloc, D->n, D->n));
-    P(MatSetType(D->A, MATAIJ));
-    /* d_nnz and o_nnz of every owned row, exactly, from the pattern's pass */
-    P(MatPreallocatorPreallocate(D->pre, PETSC_TRUE, D->A));
-    P(MatDestroy(&D->pre));
-    P(MatSetOption(D->A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));
-    return MO_OK;
-  }
-  {
-    PetscInt ns = 0, nr = 0;
-    P(MatStashGetInfo(D->A, &ns, &nr, NULL, NULL));
-    D->sent = ns;
-  }
+  PetscInt ns = 0, nr = 0;
+  P(MatStashGetInfo(D->A, &ns, &nr, NULL, NULL));
+  D->sent = ns;
   P(MatAssemblyBegin(D->A, MAT_FINAL_ASSEMBLY));
   P(MatAssemblyEnd(D->A, MAT_FINAL_ASSEMBLY));
   P(MatCreateVecs(D->A, &D->x, &D->y));
@@ -565,12 +580,15 @@ static int dmat_row(void *h, int dof, int cap, int *nz, int *cols, double *vals,
                  : MO_OK;
 }
 
-static void dmat_counts(void *h, long *nnz, long *sent)
+static void dmat_counts(void *h, long *nnz, long *allocated, long *sent)
 {
   dmat *D = h;
   MatInfo info;
-  *nnz = 0;
-  if (D->A && !MatGetInfo(D->A, MAT_LOCAL, &info)) *nnz = (long)info.nz_used;
+  *nnz = *allocated = 0;
+  if (D->A && !MatGetInfo(D->A, MAT_LOCAL, &info)) {
+    *nnz = (long)info.nz_used;
+    *allocated = (long)info.nz_allocated;
+  }
   *sent = D->sent;
 }
 

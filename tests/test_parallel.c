@@ -170,6 +170,15 @@ static void distributed_checks(mo_ctx *ctx, const char *name, const mo_scene *pa
     if (e > dp) dp = e;
   }
   ok(agree_all(dp <= 1e-12, ctx), "%s: K x and M x on the distributed matrices equal one process's to %.1e", name, dp);
+  {
+    /* the preallocation counted from the connectivity: every entry preallocated is used */
+    long nk, ak, sk, nm, am, sm;
+    mo_dmat_counts(a.K, &nk, &ak, &sk);
+    mo_dmat_counts(a.M, &nm, &am, &sm);
+    ok(agree_all(nk == ak && nm == am && nk > 0, ctx),
+       "%s: rank %d's rows preallocated exactly: K %ld of %ld entries, M %ld of %ld (sent %ld and %ld)", name,
+       ctx->rank, nk, ak, nm, am, sk, sm);
+  }
   /* the rows: every dof once, about n / nranks each; the elements nelem / nranks each */
   for (r = 0; r < nr && r < 64; r++) rows[r] = ne[r] = 0;
   rows[ctx->rank] = a.rend - a.rstart;
@@ -195,17 +204,17 @@ done:
 
 /* A case's scene built over the ranks (each its block of elements, then the sums) and by this
    process alone (ctx.nranks 1: no collective call), K and M compared. */
-static void assembly_checks(mo_ctx *ctx, const char *name, const char *set)
+static void assembly_checks(mo_ctx *ctx, const char *name, const char *const *set)
 {
   const char *src = getenv("MOREAU_SRCDIR");
   char path[4096];
   mo_case *cs = NULL;
   mo_scene *par = NULL, *one = NULL;
-  int nr = ctx->nranks, st, r, b;
+  int nr = ctx->nranks, st, r, b, k;
   double dk = 1, dm = 0, tot = 0, lo = 1e300, hi = 0, n = 0;
   snprintf(path, sizeof path, "%s/cases/%s", src ? src : ".", name);
   st = mo_case_load(path, &cs, ctx);
-  if (!st && set) st = mo_case_set(cs, set, ctx);
+  for (k = 0; !st && set && set[k]; k++) st = mo_case_set(cs, set[k], ctx);
   if (!st) st = mo_case_validate(cs, ctx);
   if (!st) st = mo_scene_build(cs, &par, ctx);
   ctx->nranks = 1;
@@ -277,8 +286,15 @@ int main(int argc, char **argv)
   solver_checks(&ctx, "preonly", "cholesky", 1e-12);
   solver_checks(&ctx, "preonly", "lu", 1e-12);
   solver_checks(&ctx, "cg", "jacobi", 1e-9);
-  assembly_checks(&ctx, "rods-3d", NULL);
-  assembly_checks(&ctx, "box-on-plane", "bodies.box.mesh.elements=[7,6,5]");
+  {
+    static const char *const box[] = {"bodies.box.mesh.elements=[7,6,5]", NULL};
+    /* the box with a lumped mass (its diagonal only) */
+    static const char *const lumped[] = {"bodies.box.mesh.elements=[7,6,5]", "bodies.box.mass=\"lumped\"",
+                                         "time={scheme=\"theta\";dt=1e-4;steps=1;}", NULL};
+    assembly_checks(&ctx, "rods-3d", NULL);
+    assembly_checks(&ctx, "box-on-plane", box);
+    assembly_checks(&ctx, "box-on-plane", lumped);
+  }
   printf("1..%d\n", tap_n);
   mo_parallel_finish(&ctx);
   return tap_failed != 0;

@@ -42,21 +42,23 @@ int mo_par_agree(int st, mo_ctx *ctx);
 
 /* A matrix distributed by rows over the ranks (PETSc's MPIAIJ), assembled from element blocks
    (doc/parallel.md §3). Dof k is PETSc's row perm[k] (perm NULL: k); this rank owns PETSc's rows
-   rstart .. rend-1. Every index in and out of these calls is a dof. Two passes over the same
-   element blocks: mo_dmat_add with the pattern (the values are not read), mo_dmat_assemble (the
-   owned rows preallocated exactly), mo_dmat_add with the values (added; the rows of other ranks
-   are sent to them), mo_dmat_assemble. Collective but for mo_dmat_add and mo_dmat_row;
-   MO_EUNSUPPORTED without PETSc or before mo_parallel_start. */
+   rstart .. rend-1, preallocated with dnnz[i] entries in its diagonal block and onnz[i] outside
+   it (row rstart + i). Every index in and out of these calls is a dof. Element blocks are added
+   with mo_dmat_add (the rows of other ranks are sent to them), then mo_dmat_assemble. Collective
+   but for mo_dmat_add, mo_dmat_row and mo_dmat_counts; MO_EUNSUPPORTED without PETSc or before
+   mo_parallel_start. */
 typedef struct mo_dmat mo_dmat;
-int mo_dmat_create(int n, int rstart, int rend, const int *perm, mo_dmat **A, mo_ctx *ctx);
+int mo_dmat_create(int n, int rstart, int rend, const int *perm, const int *dnnz, const int *onnz, mo_dmat **A,
+                   mo_ctx *ctx);
 int mo_dmat_add(mo_dmat *A, int nd, const int *dofs, const double *Ae, mo_ctx *ctx);
 int mo_dmat_assemble(mo_dmat *A, mo_ctx *ctx);
 /* y = A x with x and y whole on every rank. */
 int mo_dmat_mult(mo_dmat *A, const double *x, double *y, mo_ctx *ctx);
 /* The row of an owned dof: its nonzeros' columns (dofs) and values (at most cap; *nz their count). */
 int mo_dmat_row(mo_dmat *A, int row, int cap, int *nz, int *cols, double *vals, mo_ctx *ctx);
-/* Entries stored on this rank, and element entries this rank sent to other ranks' rows. */
-void mo_dmat_counts(const mo_dmat *A, long *nnz, long *sent);
+/* Entries stored on this rank, entries preallocated, and element entries this rank sent to other
+   ranks' rows. */
+void mo_dmat_counts(const mo_dmat *A, long *nnz, long *allocated, long *sent);
 void mo_dmat_free(mo_dmat *A);
 
 /* K and M of a scene's deformable bodies assembled over the ranks straight into distributed
