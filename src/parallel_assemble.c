@@ -229,7 +229,8 @@ int mo_scene_assemble_distributed(const mo_scene *sc, int with_mass, mo_dist_ass
   st = mo_dmat_create(sc->ndof, out->rstart, out->rend, out->row, nz, nz + nloc, &out->K, ctx);
   if (!st && with_mass) st = mo_dmat_create(sc->ndof, out->rstart, out->rend, out->row, nz + 2 * nloc, nz + 3 * nloc,
                                             &out->M, ctx);
-  if (!st) st = add_elements(sc, lo, hi, with_mass, out, inrows, ctx);
+  if ((st = mo_par_agree(st, ctx))) goto done;
+  st = add_elements(sc, lo, hi, with_mass, out, inrows, ctx);
   if ((st = mo_par_agree(st, ctx))) goto done;
   if ((st = mo_dmat_assemble(out->K, ctx)) || (with_mass && (st = mo_dmat_assemble(out->M, ctx)))) goto done;
   out->seconds = mo_clock() - t0;
