@@ -12,6 +12,13 @@
 # ranks; weak: a scene NP times larger on NP ranks.
 #
 #   bench/mpi_scaling.sh [--np 2] [--steps 11] [--moreau build/moreau] [--out DIR] [SCENE...]
+#   bench/mpi_scaling.sh --assembly [--np 2] [box:N ...]
+#
+# --assembly: K and M of each box on 1 and NP ranks, the scene's assembly (each rank its block of
+# elements, then the sums: K and M whole on every rank) against the distributed one (each rank its
+# elements straight into PETSc's matrices, its own rows only; doc/parallel.md §3), by
+# bench/dist_assembly.c (built here with cc against the build's libmoreau): the slowest rank's
+# seconds, the largest rank's bytes of K and M, the entries a rank stores and sends.
 #
 # SCENE: box:N (the H8 cube of bench/box_scaling.sh, N^3 elements, theta = 1, dt = 1e-4) or
 # pile:N (cases/disk-pile with N grains, h = 1 ms). Default: box:14 box:18 box:21 pile:1000 pile:2000.
@@ -23,6 +30,7 @@ here=$(cd "$(dirname "$0")" && pwd)
 root=$(dirname "$here")
 np=2
 steps=11
+assembly=0
 moreau="$root/build/moreau"
 out=""
 scenes=""
@@ -32,7 +40,8 @@ while [ $# -gt 0 ]; do
   --steps) steps=$2; shift ;;
   --moreau) moreau=$2; shift ;;
   --out) out=$2; shift ;;
-  -h|--help) sed -n '2,21p' "$0"; exit 0 ;;
+  --assembly) assembly=1 ;;
+  -h|--help) sed -n '2,28p' "$0"; exit 0 ;;
   box:*|pile:*) scenes="$scenes $1" ;;
   *) echo "mpi_scaling.sh: unknown argument '$1' (--help)" >&2; exit 2 ;;
   esac
@@ -74,6 +83,24 @@ EOF
     echo "$root/cases/disk-pile --set bodies.grains.pack.count=$n --set time.end=$(awk "BEGIN{print $2 * 1e-3}") --set output.vtk.every=1000000 --set output.draw.frames=1 --set output.draw.gif=false"
   fi
 }
+
+if [ "$assembly" = 1 ]; then
+  lib=$(dirname "$moreau")/.libs
+  cc -O2 -I "$root/src" -I "$(dirname "$moreau")" "$root/bench/dist_assembly.c" -L "$lib" -lmoreau -o "$out/dist_assembly" ||
+    { echo "mpi_scaling.sh: bench/dist_assembly.c does not build" >&2; exit 2; }
+  printf '%-8s %5s %8s %14s %16s %16s %18s %12s %10s %8s %9s\n' scene ranks dofs "scene build s" "replicated K+M MB" \
+    "distributed s" "distributed K+M MB" "entries max" "sent max" "local" "rows max"
+  for scene in $scenes; do
+    case "$scene" in box:*) ;; *) continue ;; esac
+    for p in 1 $np; do
+      # shellcheck disable=SC2046
+      mpirun -np "$p" env LD_LIBRARY_PATH="$lib" "$out/dist_assembly" $(case_of "$scene" 1) > "$out/asm.log" 2>&1 ||
+        { echo "mpi_scaling.sh: $scene on $p ranks failed:" >&2; tail -3 "$out/asm.log" >&2; continue; }
+      awk -v s="$scene" '/^ranks/ { printf "%-8s %5s %8s %14s %16s %16s %18s %12s %10s %8s %9s\n", s, $2, $4, $6, $8, $10, $12, $14, $16, $18, $20 }' "$out/asm.log"
+    done
+  done
+  exit 0
+fi
 
 # one NAME NP SOLVER SCENE STEPS: a run, its summary and its message counts
 one() {

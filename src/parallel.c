@@ -204,3 +204,104 @@ int mo_par_agree(int st, mo_ctx *ctx)
   (void)ctx;
   return st;
 }
+
+/* --- distributed matrices (the module's, doc/parallel.md §3) ---------------------------------- */
+
+struct mo_dmat {
+  const void *module; /* the PETSc module that made it */
+  void *h;
+};
+
+int mo_dmat_create(int n, int rstart, int rend, const int *perm, const int *dnnz, const int *onnz, mo_dmat **A,
+                   mo_ctx *ctx)
+{
+#ifdef HAVE_PETSC
+  mo_dmat *D;
+  int st;
+  *A = NULL;
+  if (!mo_parallel_started(ctx))
+    return mo_error(ctx, MO_EUNSUPPORTED, "a distributed matrix needs MPI started (mo_parallel_start)");
+  if (!(D = mo_calloc(ctx, 1, sizeof *D))) return MO_ENOMEM;
+  D->module = ctx->par_module;
+  if ((st = MODULE(ctx)->dmat_create(n, rstart, rend, perm, dnnz, onnz, &D->h, ctx))) {
+    MODULE(ctx)->dmat_free(D->h);
+    mo_free(D);
+    return st;
+  }
+  *A = D;
+  return MO_OK;
+#else
+  (void)n;
+  (void)rstart;
+  (void)rend;
+  (void)perm;
+  (void)dnnz;
+  (void)onnz;
+  *A = NULL;
+  return mo_error(ctx, MO_EUNSUPPORTED, "this build of moreau has no PETSc: configure it --with-petsc "
+                  "(Debian: apt-get install petsc-dev openmpi-bin)");
+#endif
+}
+
+#ifdef HAVE_PETSC
+#define DMOD(A) ((const mo_petsc_module *)(A)->module)
+#endif
+
+int mo_dmat_add(mo_dmat *A, int nd, const int *dofs, const double *Ae, mo_ctx *ctx)
+{
+#ifdef HAVE_PETSC
+  return DMOD(A)->dmat_add(A->h, nd, dofs, Ae, ctx);
+#else
+  (void)A, (void)nd, (void)dofs, (void)Ae;
+  return mo_error(ctx, MO_EUNSUPPORTED, "no PETSc");
+#endif
+}
+
+int mo_dmat_assemble(mo_dmat *A, mo_ctx *ctx)
+{
+#ifdef HAVE_PETSC
+  return DMOD(A)->dmat_assemble(A->h, ctx);
+#else
+  (void)A;
+  return mo_error(ctx, MO_EUNSUPPORTED, "no PETSc");
+#endif
+}
+
+int mo_dmat_mult(mo_dmat *A, const double *x, double *y, mo_ctx *ctx)
+{
+#ifdef HAVE_PETSC
+  return DMOD(A)->dmat_mult(A->h, x, y, ctx);
+#else
+  (void)A, (void)x, (void)y;
+  return mo_error(ctx, MO_EUNSUPPORTED, "no PETSc");
+#endif
+}
+
+int mo_dmat_row(mo_dmat *A, int row, int cap, int *nz, int *cols, double *vals, mo_ctx *ctx)
+{
+#ifdef HAVE_PETSC
+  return DMOD(A)->dmat_row(A->h, row, cap, nz, cols, vals, ctx);
+#else
+  (void)A, (void)row, (void)cap, (void)nz, (void)cols, (void)vals;
+  return mo_error(ctx, MO_EUNSUPPORTED, "no PETSc");
+#endif
+}
+
+void mo_dmat_counts(const mo_dmat *A, long *nnz, long *allocated, long *sent)
+{
+  *nnz = *allocated = *sent = 0;
+#ifdef HAVE_PETSC
+  if (A) DMOD(A)->dmat_counts(A->h, nnz, allocated, sent);
+#else
+  (void)A;
+#endif
+}
+
+void mo_dmat_free(mo_dmat *A)
+{
+  if (!A) return;
+#ifdef HAVE_PETSC
+  DMOD(A)->dmat_free(A->h);
+#endif
+  mo_free(A);
+}

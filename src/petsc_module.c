@@ -3,6 +3,7 @@
    §2): the matrix distributed by rows, replicated right-hand sides in, replicated solutions out. */
 #include "config.h"
 #include "petsc_module.h"
+#include <moreau/mesh.h>
 
 #include <petscksp.h>
 #include <mpi.h>
@@ -431,7 +432,168 @@ static void petsc_free(void *state)
 static const mo_linsolver_type petsc_type = {"petsc", 0, sizeof(petsc_state), petsc_factor, petsc_solve,
                                              petsc_free, petsc_configure, NULL, NULL, NULL, NULL};
 
+/* --- a matrix assembled from element blocks (doc/parallel.md §3) -------------------------------- */
+
+typedef struct {
+  Mat A;
+  int n, rstart, rend;
+  int *perm, *iperm;        /* dof -> PETSc's row, and back */
+  Vec x, y, yall;           /* for dmat_mult: the owned rows of x and y, y whole */
+  VecScatter toall;
+  long sent;                /* entries stashed for other ranks in the values' pass */
+} dmat;
+
+static void dmat_free(void *h)
+{
+  dmat *D = h;
+  if (!D) return;
+  if (D->A) MatDestroy(&D->A);
+  if (D->x) VecDestroy(&D->x);
+  if (D->y) VecDestroy(&D->y);
+  if (D->yall) VecDestroy(&D->yall);
+  if (D->toall) VecScatterDestroy(&D->toall);
+  mo_free(D->perm);
+  mo_free(D->iperm);
+  mo_free(D);
+}
+
+static int dmat_create(int n, int rstart, int rend, const int *perm, const int *dnnz, const int *onnz, void **h,
+                       mo_ctx *ctx)
+{
+  dmat *D;
+  PetscInt nloc = rend - rstart, *dn, *on;
+  PetscErrorCode e;
+  int k;
+  *h = NULL;
+  if (!(D = mo_calloc(ctx, 1, sizeof *D))) return MO_ENOMEM;
+  *h = D;
+  D->n = n;
+  D->rstart = rstart;
+  D->rend = rend;
+  if (!(D->perm = mo_malloc(ctx, ((size_t)n + 1) * sizeof *D->perm)) ||
+      !(D->iperm = mo_malloc(ctx, ((size_t)n + 1) * sizeof *D->iperm)))
+    return MO_ENOMEM;
+  for (k = 0; k < n; k++) D->perm[k] = D->iperm[k] = -1;
+  for (k = 0; k < n; k++) {
+    int r = perm ? perm[k] : k;
+    if (r < 0 || r >= n || D->iperm[r] >= 0) return mo_error(ctx, MO_EINTERNAL, "the rows' order is not a permutation");
+    D->perm[k] = r;
+    D->iperm[r] = k;
+  }
+  P(MatCreate(PETSC_COMM_WORLD, &D->A));
+  P(MatSetSizes(D->A, nloc, nloc, n, n));
+  P(MatSetType(D->A, MATAIJ));
+  /* d_nnz and o_nnz of every owned row, counted by the caller from the connectivity */
+  dn = mo_malloc(ctx, ((size_t)nloc + 1) * sizeof *dn);
+  on = mo_malloc(ctx, ((size_t)nloc + 1) * sizeof *on);
+  if (!dn || !on) {
+    mo_free(dn);
+    mo_free(on);
+    return MO_ENOMEM;
+  }
+  for (k = 0; k < nloc; k++) {
+    dn[k] = dnnz[k];
+    on[k] = onnz[k];
+  }
+  e = MatSeqAIJSetPreallocation(D->A, 0, dn);
+  if (!e) e = MatMPIAIJSetPreallocation(D->A, 0, dn, 0, on);
+  mo_free(dn);
+  mo_free(on);
+  if (e) return petsc_fail(ctx, e, "MatMPIAIJSetPreallocation");
+  P(MatSetOption(D->A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));
+  return MO_OK;
+}
+
+static int dmat_add(void *h, int nd, const int *dofs, const double *Ae, mo_ctx *ctx)
+{
+  dmat *D = h;
+  PetscInt idx[MO_ND_MAX], at[MO_ND_MAX];
+  PetscScalar v[MO_ND_MAX * MO_ND_MAX];
+  int i, j;
+  if (nd > MO_ND_MAX) return mo_error(ctx, MO_EINTERNAL, "an element block of %d dofs (at most %d)", nd, MO_ND_MAX);
+  /* the rows in increasing order (PETSc searches each row's columns from the last one found):
+     insertion sort of the element's dofs, the block permuted alike */
+  for (i = 0; i < nd; i++) {
+    PetscInt r = D->perm[dofs[i]];
+    for (j = i; j > 0 && idx[j - 1] > r; j--) {
+      idx[j] = idx[j - 1];
+      at[j] = at[j - 1];
+    }
+    idx[j] = r;
+    at[j] = i;
+  }
+  /* v row-major (PETSc's default), Ae column-major */
+  for (i = 0; i < nd; i++)
+    for (j = 0; j < nd; j++) v[i * nd + j] = Ae[at[j] * nd + at[i]];
+  /* ADD_VALUES: the rows of other ranks go to PETSc's stash, sent at dmat_assemble */
+  P(MatSetValues(D->A, nd, idx, nd, idx, v, ADD_VALUES));
+  return MO_OK;
+}
+
+static int dmat_assemble(void *h, mo_ctx *ctx)
+{
+  dmat *D = h;
+  PetscInt ns = 0, nr = 0;
+  P(MatStashGetInfo(D->A, &ns, &nr, NULL, NULL));
+  D->sent = ns;
+  P(MatAssemblyBegin(D->A, MAT_FINAL_ASSEMBLY));
+  P(MatAssemblyEnd(D->A, MAT_FINAL_ASSEMBLY));
+  P(MatCreateVecs(D->A, &D->x, &D->y));
+  P(VecScatterCreateToAll(D->y, &D->toall, &D->yall));
+  return MO_OK;
+}
+
+static int dmat_mult(void *h, const double *x, double *y, mo_ctx *ctx)
+{
+  dmat *D = h;
+  PetscScalar *px;
+  const PetscScalar *py;
+  int k;
+  P(VecGetArray(D->x, &px));
+  for (k = D->rstart; k < D->rend; k++) px[k - D->rstart] = x[D->iperm[k]];
+  P(VecRestoreArray(D->x, &px));
+  P(MatMult(D->A, D->x, D->y));
+  P(VecScatterBegin(D->toall, D->y, D->yall, INSERT_VALUES, SCATTER_FORWARD));
+  P(VecScatterEnd(D->toall, D->y, D->yall, INSERT_VALUES, SCATTER_FORWARD));
+  P(VecGetArrayRead(D->yall, &py));
+  for (k = 0; k < D->n; k++) y[k] = py[D->perm[k]];
+  P(VecRestoreArrayRead(D->yall, &py));
+  return MO_OK;
+}
+
+static int dmat_row(void *h, int dof, int cap, int *nz, int *cols, double *vals, mo_ctx *ctx)
+{
+  dmat *D = h;
+  PetscInt m, k, row = dof >= 0 && dof < D->n ? D->perm[dof] : -1;
+  const PetscInt *c;
+  const PetscScalar *v;
+  if (row < D->rstart || row >= D->rend)
+    return mo_error(ctx, MO_EINTERNAL, "dof %d is not this rank's", dof);
+  P(MatGetRow(D->A, row, &m, &c, &v));
+  *nz = (int)m;
+  for (k = 0; k < m && k < cap; k++) {
+    cols[k] = D->iperm[c[k]];
+    vals[k] = v[k];
+  }
+  P(MatRestoreRow(D->A, row, &m, &c, &v));
+  return m > cap ? mo_error(ctx, MO_ELIMIT, "the row of dof %d has %d entries (room for %d)", dof, (int)m, cap)
+                 : MO_OK;
+}
+
+static void dmat_counts(void *h, long *nnz, long *allocated, long *sent)
+{
+  dmat *D = h;
+  MatInfo info;
+  *nnz = *allocated = 0;
+  if (D->A && !MatGetInfo(D->A, MAT_LOCAL, &info)) {
+    *nnz = (long)info.nz_used;
+    *allocated = (long)info.nz_allocated;
+  }
+  *sent = D->sent;
+}
+
 /* The module's one export (petsc_module.h). */
 extern const mo_petsc_module mo_petsc_module_v1;
 const mo_petsc_module mo_petsc_module_v1 = {MO_PETSC_ABI, PETSC_VERSION_GIT, start, started, finish, allreduce,
-                                            bcast, allgatherv, agree, &petsc_type};
+                                            bcast, allgatherv, agree, &petsc_type, dmat_create, dmat_add,
+                                            dmat_assemble, dmat_mult, dmat_row, dmat_counts, dmat_free};

@@ -14,7 +14,7 @@
 #include <moreau/sparse.h>
 
 /* Raised whenever a member changes meaning or position. */
-#define MO_PETSC_ABI 1
+#define MO_PETSC_ABI 2
 #define MO_PETSC_SYMBOL "mo_petsc_module_v1"
 #define MO_PETSC_MODULE_NAME "moreau_petsc.so"
 
@@ -42,6 +42,25 @@ typedef struct mo_petsc_module {
   /* (status, -rank) pairs reduced by MAXLOC, then the failing rank's message to every rank. */
   int (*agree)(int st, mo_ctx *ctx);
   const mo_linsolver_type *linsolver;
+  /* A distributed n x n matrix assembled from element blocks (doc/parallel.md §3): dof k is
+     PETSc's row and column perm[k] (NULL: k), this rank owns the rows rstart .. rend-1, their
+     entries in and out of its diagonal block dnnz[i] and onnz[i] (row rstart + i); every index
+     passed in or out is a dof (perm applied inside). Element blocks are added (ADD_VALUES: the
+     rows of other ranks through PETSc's stash), then dmat_assemble. Every call but dmat_add,
+     dmat_row and dmat_counts is collective. */
+  int (*dmat_create)(int n, int rstart, int rend, const int *perm, const int *dnnz, const int *onnz, void **A,
+                     mo_ctx *ctx);
+  int (*dmat_add)(void *A, int nd, const int *dofs, const double *Ae, mo_ctx *ctx);
+  int (*dmat_assemble)(void *A, mo_ctx *ctx);
+  /* y = A x, x and y whole on every rank (x's owned rows in, y gathered to every rank). */
+  int (*dmat_mult)(void *A, const double *x, double *y, mo_ctx *ctx);
+  /* The row of dof `row` (owned): its nonzeros' columns (dofs) and values (at most cap), their
+     count in *nz. */
+  int (*dmat_row)(void *A, int row, int cap, int *nz, int *cols, double *vals, mo_ctx *ctx);
+  /* Entries stored on this rank (its rows'), entries preallocated, and the element entries it
+     sent to other ranks' rows (through the stash). */
+  void (*dmat_counts)(void *A, long *nnz, long *allocated, long *sent);
+  void (*dmat_free)(void *A);
 } mo_petsc_module;
 
 #endif

@@ -111,19 +111,110 @@ static double mat_diff(const mo_csc *A, const mo_csc *B, mo_ctx *ctx)
   return m > 0 ? d / m : d;
 }
 
+/* The owned rows of a distributed matrix against the whole matrix A (symmetric: its column j
+   is row j): the largest difference over the largest entry of A, the same on every rank. */
+static double dmat_diff(mo_dmat *D, const mo_dist_assembly *a, const mo_csc *A, mo_ctx *ctx)
+{
+  int n = A->nrow, r, p, k, nz, rows = 0, cap = 4096, *cols = malloc(sizeof(int) * cap);
+  double *row = calloc((size_t)n, sizeof *row), *vals = malloc(sizeof(double) * cap), d[2] = {0, 0};
+  for (p = 0; p < mo_csc_nnz(A); p++)
+    if (fabs(A->x[p]) > d[1]) d[1] = fabs(A->x[p]);
+  for (r = 0; r < n; r++) {
+    if (a->row[r] < a->rstart || a->row[r] >= a->rend) continue;
+    rows++;
+    if (mo_dmat_row(D, r, cap, &nz, cols, vals, ctx)) {
+      d[0] = HUGE_VAL;
+      break;
+    }
+    for (p = A->p[r]; p < A->p[r + 1]; p++) row[A->i[p]] = A->x[p];
+    for (k = 0; k < nz; k++) row[cols[k]] -= vals[k];
+    for (p = A->p[r]; p < A->p[r + 1]; p++) row[A->i[p]] = fabs(row[A->i[p]]) > d[0] ? (d[0] = fabs(row[A->i[p]]), 0) : 0;
+    /* an entry outside A's pattern: its whole value is the difference */
+    for (k = 0; k < nz; k++)
+      if (row[cols[k]] != 0) {
+        if (fabs(row[cols[k]]) > d[0]) d[0] = fabs(row[cols[k]]);
+        row[cols[k]] = 0;
+      }
+  }
+  if (rows != a->rend - a->rstart) d[0] = HUGE_VAL;
+  mo_par_max(d, 1, ctx);
+  free(cols);
+  free(vals);
+  free(row);
+  return d[1] > 0 ? d[0] / d[1] : d[0];
+}
+
+/* K and M assembled straight into distributed matrices (each rank its elements, its rows:
+   doc/parallel.md §3) against one process's K and M: the entries, the products, the rows' split. */
+static void distributed_checks(mo_ctx *ctx, const char *name, const mo_scene *par, const mo_scene *one)
+{
+  mo_dist_assembly a;
+  int n = one->ndof, k, r, nr = ctx->nranks, st;
+  double dk = 1, dm = 0, dp = 1, rows[64], lo = 1e300, hi = 0, mean = (double)n / nr, ne[64], tot = 0;
+  double *x = malloc(sizeof(double) * (n + 1)), *y = malloc(sizeof(double) * (n + 1)), *z = malloc(sizeof(double) * (n + 1));
+  st = mo_scene_assemble_distributed(par, one->M != NULL, &a, ctx);
+  ok(agree_all(!st, ctx), "%s: K and M assembled into distributed matrices on %d rank(s) (%s)", name, nr,
+     st ? ctx->errmsg : "ok");
+  if (st) goto done;
+  dk = dmat_diff(a.K, &a, one->K, ctx);
+  if (one->M) dm = dmat_diff(a.M, &a, one->M, ctx);
+  ok(agree_all(dk <= 1e-12 && dm <= 1e-12, ctx),
+     "%s: the distributed K and M equal one process's row by row to %.1e and %.1e of their largest entry", name, dk, dm);
+  for (k = 0; k < n; k++) x[k] = sin(0.37 * k + 1) + (k % 3 == 0);
+  mo_csc_gaxpy(one->K, 1, x, 0, z);
+  if (!mo_dmat_mult(a.K, x, y, ctx)) dp = rel(y, z, n);
+  if (one->M) {
+    double e = 1;
+    mo_csc_gaxpy(one->M, 1, x, 0, z);
+    if (!mo_dmat_mult(a.M, x, y, ctx)) e = rel(y, z, n);
+    if (e > dp) dp = e;
+  }
+  ok(agree_all(dp <= 1e-12, ctx), "%s: K x and M x on the distributed matrices equal one process's to %.1e", name, dp);
+  {
+    /* the preallocation counted from the connectivity: every entry preallocated is used */
+    long nk, ak, sk, nm, am, sm;
+    mo_dmat_counts(a.K, &nk, &ak, &sk);
+    mo_dmat_counts(a.M, &nm, &am, &sm);
+    ok(agree_all(nk == ak && nm == am && nk > 0, ctx),
+       "%s: rank %d's rows preallocated exactly: K %ld of %ld entries, M %ld of %ld (sent %ld and %ld)", name,
+       ctx->rank, nk, ak, nm, am, sk, sm);
+  }
+  /* the rows: every dof once, about n / nranks each; the elements nelem / nranks each */
+  for (r = 0; r < nr && r < 64; r++) rows[r] = ne[r] = 0;
+  rows[ctx->rank] = a.rend - a.rstart;
+  ne[ctx->rank] = (double)a.elements;
+  mo_par_sum(rows, nr, ctx);
+  mo_par_sum(ne, nr, ctx);
+  for (r = 0; r < nr; r++) {
+    tot += rows[r];
+    if (rows[r] < lo) lo = rows[r];
+    if (rows[r] > hi) hi = rows[r];
+  }
+  ok(agree_all(tot == n && hi <= 1.25 * mean && lo >= 0.75 * mean, ctx),
+     "%s: the rows split %.0f to %.0f of %d (limit 25 %% from %.0f each)", name, lo, hi, n, mean);
+  ok(agree_all(nr == 1 ? a.local == 1 : a.local >= 0.75, ctx),
+     "%s: %.1f %% of the element entries in the computing rank's own rows (%.0f and %.0f elements)", name,
+     100 * a.local, ne[0], nr > 1 ? ne[1] : 0);
+done:
+  mo_dist_assembly_free(&a);
+  free(x);
+  free(y);
+  free(z);
+}
+
 /* A case's scene built over the ranks (each its block of elements, then the sums) and by this
    process alone (ctx.nranks 1: no collective call), K and M compared. */
-static void assembly_checks(mo_ctx *ctx, const char *name, const char *set)
+static void assembly_checks(mo_ctx *ctx, const char *name, const char *const *set)
 {
   const char *src = getenv("MOREAU_SRCDIR");
   char path[4096];
   mo_case *cs = NULL;
   mo_scene *par = NULL, *one = NULL;
-  int nr = ctx->nranks, st, r, b;
+  int nr = ctx->nranks, st, r, b, k;
   double dk = 1, dm = 0, tot = 0, lo = 1e300, hi = 0, n = 0;
   snprintf(path, sizeof path, "%s/cases/%s", src ? src : ".", name);
   st = mo_case_load(path, &cs, ctx);
-  if (!st && set) st = mo_case_set(cs, set, ctx);
+  for (k = 0; !st && set && set[k]; k++) st = mo_case_set(cs, set[k], ctx);
   if (!st) st = mo_case_validate(cs, ctx);
   if (!st) st = mo_scene_build(cs, &par, ctx);
   ctx->nranks = 1;
@@ -141,6 +232,7 @@ static void assembly_checks(mo_ctx *ctx, const char *name, const char *set)
      mo_csc_nnz(one->K), one->M ? mo_csc_nnz(one->M) : 0);
   for (b = 0; b < one->nbody; b++)
     if (one->body[b].kind == MO_BODY_DEFORMABLE) n += one->body[b].mesh->nelem;
+  distributed_checks(ctx, name, par, one);
   if (nr == 1) {
     ok(par->asm_elems && par->asm_elems[0] == n, "%s: one process: all %.0f elements assembled by it", name, n);
     goto done;
@@ -194,8 +286,15 @@ int main(int argc, char **argv)
   solver_checks(&ctx, "preonly", "cholesky", 1e-12);
   solver_checks(&ctx, "preonly", "lu", 1e-12);
   solver_checks(&ctx, "cg", "jacobi", 1e-9);
-  assembly_checks(&ctx, "rods-3d", NULL);
-  assembly_checks(&ctx, "box-on-plane", "bodies.box.mesh.elements=[7,6,5]");
+  {
+    static const char *const box[] = {"bodies.box.mesh.elements=[7,6,5]", NULL};
+    /* the box with a lumped mass (its diagonal only) */
+    static const char *const lumped[] = {"bodies.box.mesh.elements=[7,6,5]", "bodies.box.mass=\"lumped\"",
+                                         "time={scheme=\"theta\";dt=1e-4;steps=1;}", NULL};
+    assembly_checks(&ctx, "rods-3d", NULL);
+    assembly_checks(&ctx, "box-on-plane", box);
+    assembly_checks(&ctx, "box-on-plane", lumped);
+  }
   printf("1..%d\n", tap_n);
   mo_parallel_finish(&ctx);
   return tap_failed != 0;

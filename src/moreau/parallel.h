@@ -40,6 +40,47 @@ int mo_par_gatherv(const double *mine, const int *n, double *all, mo_ctx *ctx);
    full disk say, does not leave the others waiting in the next collective call). */
 int mo_par_agree(int st, mo_ctx *ctx);
 
+/* A matrix distributed by rows over the ranks (PETSc's MPIAIJ), assembled from element blocks
+   (doc/parallel.md §3). Dof k is PETSc's row perm[k] (perm NULL: k); this rank owns PETSc's rows
+   rstart .. rend-1, preallocated with dnnz[i] entries in its diagonal block and onnz[i] outside
+   it (row rstart + i). Every index in and out of these calls is a dof. Element blocks are added
+   with mo_dmat_add (the rows of other ranks are sent to them), then mo_dmat_assemble. Collective
+   but for mo_dmat_add, mo_dmat_row and mo_dmat_counts; MO_EUNSUPPORTED without PETSc or before
+   mo_parallel_start. */
+typedef struct mo_dmat mo_dmat;
+int mo_dmat_create(int n, int rstart, int rend, const int *perm, const int *dnnz, const int *onnz, mo_dmat **A,
+                   mo_ctx *ctx);
+int mo_dmat_add(mo_dmat *A, int nd, const int *dofs, const double *Ae, mo_ctx *ctx);
+int mo_dmat_assemble(mo_dmat *A, mo_ctx *ctx);
+/* y = A x with x and y whole on every rank. */
+int mo_dmat_mult(mo_dmat *A, const double *x, double *y, mo_ctx *ctx);
+/* The row of an owned dof: its nonzeros' columns (dofs) and values (at most cap; *nz their count). */
+int mo_dmat_row(mo_dmat *A, int row, int cap, int *nz, int *cols, double *vals, mo_ctx *ctx);
+/* Entries stored on this rank, entries preallocated, and element entries this rank sent to other
+   ranks' rows. */
+void mo_dmat_counts(const mo_dmat *A, long *nnz, long *allocated, long *sent);
+void mo_dmat_free(mo_dmat *A);
+
+/* K and M of a scene's deformable bodies assembled over the ranks straight into distributed
+   matrices (doc/parallel.md §3): each rank computes the elements of its block (element_block's
+   split: nelem / nranks contiguous elements in the scene's order) and owns the rows of the dofs
+   that only its elements reach, and about half of those it shares with other ranks' elements
+   (PETSc's rows are the dofs reordered rank after rank), so that the element entries land
+   mostly in its own rows.
+   No rank holds K or M whole. */
+typedef struct mo_dist_assembly {
+  mo_dmat *K, *M;      /* M NULL when not asked for */
+  int rstart, rend;    /* this rank's rows, in PETSc's order */
+  int *row;            /* dof k is PETSc's row row[k] (whole on every rank: 4 bytes a dof) */
+  long elements;       /* elements this rank computed */
+  double local;        /* of the element entries of every rank, the share in the computing
+                          rank's own rows (the rest went through the stash) */
+  double seconds;      /* this rank's seconds: both passes and the assemblies */
+} mo_dist_assembly;
+struct mo_scene;
+int mo_scene_assemble_distributed(const struct mo_scene *sc, int with_mass, mo_dist_assembly *out, mo_ctx *ctx);
+void mo_dist_assembly_free(mo_dist_assembly *a);
+
 #ifdef __cplusplus
 }
 #endif
