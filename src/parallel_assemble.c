@@ -190,10 +190,10 @@ static int add_elements(const mo_scene *sc, long lo, long hi, int with_mass, mo_
       nd = element_dofs(sc, B, e, dofs);
       for (k = 0; k < nd; k++) inrows[A->row[dofs[k]] >= A->rstart && A->row[dofs[k]] < A->rend]++;
       /* finite-strain bodies have no constant stiffness (scene.c's assemble) */
-      if (!B->nl && ((st = mo_elem_stiffness(B->mesh, e, &B->mat, Ke, ctx)) ||
+      if (!B->nl && ((st = mo_elem_stiffness(B->mesh, e, B->mat, Ke, ctx)) ||
                      (st = mo_dmat_add(A->K, nd, dofs, Ke, ctx))))
         return st;
-      if (with_mass && ((st = mo_elem_mass(B->mesh, e, &B->mat, B->lumped, Me, ctx)) ||
+      if (with_mass && ((st = mo_elem_mass(B->mesh, e, B->mat, B->lumped, Me, ctx)) ||
                         (st = add_mass(A->M, sc->dim, nd, dofs, Me, B->lumped, ctx))))
         return st;
     }
