@@ -99,7 +99,8 @@ static int pack_grain(const mo_body *B, int member, int dim, const mo_case *cs, 
   double Rm = mo_cfg_float(p, "radius", 1), disp = mo_cfg_float(p, "dispersion", 0), jit = mo_cfg_float(p, "jitter", 0.5);
   double s = mo_cfg_float(p, "spacing", 2.2 * Rm * (1 + disp)), lo[3], hi[3];
   unsigned long seed = (unsigned long)mo_cfg_int(p, "seed", 1);
-  int count = mo_cfg_int(p, "count", 1), n[3] = {1, 1, 1}, idx[3], k, cap = 1, up = dim - 1;
+  int count = mo_cfg_int(p, "count", 1), n[3] = {1, 1, 1}, idx[3], k, up = dim - 1;
+  double cap = 1;
   if (mo_cfg_count(p, "box") != 2 * dim)
     return mo_case_error(cs, mo_cfg_member(p, "box") ? mo_cfg_member(p, "box") : p, ctx,
                          "a pack's box is [xmin, xmax, ymin, ymax%s]", dim == 3 ? ", zmin, zmax" : "");
@@ -107,23 +108,26 @@ static int pack_grain(const mo_body *B, int member, int dim, const mo_case *cs, 
     return mo_case_error(cs, mo_cfg_member(p, "spacing"), ctx, "a spacing of %g m lets grains of radius up to %g m "
                          "overlap", s, Rm * (1 + disp));
   for (k = 0; k < dim; k++) {
+    double cells;
     lo[k] = mo_cfg_num_at(p, "box", 2 * k);
     hi[k] = mo_cfg_num_at(p, "box", 2 * k + 1);
-    n[k] = (int)floor((hi[k] - lo[k]) / s + 1e-9);
-    if (n[k] < 1)
+    cells = floor((hi[k] - lo[k]) / s + 1e-9);
+    if (!(cells >= 1)) /* NaN too */
       return mo_case_error(cs, mo_cfg_member(p, "box"), ctx, "the box is narrower than one lattice cell (%g m) along %c",
                            s, "xyz"[k]);
+    /* no direction needs more cells than grains (the layout is the same) */
+    n[k] = cells < count ? (int)cells : count;
     cap *= n[k];
   }
   if (count > cap)
-    return mo_case_error(cs, mo_cfg_member(p, "count"), ctx, "the box holds %d grains on a lattice of spacing %g m, "
+    return mo_case_error(cs, mo_cfg_member(p, "count"), ctx, "the box holds %.0f grains on a lattice of spacing %g m, "
                          "not %d: make it taller or wider", cap, s, count);
   /* fill the horizontal layers first (x, then z in 3D), then go up (y) */
   idx[0] = member % n[0];
   if (dim == 2) idx[1] = member / n[0];
   else {
     idx[2] = (member / n[0]) % n[2];
-    idx[1] = member / (n[0] * n[2]);
+    idx[1] = (int)(member / ((long long)n[0] * n[2]));
   }
   *R = Rm * (1 + disp * (2 * pack_uniform(seed, member, 0) - 1));
   for (k = 0; k < dim; k++) {
