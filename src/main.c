@@ -448,7 +448,11 @@ static int cmd_run(const cli_command *cmd, int argc, char **argv, mo_ctx *ctx)
   st = mo_run(&c.o, &res, ctx);
   mo_parallel_finish(ctx);
   free(c.sets);
-  if (ctx->rank != 0) return st ? exit_code(st) : 0;
+  if (ctx->rank != 0) {
+    /* rank 0 speaks for the run; a rank that failed where rank 0 did not says why */
+    if (st) fprintf(stderr, "moreau (rank %d): %s\n", ctx->rank, ctx->errmsg);
+    return st ? exit_code(st) : 0;
+  }
   if (st) {
     fprintf(stderr, "moreau: %s\n", ctx->errmsg);
     if (res.outdir[0] && res.steps > 0 && res.summary)
