@@ -50,8 +50,8 @@ void ls_sparse_velocity(const ls_system *S, const mo_delassus *W, const double *
   int jc, p, i, k;
   for (jc = 0; jc < S->nC; jc++) {
     const int *beta;
-    const double *blk, *wn = NULL;
-    int j = S->cset[jc], n;
+    const double *blk = NULL, *wn = NULL;
+    int j = S->cset[jc], n = 0;
     double s[3] = {0, 0, 0}, m[3] = {0, 0, 0};
     /* frictionless (one row a contact): W's normal entries alone, contiguous (T164) */
     if (nr == 1) n = mo_delassus_row_normal(W, j, &beta, &wn);
@@ -91,9 +91,10 @@ static void add_column(const ls_system *S, const mo_delassus *W, double eps, con
 {
   const int nr = S->nr, d = S->d, jc = e / nr, i = e % nr, j = S->cset[jc];
   const int *beta;
-  const double *blk, *wn = NULL;
-  int n, p, k;
-  if (nr == 1 && (n = mo_delassus_row_normal(W, j, &beta, &wn), wn)) {
+  const double *blk = NULL, *wn = NULL;
+  int n = 0, p, k;
+  if (nr == 1) n = mo_delassus_row_normal(W, j, &beta, &wn);
+  if (wn) {
     /* frictionless: the normal entries alone (T164) */
     for (p = 0; p < n; p++) {
       int kc = S->cpos[beta[p]];
