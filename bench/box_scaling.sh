@@ -9,7 +9,7 @@
 # factorization, the Delassus build, the step without contact ("2 solves"), the mean forward and
 # backward solve of the contact run's own factor ("own 2 solves": the contact dofs last fill it
 # more), the step of each back end, their ratios to both and to each other, and the peak resident
-# size (the largest of the runs of that n).
+# size (the largest of the runs of that n) with the estimate made before building over it.
 #
 #   bench/box_scaling.sh [--large] [--sizes "14 21 31 45"] [--steps 10] [--solvers nscd,levelset]
 #                        [--clock wall|cpu] [--moreau build/moreau] [--out DIR] [--set KEY=VALUE]...
@@ -97,10 +97,11 @@ steady = (T['steps'] - T.get('first_step', float('nan'))) / (steps - 1) if steps
 c = s.get('contact', {})
 print('n=%s run=%s status=%s dofs=%s contacts=%s nnz_L=%s factor_s=%.3f delassus_s=%.3f step_ms=%.2f '
       'first_ms=%.2f steady_ms=%.2f '
-      'own_2solves_ms=%.2f iterations=%s peak_rss_MB=%.0f' % (n, label, s['status'], L.get('n', 'nan'),
+      'own_2solves_ms=%.2f iterations=%s peak_rss_MB=%.0f estimate_MB=%.0f' % (n, label, s['status'], L.get('n', 'nan'),
       c.get('candidates', 0), L.get('nnz_L', 'nan'), T['factor'], T.get('delassus', 0), 1e3 * step,
       1e3 * first, 1e3 * steady,
-      1e3 * L.get('two_solves_seconds', float('nan')), c.get('iterations_mean', 'nan'), s.get('peak_rss_bytes', 0) / 1e6))
+      1e3 * L.get('two_solves_seconds', float('nan')), c.get('iterations_mean', 'nan'), s.get('peak_rss_bytes', 0) / 1e6,
+      (s.get('bytes_estimate') or float('nan')) / 1e6))
 PY
 }
 
@@ -132,7 +133,7 @@ head = ['n^3', 'dofs', 'contacts', 'nnz(L)', 'factor s', 'Delassus s', '2 solves
        ['steady %s / own 2 solves' % s for s in solvers]
 if len(solvers) == 2:
     head += ['%s / %s' % (solvers[1], solvers[0]), 'steady %s / %s' % (solvers[1], solvers[0])]
-head.append('peak RSS MB')
+head += ['peak RSS MB', 'estimate / peak']
 print('| ' + ' | '.join(head) + ' |')
 print('|' + '---|' * len(head))
 for n in sorted(rows):
@@ -159,5 +160,8 @@ for n in sorted(rows):
         cells.append('%.2f' % (st[1] / st[0]) if all(ok) else '-')
         cells.append('%.2f' % (sd[1] / sd[0]) if all(ok) else '-')
     cells.append('%.0f' % max(num(x.get('peak_rss_MB')) for x in r.values()))
+    # the estimate before building (doc/theory.md (T165)) of the largest run against its peak
+    big = max(r.values(), key=lambda x: num(x.get('peak_rss_MB')))
+    cells.append('%.2f' % (num(big.get('estimate_MB')) / num(big.get('peak_rss_MB'))))
     print('| ' + ' | '.join(cells) + ' |')
 PY

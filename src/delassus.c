@@ -31,6 +31,7 @@ struct mo_delassus {
   double *work;     /* nfree */
   double *y;        /* nfe: the forward solve of a correction on the trailing block (T153) */
   int schur;        /* the last build came from the factor's trailing block (T151) */
+  double *nn;       /* d > 1: W_ab,nn of every block in val's order (T164), or NULL */
 };
 
 int mo_delassus_create(mo_delassus **out, mo_ctx *ctx)
@@ -50,8 +51,9 @@ static void clear(mo_delassus *D)
   mo_free(D->work);
   mo_free(D->fecol);
   mo_free(D->y);
+  mo_free(D->nn);
   D->rowp = D->colb = D->fecol = NULL;
-  D->val = D->C = D->work = D->y = NULL;
+  D->val = D->C = D->work = D->y = D->nn = NULL;
   D->built = 0;
   D->schur = 0;
 }
@@ -539,6 +541,20 @@ done:
   return st;
 }
 
+/* The normal entry of every block, contiguous (T164): the passes of frictionless solves over W_nn
+   read one double a block instead of one in d^2 (72 bytes apart in 3D). */
+static int keep_normal(mo_delassus *D, mo_ctx *ctx)
+{
+  const size_t dd = (size_t)D->d * (size_t)D->d;
+  long p;
+  mo_free(D->nn);
+  D->nn = NULL;
+  if (D->d == 1) return MO_OK;
+  if (!(D->nn = mo_malloc(ctx, ((size_t)D->nblocks + 1) * sizeof *D->nn))) return MO_ENOMEM;
+  for (p = 0; p < D->nblocks; p++) D->nn[p] = D->val[(size_t)p * dd];
+  return MO_OK;
+}
+
 int mo_delassus_update(mo_delassus *D, const mo_csc *H, long hversion, const mo_what_inverse *Wi, double c, int dim,
                        int *rebuilt, mo_ctx *ctx)
 {
@@ -576,6 +592,7 @@ int mo_delassus_update(mo_delassus *D, const mo_csc *H, long hversion, const mo_
              (st = covered ? build_schur(D, H, Wi, &E, c, &R, ctx) : build_nodal(D, H, Wi, c, &R, ctx)) ||
              (st = build_rigid(D, H, Wi, c, &R, ctx)) || (st = rows_compress(&R, D, ctx)))
     goto done;
+  if ((st = keep_normal(D, ctx))) goto done;
   D->schur = covered;
   D->hversion = hversion;
   D->fversion = fv;
@@ -596,6 +613,13 @@ const double *mo_delassus_block(const mo_delassus *D, int a, int b)
   for (p = D->rowp[a]; p < D->rowp[a + 1]; p++)
     if (D->colb[p] == b) return D->val + (size_t)p * (size_t)(D->d * D->d);
   return NULL;
+}
+
+int mo_delassus_row_normal(const mo_delassus *D, int a, const int **beta, const double **wn)
+{
+  *beta = D->colb + D->rowp[a];
+  *wn = D->d == 1 ? D->val + D->rowp[a] : D->nn ? D->nn + D->rowp[a] : NULL;
+  return D->rowp[a + 1] - D->rowp[a];
 }
 
 int mo_delassus_row(const mo_delassus *D, int a, const int **beta, const double **blocks)
@@ -763,6 +787,7 @@ int mo_delassus_set_matrix(mo_delassus *D, const mo_csc *W, int dim, mo_ctx *ctx
   D->nfree = 0;
   D->c = 1;
   D->hversion = D->fversion = -1;
+  if ((st = keep_normal(D, ctx))) goto done;
   D->built = 1;
   D->version++;
 done:

@@ -792,6 +792,8 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
     struct rusage ru;
     if (getrusage(RUSAGE_SELF, &ru) == 0)
       json_object_set_new(root, "peak_rss_bytes", json_integer((json_int_t)ru.ru_maxrss * 1024));
+    /* what the case was estimated at before building (T165) */
+    json_object_set_new(root, "bytes_estimate", jnum(sc->bytes_estimate));
   }
   if (pw != work) mo_free(pw);
   mo_free(p1);

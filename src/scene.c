@@ -984,24 +984,43 @@ static double memory_limit(const mo_ctx *ctx)
   return ctx->max_bytes > 0 && ctx->max_bytes < mem ? ctx->max_bytes : mem;
 }
 
-/* A 3D box of n[0] x n[1] x n[2] H8 (doc/theory.md (T159)): its factor grows faster than its
-   dofs N. Nested dissection of a grid gives nnz(L) = kappa N sqrt(s), s the dofs of the smallest
-   cross-section (the top separator); kappa = 18.3 fits CHOLMOD's nnz(L) of the cubes 14^3 ..
-   68^3 at the top (12.7 at 14^3), the supernodal storage holds 1.2 nnz(L) and the numeric
-   factorization's largest update matrix s^2; the other matrices (K, M, What) and vectors take
-   3 kB per dof (the 45^3 run: 5.0 GB peak, 3.9 GB of them the factor). */
-static double box_bytes(const double *n)
+/* A 3D box of n[0] x n[1] x n[2] H8 (doc/theory.md (T159), (T165)): its factor grows faster than
+   its dofs N. Nested dissection of a grid gives nnz(L) = kappa N sqrt(s), s the dofs of the
+   smallest cross-section (the top separator); kappa grows with log N on CHOLMOD's factors of the
+   cubes 14^3 .. 68^3 (bench/box_ordering.c, within 3.2 %): 3.55 + 1.41 ln N with the contact dofs
+   last (last: the box is in an active pair and factor_order is contact_last), 1.97 + 1.20 ln N in
+   CHOLMOD's own order. The run's peak then holds 10 bytes per entry of L (the supernodal values
+   and indices), the larger of the factorization's largest update (s^2) and W and G on the contact
+   face (2 s^2, with the contact dofs last), 4.5 kB per dof (K, M, What, the vectors) and 17.5 MB of
+   the process: peak RSS of the box scaling runs 14^3 .. 45^3 within 4.3 % (bench/README.md). */
+static double box_bytes(const double *n, int last)
 {
-  double a = n[0] + 1, b = n[1] + 1, c = n[2] + 1, N = 3 * a * b * c, s;
+  double a = n[0] + 1, b = n[1] + 1, c = n[2] + 1, N = 3 * a * b * c, s, nnz;
   s = 3 * fmin(a * b, fmin(b * c, a * c));
-  return 3000 * N + 8 * (1.2 * 18.3 * N * sqrt(s) + s * s);
+  nnz = (last ? 3.55 + 1.41 * log(N) : 1.97 + 1.20 * log(N)) * N * sqrt(s);
+  return 17.5e6 + 4490 * N + 10 * nnz + (last ? 16 : 8) * s * s;
+}
+
+/* Whether body `name` is in an active contact pair whose dofs the factorization orders last
+   (contact.factor_order "contact_last", the default): what box_bytes counts. */
+static int contact_last(const mo_case *cs, const char *name)
+{
+  const config_setting_t *pairs = config_lookup(&cs->cfg, "contact.pairs");
+  int k, n = pairs ? config_setting_length(pairs) : 0;
+  if (!strcmp(mo_cfg_string(config_lookup(&cs->cfg, "contact"), "factor_order", "contact_last"), "solver")) return 0;
+  for (k = 0; k < n; k++) {
+    const config_setting_t *pg = config_setting_get_elem(pairs, (unsigned)k);
+    if (mo_cfg_bool(pg, "active", 1) && (!strcmp(mo_cfg_string(pg, "slave", ""), name) || !strcmp(mo_cfg_string(pg, "master", ""), name)))
+      return 1;
+  }
+  return 0;
 }
 
 /* The scene's size from the case alone, before anything is built (T105): nodes, elements and
    dofs of each mesh generator and of the rigid bodies, and the bytes they will take; past the
    limits (10^7 elements, ctx->max_dofs dofs, the memory) refused with MO_ELIMIT naming the key
    and printing the estimate. Mesh files are bounded by their size and the reader's limits. */
-static int estimate_size(const mo_case *cs, const config_setting_t *bl, int nentry, mo_ctx *ctx)
+static int estimate_size(const mo_case *cs, const config_setting_t *bl, int nentry, double *bytes_out, mo_ctx *ctx)
 {
   double limit = ctx->max_dofs > 0 ? (double)ctx->max_dofs : 2e7, mem = memory_limit(ctx);
   double nodes = 0, elems = 0, dofs = 0, bytes = 0;
@@ -1056,7 +1075,7 @@ static int estimate_size(const mo_case *cs, const config_setting_t *bl, int nent
     nodes += c * nn;
     elems += c * ne;
     dofs += c * nn * d;
-    eb = d == 3 && !strcmp(gen, "box") ? box_bytes(n) : nn * d * bytes_per_dof[d];
+    eb = d == 3 && !strcmp(gen, "box") ? box_bytes(n, contact_last(cs, mo_cfg_string(bg, "name", ""))) : nn * d * bytes_per_dof[d];
     bytes += c * eb;
     if (c * ne > 1e7 || dofs > limit || bytes > mem) {
       char why[160];
@@ -1068,11 +1087,12 @@ static int estimate_size(const mo_case *cs, const config_setting_t *bl, int nent
                            mo_cfg_string(bg, "name", "?"), c * nn, c * ne, c * nn * d, c * eb / 1e9, why);
     }
   }
-  /* a large scene says what it expects to take before it builds anything (T105, T159); the
+  /* a large scene says what it expects to take before it builds anything (T105, T165); the
      factorization states its exact figure after its symbolic analysis (T154) */
+  *bytes_out = bytes;
   if (bytes > 2e9)
     mo_log(ctx, 1, "moreau: %.3g nodes, %.3g elements, %.3g dofs: about %.3g GB estimated before building (of the "
-           "%.3g GB this run may take; doc/theory.md (T159))\n", nodes, elems, dofs, bytes / 1e9, mem / 1e9);
+           "%.3g GB this run may take; doc/theory.md (T165))\n", nodes, elems, dofs, bytes / 1e9, mem / 1e9);
   return MO_OK;
 }
 
@@ -1094,7 +1114,7 @@ int mo_scene_build(const mo_case *cs, mo_scene **out, mo_ctx *ctx)
     ctx->status = MO_ELIMIT;
     goto fail;
   }
-  if ((st = estimate_size(cs, bl, nentry, ctx))) goto fail;
+  if ((st = estimate_size(cs, bl, nentry, &sc->bytes_estimate, ctx))) goto fail;
   sc->body = mo_calloc(ctx, (size_t)(total ? total : 1), sizeof *sc->body);
   if (!sc->title || !sc->case_file || !sc->body) { st = MO_ENOMEM; goto fail; }
   sc->nbody = total;

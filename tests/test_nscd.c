@@ -711,6 +711,72 @@ static void test_lu_border(void)
   }
 }
 
+/* The Cholesky factor of a symmetric closed set written in LU's layout (T163): A x = b solved by
+   dgetrs on it, against the residual and dgetrf's solution, on random positive definite matrices
+   (no pivot taken: the Cholesky path), bordered by the LU of (T160), and on a symmetric
+   indefinite matrix (dgetrf's pivots: the fallback). */
+static void test_factor_closed(void)
+{
+  static const int sizes[][3] = {{1, 0, 0}, {7, 0, 0}, {40, 0, 0}, {120, 0, 0}, {50, 36, 0}, {30, 0, 1}};
+  unsigned long long seed = 0x2545f4914f6cdd1dULL;
+  size_t t;
+  for (t = 0; t < sizeof sizes / sizeof *sizes; t++) {
+    int n = sizes[t][0], n0 = sizes[t][1], indef = sizes[t][2], i, j, l, info = 0, one = 1, nopiv = 1;
+    double *B = malloc((size_t)n * n * sizeof *B), *A = malloc((size_t)n * n * sizeof *A);
+    double *F0 = malloc(((size_t)n0 * n0 + 1) * sizeof *F0), *LU = malloc((size_t)n * n * sizeof *LU);
+    double *F = malloc((size_t)n * n * sizeof *F), *b = malloc((size_t)n * sizeof *b);
+    double *x = malloc((size_t)n * sizeof *x), *y = malloc((size_t)n * sizeof *y);
+    int *piv = malloc((size_t)n * sizeof *piv), *piv2 = malloc((size_t)n * sizeof *piv2);
+    double anorm = 0, xn = 0, res = 0, diff = 0;
+    for (i = 0; i < n * n; i++) B[i] = nrand(&seed);
+    /* A = B B^T + I (positive definite), or B + B^T (indefinite) */
+    for (j = 0; j < n; j++)
+      for (i = 0; i < n; i++) {
+        double v = 0;
+        if (indef) v = B[(size_t)j * n + i] + B[(size_t)i * n + j];
+        else {
+          for (l = 0; l < n; l++) v += B[(size_t)l * n + i] * B[(size_t)l * n + j];
+          v += i == j;
+        }
+        A[(size_t)j * n + i] = v;
+      }
+    for (i = 0; i < n; i++) b[i] = nrand(&seed);
+    if (n0) {
+      /* the leading block, copied out of A (leading dimension n0) */
+      for (j = 0; j < n0; j++) memcpy(F + (size_t)j * n0, A + (size_t)j * n, (size_t)n0 * sizeof *F);
+      nscd_factor_closed(n0, F, F0, piv, 1, &info);
+      for (i = 0; i < n0; i++) nopiv &= piv[i] == i + 1;
+      nscd_lu_border(n, n0, A, F0, LU, piv, &info);
+    } else {
+      nscd_factor_closed(n, A, LU, piv, 1, &info);
+      for (i = 0; i < n; i++) nopiv &= piv[i] == i + 1;
+    }
+    memcpy(x, b, (size_t)n * sizeof *x);
+    if (info == 0) dgetrs_("N", &n, &one, LU, &n, piv, x, &n, &info);
+    memcpy(F, A, (size_t)n * n * sizeof *F);
+    memcpy(y, b, (size_t)n * sizeof *y);
+    dgetrf_(&n, &n, F, &n, piv2, &info);
+    dgetrs_("N", &n, &one, F, &n, piv2, y, &n, &info);
+    for (i = 0; i < n; i++) {
+      double r = -b[i], a = 0;
+      for (j = 0; j < n; j++) {
+        r += A[(size_t)j * n + i] * x[j];
+        a += fabs(A[(size_t)j * n + i]);
+      }
+      anorm = fmax(anorm, a);
+      xn = fmax(xn, fabs(x[i]));
+      res = fmax(res, fabs(r));
+      diff = fmax(diff, fabs(x[i] - y[i]));
+    }
+    /* the fallback is dgetrf itself: its solution to the bit */
+    ok(info == 0 && res <= 1e-13 * anorm * xn && (indef ? diff == 0 && !nopiv : diff <= 1e-10 * xn && nopiv),
+       "%s n = %d (bordered from %d): residual %.2e of |A| |x| (< 1e-13), %.2e from dgetrf's (%s), %s",
+       indef ? "indefinite" : "Cholesky as LU", n, n0, res / (anorm * xn), diff / xn, indef ? "0" : "< 1e-10",
+       nopiv ? "no pivots (Cholesky)" : "pivoted (dgetrf)");
+    free(B); free(A); free(F0); free(LU); free(F); free(b); free(x); free(y); free(piv); free(piv2);
+  }
+}
+
 static void test_alloc_failures(void)
 {
   unsigned long long s = 5;
@@ -753,6 +819,7 @@ int main(void)
   test_breakdown();
   test_asymmetric();
   test_lu_border();
+  test_factor_closed();
   test_alloc_failures();
   return done_testing();
 }

@@ -155,6 +155,32 @@ if [ -x /usr/bin/time ]; then
 else
   ok 0 "# SKIP no /usr/bin/time"
 fi
+# the estimate before building against the run's peak resident size (T165): a 14^3 H8 box on a
+# frictionless plane, with its contact dofs last and without contact (2 steps each)
+cat > "$OUT/box14.cfg" << 'EOF'
+title = "an H8 cube of 14^3 elements pressed on a frictionless plane";
+bodies = (
+  { name = "box"; mesh = { generator = "box"; size = [0.1, 0.1, 0.1]; elements = [14, 14, 14]; };
+    material = { E = 2.1e11; nu = 0.3; rho = 7800.0; };
+    loads = ( { type = "pressure"; set = "zmax"; value = 1.0e6; } ); },
+  { name = "ground"; type = "plane"; point = [0.0, 0.0, 0.0]; normal = [0.0, 0.0, 1.0]; } );
+time = { scheme = "theta"; theta = 1.0; dt = 1.0e-4; steps = 2; };
+contact = { solver = "nscd";
+  pairs = ( { name = "base"; slave = "box"; slave_set = "zmin"; master = "ground"; mu = 0.0; } ); };
+output = { energy = false; };
+EOF
+for variant in contact none; do
+  off=""; [ "$variant" = none ] && off="--set contact.pairs.base.active=false"
+  # shellcheck disable=SC2086
+  "$MOREAU" run "$OUT/box14.cfg" --out "$OUT/box14-$variant" --quiet $off > /dev/null 2>&1
+  if [ -n "${MOREAU_SANITIZERS:-}" ]; then
+    tap_n=$((tap_n + 1)); echo "ok $tap_n # SKIP 14^3 box ($variant): a sanitizer build's memory is not the program's"
+  else
+    rel=$(json "$OUT/box14-$variant/summary.json" "'%.3f' % (d['bytes_estimate'] / d['peak_rss_bytes'])")
+    ok $(awk -v r="$rel" 'BEGIN { exit !(r >= 0.85 && r <= 1.15) }'; echo $?) \
+      "14^3 box ($variant): the estimate before building is $rel of the peak resident size (within 15 %)"
+  fi
+done
 # --- 5. bounded inputs, interrupts ---------------------------------------------------------------------
 python3 -c "import sys; open(sys.argv[1], 'w').write('title = \"' + 'x' * 4000000 + '\";\n')" "$OUT/huge.cfg"
 start=$(date +%s)

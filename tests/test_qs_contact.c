@@ -102,7 +102,10 @@ static void test_box(const char *solver, const char *element, int max_iter)
   it = tl_jnum(J, "contact", "iterations_max", NULL);
   eq = tl_jnum(J, "contact", "equilibrium_residual_max", NULL);
   json_decref(J);
-  ok(it >= 1 && it <= max_iter, "box, %s, %s: %g iterations (at most %d)", element, solver, it, max_iter);
+  /* nscd on 200 or more frictionless contacts (the T10 box's 288) solves its first step by the
+     status LU from the predictor's statuses, without a sweep (doc/theory.md (T163)): 0 sweeps */
+  ok(it >= (strcmp(solver, "nscd") ? 1 : 0) && it <= max_iter, "box, %s, %s: %g iterations (at most %d)", element,
+     solver, it, max_iter);
   ok(eq <= 1e-10, "box, %s, %s: global equilibrium |f + H r - K u| = %.2e of the forces (T82)", element, solver, eq);
   snprintf(path, sizeof path, "%s/contact.csv", out);
   if (!tl_table_read(path, &T)) {

@@ -115,6 +115,22 @@ static void check_scene(const char *name, const char *text, int schur)
      nlast, X.sc->nfe_free);
   ok(wmax > 0 && wd <= 1e-12 * wmax, "%s: W (%d x %d) from the trailing block equals W by one solve per column: "
      "max difference %.2e of max |W| %.3e", name, m, m, wd, wmax);
+  /* W's normal entries kept contiguous (T164): every block's W_ab,nn, against W by one solve per
+     column */
+  {
+    double nd_max = 0;
+    int a, p, cnt, got = 1, nblk = 0;
+    for (a = 0; a < m / d && got; a++) {
+      const int *beta;
+      const double *wn;
+      cnt = mo_delassus_row_normal(X.D[1], a, &beta, &wn);
+      got = wn != NULL;
+      for (p = 0; p < cnt && got; p++, nblk++)
+        nd_max = fmax(nd_max, fabs(wn[p] - W[0][(size_t)a * d * m + (size_t)beta[p] * d]));
+    }
+    ok(got && nblk > 0 && nd_max <= 1e-12 * wmax, "%s: W's normal entries alone (%d blocks) equal W_nn by one solve "
+       "per column: max difference %.2e of %.3e", name, nblk, nd_max, wmax);
+  }
   /* the correction What^-1 H r for a random r */
   r = malloc((size_t)m * sizeof *r);
   for (i = 0; i < m; i++) r[i] = rnd(&seed);

@@ -50,9 +50,23 @@ void ls_sparse_velocity(const ls_system *S, const mo_delassus *W, const double *
   int jc, p, i, k;
   for (jc = 0; jc < S->nC; jc++) {
     const int *beta;
-    const double *blk;
-    int j = S->cset[jc], n = mo_delassus_row(W, j, &beta, &blk);
+    const double *blk = NULL, *wn = NULL;
+    int j = S->cset[jc], n = 0;
     double s[3] = {0, 0, 0}, m[3] = {0, 0, 0};
+    /* frictionless (one row a contact): W's normal entries alone, contiguous (T164) */
+    if (nr == 1) n = mo_delassus_row_normal(W, j, &beta, &wn);
+    if (wn) {
+      for (p = 0; p < n; p++) {
+        int kc = S->cpos[beta[p]];
+        double t;
+        if (kc < 0) continue;
+        t = wn[p] * y[kc];
+        s[0] += t;
+        m[0] += fabs(t);
+      }
+      n = 0;
+    } else
+      n = mo_delassus_row(W, j, &beta, &blk);
     for (p = 0; p < n; p++) {
       int kc = S->cpos[beta[p]];
       if (kc < 0) continue;
@@ -77,8 +91,18 @@ static void add_column(const ls_system *S, const mo_delassus *W, double eps, con
 {
   const int nr = S->nr, d = S->d, jc = e / nr, i = e % nr, j = S->cset[jc];
   const int *beta;
-  const double *blk;
-  int n = mo_delassus_row(W, j, &beta, &blk), p, k;
+  const double *blk = NULL, *wn = NULL;
+  int n = 0, p, k;
+  if (nr == 1) n = mo_delassus_row_normal(W, j, &beta, &wn);
+  if (wn) {
+    /* frictionless: the normal entries alone (T164) */
+    for (p = 0; p < n; p++) {
+      int kc = S->cpos[beta[p]];
+      if (kc >= 0) U[kc] += wn[p] * delta;
+    }
+    n = 0;
+  } else
+    n = mo_delassus_row(W, j, &beta, &blk);
   for (p = 0; p < n; p++) {
     int kc = S->cpos[beta[p]];
     if (kc < 0) continue;

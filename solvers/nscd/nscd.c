@@ -700,9 +700,20 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
     /* the statuses of the warm start are those of the kept LU (T157): the direct solve first */
     nscd_accel_info ai;
     memset(&ai, 0, sizeof ai);
-    if ((st = nscd_status_step(S, P, r, x->status, p->tol, &res, &ai, 1, ctx))) return st;
+    if ((st = nscd_status_step(S, P, r, x->status, p->tol, &res, &ai, NSCD_STEP_CACHED, ctx))) return st;
     if (ai.tried) { S->ai = ai; S->accel_tries++; }
     if (ai.accepted) conv = 1;
+  } else if (scaled && p->accelerate && !S->bodies && S->nonly && !S->lu.builds && S->nact >= NSCD_GUESS_LU) {
+    /* the first LU of a run on a large frictionless set (T163): on the statuses the predictor
+       gives (a contact it drives into the obstacle closed), before any sweep; its status
+       iteration settles them, and the sweeps run only when that fails */
+    nscd_accel_info ai;
+    memset(&ai, 0, sizeof ai);
+    tried = 0;
+    if ((st = nscd_status_step(S, P, r, x->status, p->tol, &res, &ai, NSCD_STEP_PREDICT, ctx))) return st;
+    if (ai.tried) { S->ai = ai; S->accel_tries++; }
+    if (ai.accepted) conv = 1;
+    else res = HUGE_VAL;
   }
   while (!conv && sweeps < p->max_sweeps) {
     if (!S->par && ctx->interrupt && *ctx->interrupt) break;
@@ -775,7 +786,7 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
           memset(&ai, 0, sizeof ai);
           tried = sweeps;
           exact_U(S, P, r, 0);
-          if ((st = nscd_status_step(S, P, r, x->status, p->tol, &res, &ai, 0, ctx))) return st;
+          if ((st = nscd_status_step(S, P, r, x->status, p->tol, &res, &ai, NSCD_STEP_FACTOR, ctx))) return st;
           if (ai.tried) { S->ai = ai; S->accel_tries++; }
           if (ai.accepted) { conv = 1; break; }
           wait *= 2;
@@ -809,7 +820,7 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
     memset(&ai, 0, sizeof ai);
     /* with the scaled rule and accelerate, the direct solution replaces the sweeps' when it
        satisfies the law: the minimum-norm reactions when they are not unique */
-    if ((st = nscd_status_step(S, P, r, x->status, scaled && p->accelerate ? p->tol : -1, &rdummy, &ai, 0, ctx)))
+    if ((st = nscd_status_step(S, P, r, x->status, scaled && p->accelerate ? p->tol : -1, &rdummy, &ai, NSCD_STEP_FACTOR, ctx)))
       return st;
     if (ai.tried) S->ai = ai;
     if (ai.accepted) {

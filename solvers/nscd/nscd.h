@@ -273,6 +273,9 @@ void nscd_grains_free(nscd_state *S);
 #define NSCD_ACCEL_MAX 5000
 /* Active contacts from which the first LU of a run is taken without waiting for a stall (T157) */
 #define NSCD_EARLY_LU 1000
+/* Active frictionless contacts from which the first LU of a run is tried before any sweep, on the
+   statuses the predictor's velocities give (T163) */
+#define NSCD_GUESS_LU 200
 #define NSCD_RANK_TOL 1e-10
 #define NSCD_ROUNDOFF 64
 /* The LU of the n x n matrix A (column-major) whose leading n0 x n0 block is the one the LU F0
@@ -281,6 +284,11 @@ void nscd_grains_free(nscd_state *S);
    (ipiv[n0 .. n) those of the trailing block, shifted by n0), read by dgetrs and dgecon as
    dgetrf's; *lu_info as dgetrf's. */
 void nscd_lu_border(int n, int n0, const double *A, const double *F0, double *LU, int *ipiv, int *lu_info);
+/* The LU of the n x n column-major A into F in LAPACK's layout (as dgetrf: F, ipiv, *info). sym:
+   A is symmetric and, when positive definite, factored by Cholesky (its lower triangle read) and
+   written as L = C D^-1, U = D C^T with no pivots (T163); dgetrf when not (or when Cholesky breaks
+   down). */
+void nscd_factor_closed(int n, const double *A, double *F, int *ipiv, int sym, int *info);
 /* Status iterations of one status-set step (each a dense solve) */
 #define NSCD_STATUS_ITER 8
 /* A contact with no reaction is closed when its scaled velocity is below this fraction of the
@@ -294,8 +302,12 @@ void nscd_lu_border(int n, int n0, const double *A, const double *F0, double *LU
    otherwise r is kept and S->U is recomputed exactly. tol < 0: measure the rank only, never
    accept. MO_OK or MO_ENOMEM. */
 int nscd_status_step(nscd_state *S, const mo_contact_problem *P, double *r, int *status, double tol,
-                     double *res, nscd_accel_info *info, int cached_only, mo_ctx *ctx);
-/* cached_only: solve only when the kinds of r are those of the kept LU (no factorization). */
+                     double *res, nscd_accel_info *info, int mode, mo_ctx *ctx);
+/* mode: NSCD_STEP_FACTOR, the kinds of r (factored when they are not the kept LU's);
+   NSCD_STEP_CACHED, solve only when they are those of the kept LU (no factorization);
+   NSCD_STEP_PREDICT, as FACTOR with the open contacts that U = W r + q penetrates closed: the
+   first LU of a run without sweeps before it (T163). */
+enum { NSCD_STEP_FACTOR = 0, NSCD_STEP_CACHED = 1, NSCD_STEP_PREDICT = 2 };
 /* Frictionless (S->nonly): the normal components of U = W r + q from the normal entries of W;
    the tangential ones get q_t (finite, not exact: U_t is made exact before the solve returns). */
 void nscd_normal_mult(const nscd_state *S, const mo_contact_problem *P, const double *r, double *U);

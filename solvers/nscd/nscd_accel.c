@@ -20,6 +20,7 @@ extern void dtrsm_(const char *side, const char *uplo, const char *transa, const
 extern void dgemm_(const char *ta, const char *tb, const int *m, const int *n, const int *k, const double *alpha,
                    const double *a, const int *lda, const double *b, const int *ldb, const double *beta, double *c,
                    const int *ldc);
+extern void dpotrf_(const char *uplo, const int *n, double *a, const int *lda, int *info);
 extern void dgecon_(const char *norm, const int *n, const double *a, const int *lda, const double *anorm,
                     double *rcond, double *work, int *iwork, int *info);
 extern void dgelsd_(const int *m, const int *n, const int *nrhs, double *a, const int *lda, double *b,
@@ -37,6 +38,34 @@ static double lu_rcond(int n, const double *LU, double anorm, double *w4, int *i
   int info = 0;
   dgecon_("1", &n, LU, &n, &anorm, &rc, w4, iw, &info);
   return info ? 0 : rc;
+}
+
+/* LAPACK's LU layout (unit lower L, upper U, pivots ipiv) of the n x n column-major A in F (nscd.h). A
+   symmetric positive definite A (a frictionless closed set: W_nn on it) is factored by Cholesky,
+   A = C C^T (n^3/3 flops against dgetrf's 2n^3/3), and written as L = C D^-1, U = D C^T, D = diag(C),
+   no pivots: what dgetrs, dgecon and the border (T160) read (T163). Otherwise, or when the
+   Cholesky factorization breaks down, dgetrf. *info as dgetrf's. */
+void nscd_factor_closed(int n, const double *A, double *F, int *ipiv, int sym, int *info)
+{
+  int i, j;
+  memcpy(F, A, (size_t)n * (size_t)n * sizeof *F);
+  if (sym) {
+    dpotrf_("L", &n, F, &n, info);
+    if (*info == 0) {
+      for (j = 0; j < n; j++) {
+        double *cj = F + (size_t)j * n, dj = cj[j];
+        ipiv[j] = j + 1;
+        for (i = j + 1; i < n; i++) {
+          F[(size_t)i * n + j] = dj * cj[i]; /* U_ji = D_j C_ij */
+          cj[i] /= dj;                       /* L_ij = C_ij / D_j */
+        }
+        cj[j] = dj * dj;
+      }
+      return;
+    }
+    memcpy(F, A, (size_t)n * (size_t)n * sizeof *F);
+  }
+  dgetrf_(&n, &n, F, &n, ipiv, info);
 }
 
 /* The closed contacts' kinds from a point (r, U). From the sweeps: closed when compressive, or
@@ -173,7 +202,7 @@ void nscd_lu_border(int n, int n0, const double *A, const double *F0, double *LU
 }
 
 int nscd_status_step(nscd_state *S, const mo_contact_problem *P, double *r, int *status, double tol,
-                     double *res, nscd_accel_info *info, int cached_only, mo_ctx *ctx)
+                     double *res, nscd_accel_info *info, int mode, mo_ctx *ctx)
 {
   const int d = S->d, dd = d * d;
   int k, a, i, j, n, it, st = MO_OK, nmax = S->nact * d;
@@ -202,12 +231,14 @@ int nscd_status_step(nscd_state *S, const mo_contact_problem *P, double *r, int 
     }
   tiny = fmax(sqrt(tiny), sqrt(qscale)) * fmax(NSCD_WEAK, 100 * S->p.tol);
   set_kinds(S, r, S->U, tiny, 0, kind, E);
+  /* from the predictor (T163): the open contacts that U = W r + q drives into the obstacle close */
+  if (mode == NSCD_STEP_PREDICT) set_kinds(S, r, S->U, tiny, 1, kind, E);
   memcpy(rnew, r, (size_t)S->m * sizeof *rnew);
   /* the status iteration: solve (T83) for the kinds, take the kinds of the solution, again, until
      the law holds or the kinds stop changing (a semismooth Newton on the closed set) */
   for (it = 0; it < NSCD_STATUS_ITER; it++) {
     double anorm = 0, rc;
-    int rank = 0, lu_info = 0, border = n0 > 0;
+    int rank = 0, lu_info = 0, border = n0 > 0, sym = 1;
     /* the last iteration's LU is bordered (T160) when this one only closes contacts: the kinds
        and directions of the contacts closed there unchanged; their unknowns keep their places,
        the new ones follow */
@@ -247,7 +278,7 @@ int nscd_status_step(nscd_state *S, const mo_contact_problem *P, double *r, int 
       dgetrs_("N", &n, &one, S->lu.LU, &n, S->lu.ipiv, rhs, &n, &inf);
       goto solved;
     }
-    if (cached_only) break;
+    if (mode == NSCD_STEP_CACHED) break;
     info->tried = 1;
     if ((size_t)n * (size_t)n > acap) {
       /* the closed set's matrix and its LU, n x n (grown when a status iteration closes more),
@@ -282,6 +313,7 @@ int nscd_status_step(nscd_state *S, const mo_contact_problem *P, double *r, int 
       int nrow, row0;
       a = S->act[k];
       if (kind[a] == K_OPEN) continue;
+      sym &= kind[a] == K_NORMAL;
       nrow = kind[a] == K_STICK ? d : 1;
       row0 = off[a];
       for (i = 0; i < nrow; i++) rhs[row0 + i] = -P->b[(size_t)a * d + i];
@@ -312,10 +344,7 @@ int nscd_status_step(nscd_state *S, const mo_contact_problem *P, double *r, int 
     /* LU when the matrix is well conditioned, else the minimum-norm solution (SVD) with its
        numerical rank: the closed constraints the bodies' dofs make independent (T84) */
     if (n0) nscd_lu_border(n, n0, A, LU0, LU, ipiv, &lu_info);
-    else {
-      memcpy(LU, A, (size_t)n * (size_t)n * sizeof *LU);
-      dgetrf_(&n, &n, LU, &n, ipiv, &lu_info);
-    }
+    else nscd_factor_closed(n, A, LU, ipiv, sym, &lu_info);
     rc = lu_info ? 0 : lu_rcond(n, LU, anorm, w, iw);
     n0 = 0;
     info->rcond = rc;

@@ -216,6 +216,9 @@ int mo_delassus_dim(const mo_delassus *D);
 const double *mo_delassus_block(const mo_delassus *D, int alpha, int beta);
 /* Row alpha: its nonzero blocks (columns beta[k] in increasing order, values blocks + k*d*d). */
 int mo_delassus_row(const mo_delassus *D, int alpha, const int **beta, const double **blocks);
+/* Row alpha's normal entries W_alpha beta,nn alone, contiguous (wn[k] for beta[k]; one double a
+   block, doc/theory.md (T164)), for the passes of frictionless solves; *wn NULL when W keeps none. */
+int mo_delassus_row_normal(const mo_delassus *D, int alpha, const int **beta, const double **wn);
 /* y = W x (+ beta y); the normal columns of the blocks alone when x has no tangential component. */
 void mo_delassus_mult(const mo_delassus *D, const double *x, double beta, double *y);
 /* Dense copy (m x m row-major) for tests, FCLIB and small problems. */

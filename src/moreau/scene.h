@@ -256,6 +256,8 @@ typedef struct mo_scene {
   mo_probe *probe;
   mo_reference ref;
   const mo_case *cs; /* the case it was built from (not owned) */
+  double bytes_estimate; /* the run's memory as estimated from the case before building (T105,
+                            T165), bytes (summary.json bytes_estimate) */
 } mo_scene;
 
 /* Build a scene from a validated case: meshes, sets, dofs, assembly of K and (for dynamic
