@@ -38,7 +38,8 @@ typedef struct {
   ls_reduced red;            /* the reduced path's partition and kept factor of W_XX (T130-T133) */
   ls_sparse sp;              /* its sparse algebra on large sets (T137) */
   ls_bodies bd;              /* the smoother's sweep on body velocities (T145) */
-  double *wd;                /* nc d^2: the smoother's diagonal blocks of W + eps D (S_u = 1) */
+  double *wd;                /* nc LS_WD(d): the smoother's diagonal blocks of W + eps D (S_u = 1) and
+                                what its local solves keep of them (T147) */
   int bodies;                /* bd applies in this solve */
   int rigid;                 /* some candidate joins two rigid bodies (a dynamic pair) */
   int reduced;               /* the reduced path applies (A = I and the path allows it) */
@@ -78,6 +79,10 @@ typedef struct {
 } ls_pass;
 
 #define LS_PROX_EPS 1e-8      /* the automatic proximal eps (T136) */
+/* a candidate's record in the smoother's work L->wd: W_jj + eps D_j (d x d), its inverse (d x d),
+   1 / (c w_j), the 2D sliding denominators' inverses 1 / (W_nn -+ mu W_nt) (0: none) and whether
+   the inverse exists (T147) */
+#define LS_WD(d) (2 * (d) * (d) + 4)
 
 /* --- options ---------------------------------------------------------------------------------- */
 
@@ -121,6 +126,10 @@ static const mo_option_spec ls_options[] = {
    "Hybrid globalization: a line-search step shorter than this (or none decreasing the merit) is a trap, where the smoother sweeps instead."},
   {"smoother_path", MO_OPT_ENUM, OFF(smooth_path), "auto|bodies|delassus", NAN, NAN, "\"auto\"",
    "Hybrid globalization: the smoother's sweep through the bodies' velocities (v = What^-1 H r kept up to date candidate by candidate, one local update O(1), as nscd's sweep on bodies) or through W's block rows; bodies needs every candidate between rigid bodies and obstacles; auto is delassus (on the piles measured the two cost the same within a few per cent; doc/theory.md (T145))."},
+  {"smoother_local", MO_OPT_ENUM, OFF(smooth_local), "kept|elimination", NAN, NAN, "\"kept\"",
+   "Hybrid globalization: each candidate's local solve in a sweep on its factors kept for the solve (the inverse of W's diagonal block with the proximal term, the 2D sliding denominators; in 3D Newton's method on the sliding direction's angle) with the change of its impulse as the sweep's stopping cue, or by Gaussian elimination at every visit (in 3D a fixed point on the direction) with the natural map as the cue; the law is tested on the final iterate either way (doc/theory.md (T147))."},
+  {"smoother_order", MO_OPT_ENUM, OFF(smooth_order), "alternate|forward", NAN, NAN, "\"alternate\"",
+   "Hybrid globalization: the sweeps over the candidates forward and backward in turn (symmetric Gauss-Seidel), or forward only in the candidates' order, as nscd's natural order (doc/theory.md (T148))."},
   {"proximal_max", MO_OPT_INT, OFF(proximal_max), NULL, 1, 10000, "50",
    "Proximal loop: iteration limit."},
   {"threshold_max", MO_OPT_INT, OFF(threshold_max), NULL, 1, 100000, "200",
@@ -235,7 +244,7 @@ static int ls_init(void *state, const void *params, const mo_contact_problem *P,
   L->mu = mo_calloc(ctx, n1, sizeof(double));
   L->rev = mo_calloc(ctx, n1, 1);
   L->viol = mo_calloc(ctx, n1, sizeof(double));
-  L->wd = mo_calloc(ctx, n1 * (size_t)(d * d), sizeof *L->wd);
+  L->wd = mo_calloc(ctx, n1 * (size_t)LS_WD(d), sizeof *L->wd);
   L->dv = mo_calloc(ctx, (size_t)P->nfree + 1, sizeof(double));
   L->ddv = mo_calloc(ctx, (size_t)P->nfree + 1, sizeof(double));
   if (!L->su || !L->sv || !L->sf || !L->nsu || !L->nsv || !L->nsf || !L->pg || !L->ph || !L->lam ||
@@ -1225,6 +1234,146 @@ static inline __attribute__((always_inline)) int local_law(int d, const double *
   return 0;
 }
 
+/* --- the kept local solve (T147): each candidate's factors once per smoother call ----------------- */
+
+/* A 3D sliding solution by Newton's method on the direction's angle th, e = (cos th, sin th):
+   r_n(th) = -f_n / (W_nn - mu W_nt e), r_t = -mu r_n e, U'_t(th) = f_t + W_tn r_n + W_tt r_t; the
+   root of g(th) = e_perp . U'_t with e . U'_t > 0 (the slip along e), from the given e. Returns 1
+   with r set on convergence (|g| <= 1e-12 |U'_t|), 0 otherwise (the caller falls back to the
+   fixed point of local_slide). */
+static int slide_newton(const double *W, const double *f, double mu, const double *e0, double *e, double *r)
+{
+  double th = atan2(e0[1], e0[0]);
+  int it;
+  for (it = 0; it < 20; it++) {
+    const double c = cos(th), s = sin(th);
+    const double den = W[0] - mu * (W[1] * c + W[2] * s), dden = -mu * (-W[1] * s + W[2] * c);
+    double rn, drn, rt[2], drt[2], ut[2], dut[2], g, h, dg, step;
+    int t;
+    if (!(den > 0)) return 0;
+    rn = -f[0] / den;
+    drn = -rn * dden / den;
+    rt[0] = -mu * rn * c, rt[1] = -mu * rn * s;
+    drt[0] = -mu * (drn * c - rn * s), drt[1] = -mu * (drn * s + rn * c);
+    for (t = 0; t < 2; t++) {
+      const double *Wt = W + (1 + t) * 3;
+      ut[t] = f[1 + t] + Wt[0] * rn + Wt[1] * rt[0] + Wt[2] * rt[1];
+      dut[t] = Wt[0] * drn + Wt[1] * drt[0] + Wt[2] * drt[1];
+    }
+    g = -s * ut[0] + c * ut[1];
+    h = c * ut[0] + s * ut[1];
+    if (fabs(g) <= 1e-12 * hypot(ut[0], ut[1])) {
+      if (!(h > 0) || !(rn > 0)) return 0;
+      r[0] = rn, r[1] = rt[0], r[2] = rt[1];
+      e[0] = c, e[1] = s;
+      return 1;
+    }
+    dg = -h + (-s * dut[0] + c * dut[1]);
+    if (!(fabs(dg) > 0)) return 0;
+    step = g / dg;
+    if (!isfinite(step)) return 0;
+    th -= fmax(-0.5, fmin(0.5, step)); /* at most half a radian a step */
+  }
+  return 0;
+}
+
+/* One candidate's contact law, as local_law, on the factors kept in its record K (LS_WD(d): W_jj,
+   its inverse, 1 / (c w), the 2D sliding denominators' inverses, whether the inverse exists): the
+   sticking trial r = -W_jj^-1 f, the 2D slide in closed form for e = +-1, the 3D slide by Newton's
+   method on the direction (slide_newton; the fixed point of local_slide where it does not end).
+   The same zero as local_law (to round-off where both find one). */
+static inline __attribute__((always_inline)) int local_law_kept(const int d, const double *K, const double *f,
+                                                                 double mu, double *r)
+{
+  const double *Wl = K, *Wi = K + d * d, *aux = K + 2 * d * d;
+  double b[3], tn2 = 0, e[2], e0[2], x[3];
+  int i, k, t;
+  if (f[0] >= 0) {
+    for (i = 0; i < d; i++) r[i] = 0;
+    return 1;
+  }
+  if (!(mu > 0) || d == 1 || aux[3] == 0) return local_law(d, Wl, f, mu, r);
+  for (i = 0; i < d; i++) {
+    double acc = 0;
+    for (k = 0; k < d; k++) acc -= Wi[i * d + k] * f[k];
+    b[i] = acc;
+  }
+  for (t = 1; t < d; t++) tn2 += b[t] * b[t];
+  if (b[0] >= 0 && tn2 <= mu * mu * b[0] * b[0]) {
+    for (i = 0; i < d; i++) r[i] = b[i];
+    return 1;
+  }
+  if (d == 2) {
+    /* r_n = -f_n / (W_nn - mu W_nt e), r_t = -mu e r_n, accepted where U'_t e >= 0: first e
+       against the sticking trial's tangent (the free slip's where it has none), then -e */
+    double s = tn2 > 0 ? (b[1] > 0 ? -1 : 1) : (f[1] > 0 ? 1 : f[1] < 0 ? -1 : 0);
+    int pass;
+    if (s == 0) return 0;
+    for (pass = 0; pass < 2; pass++, s = -s) {
+      const double iden = aux[s > 0 ? 1 : 2];
+      double rn, rt, ut;
+      if (!(iden > 0)) continue;
+      rn = -f[0] * iden;
+      rt = -mu * s * rn;
+      ut = f[1] + Wl[2] * rn + Wl[3] * rt;
+      if (ut * s >= 0) {
+        r[0] = rn, r[1] = rt;
+        return 1;
+      }
+    }
+    return 0;
+  }
+  /* 3D: from the sticking trial's tangent (the free slip's where it has none) */
+  if (tn2 > 0) {
+    double tn = sqrt(tn2);
+    e0[0] = -b[1] / tn, e0[1] = -b[2] / tn;
+  } else {
+    double n = hypot(f[1], f[2]);
+    if (!(n > 0)) return 0;
+    e0[0] = f[1] / n, e0[1] = f[2] / n;
+  }
+  if (slide_newton(Wl, f, mu, e0, e, x)) {
+    for (i = 0; i < 3; i++) r[i] = x[i];
+    return 1;
+  }
+  e[0] = e0[0], e[1] = e0[1];
+  if (local_slide(3, Wl, f, mu, e, x)) {
+    for (i = 0; i < 3; i++) r[i] = x[i];
+    return 1;
+  }
+  return 0;
+}
+
+/* Candidate j's record of the smoother's work (LS_WD(d), T147) from W_jj + eps D_j in K[0 .. d^2):
+   the inverse (Gauss-Jordan, kept only where every pivot is non-zero and the result finite),
+   1 / (c w_j), the 2D sliding denominators' inverses (0 where a denominator is not positive). */
+static void keep_factors(const ls_state *L, const ls_pass *Q, int j, double *K)
+{
+  const int d = L->d;
+  double A[9], *Wi = K + d * d, *aux = K + 2 * d * d;
+  int i, k, ok = 1;
+  const double mu = Q->dt ? L->mu[j] : 0;
+  memcpy(A, K, (size_t)(d * d) * sizeof *A);
+  for (k = 0; k < d; k++) {
+    double b[3] = {0, 0, 0}, M[9];
+    b[k] = 1;
+    memcpy(M, A, (size_t)(d * d) * sizeof *M);
+    if (!small_solve(d, M, b)) ok = 0;
+    for (i = 0; i < d; i++) {
+      Wi[i * d + k] = b[i];
+      ok &= isfinite(b[i]);
+    }
+  }
+  aux[0] = 1 / (Q->c * Q->P->w[j]);
+  aux[1] = aux[2] = 0;
+  if (d == 2) {
+    double dp = K[0] - mu * K[1], dm = K[0] + mu * K[1];
+    aux[1] = dp > 0 ? 1 / dp : 0;
+    aux[2] = dm > 0 ? 1 / dm : 0;
+  }
+  aux[3] = ok;
+}
+
 /* The merit Psi (T140) at the iterate L->r, L->U; *emax: its largest residual in units of the sign
    tests' tolerances of the last sign fields (<= 1: the law holds, as (T142) tests it). */
 static double merit_here(const ls_state *L, const ls_pass *Q, double *emax)
@@ -1253,32 +1402,35 @@ static inline __attribute__((always_inline)) void body_U(ls_state *L, int j, con
     for (i = 0; i < d; i++) Uj[i] += L->eps * L->dW[j * d + i] * L->r[j * d + i];
 }
 
-/* One sweep (forward, or backward with back) over the candidates of S_u = 1 with diagonal blocks
-   Wd + j d^2 (the proximal term included; d: a constant at the call). Returns the merit of the candidates' natural map (T140) as
-   each met it, before its update (its largest residual in units of the tolerances in *emax): the
-   smoother's cue to test the law on the iterate itself. */
+/* One sweep (forward, or backward with back) over the candidates of S_u = 1 with their records Wd
+   + j LS_WD(d) (W's diagonal block with the proximal term first; d: a constant at the call). With
+   kept, each local solve reads the factors kept in the record (local_law_kept) and the sweep
+   returns the sum over the candidates of |r_j new - r_j old|^2 / (c w_j)^2 (pressure units, the
+   change the visit made; its largest in units of the tolerances in *emax, T147); else each
+   candidate's natural map (T140) as the sweep met it, before its update, and local_law. Either is
+   the smoother's cue to test the law on the iterate itself. */
 static inline __attribute__((always_inline)) double sweep(ls_state *L, const ls_pass *Q, const double *Wd, int back,
-                                                          double *emax, const int d)
+                                                          double *emax, const int d, const int kept)
 {
   double vm = 0, ve = 0;
+  const double itv = 1 / (Q->tol_v + 1e-300), itf = 1 / (Q->tol_f + 1e-300);
   const mo_delassus *W = Q->P->W;
   const int nc = L->nc, bodies = L->bodies;
   int jj, i, k, p;
   for (jj = 0; jj < nc; jj++) {
     const int j = back ? nc - 1 - jj : jj;
     const int *beta;
-    const double *blk;
-    double Wl[9], f[3], rn[3], dr[3], *rj = L->r + j * d, *Uj = L->U + j * d;
+    const double *blk, *K = Wd + (size_t)j * LS_WD(d), *Wl = K;
+    double f[3], rn[3], dr[3], *rj = L->r + j * d, *Uj = L->U + j * d;
     int n, moved = 0;
-    if (!L->su[j] || isnan(Wd[j * d * d])) continue;
-    for (i = 0; i < d * d; i++) Wl[i] = Wd[j * d * d + i];
+    if (!L->su[j] || isnan(K[0])) continue;
     if (bodies) body_U(L, j, d);
-    {
+    if (!kept) {
       double fn, ft, a, z[2], zn;
       natural_map(L, Q, j, rj, Uj, &fn, &ft, &a, z, &zn);
       vm += fn * fn + ft * ft;
-      fn = fabs(fn) / (Q->tol_v + 1e-300);
-      ft /= Q->tol_f + 1e-300;
+      fn = fabs(fn) * itv;
+      ft *= itf;
       ve = fn > ve ? fn : ve;
       ve = ft > ve ? ft : ve;
     }
@@ -1287,12 +1439,26 @@ static inline __attribute__((always_inline)) double sweep(ls_state *L, const ls_
       for (k = 0; k < d; k++) f[i] -= Wl[i * d + k] * rj[k];
       rn[i] = rj[i];
     }
-    if (!local_law(d, Wl, f, Q->dt ? L->mu[j] : 0, rn)) continue;
+    if (kept ? !local_law_kept(d, K, f, Q->dt ? L->mu[j] : 0, rn) : !local_law(d, Wl, f, Q->dt ? L->mu[j] : 0, rn))
+      continue;
     for (i = 0; i < d; i++) {
       dr[i] = rn[i] - rj[i];
       moved |= dr[i] != 0;
     }
     if (!moved) continue;
+    if (kept) {
+      /* the change in pressure units: normal, and tangential (squared) */
+      const double icw = K[2 * d * d];
+      double cn = dr[0] * icw, ct = 0;
+      cn *= cn;
+      for (i = 1; i < d; i++) ct += dr[i] * dr[i];
+      ct *= icw * icw;
+      vm += cn + ct;
+      cn *= itv * itv;
+      ct *= itf * itf;
+      ve = cn > ve ? cn : ve;
+      ve = ct > ve ? ct : ve;
+    }
     for (i = 0; i < d; i++) rj[i] = rn[i];
     if (bodies) {
       ls_bodies_push(&L->bd, j, dr, d);
@@ -1309,7 +1475,7 @@ static inline __attribute__((always_inline)) double sweep(ls_state *L, const ls_
     if (L->eps > 0)
       for (i = 0; i < d; i++) Uj[i] += L->eps * L->dW[j * d + i] * dr[i];
   }
-  *emax = ve;
+  *emax = kept ? sqrt(ve) : ve;
   return vm;
 }
 
@@ -1324,13 +1490,13 @@ static inline __attribute__((always_inline)) double sweep(ls_state *L, const ls_
    (nc) is work for the diagonal blocks. */
 static void smoother(ls_state *L, ls_pass *Q, int nsweep, double drop)
 {
-  const int nc = L->nc, d = L->d;
+  const int nc = L->nc, d = L->d, kept = L->par.smooth_local == LS_LOCAL_KEPT;
   double e, m0 = merit_here(L, Q, &e), vm;
   int s, j;
   /* the diagonal blocks (with the proximal term), side by side: read at every visit */
   for (j = 0; j < nc; j++) {
     const double *Wjj = L->su[j] ? mo_delassus_block(Q->P->W, j, j) : NULL;
-    double *Wl = L->wd + (size_t)j * d * d;
+    double *Wl = L->wd + (size_t)j * LS_WD(d);
     int i;
     if (!Wjj) {
       Wl[0] = NAN; /* no block: the sweeps pass it by */
@@ -1339,12 +1505,18 @@ static void smoother(ls_state *L, ls_pass *Q, int nsweep, double drop)
     memcpy(Wl, Wjj, (size_t)(d * d) * sizeof *Wl);
     if (L->eps > 0)
       for (i = 0; i < d; i++) Wl[i * d + i] += L->eps * L->dW[j * d + i];
+    if (kept) keep_factors(L, Q, j, Wl);
   }
   if (L->bodies) ls_bodies_velocity(&L->bd, Q->P, L->r);
   for (s = 0; s < nsweep; s++) {
-    if (d == 2) vm = sweep(L, Q, L->wd, s & 1, &e, 2);
-    else if (d == 3) vm = sweep(L, Q, L->wd, s & 1, &e, 3);
-    else vm = sweep(L, Q, L->wd, s & 1, &e, 1);
+    const int back = L->par.smooth_order == LS_ORDER_ALTERNATE && (s & 1);
+    if (kept) {
+      if (d == 2) vm = sweep(L, Q, L->wd, back, &e, 2, 1);
+      else if (d == 3) vm = sweep(L, Q, L->wd, back, &e, 3, 1);
+      else vm = sweep(L, Q, L->wd, back, &e, 1, 1);
+    } else if (d == 2) vm = sweep(L, Q, L->wd, back, &e, 2, 0);
+    else if (d == 3) vm = sweep(L, Q, L->wd, back, &e, 3, 0);
+    else vm = sweep(L, Q, L->wd, back, &e, 1, 0);
     Q->nsweep++;
     if (vm > drop * m0 && e > 1 && s + 1 < nsweep) continue;
     if (L->bodies)
