@@ -47,6 +47,9 @@ typedef struct {
   int prox_request;          /* a frozen status met redundant normal impulses without it */
   int coupled;               /* the threshold is coupled in this solve (T134) */
   int glob;                  /* the damped level-set loop on the natural map (T140) in this solve */
+  int hybrid;                /* ... with the smoother (T144): asked, or auto on a pile (T149) */
+  int spre;                  /* the smoother's sweeps before the first Newton step in this solve */
+  double stol;               /* the sign tests' relative tolerance in this solve (status_tol; T149) */
   double *rk, *Uk, *rs, *Us; /* m: the damped loop's iterate and the frozen solution (impulses, U') */
   double *edir;              /* nc x 2: the sliding directions the damped loop freezes */
   int frozen_solve;          /* a frozen-threshold (dense) solve since the last threshold update */
@@ -79,6 +82,11 @@ typedef struct {
 } ls_pass;
 
 #define LS_PROX_EPS 1e-8      /* the automatic proximal eps (T136) */
+/* globalization = "auto" on a pile (friction between rigid bodies, more than LS_DENSE_MAX local
+   unknowns): the hybrid, its smoother finishing the steps (smoother_pre when not given) at the sign
+   tests' tolerance of nscd's accuracy on the shipped piles (status_tol at least; T149) */
+#define LS_PILE_PRE 1000
+#define LS_PILE_TOL 1e-3
 /* a candidate's record in the smoother's work L->wd: W_jj + eps D_j (d x d), its inverse (d x d),
    1 / (c w_j), the 2D sliding denominators' inverses 1 / (W_nn -+ mu W_nt) (0: none) and whether
    the inverse exists (T147) */
@@ -115,7 +123,7 @@ static const mo_option_spec ls_options[] = {
   {"proximal", MO_OPT_DOUBLE, OFF(proximal), NULL, 0, 1, "0 (automatic)",
    "Proximal term on the impulses (doc/theory.md (T136)): each pass solves the problem with W + eps D and q - eps D r_c (D the diagonal of W, r_c the previous pass's impulses) until the term falls below newton_tol, so that a frozen status whose impulses are not unique (redundant contacts: piles, masonry) has one solution, the nearest to r_c, and the law holds at the end. 0: eps = 1e-8 where the reduced path finds redundant normal impulses (or a contact set too large for dense algebra between rigid bodies), none elsewhere."},
   {"globalization", MO_OPT_ENUM, OFF(globalization), "auto|none|line_search|hybrid", NAN, NAN, "\"auto\"",
-   "The level-set loop on the reduced path with the coupled threshold: line_search moves from the current impulses toward the frozen-status solution by the step that decreases the natural-map residual of the contact law (Armijo backtracking) and takes the sign fields of the point reached (doc/theory.md (T140)-(T143); in 3D with the sliding directions frozen at the iterate); hybrid is line_search with a smoother where it traps: sweeps of projected block Gauss-Seidel on the same law, each candidate's contact law solved exactly against the current impulses of the others (doc/theory.md (T144)); none takes the whole step (BDZ07 Fig. 2); auto is line_search on 2D sets of more than 400 local unknowns between rigid bodies (piles), none elsewhere."},
+   "The level-set loop on the reduced path with the coupled threshold: line_search moves from the current impulses toward the frozen-status solution by the step that decreases the natural-map residual of the contact law (Armijo backtracking) and takes the sign fields of the point reached (doc/theory.md (T140)-(T143); in 3D with the sliding directions frozen at the iterate); hybrid is line_search with a smoother where it traps: sweeps of projected block Gauss-Seidel on the same law, each candidate's contact law solved exactly against the current impulses of the others (doc/theory.md (T144)); none takes the whole step (BDZ07 Fig. 2); auto is hybrid on piles (every candidate between rigid bodies and obstacles, more than 400 free dofs: its smoother finishing the steps, smoother_pre 1000 unless given, status_tol at least 1e-3, the core's residual of nscd at its tolerance on the shipped piles; doc/theory.md (T149)), line_search on other 2D sets of more than 400 local unknowns with a candidate between rigid bodies, none elsewhere."},
   {"smoother_sweeps", MO_OPT_INT, OFF(smooth_sweeps), NULL, 1, 100000, "500",
    "Hybrid globalization: the most Gauss-Seidel sweeps over the contact set where the damped loop traps (doc/theory.md (T144))."},
   {"smoother_drop", MO_OPT_DOUBLE, OFF(smooth_drop), NULL, 0, 1, "0.01",
@@ -200,6 +208,7 @@ static int ls_init(void *state, const void *params, const mo_contact_problem *P,
   int nc = P->nc, d = P->dim, m = P->m, j, st;
   size_t n1 = (size_t)nc + 1, nm1;
   L->par = *(const ls_params *)params;
+  L->stol = L->par.status_tol;
   L->nc = nc;
   L->d = d;
   L->m = m;
@@ -651,8 +660,8 @@ static void sign_tolerances(const ls_state *L, int d, int dt, double rho_n, doub
     }
   }
   *scale_v = psc + rho_n * usc;
-  *tol_v = L->par.status_tol * *scale_v;
-  *tol_f = L->par.status_tol * (fsc + rho_t * vsc) + L->par.threshold_tol * fsc;
+  *tol_v = L->stol * *scale_v;
+  *tol_f = L->stol * (fsc + rho_t * vsc) + L->par.threshold_tol * fsc;
 }
 
 /* U' = W r + q (Schur) or q + H^T dv (KKT) over every candidate, and its magnitudes. */
@@ -712,7 +721,7 @@ static void friction_scales(ls_state *L, double kt, double *rho_t)
    least, and alone where no threshold acts). */
 static int stick_sign(const ls_state *L, int j, double g, int stick, double tol_f)
 {
-  double f = L->mu[j] * L->pg[j], b = L->par.status_tol;
+  double f = L->mu[j] * L->pg[j], b = L->stol;
   if (f > 0 && tol_f / f > b) b = tol_f / f;
   return stick ? g <= 1 + b : g < 1 - b;
 }
@@ -1541,13 +1550,13 @@ static int damped_loop(ls_state *L, ls_pass *Q, mo_contact_report *rep, mo_ctx *
   const mo_contact_problem *P = Q->P;
   ls_system *S = &L->S;
   const int nc = L->nc, m = L->m;
-  const int hybrid = L->par.globalization == LS_GLOB_HYBRID;
+  const int hybrid = L->hybrid;
   int it, j, st, its, conv, done, k;
   double m0, emax;
   full_velocity(L, P, 0);
-  if (hybrid && L->par.smooth_pre > 0) {
+  if (hybrid && L->spre > 0) {
     damped_signs(L, Q); /* the sign tests' tolerances, which the smoother's stop reads */
-    smoother(L, Q, L->par.smooth_pre, 0);
+    smoother(L, Q, L->spre, 0);
     full_velocity(L, P, 0);
   }
   emax = damped_signs(L, Q);
@@ -1710,13 +1719,24 @@ static void write_solution(ls_state *L, ls_pass *Q, mo_contact_vars *x)
   }
 }
 
+/* Every candidate between rigid bodies and obstacles: H's entries on the rigid blocks' dofs only
+   (none on a deformable body's). */
+static int rigid_only(const mo_contact_problem *P)
+{
+  int p;
+  if (!P->H || !P->Wi) return 0;
+  for (p = 0; p < P->H->p[P->m]; p++)
+    if (P->H->i[p] < P->Wi->nfe) return 0;
+  return 1;
+}
+
 static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x,
                     mo_contact_report *rep, mo_ctx *ctx)
 {
   ls_state *L = state;
   const long nfact0 = L->lu.factorizations, nreuse0 = L->lu.reuses;
   ls_pass Q;
-  int j, st;
+  int j, st, pile;
   if (!P->W) return mo_error(ctx, MO_EINTERNAL, "levelset: the core did not build W");
   memset(&Q, 0, sizeof Q);
   Q.P = P;
@@ -1724,17 +1744,22 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
   Q.end_gap = P->scheme == MO_SCHEME_THETA && P->signorini == MO_SIGNORINI_VELOCITY && L->par.su == LS_SU_END_GAP;
   Q.dt = L->friction ? L->d - 1 : 0;
   Q.c = P->scheme == MO_SCHEME_THETA ? P->h : 1;
-  solve_scales(L, &Q);
   /* the damped loop (T140): where asked, or on large rigid sets (piles); in 3D it brings the
-     coupled threshold with frozen sliding directions (T143) */
+     coupled threshold with frozen sliding directions (T143). auto on a pile: the hybrid with the
+     smoother finishing the steps at nscd's accuracy on the shipped piles (T149) */
+  pile = L->par.globalization == LS_GLOB_AUTO && L->rigid && P->nfree > LS_DENSE_MAX && rigid_only(P);
   L->glob = L->reduced && !Q.kkt && Q.dt > 0 && L->par.threshold != LS_THR_LOOP && L->par.k_n == 0 &&
-            L->par.k_t == 0 && (L->par.globalization == LS_GLOB_LINE_SEARCH || L->par.globalization == LS_GLOB_HYBRID ||
+            L->par.k_t == 0 && (L->par.globalization == LS_GLOB_LINE_SEARCH || L->par.globalization == LS_GLOB_HYBRID || pile ||
             (L->par.globalization == LS_GLOB_AUTO && Q.dt == 1 && L->rigid && P->nc * P->dim > LS_DENSE_MAX));
+  L->hybrid = L->glob && (L->par.globalization == LS_GLOB_HYBRID || pile);
+  L->spre = pile && L->par.smooth_pre == 0 ? LS_PILE_PRE : L->par.smooth_pre;
+  L->stol = L->glob && pile ? fmax(L->par.status_tol, LS_PILE_TOL) : L->par.status_tol;
+  solve_scales(L, &Q);
   L->coupled = L->reduced && !Q.kkt && (Q.dt == 1 || (Q.dt == 2 && L->glob)) && L->par.threshold != LS_THR_LOOP;
   /* the hybrid's sweep on body velocities, where asked and every candidate joins rigid bodies
      (T145; auto keeps W's rows: on the piles measured the two cost the same within 2-4 %) */
   L->bodies = 0;
-  if (L->glob && L->par.globalization == LS_GLOB_HYBRID && L->par.smooth_path == LS_SMOOTH_BODIES) {
+  if (L->hybrid && L->par.smooth_path == LS_SMOOTH_BODIES) {
     if ((st = ls_bodies_build(&L->bd, P, ctx))) return st;
     L->bodies = L->bd.ok;
     if (!L->bodies && L->par.smooth_path == LS_SMOOTH_BODIES)
