@@ -133,7 +133,7 @@ static const mo_option_spec ls_options[] = {
   {"smoother_alpha", MO_OPT_DOUBLE, OFF(smooth_alpha), NULL, 0, 1, "0.001",
    "Hybrid globalization: a line-search step shorter than this (or none decreasing the merit) is a trap, where the smoother sweeps instead."},
   {"smoother_path", MO_OPT_ENUM, OFF(smooth_path), "auto|bodies|delassus", NAN, NAN, "\"auto\"",
-   "Hybrid globalization: the smoother's sweep through the bodies' velocities (v = What^-1 H r kept up to date candidate by candidate, one local update O(1), as nscd's sweep on bodies) or through W's block rows; bodies needs every candidate between rigid bodies and obstacles; auto is delassus (on the piles measured the two cost the same within a few per cent; doc/theory.md (T145))."},
+   "Hybrid globalization: the smoother's sweep through the bodies' velocities (v = What^-1 H r kept up to date candidate by candidate, one local update O(1), as nscd's sweep on bodies) or through W's block rows; bodies needs every candidate between rigid bodies and obstacles; auto is bodies in 3D where every candidate joins rigid bodies and obstacles (sphere-deposit: 0.75 times the CPU time of the sweep on W's rows), delassus otherwise (2D piles: the same within noise; doc/theory.md (T145), (T148))."},
   {"smoother_local", MO_OPT_ENUM, OFF(smooth_local), "kept|elimination", NAN, NAN, "\"kept\"",
    "Hybrid globalization: each candidate's local solve in a sweep on its factors kept for the solve (the inverse of W's diagonal block with the proximal term, the 2D sliding denominators; in 3D Newton's method on the sliding direction's angle) with the change of its impulse as the sweep's stopping cue, or by Gaussian elimination at every visit (in 3D a fixed point on the direction) with the natural map as the cue; the law is tested on the final iterate either way (doc/theory.md (T147))."},
   {"smoother_order", MO_OPT_ENUM, OFF(smooth_order), "forward|alternate", NAN, NAN, "\"forward\"",
@@ -1757,9 +1757,11 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
   solve_scales(L, &Q);
   L->coupled = L->reduced && !Q.kkt && (Q.dt == 1 || (Q.dt == 2 && L->glob)) && L->par.threshold != LS_THR_LOOP;
   /* the hybrid's sweep on body velocities, where asked and every candidate joins rigid bodies
-     (T145; auto keeps W's rows: on the piles measured the two cost the same within 2-4 %) */
+     (T145); auto takes it in 3D, where W's rows hold many 3 x 3 blocks and the sweep on them costs
+     more memory traffic than instructions (sphere-deposit: 0.75 times the CPU time), and W's rows
+     in 2D (the two cost the same within noise; T148) */
   L->bodies = 0;
-  if (L->hybrid && L->par.smooth_path == LS_SMOOTH_BODIES) {
+  if (L->hybrid && (L->par.smooth_path == LS_SMOOTH_BODIES || (L->par.smooth_path == LS_SMOOTH_AUTO && L->d == 3))) {
     if ((st = ls_bodies_build(&L->bd, P, ctx))) return st;
     L->bodies = L->bd.ok;
     if (!L->bodies && L->par.smooth_path == LS_SMOOTH_BODIES)
