@@ -1488,15 +1488,16 @@ static inline __attribute__((always_inline)) double sweep(ls_state *L, const ls_
   return vm;
 }
 
-/* nsweep sweeps of projected block Gauss-Seidel over the candidates of S_u = 1, alternately forward
-   and backward: each candidate's law solved exactly (local_law) with W's diagonal block (plus the
+/* nsweep sweeps of projected block Gauss-Seidel over the candidates of S_u = 1 (in the order of
+   smoother_order): each candidate's law solved exactly (local_law) with W's diagonal block (plus the
    proximal term) against the current impulses of the others. U' = W r + q_eff follows the impulse
    changes along W's block row, or (L->bodies, T145) through the bodies' velocities v = What^-1 H r,
    U'_j read from them before each local solve. The sweeps stop on the merit and the law of the
    iterate itself (U' over S_u = 1 from v), tested after a sweep whose candidates met the merit's
    drop or the law as they were visited. L->U must hold U' over the candidates of S_u = 1 on entry;
    on return it does over all of them that W's rows reach (full_velocity refreshes the rest). L->wd
-   (nc) is work for the diagonal blocks. */
+   (nc records of LS_WD(d)) holds the diagonal blocks and, with smoother_local = "kept", what the
+   local solves keep of them (keep_factors, T147). */
 static void smoother(ls_state *L, ls_pass *Q, int nsweep, double drop)
 {
   const int nc = L->nc, d = L->d, kept = L->par.smooth_local == LS_LOCAL_KEPT;
