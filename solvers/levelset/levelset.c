@@ -373,12 +373,14 @@ static int nonzero(const double *y, int n)
   return 0;
 }
 
-/* 1 when y = 0 and F(y) = 0 exactly: the Newton step from there is 0 (whatever J). */
+/* 1 when y = 0 and F(y) = 0 exactly: the Newton step from there is 0 (whatever J). y first: the
+   reduced step evaluates F at its first iterate only where y = 0 (ls_newton). */
 static int zero_start(const ls_system *S, const double *y)
 {
   int e;
+  if (nonzero(y, S->ny)) return 0;
   for (e = 0; e < S->ny; e++)
-    if (S->F[e] != 0 || y[e] != 0) return 0;
+    if (S->F[e] != 0) return 0;
   return 1;
 }
 
