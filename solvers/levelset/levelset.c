@@ -38,7 +38,8 @@ typedef struct {
   ls_reduced red;            /* the reduced path's partition and kept factor of W_XX (T130-T133) */
   ls_sparse sp;              /* its sparse algebra on large sets (T137) */
   ls_bodies bd;              /* the smoother's sweep on body velocities (T145) */
-  double *wd;                /* nc d^2: the smoother's diagonal blocks of W + eps D (S_u = 1) */
+  double *wd;                /* nc LS_WD(d): the smoother's diagonal blocks of W + eps D (S_u = 1) and
+                                what its local solves keep of them (T147) */
   int bodies;                /* bd applies in this solve */
   int rigid;                 /* some candidate joins two rigid bodies (a dynamic pair) */
   int reduced;               /* the reduced path applies (A = I and the path allows it) */
@@ -46,6 +47,9 @@ typedef struct {
   int prox_request;          /* a frozen status met redundant normal impulses without it */
   int coupled;               /* the threshold is coupled in this solve (T134) */
   int glob;                  /* the damped level-set loop on the natural map (T140) in this solve */
+  int hybrid;                /* ... with the smoother (T144): asked, or auto on a pile (T149) */
+  int spre;                  /* the smoother's sweeps before the first Newton step in this solve */
+  double stol;               /* the sign tests' relative tolerance in this solve (status_tol; T149) */
   double *rk, *Uk, *rs, *Us; /* m: the damped loop's iterate and the frozen solution (impulses, U') */
   double *edir;              /* nc x 2: the sliding directions the damped loop freezes */
   int frozen_solve;          /* a frozen-threshold (dense) solve since the last threshold update */
@@ -78,6 +82,15 @@ typedef struct {
 } ls_pass;
 
 #define LS_PROX_EPS 1e-8      /* the automatic proximal eps (T136) */
+/* globalization = "auto" on a pile (friction between rigid bodies, more than LS_DENSE_MAX local
+   unknowns): the hybrid, its smoother finishing the steps (smoother_pre when not given) at the sign
+   tests' tolerance of nscd's accuracy on the shipped piles (status_tol at least; T149) */
+#define LS_PILE_PRE 1000
+#define LS_PILE_TOL 1e-3
+/* a candidate's record in the smoother's work L->wd: W_jj + eps D_j (d x d), its inverse (d x d),
+   1 / (c w_j), the 2D sliding denominators' inverses 1 / (W_nn -+ mu W_nt) (0: none) and whether
+   the inverse exists (T147) */
+#define LS_WD(d) (2 * (d) * (d) + 4)
 
 /* --- options ---------------------------------------------------------------------------------- */
 
@@ -110,7 +123,7 @@ static const mo_option_spec ls_options[] = {
   {"proximal", MO_OPT_DOUBLE, OFF(proximal), NULL, 0, 1, "0 (automatic)",
    "Proximal term on the impulses (doc/theory.md (T136)): each pass solves the problem with W + eps D and q - eps D r_c (D the diagonal of W, r_c the previous pass's impulses) until the term falls below newton_tol, so that a frozen status whose impulses are not unique (redundant contacts: piles, masonry) has one solution, the nearest to r_c, and the law holds at the end. 0: eps = 1e-8 where the reduced path finds redundant normal impulses (or a contact set too large for dense algebra between rigid bodies), none elsewhere."},
   {"globalization", MO_OPT_ENUM, OFF(globalization), "auto|none|line_search|hybrid", NAN, NAN, "\"auto\"",
-   "The level-set loop on the reduced path with the coupled threshold: line_search moves from the current impulses toward the frozen-status solution by the step that decreases the natural-map residual of the contact law (Armijo backtracking) and takes the sign fields of the point reached (doc/theory.md (T140)-(T143); in 3D with the sliding directions frozen at the iterate); hybrid is line_search with a smoother where it traps: sweeps of projected block Gauss-Seidel on the same law, each candidate's contact law solved exactly against the current impulses of the others (doc/theory.md (T144)); none takes the whole step (BDZ07 Fig. 2); auto is line_search on 2D sets of more than 400 local unknowns between rigid bodies (piles), none elsewhere."},
+   "The level-set loop on the reduced path with the coupled threshold: line_search moves from the current impulses toward the frozen-status solution by the step that decreases the natural-map residual of the contact law (Armijo backtracking) and takes the sign fields of the point reached (doc/theory.md (T140)-(T143); in 3D with the sliding directions frozen at the iterate); hybrid is line_search with a smoother where it traps: sweeps of projected block Gauss-Seidel on the same law, each candidate's contact law solved exactly against the current impulses of the others (doc/theory.md (T144)); none takes the whole step (BDZ07 Fig. 2); auto is hybrid on piles (every candidate between rigid bodies and obstacles, more than 400 free dofs: its smoother finishing the steps, smoother_pre 1000 unless given, status_tol at least 1e-3, the core's residual of nscd at its tolerance on the shipped piles; doc/theory.md (T149)), line_search on other 2D sets of more than 400 local unknowns with a candidate between rigid bodies, none elsewhere."},
   {"smoother_sweeps", MO_OPT_INT, OFF(smooth_sweeps), NULL, 1, 100000, "500",
    "Hybrid globalization: the most Gauss-Seidel sweeps over the contact set where the damped loop traps (doc/theory.md (T144))."},
   {"smoother_drop", MO_OPT_DOUBLE, OFF(smooth_drop), NULL, 0, 1, "0.01",
@@ -120,7 +133,11 @@ static const mo_option_spec ls_options[] = {
   {"smoother_alpha", MO_OPT_DOUBLE, OFF(smooth_alpha), NULL, 0, 1, "0.001",
    "Hybrid globalization: a line-search step shorter than this (or none decreasing the merit) is a trap, where the smoother sweeps instead."},
   {"smoother_path", MO_OPT_ENUM, OFF(smooth_path), "auto|bodies|delassus", NAN, NAN, "\"auto\"",
-   "Hybrid globalization: the smoother's sweep through the bodies' velocities (v = What^-1 H r kept up to date candidate by candidate, one local update O(1), as nscd's sweep on bodies) or through W's block rows; bodies needs every candidate between rigid bodies and obstacles; auto is delassus (on the piles measured the two cost the same within a few per cent; doc/theory.md (T145))."},
+   "Hybrid globalization: the smoother's sweep through the bodies' velocities (v = What^-1 H r kept up to date candidate by candidate, one local update O(1), as nscd's sweep on bodies) or through W's block rows; bodies needs every candidate between rigid bodies and obstacles; auto is bodies in 3D where every candidate joins rigid bodies and obstacles (sphere-deposit: 0.75 times the CPU time of the sweep on W's rows), delassus otherwise (2D piles: the same within noise; doc/theory.md (T145), (T148))."},
+  {"smoother_local", MO_OPT_ENUM, OFF(smooth_local), "kept|elimination", NAN, NAN, "\"kept\"",
+   "Hybrid globalization: each candidate's local solve in a sweep on its factors kept for the solve (the inverse of W's diagonal block with the proximal term, the 2D sliding denominators; in 3D Newton's method on the sliding direction's angle) with the change of its impulse as the sweep's stopping cue, or by Gaussian elimination at every visit (in 3D a fixed point on the direction) with the natural map as the cue; the law is tested on the final iterate either way (doc/theory.md (T147))."},
+  {"smoother_order", MO_OPT_ENUM, OFF(smooth_order), "forward|alternate", NAN, NAN, "\"forward\"",
+   "Hybrid globalization: the sweeps over the candidates forward only, in the candidates' order (nscd's natural order), or forward and backward in turn (symmetric Gauss-Seidel: on the piles measured 1.3 to 1.6 times the sweeps; doc/theory.md (T148))."},
   {"proximal_max", MO_OPT_INT, OFF(proximal_max), NULL, 1, 10000, "50",
    "Proximal loop: iteration limit."},
   {"threshold_max", MO_OPT_INT, OFF(threshold_max), NULL, 1, 100000, "200",
@@ -191,6 +208,7 @@ static int ls_init(void *state, const void *params, const mo_contact_problem *P,
   int nc = P->nc, d = P->dim, m = P->m, j, st;
   size_t n1 = (size_t)nc + 1, nm1;
   L->par = *(const ls_params *)params;
+  L->stol = L->par.status_tol;
   L->nc = nc;
   L->d = d;
   L->m = m;
@@ -235,7 +253,7 @@ static int ls_init(void *state, const void *params, const mo_contact_problem *P,
   L->mu = mo_calloc(ctx, n1, sizeof(double));
   L->rev = mo_calloc(ctx, n1, 1);
   L->viol = mo_calloc(ctx, n1, sizeof(double));
-  L->wd = mo_calloc(ctx, n1 * (size_t)(d * d), sizeof *L->wd);
+  L->wd = mo_calloc(ctx, n1 * (size_t)LS_WD(d), sizeof *L->wd);
   L->dv = mo_calloc(ctx, (size_t)P->nfree + 1, sizeof(double));
   L->ddv = mo_calloc(ctx, (size_t)P->nfree + 1, sizeof(double));
   if (!L->su || !L->sv || !L->sf || !L->nsu || !L->nsv || !L->nsf || !L->pg || !L->ph || !L->lam ||
@@ -355,12 +373,14 @@ static int nonzero(const double *y, int n)
   return 0;
 }
 
-/* 1 when y = 0 and F(y) = 0 exactly: the Newton step from there is 0 (whatever J). */
+/* 1 when y = 0 and F(y) = 0 exactly: the Newton step from there is 0 (whatever J). y first: the
+   reduced step evaluates F at its first iterate only where y = 0 (ls_newton). */
 static int zero_start(const ls_system *S, const double *y)
 {
   int e;
+  if (nonzero(y, S->ny)) return 0;
   for (e = 0; e < S->ny; e++)
-    if (S->F[e] != 0 || y[e] != 0) return 0;
+    if (S->F[e] != 0) return 0;
   return 1;
 }
 
@@ -642,8 +662,8 @@ static void sign_tolerances(const ls_state *L, int d, int dt, double rho_n, doub
     }
   }
   *scale_v = psc + rho_n * usc;
-  *tol_v = L->par.status_tol * *scale_v;
-  *tol_f = L->par.status_tol * (fsc + rho_t * vsc) + L->par.threshold_tol * fsc;
+  *tol_v = L->stol * *scale_v;
+  *tol_f = L->stol * (fsc + rho_t * vsc) + L->par.threshold_tol * fsc;
 }
 
 /* U' = W r + q (Schur) or q + H^T dv (KKT) over every candidate, and its magnitudes. */
@@ -703,7 +723,7 @@ static void friction_scales(ls_state *L, double kt, double *rho_t)
    least, and alone where no threshold acts). */
 static int stick_sign(const ls_state *L, int j, double g, int stick, double tol_f)
 {
-  double f = L->mu[j] * L->pg[j], b = L->par.status_tol;
+  double f = L->mu[j] * L->pg[j], b = L->stol;
   if (f > 0 && tol_f / f > b) b = tol_f / f;
   return stick ? g <= 1 + b : g < 1 - b;
 }
@@ -1225,6 +1245,146 @@ static inline __attribute__((always_inline)) int local_law(int d, const double *
   return 0;
 }
 
+/* --- the kept local solve (T147): each candidate's factors once per smoother call ----------------- */
+
+/* A 3D sliding solution by Newton's method on the direction's angle th, e = (cos th, sin th):
+   r_n(th) = -f_n / (W_nn - mu W_nt e), r_t = -mu r_n e, U'_t(th) = f_t + W_tn r_n + W_tt r_t; the
+   root of g(th) = e_perp . U'_t with e . U'_t > 0 (the slip along e), from the given e. Returns 1
+   with r set on convergence (|g| <= 1e-12 |U'_t|), 0 otherwise (the caller falls back to the
+   fixed point of local_slide). */
+static int slide_newton(const double *W, const double *f, double mu, const double *e0, double *e, double *r)
+{
+  double th = atan2(e0[1], e0[0]);
+  int it;
+  for (it = 0; it < 20; it++) {
+    const double c = cos(th), s = sin(th);
+    const double den = W[0] - mu * (W[1] * c + W[2] * s), dden = -mu * (-W[1] * s + W[2] * c);
+    double rn, drn, rt[2], drt[2], ut[2], dut[2], g, h, dg, step;
+    int t;
+    if (!(den > 0)) return 0;
+    rn = -f[0] / den;
+    drn = -rn * dden / den;
+    rt[0] = -mu * rn * c, rt[1] = -mu * rn * s;
+    drt[0] = -mu * (drn * c - rn * s), drt[1] = -mu * (drn * s + rn * c);
+    for (t = 0; t < 2; t++) {
+      const double *Wt = W + (1 + t) * 3;
+      ut[t] = f[1 + t] + Wt[0] * rn + Wt[1] * rt[0] + Wt[2] * rt[1];
+      dut[t] = Wt[0] * drn + Wt[1] * drt[0] + Wt[2] * drt[1];
+    }
+    g = -s * ut[0] + c * ut[1];
+    h = c * ut[0] + s * ut[1];
+    if (fabs(g) <= 1e-12 * hypot(ut[0], ut[1])) {
+      if (!(h > 0) || !(rn > 0)) return 0;
+      r[0] = rn, r[1] = rt[0], r[2] = rt[1];
+      e[0] = c, e[1] = s;
+      return 1;
+    }
+    dg = -h + (-s * dut[0] + c * dut[1]);
+    if (!(fabs(dg) > 0)) return 0;
+    step = g / dg;
+    if (!isfinite(step)) return 0;
+    th -= fmax(-0.5, fmin(0.5, step)); /* at most half a radian a step */
+  }
+  return 0;
+}
+
+/* One candidate's contact law, as local_law, on the factors kept in its record K (LS_WD(d): W_jj,
+   its inverse, 1 / (c w), the 2D sliding denominators' inverses, whether the inverse exists): the
+   sticking trial r = -W_jj^-1 f, the 2D slide in closed form for e = +-1, the 3D slide by Newton's
+   method on the direction (slide_newton; the fixed point of local_slide where it does not end).
+   The same zero as local_law (to round-off where both find one). */
+static inline __attribute__((always_inline)) int local_law_kept(const int d, const double *K, const double *f,
+                                                                 double mu, double *r)
+{
+  const double *Wl = K, *Wi = K + d * d, *aux = K + 2 * d * d;
+  double b[3], tn2 = 0, e[2], e0[2], x[3];
+  int i, k, t;
+  if (f[0] >= 0) {
+    for (i = 0; i < d; i++) r[i] = 0;
+    return 1;
+  }
+  if (!(mu > 0) || d == 1 || aux[3] == 0) return local_law(d, Wl, f, mu, r);
+  for (i = 0; i < d; i++) {
+    double acc = 0;
+    for (k = 0; k < d; k++) acc -= Wi[i * d + k] * f[k];
+    b[i] = acc;
+  }
+  for (t = 1; t < d; t++) tn2 += b[t] * b[t];
+  if (b[0] >= 0 && tn2 <= mu * mu * b[0] * b[0]) {
+    for (i = 0; i < d; i++) r[i] = b[i];
+    return 1;
+  }
+  if (d == 2) {
+    /* r_n = -f_n / (W_nn - mu W_nt e), r_t = -mu e r_n, accepted where U'_t e >= 0: first e
+       against the sticking trial's tangent (the free slip's where it has none), then -e */
+    double s = tn2 > 0 ? (b[1] > 0 ? -1 : 1) : (f[1] > 0 ? 1 : f[1] < 0 ? -1 : 0);
+    int pass;
+    if (s == 0) return 0;
+    for (pass = 0; pass < 2; pass++, s = -s) {
+      const double iden = aux[s > 0 ? 1 : 2];
+      double rn, rt, ut;
+      if (!(iden > 0)) continue;
+      rn = -f[0] * iden;
+      rt = -mu * s * rn;
+      ut = f[1] + Wl[2] * rn + Wl[3] * rt;
+      if (ut * s >= 0) {
+        r[0] = rn, r[1] = rt;
+        return 1;
+      }
+    }
+    return 0;
+  }
+  /* 3D: from the sticking trial's tangent (the free slip's where it has none) */
+  if (tn2 > 0) {
+    double tn = sqrt(tn2);
+    e0[0] = -b[1] / tn, e0[1] = -b[2] / tn;
+  } else {
+    double n = hypot(f[1], f[2]);
+    if (!(n > 0)) return 0;
+    e0[0] = f[1] / n, e0[1] = f[2] / n;
+  }
+  if (slide_newton(Wl, f, mu, e0, e, x)) {
+    for (i = 0; i < 3; i++) r[i] = x[i];
+    return 1;
+  }
+  e[0] = e0[0], e[1] = e0[1];
+  if (local_slide(3, Wl, f, mu, e, x)) {
+    for (i = 0; i < 3; i++) r[i] = x[i];
+    return 1;
+  }
+  return 0;
+}
+
+/* Candidate j's record of the smoother's work (LS_WD(d), T147) from W_jj + eps D_j in K[0 .. d^2):
+   the inverse (Gauss-Jordan, kept only where every pivot is non-zero and the result finite),
+   1 / (c w_j), the 2D sliding denominators' inverses (0 where a denominator is not positive). */
+static void keep_factors(const ls_state *L, const ls_pass *Q, int j, double *K)
+{
+  const int d = L->d;
+  double A[9], *Wi = K + d * d, *aux = K + 2 * d * d;
+  int i, k, ok = 1;
+  const double mu = Q->dt ? L->mu[j] : 0;
+  memcpy(A, K, (size_t)(d * d) * sizeof *A);
+  for (k = 0; k < d; k++) {
+    double b[3] = {0, 0, 0}, M[9];
+    b[k] = 1;
+    memcpy(M, A, (size_t)(d * d) * sizeof *M);
+    if (!small_solve(d, M, b)) ok = 0;
+    for (i = 0; i < d; i++) {
+      Wi[i * d + k] = b[i];
+      ok &= isfinite(b[i]);
+    }
+  }
+  aux[0] = 1 / (Q->c * Q->P->w[j]);
+  aux[1] = aux[2] = 0;
+  if (d == 2) {
+    double dp = K[0] - mu * K[1], dm = K[0] + mu * K[1];
+    aux[1] = dp > 0 ? 1 / dp : 0;
+    aux[2] = dm > 0 ? 1 / dm : 0;
+  }
+  aux[3] = ok;
+}
+
 /* The merit Psi (T140) at the iterate L->r, L->U; *emax: its largest residual in units of the sign
    tests' tolerances of the last sign fields (<= 1: the law holds, as (T142) tests it). */
 static double merit_here(const ls_state *L, const ls_pass *Q, double *emax)
@@ -1253,32 +1413,35 @@ static inline __attribute__((always_inline)) void body_U(ls_state *L, int j, con
     for (i = 0; i < d; i++) Uj[i] += L->eps * L->dW[j * d + i] * L->r[j * d + i];
 }
 
-/* One sweep (forward, or backward with back) over the candidates of S_u = 1 with diagonal blocks
-   Wd + j d^2 (the proximal term included; d: a constant at the call). Returns the merit of the candidates' natural map (T140) as
-   each met it, before its update (its largest residual in units of the tolerances in *emax): the
-   smoother's cue to test the law on the iterate itself. */
+/* One sweep (forward, or backward with back) over the candidates of S_u = 1 with their records Wd
+   + j LS_WD(d) (W's diagonal block with the proximal term first; d: a constant at the call). With
+   kept, each local solve reads the factors kept in the record (local_law_kept) and the sweep
+   returns the sum over the candidates of |r_j new - r_j old|^2 / (c w_j)^2 (pressure units, the
+   change the visit made; its largest in units of the tolerances in *emax, T147); else each
+   candidate's natural map (T140) as the sweep met it, before its update, and local_law. Either is
+   the smoother's cue to test the law on the iterate itself. */
 static inline __attribute__((always_inline)) double sweep(ls_state *L, const ls_pass *Q, const double *Wd, int back,
-                                                          double *emax, const int d)
+                                                          double *emax, const int d, const int kept)
 {
   double vm = 0, ve = 0;
+  const double itv = 1 / (Q->tol_v + 1e-300), itf = 1 / (Q->tol_f + 1e-300);
   const mo_delassus *W = Q->P->W;
   const int nc = L->nc, bodies = L->bodies;
   int jj, i, k, p;
   for (jj = 0; jj < nc; jj++) {
     const int j = back ? nc - 1 - jj : jj;
     const int *beta;
-    const double *blk;
-    double Wl[9], f[3], rn[3], dr[3], *rj = L->r + j * d, *Uj = L->U + j * d;
+    const double *blk, *K = Wd + (size_t)j * LS_WD(d), *Wl = K;
+    double f[3], rn[3], dr[3], *rj = L->r + j * d, *Uj = L->U + j * d;
     int n, moved = 0;
-    if (!L->su[j] || isnan(Wd[j * d * d])) continue;
-    for (i = 0; i < d * d; i++) Wl[i] = Wd[j * d * d + i];
+    if (!L->su[j] || isnan(K[0])) continue;
     if (bodies) body_U(L, j, d);
-    {
+    if (!kept) {
       double fn, ft, a, z[2], zn;
       natural_map(L, Q, j, rj, Uj, &fn, &ft, &a, z, &zn);
       vm += fn * fn + ft * ft;
-      fn = fabs(fn) / (Q->tol_v + 1e-300);
-      ft /= Q->tol_f + 1e-300;
+      fn = fabs(fn) * itv;
+      ft *= itf;
       ve = fn > ve ? fn : ve;
       ve = ft > ve ? ft : ve;
     }
@@ -1287,12 +1450,26 @@ static inline __attribute__((always_inline)) double sweep(ls_state *L, const ls_
       for (k = 0; k < d; k++) f[i] -= Wl[i * d + k] * rj[k];
       rn[i] = rj[i];
     }
-    if (!local_law(d, Wl, f, Q->dt ? L->mu[j] : 0, rn)) continue;
+    if (kept ? !local_law_kept(d, K, f, Q->dt ? L->mu[j] : 0, rn) : !local_law(d, Wl, f, Q->dt ? L->mu[j] : 0, rn))
+      continue;
     for (i = 0; i < d; i++) {
       dr[i] = rn[i] - rj[i];
       moved |= dr[i] != 0;
     }
     if (!moved) continue;
+    if (kept) {
+      /* the change in pressure units: normal, and tangential (squared) */
+      const double icw = K[2 * d * d];
+      double cn = dr[0] * icw, ct = 0;
+      cn *= cn;
+      for (i = 1; i < d; i++) ct += dr[i] * dr[i];
+      ct *= icw * icw;
+      vm += cn + ct;
+      cn *= itv * itv;
+      ct *= itf * itf;
+      ve = cn > ve ? cn : ve;
+      ve = ct > ve ? ct : ve;
+    }
     for (i = 0; i < d; i++) rj[i] = rn[i];
     if (bodies) {
       ls_bodies_push(&L->bd, j, dr, d);
@@ -1309,28 +1486,29 @@ static inline __attribute__((always_inline)) double sweep(ls_state *L, const ls_
     if (L->eps > 0)
       for (i = 0; i < d; i++) Uj[i] += L->eps * L->dW[j * d + i] * dr[i];
   }
-  *emax = ve;
+  *emax = kept ? sqrt(ve) : ve;
   return vm;
 }
 
-/* nsweep sweeps of projected block Gauss-Seidel over the candidates of S_u = 1, alternately forward
-   and backward: each candidate's law solved exactly (local_law) with W's diagonal block (plus the
+/* nsweep sweeps of projected block Gauss-Seidel over the candidates of S_u = 1 (in the order of
+   smoother_order): each candidate's law solved exactly (local_law) with W's diagonal block (plus the
    proximal term) against the current impulses of the others. U' = W r + q_eff follows the impulse
    changes along W's block row, or (L->bodies, T145) through the bodies' velocities v = What^-1 H r,
    U'_j read from them before each local solve. The sweeps stop on the merit and the law of the
    iterate itself (U' over S_u = 1 from v), tested after a sweep whose candidates met the merit's
    drop or the law as they were visited. L->U must hold U' over the candidates of S_u = 1 on entry;
    on return it does over all of them that W's rows reach (full_velocity refreshes the rest). L->wd
-   (nc) is work for the diagonal blocks. */
+   (nc records of LS_WD(d)) holds the diagonal blocks and, with smoother_local = "kept", what the
+   local solves keep of them (keep_factors, T147). */
 static void smoother(ls_state *L, ls_pass *Q, int nsweep, double drop)
 {
-  const int nc = L->nc, d = L->d;
+  const int nc = L->nc, d = L->d, kept = L->par.smooth_local == LS_LOCAL_KEPT;
   double e, m0 = merit_here(L, Q, &e), vm;
   int s, j;
   /* the diagonal blocks (with the proximal term), side by side: read at every visit */
   for (j = 0; j < nc; j++) {
     const double *Wjj = L->su[j] ? mo_delassus_block(Q->P->W, j, j) : NULL;
-    double *Wl = L->wd + (size_t)j * d * d;
+    double *Wl = L->wd + (size_t)j * LS_WD(d);
     int i;
     if (!Wjj) {
       Wl[0] = NAN; /* no block: the sweeps pass it by */
@@ -1339,12 +1517,18 @@ static void smoother(ls_state *L, ls_pass *Q, int nsweep, double drop)
     memcpy(Wl, Wjj, (size_t)(d * d) * sizeof *Wl);
     if (L->eps > 0)
       for (i = 0; i < d; i++) Wl[i * d + i] += L->eps * L->dW[j * d + i];
+    if (kept) keep_factors(L, Q, j, Wl);
   }
   if (L->bodies) ls_bodies_velocity(&L->bd, Q->P, L->r);
   for (s = 0; s < nsweep; s++) {
-    if (d == 2) vm = sweep(L, Q, L->wd, s & 1, &e, 2);
-    else if (d == 3) vm = sweep(L, Q, L->wd, s & 1, &e, 3);
-    else vm = sweep(L, Q, L->wd, s & 1, &e, 1);
+    const int back = L->par.smooth_order == LS_ORDER_ALTERNATE && (s & 1);
+    if (kept) {
+      if (d == 2) vm = sweep(L, Q, L->wd, back, &e, 2, 1);
+      else if (d == 3) vm = sweep(L, Q, L->wd, back, &e, 3, 1);
+      else vm = sweep(L, Q, L->wd, back, &e, 1, 1);
+    } else if (d == 2) vm = sweep(L, Q, L->wd, back, &e, 2, 0);
+    else if (d == 3) vm = sweep(L, Q, L->wd, back, &e, 3, 0);
+    else vm = sweep(L, Q, L->wd, back, &e, 1, 0);
     Q->nsweep++;
     if (vm > drop * m0 && e > 1 && s + 1 < nsweep) continue;
     if (L->bodies)
@@ -1369,13 +1553,13 @@ static int damped_loop(ls_state *L, ls_pass *Q, mo_contact_report *rep, mo_ctx *
   const mo_contact_problem *P = Q->P;
   ls_system *S = &L->S;
   const int nc = L->nc, m = L->m;
-  const int hybrid = L->par.globalization == LS_GLOB_HYBRID;
+  const int hybrid = L->hybrid;
   int it, j, st, its, conv, done, k;
   double m0, emax;
   full_velocity(L, P, 0);
-  if (hybrid && L->par.smooth_pre > 0) {
+  if (hybrid && L->spre > 0) {
     damped_signs(L, Q); /* the sign tests' tolerances, which the smoother's stop reads */
-    smoother(L, Q, L->par.smooth_pre, 0);
+    smoother(L, Q, L->spre, 0);
     full_velocity(L, P, 0);
   }
   emax = damped_signs(L, Q);
@@ -1538,13 +1722,24 @@ static void write_solution(ls_state *L, ls_pass *Q, mo_contact_vars *x)
   }
 }
 
+/* Every candidate between rigid bodies and obstacles: H's entries on the rigid blocks' dofs only
+   (none on a deformable body's). */
+static int rigid_only(const mo_contact_problem *P)
+{
+  int p;
+  if (!P->H || !P->Wi) return 0;
+  for (p = 0; p < P->H->p[P->m]; p++)
+    if (P->H->i[p] < P->Wi->nfe) return 0;
+  return 1;
+}
+
 static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x,
                     mo_contact_report *rep, mo_ctx *ctx)
 {
   ls_state *L = state;
   const long nfact0 = L->lu.factorizations, nreuse0 = L->lu.reuses;
   ls_pass Q;
-  int j, st;
+  int j, st, pile;
   if (!P->W) return mo_error(ctx, MO_EINTERNAL, "levelset: the core did not build W");
   memset(&Q, 0, sizeof Q);
   Q.P = P;
@@ -1552,17 +1747,24 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
   Q.end_gap = P->scheme == MO_SCHEME_THETA && P->signorini == MO_SIGNORINI_VELOCITY && L->par.su == LS_SU_END_GAP;
   Q.dt = L->friction ? L->d - 1 : 0;
   Q.c = P->scheme == MO_SCHEME_THETA ? P->h : 1;
-  solve_scales(L, &Q);
   /* the damped loop (T140): where asked, or on large rigid sets (piles); in 3D it brings the
-     coupled threshold with frozen sliding directions (T143) */
+     coupled threshold with frozen sliding directions (T143). auto on a pile: the hybrid with the
+     smoother finishing the steps at nscd's accuracy on the shipped piles (T149) */
+  pile = L->par.globalization == LS_GLOB_AUTO && L->rigid && P->nfree > LS_DENSE_MAX && rigid_only(P);
   L->glob = L->reduced && !Q.kkt && Q.dt > 0 && L->par.threshold != LS_THR_LOOP && L->par.k_n == 0 &&
-            L->par.k_t == 0 && (L->par.globalization == LS_GLOB_LINE_SEARCH || L->par.globalization == LS_GLOB_HYBRID ||
+            L->par.k_t == 0 && (L->par.globalization == LS_GLOB_LINE_SEARCH || L->par.globalization == LS_GLOB_HYBRID || pile ||
             (L->par.globalization == LS_GLOB_AUTO && Q.dt == 1 && L->rigid && P->nc * P->dim > LS_DENSE_MAX));
+  L->hybrid = L->glob && (L->par.globalization == LS_GLOB_HYBRID || pile);
+  L->spre = pile && L->par.smooth_pre == 0 ? LS_PILE_PRE : L->par.smooth_pre;
+  L->stol = L->glob && pile ? fmax(L->par.status_tol, LS_PILE_TOL) : L->par.status_tol;
+  solve_scales(L, &Q);
   L->coupled = L->reduced && !Q.kkt && (Q.dt == 1 || (Q.dt == 2 && L->glob)) && L->par.threshold != LS_THR_LOOP;
   /* the hybrid's sweep on body velocities, where asked and every candidate joins rigid bodies
-     (T145; auto keeps W's rows: on the piles measured the two cost the same within 2-4 %) */
+     (T145); auto takes it in 3D, where W's rows hold many 3 x 3 blocks and the sweep on them costs
+     more memory traffic than instructions (sphere-deposit: 0.75 times the CPU time), and W's rows
+     in 2D (the two cost the same within noise; T148) */
   L->bodies = 0;
-  if (L->glob && L->par.globalization == LS_GLOB_HYBRID && L->par.smooth_path == LS_SMOOTH_BODIES) {
+  if (L->hybrid && (L->par.smooth_path == LS_SMOOTH_BODIES || (L->par.smooth_path == LS_SMOOTH_AUTO && L->d == 3))) {
     if ((st = ls_bodies_build(&L->bd, P, ctx))) return st;
     L->bodies = L->bd.ok;
     if (!L->bodies && L->par.smooth_path == LS_SMOOTH_BODIES)

@@ -15,6 +15,8 @@ enum { LS_PATH_AUTO = 0, LS_PATH_SCHUR, LS_PATH_KKT, LS_PATH_REDUCED };
 enum { LS_THR_AUTO = 0, LS_THR_LOOP, LS_THR_COUPLED };
 enum { LS_GLOB_AUTO = 0, LS_GLOB_NONE, LS_GLOB_LINE_SEARCH, LS_GLOB_HYBRID };
 enum { LS_SMOOTH_AUTO = 0, LS_SMOOTH_BODIES, LS_SMOOTH_DELASSUS };
+enum { LS_LOCAL_KEPT = 0, LS_LOCAL_ELIMINATION };
+enum { LS_ORDER_FORWARD = 0, LS_ORDER_ALTERNATE };
 
 typedef struct {
   int multipliers;        /* LS_MULT_*: the multiplier space H_h of BDZ07 (65) */
@@ -31,6 +33,8 @@ typedef struct {
   double smooth_drop;     /* hybrid: the sweeps at a trap stop at this fraction of the merit */
   double smooth_alpha;    /* hybrid: a step shorter than this is a trap */
   int smooth_path;        /* LS_SMOOTH_*: the sweep on body velocities or on W's rows (T145) */
+  int smooth_local;       /* LS_LOCAL_*: each visit's local solve on kept factors, or eliminated (T147) */
+  int smooth_order;       /* LS_ORDER_*: sweeps forward only, or forward and backward in turn (T148) */
   int threshold_max, levelset_max, newton_max, proximal_max;
   double threshold_tol, newton_tol, status_tol;
 } ls_params;
