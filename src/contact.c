@@ -962,7 +962,7 @@ static int equilibrium_check(mo_contact_driver *D, const mo_state *s, mo_ctx *ct
   double h = mo_stepper_dt(D->S), emax = 0, scale = 0;
   mo_scene_fext(sc, s->t + h, D->eqf);
   mo_csc_gaxpy(D->C->Hfull, 1, D->r, 1, D->eqf);
-  mo_csc_gaxpy(sc->K, 1, D->xfull, 0, D->eqk);
+  mo_scene_gaxpy(sc, sc->K, 1, D->xfull, 0, D->eqk);
   for (i = 0; i < n; i++) {
     double f = fabs(D->eqf[i]);
     if (sc->free_of[i] < 0) {
