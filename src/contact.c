@@ -1354,6 +1354,7 @@ static int position_correction(mo_contact_driver *D, mo_state *s, const double *
       sm = *s;
       sm.v = vm;
       ek = mo_energy_kinetic(sc, &sm, D->pcwork);   /* leaves M vm in pcwork (deformable dofs) */
+      if (sc->kpart) mo_scene_gaxpy(sc, sc->M, 1, vm, 0, D->pcwork); /* there, this rank's part: the sum */
       if (ek > 0) {
         double lam = dE < ek ? sqrt(1 - dE / ek) : 0;
         for (b = 0; b < sc->nbody; b++) {

@@ -226,7 +226,7 @@ done:
   return st;
 }
 
-/* (T103a) over the ranks, K and M in parts (sc->kpart): a column that one rank's elements
+/* (T103a) over the ranks, K and M in parts (sc->kpart), (T202): a column that one rank's elements
    alone reach is whole on that rank; the columns of several ranks (the interfaces of the
    element blocks) are summed from every rank's entries, then the largest ratio over the ranks:
    the bound one process gives. */
@@ -256,6 +256,7 @@ static int dt_bound_parts(mo_scene *sc, mo_ctx *ctx)
   return st;
 }
 
+/* (T201): a part's product, then one sum over the ranks */
 void mo_scene_gaxpy(const mo_scene *sc, const mo_csc *A, double alpha, const double *x, double beta, double *y)
 {
   int i;
@@ -561,7 +562,7 @@ static int assemble(mo_scene *sc, int with_mass, mo_ctx *ctx)
   size_t hint = 0;
   double t0 = mo_clock(), t1;
   if (split) element_block(sc, ctx, &lo, &hi);
-  /* a linear scene keeps each rank's part (its elements' entries only): no rank holds K or M
+  /* (T200): a linear scene keeps each rank's part (its elements' entries only): no rank holds K or M
      whole, and every product with them is summed over the ranks (mo_scene_gaxpy). Finite-strain
      bodies' tangents (tangent.c) still take K and M whole: their scenes take the sums. */
   sc->kpart = split && !sc->nonlinear;

@@ -72,21 +72,28 @@ static double dot(const double *a, const double *b, int n)
   return s;
 }
 
+/* x^T A x / 2 over the first n rows; with K and M in parts (T200) the sum over the ranks of the
+   parts' (one sum of one value): work then holds this rank's A_r x only. */
+static double half_form(const mo_scene *sc, const mo_csc *A, const double *x, int n, double *work)
+{
+  double e;
+  mo_csc_gaxpy(A, 1, x, 0, work);
+  e = 0.5 * dot(x, work, n);
+  if (sc->kpart) mo_par_sum(&e, 1, sc->pctx);
+  return e;
+}
+
 double mo_energy_kinetic(const mo_scene *sc, const mo_state *s, double *work)
 {
   double e = 0;
   if (!sc->M) return 0;
-  if (sc->nfe_dof) {
-    mo_scene_gaxpy(sc, sc->M, 1, s->v, 0, work);
-    e = 0.5 * dot(s->v, work, sc->nfe_dof);
-  }
+  if (sc->nfe_dof) e = half_form(sc, sc->M, s->v, sc->nfe_dof, work);
   return e + mo_rigid_kinetic(sc, s);
 }
 
 double mo_energy_elastic(const mo_scene *sc, const double *u, double *work)
 {
-  mo_scene_gaxpy(sc, sc->K, 1, u, 0, work);
-  return 0.5 * dot(u, work, sc->ndof);
+  return half_form(sc, sc->K, u, sc->ndof, work);
 }
 
 double mo_energy_stored(const mo_scene *sc, const mo_state *s, double *work)
@@ -897,7 +904,7 @@ int mo_stepper_init_state(mo_stepper *S, mo_state *s, mo_ctx *ctx)
       for (i = 0; i < n; i++) S->w1[i] -= S->fint0[i];
     } else
       mo_scene_gaxpy(sc, sc->K, -1, s->u, 1, S->w1);
-    mo_scene_gaxpy(sc, sc->M, -1, s->a, 1, S->w1);
+    mo_scene_gaxpy(sc, sc->M, -1, s->a, 1, S->w1); /* once a run: two sums */
     mo_stepper_gather(S, S->w1, S->rhs);
     st = MO_OK;
     if (sc->nfe_free) {
@@ -925,6 +932,23 @@ int mo_stepper_init_state(mo_stepper *S, mo_state *s, mo_ctx *ctx)
   return MO_OK;
 }
 
+/* Products with K and M added to y (T201): into y itself, or with K and M in parts into the
+   scene's accumulator, summed over the ranks once for all of them (parts_end). */
+static double *parts_begin(const mo_scene *sc, double *y)
+{
+  if (!sc->kpart) return y;
+  memset(sc->pwork, 0, (size_t)sc->ndof * sizeof *sc->pwork);
+  return sc->pwork;
+}
+
+static void parts_end(const mo_scene *sc, double *y)
+{
+  int i;
+  if (!sc->kpart) return;
+  mo_par_sum(sc->pwork, sc->ndof, sc->pctx);
+  for (i = 0; i < sc->ndof; i++) y[i] += sc->pwork[i];
+}
+
 /* The right-hand side of the unconstrained step at s (S->rhs over free dofs, rigid rows
    included) and the prescribed values of the unknown at t+ in x (full, 0 elsewhere). */
 static int predict_rhs(mo_stepper *S, const mo_state *s, double *x, mo_ctx *ctx)
@@ -932,7 +956,7 @@ static int predict_rhs(mo_stepper *S, const mo_state *s, double *x, mo_ctx *ctx)
   const mo_scene *sc = S->sc;
   int n = sc->ndof, i, st;
   double h = S->h, tn = s->t + h;
-  double *f1 = S->w1, *w = S->w2;
+  double *f1 = S->w1, *w = S->w2, *acc;
   if (S->nl)
     return mo_error(ctx, MO_EUNSUPPORTED, "mo_stepper_predict: a nonlinear scene's step is "
                     "mo_stepper_solve (Newton)");
@@ -951,11 +975,13 @@ static int predict_rhs(mo_stepper *S, const mo_state *s, double *x, mo_ctx *ctx)
       w[i] = s->u[i] + c * s->v[i];
       f1[i] = hf * (tf * f1[i] + (1 - tf) * s->f[i]);
     }
-    mo_scene_gaxpy(sc, sc->M, 1, s->v, 1, f1);
-    mo_scene_gaxpy(sc, sc->K, -hf, w, 1, f1);
+    acc = parts_begin(sc, f1);
+    mo_csc_gaxpy(sc->M, 1, s->v, 1, acc);
+    mo_csc_gaxpy(sc->K, -hf, w, 1, acc);
     memset(x, 0, (size_t)n * sizeof(double));
     presc_values(S, tn, NULL, x, NULL);
-    if (S->Wfull) mo_scene_gaxpy(sc, S->Wfull, -1, x, 1, f1);
+    if (S->Wfull) mo_csc_gaxpy(S->Wfull, -1, x, 1, acc);
+    parts_end(sc, f1);
     break;
   }
   case MO_SCHEME_NEWMARK: {
@@ -966,12 +992,14 @@ static int predict_rhs(mo_stepper *S, const mo_state *s, double *x, mo_ctx *ctx)
     presc_values(S, tn, w, NULL, NULL);
     memset(x, 0, (size_t)n * sizeof(double));
     presc_values(S, tn, NULL, NULL, x);
-    mo_scene_gaxpy(sc, sc->K, -1, w, 1, f1);
+    acc = parts_begin(sc, f1);
+    mo_csc_gaxpy(sc->K, -1, w, 1, acc);
     if (S->Wfull) {
       /* w_p already holds u+_p: K w includes K_fp u+_p; remove the beta h^2 K a_p part that
          Wfull would add, by using M only for the accelerations */
-      mo_scene_gaxpy(sc, sc->M, -1, x, 1, f1);
+      mo_csc_gaxpy(sc->M, -1, x, 1, acc);
     }
+    parts_end(sc, f1);
     break;
   }
   case MO_SCHEME_QUASISTATIC:
