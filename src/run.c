@@ -586,7 +586,8 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
     json_object_set_new(scene, "mass", jnum(sc->mass_total));
     json_object_set_new(scene, "hmin", jnum(mo_metrics_hmin(sc)));
     /* nnz(K) + nnz(M) of one process (over the ranks: parallel.matrix_entries) */
-    if (sc->asm_entries && ctx->nranks == 1) json_object_set_new(scene, "matrix_entries", json_integer((json_int_t)sc->asm_entries[0]));
+    if (sc->asm_entries && ctx->nranks == 1)
+      json_object_set_new(scene, "matrix_entries", json_integer((json_int_t)sc->asm_entries[0]));
     if (p0 && s && sc->M) {
       /* the bodies' momenta at the end, beside p0 at the start (made when a body is deformable:
          only theirs are written) */
@@ -1102,7 +1103,8 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   column *cols = NULL;
   contact_view cv;
   char **names = NULL, *namebuf = NULL, outdir[4096], path[4200];
-  double *row = NULL, *work = NULL, *p0 = NULL, *pend = NULL, eratio_end = NAN, start = mo_clock(), e0 = 0, e1 = 0, drift = 0, balance = 0;
+  double *row = NULL, *work = NULL, *p0 = NULL, *pend = NULL, eratio_end = NAN;
+  double start = mo_clock(), e0 = 0, e1 = 0, drift = 0, balance = 0;
   double emax_growth = 0, first_step = -1, eratio0 = 0, inner_start = mo_phase_total(ctx), tloop = 0, iloop = 0;
   int ratio_col = 1;
   int st, ncol = 0, nprobecol = 0, nexact = 0, k, p, complete = 0, ecol0 = 0, ccol0 = 0, table = 0, x0col;
@@ -1546,7 +1548,8 @@ done:
     mo_ctx_clear_error(ctx);
     st2 = write_summary(outdir, cs, sc, S, s.u ? &s : NULL, C, drv, met, cols, cols ? nvalcol : 0,
                         (const char *const *)names, e0, e1, drift, balance, emax_growth, complete, reason,
-                        res->wall, res->step_wall, first_step, p0, pend, eratio_end, stepper.cuts, stepper.hmin, blowup, work, ctx);
+                        res->wall, res->step_wall, first_step, p0, pend, eratio_end, stepper.cuts, stepper.hmin,
+                        blowup, work, ctx);
     if (st2) {
       /* the "running" summary must not outlive the run */
       snprintf(path, sizeof path, "%s/summary.json", outdir);

@@ -207,7 +207,10 @@ int mo_csc_sum_parts(const mo_csc *A, const double *held, mo_csc **out, mo_ctx *
   one = (double)m;
   if ((st = mo_par_gatherv(&one, cnt, all, ctx))) goto done;
   for (r = 0; r < ctx->nranks; r++) tot += (long)all[r];
-  if (tot > 0x7fffffffL) { st = mo_error(ctx, MO_ELIMIT, "a matrix summed over the ranks: %ld values", tot); goto done; }
+  if (tot > 0x7fffffffL) {
+    st = mo_error(ctx, MO_ELIMIT, "a matrix summed over the ranks: %ld values", tot);
+    goto done;
+  }
   for (r = 0; r < ctx->nranks; r++) cnt[r] = (int)all[r];
   mo_free(all);
   if (!(all = mo_malloc(ctx, ((size_t)tot + 1) * sizeof *all))) { st = MO_ENOMEM; goto done; }

@@ -387,7 +387,8 @@ int mo_stepper_matrix_full(mo_stepper *S, const mo_csc **W, mo_ctx *ctx)
     if ((st = mo_csc_sum_parts(S->W, NULL, &Wsum, ctx))) return st;
     Wn = Wsum;
   }
-  if ((st = mo_triplet_init(&T, sc->nfree, sc->nfree, (size_t)(Wn ? mo_csc_nnz(Wn) : 0) + 36 * (size_t)S->nblk + 1, ctx))) {
+  if ((st = mo_triplet_init(&T, sc->nfree, sc->nfree, (size_t)(Wn ? mo_csc_nnz(Wn) : 0) + 36 * (size_t)S->nblk + 1,
+                            ctx))) {
     mo_csc_free(Wsum);
     return st;
   }
