@@ -962,7 +962,7 @@ static int equilibrium_check(mo_contact_driver *D, const mo_state *s, mo_ctx *ct
   double h = mo_stepper_dt(D->S), emax = 0, scale = 0;
   mo_scene_fext(sc, s->t + h, D->eqf);
   mo_csc_gaxpy(D->C->Hfull, 1, D->r, 1, D->eqf);
-  mo_csc_gaxpy(sc->K, 1, D->xfull, 0, D->eqk);
+  mo_scene_gaxpy(sc, sc->K, 1, D->xfull, 0, D->eqk);
   for (i = 0; i < n; i++) {
     double f = fabs(D->eqf[i]);
     if (sc->free_of[i] < 0) {
@@ -1354,6 +1354,7 @@ static int position_correction(mo_contact_driver *D, mo_state *s, const double *
       sm = *s;
       sm.v = vm;
       ek = mo_energy_kinetic(sc, &sm, D->pcwork);   /* leaves M vm in pcwork (deformable dofs) */
+      if (sc->kpart) mo_scene_gaxpy(sc, sc->M, 1, vm, 0, D->pcwork); /* there, this rank's part: the sum */
       if (ek > 0) {
         double lam = dE < ek ? sqrt(1 - dE / ek) : 0;
         for (b = 0; b < sc->nbody; b++) {

@@ -162,6 +162,7 @@ typedef struct {
   char ksp[32], pc[32], package[32], options[1024];
   double rtol;
   int spd;
+  int parts;                /* each rank gives its part of the matrix, which is their sum */
   Mat A;
   KSP ksp_obj;
   Vec b, x, xall;           /* distributed right-hand side and solution, the whole solution */
@@ -194,6 +195,7 @@ static int petsc_configure(void *state, const mo_linsolver_settings *set, mo_ctx
   snprintf(s->options, sizeof s->options, "%s", set->options ? set->options : "");
   s->rtol = set->rtol > 0 ? set->rtol : 1e-10;
   s->spd = set->spd;
+  s->parts = set->parts;
   s->configured = 1;
   (void)ctx;
   return MO_OK;
@@ -217,6 +219,82 @@ static int make_ksp(petsc_state *s, mo_ctx *ctx)
   return MO_OK;
 }
 
+/* PETSc's split of n rows (PetscSplitOwnership): the rank that owns row i and its first row. */
+static void split_owner(int n, int nranks, int i, int *lo, int *hi)
+{
+  int q = n / nranks, m = n % nranks, r;
+  r = i < m * (q + 1) ? i / (q + 1) : m + (i - m * (q + 1)) / (q > 0 ? q : 1);
+  *lo = r * q + (r < m ? r : m);
+  *hi = *lo + q + (r < m);
+}
+
+/* The matrix of the sum of the ranks' parts (K and M in parts, doc/parallel.md §3): each rank's
+   entries of row i counted in or out of the diagonal block of i's owner, the counts summed over
+   the ranks (an entry that two ranks hold is counted twice: the interfaces' rows are
+   preallocated a little over), then each rank its own rows'. */
+static int make_matrix_parts(petsc_state *s, const mo_csc *A, mo_ctx *ctx)
+{
+  int n = s->n, j, p, lo, hi, nloc = s->rend - s->rstart;
+  PetscInt *cnt, *dn, *on, i;
+  PetscErrorCode e;
+  if (!(cnt = mo_calloc(ctx, 2 * (size_t)n + 1, sizeof *cnt))) return MO_ENOMEM;
+  for (j = 0; j < n; j++)
+    for (p = A->p[j]; p < A->p[j + 1]; p++) {
+      split_owner(n, ctx->nranks, A->i[p], &lo, &hi);
+      cnt[2 * A->i[p] + (j < lo || j >= hi)]++;
+    }
+  if (MPI_Allreduce(MPI_IN_PLACE, cnt, 2 * n, MPIU_INT, MPI_SUM, PETSC_COMM_WORLD) != MPI_SUCCESS) {
+    mo_free(cnt);
+    return mo_error(ctx, MO_EINTERNAL, "MPI_Allreduce failed while counting the rows");
+  }
+  dn = cnt + 2 * s->rstart; /* packed below as dn[0 .. nloc-1], on[0 .. nloc-1] */
+  if (!(on = mo_malloc(ctx, ((size_t)nloc + 1) * sizeof *on))) {
+    mo_free(cnt);
+    return MO_ENOMEM;
+  }
+  for (i = 0; i < nloc; i++) {
+    PetscInt d = dn[2 * i], o = dn[2 * i + 1];
+    dn[i] = d < nloc ? d : nloc;
+    on[i] = o < n - nloc ? o : n - nloc;
+  }
+  e = MatSeqAIJSetPreallocation(s->A, 0, dn);
+  if (!e) e = MatMPIAIJSetPreallocation(s->A, 0, dn, 0, on);
+  mo_free(cnt);
+  mo_free(on);
+  if (e) return petsc_fail(ctx, e, "MatMPIAIJSetPreallocation");
+  if (s->spd) P(MatSetOption(s->A, MAT_SPD, PETSC_TRUE));
+  P(MatSetOption(s->A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));
+  P(MatCreateVecs(s->A, &s->x, &s->b));
+  P(VecScatterCreateToAll(s->x, &s->toall, &s->xall));
+  return MO_OK;
+}
+
+/* This rank's part added column by column (the rows of other ranks through PETSc's stash). */
+static int add_parts(petsc_state *s, const mo_csc *A, mo_ctx *ctx)
+{
+  PetscInt j, *rows = NULL;
+  int cap = 0;
+  for (j = 0; j < A->ncol; j++) {
+    int nz = A->p[j + 1] - A->p[j], k;
+    if (!nz) continue;
+    if (nz > cap) {
+      mo_free(rows);
+      cap = nz;
+      if (!(rows = mo_malloc(ctx, (size_t)cap * sizeof *rows))) return MO_ENOMEM;
+    }
+    for (k = 0; k < nz; k++) rows[k] = A->i[A->p[j] + k];
+    {
+      PetscErrorCode e = MatSetValues(s->A, nz, rows, 1, &j, A->x + A->p[j], ADD_VALUES);
+      if (e) {
+        mo_free(rows);
+        return petsc_fail(ctx, e, "MatSetValues");
+      }
+    }
+  }
+  mo_free(rows);
+  return MO_OK;
+}
+
 /* The distributed matrix with the pattern of A: each rank preallocates and owns a contiguous
    block of rows (PETSc's split), filled from the rows of A (the columns of A^T). */
 static int make_matrix(petsc_state *s, const mo_csc *A, mo_ctx *ctx)
@@ -226,7 +304,7 @@ static int make_matrix(petsc_state *s, const mo_csc *A, mo_ctx *ctx)
   const mo_csc *T;
   mo_csc_free(s->At);
   s->At = NULL;
-  if ((st = mo_csc_transpose(A, &s->At, ctx))) return st;
+  if (!s->parts && (st = mo_csc_transpose(A, &s->At, ctx))) return st;
   T = s->At;
   {
     /* PETSc's split of the rows: contiguous blocks, the first ranks one row more */
@@ -241,6 +319,7 @@ static int make_matrix(petsc_state *s, const mo_csc *A, mo_ctx *ctx)
     P(MatSetType(s->A, MATAIJ));
   }
   s->n = (int)n;
+  if (s->parts) return make_matrix_parts(s, A, ctx);
   if (!(dn = mo_calloc(ctx, (size_t)(s->rend - s->rstart) + 1, sizeof *dn)) ||
       !(on = mo_calloc(ctx, (size_t)(s->rend - s->rstart) + 1, sizeof *on))) {
     mo_free(dn);
@@ -284,10 +363,22 @@ static int petsc_factor(void *state, const mo_csc *A, int same, mo_ctx *ctx)
   PCFailedReason pf;
   int st;
   if (!s->configured) {
-    mo_linsolver_settings d = {NULL, NULL, NULL, NULL, 0, 0};
+    mo_linsolver_settings d = {NULL, NULL, NULL, NULL, 0, 0, 0};
     petsc_configure(s, &d, ctx);
   }
-  if (!same || !s->A) {
+  if (s->parts) {
+    /* the pattern of the sum is unchanged only when every rank's part is */
+    int all = same && s->A;
+    if (MPI_Allreduce(MPI_IN_PLACE, &all, 1, MPI_INT, MPI_MIN, PETSC_COMM_WORLD) != MPI_SUCCESS)
+      return mo_error(ctx, MO_EINTERNAL, "MPI_Allreduce failed before a factorization");
+    if (!all) {
+      drop(s);
+      if ((st = make_matrix(s, A, ctx))) return st;
+      if ((st = make_ksp(s, ctx))) return st;
+    } else
+      P(MatZeroEntries(s->A));
+    if ((st = add_parts(s, A, ctx))) return st;
+  } else if (!same || !s->A) {
     drop(s);
     if ((st = make_matrix(s, A, ctx))) return st;
     if ((st = make_ksp(s, ctx))) return st;
@@ -298,7 +389,7 @@ static int petsc_factor(void *state, const mo_csc *A, int same, mo_ctx *ctx)
     s->At = NULL;
     if ((st = mo_csc_transpose(A, &s->At, ctx))) return st;
   }
-  for (r = s->rstart; r < s->rend; r++) {
+  for (r = s->rstart; !s->parts && r < s->rend; r++) {
     const mo_csc *T = s->At;
     PetscInt row = r, nz = T->p[r + 1] - T->p[r], k, cols[64], *cp = cols;
     PetscInt *big = NULL;

@@ -307,6 +307,14 @@ static json_t *parallel_json(const mo_ctx *ctx, const mo_scene *sc)
     json_object_set_new(j, "elements_assembled", a);
     json_object_set_new(j, "element_seconds", t);
   }
+  if (sc->asm_entries) {
+    /* the entries of K and M on each rank: their parts (linear scenes), or K and M whole */
+    json_t *a = json_array();
+    int r;
+    for (r = 0; r < ctx->nranks; r++) json_array_append_new(a, json_integer((json_int_t)sc->asm_entries[r]));
+    json_object_set_new(j, "matrix_entries", a);
+    json_object_set_new(j, "matrices", json_string(sc->kpart ? "parts" : "whole"));
+  }
   json_object_set_new(j, "collective_calls", json_integer(ctx->par_calls));
   json_object_set_new(j, "collective_seconds", jnum(ctx->par_time));
   json_object_set_new(j, "collective_bytes", jnum(ctx->par_bytes));
@@ -440,7 +448,7 @@ static void body_momenta(const mo_scene *sc, const double *v, double *work, doub
   int b, a, i;
   for (i = 0; i < 3 * sc->nbody; i++) p[i] = 0;
   if (!sc->M || !v) return;
-  mo_csc_gaxpy(sc->M, 1, v, 0, work);
+  mo_scene_gaxpy(sc, sc->M, 1, v, 0, work);
   for (b = 0; b < sc->nbody; b++) {
     const mo_body *B = &sc->body[b];
     if (B->type->flags & MO_BODY_F_RIGID) /* m v of the centroid */
@@ -554,8 +562,8 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
                          const mo_contact_driver *drv, const mo_metrics *met, const column *cols, int ncol,
                          const char *const *names, double e0, double e1, double drift,
                          double balance, double growth, int complete, const char *reason,
-                         double wall, double steps_wall, double first_step, const double *p0, long cuts, double dtmin,
-                         const char *blowup, double *work, mo_ctx *ctx)
+                         double wall, double steps_wall, double first_step, const double *p0, const double *pend,
+                         double eratio_end, long cuts, double dtmin, const char *blowup, double *work, mo_ctx *ctx)
 {
   double *pw = NULL, *p1 = NULL, *pcm = NULL;
   int pw_fail = 0;
@@ -577,12 +585,16 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
     json_object_set_new(scene, "free_dofs", json_integer(sc->nfree));
     json_object_set_new(scene, "mass", jnum(sc->mass_total));
     json_object_set_new(scene, "hmin", jnum(mo_metrics_hmin(sc)));
+    /* nnz(K) + nnz(M) of one process (over the ranks: parallel.matrix_entries) */
+    if (sc->asm_entries && ctx->nranks == 1)
+      json_object_set_new(scene, "matrix_entries", json_integer((json_int_t)sc->asm_entries[0]));
     if (p0 && s && sc->M) {
       /* the bodies' momenta at the end, beside p0 at the start (made when a body is deformable:
          only theirs are written) */
       pw = work ? work : mo_malloc(ctx, ((size_t)sc->ndof + 1) * sizeof *pw); /* the run's scratch */
       p1 = mo_malloc(ctx, (3 * (size_t)sc->nbody + 1) * sizeof *p1);
-      if (pw && p1) body_momenta(sc, s->v, pw, p1);
+      /* pend: the momenta at the end, computed by every rank (a product with M) */
+      if (pw && p1 && pend) memcpy(p1, pend, 3 * (size_t)sc->nbody * sizeof *p1);
       else pw_fail = 1;
       if (drv && pw && p1) {
         int on;
@@ -721,7 +733,7 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
     json_t *mj = mo_metrics_json(met);
     json_object_update(metrics, mj);
     json_decref(mj);
-    if (s) json_object_set_new(energy, "ratio_mechanical", jnum(mo_metrics_energy_ratio(met, s)));
+    if (s) json_object_set_new(energy, "ratio_mechanical", jnum(eratio_end));
   }
   if (sc && s && sc->out.nextent) json_object_set_new(metrics, "extents", extents_json(sc, s->u));
   if (sc && s && sc->nonlinear) json_object_set_new(metrics, "plasticity", plasticity_json(sc, s));
@@ -1093,7 +1105,8 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   column *cols = NULL;
   contact_view cv;
   char **names = NULL, *namebuf = NULL, outdir[4096], path[4200];
-  double *row = NULL, *work = NULL, *p0 = NULL, start = mo_clock(), e0 = 0, e1 = 0, drift = 0, balance = 0;
+  double *row = NULL, *work = NULL, *p0 = NULL, *pend = NULL, eratio_end = NAN;
+  double start = mo_clock(), e0 = 0, e1 = 0, drift = 0, balance = 0;
   double emax_growth = 0, first_step = -1, eratio0 = 0, inner_start = mo_phase_total(ctx), tloop = 0, iloop = 0;
   int ratio_col = 1;
   int st, ncol = 0, nprobecol = 0, nexact = 0, k, p, complete = 0, ecol0 = 0, ccol0 = 0, table = 0, x0col;
@@ -1506,6 +1519,11 @@ done:
      also after a failure: they describe the last good step. summary.json comes last: until it
      is in place the folder's summary says "running" (mo_outdir_claim); when it cannot be
      written (a full disk) the folder is left without one, never with an old "complete". */
+  /* what summary.json reports from products with K and M, by every rank (over the ranks they
+     are sums: doc/parallel.md §3), before rank 0 writes it */
+  if (sc && s.u && met) eratio_end = mo_metrics_energy_ratio(met, &s);
+  if (sc && s.u && p0 && sc->M && work && (pend = mo_malloc(ctx, (3 * (size_t)sc->nbody + 1) * sizeof *pend)))
+    body_momenta(sc, s.v, work, pend);
   if (cs && sc && od.fd >= 0) {
     int keep = ctx->status, st2 = MO_OK;
     char msg[MO_ERRMSG_MAX];
@@ -1532,7 +1550,8 @@ done:
     mo_ctx_clear_error(ctx);
     st2 = write_summary(outdir, cs, sc, S, s.u ? &s : NULL, C, drv, met, cols, cols ? nvalcol : 0,
                         (const char *const *)names, e0, e1, drift, balance, emax_growth, complete, reason,
-                        res->wall, res->step_wall, first_step, p0, stepper.cuts, stepper.hmin, blowup, work, ctx);
+                        res->wall, res->step_wall, first_step, p0, pend, eratio_end, stepper.cuts, stepper.hmin,
+                        blowup, work, ctx);
     if (st2) {
       /* the "running" summary must not outlive the run */
       snprintf(path, sizeof path, "%s/summary.json", outdir);
@@ -1587,6 +1606,7 @@ done:
   mo_free(row);
   mo_free(work);
   mo_free(p0);
+  mo_free(pend);
   mo_free(cv.Rfull);
   mo_state_release(&s);
   mo_contact_driver_free(drv);

@@ -147,6 +147,28 @@ double mo_scene_dt_crit(const mo_scene *sc, int *body, int *elem)
   return best;
 }
 
+/* lmax over the free columns of K and M (held NULL: all; else those that several ranks hold
+   when shared, the others when not), any when a column counted, nan when a mass is not
+   diagonal. */
+static void dt_bound_columns(const mo_scene *sc, const mo_csc *K, const mo_csc *M, const double *held, int shared,
+                             double *lmax, int *any, int *nan)
+{
+  int j, p, n = sc->nfe_dof;
+  for (j = 0; j < n; j++) {
+    double mjj = 0, rs = 0;
+    if (sc->free_of[j] < 0 || (held && (held[j] > 1.5) != shared)) continue;
+    for (p = M->p[j]; p < M->p[j + 1]; p++) {
+      if (M->i[p] == j) mjj += M->x[p];
+      else if (M->x[p] != 0) *nan = 1;
+    }
+    /* K symmetric: column j holds row j */
+    for (p = K->p[j]; p < K->p[j + 1]; p++) rs += fabs(K->x[p]);
+    if (!(mjj > 0)) continue;
+    if (rs / mjj > *lmax) *lmax = rs / mjj;
+    *any = 1;
+  }
+}
+
 /* (T103a): a guaranteed bound. With a diagonal (lumped) mass, Gershgorin's theorem on the
    free rows of M^-1 K bounds omega_max^2 <= max_i sum_j |K_ij| / M_ii, so central differences
    are stable for dt <= 2 / sqrt of it. HUGE_VAL when there is no nodal free dof; NAN when a
@@ -154,23 +176,104 @@ double mo_scene_dt_crit(const mo_scene *sc, int *body, int *elem)
 double mo_scene_dt_bound(const mo_scene *sc)
 {
   double lmax = 0;
-  int j, p, any = 0;
+  int any = 0, nan = 0;
   if (!sc->M || !sc->K) return NAN;
-  for (j = 0; j < sc->nfe_dof; j++) {
-    double mjj = 0, rs = 0;
-    if (sc->free_of[j] < 0) continue;
-    for (p = sc->M->p[j]; p < sc->M->p[j + 1]; p++) {
-      if (sc->M->i[p] == j) mjj += sc->M->x[p];
-      else if (sc->M->x[p] != 0) return NAN;
-    }
-    /* K symmetric: column j holds row j */
-    for (p = sc->K->p[j]; p < sc->K->p[j + 1]; p++) rs += fabs(sc->K->x[p]);
-    if (!(mjj > 0)) continue;
-    if (rs / mjj > lmax) lmax = rs / mjj;
-    any = 1;
-  }
+  if (sc->kpart) return sc->dt_bound;
+  dt_bound_columns(sc, sc->K, sc->M, NULL, 0, &lmax, &any, &nan);
+  if (nan) return NAN;
   if (!any || !(lmax > 0)) return HUGE_VAL;
   return 2 / sqrt(lmax);
+}
+
+int mo_csc_sum_parts(const mo_csc *A, const double *held, mo_csc **out, mo_ctx *ctx)
+{
+  int j, p, r, st, *cnt = NULL;
+  long m = 0, tot = 0;
+  double *mine = NULL, *all = NULL, one;
+  mo_triplet T;
+  memset(&T, 0, sizeof T);
+  *out = NULL;
+  for (j = 0; j < A->ncol; j++)
+    if (!held || held[j] > 1.5) m += A->p[j + 1] - A->p[j];
+  if (!(cnt = mo_malloc(ctx, (size_t)ctx->nranks * sizeof *cnt)) ||
+      !(mine = mo_malloc(ctx, (3 * (size_t)m + 1) * sizeof *mine)) ||
+      !(all = mo_malloc(ctx, (size_t)ctx->nranks * sizeof *all))) { st = MO_ENOMEM; goto done; }
+  m = 0;
+  for (j = 0; j < A->ncol; j++)
+    if (!held || held[j] > 1.5)
+      for (p = A->p[j]; p < A->p[j + 1]; p++, m += 3) mine[m] = j, mine[m + 1] = A->i[p], mine[m + 2] = A->x[p];
+  /* every rank's count, then every rank's entries */
+  for (r = 0; r < ctx->nranks; r++) cnt[r] = 1;
+  one = (double)m;
+  if ((st = mo_par_gatherv(&one, cnt, all, ctx))) goto done;
+  for (r = 0; r < ctx->nranks; r++) tot += (long)all[r];
+  if (tot > 0x7fffffffL) {
+    st = mo_error(ctx, MO_ELIMIT, "a matrix summed over the ranks: %ld values", tot);
+    goto done;
+  }
+  for (r = 0; r < ctx->nranks; r++) cnt[r] = (int)all[r];
+  mo_free(all);
+  if (!(all = mo_malloc(ctx, ((size_t)tot + 1) * sizeof *all))) { st = MO_ENOMEM; goto done; }
+  if ((st = mo_par_gatherv(mine, cnt, all, ctx))) goto done;
+  mo_free(mine);
+  mine = NULL;
+  if ((st = mo_triplet_init(&T, A->nrow, A->ncol, (size_t)tot / 3 + 1, ctx))) goto done;
+  for (m = 0; m < tot; m += 3)
+    if ((st = mo_triplet_add(&T, (int)all[m + 1], (int)all[m], all[m + 2], ctx))) goto done;
+  st = mo_triplet_to_csc(&T, A->symmetric, out, ctx);
+done:
+  mo_triplet_release(&T);
+  mo_free(cnt);
+  mo_free(mine);
+  mo_free(all);
+  return st;
+}
+
+/* (T103a) over the ranks, K and M in parts (sc->kpart), (T202): a column that one rank's elements
+   alone reach is whole on that rank; the columns of several ranks (the interfaces of the
+   element blocks) are summed from every rank's entries, then the largest ratio over the ranks:
+   the bound one process gives. */
+static int dt_bound_parts(mo_scene *sc, mo_ctx *ctx)
+{
+  const mo_csc *K = sc->K, *M = sc->M;
+  int n = sc->nfe_dof, j, st, any = 0, nan = 0;
+  double *held = NULL, v[3], lmax = 0;
+  mo_csc *Ks = NULL, *Ms = NULL;
+  sc->dt_bound = NAN;
+  if (!M || !K) return MO_OK;
+  if (!(held = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof *held))) return MO_ENOMEM;
+  for (j = 0; j < n; j++) held[j] = (K->p[j + 1] > K->p[j] || M->p[j + 1] > M->p[j]) && sc->free_of[j] >= 0;
+  if (!(st = mo_par_sum(held, n, ctx)) && !(st = mo_csc_sum_parts(K, held, &Ks, ctx)) &&
+      !(st = mo_csc_sum_parts(M, held, &Ms, ctx))) {
+    dt_bound_columns(sc, Ks, Ms, held, 1, &lmax, &any, &nan);
+    dt_bound_columns(sc, K, M, held, 0, &lmax, &any, &nan);
+    v[0] = lmax;
+    v[1] = any;
+    v[2] = nan;
+    if (!(st = mo_par_max(v, 3, ctx)))
+      sc->dt_bound = v[2] > 0 ? NAN : !(v[1] > 0) || !(v[0] > 0) ? HUGE_VAL : 2 / sqrt(v[0]);
+  }
+  mo_csc_free(Ks);
+  mo_csc_free(Ms);
+  mo_free(held);
+  return st;
+}
+
+/* (T201): a part's product, then one sum over the ranks */
+void mo_scene_gaxpy(const mo_scene *sc, const mo_csc *A, double alpha, const double *x, double beta, double *y)
+{
+  int i;
+  if (!sc->kpart) {
+    mo_csc_gaxpy(A, alpha, x, beta, y);
+    return;
+  }
+  mo_csc_gaxpy(A, 1, x, 0, sc->pwork);
+  /* an MPI failure aborts the job (MPI's default handler): nothing to return here */
+  mo_par_sum(sc->pwork, A->nrow, sc->pctx);
+  if (beta == 0)
+    for (i = 0; i < A->nrow; i++) y[i] = alpha * sc->pwork[i];
+  else
+    for (i = 0; i < A->nrow; i++) y[i] = beta * y[i] + alpha * sc->pwork[i];
 }
 
 int mo_scene_body_index(const mo_scene *sc, const char *name)
@@ -197,6 +300,7 @@ void mo_scene_free(mo_scene *sc)
   mo_free(sc->rigid);
   mo_free(sc->asm_elems);
   mo_free(sc->asm_seconds);
+  mo_free(sc->asm_entries);
   mo_free(sc->body);
   for (i = 0; i < sc->npresc; i++) mo_expr_free(sc->presc[i].disp);
   mo_free(sc->presc);
@@ -220,6 +324,7 @@ void mo_scene_free(mo_scene *sc)
   mo_free(sc->full_of);
   mo_csc_free(sc->K);
   mo_csc_free(sc->M);
+  mo_free(sc->pwork);
   mo_free(sc->u0);
   mo_free(sc->v0);
   mo_free(sc->title);
@@ -424,23 +529,26 @@ static int assemble_reduce(mo_scene *sc, mo_ctx *ctx)
 static int assemble_counts(mo_scene *sc, long mine, double secs, mo_ctx *ctx)
 {
   int st, r, *two;
-  double me[2], *all;
+  double me[3], *all;
   size_t n = (size_t)ctx->nranks;
   me[0] = (double)mine;
   me[1] = secs;
+  me[2] = (double)(sc->K ? mo_csc_nnz(sc->K) : 0) + (double)(sc->M ? mo_csc_nnz(sc->M) : 0);
   if (!(sc->asm_elems = mo_calloc(ctx, n, sizeof *sc->asm_elems)) ||
-      !(sc->asm_seconds = mo_calloc(ctx, n, sizeof *sc->asm_seconds)))
+      !(sc->asm_seconds = mo_calloc(ctx, n, sizeof *sc->asm_seconds)) ||
+      !(sc->asm_entries = mo_calloc(ctx, n, sizeof *sc->asm_entries)))
     return MO_ENOMEM;
   if (!(two = mo_malloc(ctx, n * sizeof *two))) return MO_ENOMEM;
-  if (!(all = mo_malloc(ctx, 2 * n * sizeof *all))) {
+  if (!(all = mo_malloc(ctx, 3 * n * sizeof *all))) {
     mo_free(two);
     return MO_ENOMEM;
   }
-  for (r = 0; r < ctx->nranks; r++) two[r] = 2;
+  for (r = 0; r < ctx->nranks; r++) two[r] = 3;
   st = mo_par_gatherv(me, two, all, ctx);
   for (r = 0; !st && r < ctx->nranks; r++) {
-    sc->asm_elems[r] = all[2 * r];
-    sc->asm_seconds[r] = all[2 * r + 1];
+    sc->asm_elems[r] = all[3 * r];
+    sc->asm_seconds[r] = all[3 * r + 1];
+    sc->asm_entries[r] = all[3 * r + 2];
   }
   mo_free(two);
   mo_free(all);
@@ -457,11 +565,16 @@ static int assemble(mo_scene *sc, int with_mass, mo_ctx *ctx)
   size_t hint = 0;
   double t0 = mo_clock(), t1;
   if (split) element_block(sc, ctx, &lo, &hi);
+  /* (T200): a linear scene keeps each rank's part (its elements' entries only): no rank holds K or M
+     whole, and every product with them is summed over the ranks (mo_scene_gaxpy). Finite-strain
+     bodies' tangents (tangent.c) still take K and M whole: their scenes take the sums. */
+  sc->kpart = split && !sc->nonlinear;
   for (b = 0; b < sc->nbody; b++)
     if (sc->body[b].kind == MO_BODY_DEFORMABLE) {
       int nd = sc->body[b].mesh->nen * D;
       hint += (size_t)sc->body[b].mesh->nelem * (size_t)nd * (size_t)nd;
     }
+  if (sc->kpart) hint = hint / (size_t)ctx->nranks + 1;
   memset(&TM, 0, sizeof TM);
   if ((st = mo_triplet_init(&TK, sc->ndof, sc->ndof, hint, ctx))) return st;
   if (with_mass && (st = mo_triplet_init(&TM, sc->ndof, sc->ndof, hint, ctx))) {
@@ -486,7 +599,16 @@ static int assemble(mo_scene *sc, int with_mass, mo_ctx *ctx)
         for (c = 0; c < D; c++) dofs[a * D + c] = B->dof0 + m->conn[e * m->nen + a] * D + c;
       /* finite-strain bodies have no constant stiffness: their forces and tangents are
          computed by the stepper at every Newton iterate (doc/theory.md §11) */
-      if (split) {
+      if (sc->kpart) {
+        /* this rank's elements only */
+        int own = g >= lo && g < hi;
+        g++;
+        mine += own;
+        if (own && (st = mo_elem_stiffness(m, e, B->mat, Ke, ctx))) break;
+        if (own && (st = mo_triplet_add_block(&TK, dofs, nd, dofs, nd, Ke, ctx))) break;
+        if (with_mass && own && (st = mo_elem_mass(m, e, B->mat, B->lumped, Me, ctx))) break;
+        if (with_mass && own && (st = mo_triplet_add_block(&TM, dofs, nd, dofs, nd, Me, ctx))) break;
+      } else if (split) {
         /* another rank's element: its pattern only, its values come with the sums */
         int own = g >= lo && g < hi;
         g++;
@@ -518,7 +640,14 @@ static int assemble(mo_scene *sc, int with_mass, mo_ctx *ctx)
      a rank that failed alone (memory) must not leave the others waiting in them */
   if (!split) mine = g;
   t1 = mo_clock() - t0;
-  if (split && !(st = mo_par_agree(st, ctx))) st = assemble_reduce(sc, ctx);
+  if (split && !(st = mo_par_agree(st, ctx))) {
+    if (!sc->kpart) st = assemble_reduce(sc, ctx);
+    else if (!(sc->pwork = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof *sc->pwork))) st = MO_ENOMEM;
+    else {
+      sc->pctx = ctx;
+      st = dt_bound_parts(sc, ctx);
+    }
+  }
   if (!st) st = assemble_counts(sc, mine, t1, ctx);
   mo_phase_add(ctx, MO_PH_ASSEMBLY, t0);
   return st;

@@ -3,6 +3,7 @@
 #include "config.h"
 #include <moreau/body.h>
 #include <moreau/material.h>
+#include <moreau/parallel.h>
 #include <moreau/step.h>
 #include "step_internal.h"
 #include "metrics.h"
@@ -71,21 +72,28 @@ static double dot(const double *a, const double *b, int n)
   return s;
 }
 
+/* x^T A x / 2 over the first n rows; with K and M in parts (T200) the sum over the ranks of the
+   parts' (one sum of one value): work then holds this rank's A_r x only. */
+static double half_form(const mo_scene *sc, const mo_csc *A, const double *x, int n, double *work)
+{
+  double e;
+  mo_csc_gaxpy(A, 1, x, 0, work);
+  e = 0.5 * dot(x, work, n);
+  if (sc->kpart) mo_par_sum(&e, 1, sc->pctx);
+  return e;
+}
+
 double mo_energy_kinetic(const mo_scene *sc, const mo_state *s, double *work)
 {
   double e = 0;
   if (!sc->M) return 0;
-  if (sc->nfe_dof) {
-    mo_csc_gaxpy(sc->M, 1, s->v, 0, work);
-    e = 0.5 * dot(s->v, work, sc->nfe_dof);
-  }
+  if (sc->nfe_dof) e = half_form(sc, sc->M, s->v, sc->nfe_dof, work);
   return e + mo_rigid_kinetic(sc, s);
 }
 
 double mo_energy_elastic(const mo_scene *sc, const double *u, double *work)
 {
-  mo_csc_gaxpy(sc->K, 1, u, 0, work);
-  return 0.5 * dot(u, work, sc->ndof);
+  return half_form(sc, sc->K, u, sc->ndof, work);
 }
 
 double mo_energy_stored(const mo_scene *sc, const mo_state *s, double *work)
@@ -344,7 +352,7 @@ void mo_stepper_mass_apply(const mo_stepper *S, const double *x, double *y)
 {
   const mo_scene *sc = S->sc;
   int nd = mo_rigid_ndof(sc->dim), r, i, j;
-  if (sc->M) mo_csc_gaxpy(sc->M, 1, x, 0, y);
+  if (sc->M) mo_scene_gaxpy(sc, sc->M, 1, x, 0, y);
   else memset(y, 0, (size_t)sc->ndof * sizeof *y); /* quasi-static: no inertia */
   for (r = 0; r < sc->nrigid; r++) {
     const mo_body *B = &sc->body[sc->rigid[r]];
@@ -362,20 +370,31 @@ int mo_stepper_matrix_full(mo_stepper *S, const mo_csc **W, mo_ctx *ctx)
   const mo_scene *sc = S->sc;
   long ver = S->blk_version * 1000003L + (S->ls ? 0 : 1);
   mo_triplet T;
+  mo_csc *Wsum = NULL;
+  const mo_csc *Wn = S->W;
   int k, i, j, p, st;
   *W = S->W;
-  if (!S->nblk && S->W) return MO_OK;
+  if (!S->nblk && S->W && !sc->kpart) return MO_OK;
   if (S->ls) {
     long nf;
     mo_linsolver_stats(S->ls, &nf, NULL, NULL);
     ver += nf * 7919L;
   }
   if (S->Wall && S->Wall_version == ver) { *W = S->Wall; return MO_OK; }
-  if ((st = mo_triplet_init(&T, sc->nfree, sc->nfree, (size_t)(S->W ? mo_csc_nnz(S->W) : 0) + 36 * (size_t)S->nblk + 1, ctx)))
+  /* What in parts over the ranks: its nodal block summed and gathered, whole on every rank
+     (for the back ends that ask for What itself: MO_NEEDS_GLOBAL) */
+  if (sc->kpart && S->W) {
+    if ((st = mo_csc_sum_parts(S->W, NULL, &Wsum, ctx))) return st;
+    Wn = Wsum;
+  }
+  if ((st = mo_triplet_init(&T, sc->nfree, sc->nfree, (size_t)(Wn ? mo_csc_nnz(Wn) : 0) + 36 * (size_t)S->nblk + 1,
+                            ctx))) {
+    mo_csc_free(Wsum);
     return st;
-  for (j = 0; S->W && j < S->W->ncol; j++)
-    for (p = S->W->p[j]; p < S->W->p[j + 1]; p++)
-      if ((st = mo_triplet_add(&T, S->W->i[p], j, S->W->x[p], ctx))) goto done;
+  }
+  for (j = 0; Wn && j < Wn->ncol; j++)
+    for (p = Wn->p[j]; p < Wn->p[j + 1]; p++)
+      if ((st = mo_triplet_add(&T, Wn->i[p], j, Wn->x[p], ctx))) goto done;
   for (k = 0; k < S->nblk; k++) {
     int o = S->blk_off[k], nk = S->blk_off[k + 1] - o, r, nd = mo_rigid_ndof(sc->dim);
     const int *loc = S->blk_loc + (o - S->nfe);
@@ -393,27 +412,33 @@ int mo_stepper_matrix_full(mo_stepper *S, const mo_csc **W, mo_ctx *ctx)
   *W = S->Wall;
 done:
   mo_triplet_release(&T);
+  mo_csc_free(Wsum);
   return st;
 }
 
-/* The solver of What that linear_solver asks for (CHOLMOD, or PETSc over the ranks). */
-static int make_solver(mo_stepper *S, mo_ctx *ctx)
+/* A solver of What (or of M_ff) that linear_solver asks for (CHOLMOD, or PETSc over the ranks;
+   with K and M in parts, the matrix it is given is this rank's part of the sum). */
+static int new_solver(const mo_scene *sc, mo_linsolver **ls, mo_ctx *ctx)
 {
-  const mo_linear_settings *L = &S->sc->lin;
+  const mo_linear_settings *L = &sc->lin;
   mo_linsolver_settings set;
   const mo_linsolver_type *T;
   int st;
-  if (!L->petsc) return mo_linsolver_create(&mo_linsolver_cholmod, &S->ls, ctx);
+  if (!L->petsc) return mo_linsolver_create(&mo_linsolver_cholmod, ls, ctx);
   if (!(T = mo_linsolver_petsc(ctx))) return mo_error_prefix(ctx, "linear_solver.type = \"petsc\"");
+  memset(&set, 0, sizeof set);
   set.ksp = L->ksp;
   set.pc = L->pc;
   set.package = L->package;
   set.options = L->options;
   set.rtol = L->rtol;
   set.spd = 1;
-  if ((st = mo_linsolver_create(T, &S->ls, ctx))) return st;
-  return mo_linsolver_configure(S->ls, &set, ctx);
+  set.parts = sc->kpart;
+  if ((st = mo_linsolver_create(T, ls, ctx))) return st;
+  return mo_linsolver_configure(*ls, &set, ctx);
 }
+
+static int make_solver(mo_stepper *S, mo_ctx *ctx) { return new_solver(S->sc, &S->ls, ctx); }
 
 /* Virgin states of every finite-strain body. */
 static void init_material(const mo_scene *sc, double *q)
@@ -879,14 +904,15 @@ int mo_stepper_init_state(mo_stepper *S, mo_state *s, mo_ctx *ctx)
       int i;
       for (i = 0; i < n; i++) S->w1[i] -= S->fint0[i];
     } else
-      mo_csc_gaxpy(sc->K, -1, s->u, 1, S->w1);
-    mo_csc_gaxpy(sc->M, -1, s->a, 1, S->w1);
+      mo_scene_gaxpy(sc, sc->K, -1, s->u, 1, S->w1);
+    mo_scene_gaxpy(sc, sc->M, -1, s->a, 1, S->w1); /* once a run: two sums */
     mo_stepper_gather(S, S->w1, S->rhs);
     st = MO_OK;
     if (sc->nfe_free) {
       /* the nodal rows through M_ff; the rigid rows' mass blocks are What's (What = M + beta h^2 K) */
       st = mo_csc_extract(sc->M, sc->free_of, sc->nfe_free, sc->free_of, sc->nfe_free, &Mff, ctx);
-      if (!st) st = mo_linsolver_create(&mo_linsolver_cholmod, &Ml, ctx);
+      if (!st && sc->kpart) st = new_solver(sc, &Ml, ctx); /* M_ff in parts: PETSc sums them */
+      else if (!st) st = mo_linsolver_create(&mo_linsolver_cholmod, &Ml, ctx);
       if (!st) st = mo_linsolver_factor(Ml, Mff, ctx);
       if (!st) st = mo_linsolver_solve(Ml, S->rhs, S->xf, ctx);
     }
@@ -907,6 +933,23 @@ int mo_stepper_init_state(mo_stepper *S, mo_state *s, mo_ctx *ctx)
   return MO_OK;
 }
 
+/* Products with K and M added to y (T201): into y itself, or with K and M in parts into the
+   scene's accumulator, summed over the ranks once for all of them (parts_end). */
+static double *parts_begin(const mo_scene *sc, double *y)
+{
+  if (!sc->kpart) return y;
+  memset(sc->pwork, 0, (size_t)sc->ndof * sizeof *sc->pwork);
+  return sc->pwork;
+}
+
+static void parts_end(const mo_scene *sc, double *y)
+{
+  int i;
+  if (!sc->kpart) return;
+  mo_par_sum(sc->pwork, sc->ndof, sc->pctx);
+  for (i = 0; i < sc->ndof; i++) y[i] += sc->pwork[i];
+}
+
 /* The right-hand side of the unconstrained step at s (S->rhs over free dofs, rigid rows
    included) and the prescribed values of the unknown at t+ in x (full, 0 elsewhere). */
 static int predict_rhs(mo_stepper *S, const mo_state *s, double *x, mo_ctx *ctx)
@@ -914,7 +957,7 @@ static int predict_rhs(mo_stepper *S, const mo_state *s, double *x, mo_ctx *ctx)
   const mo_scene *sc = S->sc;
   int n = sc->ndof, i, st;
   double h = S->h, tn = s->t + h;
-  double *f1 = S->w1, *w = S->w2;
+  double *f1 = S->w1, *w = S->w2, *acc;
   if (S->nl)
     return mo_error(ctx, MO_EUNSUPPORTED, "mo_stepper_predict: a nonlinear scene's step is "
                     "mo_stepper_solve (Newton)");
@@ -933,11 +976,13 @@ static int predict_rhs(mo_stepper *S, const mo_state *s, double *x, mo_ctx *ctx)
       w[i] = s->u[i] + c * s->v[i];
       f1[i] = hf * (tf * f1[i] + (1 - tf) * s->f[i]);
     }
-    mo_csc_gaxpy(sc->M, 1, s->v, 1, f1);
-    mo_csc_gaxpy(sc->K, -hf, w, 1, f1);
+    acc = parts_begin(sc, f1);
+    mo_csc_gaxpy(sc->M, 1, s->v, 1, acc);
+    mo_csc_gaxpy(sc->K, -hf, w, 1, acc);
     memset(x, 0, (size_t)n * sizeof(double));
     presc_values(S, tn, NULL, x, NULL);
-    if (S->Wfull) mo_csc_gaxpy(S->Wfull, -1, x, 1, f1);
+    if (S->Wfull) mo_csc_gaxpy(S->Wfull, -1, x, 1, acc);
+    parts_end(sc, f1);
     break;
   }
   case MO_SCHEME_NEWMARK: {
@@ -948,19 +993,21 @@ static int predict_rhs(mo_stepper *S, const mo_state *s, double *x, mo_ctx *ctx)
     presc_values(S, tn, w, NULL, NULL);
     memset(x, 0, (size_t)n * sizeof(double));
     presc_values(S, tn, NULL, NULL, x);
-    mo_csc_gaxpy(sc->K, -1, w, 1, f1);
+    acc = parts_begin(sc, f1);
+    mo_csc_gaxpy(sc->K, -1, w, 1, acc);
     if (S->Wfull) {
       /* w_p already holds u+_p: K w includes K_fp u+_p; remove the beta h^2 K a_p part that
          Wfull would add, by using M only for the accelerations */
-      mo_csc_gaxpy(sc->M, -1, x, 1, f1);
+      mo_csc_gaxpy(sc->M, -1, x, 1, acc);
     }
+    parts_end(sc, f1);
     break;
   }
   case MO_SCHEME_QUASISTATIC:
     /* K u+ = f+ - K_fp u+_p */
     memset(w, 0, (size_t)n * sizeof(double));
     presc_values(S, tn, w, NULL, NULL);
-    mo_csc_gaxpy(sc->K, -1, w, 1, f1);
+    mo_scene_gaxpy(sc, sc->K, -1, w, 1, f1);
     memcpy(x, w, (size_t)n * sizeof(double));
     break;
   }
@@ -1156,17 +1203,31 @@ static void reactions(const mo_stepper *S, mo_state *s)
       for (p = K->p[d]; p < K->p[d + 1]; p++)
         r += K->x[p] * (tf * s->u[K->i[p]] + (1 - tf) * S->uprev[K->i[p]]);
       for (p = M->p[d]; p < M->p[d + 1]; p++) r += M->x[p] * (s->v[M->i[p]] - S->vprev[M->i[p]]) / h;
-      r -= tf * s->f[d] + (1 - tf) * S->fprev[d];
       break;
     case MO_SCHEME_NEWMARK:
       for (p = K->p[d]; p < K->p[d + 1]; p++) r += K->x[p] * s->u[K->i[p]];
       for (p = M->p[d]; p < M->p[d + 1]; p++) r += M->x[p] * s->a[M->i[p]];
-      r -= s->f[d];
       break;
     case MO_SCHEME_QUASISTATIC:
       for (p = K->p[d]; p < K->p[d + 1]; p++) r += K->x[p] * s->u[K->i[p]];
-      r -= s->f[d];
       break;
+    }
+    s->reac[d] = r;
+  }
+  if (S->nl) return;
+  /* K and M in parts over the ranks: the columns' products are the sums of the parts' */
+  if (sc->kpart) {
+    for (k = 0; k < sc->npresc; k++) sc->pwork[k] = s->reac[sc->presc[k].dof];
+    mo_par_sum(sc->pwork, sc->npresc, sc->pctx);
+    for (k = 0; k < sc->npresc; k++) s->reac[sc->presc[k].dof] = sc->pwork[k];
+  }
+  for (k = 0; k < sc->npresc; k++) {
+    int d = sc->presc[k].dof;
+    double r = s->reac[d];
+    switch (S->scheme) {
+    case MO_SCHEME_THETA: r -= tf * s->f[d] + (1 - tf) * S->fprev[d]; break;
+    case MO_SCHEME_NEWMARK:
+    case MO_SCHEME_QUASISTATIC: r -= s->f[d]; break;
     }
     s->reac[d] = r + (d >= sc->nfe_dof && S->scheme != MO_SCHEME_QUASISTATIC ? rigid_inertia(S, s, d) : 0);
   }
@@ -1259,7 +1320,7 @@ int mo_stepper_finish(mo_stepper *S, mo_state *s, const double *x, mo_ctx *ctx)
     int st;
     double *r = S->w1;
     memcpy(r, s->f, (size_t)n * sizeof(double));
-    mo_csc_gaxpy(sc->K, -1, s->u, 1, r);
+    mo_scene_gaxpy(sc, sc->K, -1, s->u, 1, r);
     mo_stepper_gather(S, r, S->rhs);
     if ((st = mo_stepper_what_solve(S, 1, S->rhs, S->xf, ctx))) return st;
     for (i = 0; i < sc->nfree; i++) S->xf[i] *= 0.5 * h;

@@ -3,8 +3,8 @@
 # on 2 ranks against CHOLMOD (tests/test_parallel), then `mpirun -np 2 moreau run` against the
 # serial run on rods-3d (dynamic impacts, the Delassus operator from distributed solves) and the
 # 14^3 H8 box pressed on a plane (quasi-static), to 1e-8 of every history column, each rank
-# computing the element matrices of half of the elements (K and M against one process's
-# assembly: tests/test_parallel). Skipped by
+# computing the element matrices of half of the elements and keeping them (K and M in parts, no
+# rank holding them whole; against one process's assembly: tests/test_parallel). Skipped by
 # builds without PETSc. The 2 ranks share CI's 2 cores with nothing else: oversubscription
 # allowed, as the CI machine's MPI would refuse it otherwise.
 . "$MOREAU_SRCDIR/tests/tap.sh"
@@ -53,6 +53,11 @@ run_pair() { # run_pair NAME CASE ARGS...: serial and 2-rank runs, then their co
   is "$(json "$OUT/$name-2/summary.json" "(lambda n, a: [len(a), sum(a) == n, max(a) - min(a) <= 1, min(a) > 0])( \
          sum(b.get('elements', 0) for b in d['scene']['bodies']), d['parallel']['elements_assembled'])")" "[2, True, True, True]" \
     "$name: each rank computed half of the elements ($(json "$OUT/$name-2/summary.json" "d['parallel'].get('elements_assembled')"))"
+  # no rank holds K and M whole (doc/parallel.md §3): each keeps its elements' entries, the
+  # largest part 60 % of the serial run's entries at most, the parts all of them
+  whole=$(json "$OUT/$name-1/summary.json" "d['scene']['matrix_entries']")
+  is "$(json "$OUT/$name-2/summary.json" "(lambda p: [p['matrices'], max(p['matrix_entries']) <= 0.6 * $whole, sum(p['matrix_entries']) >= $whole])(d['parallel'])")" \
+    "['parts', True, True]" "$name: K and M in parts, the largest rank's $(json "$OUT/$name-2/summary.json" "max(d['parallel']['matrix_entries'])") of the $whole entries"
 }
 check_runs() { # check_runs A B TOL NAME [grains]
   /usr/bin/python3 "$MOREAU_SRCDIR/tests/compare_runs.py" "$1" "$2" "$3" $5 > "$OUT/cmp" 2>&1 || echo "1	compare_runs.py crashed: $(tail -1 "$OUT/cmp")" >> "$OUT/cmp"

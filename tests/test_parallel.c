@@ -9,6 +9,9 @@
 #include <moreau/scene.h>
 #include "tap.h"
 
+#include <math.h>
+#include <stdlib.h>
+
 /* A 2D Laplacian on an nx x ny grid plus a mass-like diagonal: SPD, with the pattern of a
    stiffness matrix (rows coupled across the ranks' row blocks). */
 static mo_csc *laplacian(int nx, int ny, double shift, mo_ctx *ctx)
@@ -54,42 +57,71 @@ static int agree_all(int pass, mo_ctx *ctx)
   return f == 0;
 }
 
-static void solver_checks(mo_ctx *ctx, const char *ksp, const char *pc, double tol)
+/* Rank r's part of A (the parts' sum is A, each part another pattern): the diagonal shared
+   evenly, an off-diagonal entry (i, j) on rank (i + j) mod nranks. */
+static mo_csc *part_of(const mo_csc *A, mo_ctx *ctx)
 {
-  mo_csc *A = laplacian(23, 17, 0.5, ctx), *A2 = laplacian(23, 17, 2.0, ctx);
+  mo_triplet T;
+  mo_csc *P = NULL;
+  int j, p, nr = ctx->nranks;
+  mo_triplet_init(&T, A->nrow, A->ncol, (size_t)mo_csc_nnz(A), ctx);
+  for (j = 0; j < A->ncol; j++)
+    for (p = A->p[j]; p < A->p[j + 1]; p++) {
+      int i = A->i[p];
+      if (i == j) mo_triplet_add(&T, i, j, A->x[p] / nr, ctx);
+      else if ((i + j) % nr == ctx->rank) mo_triplet_add(&T, i, j, A->x[p], ctx);
+    }
+  mo_triplet_to_csc(&T, 0, &P, ctx);
+  mo_triplet_release(&T);
+  return P;
+}
+
+/* parts: each rank factors its part of the matrix (K and M in parts over the ranks) */
+static void solver_checks(mo_ctx *ctx, const char *ksp, const char *pc, double tol, int parts)
+{
+  mo_csc *A = laplacian(23, 17, 0.5, ctx), *A2 = laplacian(23, 17, 2.0, ctx), *P = NULL, *P2 = NULL;
   int n = A->nrow, k, nrhs = 3;
   double *B = malloc(sizeof(double) * n * nrhs), *X = malloc(sizeof(double) * n * nrhs),
          *Y = malloc(sizeof(double) * n * nrhs);
   mo_linsolver *chol = NULL, *ps = NULL;
-  mo_linsolver_settings set = {ksp, pc, "mumps", "", 1e-13, 1};
+  mo_linsolver_settings set = {ksp, pc, "mumps", "", 1e-13, 1, parts};
   long nf = 0, ns = 0;
+  const char *how = parts ? " (parts)" : "";
+  if (parts) {
+    P = part_of(A, ctx);
+    P2 = part_of(A2, ctx);
+  }
   for (k = 0; k < n * nrhs; k++) B[k] = sin(0.37 * k) + (k % 5 == 0);
   mo_linsolver_create(&mo_linsolver_cholmod, &chol, ctx);
   mo_linsolver_factor(chol, A, ctx);
   mo_linsolver_solve_multi(chol, nrhs, B, Y, ctx);
   ok(mo_linsolver_create(mo_linsolver_petsc(ctx), &ps, ctx) == MO_OK && mo_linsolver_configure(ps, &set, ctx) == MO_OK,
-     "petsc %s/%s: created on %d rank(s)", ksp, pc, ctx->nranks);
-  ok(agree_all(mo_linsolver_factor(ps, A, ctx) == MO_OK, ctx), "petsc %s/%s: factored (%s)", ksp, pc, ctx->errmsg);
-  ok(agree_all(mo_linsolver_solve_multi(ps, nrhs, B, X, ctx) == MO_OK, ctx), "petsc %s/%s: solved", ksp, pc);
+     "petsc %s/%s%s: created on %d rank(s)", ksp, pc, how, ctx->nranks);
+  ok(agree_all(mo_linsolver_factor(ps, parts ? P : A, ctx) == MO_OK, ctx), "petsc %s/%s%s: factored (%s)", ksp, pc, how,
+     ctx->errmsg);
+  ok(agree_all(mo_linsolver_solve_multi(ps, nrhs, B, X, ctx) == MO_OK, ctx), "petsc %s/%s%s: solved", ksp, pc, how);
   {
     double e = rel(X, Y, (long)n * nrhs);
-    ok(agree_all(e < tol, ctx), "petsc %s/%s: 3 solutions equal CHOLMOD's to %.1e (tol %.0e)", ksp, pc, e, tol);
+    ok(agree_all(e < tol, ctx), "petsc %s/%s%s: 3 solutions equal CHOLMOD's to %.1e (tol %.0e)", ksp, pc, how, e, tol);
   }
   /* new values on the same pattern: the symbolic analysis kept, the answer the new matrix's */
   mo_linsolver_factor(chol, A2, ctx);
   mo_linsolver_solve_multi(chol, 1, B, Y, ctx);
   {
-    int done = agree_all(mo_linsolver_factor(ps, A2, ctx) == MO_OK && mo_linsolver_solve(ps, B, X, ctx) == MO_OK, ctx);
+    int done = agree_all(mo_linsolver_factor(ps, parts ? P2 : A2, ctx) == MO_OK && mo_linsolver_solve(ps, B, X, ctx) == MO_OK,
+                         ctx);
     double e = rel(X, Y, n);
-    ok(done && agree_all(e < tol, ctx), "petsc %s/%s: refactored with new values, solution equal to CHOLMOD's to %.1e",
-       ksp, pc, e);
+    ok(done && agree_all(e < tol, ctx), "petsc %s/%s%s: refactored with new values, solution equal to CHOLMOD's to %.1e",
+       ksp, pc, how, e);
   }
   mo_linsolver_stats(ps, &nf, NULL, &ns);
-  ok(nf == 2 && ns == 4, "petsc %s/%s: 2 factorizations, 4 right-hand sides counted (%ld, %ld)", ksp, pc, nf, ns);
+  ok(nf == 2 && ns == 4, "petsc %s/%s%s: 2 factorizations, 4 right-hand sides counted (%ld, %ld)", ksp, pc, how, nf, ns);
   mo_linsolver_free(ps);
   mo_linsolver_free(chol);
   mo_csc_free(A);
   mo_csc_free(A2);
+  mo_csc_free(P);
+  mo_csc_free(P2);
   free(B);
   free(X);
   free(Y);
@@ -222,14 +254,57 @@ static void assembly_checks(mo_ctx *ctx, const char *name, const char *const *se
   ctx->nranks = nr;
   ok(agree_all(!st, ctx), "%s: scenes built over %d rank(s) and by one process (%s)", name, nr, st ? ctx->errmsg : "ok");
   if (st) goto done;
-  /* the patterns may differ by the entries whose contributions cancel exactly (one process
-     keeps them as zeros, the ranks' sums drop every zero): compared by value */
-  dk = mat_diff(par->K, one->K, ctx);
-  if (one->M) dm = par->M ? mat_diff(par->M, one->M, ctx) : 1;
-  ok(agree_all(dk <= 1e-12 && dm <= 1e-12, ctx),
-     "%s: K and M assembled by the ranks equal one process's to %.1e and %.1e of their largest entry "
-     "(%d and %d entries, %d and %d)", name, dk, dm, mo_csc_nnz(par->K), par->M ? mo_csc_nnz(par->M) : 0,
-     mo_csc_nnz(one->K), one->M ? mo_csc_nnz(one->M) : 0);
+  /* over ranks a linear scene keeps each rank's part of K and M (its elements' entries): their
+     sums, gathered here, are the scene's matrices. The patterns may differ by the entries whose
+     contributions cancel exactly (one process keeps them as zeros): compared by value */
+  ok(agree_all(par->kpart == (nr > 1), ctx), "%s: K and M %s on %d rank(s)", name, par->kpart ? "in parts" : "whole", nr);
+  {
+    mo_csc *Ks = NULL, *Ms = NULL;
+    long mine = mo_csc_nnz(par->K) + (par->M ? mo_csc_nnz(par->M) : 0), whole = mo_csc_nnz(one->K) + (one->M ? mo_csc_nnz(one->M) : 0);
+    double big = (double)mine, sum = (double)mine;
+    if (par->kpart) {
+      st = mo_csc_sum_parts(par->K, NULL, &Ks, ctx);
+      if (!st && par->M) st = mo_csc_sum_parts(par->M, NULL, &Ms, ctx);
+    }
+    if (!st) {
+      dk = mat_diff(Ks ? Ks : par->K, one->K, ctx);
+      if (one->M) dm = par->M ? mat_diff(Ms ? Ms : par->M, one->M, ctx) : 1;
+    }
+    ok(agree_all(!st && dk <= 1e-12 && dm <= 1e-12, ctx),
+       "%s: K and M assembled by the ranks (summed) equal one process's to %.1e and %.1e of their largest entry "
+       "(%d and %d entries, %d and %d)", name, dk, dm, Ks ? mo_csc_nnz(Ks) : mo_csc_nnz(par->K),
+       Ms ? mo_csc_nnz(Ms) : par->M ? mo_csc_nnz(par->M) : 0, mo_csc_nnz(one->K), one->M ? mo_csc_nnz(one->M) : 0);
+    /* no rank holds K and M whole: the largest part holds 60 % of the entries at most, and the
+       parts all of them (the interfaces' entries twice) */
+    mo_par_max(&big, 1, ctx);
+    mo_par_sum(&sum, 1, ctx);
+    if (nr > 1)
+      ok(big <= 0.6 * (double)whole && sum >= (double)whole,
+         "%s: the largest rank's part of K and M holds %.0f of their %ld entries (%.1f %%), the parts %.0f", name, big, whole,
+         100 * big / (double)whole, sum);
+    /* a product summed over the ranks (mo_scene_gaxpy) and (T103a)'s bound, against one process */
+    {
+      int nd = one->ndof, i;
+      double *x = calloc((size_t)nd + 1, sizeof *x), *y1 = calloc((size_t)nd + 1, sizeof *y1),
+             *y2 = calloc((size_t)nd + 1, sizeof *y2), e = 0, ymax = 0, b1 = mo_scene_dt_bound(one), b2 = mo_scene_dt_bound(par);
+      for (i = 0; i < nd; i++) x[i] = y1[i] = y2[i] = sin(0.37 * i + 0.1);
+      mo_csc_gaxpy(one->K, 2, x, 0.5, y1);
+      mo_scene_gaxpy(par, par->K, 2, x, 0.5, y2);
+      for (i = 0; i < nd; i++) {
+        if (fabs(y1[i] - y2[i]) > e) e = fabs(y1[i] - y2[i]);
+        if (fabs(y1[i]) > ymax) ymax = fabs(y1[i]);
+      }
+      ok(agree_all(e <= 1e-13 * ymax, ctx), "%s: 2 K x + y / 2 summed over the ranks equals one process's to %.1e of its largest value", name,
+         ymax > 0 ? e / ymax : e);
+      ok(agree_all((isnan(b1) && isnan(b2)) || fabs(b1 - b2) <= 1e-13 * fabs(b1), ctx),
+         "%s: the stable step's bound (T103a) over the ranks %.10g, one process %.10g", name, b2, b1);
+      free(x);
+      free(y1);
+      free(y2);
+    }
+    mo_csc_free(Ks);
+    mo_csc_free(Ms);
+  }
   for (b = 0; b < one->nbody; b++)
     if (one->body[b].kind == MO_BODY_DEFORMABLE) n += one->body[b].mesh->nelem;
   distributed_checks(ctx, name, par, one);
@@ -283,9 +358,11 @@ int main(int argc, char **argv)
        "a status of one rank reaches every rank (%s)", ctx.errmsg);
     mo_ctx_clear_error(&ctx);
   }
-  solver_checks(&ctx, "preonly", "cholesky", 1e-12);
-  solver_checks(&ctx, "preonly", "lu", 1e-12);
-  solver_checks(&ctx, "cg", "jacobi", 1e-9);
+  solver_checks(&ctx, "preonly", "cholesky", 1e-12, 0);
+  solver_checks(&ctx, "preonly", "lu", 1e-12, 0);
+  solver_checks(&ctx, "cg", "jacobi", 1e-9, 0);
+  solver_checks(&ctx, "preonly", "cholesky", 1e-12, 1);
+  solver_checks(&ctx, "cg", "jacobi", 1e-9, 1);
   {
     static const char *const box[] = {"bodies.box.mesh.elements=[7,6,5]", NULL};
     /* the box with a lumped mass (its diagonal only) */

@@ -246,6 +246,14 @@ typedef struct mo_scene {
   /* the elements whose K and M each rank computed, and its seconds in that loop (nranks values
      each; one process: its count and time; doc/parallel.md §3) */
   double *asm_elems, *asm_seconds;
+  double *asm_entries;  /* the entries of K and M each rank holds (nnz(K) + nnz(M)) */
+  /* Over MPI ranks, a linear scene (doc/parallel.md §3): K and M hold the elements this rank
+     computed, the scene's matrices being their sums over the ranks; every product with them
+     is the sum of the parts' products (mo_scene_gaxpy, collective). 0: K and M whole. */
+  int kpart;
+  mo_ctx *pctx;         /* kpart: the context of those sums (the run's) */
+  double *pwork;        /* kpart: ndof, a part's product before the sum */
+  double dt_bound;      /* kpart: (T103a), computed over the ranks once assembled */
   int has_moving_presc; /* some prescribed dof moves: coupling terms needed */
   int nonlinear;        /* some body has a finite-strain material: Newton steps (§11) */
   size_t nq;            /* doubles of material state over the finite-strain bodies */
@@ -281,6 +289,13 @@ double mo_scene_dt_crit(const mo_scene *sc, int *body, int *elem);
    Gershgorin's bound on omega_max^2 over the free rows of M^-1 K; NAN unless every nodal mass is
    diagonal (lumped) and the bodies linear, HUGE_VAL without nodal free dofs. */
 double mo_scene_dt_bound(const mo_scene *sc);
+/* y = alpha A x + beta y, A the scene's K or M or a matrix made of them (What over full dofs):
+   with sc->kpart A is this rank's part and the product the sum over the ranks of the parts'
+   (one sum of A's nrow values; every rank must call it). */
+void mo_scene_gaxpy(const mo_scene *sc, const mo_csc *A, double alpha, const double *x, double beta, double *y);
+/* The sum over the ranks of every rank's part A (columns j with held[j] > 1.5 only; held NULL:
+   all), gathered whole on every rank (collective). */
+int mo_csc_sum_parts(const mo_csc *A, const double *held, mo_csc **out, mo_ctx *ctx);
 
 #ifdef __cplusplus
 }

@@ -79,6 +79,9 @@ typedef struct mo_linsolver_settings {
   const char *ksp, *pc, *package, *options;
   double rtol;
   int spd;
+  /* over MPI ranks: the matrix each rank factors is its part, the matrix solved the sum of the
+     ranks' parts (K and M in parts: mo_scene's kpart); the types of one process ignore it */
+  int parts;
 } mo_linsolver_settings;
 /* The split solves of a factor P A P^T = L L^T whose trailing rows are the ones ordered last
    (mo_linsolver_set_last), with L = [L11 0; L21 L22] (doc/theory.md (T150)-(T153)):
