@@ -7,7 +7,8 @@
    dumps FCLIB problems (W built from H on demand) against contact.delassus = "always". The memory
    of the contact set: the records hold a bounded number of bytes per candidate, a fraction of the
    points, candidates and columns of H. levelset, which reads candidates and H, runs the same
-   scene on the general path. */
+   scene on the general path. Jean's norms in nscd's report under the residual rules: the records'
+   sweep sums them, the sweep on H computes them from the reactions before its last sweep. */
 #include "config.h"
 #include "testlib.h"
 
@@ -247,6 +248,55 @@ static void disks(void)
   nscd_opts = "stop = \"sweeps\"; max_sweeps = 12;";
 }
 
+/* Jean's norms in nscd's report under the residual rules (scaled, natural), whose stopping test
+   reads none of them: the granular sweep sums their parts as it updates each contact, the sweep on
+   H computes them from the reactions kept before its last sweep (jean_parts). Stepped side by side,
+   the two runs' reports give the same Quad and Maxm at every step with contact, finite. */
+static void report_norms(const char *rule)
+{
+  static char t1[8192], t2[8192];
+  char opts[128];
+  tl_steps A, B;
+  int steps = 0, withc = 0, finite = 1, st = 0;
+  double dq = 0, dm = 0, qmax = 0;
+  snprintf(opts, sizeof opts, "stop = \"%s\"; tol = 1.0e-6; max_sweeps = 200;", rule);
+  nscd_opts = opts;
+  disks_text(t1, sizeof t1, 60, 0.15, "", "");
+  disks_text(t2, sizeof t2, 60, 0.15, "", "compact = false;");
+  nscd_opts = "stop = \"sweeps\"; max_sweeps = 12;";
+  if (tl_steps_open(&A, t1, "records.cfg", NULL, 0)) {
+    ok(0, "stop = %s: the compact run opens (%s)", rule, A.ctx.errmsg);
+    return;
+  }
+  if (tl_steps_open(&B, t2, "general.cfg", NULL, 0)) {
+    ok(0, "stop = %s: the general run opens (%s)", rule, B.ctx.errmsg);
+    tl_steps_free(&A);
+    return;
+  }
+  ok(mo_contact_is_compact(A.C) && !mo_contact_is_compact(B.C), "stop = %s: one run on the records, one on H", rule);
+  while (A.s.step < A.sc->time.steps && !st) {
+    const mo_contact_report *ra, *rb;
+    if ((st = mo_contact_step(A.D, &A.s, &A.ctx)) || (st = mo_contact_step(B.D, &B.s, &B.ctx))) break;
+    steps++;
+    ra = mo_contact_last_report(A.D);
+    rb = mo_contact_last_report(B.D);
+    if (ra->iterations <= 0) continue;
+    withc++;
+    finite &= isfinite(ra->quad) && isfinite(ra->maxm) && isfinite(rb->quad) && isfinite(rb->maxm);
+    if (fabs(ra->quad - rb->quad) > dq) dq = fabs(ra->quad - rb->quad);
+    if (fabs(ra->maxm - rb->maxm) > dm) dm = fabs(ra->maxm - rb->maxm);
+    if (rb->quad > qmax) qmax = rb->quad;
+  }
+  ok(!st && steps == 150 && withc > 50, "stop = %s: 150 steps side by side, %d with contact %s", rule, withc,
+     st ? A.ctx.errmsg : "");
+  ok(finite && qmax > 0, "stop = %s: Quad and Maxm in the report are finite at every step (largest Quad %.2e)", rule,
+     qmax);
+  ok(dq == 0 && dm == 0, "stop = %s: the records' Quad and Maxm are the sweep on H's (largest differences %.1e, %.1e)",
+     rule, dq, dm);
+  tl_steps_free(&A);
+  tl_steps_free(&B);
+}
+
 /* The same text with `compact = false;` after the back end's name. */
 static void general_of(const char *text, char *out, size_t len)
 {
@@ -385,5 +435,7 @@ int main(void)
   polygons();
   fclib_dump();
   memory();
+  report_norms("natural");
+  report_norms("scaled");
   return done_testing();
 }
