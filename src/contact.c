@@ -336,7 +336,7 @@ static int grow(mo_contact_driver *D, int nc, mo_ctx *ctx)
   int cap = D->cap, d = D->d;
   void *p;
   if (nc <= cap) return MO_OK;
-  while (cap < nc) cap = cap ? 2 * cap : 16;
+  while (cap < nc) cap = cap ? cap + cap / 4 + 1 : 16; /* a quarter more: the set grows a little at a time */
 #define GROW(ptr, n) if (!(p = mo_realloc(ctx, ptr, (size_t)(n) * sizeof *(ptr)))) return MO_ENOMEM; ptr = p
   GROW(D->bn, cap); GROW(D->q, (size_t)cap * d); GROW(D->U, (size_t)cap * d);
   GROW(D->Uprev, (size_t)cap * d); GROW(D->r, (size_t)cap * d);

@@ -1109,7 +1109,7 @@ int mo_contact_reserve(mo_contact *C, int nc, mo_ctx *ctx)
   int cap = C->nalloc, d = C->dim;
   void *q;
   if (nc <= cap) return MO_OK;
-  while (cap < nc) cap = cap ? 2 * cap : 64;
+  while (cap < nc) cap = cap ? cap + cap / 4 + 1 : 64; /* a quarter more: the set grows a little at a time */
 #define GROW(ptr, n) if (!(q = mo_realloc(ctx, ptr, (size_t)(n) * sizeof *(ptr)))) return MO_ENOMEM; ptr = q
   GROW(C->g, cap);
   GROW(C->frame, (size_t)cap * (size_t)(d * d));

@@ -102,7 +102,7 @@ static int room(mo_metrics *M, int nc, mo_ctx *ctx)
   size_t n, old = (size_t)M->cap;
   void *p;
   if (nc <= M->cap && M->hist) return 1;
-  n = (size_t)(nc + nc / 2) + 1;
+  n = (size_t)(nc + nc / 4) + 1;
 #define GROW(ptr, k) if (!(p = mo_realloc(ctx, ptr, (k) * sizeof *(ptr)))) return 0; ptr = p
   GROW(M->hist, n); GROW(M->map, n); GROW(M->keys, n * MO_KEY);
   if (M->watch_any) {

@@ -108,7 +108,7 @@ static int fit_set(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
     return mo_error(ctx, MO_EINTERNAL, "nscd: the core gave neither W nor the blocks of H and What");
 #define GROW(ptr, n) if (!(q = mo_realloc(ctx, ptr, (n) * sizeof *(ptr)))) return MO_ENOMEM; ptr = q
   if (nc > S->cap) {
-    nc += nc / 2; /* sets grow a little at a time while grains settle */
+    nc += nc / 4; /* sets grow a little at a time while grains settle */
     GROW(S->act, nc); GROW(S->order, nc); GROW(S->mu, nc);
     S->cap = nc;
   }
