@@ -7,8 +7,8 @@
    dumps FCLIB problems (W built from H on demand) against contact.delassus = "always". The memory
    of the contact set: the records hold a bounded number of bytes per candidate, a fraction of the
    points, candidates and columns of H. levelset, which reads candidates and H, runs the same
-   scene on the general path. Jean's norms in nscd's report under the residual rules: the records'
-   sweep sums them, the sweep on H computes them from the reactions before its last sweep. */
+   scene on the general path. Jean's norms in nscd's report under the residual rules: the sweep on
+   H computes them, the records' sweep reports them as not measured (-1), not NaN. */
 #include "config.h"
 #include "testlib.h"
 
@@ -249,16 +249,17 @@ static void disks(void)
 }
 
 /* Jean's norms in nscd's report under the residual rules (scaled, natural), whose stopping test
-   reads none of them: the granular sweep sums their parts as it updates each contact, the sweep on
-   H computes them from the reactions kept before its last sweep (jean_parts). Stepped side by side,
-   the two runs' reports give the same Quad and Maxm at every step with contact, finite. */
+   reads none of them: the sweep on H computes them from the reactions kept before its last sweep;
+   the granular sweep keeps no such copy and does not sum them (it would cost about 8 % of a solve's
+   instructions), so that its report says "not measured" (-1, contact.h), never NaN. Stepped side
+   by side, the two runs take the same sweeps. */
 static void report_norms(const char *rule)
 {
   static char t1[8192], t2[8192];
   char opts[128];
   tl_steps A, B;
-  int steps = 0, withc = 0, finite = 1, st = 0;
-  double dq = 0, dm = 0, qmax = 0;
+  int steps = 0, withc = 0, unmeasured = 1, measured = 1, same = 1, st = 0;
+  double qmax = 0;
   snprintf(opts, sizeof opts, "stop = \"%s\"; tol = 1.0e-6; max_sweeps = 200;", rule);
   nscd_opts = opts;
   disks_text(t1, sizeof t1, 60, 0.15, "", "");
@@ -280,19 +281,18 @@ static void report_norms(const char *rule)
     steps++;
     ra = mo_contact_last_report(A.D);
     rb = mo_contact_last_report(B.D);
+    same &= ra->iterations == rb->iterations;
     if (ra->iterations <= 0) continue;
     withc++;
-    finite &= isfinite(ra->quad) && isfinite(ra->maxm) && isfinite(rb->quad) && isfinite(rb->maxm);
-    if (fabs(ra->quad - rb->quad) > dq) dq = fabs(ra->quad - rb->quad);
-    if (fabs(ra->maxm - rb->maxm) > dm) dm = fabs(ra->maxm - rb->maxm);
+    unmeasured &= ra->quad == -1 && ra->maxm == -1;
+    measured &= isfinite(rb->quad) && isfinite(rb->maxm) && rb->quad >= 0 && rb->maxm >= 0;
     if (rb->quad > qmax) qmax = rb->quad;
   }
-  ok(!st && steps == 150 && withc > 50, "stop = %s: 150 steps side by side, %d with contact %s", rule, withc,
-     st ? A.ctx.errmsg : "");
-  ok(finite && qmax > 0, "stop = %s: Quad and Maxm in the report are finite at every step (largest Quad %.2e)", rule,
-     qmax);
-  ok(dq == 0 && dm == 0, "stop = %s: the records' Quad and Maxm are the sweep on H's (largest differences %.1e, %.1e)",
-     rule, dq, dm);
+  ok(!st && steps == 150 && withc > 50 && same, "stop = %s: 150 steps side by side, %d with contact, the same sweeps %s",
+     rule, withc, st ? A.ctx.errmsg : "");
+  ok(unmeasured, "stop = %s: the records' report gives Quad and Maxm as not measured (-1) at every step with contact",
+     rule);
+  ok(measured && qmax > 0, "stop = %s: the sweep on H's report gives them, finite (largest Quad %.2e)", rule, qmax);
   tl_steps_free(&A);
   tl_steps_free(&B);
 }

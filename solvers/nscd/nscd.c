@@ -562,18 +562,12 @@ static int sweep_ranks(nscd_state *S, const mo_contact_problem *P, double *r, in
   int st, natural = p->stop == NSCD_STOP_NATURAL || scaled;
   *broke = nscd_grains_sweep_owned(S, P, r, status);
   if (!natural) jean_parts(S, S->oorder, S->noact, S->rold, r, &parts[0], &parts[1], &parts[2], &mx[1]);
-  else { /* the residual rules: Jean's norms for the report, from the parts the sweep summed (jwant) */
-    parts[0] = S->jp[0];
-    parts[1] = S->jp[1];
-    parts[2] = S->jp[2];
-    mx[1] = S->jp[3];
-  }
+  else mx[1] = 0;
   parts[3] = ctx->interrupt && *ctx->interrupt;
   mx[0] = *broke;
   if ((st = nscd_grains_sync(S, parts, 4, mx, 2, ctx))) return st;
   *broke = (int)mx[0];
   *stop = parts[3] > 0;
-  jean_from_parts(parts[0], parts[1], parts[2], mx[1], quad, maxm);
   if (natural) {
     /* the residual of the state every rank now holds: U of the owned contacts from the summed
        interface velocities (a second, 3-number sum; U taken before the first would miss the other
@@ -585,7 +579,8 @@ static int sweep_ranks(nscd_state *S, const mo_contact_problem *P, double *r, in
     if (sqrt(parts[1]) > den) den = sqrt(parts[1]);
     if (sqrt(parts[2]) > den) den = sqrt(parts[2]);
     *res = den > 1e-300 ? sqrt(parts[0]) / den : sqrt(parts[0]);
-  }
+  } else
+    jean_from_parts(parts[0], parts[1], parts[2], mx[1], quad, maxm);
   return MO_OK;
 }
 
@@ -723,9 +718,7 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
     if (p->stop == NSCD_STOP_SWEEPS ? sweeps == p->max_sweeps - 1
                                     : !(S->grains && (p->stop == NSCD_STOP_NATURAL || scaled)))
       rold_at = sweeps;
-    /* the residual rules on the granular path: the sweep sums Jean's norms' parts at every sweep
-       (they cost a few products a contact beside the residual's), for the report */
-    S->jwant = S->grains && ((rold_at == sweeps && !S->par) || p->stop == NSCD_STOP_NATURAL || scaled);
+    S->jwant = rold_at == sweeps && S->grains && !S->par;
     if (rold_at == sweeps && S->rold) memcpy(S->rold, r, (size_t)m * sizeof *r);
     if (S->par) {
       /* the sweep split over the ranks: its rule decided on every rank's contacts */
@@ -841,9 +834,13 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
     x->dx_set = 1;
   }
   /* Jean's norms of the last sweep (the quad and maxm rules have them already) */
-  if (sweeps && !S->par && p->stop != NSCD_STOP_QUAD && p->stop != NSCD_STOP_MAXM) {
-    if (rold_at == sweeps - 1 || S->jwant) sweep_jean(S, r, &quad, &maxm);
-    else quad = maxm = NAN; /* "sweeps" interrupted before its last sweep */
+  /* -1: not measured (contact.h): the residual rules on the granular path keep no reactions from
+     before the last sweep, and summing the norms' parts in every sweep would cost about 8 % of a
+     solve's instructions (doc/theory.md §12.11); "sweeps" interrupted before its last sweep */
+  if (S->par && (p->stop == NSCD_STOP_NATURAL || scaled)) quad = maxm = -1;
+  else if (sweeps && !S->par && p->stop != NSCD_STOP_QUAD && p->stop != NSCD_STOP_MAXM) {
+    if (rold_at == sweeps - 1) sweep_jean(S, r, &quad, &maxm);
+    else quad = maxm = -1;
   }
   rep->constraints = S->ai.tried ? S->ai.rows : -1;
   rep->redundant = S->ai.tried ? S->ai.rows - S->ai.rank : -1;

@@ -189,9 +189,8 @@ typedef struct {
   const char *gw;               /* the first record's W_aa, and the records' size: nscd_waa */
   size_t gstride;
   /* Jean's norms (T11) of a sweep on the granular path, summed by the sweep itself when jwant (the
-     reactions before it are not kept; every sweep under the residual rules, for the report):
-     sum |dU|^2 |r|^2, sum (W r).r, the contacts with a reaction, the largest |dU| |r| (jean_parts
-     in nscd.c) */
+     reactions before it are not kept): sum |dU|^2 |r|^2, sum (W r).r, the contacts with a reaction,
+     the largest |dU| |r| (jean_parts in nscd.c) */
   int jwant;
   double jp[4];
   /* the granular path over MPI ranks (nscd_grains.c, doc/parallel.md §4): each rank sweeps the

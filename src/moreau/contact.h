@@ -356,7 +356,9 @@ typedef struct mo_contact_report {
   int iterations;            /* sweeps (nscd), Newton iterations (levelset), ... */
   int loops[4];              /* geometric, friction threshold, level-set, Newton (levelset) */
   double residual;           /* natural-map residual (computed by the core after the solve) */
-  double quad, maxm;         /* Jean's norms of the last change (iterative back ends) */
+  double quad, maxm;         /* Jean's norms of the last change (iterative back ends); -1 when the
+                                back end did not measure them (nscd's granular path under the
+                                residual rules, doc/theory.md §12.11) */
   int nopen, nstick, nslide; /* status counts (counted by the core) */
   int reason;                /* MO_CR_* */
   char message[256];         /* what went wrong, with the candidates involved */
