@@ -11,6 +11,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* Candidate a's law: its pair's. */
+static inline mo_contact_law law_of(const mo_contact *C, int a) { return C->pair[mo_contact_pair_of(C, a)].law; }
+
 /* --- measures ------------------------------------------------------------------------------ */
 
 /* The cone projection and the unit term, inline for the sums over contacts (the exported
@@ -333,7 +336,7 @@ static int grow(mo_contact_driver *D, int nc, mo_ctx *ctx)
   int cap = D->cap, d = D->d;
   void *p;
   if (nc <= cap) return MO_OK;
-  while (cap < nc) cap = cap ? 2 * cap : 16;
+  while (cap < nc) cap = cap ? cap + cap / 4 + 1 : 16; /* a quarter more: the set grows a little at a time */
 #define GROW(ptr, n) if (!(p = mo_realloc(ctx, ptr, (size_t)(n) * sizeof *(ptr)))) return MO_ENOMEM; ptr = p
   GROW(D->bn, cap); GROW(D->q, (size_t)cap * d); GROW(D->U, (size_t)cap * d);
   GROW(D->Uprev, (size_t)cap * d); GROW(D->r, (size_t)cap * d);
@@ -481,13 +484,12 @@ static int fit(mo_contact_driver *D, const mo_state *s, const int *okey, int nol
 static int follow_set(mo_contact_driver *D, const mo_state *s, mo_ctx *ctx)
 {
   const mo_contact *C = D->C;
-  const unsigned char *law = mo_contact_laws(C);
   int a, ns = mo_contact_nstatic(C);
   if (D->cset != mo_contact_set_version(C))
     return fit(D, s, D->key, D->nc, D->r, D->U, D->status, ctx);
   /* the same set: U- of the rigid candidates at the new contact points */
   for (a = 0; a < ns; a++)
-    if (law[a] != MO_LAW_SIGNORINI) fresh_uprev(D, s, a, a + 1);
+    if (law_of(C, a) != MO_LAW_SIGNORINI) fresh_uprev(D, s, a, a + 1);
   fresh_uprev(D, s, ns, D->nc);
   return MO_OK;
 }
@@ -853,8 +855,7 @@ static double local_problem(mo_contact_driver *D, const mo_state *s, const doubl
 {
   const mo_scene *sc = D->sc;
   mo_contact *C = D->C;
-  const unsigned char *law = mo_contact_laws(C);
-  const double *e = mo_contact_restitution(C), *U0 = mo_contact_U0(C);
+  const double *U0 = mo_contact_U0(C);
   int d = D->d, m = D->m, nc = D->nc, n = sc->ndof, a, i, any = 0;
   double h = mo_stepper_dt(D->S), theta = sc->time.theta, c, dtpos;
   const double *g = mo_contact_gaps(C);
@@ -862,7 +863,8 @@ static double local_problem(mo_contact_driver *D, const mo_state *s, const doubl
   if (D->gk) memcpy(D->gk, g, (size_t)nc * sizeof(double));
   if (scheme == MO_SCHEME_THETA) {
     mo_contact_Htx(C, s, D->xfull, 0, nc, NULL, D->q);
-    for (i = 0; i < m; i++) D->q[i] += U0[i];
+    if (U0) /* (q is never -0 here: adding U0 = 0 would not change a bit) */
+      for (i = 0; i < m; i++) D->q[i] += U0[i];
     c = 1;
     dtpos = h * theta;
   } else {
@@ -876,7 +878,8 @@ static double local_problem(mo_contact_driver *D, const mo_state *s, const doubl
       c = 1;
     }
     mo_contact_Htx(C, s, du, 0, nc, NULL, D->q);
-    for (i = 0; i < m; i++) D->q[i] += U0[i] * h;
+    if (U0)
+      for (i = 0; i < m; i++) D->q[i] += U0[i] * h;
     dtpos = 1;
   }
   /* q = b, then the laws' offsets on the normal components: b's normal ones kept aside */
@@ -884,12 +887,12 @@ static double local_problem(mo_contact_driver *D, const mo_state *s, const doubl
   D->nact = 0;
   for (a = 0; a < nc; a++) {
     int act = C->active[a];
-    if (scheme == MO_SCHEME_THETA && law[a] == MO_LAW_NEWTON) {
+    if (scheme == MO_SCHEME_THETA && law_of(C, a) == MO_LAW_NEWTON) {
       /* Moreau's impact law (T71): U_n+ + e U_n- >= 0 _|_ r_n >= 0 on the contacts closed at the
          predicted position g + h (1 - theta) U_n- (doc/theory.md (T71), Jean/LMGC90 practice) */
       if (g[a] + h * (1 - theta) * D->Uprev[a * d] > C->gtol) act = 0;
-      D->q[a * d] += e[a] * D->Uprev[a * d];
-    } else if (scheme == MO_SCHEME_THETA && (law[a] == MO_LAW_GAP || C->signorini == MO_SIGNORINI_POSITION))
+      D->q[a * d] += C->pair[mo_contact_pair_of(C, a)].e * D->Uprev[a * d];
+    } else if (scheme == MO_SCHEME_THETA && (law_of(C, a) == MO_LAW_GAP || C->signorini == MO_SIGNORINI_POSITION))
       /* g_k+1 = g_k + h (theta U+ + (1 - theta) U-) >= 0  (J88 (3.2)_1 with theta) */
       D->q[a * d] += (g[a] + h * (1 - theta) * D->Uprev[a * d]) / dtpos;
     else if (scheme == MO_SCHEME_THETA) {
@@ -937,7 +940,7 @@ static int keep_solved(mo_contact_driver *D, int newton, mo_ctx *ctx)
     }
   }
   D->sv_nlaw[0] = D->sv_nlaw[1] = D->sv_nlaw[2] = 0;
-  for (k = 0; k < D->nact; k++) D->sv_nlaw[mo_contact_laws(D->C)[D->act[k]]]++;
+  for (k = 0; k < D->nact; k++) D->sv_nlaw[law_of(D->C, D->act[k])]++;
   D->sv_n = D->nact;
   D->sv_ncand = D->nc;
   D->sv_newton = newton;
@@ -1160,11 +1163,10 @@ resolve:
     for (i = 0; i < m; i++) D->U[i] = D->ukin[i] + D->q[i];
   }
   if (any && scheme == MO_SCHEME_THETA && C->signorini == MO_SIGNORINI_VELOCITY && rounds < MO_INDEX_ROUNDS) {
-    const unsigned char *law = mo_contact_laws(C);
-    const double theta = sc->time.theta;
+      const double theta = sc->time.theta;
     int added = 0;
     for (a = 0; a < nc; a++)
-      if (!D->active[a] && law[a] == MO_LAW_SIGNORINI &&
+      if (!D->active[a] && law_of(C, a) == MO_LAW_SIGNORINI &&
           D->gk[a] + h * (theta * D->U[a * d] + (1 - theta) * D->Uprev[a * d]) < -C->gtol) {
         D->active[a] = 1;
         D->act[D->nact++] = a;
@@ -1267,7 +1269,6 @@ static int position_correction(mo_contact_driver *D, mo_state *s, const double *
 {
   mo_contact *C = D->C;
   const mo_scene *sc = D->sc;
-  const unsigned char *law = mo_contact_laws(C);
   int nc = D->nc, d = D->d, a, k, it, st, conv = 0;
   double *p = D->tmp + nc, worst = 0, left = 0;
   const int maxit = 1000;
@@ -1283,7 +1284,7 @@ static int position_correction(mo_contact_driver *D, mo_state *s, const double *
     D->ptol = 1e-9 * (isfinite(hmin) ? hmin : 1);
   }
   for (a = 0; a < nc; a++)
-    if (law[a] == MO_LAW_SIGNORINI && -ge[a] > worst) worst = -ge[a];
+    if (law_of(C, a) == MO_LAW_SIGNORINI && -ge[a] > worst) worst = -ge[a];
   if (worst <= D->ptol) return MO_OK;
   memset(p, 0, (size_t)D->m * sizeof *p);
   for (it = 0; it < maxit && !conv; it++) {
@@ -1293,7 +1294,7 @@ static int position_correction(mo_contact_driver *D, mo_state *s, const double *
       const double *blk;
       double y = ge[a], waa = 0, pn;
       int nb;
-      if (law[a] != MO_LAW_SIGNORINI) continue;
+      if (law_of(C, a) != MO_LAW_SIGNORINI) continue;
       nb = mo_delassus_row(D->W, a, &beta, &blk);
       for (k = 0; k < nb; k++) {
         double wn = blk[(size_t)k * (size_t)(d * d)];
@@ -1316,7 +1317,7 @@ static int position_correction(mo_contact_driver *D, mo_state *s, const double *
     const double *blk;
     double y = ge[a];
     int nb;
-    if (law[a] != MO_LAW_SIGNORINI) continue;
+    if (law_of(C, a) != MO_LAW_SIGNORINI) continue;
     nb = mo_delassus_row(D->W, a, &beta, &blk);
     for (k = 0; k < nb; k++) y += blk[(size_t)k * (size_t)(d * d)] * p[beta[k] * d];
     if (-y > left) left = -y;

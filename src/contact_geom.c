@@ -96,8 +96,6 @@ void mo_contact_free(mo_contact *C)
   mo_free(C->U0);
   mo_free(C->active);
   mo_free(C->key);
-  mo_free(C->law);
-  mo_free(C->e);
   mo_free(C->x);
   mo_contact_detect_free(C);
   hbuf_free(&C->hb);
@@ -125,8 +123,8 @@ long mo_contact_set_version(const mo_contact *C) { return C->cset_version; }
 int mo_contact_nstatic(const mo_contact *C) { return C->nc_static; }
 double mo_contact_alert(const mo_contact *C) { return C->ndyn ? C->alert : 0; }
 const int *mo_contact_key(const mo_contact *C, int a) { return C->key + (size_t)a * MO_KEY; }
-const unsigned char *mo_contact_laws(const mo_contact *C) { return C->law; }
-const double *mo_contact_restitution(const mo_contact *C) { return C->e; }
+mo_contact_law mo_contact_law_of(const mo_contact *C, int a) { return C->pair[mo_contact_pair_of(C, a)].law; }
+double mo_contact_restitution_of(const mo_contact *C, int a) { return C->pair[mo_contact_pair_of(C, a)].e; }
 
 int mo_contact_pair_P(const mo_contact *C, int pair, const double **P, int *n, const int **cands)
 {
@@ -813,7 +811,7 @@ static void candidates_update(mo_contact *C, const mo_state *u, double t)
       double s = 0;
       if (P->master == MO_MASTER_PLANE)
         for (j = 0; j < D; j++) s -= F[i * d + j] * sc->body[P->mbody].velocity[j];
-      C->U0[a * d + i] = s * csum;
+      if (C->U0) C->U0[a * d + i] = s * csum;
     }
   }
 }
@@ -870,7 +868,7 @@ int mo_contact_is_compact(const mo_contact *C) { return C->compact; }
 size_t mo_contact_bytes(const mo_contact *C, size_t *per_candidate)
 {
   const int d = C->dim, D = C->sc->dim;
-  size_t cand = (size_t)C->nalloc * (sizeof(double) * (size_t)(1 + d * d + d + D + 1) + 2 + MO_KEY * sizeof(int));
+  size_t cand = (size_t)C->nalloc * (sizeof(double) * (size_t)(1 + d * d + (C->U0 ? d : 0) + D) + 1 + MO_KEY * sizeof(int));
   size_t pts = (size_t)C->ptcap * sizeof(mo_cpoint) + (size_t)C->ccap * sizeof(mo_candidate) +
                (size_t)C->coefcap * (sizeof(int) + sizeof(double));
   size_t h = 0, body = 0;
@@ -1111,15 +1109,13 @@ int mo_contact_reserve(mo_contact *C, int nc, mo_ctx *ctx)
   int cap = C->nalloc, d = C->dim;
   void *q;
   if (nc <= cap) return MO_OK;
-  while (cap < nc) cap = cap ? 2 * cap : 64;
+  while (cap < nc) cap = cap ? cap + cap / 4 + 1 : 64; /* a quarter more: the set grows a little at a time */
 #define GROW(ptr, n) if (!(q = mo_realloc(ctx, ptr, (size_t)(n) * sizeof *(ptr)))) return MO_ENOMEM; ptr = q
   GROW(C->g, cap);
   GROW(C->frame, (size_t)cap * (size_t)(d * d));
-  GROW(C->U0, (size_t)cap * (size_t)d);
+  if (C->u0_any) { GROW(C->U0, (size_t)cap * (size_t)d); }
   GROW(C->active, cap);
   GROW(C->key, (size_t)cap * MO_KEY);
-  GROW(C->law, cap);
-  GROW(C->e, cap);
   GROW(C->x, (size_t)cap * (size_t)C->sc->dim);
 #undef GROW
   C->nalloc = cap;
@@ -1547,6 +1543,11 @@ int mo_contact_build(const mo_scene *sc, mo_contact **out, mo_ctx *ctx)
   if (!C) return MO_ENOMEM;
   C->sc = sc;
   C->dim = sc->dim;
+  /* the obstacles' local velocities U0 are stored only when some obstacle moves (else all 0) */
+  for (k = 0; k < sc->nbody && !C->u0_any; k++)
+    if (sc->body[k].type->flags & MO_BODY_F_OBSTACLE)
+      for (np = 0; np < 3; np++) C->u0_any |= sc->body[k].velocity[np] != 0;
+  np = config_setting_length(pl);
   C->pair = mo_calloc(ctx, (size_t)np, sizeof *C->pair);
   C->pp = mo_calloc(ctx, (size_t)np, sizeof *C->pp);
   C->solver = mo_strdup(ctx, mo_cfg_string(cg, "solver", "nscd"));
@@ -1713,9 +1714,8 @@ int mo_contact_build(const mo_scene *sc, mo_contact **out, mo_ctx *ctx)
   for (k = 0; k < C->nc; k++) {
     const mo_contact_pair *P = &C->pair[C->cand[k].pair];
     int *key = C->key + (size_t)k * MO_KEY;
+    (void)P;
     key[0] = -1; key[1] = k; key[2] = key[3] = key[4] = 0;
-    C->law[k] = (unsigned char)P->law;
-    C->e[k] = P->e;
   }
   {
     int fr = 1;

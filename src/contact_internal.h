@@ -30,11 +30,12 @@ struct mo_contact {
   int nalloc;                 /* capacity of the per-candidate arrays below */
   double *g;                  /* nc gaps */
   double *frame;              /* nc * dim * dim */
-  double *U0;                 /* dim * nc obstacle local velocities */
+  int u0_any;                 /* some obstacle of the scene moves: U0 is stored */
+  double *U0;                 /* dim * nc obstacle local velocities; NULL when no obstacle of the
+                                 scene moves (every one would be 0) */
   unsigned char *active;      /* nc: 0 when its projection fell off the master (inactive) */
-  int *key;                   /* nc * MO_KEY */
-  unsigned char *law;         /* nc: mo_contact_law */
-  double *e;                  /* nc: restitution */
+  int *key;                   /* nc * MO_KEY (a candidate's law and restitution are its pair's:
+                                 mo_contact_pair_of) */
   mo_csc *Hfull, *H;
   int hcapf, hcap, hpcapf, hpcap; /* capacities of their arrays (entries, columns + 1), kept */
   struct {
@@ -91,6 +92,14 @@ struct mo_contact {
   double vl_reach;
   int vl_built;
 };
+
+/* Candidate a's pair: a detected candidate carries it in its key, a mesh point fixed at build in
+   its candidate record. */
+static inline int mo_contact_pair_of(const mo_contact *C, int a)
+{
+  const int p = C->key[(size_t)a * MO_KEY];
+  return p >= 0 ? p : C->cand[a].pair;
+}
 
 void mo_contact_frame_from_normal(int dim, const double *n, double *F);
 /* contact_geom.c: node a of mesh body b at state s (NULL: reference), and the closest point of x

@@ -194,11 +194,9 @@ static int add_contact(mo_contact *C, const dyn_side *S, const mo_narrow *N, dou
     double u0 = 0;
     if (M->type->flags & MO_BODY_F_OBSTACLE)
       for (j = 0; j < D; j++) u0 -= F[i * d + j] * M->velocity[j];
-    C->U0[(size_t)a * d + i] = u0;
+    if (C->U0) C->U0[(size_t)a * d + i] = u0;
   }
   set_key(C, a, S->pair, S->sb, S->mb, S->sfeat, S->mfeat);
-  C->law[a] = (unsigned char)P->law;
-  C->e[a] = P->e;
   (void)t;
   return MO_OK;
 }
@@ -216,13 +214,11 @@ static inline int compact_add(mo_contact *C, int pair, int sb, int mb, const mo_
   mo_contact_frame_from_normal(D, N->n, F);
   for (i = 0; i < D; i++) {
     C->x[(size_t)a * D + i] = N->x[i];
-    C->U0[(size_t)a * D + i] = 0;
+    if (C->U0) C->U0[(size_t)a * D + i] = 0;
   }
   C->g[a] = N->g;
   C->active[a] = 1;
   set_key(C, a, pair, sb, mb, N->fb, N->fa);
-  C->law[a] = (unsigned char)C->pair[pair].law;
-  C->e[a] = C->pair[pair].e;
   return MO_OK;
 }
 

@@ -102,7 +102,7 @@ static int room(mo_metrics *M, int nc, mo_ctx *ctx)
   size_t n, old = (size_t)M->cap;
   void *p;
   if (nc <= M->cap && M->hist) return 1;
-  n = (size_t)(nc + nc / 2) + 1;
+  n = (size_t)(nc + nc / 4) + 1;
 #define GROW(ptr, k) if (!(p = mo_realloc(ctx, ptr, (k) * sizeof *(ptr)))) return 0; ptr = p
   GROW(M->hist, n); GROW(M->map, n); GROW(M->keys, n * MO_KEY);
   if (M->watch_any) {
@@ -332,7 +332,6 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
     const mo_contact *C = M->C;
     const double *g = mo_contact_gaps(C), *U0 = mo_contact_U0(C);
     const int *st = D ? mo_contact_statuses(D) : NULL;
-    const unsigned char *law = mo_contact_laws(C);
     double vfloor;
     const double *r = D ? mo_contact_reactions(D) : NULL, *Up;
     int ns;
@@ -357,14 +356,16 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
     if (h > 0 && 1e-9 * M->lscale / h > M->vround) M->vround = 1e-9 * M->lscale / h;
     for (a = 0; a < M->nc; a++) {
       cand_hist *H = &M->hist[a];
+      static const double none[3] = {0, 0, 0}; /* U0 when no obstacle moves */
+      const double *u0 = U0 ? U0 + (size_t)a * d : none;
       double Un[3], un;
       int i, zero = Up && a >= ns;
-      for (i = 0; i < d && zero; i++) zero = U0[a * d + i] == 0;
+      for (i = 0; i < d && zero; i++) zero = u0[i] == 0;
       if (zero)
         for (i = 0; i < d; i++) Un[i] = Up[a * d + i];
       else
         mo_contact_Htx1(C, s, s->v, a, NULL, Un);
-      un = Un[0] + U0[a * d];
+      un = Un[0] + u0[0];
       /* bearing: a compressive reaction. The jump of the normal velocity and its variation
          are measured between two bearing steps (the landing step is the impact itself); a
          release is the first step with no reaction and an open gap after bearing. Detected
@@ -373,7 +374,11 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
       /* the chatter detector (T93) watches the position-level laws' candidates: Signorini pairs
          (deformable; position or velocity level, and Newmark's) and the gap law, not Moreau's
          impact law between rigid bodies, whose rattling grains are not this mode */
-      int watch = law && (law[a] == MO_LAW_SIGNORINI || law[a] == MO_LAW_GAP);
+      int watch = 0;
+      if (M->watch_any) {
+        const mo_contact_law law = mo_contact_law_of(C, a);
+        watch = law == MO_LAW_SIGNORINI || law == MO_LAW_GAP;
+      }
       if (watch && fabs(un) > M->vscale_watch) M->vscale_watch = fabs(un);
       if (-g[a] > M->max_pen) M->max_pen = -g[a];
       if (-g[a] > M->final_pen) M->final_pen = -g[a];
@@ -381,7 +386,7 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
       {
         double u2 = 0;
         int l;
-        for (l = 0; l < d; l++) u2 += (Un[l] + U0[a * d + l]) * (Un[l] + U0[a * d + l]);
+        for (l = 0; l < d; l++) u2 += (Un[l] + u0[l]) * (Un[l] + u0[l]);
         if (sqrt(u2) > M->uscale) M->uscale = sqrt(u2);
       }
       if (inc) {

@@ -108,7 +108,7 @@ static int fit_set(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
     return mo_error(ctx, MO_EINTERNAL, "nscd: the core gave neither W nor the blocks of H and What");
 #define GROW(ptr, n) if (!(q = mo_realloc(ctx, ptr, (n) * sizeof *(ptr)))) return MO_ENOMEM; ptr = q
   if (nc > S->cap) {
-    nc += nc / 2; /* sets grow a little at a time while grains settle */
+    nc += nc / 4; /* sets grow a little at a time while grains settle */
     GROW(S->act, nc); GROW(S->order, nc); GROW(S->mu, nc);
     S->cap = nc;
   }
@@ -845,11 +845,13 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
     x->dx_set = 1;
   }
   /* Jean's norms of the last sweep (the quad and maxm rules have them already) */
-  if (S->par && (p->stop == NSCD_STOP_NATURAL || scaled)) quad = maxm = NAN; /* not summed over the ranks */
+  /* -1: not measured (contact.h): the residual rules on the granular path keep no reactions from
+     before the last sweep, and summing the norms' parts in every sweep would cost about 8 % of a
+     solve's instructions (doc/theory.md §12.11); "sweeps" interrupted before its last sweep */
+  if (S->par && (p->stop == NSCD_STOP_NATURAL || scaled)) quad = maxm = -1;
   else if (sweeps && !S->par && p->stop != NSCD_STOP_QUAD && p->stop != NSCD_STOP_MAXM) {
     if (rold_at == sweeps - 1) sweep_jean(S, r, &quad, &maxm);
-    else quad = maxm = NAN; /* "sweeps" interrupted before its last sweep; the residual rules on the
-                               granular path */
+    else quad = maxm = -1;
   }
   rep->constraints = S->ai.tried ? S->ai.rows : -1;
   rep->redundant = S->ai.tried ? S->ai.rows - S->ai.rank : -1;

@@ -181,9 +181,9 @@ double mo_contact_alert(const mo_contact *C);
 /* The broad phase of the detection between rigid shapes: how many times its pair list was built
    and how many pairs it holds (doc/theory.md (T110)); 0 when the scene has no such pair. */
 int mo_contact_broad_stats(const mo_contact *C, long *builds, long *pairs);
-/* Per candidate: its law and restitution coefficient. */
-const unsigned char *mo_contact_laws(const mo_contact *C);
-const double *mo_contact_restitution(const mo_contact *C);
+/* Candidate a's law and restitution coefficient (those of its pair). */
+mo_contact_law mo_contact_law_of(const mo_contact *C, int a);
+double mo_contact_restitution_of(const mo_contact *C, int a);
 /* Candidate gaps (nc) and frames (nc * dim * dim, rows n, t, s) after mo_contact_geometry. */
 const double *mo_contact_gaps(const mo_contact *C);
 const double *mo_contact_frames(const mo_contact *C);
@@ -191,7 +191,8 @@ const double *mo_contact_frames(const mo_contact *C);
 const mo_csc *mo_contact_H(const mo_contact *C);
 /* H over full dofs (ndof x dim*nc), including prescribed rows (for tests and reactions). */
 const mo_csc *mo_contact_H_full(const mo_contact *C);
-/* Local velocity of the obstacles: U0 (dim*nc), from moving planes. */
+/* Local velocity of the obstacles: U0 (dim*nc), from moving planes; NULL when no obstacle of the
+   scene moves (U0 = 0 for every candidate). */
 const double *mo_contact_U0(const mo_contact *C);
 /* The P* matrix of a pair (ncand_pair x ncand_pair over its candidates, row-major), built for
    every pair so that concentrated and weighted reactions can be compared (J88 §4.4). */
@@ -358,7 +359,9 @@ typedef struct mo_contact_report {
   int iterations;            /* sweeps (nscd), Newton iterations (levelset), ... */
   int loops[4];              /* geometric, friction threshold, level-set, Newton (levelset) */
   double residual;           /* natural-map residual (computed by the core after the solve) */
-  double quad, maxm;         /* Jean's norms of the last change (iterative back ends) */
+  double quad, maxm;         /* Jean's norms of the last change (iterative back ends); -1 when the
+                                back end did not measure them (nscd's granular path under the
+                                residual rules, doc/theory.md §12.11) */
   int nopen, nstick, nslide; /* status counts (counted by the core) */
   int reason;                /* MO_CR_* */
   char message[256];         /* what went wrong, with the candidates involved */
