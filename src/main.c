@@ -449,7 +449,8 @@ static int cmd_run(const cli_command *cmd, int argc, char **argv, mo_ctx *ctx)
   mo_parallel_finish(ctx);
   free(c.sets);
   if (ctx->rank != 0) {
-    /* rank 0 speaks for the run; a rank that failed where rank 0 did not says why */
+    /* rank 0 speaks for the run, but mpirun may end it before it has printed when another rank
+       exits first with an error: that rank prints its message too */
     if (st) fprintf(stderr, "moreau (rank %d): %s\n", ctx->rank, ctx->errmsg);
     return st ? exit_code(st) : 0;
   }

@@ -323,6 +323,7 @@ static json_t *parallel_json(const mo_ctx *ctx, const mo_scene *sc)
     double n = (double)ctx->par_grain_solves;
     json_object_set_new(j, "grain_solves", json_integer(ctx->par_grain_solves));
     json_object_set_new(j, "grain_sweeps", json_integer(ctx->par_grain_sweeps));
+    json_object_set_new(j, "grain_serial_fallbacks", json_integer(ctx->par_grain_serial));
     json_object_set_new(j, "grain_interface_bodies_mean", jnum(ctx->par_grain_interface / n));
     json_object_set_new(j, "grain_slab_imbalance_mean", jnum(ctx->par_grain_imbalance / n));
   }

@@ -273,6 +273,7 @@ void nscd_grains_free(nscd_state *S);
 #define NSCD_ACCEL_MAX 5000
 /* Active contacts from which the first LU of a run is taken without waiting for a stall (T157) */
 #define NSCD_EARLY_LU 1000
+#define NSCD_PAR_STALL 500 /* sweeps over which a split sweep over the ranks must halve its measure */
 /* Active frictionless contacts from which the first LU of a run is tried before any sweep, on the
    statuses the predictor's velocities give (T163) */
 #define NSCD_GUESS_LU 200

@@ -84,6 +84,7 @@ typedef struct mo_ctx {
      split, the interface bodies and the largest slab's share of the active contacts over its
      mean, summed over those solves */
   long par_grain_solves, par_grain_sweeps;
+  long par_grain_serial; /* split sweeps that stalled and went on as the serial sweep on every rank */
   double par_grain_interface, par_grain_imbalance;
   /* contact back ends loaded at run time (moreau/backend.h): owned by the context that loaded
      them, shared by its copies (a comparison's runs), unloaded by mo_ctx_release */
