@@ -44,9 +44,13 @@ kill -9 $pid
 wait $pid 2> /dev/null
 st=$(status "$D")
 ok $([ "$st" != "complete" ] && echo 0 || echo 1) "kill -9: the old 'complete' summary is not left beside the new partial files ($st)"
-is "$(ntmp "$D")" "0" "kill -9: no temporary file left behind"
+# a kill between a file's linkat and its rename (src/output.c: one replaced file at a time, the
+# collections' every frame) leaves that one temporary; the next run in the folder removes it
+n=$(ntmp "$D")
+ok $([ "$n" -le 1 ] && echo 0 || echo 1) "kill -9: at most the one temporary being renamed left behind ($n)"
 "$MOREAU" run "$W" --out "$D" --quiet --set time.end=0.1 > /dev/null
 is "$?:$(status "$D")" "0:complete" "kill -9: the next run in the folder completes"
+is "$(ntmp "$D")" "0" "kill -9: and no temporary is left after it"
 
 # --- 1b. a full disk ------------------------------------------------------------------------------
 cat > "$OUT/full.sh" << EOF
