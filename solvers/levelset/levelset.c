@@ -89,10 +89,11 @@ typedef struct {
 #define LS_PILE_PRE 1000
 #define LS_PILE_TOL 1e-3
 /* ... and on a smaller rigid frictional set of more than LS_SET_MIN local unknowns (the masonry
-   arch: 148), the hybrid with smoother_pre LS_PILE_PRE at status_tol as given, the undamped loop
-   of BDZ07 Fig. 2 redoing a step it fails (T149) */
+   arch: 148), the hybrid with smoother_pre LS_PILE_PRE at status_tol LS_SET_TOL at least, the
+   undamped loop of BDZ07 Fig. 2 redoing a step it fails (T149) */
 #define LS_SET_MIN 100
 #define LS_SET_TRY 20         /* the hybrid's most iterations there before the undamped loop redoes the step */
+#define LS_SET_TOL 1e-9       /* status_tol at least there and in a redone step (the collapsing arch) */
 /* a candidate's record in the smoother's work L->wd: W_jj + eps D_j (d x d), its inverse (d x d),
    1 / (c w_j), the 2D sliding denominators' inverses 1 / (W_nn -+ mu W_nt) (0: none) and whether
    the inverse exists (T147) */
@@ -129,7 +130,7 @@ static const mo_option_spec ls_options[] = {
   {"proximal", MO_OPT_DOUBLE, OFF(proximal), NULL, 0, 1, "0 (automatic)",
    "Proximal term on the impulses (doc/theory.md (T136)): each pass solves the problem with W + eps D and q - eps D r_c (D the diagonal of W, r_c the previous pass's impulses) until the term falls below newton_tol, so that a frozen status whose impulses are not unique (redundant contacts: piles, masonry) has one solution, the nearest to r_c, and the law holds at the end. 0: eps = 1e-8 where the reduced path finds redundant normal impulses (or a contact set too large for dense algebra between rigid bodies), none elsewhere."},
   {"globalization", MO_OPT_ENUM, OFF(globalization), "auto|none|line_search|hybrid", NAN, NAN, "\"auto\"",
-   "The level-set loop on the reduced path with the coupled threshold: line_search moves from the current impulses toward the frozen-status solution by the step that decreases the natural-map residual of the contact law (Armijo backtracking) and takes the sign fields of the point reached (doc/theory.md (T140)-(T143); in 3D with the sliding directions frozen at the iterate); hybrid is line_search with a smoother where it traps: sweeps of projected block Gauss-Seidel on the same law, each candidate's contact law solved exactly against the current impulses of the others (doc/theory.md (T144)); none takes the whole step (BDZ07 Fig. 2); auto is hybrid on piles (every candidate between rigid bodies and obstacles, more than 400 free dofs: its smoother finishing the steps, smoother_pre 1000 unless given, status_tol at least 1e-3, the core's residual of nscd at its tolerance on the shipped piles; doc/theory.md (T149)), on other sets of friction between rigid bodies and obstacles the hybrid above 100 local unknowns (smoother_pre 1000 unless given, status_tol as given, at most 20 level-set iterations: the masonry arch) and the undamped loop below, the other of the two redoing a step the first fails, line_search on other 2D sets of more than 400 local unknowns with a candidate between rigid bodies, none elsewhere."},
+   "The level-set loop on the reduced path with the coupled threshold: line_search moves from the current impulses toward the frozen-status solution by the step that decreases the natural-map residual of the contact law (Armijo backtracking) and takes the sign fields of the point reached (doc/theory.md (T140)-(T143); in 3D with the sliding directions frozen at the iterate); hybrid is line_search with a smoother where it traps: sweeps of projected block Gauss-Seidel on the same law, each candidate's contact law solved exactly against the current impulses of the others (doc/theory.md (T144)); none takes the whole step (BDZ07 Fig. 2); auto is hybrid on piles (every candidate between rigid bodies and obstacles, more than 400 free dofs: its smoother finishing the steps, smoother_pre 1000 unless given, status_tol at least 1e-3, the core's residual of nscd at its tolerance on the shipped piles; doc/theory.md (T149)), on other sets of friction between rigid bodies and obstacles the hybrid above 100 local unknowns (smoother_pre 1000 unless given, status_tol at least 1e-9, at most 20 level-set iterations: the masonry arch) and the undamped loop below, the other of the two redoing a step the first fails at status_tol at least 1e-9, line_search on other 2D sets of more than 400 local unknowns with a candidate between rigid bodies, none elsewhere."},
   {"smoother_sweeps", MO_OPT_INT, OFF(smooth_sweeps), NULL, 1, 100000, "500",
    "Hybrid globalization: the most Gauss-Seidel sweeps over the contact set where the damped loop traps (doc/theory.md (T144))."},
   {"smoother_drop", MO_OPT_DOUBLE, OFF(smooth_drop), NULL, 0, 1, "0.01",
@@ -1759,8 +1760,9 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
      smoother finishing the steps at nscd's accuracy on the shipped piles (T149) */
   pile = L->par.globalization == LS_GLOB_AUTO && L->rigid && P->nfree > LS_DENSE_MAX && rigid_only(P);
   /* auto on a smaller rigid frictional set: the hybrid too above LS_SET_MIN local unknowns (the
-     masonry arch), at status_tol as given (at 1e-3 the arch fails a step); a step the first path
-     fails, the other one redoes (the undamped loop of BDZ07 Fig. 2 or the hybrid; T149) */
+     masonry arch), the sign tests at LS_SET_TOL at least (at 1e-10 both paths stall on a step of
+     the collapsing arch, at 1e-3 the standing arch fails a step); a step the first path fails, the
+     other one redoes (the undamped loop of BDZ07 Fig. 2 or the hybrid; T149) */
   alt = L->par.globalization == LS_GLOB_AUTO && !pile && Q.dt > 0 && L->rigid && rigid_only(P);
   set = alt && P->nc * P->dim > LS_SET_MIN;
   for (fallback = 0;; fallback = 1) {
@@ -1772,7 +1774,8 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
        arch: at most 12 a step; the failing steps of the collapsing 0.09 arch: 100 x 500 sweeps) */
     L->lsmax = set && !fallback && L->par.levelset_max > LS_SET_TRY ? LS_SET_TRY : L->par.levelset_max;
     L->spre = (pile || alt) && L->par.smooth_pre == 0 ? LS_PILE_PRE : L->par.smooth_pre;
-    L->stol = L->glob && pile ? fmax(L->par.status_tol, LS_PILE_TOL) : L->par.status_tol;
+    L->stol = L->glob && pile ? fmax(L->par.status_tol, LS_PILE_TOL) :
+              (set || fallback) ? fmax(L->par.status_tol, LS_SET_TOL) : L->par.status_tol;
     solve_scales(L, &Q);
     L->coupled = L->reduced && !Q.kkt && (Q.dt == 1 || (Q.dt == 2 && L->glob)) && L->par.threshold != LS_THR_LOOP;
     /* the hybrid's sweep on body velocities, where asked and every candidate joins rigid bodies
