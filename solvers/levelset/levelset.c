@@ -47,7 +47,7 @@ typedef struct {
   int prox_request;          /* a frozen status met redundant normal impulses without it */
   int coupled;               /* the threshold is coupled in this solve (T134) */
   int glob;                  /* the damped level-set loop on the natural map (T140) in this solve */
-  int hybrid;                /* ... with the smoother (T144): asked, or auto on a pile (T149) */
+  int hybrid;                /* ... with the smoother (T144): asked, or auto on a rigid set (T149) */
   int spre;                  /* the smoother's sweeps before the first Newton step in this solve */
   int lsmax;                 /* the damped loop's most iterations in this solve (levelset_max; T149) */
   double stol;               /* the sign tests' relative tolerance in this solve (status_tol; T149) */
