@@ -32,7 +32,6 @@ short_end() {
     column-collapse) echo 0.2 ;;
     disk-pile) echo 0.2 ;;
     sphere-deposit) echo 0.2 ;;
-    masonry-arch) echo 0.1 ;;
     rocking-block) echo 0.5 ;;
     taylor-axisymmetric|taylor-plane-strain) echo 2.0e-5 ;;
     *) echo "" ;;

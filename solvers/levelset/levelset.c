@@ -47,8 +47,9 @@ typedef struct {
   int prox_request;          /* a frozen status met redundant normal impulses without it */
   int coupled;               /* the threshold is coupled in this solve (T134) */
   int glob;                  /* the damped level-set loop on the natural map (T140) in this solve */
-  int hybrid;                /* ... with the smoother (T144): asked, or auto on a pile (T149) */
+  int hybrid;                /* ... with the smoother (T144): asked, or auto on a rigid set (T149) */
   int spre;                  /* the smoother's sweeps before the first Newton step in this solve */
+  int lsmax;                 /* the damped loop's most iterations in this solve (levelset_max; T149) */
   double stol;               /* the sign tests' relative tolerance in this solve (status_tol; T149) */
   double *rk, *Uk, *rs, *Us; /* m: the damped loop's iterate and the frozen solution (impulses, U') */
   double *edir;              /* nc x 2: the sliding directions the damped loop freezes */
@@ -87,6 +88,12 @@ typedef struct {
    tests' tolerance of nscd's accuracy on the shipped piles (status_tol at least; T149) */
 #define LS_PILE_PRE 1000
 #define LS_PILE_TOL 1e-3
+/* ... and on a smaller rigid frictional set of more than LS_SET_MIN local unknowns (the masonry
+   arch: 148), the hybrid with smoother_pre LS_PILE_PRE at status_tol LS_SET_TOL at least, the
+   undamped loop of BDZ07 Fig. 2 redoing a step it fails (T149) */
+#define LS_SET_MIN 100
+#define LS_SET_TRY 20         /* the hybrid's most iterations there before the undamped loop redoes the step */
+#define LS_SET_TOL 1e-9       /* status_tol at least there and in a redone step (the collapsing arch) */
 /* a candidate's record in the smoother's work L->wd: W_jj + eps D_j (d x d), its inverse (d x d),
    1 / (c w_j), the 2D sliding denominators' inverses 1 / (W_nn -+ mu W_nt) (0: none) and whether
    the inverse exists (T147) */
@@ -123,7 +130,7 @@ static const mo_option_spec ls_options[] = {
   {"proximal", MO_OPT_DOUBLE, OFF(proximal), NULL, 0, 1, "0 (automatic)",
    "Proximal term on the impulses (doc/theory.md (T136)): each pass solves the problem with W + eps D and q - eps D r_c (D the diagonal of W, r_c the previous pass's impulses) until the term falls below newton_tol, so that a frozen status whose impulses are not unique (redundant contacts: piles, masonry) has one solution, the nearest to r_c, and the law holds at the end. 0: eps = 1e-8 where the reduced path finds redundant normal impulses (or a contact set too large for dense algebra between rigid bodies), none elsewhere."},
   {"globalization", MO_OPT_ENUM, OFF(globalization), "auto|none|line_search|hybrid", NAN, NAN, "\"auto\"",
-   "The level-set loop on the reduced path with the coupled threshold: line_search moves from the current impulses toward the frozen-status solution by the step that decreases the natural-map residual of the contact law (Armijo backtracking) and takes the sign fields of the point reached (doc/theory.md (T140)-(T143); in 3D with the sliding directions frozen at the iterate); hybrid is line_search with a smoother where it traps: sweeps of projected block Gauss-Seidel on the same law, each candidate's contact law solved exactly against the current impulses of the others (doc/theory.md (T144)); none takes the whole step (BDZ07 Fig. 2); auto is hybrid on piles (every candidate between rigid bodies and obstacles, more than 400 free dofs: its smoother finishing the steps, smoother_pre 1000 unless given, status_tol at least 1e-3, the core's residual of nscd at its tolerance on the shipped piles; doc/theory.md (T149)), line_search on other 2D sets of more than 400 local unknowns with a candidate between rigid bodies, none elsewhere."},
+   "The level-set loop on the reduced path with the coupled threshold: line_search moves from the current impulses toward the frozen-status solution by the step that decreases the natural-map residual of the contact law (Armijo backtracking) and takes the sign fields of the point reached (doc/theory.md (T140)-(T143); in 3D with the sliding directions frozen at the iterate); hybrid is line_search with a smoother where it traps: sweeps of projected block Gauss-Seidel on the same law, each candidate's contact law solved exactly against the current impulses of the others (doc/theory.md (T144)); none takes the whole step (BDZ07 Fig. 2); auto is hybrid on piles (every candidate between rigid bodies and obstacles, more than 400 free dofs: its smoother finishing the steps, smoother_pre 1000 unless given, status_tol at least 1e-3, the core's residual of nscd at its tolerance on the shipped piles; doc/theory.md (T149)), on other sets of friction between rigid bodies and obstacles the hybrid above 100 local unknowns (smoother_pre 1000 unless given, status_tol at least 1e-9, at most 20 level-set iterations: the masonry arch) and the undamped loop below, the other of the two redoing a step the first fails at status_tol at least 1e-9, line_search on other 2D sets of more than 400 local unknowns with a candidate between rigid bodies, none elsewhere."},
   {"smoother_sweeps", MO_OPT_INT, OFF(smooth_sweeps), NULL, 1, 100000, "500",
    "Hybrid globalization: the most Gauss-Seidel sweeps over the contact set where the damped loop traps (doc/theory.md (T144))."},
   {"smoother_drop", MO_OPT_DOUBLE, OFF(smooth_drop), NULL, 0, 1, "0.01",
@@ -1568,10 +1575,11 @@ static int damped_loop(ls_state *L, ls_pass *Q, mo_contact_report *rep, mo_ctx *
     double alpha = 1, ma = 0;
     int trap;
     if (emax <= 1) return MO_OK;
-    if (it >= L->par.levelset_max) {
+    if (it >= L->lsmax) {
       rep->reason = MO_CR_MAXITER;
-      snprintf(rep->message, sizeof rep->message, "the damped level-set loop reached levelset_max = %d "
-               "(natural-map residual %.3e of its tolerance)", L->par.levelset_max, emax);
+      snprintf(rep->message, sizeof rep->message, "the damped level-set loop reached %s = %d "
+               "(natural-map residual %.3e of its tolerance)",
+               L->lsmax < L->par.levelset_max ? "its first try's limit" : "levelset_max", L->lsmax, emax);
       return MO_OK;
     }
     for (j = 0; j < nc; j++) L->phi[j] = L->sv[j] && L->mu[j] > 0;
@@ -1739,7 +1747,7 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
   ls_state *L = state;
   const long nfact0 = L->lu.factorizations, nreuse0 = L->lu.reuses;
   ls_pass Q;
-  int j, st, pile;
+  int j, st, pile, alt, set, fallback;
   if (!P->W) return mo_error(ctx, MO_EINTERNAL, "levelset: the core did not build W");
   memset(&Q, 0, sizeof Q);
   Q.P = P;
@@ -1751,38 +1759,56 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
      coupled threshold with frozen sliding directions (T143). auto on a pile: the hybrid with the
      smoother finishing the steps at nscd's accuracy on the shipped piles (T149) */
   pile = L->par.globalization == LS_GLOB_AUTO && L->rigid && P->nfree > LS_DENSE_MAX && rigid_only(P);
-  L->glob = L->reduced && !Q.kkt && Q.dt > 0 && L->par.threshold != LS_THR_LOOP && L->par.k_n == 0 &&
-            L->par.k_t == 0 && (L->par.globalization == LS_GLOB_LINE_SEARCH || L->par.globalization == LS_GLOB_HYBRID || pile ||
-            (L->par.globalization == LS_GLOB_AUTO && Q.dt == 1 && L->rigid && P->nc * P->dim > LS_DENSE_MAX));
-  L->hybrid = L->glob && (L->par.globalization == LS_GLOB_HYBRID || pile);
-  L->spre = pile && L->par.smooth_pre == 0 ? LS_PILE_PRE : L->par.smooth_pre;
-  L->stol = L->glob && pile ? fmax(L->par.status_tol, LS_PILE_TOL) : L->par.status_tol;
-  solve_scales(L, &Q);
-  L->coupled = L->reduced && !Q.kkt && (Q.dt == 1 || (Q.dt == 2 && L->glob)) && L->par.threshold != LS_THR_LOOP;
-  /* the hybrid's sweep on body velocities, where asked and every candidate joins rigid bodies
-     (T145); auto takes it in 3D, where W's rows hold many 3 x 3 blocks and the sweep on them costs
-     more memory traffic than instructions (sphere-deposit: 0.75 times the CPU time), and W's rows
-     in 2D (the two cost the same within noise; T148) */
-  L->bodies = 0;
-  if (L->hybrid && (L->par.smooth_path == LS_SMOOTH_BODIES || (L->par.smooth_path == LS_SMOOTH_AUTO && L->d == 3))) {
-    if ((st = ls_bodies_build(&L->bd, P, ctx))) return st;
-    L->bodies = L->bd.ok;
-    if (!L->bodies && L->par.smooth_path == LS_SMOOTH_BODIES)
-      return mo_error(ctx, MO_EINPUT, "contact.levelset.smoother_path = \"bodies\" needs every candidate "
-                      "between rigid bodies and obstacles (step %ld has one on a deformable body)", P->step);
-  }
-  for (;;) {
-    L->prox_request = 0;
-    proximal_setup(L, &Q, x);
-    if ((st = warm_start(L, &Q, x, ctx))) return st;
-    rep->reason = MO_CR_CONVERGED;
-    rep->loops[0] = 1; /* the geometric loop: the core freezes the pairing within the step (§6.5) */
-    if ((st = proximal_loop(L, &Q, rep, ctx))) return st;
-    if (!L->prox_request) break;
-    /* redundant normal impulses met without the proximal term: on from now (T136) */
-    mo_log(ctx, 2, "levelset step %ld: redundant normal impulses; the proximal term eps = %g from now on\n",
-           P->step, LS_PROX_EPS);
-    L->want_prox = 1;
+  /* auto on a smaller rigid frictional set: the hybrid too above LS_SET_MIN local unknowns (the
+     masonry arch), the sign tests at LS_SET_TOL at least (at 1e-10 both paths stall on a step of
+     the collapsing arch, at 1e-3 the standing arch fails a step); a step the first path fails, the
+     other one redoes (the undamped loop of BDZ07 Fig. 2 or the hybrid; T149) */
+  alt = L->par.globalization == LS_GLOB_AUTO && !pile && Q.dt > 0 && L->rigid && rigid_only(P);
+  set = alt && P->nc * P->dim > LS_SET_MIN;
+  for (fallback = 0;; fallback = 1) {
+    L->glob = L->reduced && !Q.kkt && Q.dt > 0 && L->par.threshold != LS_THR_LOOP && L->par.k_n == 0 &&
+              L->par.k_t == 0 && (L->par.globalization == LS_GLOB_LINE_SEARCH || L->par.globalization == LS_GLOB_HYBRID || pile ||
+              (set != fallback) || (L->par.globalization == LS_GLOB_AUTO && Q.dt == 1 && L->rigid && P->nc * P->dim > LS_DENSE_MAX));
+    L->hybrid = L->glob && (L->par.globalization == LS_GLOB_HYBRID || pile || (alt && set != fallback));
+    /* the hybrid first on the smaller set: LS_SET_TRY iterations before the other path (the 0.13
+       arch: at most 12 a step; the failing steps of the collapsing 0.09 arch: 100 x 500 sweeps) */
+    L->lsmax = set && !fallback && L->par.levelset_max > LS_SET_TRY ? LS_SET_TRY : L->par.levelset_max;
+    L->spre = (pile || alt) && L->par.smooth_pre == 0 ? LS_PILE_PRE : L->par.smooth_pre;
+    L->stol = L->glob && pile ? fmax(L->par.status_tol, LS_PILE_TOL) :
+              (set || fallback) ? fmax(L->par.status_tol, LS_SET_TOL) : L->par.status_tol;
+    solve_scales(L, &Q);
+    L->coupled = L->reduced && !Q.kkt && (Q.dt == 1 || (Q.dt == 2 && L->glob)) && L->par.threshold != LS_THR_LOOP;
+    /* the hybrid's sweep on body velocities, where asked and every candidate joins rigid bodies
+       (T145); auto takes it in 3D, where W's rows hold many 3 x 3 blocks and the sweep on them costs
+       more memory traffic than instructions (sphere-deposit: 0.75 times the CPU time), and W's rows
+       in 2D (the two cost the same within noise; T148) */
+    L->bodies = 0;
+    if (L->hybrid && (L->par.smooth_path == LS_SMOOTH_BODIES || (L->par.smooth_path == LS_SMOOTH_AUTO && L->d == 3))) {
+      if ((st = ls_bodies_build(&L->bd, P, ctx))) return st;
+      L->bodies = L->bd.ok;
+      if (!L->bodies && L->par.smooth_path == LS_SMOOTH_BODIES)
+        return mo_error(ctx, MO_EINPUT, "contact.levelset.smoother_path = \"bodies\" needs every candidate "
+                        "between rigid bodies and obstacles (step %ld has one on a deformable body)", P->step);
+    }
+    for (;;) {
+      L->prox_request = 0;
+      proximal_setup(L, &Q, x);
+      if ((st = warm_start(L, &Q, x, ctx))) return st;
+      rep->reason = MO_CR_CONVERGED;
+      rep->loops[0] = 1; /* the geometric loop: the core freezes the pairing within the step (§6.5) */
+      if ((st = proximal_loop(L, &Q, rep, ctx))) return st;
+      if (!L->prox_request) break;
+      /* redundant normal impulses met without the proximal term: on from now (T136) */
+      mo_log(ctx, 2, "levelset step %ld: redundant normal impulses; the proximal term eps = %g from now on\n",
+             P->step, LS_PROX_EPS);
+      L->want_prox = 1;
+    }
+    if (!(alt && !fallback && rep->reason < 0 && rep->reason != MO_CR_NAN)) break;
+    /* the first path failed on a smaller rigid set: the other one from the same warm start (T149);
+       the report counts the work of both */
+    mo_log(ctx, 2, "levelset step %ld: the %s loop failed (%s); the %s loop redoes the step\n", P->step,
+           L->hybrid ? "hybrid" : "undamped", rep->message, L->hybrid ? "undamped" : "hybrid");
+    rep->message[0] = '\0';
   }
   if (rep->reason == MO_CR_BREAKDOWN || rep->reason == MO_CR_NAN) {
     memset(L->r, 0, (size_t)L->m * sizeof(double));
