@@ -232,11 +232,25 @@ static void split_owner(int n, int nranks, int i, int *lo, int *hi)
    entries of row i counted in or out of the diagonal block of i's owner, the counts summed over
    the ranks (an entry that two ranks hold is counted twice: the interfaces' rows are
    preallocated a little over), then each rank its own rows'. */
+/* The preallocation of s->A (dn, on: nonzeros a local row in the diagonal and off-diagonal
+   blocks) and what every distributed matrix then takes: SPD where it is, no new nonzero, the
+   vectors and the scatter to every rank. */
+static int finish_matrix(petsc_state *s, const PetscInt *dn, const PetscInt *on, mo_ctx *ctx)
+{
+  PetscErrorCode e = MatSeqAIJSetPreallocation(s->A, 0, dn);
+  if (!e) e = MatMPIAIJSetPreallocation(s->A, 0, dn, 0, on);
+  if (e) return petsc_fail(ctx, e, "MatMPIAIJSetPreallocation");
+  if (s->spd) P(MatSetOption(s->A, MAT_SPD, PETSC_TRUE));
+  P(MatSetOption(s->A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));
+  P(MatCreateVecs(s->A, &s->x, &s->b));
+  P(VecScatterCreateToAll(s->x, &s->toall, &s->xall));
+  return MO_OK;
+}
+
 static int make_matrix_parts(petsc_state *s, const mo_csc *A, mo_ctx *ctx)
 {
-  int n = s->n, j, p, lo, hi, nloc = s->rend - s->rstart;
+  int n = s->n, j, p, lo, hi, nloc = s->rend - s->rstart, st;
   PetscInt *cnt, *dn, *on, i;
-  PetscErrorCode e;
   if (!(cnt = mo_calloc(ctx, 2 * (size_t)n + 1, sizeof *cnt))) return MO_ENOMEM;
   for (j = 0; j < n; j++)
     for (p = A->p[j]; p < A->p[j + 1]; p++) {
@@ -257,16 +271,10 @@ static int make_matrix_parts(petsc_state *s, const mo_csc *A, mo_ctx *ctx)
     dn[i] = d < nloc ? d : nloc;
     on[i] = o < n - nloc ? o : n - nloc;
   }
-  e = MatSeqAIJSetPreallocation(s->A, 0, dn);
-  if (!e) e = MatMPIAIJSetPreallocation(s->A, 0, dn, 0, on);
+  st = finish_matrix(s, dn, on, ctx);
   mo_free(cnt);
   mo_free(on);
-  if (e) return petsc_fail(ctx, e, "MatMPIAIJSetPreallocation");
-  if (s->spd) P(MatSetOption(s->A, MAT_SPD, PETSC_TRUE));
-  P(MatSetOption(s->A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));
-  P(MatCreateVecs(s->A, &s->x, &s->b));
-  P(VecScatterCreateToAll(s->x, &s->toall, &s->xall));
-  return MO_OK;
+  return st;
 }
 
 /* This rank's part added column by column (the rows of other ranks through PETSc's stash). */
@@ -331,18 +339,10 @@ static int make_matrix(petsc_state *s, const mo_csc *A, mo_ctx *ctx)
       if (T->i[p] >= s->rstart && T->i[p] < s->rend) dn[r - s->rstart]++;
       else on[r - s->rstart]++;
   }
-  {
-    PetscErrorCode e = MatSeqAIJSetPreallocation(s->A, 0, dn);
-    if (!e) e = MatMPIAIJSetPreallocation(s->A, 0, dn, 0, on);
-    mo_free(dn);
-    mo_free(on);
-    if (e) return petsc_fail(ctx, e, "MatMPIAIJSetPreallocation");
-  }
-  if (s->spd) P(MatSetOption(s->A, MAT_SPD, PETSC_TRUE));
-  P(MatSetOption(s->A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));
-  P(MatCreateVecs(s->A, &s->x, &s->b));
-  P(VecScatterCreateToAll(s->x, &s->toall, &s->xall));
-  return MO_OK;
+  st = finish_matrix(s, dn, on, ctx);
+  mo_free(dn);
+  mo_free(on);
+  return st;
 }
 
 static void drop(petsc_state *s)
