@@ -669,13 +669,38 @@ extern void dgetrs_(const char *tr, const int *n, const int *nrhs, const double 
 /* The bordered LU of the status iteration (T160): A x = b solved with it, against the residual
    |A x - b| / (|A| |x|) and the solution of A's own LU, on random nonsymmetric matrices (pivoting
    in both blocks), with no border, and with no leading block. */
+/* x from the factor LU (piv) of A, y from dgetrf's own LU of A (in F, piv2), and the measures of
+   both tests below: the largest row sum |A|, |x|, the residual |A x - b| and |x - y| (max norms) */
+static void solve_against_dgetrf(int n, const double *A, double *LU, int *piv, const double *b, double *x, double *y,
+                                 double *F, int *piv2, int *info, double *anorm, double *xn, double *res, double *diff)
+{
+  int i, j, one = 1;
+  memcpy(x, b, (size_t)n * sizeof *x);
+  if (*info == 0) dgetrs_("N", &n, &one, LU, &n, piv, x, &n, info);
+  memcpy(F, A, (size_t)n * n * sizeof *F);
+  memcpy(y, b, (size_t)n * sizeof *y);
+  dgetrf_(&n, &n, F, &n, piv2, info);
+  dgetrs_("N", &n, &one, F, &n, piv2, y, &n, info);
+  for (i = 0; i < n; i++) {
+    double r = -b[i], a = 0;
+    for (j = 0; j < n; j++) {
+      r += A[(size_t)j * n + i] * x[j];
+      a += fabs(A[(size_t)j * n + i]);
+    }
+    *anorm = fmax(*anorm, a);
+    *xn = fmax(*xn, fabs(x[i]));
+    *res = fmax(*res, fabs(r));
+    *diff = fmax(*diff, fabs(x[i] - y[i]));
+  }
+}
+
 static void test_lu_border(void)
 {
   static const int sizes[][2] = {{12, 8}, {40, 33}, {7, 7}, {5, 0}, {1, 0}, {30, 1}};
   unsigned long long seed = 0x9e3779b97f4a7c15ULL;
   size_t t;
   for (t = 0; t < sizeof sizes / sizeof *sizes; t++) {
-    int n = sizes[t][0], n0 = sizes[t][1], i, j, info = 0, one = 1;
+    int n = sizes[t][0], n0 = sizes[t][1], i, j, info = 0;
     double *A = malloc((size_t)n * n * sizeof *A), *F0 = malloc(((size_t)n0 * n0 + 1) * sizeof *F0);
     double *LU = malloc((size_t)n * n * sizeof *LU), *F = malloc((size_t)n * n * sizeof *F);
     double *b = malloc((size_t)n * sizeof *b), *x = malloc((size_t)n * sizeof *x), *y = malloc((size_t)n * sizeof *y);
@@ -687,23 +712,7 @@ static void test_lu_border(void)
     for (j = 0; j < n0; j++) memcpy(F0 + (size_t)j * n0, A + (size_t)j * n, (size_t)n0 * sizeof *F0);
     if (n0) dgetrf_(&n0, &n0, F0, &n0, piv, &info);
     nscd_lu_border(n, n0, A, F0, LU, piv, &info);
-    memcpy(x, b, (size_t)n * sizeof *x);
-    if (info == 0) dgetrs_("N", &n, &one, LU, &n, piv, x, &n, &info);
-    memcpy(F, A, (size_t)n * n * sizeof *F);
-    memcpy(y, b, (size_t)n * sizeof *y);
-    dgetrf_(&n, &n, F, &n, piv2, &info);
-    dgetrs_("N", &n, &one, F, &n, piv2, y, &n, &info);
-    for (i = 0; i < n; i++) {
-      double r = -b[i], a = 0;
-      for (j = 0; j < n; j++) {
-        r += A[(size_t)j * n + i] * x[j];
-        a += fabs(A[(size_t)j * n + i]);
-      }
-      anorm = fmax(anorm, a);
-      xn = fmax(xn, fabs(x[i]));
-      res = fmax(res, fabs(r));
-      diff = fmax(diff, fabs(x[i] - y[i]));
-    }
+    solve_against_dgetrf(n, A, LU, piv, b, x, y, F, piv2, &info, &anorm, &xn, &res, &diff);
     ok(info == 0 && res <= 1e-13 * anorm * xn && diff <= 1e-10 * xn,
        "bordered LU %d + %d: residual %.2e of |A| |x| (< 1e-13), %.2e from A's own LU (< 1e-10)", n0, n - n0,
        res / (anorm * xn), diff / xn);
@@ -721,7 +730,7 @@ static void test_factor_closed(void)
   unsigned long long seed = 0x2545f4914f6cdd1dULL;
   size_t t;
   for (t = 0; t < sizeof sizes / sizeof *sizes; t++) {
-    int n = sizes[t][0], n0 = sizes[t][1], indef = sizes[t][2], i, j, l, info = 0, one = 1, nopiv = 1;
+    int n = sizes[t][0], n0 = sizes[t][1], indef = sizes[t][2], i, j, l, info = 0, nopiv = 1;
     double *B = malloc((size_t)n * n * sizeof *B), *A = malloc((size_t)n * n * sizeof *A);
     double *F0 = malloc(((size_t)n0 * n0 + 1) * sizeof *F0), *LU = malloc((size_t)n * n * sizeof *LU);
     double *F = malloc((size_t)n * n * sizeof *F), *b = malloc((size_t)n * sizeof *b);
@@ -751,23 +760,7 @@ static void test_factor_closed(void)
       nscd_factor_closed(n, A, LU, piv, 1, &info);
       for (i = 0; i < n; i++) nopiv &= piv[i] == i + 1;
     }
-    memcpy(x, b, (size_t)n * sizeof *x);
-    if (info == 0) dgetrs_("N", &n, &one, LU, &n, piv, x, &n, &info);
-    memcpy(F, A, (size_t)n * n * sizeof *F);
-    memcpy(y, b, (size_t)n * sizeof *y);
-    dgetrf_(&n, &n, F, &n, piv2, &info);
-    dgetrs_("N", &n, &one, F, &n, piv2, y, &n, &info);
-    for (i = 0; i < n; i++) {
-      double r = -b[i], a = 0;
-      for (j = 0; j < n; j++) {
-        r += A[(size_t)j * n + i] * x[j];
-        a += fabs(A[(size_t)j * n + i]);
-      }
-      anorm = fmax(anorm, a);
-      xn = fmax(xn, fabs(x[i]));
-      res = fmax(res, fabs(r));
-      diff = fmax(diff, fabs(x[i] - y[i]));
-    }
+    solve_against_dgetrf(n, A, LU, piv, b, x, y, F, piv2, &info, &anorm, &xn, &res, &diff);
     /* the fallback is dgetrf itself: its solution to the bit */
     ok(info == 0 && res <= 1e-13 * anorm * xn && (indef ? diff == 0 && !nopiv : diff <= 1e-10 * xn && nopiv),
        "%s n = %d (bordered from %d): residual %.2e of |A| |x| (< 1e-13), %.2e from dgetrf's (%s), %s",
