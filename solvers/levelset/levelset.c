@@ -41,6 +41,7 @@ typedef struct {
   double *wd;                /* nc LS_WD(d): the smoother's diagonal blocks of W + eps D (S_u = 1) and
                                 what its local solves keep of them (T147) */
   int bodies;                /* bd applies in this solve */
+  int dense_max;             /* ls_dense_max() read once (the environment is the run's) */
   int rigid;                 /* some candidate joins two rigid bodies (a dynamic pair) */
   int reduced;               /* the reduced path applies (A = I and the path allows it) */
   int want_prox;             /* the automatic proximal term is on (T136) */
@@ -222,6 +223,7 @@ static int ls_init(void *state, const void *params, const mo_contact_problem *P,
   L->friction = 0;
   L->wcc_nC = -1;
   L->uc_gen = -1;
+  L->dense_max = ls_dense_max();
   for (j = 0; j < nc; j++) L->friction |= d > 1 && P->mu[j] > 0;
   if (L->par.path == LS_PATH_KKT && (!P->H || !P->What || P->nfree <= 0))
     return mo_error(ctx, MO_EINTERNAL, "levelset: the kkt path needs the global system (H, What)");
@@ -453,7 +455,7 @@ static int ls_newton(ls_state *L, const mo_contact_problem *P, int kkt, int *its
   const ls_space *A = &L->A;
   int ny = S->ny, nu = S->nC * S->nr, it, e, k, col, st, mi, t, hit, reduced;
   /* the sparse path (T137) for sets too large for dense algebra on the reduced path */
-  const int sparse = !kkt && L->reduced && nu > ls_dense_max();
+  const int sparse = !kkt && L->reduced && nu > L->dense_max;
   *its = 0;
   *conv = 0;
   memset(L->rev, 0, (size_t)L->nc);
@@ -657,17 +659,22 @@ static void sign_tolerances(const ls_state *L, int d, int dt, double rho_n, doub
 {
   double psc = 0, usc = 0, fsc = 0, vsc = 0;
   int j, t;
+  /* (b > a ? b : a is fmax(a, b) for the a here, never NaN: a NaN b is skipped as fmax does, and
+     without the call into libm) */
+#define LS_MAX(a, b) ((b) > (a) ? (b) : (a))
   for (j = 0; j < L->nc; j++) {
     if (!L->su[j]) continue;
-    psc = fmax(psc, fabs(L->ph[j]));
-    usc = fmax(usc, L->Umag[j * d]);
+    psc = LS_MAX(psc, fabs(L->ph[j]));
+    usc = LS_MAX(usc, L->Umag[j * d]);
     if (dt && L->mu[j] > 0 && L->pg[j] > 0) {
-      double f = L->mu[j] * L->pg[j], ut = 0;
+      double f = L->mu[j] * L->pg[j], ut = 0, v;
       for (t = 0; t < dt; t++) ut += L->Umag[j * d + 1 + t] * L->Umag[j * d + 1 + t];
-      fsc = fmax(fsc, f);
-      vsc = fmax(vsc, f * sqrt(ut));
+      v = f * sqrt(ut);
+      fsc = LS_MAX(fsc, f);
+      vsc = LS_MAX(vsc, v);
     }
   }
+#undef LS_MAX
   *scale_v = psc + rho_n * usc;
   *tol_v = L->stol * *scale_v;
   *tol_f = L->stol * (fsc + rho_t * vsc) + L->par.threshold_tol * fsc;

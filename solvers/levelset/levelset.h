@@ -109,7 +109,8 @@ void ls_system_eval(ls_system *S, const ls_space *A, const double *y, const doub
                     const double *Umag);
 /* 1 when every |F_e| <= tol * Fmag_e. */
 int ls_system_converged(const ls_system *S, double tol);
-/* The pressure lambda_h and friction semi-multiplier Lam_h at candidate j from y. */
+/* The pressure lambda_h and friction semi-multiplier Lam_h at candidate j from y (lam: two
+   entries, dt of them used). */
 double ls_p_at(const ls_system *S, const ls_space *A, const double *y, int j);
 void ls_lam_at(const ls_system *S, const ls_space *A, const double *y, int j, double *lam);
 

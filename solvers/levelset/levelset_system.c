@@ -183,7 +183,7 @@ double ls_p_at(const ls_system *S, const ls_space *A, const double *y, int j)
 void ls_lam_at(const ls_system *S, const ls_space *A, const double *y, int j, double *lam)
 {
   int q, t, off = S->nC * S->nr + S->nM;
-  for (t = 0; t < S->dt; t++) lam[t] = 0;
+  lam[0] = lam[1] = 0; /* (two entries: a call of memset for dt of them costs more) */
   for (q = A->rp[j]; q < A->rp[j + 1]; q++) {
     int mi = S->mpos[A->ri[q]];
     if (mi >= 0)
@@ -328,7 +328,7 @@ void ls_system_eval(ls_system *S, const ls_space *A, const double *y, const doub
   const int nr = S->nr, dt = S->dt, nC = S->nC, nM = S->nM, ny = S->ny, nu = nC * nr;
   const int offp = nC * nr, offl = offp + nM;
   const double c = S->c;
-  double *F = S->F, *Jy = S->jac ? S->Jy : NULL, *JU = S->jac ? S->JU : NULL, *Fm = S->Fmag, sink = 0;
+  double *F = S->F, *Jy = S->jac ? S->Jy : NULL, *JU = S->jac ? S->JU : NULL, *Fm = S->Fmag;
   int jc, mi, q, q2, t, s, k;
   memset(F, 0, (size_t)ny * sizeof(double));
   memset(Fm, 0, (size_t)ny * sizeof(double));
@@ -336,10 +336,10 @@ void ls_system_eval(ls_system *S, const ls_space *A, const double *y, const doub
     memset(Jy, 0, (size_t)ny * (size_t)ny * sizeof(double));
     memset(JU, 0, (size_t)ny * (size_t)nu * sizeof(double));
   }
-  /* without Jacobians (S->jac = 0: the reduced path needs the residual only) their entries go
-     to a sink */
-#define JY(e, col) (*(Jy ? &Jy[(size_t)(e) * (size_t)ny + (size_t)(col)] : &sink))
-#define JUU(e, col) (*(JU ? &JU[(size_t)(e) * (size_t)nu + (size_t)(col)] : &sink))
+  /* without Jacobians (S->jac = 0: the reduced path needs the residual only) their entries are
+     neither computed nor stored */
+#define JY(e, col, v) do { if (Jy) Jy[(size_t)(e) * (size_t)ny + (size_t)(col)] += (v); } while (0)
+#define JUU(e, col, v) do { if (JU) JU[(size_t)(e) * (size_t)nu + (size_t)(col)] += (v); } while (0)
   /* impulses of the contact set: (T17) */
   for (jc = 0; jc < nC; jc++) {
     int j = S->cset[jc], e = jc * nr;
@@ -347,7 +347,7 @@ void ls_system_eval(ls_system *S, const ls_space *A, const double *y, const doub
     if (!S->sv[j]) { /* S_v = 0: no normal impulse (BDZ07 (66)) */
       F[e] = y[e];
       Fm[e] = fabs(y[e]);
-      JY(e, e) += 1;
+      JY(e, e, 1);
       goto tangent;
     }
     for (q = A->rp[j]; q < A->rp[j + 1]; q++) {
@@ -355,7 +355,7 @@ void ls_system_eval(ls_system *S, const ls_space *A, const double *y, const doub
       if (a < 0) continue;
       ph += A->rx[q] * y[offp + a];
       phm += fabs(A->rx[q] * y[offp + a]);
-      JY(e, offp + a) -= c * wj * A->rx[q];
+      JY(e, offp + a, -(c * wj * A->rx[q]));
     }
     if (S->k_n != 0) {
       if (S->Z) {
@@ -363,18 +363,18 @@ void ls_system_eval(ls_system *S, const ls_space *A, const double *y, const doub
           double z = S->Z[(size_t)jc * nC + k];
           zu += z * U[k * nr];
           zm += fabs(z) * Umag[k * nr];
-          JUU(e, k * nr) += c * wj * S->k_n * z;
+          JUU(e, k * nr, c * wj * S->k_n * z);
         }
       } else {
         zu = U[e];
         zm = Umag[e];
-        JUU(e, e) += c * wj * S->k_n;
+        JUU(e, e, c * wj * S->k_n);
       }
     }
     /* r_n = c w (lambda_h - k_n (Z U'_n))  (BDZ07 (66) with (37); core signs, (T13)) */
     F[e] = y[e] - c * wj * (ph - S->k_n * zu);
     Fm[e] = fabs(y[e]) + c * wj * (phm + S->k_n * zm);
-    JY(e, e) += 1;
+    JY(e, e, 1);
   tangent:
     if (!dt) continue;
     {
@@ -385,7 +385,7 @@ void ls_system_eval(ls_system *S, const ls_space *A, const double *y, const doub
       if (phi && !S->sf[j]) slide_dir(dt, lam, U + e + 1, S->h2_t, ev, D);
       for (t = 0; t < dt; t++) {
         int e2 = e + 1 + t;
-        JY(e2, e2) += 1;
+        JY(e2, e2, 1);
         if (!phi) { /* no threshold: no friction force */
           F[e2] = y[e2];
           Fm[e2] = fabs(y[e2]);
@@ -397,9 +397,9 @@ void ls_system_eval(ls_system *S, const ls_space *A, const double *y, const doub
           Fm[e2] = fabs(y[e2]) + fabs(tau) * (fabs(lam[t]) + S->k_t * Umag[e + 1 + t]);
           for (q = A->rp[j]; q < A->rp[j + 1]; q++) {
             int a = S->mpos[A->ri[q]];
-            if (a >= 0) JY(e2, offl + a * dt + t) += tau * A->rx[q];
+            if (a >= 0) JY(e2, offl + a * dt + t, tau * A->rx[q]);
           }
-          JUU(e2, e + 1 + t) += tau * S->k_t;
+          JUU(e2, e + 1 + t, tau * S->k_t);
         } else {
           /* slide: r_t = -c w mu p^g G / |G|  (BDZ07 (42)) */
           F[e2] = y[e2] + tau * ev[t];
@@ -407,9 +407,9 @@ void ls_system_eval(ls_system *S, const ls_space *A, const double *y, const doub
           for (s = 0; s < dt; s++) {
             for (q = A->rp[j]; q < A->rp[j + 1]; q++) {
               int a = S->mpos[A->ri[q]];
-              if (a >= 0) JY(e2, offl + a * dt + s) += tau * D[t * dt + s] * A->rx[q];
+              if (a >= 0) JY(e2, offl + a * dt + s, tau * D[t * dt + s] * A->rx[q]);
             }
-            JUU(e2, e + 1 + s) += tau * D[t * dt + s] * S->h2_t;
+            JUU(e2, e + 1 + s, tau * D[t * dt + s] * S->h2_t);
           }
         }
       }
@@ -424,7 +424,7 @@ void ls_system_eval(ls_system *S, const ls_space *A, const double *y, const doub
       if (kc >= 0 && S->sv[j]) {
         F[e] += wa * U[kc * nr];
         Fm[e] += fabs(wa) * Umag[kc * nr];
-        JUU(e, kc * nr) += wa;
+        JUU(e, kc * nr, wa);
       } else {
         double ph = 0, phm = 0;
         for (q2 = A->rp[j]; q2 < A->rp[j + 1]; q2++) {
@@ -432,7 +432,7 @@ void ls_system_eval(ls_system *S, const ls_space *A, const double *y, const doub
           if (b < 0) continue;
           ph += A->rx[q2] * y[offp + b];
           phm += fabs(A->rx[q2] * y[offp + b]);
-          JY(e, offp + b) += wa * A->rx[q2] / S->h_n;
+          JY(e, offp + b, wa * A->rx[q2] / S->h_n);
         }
         F[e] += wa * ph / S->h_n;
         Fm[e] += fabs(wa) * phm / S->h_n;
@@ -455,14 +455,14 @@ void ls_system_eval(ls_system *S, const ls_space *A, const double *y, const doub
           Fm[e] += fabs(wa * lam[t]);
           for (q2 = A->rp[j]; q2 < A->rp[j + 1]; q2++) {
             int b = S->mpos[A->ri[q2]];
-            if (b >= 0) JY(e, offl + b * dt + t) += wa * A->rx[q2];
+            if (b >= 0) JY(e, offl + b * dt + t, wa * A->rx[q2]);
           }
         } else if (S->sf[j]) {
           /* stick: (S_f / h1) (Lam - (Lam + h1 U'_t)) = -U'_t, weighted by mu p^g */
           double wg = wa * mu * pg;
           F[e] -= wg * U[kc * nr + 1 + t];
           Fm[e] += fabs(wg) * Umag[kc * nr + 1 + t];
-          JUU(e, kc * nr + 1 + t) -= wg;
+          JUU(e, kc * nr + 1 + t, -(wg));
         } else {
           /* slide: ((1 - S_f) / h2) (Lam - G / |G|), weighted by mu p^g */
           double wg = wa * mu * pg / S->h2_t;
@@ -471,9 +471,9 @@ void ls_system_eval(ls_system *S, const ls_space *A, const double *y, const doub
           for (s = 0; s < dt; s++) {
             for (q2 = A->rp[j]; q2 < A->rp[j + 1]; q2++) {
               int b = S->mpos[A->ri[q2]];
-              if (b >= 0) JY(e, offl + b * dt + s) += wg * ((t == s) - D[t * dt + s]) * A->rx[q2];
+              if (b >= 0) JY(e, offl + b * dt + s, wg * ((t == s) - D[t * dt + s]) * A->rx[q2]);
             }
-            JUU(e, kc * nr + 1 + s) -= wg * D[t * dt + s] * S->h2_t;
+            JUU(e, kc * nr + 1 + s, -(wg * D[t * dt + s] * S->h2_t));
           }
         }
       }
@@ -481,7 +481,6 @@ void ls_system_eval(ls_system *S, const ls_space *A, const double *y, const doub
   }
 #undef JY
 #undef JUU
-  (void)sink;
 }
 
 int ls_system_converged(const ls_system *S, double tol)
