@@ -629,9 +629,12 @@ int mo_delassus_row(const mo_delassus *D, int a, const int **beta, const double 
   return D->rowp[a + 1] - D->rowp[a];
 }
 
-void mo_delassus_mult(const mo_delassus *D, const double *x, double beta, double *y)
+/* y = W x + beta y for block size d (a constant where the caller below passes one: the loops over
+   a block unrolled, the same sums in the same order) */
+static inline __attribute__((always_inline)) void mult_blocks(const mo_delassus *D, const double *x, double beta,
+                                                              double *y, const int d)
 {
-  int d = D->d, a, p, i, j, nonly = d > 1;
+  int a, p, i, j, nonly = d > 1;
   /* x without tangential components (frictionless contacts' impulses): the normal column of each
      block alone, a third of the reads in 3D and the same sums (the skipped terms are zeros) (T160) */
   for (a = 0; a < D->nb && nonly; a++)
@@ -648,6 +651,14 @@ void mo_delassus_mult(const mo_delassus *D, const double *x, double beta, double
     }
     for (i = 0; i < d; i++) y[a * d + i] = acc[i] + (beta == 0 ? 0 : beta * y[a * d + i]);
   }
+}
+
+void mo_delassus_mult(const mo_delassus *D, const double *x, double beta, double *y)
+{
+  /* a few candidates (the small rigid scenes: 1-2): the loops' set-up was most of the product */
+  if (D->d == 2) mult_blocks(D, x, beta, y, 2);
+  else if (D->d == 3) mult_blocks(D, x, beta, y, 3);
+  else mult_blocks(D, x, beta, y, D->d);
 }
 
 int mo_delassus_dense(const mo_delassus *D, double **out, mo_ctx *ctx)

@@ -1709,8 +1709,10 @@ static void write_solution(ls_state *L, ls_pass *Q, mo_contact_vars *x)
   const mo_contact_problem *P = Q->P;
   const int nc = L->nc, d = L->d, m = L->m, dt = Q->dt;
   int j, t;
-  /* U' = W r + q over every candidate: the last frozen solve's when it covered them all */
-  if (!(L->u_partial && L->S.nC == nc && L->S.nr == d && !(L->eps > 0))) {
+  /* U' = W r + q over every candidate: the last frozen solve's when it covered them all; none
+     where the core measures U' = W r + q itself after the solve (P->u_measured, T156: the pass
+     over W saved, as nscd saves it; x->U is then the core's) */
+  if (!P->u_measured && !(L->u_partial && L->S.nC == nc && L->S.nr == d && !(L->eps > 0))) {
     L->b = P->b;
     L->eps = 0;
     full_velocity(L, P, Q->kkt);
