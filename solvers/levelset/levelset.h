@@ -110,9 +110,29 @@ void ls_system_eval(ls_system *S, const ls_space *A, const double *y, const doub
 /* 1 when every |F_e| <= tol * Fmag_e. */
 int ls_system_converged(const ls_system *S, double tol);
 /* The pressure lambda_h and friction semi-multiplier Lam_h at candidate j from y (lam: two
-   entries, dt of them used). */
-double ls_p_at(const ls_system *S, const ls_space *A, const double *y, int j);
-void ls_lam_at(const ls_system *S, const ls_space *A, const double *y, int j, double *lam);
+   entries, dt of them used); inline: called per candidate in the loops of every solve, where one or
+   two candidates made the calls a good part of the work. */
+static inline double ls_p_at(const ls_system *S, const ls_space *A, const double *y, int j)
+{
+  double p = 0;
+  int q, off = S->nC * S->nr;
+  for (q = A->rp[j]; q < A->rp[j + 1]; q++) {
+    int mi = S->mpos[A->ri[q]];
+    if (mi >= 0) p += A->rx[q] * y[off + mi];
+  }
+  return p;
+}
+
+static inline void ls_lam_at(const ls_system *S, const ls_space *A, const double *y, int j, double *lam)
+{
+  int q, t, off = S->nC * S->nr + S->nM;
+  lam[0] = lam[1] = 0; /* (two entries: a call of memset for dt of them costs more) */
+  for (q = A->rp[j]; q < A->rp[j + 1]; q++) {
+    int mi = S->mpos[A->ri[q]];
+    if (mi >= 0)
+      for (t = 0; t < S->dt; t++) lam[t] += A->rx[q] * y[off + mi * S->dt + t];
+  }
+}
 
 /* --- linear algebra paths (levelset_linalg.c) ------------------------------------------------- */
 

@@ -238,14 +238,18 @@ int ls_reduced_kept(const ls_reduced *R, const ls_system *S, const mo_delassus *
   return same_key(R, nks) && R->W == W && R->version == mo_delassus_version(W) && R->eps == S->eps;
 }
 
-static int factor_current(ls_reduced *R, const ls_system *S, const mo_delassus *W, const double *WCC, int nks)
+/* 1 when the kept factor is current; *gathered = 1 when the matrix was gathered into wk to tell */
+static int factor_current(ls_reduced *R, const ls_system *S, const mo_delassus *W, const double *WCC, int nks,
+                          int *gathered)
 {
   const int n = R->nX;
   size_t nn = (size_t)n * (size_t)n;
+  *gathered = 0;
   if (!same_key(R, nks)) return 0;
   if (ls_reduced_kept(R, S, W, nks)) return 1;
   if (nn > R->cap_w) return 0;
   gather(R, S, WCC, nks, R->wk);
+  *gathered = 1;
   if (memcmp(R->wk, R->kval, nn * sizeof *R->wk)) return 0;
   R->W = W;
   R->version = mo_delassus_version(W);
@@ -376,14 +380,15 @@ static int red_factor_kval(ls_reduced *R, const ls_system *S, const mo_delassus 
   return MO_OK;
 }
 
-/* Factor the current matrix and remember its key and values. */
+/* Factor the current matrix and remember its key and values (in wk already when `gathered`). */
 static int red_factor(ls_reduced *R, const ls_system *S, const mo_delassus *W, const double *WCC, int nks,
-                      mo_ctx *ctx)
+                      int gathered, mo_ctx *ctx)
 {
   int st;
   R->kind = LS_RED_NONE;
   if ((st = red_reserve(R, nks, ctx))) return st;
-  gather(R, S, WCC, nks, R->kval);
+  if (gathered) memcpy(R->kval, R->wk, (size_t)R->nX * (size_t)R->nX * sizeof *R->kval);
+  else gather(R, S, WCC, nks, R->kval);
   return red_factor_kval(R, S, W, nks, ctx);
 }
 
@@ -632,7 +637,7 @@ int ls_reduced_step(ls_reduced *R, const ls_system *S, const mo_delassus *W, con
                     mo_ctx *ctx)
 {
   const int nr = S->nr, dt = S->dt, nu = R->nu, n = R->nX, offl = nu + S->nM;
-  int e, i, k, s, t, st, fresh, nks = 0, three = dt == 2 && R->nS > 0 && !R->coupled;
+  int e, i, k, s, t, st, fresh, nks = 0, three = dt == 2 && R->nS > 0 && !R->coupled, gathered = 0;
   *fallback = 0;
   /* the coupled sliders' directions from the current iterate (or frozen by the damped loop):
      part of the matrix */
@@ -646,8 +651,8 @@ int ls_reduced_step(ls_reduced *R, const ls_system *S, const mo_delassus *W, con
       nks++;
     }
   /* a 3D direction is not in the key: a new factor for every matrix */
-  fresh = (dt == 2 && nks > 0) || !factor_current(R, S, W, WCC, nks);
-  if (fresh && (st = red_factor(R, S, W, WCC, nks, ctx))) return st;
+  fresh = (dt == 2 && nks > 0) || !factor_current(R, S, W, WCC, nks, &gathered);
+  if (fresh && (st = red_factor(R, S, W, WCC, nks, gathered, ctx))) return st;
   if (R->kind == LS_RED_PINV && R->normal_null) {
     /* redundant normal impulses: the proximal term makes them unique (T136) */
     *fallback = 2;

@@ -169,28 +169,6 @@ void ls_system_free(ls_system *S)
   S->jac = 0;
 }
 
-double ls_p_at(const ls_system *S, const ls_space *A, const double *y, int j)
-{
-  double p = 0;
-  int q, off = S->nC * S->nr;
-  for (q = A->rp[j]; q < A->rp[j + 1]; q++) {
-    int mi = S->mpos[A->ri[q]];
-    if (mi >= 0) p += A->rx[q] * y[off + mi];
-  }
-  return p;
-}
-
-void ls_lam_at(const ls_system *S, const ls_space *A, const double *y, int j, double *lam)
-{
-  int q, t, off = S->nC * S->nr + S->nM;
-  lam[0] = lam[1] = 0; /* (two entries: a call of memset for dt of them costs more) */
-  for (q = A->rp[j]; q < A->rp[j + 1]; q++) {
-    int mi = S->mpos[A->ri[q]];
-    if (mi >= 0)
-      for (t = 0; t < S->dt; t++) lam[t] += A->rx[q] * y[off + mi * S->dt + t];
-  }
-}
-
 /* The projection of Remark 4 restricted to Cset (T19): Z = A_C G^-1 A_C^T Omega_C with
    G = A_C^T Omega_C A_C, so that (Z U)_j is the Omega-weighted L2 projection of U on the
    multiplier space over the contact set, evaluated at candidate j. */
