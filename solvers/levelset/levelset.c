@@ -42,6 +42,8 @@ typedef struct {
                                 what its local solves keep of them (T147) */
   int bodies;                /* bd applies in this solve */
   int dense_max;             /* ls_dense_max() read once (the environment is the run's) */
+  int ro, ro_known;          /* rigid_only() of the contact set ro_cset */
+  long ro_cset;
   int rigid;                 /* some candidate joins two rigid bodies (a dynamic pair) */
   int reduced;               /* the reduced path applies (A = I and the path allows it) */
   int want_prox;             /* the automatic proximal term is on (T136) */
@@ -1740,14 +1742,19 @@ static void write_solution(ls_state *L, ls_pass *Q, mo_contact_vars *x)
 }
 
 /* Every candidate between rigid bodies and obstacles: H's entries on the rigid blocks' dofs only
-   (none on a deformable body's). */
-static int rigid_only(const mo_contact_problem *P)
+   (none on a deformable body's). What the candidates join is the contact set's (P->cset): read
+   once per set, not at every step. */
+static int rigid_only(ls_state *L, const mo_contact_problem *P)
 {
   int p;
-  if (!P->H || !P->Wi) return 0;
+  if (L->ro_cset == P->cset && L->ro_known) return L->ro;
+  L->ro_cset = P->cset;
+  L->ro_known = 1;
+  L->ro = 0;
+  if (!P->H || !P->Wi) return L->ro;
   for (p = 0; p < P->H->p[P->m]; p++)
-    if (P->H->i[p] < P->Wi->nfe) return 0;
-  return 1;
+    if (P->H->i[p] < P->Wi->nfe) return L->ro;
+  return L->ro = 1;
 }
 
 static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x,
@@ -1767,12 +1774,12 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
   /* the damped loop (T140): where asked, or on large rigid sets (piles); in 3D it brings the
      coupled threshold with frozen sliding directions (T143). auto on a pile: the hybrid with the
      smoother finishing the steps at nscd's accuracy on the shipped piles (T149) */
-  pile = L->par.globalization == LS_GLOB_AUTO && L->rigid && P->nfree > LS_DENSE_MAX && rigid_only(P);
+  pile = L->par.globalization == LS_GLOB_AUTO && L->rigid && P->nfree > LS_DENSE_MAX && rigid_only(L, P);
   /* auto on a smaller rigid frictional set: the hybrid too above LS_SET_MIN local unknowns (the
      masonry arch), the sign tests at LS_SET_TOL at least (at 1e-10 both paths stall on a step of
      the collapsing arch, at 1e-3 the standing arch fails a step); a step the first path fails, the
      other one redoes (the undamped loop of BDZ07 Fig. 2 or the hybrid; T149) */
-  alt = L->par.globalization == LS_GLOB_AUTO && !pile && Q.dt > 0 && L->rigid && rigid_only(P);
+  alt = L->par.globalization == LS_GLOB_AUTO && !pile && Q.dt > 0 && L->rigid && rigid_only(L, P);
   set = alt && P->nc * P->dim > LS_SET_MIN;
   for (fallback = 0;; fallback = 1) {
     L->glob = L->reduced && !Q.kkt && Q.dt > 0 && L->par.threshold != LS_THR_LOOP && L->par.k_n == 0 &&
@@ -1836,9 +1843,10 @@ static int ls_solve(void *state, const mo_contact_problem *P, mo_contact_vars *x
   rep->factor_reuses = (int)(L->lu.reuses - nreuse0);
   rep->iterations = Q.nnewt;
   rep->sweeps = Q.nsweep;
-  mo_log(ctx, 3, "levelset step %ld: loops geometry %d, threshold %d, level-set %d, Newton %d (%s)\n",
-         P->step, rep->loops[0], rep->loops[1], rep->loops[2], rep->loops[3],
-         mo_contact_reason_name(rep->reason));
+  if (ctx->verbosity >= 3) /* (the call's set-up and the reason's name: a few % of a small scene's solve) */
+    mo_log(ctx, 3, "levelset step %ld: loops geometry %d, threshold %d, level-set %d, Newton %d (%s)\n",
+           P->step, rep->loops[0], rep->loops[1], rep->loops[2], rep->loops[3],
+           mo_contact_reason_name(rep->reason));
   return MO_OK;
 }
 
