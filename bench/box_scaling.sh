@@ -13,7 +13,12 @@
 #
 #   bench/box_scaling.sh [--large] [--sizes "14 21 31 45"] [--steps 10] [--solvers nscd,levelset]
 #                        [--clock wall|cpu] [--moreau build/moreau] [--out DIR] [--set KEY=VALUE]...
+#                        [--linear cholmod|mumps|mumps-ooc]
 #
+# --linear mumps runs every case through PETSc's MUMPS (builds configured --with-petsc), the
+# contact dofs as its Schur variables (doc/theory.md (T180)); mumps-ooc with its factor out of
+# core in TMPDIR (linear_solver.out_of_core, (T182)); cholmod (the default) CHOLMOD's trailing
+# block.
 # --large adds n = 68 (985 527 dofs: about 25 GB; run it alone). A step's time is the run's
 # `timings.steps` less the Delassus build, over the steps (the first step builds W); "first" is
 # `timings.first_step` less the Delassus build, "steady" the mean of steps 2..n (the contact set
@@ -39,8 +44,16 @@ while [ $# -gt 0 ]; do
   --moreau) moreau=$2; shift ;;
   --out) out=$2; shift ;;
   --set) sets="$sets --set $2"; shift ;;
+  --linear)
+    case "$2" in
+    cholmod) ;;
+    mumps) sets="$sets --set linear_solver.type=\"petsc\"" ;;
+    mumps-ooc) sets="$sets --set linear_solver.type=\"petsc\" --set linear_solver.out_of_core=true" ;;
+    *) echo "box_scaling.sh: --linear cholmod, mumps or mumps-ooc (got '$2')" >&2; exit 2 ;;
+    esac
+    shift ;;
   --clock) [ "$2" = cpu ] && export MOREAU_CLOCK=cpu; shift ;;
-  -h|--help) sed -n '2,23p' "$0"; exit 0 ;;
+  -h|--help) sed -n '2,29p' "$0"; exit 0 ;;
   *) echo "box_scaling.sh: unknown argument '$1' (--help)" >&2; exit 2 ;;
   esac
   shift

@@ -714,7 +714,7 @@ static int apply_Cinv(mo_delassus *D, const mo_csc *H, const mo_what_inverse *Wi
   for (j = 0; j < m; j++)
     if (r[j] != 0)
       for (p = H->p[j]; p < H->p[j + 1]; p++) D->work[H->i[p]] += H->x[p] * r[j];
-  if (D->schur && nfe) return apply_trailing(D, Wi, dx, ctx);
+  if (D->schur && nfe && mo_linsolver_has_split(Wi->ls)) return apply_trailing(D, Wi, dx, ctx);
   if (!D->C || !nfe) return mo_what_solve(Wi, 1, D->work, dx, ctx);
   memset(dx, 0, (size_t)nfe * sizeof(double));
   for (j = 0; j < m; j++) {

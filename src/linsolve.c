@@ -110,8 +110,8 @@ void mo_linsolver_free(mo_linsolver *S)
 
 int mo_linsolver_set_last(mo_linsolver *S, int nlast, const int *last, double reserve, mo_ctx *ctx)
 {
-  /* a type without the ordering (PETSc's) keeps its own: mo_linsolver_nlast says 0, and the
-     stepper takes the path of one solve per column */
+  /* a type without the ordering keeps its own: mo_linsolver_nlast says 0, and the stepper takes
+     the path of one solve per column */
   if (!S->type->set_last) return MO_OK;
   return S->type->set_last(S->state, nlast, last, reserve, ctx);
 }
@@ -145,11 +145,11 @@ int mo_linsolver_split(mo_linsolver *S, mo_split_op op, const double *in, double
   return S->type->split(S->state, op, in, out, ctx);
 }
 
+int mo_linsolver_has_split(const mo_linsolver *S) { return S->type->split != NULL; }
+
 int mo_linsolver_schur_inverse(mo_linsolver *S, double *G, mo_ctx *ctx)
 {
-  int st = split_ready(S, ctx);
-  if (st) return st;
-  if (!S->type->schur_inverse) return mo_error(ctx, MO_EINTERNAL, "no Schur inverse in this solver");
+  if (!S->nfactor || !S->type->schur_inverse) return mo_error(ctx, MO_EINTERNAL, "no Schur inverse in this solver");
   return S->type->schur_inverse(S->state, G, ctx);
 }
 

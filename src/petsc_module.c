@@ -7,8 +7,14 @@
 
 #include <petscksp.h>
 #include <mpi.h>
+#include <dirent.h>
+#include <errno.h>
+#include <math.h>
 #include <stdarg.h>
+#include <stdlib.h>
 #include <string.h>
+#include <sys/statvfs.h>
+#include <unistd.h>
 
 /* The library that loaded the module: set once by start, read-only after (the module has no
    other state of its own; PETSc's is process-wide by design). */
@@ -31,6 +37,9 @@ static int module_error(mo_ctx *ctx, int code, const char *fmt, ...)
 #define mo_csc_transpose(A, T, ctx) H->csc_transpose(A, T, ctx)
 #define mo_csc_free(A) H->csc_free(A)
 #define mo_clock() H->clock()
+#define mo_memory_rss() H->memory_rss()
+#define mo_memory_limit() H->memory_limit()
+#define mo_log H->log
 
 /* --- MPI ---------------------------------------------------------------------------------------- */
 
@@ -170,6 +179,18 @@ typedef struct {
   int n, rstart, rend;      /* rows of this rank: rstart .. rend-1 */
   mo_csc *At;               /* the factored matrix by rows (its transpose), for the owned rows */
   long iterations;          /* Krylov iterations over the solves (0 for direct solves) */
+  /* MUMPS directly (ksp preonly, pc cholesky or lu, package mumps): its factor F without a KSP,
+     analysed apart from the numeric factorization so that the memory is checked in between,
+     the contact dofs as its Schur variables (one rank), the factor on disk (T180)-(T182) */
+  int direct;
+  Mat F;
+  int nlast, *last, last_new, schur;
+  double reserve;
+  int ooc;
+  char ooc_base[512], ooc_dir[600];
+  double t_solve;
+  long n_solve;
+  mo_linsolver_info info;
 } petsc_state;
 
 /* A PETSc error as moreau's: the call and PETSc's own message. */
@@ -196,8 +217,17 @@ static int petsc_configure(void *state, const mo_linsolver_settings *set, mo_ctx
   s->rtol = set->rtol > 0 ? set->rtol : 1e-10;
   s->spd = set->spd;
   s->parts = set->parts;
+  s->direct = !strcmp(s->ksp, "preonly") && (!strcmp(s->pc, "cholesky") || !strcmp(s->pc, "lu")) &&
+              !strcmp(s->package, "mumps");
+  s->ooc = set->out_of_core;
+  {
+    const char *t = getenv("TMPDIR");
+    snprintf(s->ooc_base, sizeof s->ooc_base, "%s", set->ooc_dir && *set->ooc_dir ? set->ooc_dir : t && *t ? t : "/tmp");
+  }
   s->configured = 1;
-  (void)ctx;
+  if (s->ooc && !s->direct)
+    return mo_error(ctx, MO_EINPUT, "linear_solver.out_of_core needs MUMPS's factorization (ksp \"preonly\", pc "
+                    "\"cholesky\" or \"lu\", package \"mumps\"), not %s, %s, %s", s->ksp, s->pc, s->package);
   return MO_OK;
 }
 
@@ -347,12 +377,270 @@ static int make_matrix(petsc_state *s, const mo_csc *A, mo_ctx *ctx)
 
 static void drop(petsc_state *s)
 {
+  if (s->F) MatDestroy(&s->F);
   if (s->ksp_obj) KSPDestroy(&s->ksp_obj);
   if (s->A) MatDestroy(&s->A);
   if (s->b) VecDestroy(&s->b);
   if (s->x) VecDestroy(&s->x);
   if (s->xall) VecDestroy(&s->xall);
   if (s->toall) VecScatterDestroy(&s->toall);
+}
+
+/* --- MUMPS directly: the contact dofs as its Schur variables, the factor out of core ------------
+
+   With ksp preonly and a direct pc by MUMPS, the module drives the factor F itself (MatGetFactor,
+   the symbolic then the numeric factorization apart) instead of a KSP: between the two, MUMPS's
+   own estimates of the memory (INFOG(17) in core, INFOG(27) out of core, in MB = 1e6 bytes, over
+   the ranks) are checked against what the run may take, and the run is refused with the figures
+   before the hour-long numeric factorization when even out of core does not fit (T181). The
+   contact dofs ordered last become MUMPS's Schur variables (ICNTL(19) through MatFactorSetSchurIS):
+   the numeric factorization leaves S = A_CC - A_CI A_II^-1 A_IC dense, PETSc inverts it in place
+   (LAPACK's Cholesky and its inverse, potrf and potri) and G = S^-1 = (A^-1)_CC is W's middle
+   factor as CHOLMOD's L22 gives it (T150)-(T151), with no solve per column. PETSc 3.18 refuses
+   Schur complements on more than one rank ("MUMPS distributed parallel Schur complements not yet
+   supported from PETSc"): there the contact dofs are not ordered and W is built by solves. The
+   whole solves stay: PETSc's MatSolve condenses on S, solves with G and expands (ICNTL(26) 1 and
+   2); MUMPS keeps the condensed interior right-hand side inside between the two, so the split
+   solves of (T153) (a forward solve kept and summed with an impulse's) have no counterpart and
+   the type has none (T180). Out of core (ICNTL(22) = 1) MUMPS writes the factor to files under
+   MUMPS_OOC_TMPDIR: a folder of this solver's own, made under ooc_dir, emptied and removed when
+   the solver is freed (the end of a run, a failure, or an interrupted run's end) (T182). */
+
+/* MUMPS's INFOG(k), with its negative counts in millions. */
+static double infog(Mat F, PetscInt k)
+{
+  PetscInt v = 0;
+  if (MatMumpsGetInfog(F, k, &v)) return NAN;
+  return v < 0 ? -1e6 * (double)v : (double)v;
+}
+
+static int ooc_folder(petsc_state *s, mo_ctx *ctx)
+{
+  if (s->ooc_dir[0]) return MO_OK;
+  snprintf(s->ooc_dir, sizeof s->ooc_dir, "%s/moreau-ooc.XXXXXX", s->ooc_base);
+  if (!mkdtemp(s->ooc_dir)) {
+    int e = errno;
+    s->ooc_dir[0] = 0;
+    return mo_error(ctx, MO_EIO, "linear_solver.ooc_dir: no folder for the out-of-core factor could be made in '%s': %s",
+                    s->ooc_base, strerror(e));
+  }
+  if (setenv("MUMPS_OOC_TMPDIR", s->ooc_dir, 1))
+    return mo_error(ctx, MO_EINTERNAL, "MUMPS_OOC_TMPDIR could not be set");
+  return MO_OK;
+}
+
+/* MUMPS removes its files when F is destroyed; what a failed factorization left goes here. */
+static void ooc_remove(petsc_state *s)
+{
+  DIR *d;
+  struct dirent *e;
+  char path[1200];
+  if (!s->ooc_dir[0]) return;
+  if ((d = opendir(s->ooc_dir))) {
+    while ((e = readdir(d)))
+      if (strcmp(e->d_name, ".") && strcmp(e->d_name, "..")) {
+        snprintf(path, sizeof path, "%s/%s", s->ooc_dir, e->d_name);
+        unlink(path);
+      }
+    closedir(d);
+  }
+  rmdir(s->ooc_dir);
+  s->ooc_dir[0] = 0;
+}
+
+static int petsc_set_last(void *state, int nlast, const int *last, double reserve, mo_ctx *ctx)
+{
+  petsc_state *s = state;
+  int same;
+  s->reserve = reserve;
+  if (nlast && (!s->direct || ctx->nranks > 1)) {
+    /* W by solves: said once */
+    if (!s->nlast && !s->last)
+      mo_log(ctx, 2, "moreau: the Delassus operator by solves: MUMPS's Schur complement on the contact dofs %s\n",
+             ctx->nranks > 1 ? "runs on one rank only (PETSc 3.18 refuses it on several)"
+                             : "needs ksp preonly with a direct pc by MUMPS");
+    nlast = 0;
+  }
+  same = nlast == s->nlast && (!nlast || !memcmp(last, s->last, (size_t)nlast * sizeof *last));
+  if (same) return MO_OK;
+  mo_free(s->last);
+  s->last = NULL;
+  s->nlast = 0;
+  if (nlast) {
+    if (!(s->last = mo_malloc(ctx, (size_t)nlast * sizeof *s->last))) return MO_ENOMEM;
+    memcpy(s->last, last, (size_t)nlast * sizeof *last);
+  }
+  s->nlast = nlast;
+  s->last_new = 1;
+  return MO_OK;
+}
+
+/* The symbolic factorization, with the Schur variables, and MUMPS's estimates (T181). */
+static int direct_analyze(petsc_state *s, mo_ctx *ctx)
+{
+  MatFactorInfo fi;
+  int chol = !strcmp(s->pc, "cholesky"), k;
+  double t0 = mo_clock(), ent;
+  PetscReal fl = 0;
+  if (s->F) MatDestroy(&s->F);
+  s->schur = 0;
+  s->last_new = 0;
+  if (s->ooc) {
+    int st = ooc_folder(s, ctx);
+    if (st) return st;
+  }
+  /* MUMPS reads its options at the analysis: ours first, the case's over them */
+  P(PetscOptionsSetValue(NULL, "-mat_mumps_icntl_22", s->ooc ? "1" : "0"));
+  if (s->options[0]) P(PetscOptionsInsertString(NULL, s->options));
+  P(MatGetFactor(s->A, MATSOLVERMUMPS, chol ? MAT_FACTOR_CHOLESKY : MAT_FACTOR_LU, &s->F));
+  if (s->nlast) {
+    IS is;
+    PetscInt *idx;
+    PetscErrorCode e;
+    if (!(idx = mo_malloc(ctx, (size_t)s->nlast * sizeof *idx))) return MO_ENOMEM;
+    for (k = 0; k < s->nlast; k++) idx[k] = s->last[k];
+    e = ISCreateGeneral(PETSC_COMM_WORLD, s->nlast, idx, PETSC_COPY_VALUES, &is);
+    mo_free(idx);
+    if (e) return petsc_fail(ctx, e, "ISCreateGeneral");
+    e = MatFactorSetSchurIS(s->F, is);
+    ISDestroy(&is);
+    if (e) return petsc_fail(ctx, e, "MatFactorSetSchurIS");
+    s->schur = 1;
+  }
+  P(MatFactorInfoInitialize(&fi));
+  if (chol) P(MatCholeskyFactorSymbolic(s->F, s->A, NULL, &fi));
+  else P(MatLUFactorSymbolic(s->F, s->A, NULL, NULL, &fi));
+  if (infog(s->F, 1) < 0)
+    return mo_error(ctx, MO_EINTERNAL, "MUMPS's analysis failed (INFOG(1) = %g, INFOG(2) = %g)", infog(s->F, 1),
+                    infog(s->F, 2));
+  ent = infog(s->F, 20);
+  MatMumpsGetRinfog(s->F, 1, &fl);
+  s->info.nnz_L = ent;
+  s->info.flops = fl;
+  s->info.bytes_in_core = 1e6 * infog(s->F, 17);
+  s->info.bytes_out_of_core = 1e6 * infog(s->F, 27);
+  s->info.bytes_factor = 8 * ent;
+  s->info.bytes_work = s->ooc ? s->info.bytes_out_of_core : s->info.bytes_in_core;
+  s->info.out_of_core = s->ooc;
+  s->info.ordering = "mumps";
+  s->info.t_analyze += mo_clock() - t0;
+  return MO_OK;
+}
+
+/* The memory of the numeric factorization (T181): MUMPS's whole estimate for the chosen mode,
+   the Schur complement (PETSc's dense copy, inverted in place) and what the caller will need
+   beside (W, and G's copy): refused with the figures when it does not fit; the factor's bytes
+   against the free disk out of core. */
+static int direct_memory_check(petsc_state *s, mo_ctx *ctx)
+{
+  double sc = s->schur ? 8.0 * s->nlast * s->nlast : 0, reserve = s->reserve + sc;
+  double need_in = s->info.bytes_in_core + sc + reserve, need_ooc = s->info.bytes_out_of_core + sc + reserve;
+  double have = mo_memory_rss(), limit = mo_memory_limit(), need = s->ooc ? need_ooc : need_in;
+  double sum = need, lim = limit;
+  if (ctx->max_bytes > 0 && ctx->max_bytes < limit) limit = ctx->max_bytes;
+  /* the ranks' sum against the machine's: every rank of one machine shares it */
+  if (ctx->nranks > 1) {
+    double hv = have;
+    if (MPI_Allreduce(&hv, &have, 1, MPI_DOUBLE, MPI_SUM, PETSC_COMM_WORLD) != MPI_SUCCESS)
+      return mo_error(ctx, MO_EINTERNAL, "MPI_Allreduce failed in the memory check");
+  }
+  (void)lim;
+  s->info.bytes_reserve = reserve;
+  s->info.bytes_before = have;
+  s->info.bytes_limit = limit;
+  if (sum + have > 2e9 || ctx->verbosity >= 3)
+    mo_log(ctx, 1, "moreau: MUMPS's factorization of %d dofs%s: %.4g factor entries (%.2f GB), %.3g flops; MUMPS's "
+           "estimate %.2f GB in core, %.2f GB out of core; the Schur complement on %d contact dofs and the Delassus "
+           "operator %.2f GB; beside %.2f GB in use: %.2f GB of the %.2f GB this run may take (%s)\\n",
+           s->n, s->ooc ? " out of core" : "", s->info.nnz_L, s->info.bytes_factor / 1e9, s->info.flops,
+           s->info.bytes_in_core / 1e9, s->info.bytes_out_of_core / 1e9, s->schur ? s->nlast : 0, (sc + reserve) / 1e9,
+           have / 1e9, (need + have) / 1e9, limit / 1e9, s->ooc ? "the factor on disk" : "in core");
+  if (s->ooc) {
+    struct statvfs v;
+    if (!statvfs(s->ooc_dir, &v) && (double)v.f_bavail * (double)v.f_frsize < s->info.bytes_factor)
+      return mo_error(ctx, MO_ELIMIT, "linear_solver.ooc_dir: the out-of-core factor (%.4g entries, %.2f GB) does not "
+                      "fit on the disk of '%s' (%.2f GB free)", s->info.nnz_L, s->info.bytes_factor / 1e9, s->ooc_base,
+                      (double)v.f_bavail * (double)v.f_frsize / 1e9);
+  }
+  if (need + have > limit)
+    return mo_error(ctx, MO_ELIMIT,
+                    "MUMPS's factorization of the iteration matrix (%d dofs, %.4g factor entries, %.3g flops) needs "
+                    "%.2f GB %s (MUMPS's estimate %.2f GB in core, %.2f GB out of core, INFOG(17) and INFOG(27); the "
+                    "Schur complement and the Delassus operator %.2f GB) beside the %.2f GB the run holds already; "
+                    "this machine gives a run %.2f GB (doc/theory.md (T181)). Refused before the numeric "
+                    "factorization: %s",
+                    s->n, s->info.nnz_L, s->info.flops, need, s->ooc ? "out of core" : "in core",
+                    s->info.bytes_in_core / 1e9, s->info.bytes_out_of_core / 1e9, (sc + reserve) / 1e9, have / 1e9,
+                    limit / 1e9,
+                    !s->ooc && need_ooc + have <= limit ? "linear_solver.out_of_core = true fits"
+                                                        : "a coarser mesh, or a machine with more memory");
+  return MO_OK;
+}
+
+static int direct_factor(petsc_state *s, mo_ctx *ctx)
+{
+  MatFactorInfo fi;
+  MatFactorError fe = MAT_FACTOR_NOERROR;
+  int st, chol = !strcmp(s->pc, "cholesky");
+  double t0;
+  if (!s->F || s->last_new) {
+    if ((st = direct_analyze(s, ctx))) return st;
+    if ((st = direct_memory_check(s, ctx))) return st;
+  }
+  P(MatFactorInfoInitialize(&fi));
+  t0 = mo_clock();
+  if (chol) P(MatCholeskyFactorNumeric(s->F, s->A, &fi));
+  else P(MatLUFactorNumeric(s->F, s->A, &fi));
+  s->info.t_numeric = mo_clock() - t0;
+  P(MatFactorGetError(s->F, &fe));
+  if (fe == MAT_FACTOR_NUMERIC_ZEROPIVOT)
+    return mo_error(ctx, MO_ESINGULAR, "factorization by MUMPS: a zero pivot: the matrix is singular (a body free to "
+                    "move rigidly with zero mass, or a missing support)");
+  if (fe == MAT_FACTOR_OUTMEMORY)
+    return mo_error(ctx, MO_ENOMEM, "factorization by MUMPS: out of memory (INFOG(1) = %g, INFOG(2) = %g)",
+                    infog(s->F, 1), infog(s->F, 2));
+  if (fe != MAT_FACTOR_NOERROR)
+    return mo_error(ctx, MO_EINTERNAL, "factorization by MUMPS failed (INFOG(1) = %g, INFOG(2) = %g)", infog(s->F, 1),
+                    infog(s->F, 2));
+  s->info.nlast = s->schur ? s->nlast : 0;
+  s->info.trailing = s->schur;
+  return MO_OK;
+}
+
+/* G = S^-1 = (A^-1)_CC (nlast x nlast, column-major, both triangles): PETSc inverts MUMPS's Schur
+   complement in place (LAPACK), the later solves multiply by it (T180). */
+static int petsc_schur_inverse(void *state, double *G, mo_ctx *ctx)
+{
+  petsc_state *s = state;
+  Mat S;
+  MatFactorSchurStatus ss;
+  const PetscScalar *a;
+  PetscInt lda, m, nn;
+  int j, n = s->nlast;
+  if (!s->schur || !s->F) return mo_error(ctx, MO_EINTERNAL, "no Schur complement in this factor");
+  P(MatFactorInvertSchurComplement(s->F));
+  P(MatFactorGetSchurComplement(s->F, &S, &ss));
+  P(MatGetSize(S, &m, &nn));
+  if (m != n || nn != n) {
+    MatFactorRestoreSchurComplement(s->F, &S, ss);
+    return mo_error(ctx, MO_EINTERNAL, "MUMPS's Schur complement is %d x %d, not %d x %d", (int)m, (int)nn, n, n);
+  }
+  P(MatDenseGetLDA(S, &lda));
+  P(MatDenseGetArrayRead(S, &a));
+  for (j = 0; j < n; j++) memcpy(G + (size_t)j * n, a + (size_t)j * lda, (size_t)n * sizeof *G);
+  P(MatDenseRestoreArrayRead(S, &a));
+  P(MatFactorRestoreSchurComplement(s->F, &S, ss));
+  for (j = 0; j < n * n; j++)
+    if (!isfinite(G[j])) return mo_error(ctx, MO_ENAN, "the inverse of MUMPS's Schur complement holds a NaN");
+  return MO_OK;
+}
+
+static void petsc_info(const void *state, mo_linsolver_info *out)
+{
+  const petsc_state *s = state;
+  if (!s->direct || !s->F) return;
+  *out = s->info;
+  out->two_solves = s->n_solve ? s->t_solve / s->n_solve : NAN;
 }
 
 static int petsc_factor(void *state, const mo_csc *A, int same, mo_ctx *ctx)
@@ -363,7 +651,7 @@ static int petsc_factor(void *state, const mo_csc *A, int same, mo_ctx *ctx)
   PCFailedReason pf;
   int st;
   if (!s->configured) {
-    mo_linsolver_settings d = {NULL, NULL, NULL, NULL, 0, 0, 0};
+    mo_linsolver_settings d = {NULL, NULL, NULL, NULL, 0, 0, 0, 0, NULL};
     petsc_configure(s, &d, ctx);
   }
   if (s->parts) {
@@ -374,14 +662,14 @@ static int petsc_factor(void *state, const mo_csc *A, int same, mo_ctx *ctx)
     if (!all) {
       drop(s);
       if ((st = make_matrix(s, A, ctx))) return st;
-      if ((st = make_ksp(s, ctx))) return st;
+      if (!s->direct && (st = make_ksp(s, ctx))) return st;
     } else
       P(MatZeroEntries(s->A));
     if ((st = add_parts(s, A, ctx))) return st;
   } else if (!same || !s->A) {
     drop(s);
     if ((st = make_matrix(s, A, ctx))) return st;
-    if ((st = make_ksp(s, ctx))) return st;
+    if (!s->direct && (st = make_ksp(s, ctx))) return st;
   } else {
     /* the same pattern: new values in the rows this rank owns (PETSc keeps the symbolic
        factorization of a matrix whose nonzero pattern did not change) */
@@ -406,6 +694,7 @@ static int petsc_factor(void *state, const mo_csc *A, int same, mo_ctx *ctx)
   }
   P(MatAssemblyBegin(s->A, MAT_FINAL_ASSEMBLY));
   P(MatAssemblyEnd(s->A, MAT_FINAL_ASSEMBLY));
+  if (s->direct) return direct_factor(s, ctx);
   P(KSPSetOperators(s->ksp_obj, s->A, s->A));
   /* the factorization (or the preconditioner's set-up) now, where the stepper times it */
   P(KSPSetUp(s->ksp_obj));
@@ -428,13 +717,20 @@ static int solve_one(petsc_state *s, const double *b, double *x, mo_ctx *ctx)
   P(VecGetArray(s->b, &pb));
   memcpy(pb, b + s->rstart, (size_t)(s->rend - s->rstart) * sizeof *pb);
   P(VecRestoreArray(s->b, &pb));
-  P(KSPSolve(s->ksp_obj, s->b, s->x));
-  P(KSPGetConvergedReason(s->ksp_obj, &why));
-  if (why < 0)
-    return mo_error(ctx, MO_ENOCONV, "the PETSc solve (%s, %s) did not converge: %s", s->ksp, s->pc,
-                    KSPConvergedReasons[why]);
-  P(KSPGetIterationNumber(s->ksp_obj, &its));
-  s->iterations += its;
+  if (s->direct) {
+    double t0 = mo_clock();
+    P(MatSolve(s->F, s->b, s->x));
+    s->t_solve += mo_clock() - t0;
+    s->n_solve++;
+  } else {
+    P(KSPSolve(s->ksp_obj, s->b, s->x));
+    P(KSPGetConvergedReason(s->ksp_obj, &why));
+    if (why < 0)
+      return mo_error(ctx, MO_ENOCONV, "the PETSc solve (%s, %s) did not converge: %s", s->ksp, s->pc,
+                      KSPConvergedReasons[why]);
+    P(KSPGetIterationNumber(s->ksp_obj, &its));
+    s->iterations += its;
+  }
   P(VecScatterBegin(s->toall, s->x, s->xall, INSERT_VALUES, SCATTER_FORWARD));
   P(VecScatterEnd(s->toall, s->x, s->xall, INSERT_VALUES, SCATTER_FORWARD));
   P(VecGetArrayRead(s->xall, &px));
@@ -452,15 +748,18 @@ static int solve_block(petsc_state *s, int nrhs, const double *B, double *X, mo_
   const PetscScalar *px;
   int nloc = s->rend - s->rstart, k, r, *cnt = NULL, st = MO_OK;
   double *mine = NULL, *all = NULL;
-  KSPConvergedReason why;
+  KSPConvergedReason why = KSP_CONVERGED_ITS;
   P(MatCreateDense(PETSC_COMM_WORLD, nloc, PETSC_DECIDE, s->n, nrhs, NULL, &Bm));
   P(MatCreateDense(PETSC_COMM_WORLD, nloc, PETSC_DECIDE, s->n, nrhs, NULL, &Xm));
   P(MatDenseGetArray(Bm, &pb));
   for (k = 0; k < nrhs; k++)
     memcpy(pb + (size_t)k * nloc, B + (size_t)k * s->n + s->rstart, (size_t)nloc * sizeof *pb);
   P(MatDenseRestoreArray(Bm, &pb));
-  P(KSPMatSolve(s->ksp_obj, Bm, Xm));
-  P(KSPGetConvergedReason(s->ksp_obj, &why));
+  if (s->direct) P(MatMatSolve(s->F, Bm, Xm));
+  else {
+    P(KSPMatSolve(s->ksp_obj, Bm, Xm));
+    P(KSPGetConvergedReason(s->ksp_obj, &why));
+  }
   if (why < 0) {
     MatDestroy(&Bm);
     MatDestroy(&Xm);
@@ -517,11 +816,14 @@ static void petsc_free(void *state)
 {
   petsc_state *s = state;
   drop(s);
+  ooc_remove(s);
   mo_csc_free(s->At);
+  mo_free(s->last);
 }
 
 static const mo_linsolver_type petsc_type = {"petsc", 0, sizeof(petsc_state), petsc_factor, petsc_solve,
-                                             petsc_free, petsc_configure, NULL, NULL, NULL, NULL};
+                                             petsc_free, petsc_configure, petsc_set_last, NULL,
+                                             petsc_schur_inverse, petsc_info};
 
 /* --- a matrix assembled from element blocks (doc/parallel.md §3) -------------------------------- */
 

@@ -14,7 +14,7 @@
 #include <moreau/sparse.h>
 
 /* Raised whenever a member changes meaning or position. */
-#define MO_PETSC_ABI 3
+#define MO_PETSC_ABI 4
 #define MO_PETSC_SYMBOL "mo_petsc_module_v1"
 #define MO_PETSC_MODULE_NAME "moreau_petsc.so"
 
@@ -26,6 +26,10 @@ typedef struct mo_petsc_host {
   int (*csc_transpose)(const mo_csc *A, mo_csc **AT, mo_ctx *ctx);
   void (*csc_free)(mo_csc *A);
   double (*clock)(void);
+  /* the memory check before MUMPS's numeric factorization (doc/theory.md (T181)) */
+  double (*memory_rss)(void);
+  double (*memory_limit)(void);
+  void (*log)(const mo_ctx *ctx, int level, const char *fmt, ...);
 } mo_petsc_host;
 
 typedef struct mo_petsc_module {

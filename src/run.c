@@ -792,6 +792,12 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
         json_object_set_new(ls, "bytes_before_factor", jnum(I.bytes_before));
         json_object_set_new(ls, "bytes_limit", jnum(I.bytes_limit));
         if (I.bytes_trailing > 0) json_object_set_new(ls, "bytes_contact_last_refused", jnum(I.bytes_trailing));
+        if (I.bytes_in_core > 0) {
+          /* MUMPS's own estimates (doc/theory.md (T181)) */
+          json_object_set_new(ls, "bytes_mumps_in_core", jnum(I.bytes_in_core));
+          json_object_set_new(ls, "bytes_mumps_out_of_core", jnum(I.bytes_out_of_core));
+          json_object_set_new(ls, "out_of_core", json_boolean(I.out_of_core));
+        }
       }
     }
     json_object_set_new(root, "linear_solver", ls);

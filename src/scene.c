@@ -789,6 +789,22 @@ static int petsc_name(const char *v)
   return 1;
 }
 
+/* linear_solver.out_of_core and ooc_dir: MUMPS's factor on disk (doc/theory.md (T182)), with
+   PETSc's direct factorization by MUMPS only. */
+static int build_out_of_core(mo_linear_settings *L, const mo_case *cs, const config_setting_t *lg, mo_ctx *ctx)
+{
+  const config_setting_t *o = mo_cfg_member(lg, "out_of_core"), *d = mo_cfg_member(lg, "ooc_dir");
+  L->out_of_core = mo_cfg_bool(lg, "out_of_core", 0);
+  snprintf(L->ooc_dir, sizeof L->ooc_dir, "%s", mo_cfg_string(lg, "ooc_dir", ""));
+  if (d && !L->ooc_dir[0]) return mo_case_error(cs, d, ctx, "is empty (a folder, or leave the key out: TMPDIR)");
+  if (d && !L->out_of_core) return mo_case_error(cs, d, ctx, "is used with linear_solver.out_of_core = true only");
+  if (L->out_of_core && (!L->petsc || strcmp(L->ksp, "preonly") || strcmp(L->package, "mumps") ||
+                         (strcmp(L->pc, "cholesky") && strcmp(L->pc, "lu"))))
+    return mo_case_error(cs, o, ctx, "needs MUMPS's factorization: linear_solver.type = \"petsc\" with ksp \"preonly\", "
+                         "pc \"cholesky\" or \"lu\" and package \"mumps\"");
+  return MO_OK;
+}
+
 /* linear_solver: CHOLMOD, or PETSc over the MPI ranks; under mpirun with more than one rank the
    default is PETSc (a CHOLMOD factorization on every rank would repeat the same work). */
 static int build_linear(mo_scene *sc, const mo_case *cs, mo_ctx *ctx)
@@ -798,6 +814,7 @@ static int build_linear(mo_scene *sc, const mo_case *cs, mo_ctx *ctx)
   static const char *const names[] = {"ksp", "pc", "package"};
   char *dest[3];
   size_t k;
+  int st;
   L->petsc = t ? !strcmp(mo_cfg_string(lg, "type", "cholmod"), "petsc") : ctx->nranks > 1;
   dest[0] = L->ksp;
   dest[1] = L->pc;
@@ -813,6 +830,7 @@ static int build_linear(mo_scene *sc, const mo_case *cs, mo_ctx *ctx)
   }
   L->rtol = mo_cfg_float(lg, "rtol", 1e-10);
   snprintf(L->options, sizeof L->options, "%s", mo_cfg_string(lg, "options", ""));
+  if ((st = build_out_of_core(L, cs, lg, ctx))) return st;
   if (L->petsc && !mo_parallel_available())
     return mo_case_error(cs, t ? t : lg, ctx, "asks for PETSc, and this build of moreau has none: configure it "
                          "--with-petsc (Debian: apt-get install petsc-dev openmpi-bin)");

@@ -166,6 +166,8 @@ static const mo_key core_keys[] = {
   {"linear_solver.package", K_STRING, NULL, NONE, 0, "\"mumps\"", "petsc with pc cholesky or lu: the factorization package (mumps, superlu_dist, petsc).", NULL},
   {"linear_solver.rtol", K_FLOAT, NULL, R(0, 1, 1, 1), 0, "1e-10", "petsc with an iterative ksp: the relative tolerance of each solve.", "a relative tolerance lies in (0, 1)"},
   {"linear_solver.options", K_STRING, NULL, NONE, 0, "\"\"", "petsc: PETSc options passed through, e.g. \"-pc_gamg_threshold 0.05 -ksp_norm_type unpreconditioned\".", NULL},
+  {"linear_solver.out_of_core", K_BOOL, NULL, NONE, 0, "false", "petsc with ksp preonly, pc cholesky or lu and package mumps: MUMPS keeps the factor on disk (ICNTL(22)), in a folder of the run's own removed at its end; the memory needed is MUMPS's out-of-core estimate (doc/theory.md (T181)-(T182)).", NULL},
+  {"linear_solver.ooc_dir", K_STRING, NULL, NONE, 0, "TMPDIR, else /tmp", "with out_of_core: where the folder of the factor's files is made.", NULL},
   {"output", K_GROUP, NULL, NONE, 0, NULL, "What is written.", NULL},
   {"output.every", K_INT, NULL, R(1, U, 0, 0), 0, "1", "Write a history row every N steps (the first and last steps are always written).", NULL},
   {"output.precision", K_INT, NULL, R(3, 17, 0, 0), 0, "10", "Significant digits in CSV files.", NULL},

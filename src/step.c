@@ -434,6 +434,8 @@ static int new_solver(const mo_scene *sc, mo_linsolver **ls, mo_ctx *ctx)
   set.rtol = L->rtol;
   set.spd = 1;
   set.parts = sc->kpart;
+  set.out_of_core = L->out_of_core;
+  set.ooc_dir = L->ooc_dir[0] ? L->ooc_dir : NULL;
   if ((st = mo_linsolver_create(T, ls, ctx))) return st;
   return mo_linsolver_configure(*ls, &set, ctx);
 }
@@ -1031,7 +1033,8 @@ int mo_stepper_predict(mo_stepper *S, const mo_state *s, double *x, mo_ctx *ctx)
 
 int mo_stepper_split_ready(const mo_stepper *S)
 {
-  return S->ls && !S->nl && S->nlast > 0 && mo_linsolver_nlast(S->ls) == S->nlast;
+  /* MUMPS's Schur path orders the contact dofs last without the split solves (T180) */
+  return S->ls && !S->nl && S->nlast > 0 && mo_linsolver_nlast(S->ls) == S->nlast && mo_linsolver_has_split(S->ls);
 }
 
 int mo_stepper_split_covers(const mo_stepper *S, const mo_csc *H)

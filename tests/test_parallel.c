@@ -84,7 +84,7 @@ static void solver_checks(mo_ctx *ctx, const char *ksp, const char *pc, double t
   double *B = malloc(sizeof(double) * n * nrhs), *X = malloc(sizeof(double) * n * nrhs),
          *Y = malloc(sizeof(double) * n * nrhs);
   mo_linsolver *chol = NULL, *ps = NULL;
-  mo_linsolver_settings set = {ksp, pc, "mumps", "", 1e-13, 1, parts};
+  mo_linsolver_settings set = {ksp, pc, "mumps", "", 1e-13, 1, parts, 0, NULL};
   long nf = 0, ns = 0;
   const char *how = parts ? " (parts)" : "";
   if (parts) {

@@ -218,6 +218,8 @@ typedef struct {
   int petsc;                  /* 1: PETSc's KSP over the MPI ranks; 0: CHOLMOD */
   char ksp[32], pc[32], package[32], options[1024];
   double rtol;
+  int out_of_core;            /* MUMPS's factor on disk (doc/theory.md (T182)) */
+  char ooc_dir[512];          /* where its folder is made ("": TMPDIR, else /tmp) */
 } mo_linear_settings;
 
 typedef struct mo_scene {

@@ -82,6 +82,10 @@ typedef struct mo_linsolver_settings {
   /* over MPI ranks: the matrix each rank factors is its part, the matrix solved the sum of the
      ranks' parts (K and M in parts: mo_scene's kpart); the types of one process ignore it */
   int parts;
+  /* MUMPS (ksp preonly, pc cholesky or lu): its factor on disk (ICNTL(22)) in a private folder
+     made under ooc_dir (NULL: TMPDIR, else /tmp) and removed with the solver (doc/theory.md (T182)) */
+  int out_of_core;
+  const char *ooc_dir;
 } mo_linsolver_settings;
 /* The split solves of a factor P A P^T = L L^T whose trailing rows are the ones ordered last
    (mo_linsolver_set_last), with L = [L11 0; L21 L22] (doc/theory.md (T150)-(T153)):
@@ -112,6 +116,10 @@ typedef struct mo_linsolver_info {
   const char *ordering;  /* "amd", "metis", ...: of the rows not ordered last */
   int nlast, trailing;   /* rows ordered last, and whether the factor holds them as its trailing block */
   int supernodal, long_indices;
+  /* MUMPS: its own estimates of the memory of the whole factorization in core (INFOG(17)) and
+     out of core (INFOG(27)), and whether the factor is on disk (doc/theory.md (T181)) */
+  double bytes_in_core, bytes_out_of_core;
+  int out_of_core;
 } mo_linsolver_info;
 
 typedef struct mo_linsolver_type {
@@ -165,6 +173,9 @@ int mo_linsolver_set_last(mo_linsolver *S, int nlast, const int *last, double re
 /* The rows the factor holds as its trailing block (0: none, the split solves do not apply). */
 int mo_linsolver_nlast(const mo_linsolver *S);
 int mo_linsolver_split(mo_linsolver *S, mo_split_op op, const double *in, double *out, mo_ctx *ctx);
+/* Whether the type has the split solves: MUMPS's Schur path has the trailing block's inverse
+   (mo_linsolver_schur_inverse) but not them, its steps take whole solves (doc/theory.md (T180)). */
+int mo_linsolver_has_split(const mo_linsolver *S);
 int mo_linsolver_schur_inverse(mo_linsolver *S, double *G, mo_ctx *ctx);
 void mo_linsolver_info_get(const mo_linsolver *S, mo_linsolver_info *I);
 
