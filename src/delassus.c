@@ -32,6 +32,8 @@ struct mo_delassus {
   double *y;        /* nfe: the forward solve of a correction on the trailing block (T153) */
   int schur;        /* the last build came from the factor's trailing block (T151) */
   double *nn;       /* d > 1: W_ab,nn of every block in val's order (T164), or NULL */
+  double *nt;       /* d > 1: W_ab,tn (d - 1 a block) in val's order, the rest of the normal
+                       column (T176), or NULL */
 };
 
 int mo_delassus_create(mo_delassus **out, mo_ctx *ctx)
@@ -52,8 +54,9 @@ static void clear(mo_delassus *D)
   mo_free(D->fecol);
   mo_free(D->y);
   mo_free(D->nn);
+  mo_free(D->nt);
   D->rowp = D->colb = D->fecol = NULL;
-  D->val = D->C = D->work = D->y = D->nn = NULL;
+  D->val = D->C = D->work = D->y = D->nn = D->nt = NULL;
   D->built = 0;
   D->schur = 0;
 }
@@ -541,17 +544,28 @@ done:
   return st;
 }
 
-/* The normal entry of every block, contiguous (T164): the passes of frictionless solves over W_nn
-   read one double a block instead of one in d^2 (72 bytes apart in 3D). */
+/* The normal column of every block, contiguous: its normal entry (T164) and its tangential ones
+   (T176). The passes of frictionless solves over W_nn read one double a block instead of one in
+   d^2 (72 bytes apart in 3D), and W r with r_t = 0 (mo_delassus_mult) d doubles a block in two
+   streams instead of touching every byte of W. */
 static int keep_normal(mo_delassus *D, mo_ctx *ctx)
 {
-  const size_t dd = (size_t)D->d * (size_t)D->d;
+  const int d = D->d;
+  const size_t dd = (size_t)d * (size_t)d;
   long p;
+  int i;
   mo_free(D->nn);
-  D->nn = NULL;
-  if (D->d == 1) return MO_OK;
-  if (!(D->nn = mo_malloc(ctx, ((size_t)D->nblocks + 1) * sizeof *D->nn))) return MO_ENOMEM;
-  for (p = 0; p < D->nblocks; p++) D->nn[p] = D->val[(size_t)p * dd];
+  mo_free(D->nt);
+  D->nn = D->nt = NULL;
+  if (d == 1) return MO_OK;
+  if (!(D->nn = mo_malloc(ctx, ((size_t)D->nblocks + 1) * sizeof *D->nn)) ||
+      !(D->nt = mo_malloc(ctx, ((size_t)D->nblocks * (size_t)(d - 1) + 1) * sizeof *D->nt)))
+    return MO_ENOMEM;
+  for (p = 0; p < D->nblocks; p++) {
+    const double *blk = D->val + (size_t)p * dd;
+    D->nn[p] = blk[0];
+    for (i = 1; i < d; i++) D->nt[(size_t)p * (size_t)(d - 1) + (size_t)(i - 1)] = blk[i * d];
+  }
   return MO_OK;
 }
 
@@ -629,6 +643,22 @@ int mo_delassus_row(const mo_delassus *D, int a, const int **beta, const double 
   return D->rowp[a + 1] - D->rowp[a];
 }
 
+/* y = W x + beta y for x with no tangential component, from the normal column's copies (T176). */
+static void mult_normal_column(const mo_delassus *D, const double *x, double beta, double *y)
+{
+  const int d = D->d;
+  int a, p, i;
+  for (a = 0; a < D->nb; a++) {
+    double acc[3] = {0, 0, 0};
+    for (p = D->rowp[a]; p < D->rowp[a + 1]; p++) {
+      const double xb = x[D->colb[p] * d], *t = D->nt + (size_t)p * (size_t)(d - 1);
+      acc[0] += D->nn[p] * xb;
+      for (i = 1; i < d; i++) acc[i] += t[i - 1] * xb;
+    }
+    for (i = 0; i < d; i++) y[a * d + i] = acc[i] + (beta == 0 ? 0 : beta * y[a * d + i]);
+  }
+}
+
 /* y = W x + beta y for block size d (a constant where the caller below passes one: the loops over
    a block unrolled, the same sums in the same order) */
 static inline __attribute__((always_inline)) void mult_blocks(const mo_delassus *D, const double *x, double beta,
@@ -636,9 +666,14 @@ static inline __attribute__((always_inline)) void mult_blocks(const mo_delassus 
 {
   int a, p, i, j, nonly = d > 1;
   /* x without tangential components (frictionless contacts' impulses): the normal column of each
-     block alone, a third of the reads in 3D and the same sums (the skipped terms are zeros) (T160) */
+     block alone, a third of the reads in 3D and the same sums (the skipped terms are zeros) (T160),
+     read from its contiguous copy (T176): the same sums in the same order */
   for (a = 0; a < D->nb && nonly; a++)
     for (i = 1; i < d; i++) nonly &= x[a * d + i] == 0;
+  if (nonly && D->nn && D->nt) {
+    mult_normal_column(D, x, beta, y);
+    return;
+  }
   for (a = 0; a < D->nb; a++) {
     double acc[3] = {0, 0, 0};
     for (p = D->rowp[a]; p < D->rowp[a + 1]; p++) {

@@ -57,4 +57,37 @@ for pair in "lapack cholmod" "lapack reduced"; do
   ok $(/usr/bin/python3 -c "import sys; sys.exit(0 if float('$w') < 1e-12 else 1)"; echo $?) \
     "$1 = $2: reactions and displacements to $w (< 1e-12)"
 done
+
+# Without friction levelset's velocities read W's normal entries alone (doc/theory.md (T175),
+# (T176)); the KKT path forms no W product (U' = q + H^T dv) and is the reference: the same
+# reactions and displacements to 1e-12, concentrated and weighted reactions; with mu = 0.3 the
+# reduced path reads the whole blocks (friction) and is compared the same way
+runp() { # LABEL ARGS...: one run into $OUT/LABEL with --set ARGS
+  label=$1
+  shift
+  "$MOREAU" run "$OUT/box.cfg" --out "$OUT/$label" --quiet "$@" 2>"$OUT/err"
+  ok $? "box runs ($label) $(head -c 200 "$OUT/err")"
+}
+cmpall() {
+  /usr/bin/python3 - "$OUT/$1/contact.csv" "$OUT/$2/contact.csv" <<'PY'
+import csv, sys
+a = list(csv.DictReader(open(sys.argv[1]))); b = list(csv.DictReader(open(sys.argv[2])))
+assert len(a) == len(b) == 25, (len(a), len(b))
+worst = 0.0
+for key in ("RN", "RT", "RS", "D1", "D2"):
+    scale = max(abs(float(r[key])) for r in b) or 1.0
+    worst = max(worst, max(abs(float(x[key]) - float(y[key])) / scale for x, y in zip(a, b)))
+print("%.3e" % worst)
+PY
+}
+for re in concentrated weighted; do
+  for mu in 0.0 0.3; do
+    runp "n-$re-$mu" --set contact.reactions=$re --set contact.pairs.base.mu=$mu
+    runp "k-$re-$mu" --set contact.reactions=$re --set contact.pairs.base.mu=$mu --set 'contact.levelset.path="kkt"'
+    is "$(json "$OUT/n-$re-$mu/summary.json" "d['contact']['failed_solves']")" 0 "$re, mu = $mu: no failed solve"
+    w=$(cmpall "n-$re-$mu" "k-$re-$mu")
+    ok $(/usr/bin/python3 -c "import sys; sys.exit(0 if float('$w') < 1e-12 else 1)"; echo $?) \
+      "$re reactions, mu = $mu: the reduced path ($([ $mu = 0.0 ] && echo "W's normal column" || echo "W's whole blocks")) = the KKT path: reactions and displacements to $w (< 1e-12)"
+  done
+done
 done_testing

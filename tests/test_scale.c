@@ -79,6 +79,34 @@ static int scene_open(scene *X, const char *name, const char *text)
   return st;
 }
 
+/* W r + beta y (mo_delassus_mult) against the dense product with W by one solve per column (Wd):
+   r without tangential components (frictionless impulses: the normal column's contiguous copies,
+   T176) and r in full (friction: every entry of the blocks), beta 0 and 1. */
+static void check_mult(const char *name, const mo_delassus *D, const double *Wd, const double *r, int m, int d)
+{
+  double *x = malloc((size_t)m * sizeof *x), *y = malloc((size_t)m * sizeof *y), *ref = malloc((size_t)m * sizeof *ref);
+  int pass, i, j;
+  for (pass = 0; pass < 2 * (d > 1 ? 2 : 1); pass++) {
+    const int nonly = d > 1 && pass < 2, beta = pass % 2;
+    double ymax, dy;
+    for (i = 0; i < m; i++) x[i] = nonly && i % d ? 0 : r[i];
+    for (i = 0; i < m; i++) {
+      double acc = 0;
+      for (j = 0; j < m; j++) acc += Wd[(size_t)i * m + j] * x[j];
+      y[i] = 0.5 + 0.25 * r[(i + 1) % m];
+      ref[i] = acc + beta * y[i];
+    }
+    mo_delassus_mult(D, x, beta, y);
+    ymax = max_abs(ref, (size_t)m);
+    dy = max_diff(ref, y, (size_t)m);
+    ok(ymax > 0 && dy <= 1e-12 * ymax, "%s: W r + %d y (%s) equals the dense product: max difference %.2e of %.3e",
+       name, beta, d == 1 ? "1D" : nonly ? "r_t = 0: the normal column's copies" : "r_t != 0: the whole blocks", dy, ymax);
+  }
+  free(x);
+  free(y);
+  free(ref);
+}
+
 /* W (the solve per column) against W (the trailing block), the correction What^-1 H r, and the
    split step against predict + correct, on the scene `text`. schur: whether the new path must
    be taken (0 for scenes whose contact rows change, where both are the old path). */
@@ -134,6 +162,7 @@ static void check_scene(const char *name, const char *text, int schur)
   /* the correction What^-1 H r for a random r */
   r = malloc((size_t)m * sizeof *r);
   for (i = 0; i < m; i++) r[i] = rnd(&seed);
+  check_mult(name, X.D[1], W[0], r, m, d);
   for (k = 0; k < 2; k++) {
     dx[k] = calloc((size_t)n + 1, sizeof *dx[k]);
     if (mo_delassus_apply_Cinv(X.D[k], H, mo_stepper_inverse(X.S[k]), r, dx[k], &X.ctx)) {

@@ -682,10 +682,44 @@ static void sign_tolerances(const ls_state *L, int d, int dt, double rho_n, doub
   *tol_f = L->stol * (fsc + rho_t * vsc) + L->par.threshold_tol * fsc;
 }
 
-/* U' = W r + q (Schur) or q + H^T dv (KKT) over every candidate, and its magnitudes. */
-static void full_velocity(ls_state *L, const mo_contact_problem *P, int kkt)
+/* U'_n = W_nn r_n + q_n alone over every candidate, 1 when it applies (T175): without friction (mu
+   = 0 on every candidate) and without tangential impulses the sign tests read U'_n and its
+   magnitude only (S_v, tol_v; S_f and the tangential scales are not formed, the damped loop and
+   the smoother need friction), so that W's normal entries, contiguous (T164), replace a pass over
+   every d x d block (9 times the bytes in 3D). The sums are those of mo_delassus_mult in the same
+   order (the same bits); the tangential components hold q_t, finite but not W r + q: tangential
+   says whether they are needed exact (the outputs when the core does not measure U itself). */
+static int normal_velocity(ls_state *L, const mo_contact_problem *P, int tangential)
+{
+  const int d = L->d, nc = L->nc;
+  int j, t, p;
+  if (d == 1 || L->friction || tangential || L->eps > 0) return 0;
+  for (j = 0; j < L->m; j++)
+    if (j % d && L->r[j] != 0) return 0;
+  for (j = 0; j < nc; j++) {
+    const int *beta;
+    const double *wn;
+    int n = mo_delassus_row_normal(P->W, j, &beta, &wn);
+    double acc = 0;
+    if (!wn) return 0; /* (only the first row can find none: W keeps them for every row or none) */
+    for (p = 0; p < n; p++) acc += wn[p] * L->r[beta[p] * d];
+    L->U[j * d] = acc + L->b[j * d];
+    L->Umag[j * d] = fabs(L->b[j * d]) + fabs(L->U[j * d] - L->b[j * d]);
+    for (t = 1; t < d; t++) {
+      L->U[j * d + t] = L->b[j * d + t];
+      L->Umag[j * d + t] = fabs(L->b[j * d + t]);
+    }
+  }
+  L->u_partial = 0;
+  return 1;
+}
+
+/* U' = W r + q (Schur) or q + H^T dv (KKT) over every candidate, and its magnitudes (without
+   friction the normal components alone, normal_velocity, unless tangential). */
+static void full_velocity_t(ls_state *L, const mo_contact_problem *P, int kkt, int tangential)
 {
   int j, m = L->m;
+  if (!kkt && normal_velocity(L, P, tangential)) return;
   memcpy(L->U, L->b, (size_t)m * sizeof(double));
   if (kkt) mo_csc_gatxpy(P->H, 1, L->dv, 1, L->U);
   else {
@@ -697,6 +731,8 @@ static void full_velocity(ls_state *L, const mo_contact_problem *P, int kkt)
   for (j = 0; j < m; j++) L->Umag[j] = fabs(L->b[j]) + fabs(L->U[j] - L->b[j]);
   L->u_partial = 0;
 }
+
+static void full_velocity(ls_state *L, const mo_contact_problem *P, int kkt) { full_velocity_t(L, P, kkt, 0); }
 
 /* The proximal term of this solve (T136): eps, D = the diagonal of W, the center r_c = the
    previous impulses, q_eff. With proximal = 0 the term is off unless redundancy asks for it
@@ -1717,7 +1753,7 @@ static void write_solution(ls_state *L, ls_pass *Q, mo_contact_vars *x)
   if (!P->u_measured && !(L->u_partial && L->S.nC == nc && L->S.nr == d && !(L->eps > 0))) {
     L->b = P->b;
     L->eps = 0;
-    full_velocity(L, P, Q->kkt);
+    full_velocity_t(L, P, Q->kkt, 1); /* every component: no measure of the core follows */
   }
   L->b = P->b;
   L->eps = 0;

@@ -80,7 +80,7 @@ static void nscd_free(void *state)
   mo_free(S->mu);
   mo_free(S->rng_state);
   mo_free(S->sprev);
-  mo_free(S->wn);
+  mo_free(S->wnown);
   mo_free(S->wnc);
   mo_free(S->wnp);
   nscd_status_cache_free(S);
@@ -194,6 +194,25 @@ void nscd_prepare_local(nscd_state *S, const mo_contact_problem *P)
   }
 }
 
+/* S->wn and wnp from W's own normal entries (T164), 1 when every row has them where nscd reads
+   its row (the whole block row, W's order). */
+static int W_normal_rows(nscd_state *S)
+{
+  const double *w0 = NULL;
+  int a;
+  for (a = 0; a < S->nc; a++) {
+    const int *beta;
+    const double *wa;
+    int n = mo_delassus_row_normal(S->wsrc, a, &beta, &wa);
+    if (!wa || n != S->rcnt[a] || beta != S->rcol[a]) return 0;
+    if (!a) w0 = wa;
+    S->wnp[a] = (size_t)(wa - w0);
+  }
+  S->wnp[S->nc] = S->nc ? S->wnp[S->nc - 1] + (size_t)S->rcnt[S->nc - 1] : 0;
+  S->wn = w0;
+  return 1;
+}
+
 /* Frictionless contacts (T156): the normal entries of W's rows (and of the transposed copy), one
    double per block, for the sweeps on r_n alone. */
 static int prepare_normal(nscd_state *S, mo_ctx *ctx)
@@ -209,19 +228,28 @@ static int prepare_normal(nscd_state *S, mo_ctx *ctx)
     if (!(p = mo_realloc(ctx, S->wnp, ((size_t)nb + 1) * sizeof *S->wnp))) return MO_ENOMEM;
     S->wnp = p;
   }
-  if (nnz + 1 > S->wncap) {
-    if (!(p = mo_realloc(ctx, S->wn, (nnz + 1) * sizeof *S->wn))) return MO_ENOMEM;
-    S->wn = p;
+  S->wnccap = (size_t)nb + 1;
+  if (W_normal_rows(S)) {
+    /* W's own copy of its normal entries (T164): no second one (T178) */
+    mo_free(S->wnown);
+    S->wnown = NULL;
+  } else {
+    if (nnz + 1 > S->wncap || !S->wnown) {
+      if (!(p = mo_realloc(ctx, S->wnown, (nnz + 1) * sizeof *S->wnown))) return MO_ENOMEM;
+      S->wnown = p;
+      S->wncap = nnz + 1;
+    }
+    for (a = 0; a < nb; a++) {
+      S->wnp[a] = q;
+      for (k = 0; k < S->rcnt[a]; k++) S->wnown[q++] = S->rval[a][(size_t)k * dd];
+    }
+    S->wnp[nb] = q;
+    S->wn = S->wnown;
+  }
+  if (!S->sym) {
     if (!(p = mo_realloc(ctx, S->wnc, (nnz + 1) * sizeof *S->wnc))) return MO_ENOMEM;
     S->wnc = p;
-    S->wncap = nnz + 1;
   }
-  S->wnccap = (size_t)nb + 1;
-  for (a = 0; a < nb; a++) {
-    S->wnp[a] = q;
-    for (k = 0; k < S->rcnt[a]; k++) S->wn[q++] = S->rval[a][(size_t)k * dd];
-  }
-  S->wnp[nb] = q;
   if (!S->sym)
     for (q = 0; q < (size_t)S->cp[nb]; q++) S->wnc[q] = S->cv[q * dd]; /* W_ba,nn of the transposed blocks */
   return MO_OK;

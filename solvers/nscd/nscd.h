@@ -139,11 +139,13 @@ typedef struct {
   int accel_tries;
   nscd_params lp;               /* the parameters the local solvers see in this sweep */
   /* frictionless contacts in 2D or 3D (every mu = 0): a sweep needs the normal entries W_ab,nn
-     only, one double per block instead of d^2, copied out of the rows (wn, row a from wnp[a]) and,
-     for a W that is not symmetric, out of the transposed copy (wnc, parallel to cb); U_t is then
-     left out of the sweeps and made exact after them (doc/theory.md (T156)) */
+     only, one double per block instead of d^2, read from W's own contiguous copy (wn, row a from
+     wnp[a]; T164, T178) or else copied out of the rows (into wnown) and, for a W that is not
+     symmetric, out of the transposed copy (wnc, parallel to cb); U_t is then left out of the
+     sweeps and made exact after them (doc/theory.md (T156)) */
   int nonly, u_full;             /* u_full: U exact in every component (not only the normal) */
-  double *wn, *wnc;
+  const double *wn;
+  double *wnown, *wnc;
   size_t *wnp;
   size_t wncap, wnccap;
   /* the status-set step's LU (T157), kept while W (its version) and the kinds of the closed

@@ -307,9 +307,21 @@ int nscd_status_step(nscd_state *S, const mo_contact_problem *P, double *r, int 
       sv = mo_malloc(ctx, (size_t)nmax * sizeof *sv);
       if (!rhs || !ipiv || !iw || !w || !sv) { st = MO_ENOMEM; goto done; }
     }
-    /* A x = rhs: R_a (sum_b W_ab E_b x_b + q_a) = 0 over the closed contacts (column-major A) */
+    /* A x = rhs: R_a (sum_b W_ab E_b x_b + q_a) = 0 over the closed contacts (column-major A);
+       without friction A = W_nn over them, read from W's normal entries (T177) */
     memset(A, 0, (size_t)n * (size_t)n * sizeof *A);
-    for (k = 0; k < S->nact; k++) {
+    for (k = 0; k < S->nact && S->nonly; k++) {
+      const double *wn;
+      a = S->act[k];
+      if (kind[a] == K_OPEN) continue;
+      wn = S->wn + S->wnp[a];
+      rhs[off[a]] = -P->b[(size_t)a * d];
+      for (j = 0; j < S->rcnt[a]; j++) {
+        int b = S->rcol[a][j];
+        if (kind[b] != K_OPEN) A[(size_t)off[b] * n + off[a]] = wn[j];
+      }
+    }
+    for (k = 0; k < S->nact && !S->nonly; k++) {
       int nrow, row0;
       a = S->act[k];
       if (kind[a] == K_OPEN) continue;
