@@ -8,7 +8,9 @@
 # STEPS - 1); the element loop of the assembly (the slowest rank's seconds, summary.json
 # parallel.element_seconds: each rank computes the matrices of its block of elements) and the
 # largest peak memory of a rank (GNU time's maximum resident set, when /usr/bin/time is
-# installed: apt-get install time; "-" without it). Strong scaling: the same scene on 1 and NP
+# installed: apt-get install time; "-" without it) and the largest rank's rows of the Delassus
+# build's columns What^-1 H^T over the rows (summary.json parallel.delassus_columns; "-" when the
+# build did not take them: CHOLMOD's contact dofs last). Strong scaling: the same scene on 1 and NP
 # ranks; weak: a scene NP times larger on NP ranks.
 #
 #   bench/mpi_scaling.sh [--np 2] [--steps 11] [--moreau build/moreau] [--out DIR] [SCENE...]
@@ -41,7 +43,7 @@ while [ $# -gt 0 ]; do
   --moreau) moreau=$2; shift ;;
   --out) out=$2; shift ;;
   --assembly) assembly=1 ;;
-  -h|--help) sed -n '2,28p' "$0"; exit 0 ;;
+  -h|--help) sed -n '2,30p' "$0"; exit 0 ;;
   box:*|pile:*) scenes="$scenes $1" ;;
   *) echo "mpi_scaling.sh: unknown argument '$1' (--help)" >&2; exit 2 ;;
   esac
@@ -127,8 +129,8 @@ traffic() { # traffic LOG: messages and bytes sent, point to point and collectiv
               END { printf "%d %d\n", M, B }' "$1.log"
 }
 
-printf '%-10s %5s %-8s %10s %10s %10s %10s %12s %14s %10s %8s %10s\n' scene ranks solver "steps s" "factor s" "W s" "step ms" \
-  "msgs/step" "bytes/step" "setup MB" "elem s" "rank MB"
+printf '%-10s %5s %-8s %10s %10s %10s %10s %12s %14s %10s %8s %10s %12s\n' scene ranks solver "steps s" "factor s" "W s" "step ms" \
+  "msgs/step" "bytes/step" "setup MB" "elem s" "rank MB" "column rows"
 for scene in $scenes; do
   for cfg in "1 cholmod" "1 petsc" "$np petsc"; do
     set -- $cfg
@@ -143,8 +145,10 @@ for scene in $scenes; do
     tfac=$(summary "$out/$name" "d['timings']['factor']")
     tw=$(summary "$out/$name" "d['timings']['delassus']")
     telem=$(summary "$out/$name" "max(d['parallel']['element_seconds'])")
-    printf '%-10s %5s %-8s %10.3f %10.3f %10.3f %10.2f %12.1f %14.0f %10.2f %8.3f %10s\n' "$scene" "$p" "$solver" "$tsteps" "$tfac" "$tw" \
+    # the largest rank's rows of the Delassus columns What^-1 H^T, of the rows (doc/parallel.md §2)
+    crows=$(summary "$out/$name" "(lambda c: '%d/%d' % (c['rows_largest_rank'], c['rows']) if c else '-')(d['parallel'].get('delassus_columns'))")
+    printf '%-10s %5s %-8s %10.3f %10.3f %10.3f %10.2f %12.1f %14.0f %10.2f %8.3f %10s %12s\n' "$scene" "$p" "$solver" "$tsteps" "$tfac" "$tw" \
       "$(awk "BEGIN{print 1e3 * $tsteps / $steps}")" "$(awk "BEGIN{print ($m - $m1) / ($steps - 1)}")" \
-      "$(awk "BEGIN{print ($b - $b1) / ($steps - 1)}")" "$(awk "BEGIN{print $b1 / 1e6}")" "$telem" "$(rss "$out/$name")"
+      "$(awk "BEGIN{print ($b - $b1) / ($steps - 1)}")" "$(awk "BEGIN{print $b1 / 1e6}")" "$telem" "$(rss "$out/$name")" "$crows"
   done
 done

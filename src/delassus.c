@@ -3,6 +3,7 @@
 #include "config.h"
 #include <moreau/contact.h>
 #include "contact_internal.h"
+#include <moreau/parallel.h>
 
 #include <limits.h>
 #include <math.h>
@@ -34,6 +35,10 @@ struct mo_delassus {
   double *nn;       /* d > 1: W_ab,nn of every block in val's order (T164), or NULL */
   double *nt;       /* d > 1: W_ab,tn (d - 1 a block) in val's order, the rest of the normal
                        column (T176), or NULL */
+  int r0, r1;       /* the nodal rows of C this process holds: all (0 .. nfe) but when the solver's
+                       rows are split over the ranks (T210); C is then (r1 - r0) x (d nbf) */
+  int *rcnt;        /* split rows: every rank's row count (nranks), for the correction's gather */
+  double *part;     /* split rows: this rank's rows of a correction */
 };
 
 int mo_delassus_create(mo_delassus **out, mo_ctx *ctx)
@@ -55,8 +60,11 @@ static void clear(mo_delassus *D)
   mo_free(D->y);
   mo_free(D->nn);
   mo_free(D->nt);
-  D->rowp = D->colb = D->fecol = NULL;
-  D->val = D->C = D->work = D->y = D->nn = D->nt = NULL;
+  mo_free(D->rcnt);
+  mo_free(D->part);
+  D->rowp = D->colb = D->fecol = D->rcnt = NULL;
+  D->val = D->C = D->work = D->y = D->nn = D->nt = D->part = NULL;
+  D->r0 = D->r1 = 0;
   D->built = 0;
   D->schur = 0;
 }
@@ -181,17 +189,22 @@ static int rows_compress(rows *R, mo_delassus *D, mo_ctx *ctx)
 static int apply_Cinv(mo_delassus *D, const mo_csc *H, const mo_what_inverse *Wi, const double *r, double *dx,
                       mo_ctx *ctx);
 
-/* The nodal part: c H_a^T What_fe^-1 H_b for the candidates whose columns touch the nodal block
-   (rows 0 .. nfe-1), by chunks of right-hand sides through the factorization; the columns
-   What_fe^-1 H are kept when they fit. */
-static int build_nodal(mo_delassus *D, const mo_csc *H, const mo_what_inverse *Wi, double c, rows *R, mo_ctx *ctx)
+/* The largest rank's nodal rows of the columns What^-1 H over the builds, the rows whole and the
+   columns (summary.json parallel.delassus_columns). */
+static void count_rows(mo_ctx *ctx, double largest, int nfe, int ncols)
 {
-  int nfe = Wi->nfe, d = D->d, nb = D->nb, nbf = 0, a, b, k, p, j0, st = MO_OK;
-  int *fe = NULL;
-  double *B = NULL, *X = NULL;
-  fe = mo_malloc(ctx, ((size_t)nb + 1) * sizeof *fe);
+  if (largest > ctx->par_column_rows) ctx->par_column_rows = (long)largest;
+  ctx->par_column_dofs = nfe;
+  ctx->par_columns = ncols;
+}
+
+/* The candidates whose columns of H touch the nodal rows 0 .. nfe-1: fe[0 .. nbf-1], and each
+   candidate's place among them in D->fecol (-1: none). */
+static int touching(mo_delassus *D, const mo_csc *H, int nfe, int *fe, mo_ctx *ctx)
+{
+  int d = D->d, nb = D->nb, nbf = 0, a, k, p;
   D->fecol = mo_malloc(ctx, ((size_t)nb + 1) * sizeof *D->fecol);
-  if (!fe || !D->fecol) { st = MO_ENOMEM; goto done; }
+  if (!D->fecol) return MO_ENOMEM;
   for (a = 0; a < nb; a++) {
     int touch = 0;
     for (k = a * d; k < a * d + d && !touch; k++)
@@ -200,6 +213,23 @@ static int build_nodal(mo_delassus *D, const mo_csc *H, const mo_what_inverse *W
     if (touch) fe[nbf++] = a;
   }
   D->nbf = nbf;
+  return MO_OK;
+}
+
+/* The nodal part: c H_a^T What_fe^-1 H_b for the candidates whose columns touch the nodal block
+   (rows 0 .. nfe-1), by chunks of right-hand sides through the factorization; the columns
+   What_fe^-1 H are kept when they fit. */
+static int build_nodal(mo_delassus *D, const mo_csc *H, const mo_what_inverse *Wi, double c, rows *R, mo_ctx *ctx)
+{
+  int nfe = Wi->nfe, d = D->d, nb = D->nb, nbf, a, b, k, p, j0, st = MO_OK;
+  int *fe = NULL;
+  double *B = NULL, *X = NULL;
+  fe = mo_malloc(ctx, ((size_t)nb + 1) * sizeof *fe);
+  if (!fe) { st = MO_ENOMEM; goto done; }
+  if ((st = touching(D, H, nfe, fe, ctx))) goto done;
+  nbf = D->nbf;
+  D->r1 = nfe;
+  count_rows(ctx, nfe, nfe, nbf * d);
   if (!nbf || !nfe) goto done;
   B = mo_calloc(ctx, (size_t)nfe * MO_CHUNK + 1, sizeof(double));
   X = mo_malloc(ctx, ((size_t)nfe * MO_CHUNK + 1) * sizeof(double));
@@ -246,6 +276,97 @@ done:
   mo_free(fe);
   mo_free(B);
   mo_free(X);
+  return st;
+}
+
+/* The nodal part when the solver's rows are split over the ranks (doc/theory.md (T210)-(T212)):
+   each rank solves for and keeps its rows r0 .. r1-1 of the columns X = What_fe^-1 H (no rank
+   holds them whole), takes its rows' share of c H_a^T X and one sum over the ranks a chunk
+   completes the chunk's blocks of W (T211), the same on every rank. */
+static int build_nodal_rows(mo_delassus *D, const mo_csc *H, const mo_what_inverse *Wi, double c, rows *R, int r0,
+                            int r1, mo_ctx *ctx)
+{
+  int nfe = Wi->nfe, d = D->d, nb = D->nb, nloc = r1 - r0, nbf, mb, a, b, k, p, j0, q0, q1, i, st = MO_OK;
+  int *fe = NULL;
+  double *B = NULL, *X = NULL, *Wp = NULL, *cnt = NULL, largest = 0, total = 0;
+  fe = mo_malloc(ctx, ((size_t)nb + 1) * sizeof *fe);
+  cnt = mo_calloc(ctx, (size_t)ctx->nranks, sizeof *cnt);
+  D->rcnt = mo_malloc(ctx, (size_t)ctx->nranks * sizeof *D->rcnt);
+  D->part = mo_malloc(ctx, ((size_t)nloc + 1) * sizeof *D->part);
+  if (!fe || !cnt || !D->rcnt || !D->part) { st = MO_ENOMEM; goto done; }
+  /* every rank's rows: the correction's gather (T212) and the count of summary.json */
+  cnt[ctx->rank] = nloc;
+  if ((st = mo_par_sum(cnt, ctx->nranks, ctx))) goto done;
+  for (i = 0; i < ctx->nranks; i++) {
+    D->rcnt[i] = (int)cnt[i];
+    total += cnt[i];
+    if (cnt[i] > largest) largest = cnt[i];
+  }
+  if (total != nfe) { st = mo_error(ctx, MO_EINTERNAL, "Delassus: the ranks' rows sum to %.0f of %d", total, nfe); goto done; }
+  D->r0 = r0;
+  D->r1 = r1;
+  if ((st = touching(D, H, nfe, fe, ctx))) goto done;
+  nbf = D->nbf;
+  mb = nbf * d;
+  count_rows(ctx, largest, nfe, mb);
+  if (!nbf) goto done;
+  B = mo_calloc(ctx, (size_t)nloc * MO_CHUNK + 1, sizeof *B);
+  X = mo_malloc(ctx, ((size_t)nloc * MO_CHUNK + 1) * sizeof *X);
+  Wp = mo_malloc(ctx, ((size_t)mb * MO_CHUNK + 1) * sizeof *Wp);
+  if (!B || !X || !Wp) { st = MO_ENOMEM; goto done; }
+  /* the same choice on every rank: the largest rank's rows */
+  if (largest * (double)mb <= MO_KEEP_COLUMNS_MAX) {
+    D->C = mo_malloc(ctx, ((size_t)nloc * (size_t)mb + 1) * sizeof *D->C);
+    if (!D->C) { st = MO_ENOMEM; goto done; }
+  } else
+    mo_note_skip(ctx, "storing What^-1 H by rows (%.0f x %d would exceed %.0f MB): one solve per correction",
+                 largest, mb, MO_KEEP_COLUMNS_MAX * 8 / 1e6);
+  for (j0 = 0; j0 < nbf; j0 += MO_CHUNK / d) {
+    int nbc = MO_CHUNK / d, ncols;
+    if (j0 + nbc > nbf) nbc = nbf - j0;
+    ncols = nbc * d;
+    memset(B, 0, (size_t)nloc * (size_t)ncols * sizeof *B);
+    for (b = 0; b < nbc; b++)
+      for (k = 0; k < d; k++) {
+        int col = fe[j0 + b] * d + k;
+        for (p = H->p[col]; p < H->p[col + 1]; p++)
+          if (H->i[p] >= r0 && H->i[p] < r1) B[(size_t)(b * d + k) * nloc + (size_t)(H->i[p] - r0)] = H->x[p];
+      }
+    if ((st = mo_linsolver_solve_rows(Wi->ls, ncols, B, X, &q0, &q1, ctx))) goto done;
+    if (q0 != r0 || q1 != r1) {
+      st = mo_error(ctx, MO_EINTERNAL, "Delassus: the solver's rows moved (%d .. %d, then %d .. %d)", r0, r1, q0, q1);
+      goto done;
+    }
+    if (D->C) memcpy(D->C + (size_t)j0 * d * nloc, X, (size_t)nloc * (size_t)ncols * sizeof *X);
+    /* this rank's rows' share of c H^T X (T211), mb x ncols column-major, summed over the ranks */
+    for (b = 0; b < ncols; b++)
+      for (k = 0; k < mb; k++) {
+        int r = fe[k / d] * d + k % d;
+        double sum = 0;
+        for (p = H->p[r]; p < H->p[r + 1]; p++)
+          if (H->i[p] >= r0 && H->i[p] < r1) sum += H->x[p] * X[(size_t)b * nloc + (size_t)(H->i[p] - r0)];
+        Wp[(size_t)b * mb + (size_t)k] = c * sum;
+      }
+    if ((st = mo_par_sum(Wp, (long)mb * ncols, ctx))) goto done;
+    for (k = 0; k < nbf; k++)
+      for (b = 0; b < nbc; b++) {
+        double blk[9];
+        int nz = 0, ii, jj;
+        a = fe[k];
+        for (ii = 0; ii < d; ii++)
+          for (jj = 0; jj < d; jj++) {
+            blk[ii * d + jj] = Wp[(size_t)(b * d + jj) * mb + (size_t)(k * d + ii)];
+            nz |= blk[ii * d + jj] != 0;
+          }
+        if (nz && (st = rows_add(R, a, fe[j0 + b], blk, ctx))) goto done;
+      }
+  }
+done:
+  mo_free(fe);
+  mo_free(cnt);
+  mo_free(B);
+  mo_free(X);
+  mo_free(Wp);
   return st;
 }
 
@@ -572,7 +693,7 @@ static int keep_normal(mo_delassus *D, mo_ctx *ctx)
 int mo_delassus_update(mo_delassus *D, const mo_csc *H, long hversion, const mo_what_inverse *Wi, double c, int dim,
                        int *rebuilt, mo_ctx *ctx)
 {
-  int m = H->ncol, n = H->nrow, st, covered = 0, rigid = 0, k;
+  int m = H->ncol, n = H->nrow, st, covered = 0, rigid = 0, k, r0 = 0, r1, split;
   long fv = Wi->version * 1000003L;
   double t0;
   rows R;
@@ -599,11 +720,16 @@ int mo_delassus_update(mo_delassus *D, const mo_csc *H, long hversion, const mo_
   if (!D->work || !D->y) { mo_phase_add(ctx, MO_PH_DELASSUS, t0); return MO_ENOMEM; }
   if ((st = cand_entries_build(H, Wi, dim, &E, &covered, ctx))) goto done;
   for (k = 0; k < H->p[m] && !rigid; k++) rigid = H->i[k] >= Wi->nfe;
+  /* the solver's rows of the nodal block on this rank: all of them but over split ranks (T210) */
+  r1 = Wi->nfe;
+  if (Wi->ls && Wi->nfe && (st = mo_linsolver_solve_rows(Wi->ls, 0, NULL, NULL, &r0, &r1, ctx))) goto done;
+  split = !covered && (r0 > 0 || r1 < Wi->nfe);
   if (covered && !rigid) {
     /* the factor's trailing block alone: W written once, in place */
     if ((st = build_schur(D, H, Wi, &E, c, NULL, ctx))) goto done;
   } else if ((st = rows_init(&R, D->nb, dim, ctx)) ||
-             (st = covered ? build_schur(D, H, Wi, &E, c, &R, ctx) : build_nodal(D, H, Wi, c, &R, ctx)) ||
+             (st = covered ? build_schur(D, H, Wi, &E, c, &R, ctx)
+                   : split ? build_nodal_rows(D, H, Wi, c, &R, r0, r1, ctx) : build_nodal(D, H, Wi, c, &R, ctx)) ||
              (st = build_rigid(D, H, Wi, c, &R, ctx)) || (st = rows_compress(&R, D, ctx)))
     goto done;
   if ((st = keep_normal(D, ctx))) goto done;
@@ -739,10 +865,24 @@ int mo_delassus_apply_Cinv(mo_delassus *D, const mo_csc *H, const mo_what_invers
   return st;
 }
 
+/* y = the columns' rows r0 .. r1-1 times r (C's rows on this process). */
+static void rows_product(const mo_delassus *D, const double *r, double *y)
+{
+  int nloc = D->r1 - D->r0, d = D->d, j, i;
+  memset(y, 0, (size_t)nloc * sizeof *y);
+  for (j = 0; j < D->m; j++) {
+    const double *col;
+    double rj = r[j];
+    if (rj == 0 || D->fecol[j / d] < 0) continue;
+    col = D->C + ((size_t)D->fecol[j / d] * d + (size_t)(j % d)) * (size_t)nloc;
+    for (i = 0; i < nloc; i++) y[i] += rj * col[i];
+  }
+}
+
 static int apply_Cinv(mo_delassus *D, const mo_csc *H, const mo_what_inverse *Wi, const double *r, double *dx,
                       mo_ctx *ctx)
 {
-  int n = H->nrow, m = H->ncol, nfe = Wi->nfe, d = D->d, j, i, p, st;
+  int n = H->nrow, m = H->ncol, nfe = Wi->nfe, j, p, st;
   /* What^-1 (H r): the rigid rows by their blocks; the nodal rows from the trailing block, from
      the kept columns, or by one solve */
   memset(D->work, 0, (size_t)n * sizeof(double));
@@ -751,14 +891,12 @@ static int apply_Cinv(mo_delassus *D, const mo_csc *H, const mo_what_inverse *Wi
       for (p = H->p[j]; p < H->p[j + 1]; p++) D->work[H->i[p]] += H->x[p] * r[j];
   if (D->schur && nfe && mo_linsolver_has_split(Wi->ls)) return apply_trailing(D, Wi, dx, ctx);
   if (!D->C || !nfe) return mo_what_solve(Wi, 1, D->work, dx, ctx);
-  memset(dx, 0, (size_t)nfe * sizeof(double));
-  for (j = 0; j < m; j++) {
-    const double *col;
-    double rj = r[j];
-    if (rj == 0 || D->fecol[j / d] < 0) continue;
-    col = D->C + ((size_t)D->fecol[j / d] * d + (size_t)(j % d)) * (size_t)nfe;
-    for (i = 0; i < nfe; i++) dx[i] += rj * col[i];
-  }
+  if (D->rcnt) {
+    /* this rank's rows from its rows of the columns, then one gather (T212) */
+    rows_product(D, r, D->part);
+    if ((st = mo_par_gatherv(D->part, D->rcnt, dx, ctx))) return st;
+  } else
+    rows_product(D, r, dx);
   if (n > nfe) {
     mo_what_inverse Wr = *Wi;
     Wr.nfe = 0; /* the rigid blocks alone; their rows of work are what they act on */

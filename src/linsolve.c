@@ -77,6 +77,17 @@ int mo_linsolver_solve_multi(mo_linsolver *S, int nrhs, const double *B, double 
   return S->type->solve(S->state, nrhs, B, X, ctx);
 }
 
+int mo_linsolver_solve_rows(mo_linsolver *S, int nrhs, const double *B, double *X, int *r0, int *r1,
+                            mo_ctx *ctx)
+{
+  if (!S->nfactor) return mo_error(ctx, MO_EINTERNAL, "solve before factor");
+  S->nsolve += nrhs;
+  if (S->type->solve_rows) return S->type->solve_rows(S->state, nrhs, B, X, r0, r1, ctx);
+  *r0 = 0;
+  *r1 = S->n;
+  return nrhs ? S->type->solve(S->state, nrhs, B, X, ctx) : MO_OK;
+}
+
 int mo_linsolver_solve(mo_linsolver *S, const double *b, double *x, mo_ctx *ctx)
 {
   return mo_linsolver_solve_multi(S, 1, b, x, ctx);
@@ -798,7 +809,7 @@ static void chol_free(void *state)
 
 const mo_linsolver_type mo_linsolver_cholmod = {"cholmod", 1, sizeof(chol_state), chol_factor,
                                                 chol_solve, chol_free, NULL, chol_set_last, chol_split,
-                                                chol_schur_inverse, chol_info};
+                                                chol_schur_inverse, chol_info, NULL};
 
 /* --- UMFPACK: general square matrices --------------------------------------------------------- */
 
@@ -862,4 +873,4 @@ static void umf_free(void *state)
 }
 
 const mo_linsolver_type mo_linsolver_umfpack = {"umfpack", 0, sizeof(umf_state), umf_factor,
-                                                umf_solve, umf_free, NULL, NULL, NULL, NULL, NULL};
+                                                umf_solve, umf_free, NULL, NULL, NULL, NULL, NULL, NULL};

@@ -739,21 +739,20 @@ static int solve_one(petsc_state *s, const double *b, double *x, mo_ctx *ctx)
   return MO_OK;
 }
 
-/* Several right-hand sides in one call of the factorization (MUMPS solves them together):
-   B and X dense by rows over the ranks, X's rows gathered to every rank afterwards. */
-static int solve_block(petsc_state *s, int nrhs, const double *B, double *X, mo_ctx *ctx)
+/* Several right-hand sides in one call of the factorization (MUMPS solves them together): this
+   rank's rows of B (column k at B + k ldb + off) in, its rows of X out (leading dimension its
+   row count), dense by rows over the ranks. */
+static int solve_local(petsc_state *s, int nrhs, const double *B, size_t ldb, size_t off, double *mine, mo_ctx *ctx)
 {
   Mat Bm, Xm;
   PetscScalar *pb;
   const PetscScalar *px;
-  int nloc = s->rend - s->rstart, k, r, *cnt = NULL, st = MO_OK;
-  double *mine = NULL, *all = NULL;
+  int nloc = s->rend - s->rstart, k;
   KSPConvergedReason why = KSP_CONVERGED_ITS;
   P(MatCreateDense(PETSC_COMM_WORLD, nloc, PETSC_DECIDE, s->n, nrhs, NULL, &Bm));
   P(MatCreateDense(PETSC_COMM_WORLD, nloc, PETSC_DECIDE, s->n, nrhs, NULL, &Xm));
   P(MatDenseGetArray(Bm, &pb));
-  for (k = 0; k < nrhs; k++)
-    memcpy(pb + (size_t)k * nloc, B + (size_t)k * s->n + s->rstart, (size_t)nloc * sizeof *pb);
+  for (k = 0; k < nrhs; k++) memcpy(pb + (size_t)k * nloc, B + (size_t)k * ldb + off, (size_t)nloc * sizeof *pb);
   P(MatDenseRestoreArray(Bm, &pb));
   if (s->direct) P(MatMatSolve(s->F, Bm, Xm));
   else {
@@ -766,6 +765,20 @@ static int solve_block(petsc_state *s, int nrhs, const double *B, double *X, mo_
     return mo_error(ctx, MO_ENOCONV, "the PETSc solve (%s, %s) of %d right-hand sides did not converge: %s", s->ksp,
                     s->pc, nrhs, KSPConvergedReasons[why]);
   }
+  P(MatDenseGetArrayRead(Xm, &px));
+  memcpy(mine, px, (size_t)nloc * nrhs * sizeof *mine);
+  P(MatDenseRestoreArrayRead(Xm, &px));
+  MatDestroy(&Bm);
+  MatDestroy(&Xm);
+  return MO_OK;
+}
+
+/* Several replicated right-hand sides, the whole solutions on every rank: each rank's rows
+   solved (solve_local), then gathered. */
+static int solve_block(petsc_state *s, int nrhs, const double *B, double *X, mo_ctx *ctx)
+{
+  int nloc = s->rend - s->rstart, k, r, *cnt = NULL, st = MO_OK;
+  double *mine = NULL, *all = NULL;
   /* the rows of every rank, rank after rank, each block column-major */
   if (!(cnt = mo_malloc(ctx, (size_t)ctx->nranks * sizeof *cnt)) ||
       !(mine = mo_malloc(ctx, ((size_t)nloc * nrhs + 1) * sizeof *mine)) ||
@@ -773,9 +786,7 @@ static int solve_block(petsc_state *s, int nrhs, const double *B, double *X, mo_
     st = MO_ENOMEM;
     goto done;
   }
-  P(MatDenseGetArrayRead(Xm, &px));
-  memcpy(mine, px, (size_t)nloc * nrhs * sizeof *mine);
-  P(MatDenseRestoreArrayRead(Xm, &px));
+  if ((st = solve_local(s, nrhs, B, (size_t)s->n, (size_t)s->rstart, mine, ctx))) goto done;
   {
     /* PETSc's split (PetscSplitOwnership): n / size rows each, one more on the first n % size */
     long off = 0, first = 0;
@@ -797,9 +808,18 @@ done:
   mo_free(cnt);
   mo_free(mine);
   mo_free(all);
-  MatDestroy(&Bm);
-  MatDestroy(&Xm);
   return st;
+}
+
+/* The solutions kept by rows (T210): this rank's rows of B in, its rows of X out, nothing
+   gathered. */
+static int petsc_solve_rows(void *state, int nrhs, const double *B, double *X, int *r0, int *r1, mo_ctx *ctx)
+{
+  petsc_state *s = state;
+  *r0 = s->rstart;
+  *r1 = s->rend;
+  if (!nrhs) return MO_OK;
+  return solve_local(s, nrhs, B, (size_t)(s->rend - s->rstart), 0, X, ctx);
 }
 
 static int petsc_solve(void *state, int nrhs, const double *B, double *X, mo_ctx *ctx)
@@ -823,7 +843,7 @@ static void petsc_free(void *state)
 
 static const mo_linsolver_type petsc_type = {"petsc", 0, sizeof(petsc_state), petsc_factor, petsc_solve,
                                              petsc_free, petsc_configure, petsc_set_last, NULL,
-                                             petsc_schur_inverse, petsc_info};
+                                             petsc_schur_inverse, petsc_info, petsc_solve_rows};
 
 /* --- a matrix assembled from element blocks (doc/parallel.md §3) -------------------------------- */
 

@@ -14,7 +14,7 @@
 #include <moreau/sparse.h>
 
 /* Raised whenever a member changes meaning or position. */
-#define MO_PETSC_ABI 4
+#define MO_PETSC_ABI 5
 #define MO_PETSC_SYMBOL "mo_petsc_module_v1"
 #define MO_PETSC_MODULE_NAME "moreau_petsc.so"
 

@@ -315,6 +315,15 @@ static json_t *parallel_json(const mo_ctx *ctx, const mo_scene *sc)
     json_object_set_new(j, "matrix_entries", a);
     json_object_set_new(j, "matrices", json_string(sc->kpart ? "parts" : "whole"));
   }
+  if (ctx->par_column_dofs) {
+    /* the Delassus build's columns What^-1 H^T: the largest rank's rows of them, of the rows
+       whole (doc/parallel.md §2, (T210): by rows over the ranks) */
+    json_t *c = json_object();
+    json_object_set_new(c, "rows_largest_rank", json_integer((json_int_t)ctx->par_column_rows));
+    json_object_set_new(c, "rows", json_integer((json_int_t)ctx->par_column_dofs));
+    json_object_set_new(c, "columns", json_integer((json_int_t)ctx->par_columns));
+    json_object_set_new(j, "delassus_columns", c);
+  }
   json_object_set_new(j, "collective_calls", json_integer(ctx->par_calls));
   json_object_set_new(j, "collective_seconds", jnum(ctx->par_time));
   json_object_set_new(j, "collective_bytes", jnum(ctx->par_bytes));

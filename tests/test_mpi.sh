@@ -4,7 +4,8 @@
 # serial run on rods-3d (dynamic impacts, the Delassus operator from distributed solves) and the
 # 14^3 H8 box pressed on a plane (quasi-static), to 1e-8 of every history column, each rank
 # computing the element matrices of half of the elements and keeping them (K and M in parts, no
-# rank holding them whole; against one process's assembly: tests/test_parallel). Skipped by
+# rank holding them whole; against one process's assembly: tests/test_parallel), and its rows of
+# the Delassus build's columns What^-1 H^T (no rank holding them whole). Skipped by
 # builds without PETSc. The 2 ranks share CI's 2 cores with nothing else: oversubscription
 # allowed, as the CI machine's MPI would refuse it otherwise.
 . "$MOREAU_SRCDIR/tests/tap.sh"
@@ -58,6 +59,11 @@ run_pair() { # run_pair NAME CASE ARGS...: serial and 2-rank runs, then their co
   whole=$(json "$OUT/$name-1/summary.json" "d['scene']['matrix_entries']")
   is "$(json "$OUT/$name-2/summary.json" "(lambda p: [p['matrices'], max(p['matrix_entries']) <= 0.6 * $whole, sum(p['matrix_entries']) >= $whole])(d['parallel'])")" \
     "['parts', True, True]" "$name: K and M in parts, the largest rank's $(json "$OUT/$name-2/summary.json" "max(d['parallel']['matrix_entries'])") of the $whole entries"
+  # the Delassus build's columns What^-1 H^T by rows (doc/parallel.md §2, (T210)): no rank holds
+  # them whole, the largest rank 60 % of the free nodal rows at most (the serial run's free dofs)
+  free=$(json "$OUT/$name-1/summary.json" "d['scene']['free_dofs']")
+  is "$(json "$OUT/$name-2/summary.json" "(lambda c: [c['rows'] == $free, c['columns'] > 0, c['rows_largest_rank'] <= 0.6 * c['rows']])(d['parallel']['delassus_columns'])")" \
+    "[True, True, True]" "$name: the Delassus columns by rows, the largest rank's $(json "$OUT/$name-2/summary.json" "d['parallel']['delassus_columns']['rows_largest_rank']") of the $free rows"
 }
 check_runs() { # check_runs A B TOL NAME [grains]
   /usr/bin/python3 "$MOREAU_SRCDIR/tests/compare_runs.py" "$1" "$2" "$3" $5 > "$OUT/cmp" 2>&1 || echo "1	compare_runs.py crashed: $(tail -1 "$OUT/cmp")" >> "$OUT/cmp"

@@ -76,6 +76,41 @@ static mo_csc *part_of(const mo_csc *A, mo_ctx *ctx)
   return P;
 }
 
+/* The solutions kept by rows (T210): each rank's rows of B in, its rows of X out, equal to
+   those rows of CHOLMOD's solutions; the ranks' rows contiguous and together every row once. */
+static void rows_checks(mo_linsolver *ps, mo_linsolver *chol, const double *B, int nrhs, double tol, mo_ctx *ctx)
+{
+  int n = mo_linsolver_n(chol), r0 = -1, r1 = -1, q0 = -1, q1 = -1, nloc, k, i, st;
+  double *Br, *Xr, *Y = malloc(sizeof(double) * n * nrhs), d = 0, m = 0, cnt[2];
+  st = mo_linsolver_solve_rows(ps, 0, NULL, NULL, &r0, &r1, ctx);
+  nloc = r1 - r0;
+  Br = malloc(sizeof(double) * (nloc > 0 ? nloc : 1) * nrhs);
+  Xr = malloc(sizeof(double) * (nloc > 0 ? nloc : 1) * nrhs);
+  /* every rank's count and the first rows' end: the rows split, each row on one rank */
+  cnt[0] = nloc;
+  cnt[1] = ctx->rank == 0 ? r0 : 0;
+  mo_par_sum(cnt, 2, ctx);
+  ok(agree_all(st == MO_OK && nloc > 0 && cnt[0] == n && cnt[1] == 0 && (ctx->nranks == 1 || nloc < n), ctx),
+     "petsc rows: %d of the %d rows on this rank, %d over the ranks", nloc, n, (int)cnt[0]);
+  for (k = 0; k < nrhs; k++)
+    for (i = 0; i < nloc; i++) Br[(size_t)k * nloc + i] = B[(size_t)k * n + r0 + i];
+  mo_linsolver_solve_multi(chol, nrhs, B, Y, ctx);
+  st = mo_linsolver_solve_rows(ps, nrhs, Br, Xr, &q0, &q1, ctx);
+  for (k = 0; k < nrhs; k++)
+    for (i = 0; i < nloc; i++) {
+      double y = Y[(size_t)k * n + r0 + i], x = Xr[(size_t)k * nloc + i];
+      if (fabs(x - y) > d) d = fabs(x - y);
+      if (fabs(y) > m) m = fabs(y);
+    }
+  d = m > 0 ? d / m : 1;
+  mo_par_max(&d, 1, ctx);
+  ok(agree_all(st == MO_OK && q0 == r0 && q1 == r1, ctx) && d < tol,
+     "petsc rows: each rank's rows of %d solutions equal CHOLMOD's to %.1e (tol %.0e)", nrhs, d, tol);
+  free(Br);
+  free(Xr);
+  free(Y);
+}
+
 /* parts: each rank factors its part of the matrix (K and M in parts over the ranks) */
 static void solver_checks(mo_ctx *ctx, const char *ksp, const char *pc, double tol, int parts)
 {
@@ -116,6 +151,7 @@ static void solver_checks(mo_ctx *ctx, const char *ksp, const char *pc, double t
   }
   mo_linsolver_stats(ps, &nf, NULL, &ns);
   ok(nf == 2 && ns == 4, "petsc %s/%s%s: 2 factorizations, 4 right-hand sides counted (%ld, %ld)", ksp, pc, how, nf, ns);
+  rows_checks(ps, chol, B, nrhs, tol, ctx);
   mo_linsolver_free(ps);
   mo_linsolver_free(chol);
   mo_csc_free(A);

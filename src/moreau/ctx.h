@@ -86,6 +86,9 @@ typedef struct mo_ctx {
   long par_grain_solves, par_grain_sweeps;
   long par_grain_serial; /* split sweeps that stalled and went on as the serial sweep on every rank */
   double par_grain_interface, par_grain_imbalance;
+  /* the Delassus build's columns What^-1 H^T (doc/parallel.md §2, (T210)): the most nodal rows of
+     them one rank held (the largest rank's, over the builds), the nodal rows whole, the columns */
+  long par_column_rows, par_column_dofs, par_columns;
   /* contact back ends loaded at run time (moreau/backend.h): owned by the context that loaded
      them, shared by its copies (a comparison's runs), unloaded by mo_ctx_release */
   struct mo_plugins *plugins;

@@ -143,6 +143,11 @@ typedef struct mo_linsolver_type {
   /* G = (A^-1)_CC over the rows ordered last (nlast x nlast, column-major, both triangles). */
   int (*schur_inverse)(void *state, double *G, mo_ctx *ctx);
   void (*info)(const void *state, mo_linsolver_info *I);
+  /* Optional (NULL: every process holds every row, as solve). A solver whose rows are split over
+     MPI ranks: solve A X = B keeping this rank's rows *r0 .. *r1 - 1 alone, B and X those rows of
+     the right-hand sides and solutions (column-major, leading dimension *r1 - *r0). nrhs = 0
+     only reports the rows (doc/parallel.md §2, (T210)). */
+  int (*solve_rows)(void *state, int nrhs, const double *B, double *X, int *r0, int *r1, mo_ctx *ctx);
 } mo_linsolver_type;
 
 extern const mo_linsolver_type mo_linsolver_cholmod;
@@ -162,6 +167,11 @@ int mo_linsolver_solve(mo_linsolver *S, const double *b, double *x, mo_ctx *ctx)
 int mo_linsolver_solve_multi(mo_linsolver *S, int nrhs, const double *B, double *X,
                              mo_ctx *ctx);
 int mo_linsolver_n(const mo_linsolver *S);
+/* This process's rows of the solutions, rows *r0 .. *r1 - 1 of B and X (leading dimension
+   *r1 - *r0): every row (0 .. n - 1, as solve_multi) but for a solver split over MPI ranks
+   (PETSc's on more than one), whose solutions stay by rows (T210). nrhs = 0: the rows alone. */
+int mo_linsolver_solve_rows(mo_linsolver *S, int nrhs, const double *B, double *X, int *r0, int *r1,
+                            mo_ctx *ctx);
 /* Statistics: numeric factorizations, symbolic analyses, solves (right-hand sides). */
 void mo_linsolver_stats(const mo_linsolver *S, long *nfactor, long *nsymbolic, long *nsolve);
 const char *mo_linsolver_name(const mo_linsolver *S);
