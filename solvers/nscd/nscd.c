@@ -77,7 +77,7 @@ static void nscd_free(void *state)
   mo_free(S->Uown);
   mo_free(S->rold);
   mo_free(S->scale);
-  mo_free(S->mu);
+  mo_free(S->muown);
   mo_free(S->rng_state);
   mo_free(S->sprev);
   mo_free(S->wn);
@@ -109,8 +109,14 @@ static int fit_set(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
 #define GROW(ptr, n) if (!(q = mo_realloc(ctx, ptr, (n) * sizeof *(ptr)))) return MO_ENOMEM; ptr = q
   if (nc > S->cap) {
     nc += nc / 4; /* sets grow a little at a time while grains settle */
-    GROW(S->act, nc); GROW(S->order, nc); GROW(S->mu, nc);
+    GROW(S->act, nc); GROW(S->order, nc);
     S->cap = nc;
+  }
+  /* the friction coefficients: the granular path's are the problem's own until a contact differs
+     (nscd_grains_prepare makes them then) */
+  if ((!S->grains || S->muown) && S->cap > S->mucap) {
+    GROW(S->muown, S->cap);
+    S->mucap = S->cap;
   }
   /* W_aa's pointers and the scaling: the granular path reads them from its records */
   if (S->grains) {
@@ -185,10 +191,11 @@ static int nscd_reinit(void *state, const mo_contact_problem *P, mo_ctx *ctx)
 void nscd_prepare_local(nscd_state *S, const mo_contact_problem *P)
 {
   int d = S->d, a, t;
+  S->mu = S->muown;
   for (a = 0; a < S->nc; a++) {
     double wtt = 0;
     for (t = 1; t < d; t++) wtt += S->diag[a][t * d + t];
-    S->mu[a] = P->mu && !(d > 1 && !(wtt > 1e-12 * S->diag[a][0])) ? P->mu[a] : 0;
+    S->muown[a] = P->mu && !(d > 1 && !(wtt > 1e-12 * S->diag[a][0])) ? P->mu[a] : 0;
     nscd_local_prepare(d, S->diag[a], S->mu[a], S->aux + (size_t)a * NSCD_AUX);
     S->scale[a] = S->diag[a][0] > 0 ? 1 / S->diag[a][0] : 0;
   }
