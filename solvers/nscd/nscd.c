@@ -73,7 +73,7 @@ static void nscd_free(void *state)
   mo_free(S->cv);
   mo_free(S->aux);
   mo_free(S->act);
-  mo_free(S->order);
+  mo_free(S->ordown);
   mo_free(S->Uown);
   mo_free(S->rold);
   mo_free(S->scale);
@@ -109,7 +109,7 @@ static int fit_set(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
 #define GROW(ptr, n) if (!(q = mo_realloc(ctx, ptr, (n) * sizeof *(ptr)))) return MO_ENOMEM; ptr = q
   if (nc > S->cap) {
     nc += nc / 4; /* sets grow a little at a time while grains settle */
-    GROW(S->act, nc); GROW(S->order, nc);
+    GROW(S->act, nc);
     S->cap = nc;
   }
   /* the friction coefficients: the granular path's are the problem's own until a contact differs
@@ -683,8 +683,19 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
     sa = nscd_scale(S, a);
     S->qs2 += sa * sa * q2;
   }
-  for (k = 0; k < S->nact; k++) S->order[k] = S->act[p->order == NSCD_ORDER_REVERSE ? S->nact - 1 - k : k];
-  if (p->order == NSCD_ORDER_SHUFFLED) gsl_ran_shuffle(&S->rng, S->order, (size_t)S->nact, sizeof(int));
+  if (p->order == NSCD_ORDER_NATURAL)
+    S->order = S->act;
+  else {
+    if (S->cap > S->ocap) {
+      void *q = mo_realloc(ctx, S->ordown, S->cap * sizeof *S->ordown);
+      if (!q) return MO_ENOMEM;
+      S->ordown = q;
+      S->ocap = S->cap;
+    }
+    S->order = S->ordown;
+    for (k = 0; k < S->nact; k++) S->order[k] = S->act[p->order == NSCD_ORDER_REVERSE ? S->nact - 1 - k : k];
+    if (p->order == NSCD_ORDER_SHUFFLED) gsl_ran_shuffle(&S->rng, S->order, (size_t)S->nact, sizeof(int));
+  }
   /* over MPI ranks: each rank's slab of the contacts (doc/parallel.md §4) */
   S->par = 0;
   if (S->grains && ctx->nranks > 1 && (st = nscd_grains_partition(S, P, ctx))) return st;

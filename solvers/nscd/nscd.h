@@ -118,7 +118,10 @@ typedef struct {
   double *aux;                  /* nc * NSCD_AUX: per-contact data of the local solvers */
   const mo_delassus *wsrc;      /* the W the cached data were built for, and its version */
   long wver;
-  int *act, nact, *order;
+  int *act, nact, *order;       /* the active contacts, and the sweep's order of them: act itself in the
+                                   natural order (the granular path's many contacts), else ordown */
+  int *ordown;
+  size_t ocap;
   double *U;                    /* U = W r + q kept up to date by the column updates: Uown, or on the
                                    granular path the caller's array of the solve */
   double *Uown;
