@@ -552,7 +552,7 @@ void mo_contact_snapshot_free(mo_contact_snapshot *X)
 int mo_contact_snapshot_save(const mo_contact_driver *D, mo_contact_snapshot *X, mo_ctx *ctx)
 {
   size_t m = (size_t)D->m * sizeof(double);
-  if (D->nc > X->cap) {
+  if (D->nc > X->cap || !X->r) { /* made at the first save, even of an empty set (memcpy's pointers) */
     int cap = D->nc + 16;
     void *p;
 #define GROW(ptr, n) if (!(p = mo_realloc(ctx, ptr, (size_t)(n) * sizeof *(ptr)))) return MO_ENOMEM; ptr = p

@@ -456,7 +456,8 @@ static int follow_step(follow_run *F, double h, int level)
   if (level == 0 && R->s.step % 13 == 5) {
     const mo_body *B = &R->sc->body[R->sc->nbody - 1];
     for (k = 3; k < R->sc->nbody; k += 2) R->s.u[R->sc->body[k].dof0] += 0.006;
-    if ((st = mo_contact_geometry(R->C, &R->s, R->s.t, 0, &R->ctx))) return st;
+    /* the new set and the driver's arrays fitted to it, as a step's end would leave them */
+    if ((st = mo_contact_snapshot_restore(R->D, F->X[level], &R->s, &R->ctx))) return st;
     F->moved += mo_contact_set_version(R->C) != v;
     R->s.v[B->dof0] = NAN;
   }
