@@ -284,6 +284,10 @@ struct mo_contact_driver {
   double *tmp;               /* the general path's remapping scratch (2 m + nc values) and the position
                                 correction's; NULL on the granular path */
   int *itmp;                 /* fit: each candidate's place in the old set */
+  long map_from, map_to;     /* the sets itmp maps from and to (-1: none): the metrics read it
+                                (mo_contact_driver_remap) instead of keeping keys of their own */
+  long anchor;               /* the set at the end of the last step completed: the remaps of a step
+                                taken again (a restore, then the step's own) are composed from it */
   mo_keymap kmap;            /* fit: the old keys' positions */
   int any_step, it_step, loops_step[4]; /* nonlinear steps: totals over the Newton iterations */
   /* the problem of the last solve on its index set, kept when wkeep (FCLIB dumps): sv_n
@@ -383,12 +387,12 @@ static void fresh_uprev(mo_contact_driver *D, const mo_state *s, int a0, int a1)
 
 /* Fit the arrays to the contact set of the last geometry at state s. The old set is described
    by okey (nold keys) and its r, U, status (the driver's own arrays, or a snapshot's). */
-static int fit(mo_contact_driver *D, const mo_state *s, const int *okey, int nold, const double *orr,
+static int fit(mo_contact_driver *D, const mo_state *s, long oset, const int *okey, int nold, const double *orr,
                const double *oU, const int *ost, mo_ctx *ctx)
 {
   const mo_contact *C = D->C;
   int nc = mo_contact_ncandidates(C), d = D->d, a, i, st, ns = mo_contact_nstatic(C);
-  int *map, own = okey == D->key, mono = 1, last = -1;
+  int *map, *prev = NULL, own = okey == D->key, mono = 1, last = -1;
   double *spare = NULL;
   const double *ostd = NULL; /* the old statuses, when copied aside */
   if ((st = grow(D, nc > nold ? nc : nold, ctx))) return st;
@@ -398,9 +402,18 @@ static int fit(mo_contact_driver *D, const mo_state *s, const int *okey, int nol
     oU = D->U;
     ost = D->status;
   }
+  /* the last remap went from the set of the last completed step to the old one (a step taken
+     again after a restore): this one is composed with it (doc/theory.md (T185)), from a copy */
+  if (oset >= 0 && oset != D->anchor && D->map_from == D->anchor && D->map_to == oset) {
+    if (!(prev = mo_malloc(ctx, ((size_t)nold + 1) * sizeof *prev))) return MO_ENOMEM;
+    memcpy(prev, D->itmp, (size_t)nold * sizeof *prev);
+  }
   /* each new candidate's place in the old set (-1: new), in increasing order so far: the
      detection keeps its order from set to set */
-  if ((st = mo_keymap_build(&D->kmap, okey, nold, ctx))) return st;
+  if ((st = mo_keymap_build(&D->kmap, okey, nold, ctx))) {
+    mo_free(prev);
+    return st;
+  }
   map = D->itmp;
   for (a = 0; a < nc; a++) {
     int o = map[a] = mo_keymap_find(&D->kmap, mo_contact_key(C, a));
@@ -411,7 +424,10 @@ static int fit(mo_contact_driver *D, const mo_state *s, const int *okey, int nol
     /* the old values aside, the arrays about to be rewritten: in the scratch of the general path,
        or for a map out of order in a copy of the moment */
     double *nr = D->tmp;
-    if (!nr && !(nr = spare = mo_malloc(ctx, ((size_t)nold * (2 * (size_t)d + 1) + 1) * sizeof *nr))) return MO_ENOMEM;
+    if (!nr && !(nr = spare = mo_malloc(ctx, ((size_t)nold * (2 * (size_t)d + 1) + 1) * sizeof *nr))) {
+      mo_free(prev);
+      return MO_ENOMEM;
+    }
     memcpy(nr, orr, (size_t)nold * d * sizeof *nr);
     memcpy(nr + (size_t)nold * d, oU, (size_t)nold * d * sizeof *nr);
     for (a = 0; a < nold; a++) nr[(size_t)nold * 2 * d + a] = ost[a]; /* statuses (0, 1, 2) exactly */
@@ -476,6 +492,13 @@ static int fit(mo_contact_driver *D, const mo_state *s, const int *okey, int nol
     }
   }
   D->cset = mo_contact_set_version(C);
+  D->map_from = oset;
+  D->map_to = D->cset;
+  if (prev) {
+    for (a = 0; a < nc; a++) map[a] = map[a] >= 0 ? prev[map[a]] : -1;
+    D->map_from = D->anchor;
+    mo_free(prev);
+  }
   return MO_OK;
 }
 
@@ -486,7 +509,7 @@ static int follow_set(mo_contact_driver *D, const mo_state *s, mo_ctx *ctx)
   const mo_contact *C = D->C;
   int a, ns = mo_contact_nstatic(C);
   if (D->cset != mo_contact_set_version(C))
-    return fit(D, s, D->key, D->nc, D->r, D->U, D->status, ctx);
+    return fit(D, s, D->cset, D->key, D->nc, D->r, D->U, D->status, ctx);
   /* the same set: U- of the rigid candidates at the new contact points */
   for (a = 0; a < ns; a++)
     if (law_of(C, a) != MO_LAW_SIGNORINI) fresh_uprev(D, s, a, a + 1);
@@ -500,6 +523,7 @@ static int follow_set(mo_contact_driver *D, const mo_state *s, mo_ctx *ctx)
    local velocities, the statuses; the geometry is recomputed from the restored state. */
 struct mo_contact_snapshot {
   int nc, cap;
+  long cset;                 /* the set its keys are of */
   double *r, *Uprev, *U;
   int *status, *key;
 };
@@ -528,7 +552,7 @@ void mo_contact_snapshot_free(mo_contact_snapshot *X)
 int mo_contact_snapshot_save(const mo_contact_driver *D, mo_contact_snapshot *X, mo_ctx *ctx)
 {
   size_t m = (size_t)D->m * sizeof(double);
-  if (D->nc > X->cap) {
+  if (D->nc > X->cap || !X->r) { /* made at the first save, even of an empty set (memcpy's pointers) */
     int cap = D->nc + 16;
     void *p;
 #define GROW(ptr, n) if (!(p = mo_realloc(ctx, ptr, (size_t)(n) * sizeof *(ptr)))) return MO_ENOMEM; ptr = p
@@ -538,6 +562,7 @@ int mo_contact_snapshot_save(const mo_contact_driver *D, mo_contact_snapshot *X,
     X->cap = cap;
   }
   X->nc = D->nc;
+  X->cset = D->cset;
   memcpy(X->r, D->r, m);
   memcpy(X->Uprev, D->Uprev, m);
   memcpy(X->U, D->U, m);
@@ -551,7 +576,7 @@ int mo_contact_snapshot_restore(mo_contact_driver *D, const mo_contact_snapshot 
 {
   int st;
   if ((st = mo_contact_geometry(D->C, s, s->t, D->C->repair, ctx))) return st;
-  if ((st = fit(D, s, X->key, X->nc, X->r, X->U, X->status, ctx))) return st;
+  if ((st = fit(D, s, X->cset, X->key, X->nc, X->r, X->U, X->status, ctx))) return st;
   /* the mesh candidates take their saved U- (the static part is the same set) */
   memcpy(D->Uprev, X->Uprev, (size_t)mo_contact_nstatic(D->C) * D->d * sizeof(double));
   follow_set(D, s, ctx);
@@ -603,6 +628,11 @@ size_t mo_contact_driver_bytes(const mo_contact_driver *D, size_t *per_dof)
   if (per_dof) *per_dof = dof;
   return c + dof;
 }
+const int *mo_contact_driver_remap(const mo_contact_driver *D, long from, long to)
+{
+  return D->map_from >= 0 && D->map_from == from && D->map_to == to ? D->itmp : NULL;
+}
+
 long mo_contact_driver_index_added(const mo_contact_driver *D) { return D->index_added; }
 int mo_contact_driver_candidates_max(const mo_contact_driver *D) { return D->nc_max > D->nc ? D->nc_max : D->nc; }
 
@@ -785,11 +815,12 @@ int mo_contact_driver_create(const mo_scene *sc, mo_contact *C, mo_stepper *S,
     s0.u = sc->u0;
     s0.v = sc->v0;
     D->cset = mo_contact_set_version(C);
-    if ((st = grow(D, C->nc + 1, ctx)) || (st = fit(D, &s0, NULL, 0, NULL, NULL, NULL, ctx))) {
+    if ((st = grow(D, C->nc + 1, ctx)) || (st = fit(D, &s0, -1, NULL, 0, NULL, NULL, NULL, ctx))) {
       mo_contact_driver_free(D);
       return st;
     }
     fresh_uprev(D, &s0, 0, D->nc);
+    D->anchor = D->cset;
     /* U before the first step is U- (the outputs of t = 0 show it; fit took the mesh points' from
        Uprev before it was computed) */
     memcpy(D->U, D->Uprev, (size_t)D->nc * D->d * sizeof *D->U);
@@ -1438,7 +1469,16 @@ static int contact_finish(mo_contact_driver *D, mo_state *s, const double *x, mo
   return follow_set(D, s, ctx);
 }
 
+static int step_body(mo_contact_driver *D, mo_state *s, mo_ctx *ctx);
+
 int mo_contact_step(mo_contact_driver *D, mo_state *s, mo_ctx *ctx)
+{
+  int st = step_body(D, s, ctx);
+  if (!st) D->anchor = D->cset;
+  return st;
+}
+
+static int step_body(mo_contact_driver *D, mo_state *s, mo_ctx *ctx)
 {
   mo_stepper *S = D->S;
   const mo_scene *sc = D->sc;

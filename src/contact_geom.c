@@ -39,7 +39,9 @@ static unsigned key_hash(const int *k)
 int mo_keymap_build(mo_keymap *M, const int *keys, int n, mo_ctx *ctx)
 {
   int size = 16, a;
-  while (size < 2 * n) size *= 2; /* at most half full */
+  /* at most three quarters full (T187): 1.33 to 2.67 slots a key, against 2 to 4 at half full;
+     a lookup probes 2.5 slots on average instead of 1.5 (linear probing, a key present) */
+  while (size < n + n / 3 + 1) size *= 2;
   if (size - 1 > M->mask || !M->tab) {
     int *p = mo_realloc(ctx, M->tab, (size_t)size * sizeof *p);
     if (!p) return MO_ENOMEM;

@@ -43,7 +43,11 @@ struct mo_metrics {
   double *dUp;               /* the last increment of U_n between bearing steps (0: none) (T93) */
   double *alt;               /* per candidate: alternations of the sign of that increment (T93) */
   long cset;                 /* the candidate set the arrays follow (mo_contact_set_version) */
-  int *keys;                 /* its keys, to carry a detected candidate's history to the next set */
+  int bydrv;                 /* the set is followed by the driver's remap (mo_contact_driver_remap):
+                                no keys, key map nor map of their own */
+  long restarts;             /* new sets the driver's remap did not reach: the histories restarted */
+  int *keys;                 /* without the driver: its keys, to carry a detected candidate's history
+                                to the next set */
   mo_keymap kmap;
   int *map;                  /* remapping: each candidate's place in the old set (-1: new) */
   double tv_gone;            /* the largest variation of the candidates that left the set */
@@ -104,7 +108,10 @@ static int room(mo_metrics *M, int nc, mo_ctx *ctx)
   if (nc <= M->cap && M->hist) return 1;
   n = (size_t)(nc + nc / 4) + 1;
 #define GROW(ptr, k) if (!(p = mo_realloc(ctx, ptr, (k) * sizeof *(ptr)))) return 0; ptr = p
-  GROW(M->hist, n); GROW(M->map, n); GROW(M->keys, n * MO_KEY);
+  GROW(M->hist, n);
+  if (!M->bydrv) {
+    GROW(M->map, n); GROW(M->keys, n * MO_KEY);
+  }
   if (M->watch_any) {
     GROW(M->dUp, n); GROW(M->alt, n);
     memset(M->dUp + old, 0, (n - old) * sizeof *M->dUp);
@@ -127,25 +134,37 @@ static void move_hist(mo_metrics *M, int a, int o)
 }
 
 /* After a new detection: the per-candidate histories carried to the new set by key (a new
-   candidate starts open, with no history; one that left keeps its variation in tv_gone).
-   0 on failure (the histories are then restarted). */
-static int follow(mo_metrics *M)
+   candidate starts open, with no history; one that left keeps its variation in tv_gone), through
+   the driver's remap of the same two sets (bydrv) or the metrics' own key map. 0 on failure (the
+   histories are then restarted). */
+static int follow(mo_metrics *M, const mo_contact_driver *D)
 {
   const mo_contact *C = M->C;
-  int nold = M->nc, nc = mo_contact_ncandidates(C), a, ok, mono = 1, last = -1;
+  int nold = M->nc, nc = mo_contact_ncandidates(C), a, ok, mono = 1, last = -1, lost = 0;
+  const int *dmap = NULL;
   cand_hist *copy = NULL;
   double *wcopy = NULL;
-  ok = room(M, nc > nold ? nc : nold, NULL) && !mo_keymap_build(&M->kmap, M->keys, nold, NULL);
-  if (!ok) nold = 0;
+#define OLD(a) (lost ? -1 : dmap ? dmap[a] : M->map[a])
+  ok = room(M, nc > nold ? nc : nold, NULL);
+  if (ok && M->bydrv) {
+    dmap = D ? mo_contact_driver_remap(D, M->cset, mo_contact_set_version(C)) : NULL;
+    if (!dmap && nold) M->restarts++;
+    lost = !dmap;
+  } else if (ok)
+    ok = !mo_keymap_build(&M->kmap, M->keys, nold, NULL);
+  if (!ok) nold = 0, lost = 1;
   for (a = 0; a < nold; a++) {
     if (M->hist[a].tv > M->tv_gone) M->tv_gone = M->hist[a].tv;
     if (M->hist[a].nsign > M->nsign_gone) M->nsign_gone = M->hist[a].nsign;
     if (M->alt && M->alt[a] > M->alt_max) M->alt_max = M->alt[a];
   }
+  if (lost) nold = 0;
   nc = nc < M->cap ? nc : M->cap;
   /* each candidate's place in the old set, in increasing order so far (the detection's) */
   for (a = 0; a < nc; a++) {
-    int o = M->map[a] = nold ? mo_keymap_find(&M->kmap, mo_contact_key(C, a)) : -1;
+    int o;
+    if (!M->bydrv) M->map[a] = nold ? mo_keymap_find(&M->kmap, mo_contact_key(C, a)) : -1;
+    o = OLD(a);
     if (o >= 0 && o <= last) mono = 0;
     if (o >= 0) last = o;
   }
@@ -155,7 +174,7 @@ static int follow(mo_metrics *M)
     wcopy = M->dUp ? mo_malloc(NULL, 2 * (size_t)nold * sizeof *wcopy) : NULL;
     if (!copy || (M->dUp && !wcopy)) {
       ok = 0;
-      for (a = 0; a < nc; a++) M->map[a] = -1;
+      lost = 1;
     } else {
       memcpy(copy, M->hist, (size_t)nold * sizeof *copy);
       if (M->dUp) {
@@ -163,7 +182,7 @@ static int follow(mo_metrics *M)
         memcpy(wcopy + nold, M->alt, (size_t)nold * sizeof *wcopy);
       }
       for (a = 0; a < nc; a++) {
-        int o = M->map[a];
+        int o = OLD(a);
         if (o < 0) continue;
         M->hist[a] = copy[o];
         if (M->dUp) {
@@ -175,19 +194,20 @@ static int follow(mo_metrics *M)
   } else {
     /* in place: those that move down from the front, those that move up from the back */
     for (a = 0; a < nc; a++)
-      if (M->map[a] > a) move_hist(M, a, M->map[a]);
+      if (OLD(a) > a) move_hist(M, a, OLD(a));
     for (a = nc - 1; a >= 0; a--)
-      if (M->map[a] >= 0 && M->map[a] < a) move_hist(M, a, M->map[a]);
+      if (OLD(a) >= 0 && OLD(a) < a) move_hist(M, a, OLD(a));
   }
   /* a new candidate starts open, with no history */
   for (a = 0; a < nc; a++)
-    if (M->map[a] < 0) {
+    if (OLD(a) < 0) {
       memset(&M->hist[a], 0, sizeof M->hist[a]);
       if (M->dUp) M->dUp[a] = M->alt[a] = 0;
     }
+#undef OLD
   mo_free(copy);
   mo_free(wcopy);
-  if (nc) memcpy(M->keys, mo_contact_key(C, 0), (size_t)nc * MO_KEY * sizeof *M->keys);
+  if (nc && !M->bydrv) memcpy(M->keys, mo_contact_key(C, 0), (size_t)nc * MO_KEY * sizeof *M->keys);
   M->nc = nc;
   M->cset = mo_contact_set_version(C);
   return ok;
@@ -225,7 +245,8 @@ static double oscillation_index(const mo_metrics *M)
   return V > 0 ? osc / V : 0;
 }
 
-int mo_metrics_create(const mo_scene *sc, const mo_contact *C, double *work, mo_metrics **out, mo_ctx *ctx)
+int mo_metrics_create(const mo_scene *sc, const mo_contact *C, const mo_contact_driver *D, double *work,
+                      mo_metrics **out, mo_ctx *ctx)
 {
   mo_metrics *M = mo_calloc(ctx, 1, sizeof *M);
   const mo_reference *R = &sc->ref;
@@ -248,8 +269,9 @@ int mo_metrics_create(const mo_scene *sc, const mo_contact *C, double *work, mo_
       M->watch_any |= law == MO_LAW_SIGNORINI || law == MO_LAW_GAP;
     }
     M->cset = mo_contact_set_version(C);
+    M->bydrv = D != NULL;
     if (!room(M, M->nc, ctx)) { mo_metrics_free(M); return MO_ENOMEM; }
-    if (M->nc) memcpy(M->keys, mo_contact_key(C, 0), (size_t)M->nc * MO_KEY * sizeof *M->keys);
+    if (M->nc && !M->bydrv) memcpy(M->keys, mo_contact_key(C, 0), (size_t)M->nc * MO_KEY * sizeof *M->keys);
     M->gtol = 1e-9 * mo_metrics_hmin(sc);
     M->lscale = length_scale(sc);
   }
@@ -337,7 +359,7 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
     int ns;
     int d = M->d;
     double h = D ? mo_contact_driver_dt(D) : sc->time.dt;
-    if (M->cset != mo_contact_set_version(C)) follow(M);
+    if (M->cset != mo_contact_set_version(C)) follow(M, D);
     /* U = H^T v + U0: the relative velocity at the end of the step, whatever the scheme */
     if (M->nc != mo_contact_ncandidates(C)) { /* out of memory in follow: the step is not measured */
       M->unmeasured++;
@@ -508,6 +530,7 @@ json_t *mo_metrics_json(const mo_metrics *M)
     }
     json_object_set_new(c, "status_flips", json_integer(M->flips));
     if (M->unmeasured) json_object_set_new(c, "steps_not_measured", json_integer(M->unmeasured));
+    if (M->restarts) json_object_set_new(c, "history_restarts", json_integer(M->restarts));
     json_object_set_new(c, "release_time", json_real(M->first_release));
     if (!isnan(tref)) {
       json_object_set_new(c, "release_time_exact", json_real(tref));

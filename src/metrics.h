@@ -16,8 +16,11 @@ typedef struct mo_metrics mo_metrics;
    scene.hmin). */
 double mo_metrics_hmin(const mo_scene *sc);
 /* work: a scratch of ndof + 1 doubles the caller lends for the metrics' life (NULL: their own),
-   free between the calls */
-int mo_metrics_create(const mo_scene *sc, const mo_contact *C, double *work, mo_metrics **out, mo_ctx *ctx);
+   free between the calls. D: the run's contact driver, whose remaps the metrics follow the
+   candidate set by (mo_contact_driver_remap; it must then be the D of every mo_metrics_step
+   after the first), or NULL: the metrics keep the keys themselves. */
+int mo_metrics_create(const mo_scene *sc, const mo_contact *C, const mo_contact_driver *D, double *work,
+                      mo_metrics **out, mo_ctx *ctx);
 /* Record the state after a step (and at t = 0, with D = NULL before the first step). */
 void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *D);
 /* Energy ratio E(t) / E0 (doc/theory.md §10): kinetic + elastic - external and support work,

@@ -11,6 +11,7 @@
    H computes them, the records' sweep reports them as not measured (-1), not NaN. */
 #include "config.h"
 #include "testlib.h"
+#include "metrics.h"
 
 #include <jansson.h>
 #include <math.h>
@@ -430,6 +431,119 @@ static void memory(void)
   tl_remove_dir(c);
 }
 
+/* One step of h as mo_run takes it (run.c's advance): kept, taken, and on a failure taken again
+   from the snapshot as two halves, down to two halvings; the metrics follow each step taken.
+   Returns the status of the step (non-zero: failed at the last level). */
+typedef struct {
+  tl_steps R;
+  mo_metrics *M[2];
+  mo_state save[3];
+  mo_contact_snapshot *X[3];
+  int cuts, steps, changes, moved;
+} follow_run;
+
+static int follow_step(follow_run *F, double h, int level)
+{
+  tl_steps *R = &F->R;
+  long v = mo_contact_set_version(R->C);
+  int st, k;
+  if ((st = mo_stepper_set_dt(R->S, h, &R->ctx))) return st;
+  mo_state_copy(R->sc, &R->s, &F->save[level]);
+  if ((st = mo_contact_snapshot_save(R->D, F->X[level], &R->ctx))) return st;
+  /* a step that fails after a new candidate set (every other grain moved 6 mm sideways, a geometry, a
+     NaN velocity for the attempt): the state is taken again from the copy above, the driver's
+     arrays from the snapshot, and its remaps composed from the set of the last step taken */
+  if (level == 0 && R->s.step % 13 == 5) {
+    const mo_body *B = &R->sc->body[R->sc->nbody - 1];
+    for (k = 3; k < R->sc->nbody; k += 2) R->s.u[R->sc->body[k].dof0] += 0.006;
+    /* the new set and the driver's arrays fitted to it, as a step's end would leave them */
+    if ((st = mo_contact_snapshot_restore(R->D, F->X[level], &R->s, &R->ctx))) return st;
+    F->moved += mo_contact_set_version(R->C) != v;
+    R->s.v[B->dof0] = NAN;
+  }
+  if (!(st = mo_contact_step(R->D, &R->s, &R->ctx))) {
+    if (level > 0) R->s.step--; /* the substeps of a cut step keep its number */
+    F->steps++;
+    F->changes += mo_contact_set_version(R->C) != v;
+    for (k = 0; k < 2; k++) mo_metrics_step(F->M[k], &R->s, R->D);
+    return MO_OK;
+  }
+  if (level >= 2 || (st != MO_ENOCONV && st != MO_ENAN)) return st;
+  mo_ctx_clear_error(&R->ctx);
+  mo_state_copy(R->sc, &F->save[level], &R->s);
+  if ((st = mo_stepper_restart(R->S, &R->s, &R->ctx)) ||
+      (st = mo_contact_snapshot_restore(R->D, F->X[level], &R->s, &R->ctx)))
+    return st;
+  F->cuts++;
+  for (k = 0; k < 2; k++)
+    if ((st = follow_step(F, h / 2, level + 1))) return st;
+  if (level == 0) R->s.step++;
+  return MO_OK;
+}
+
+/* The metrics follow the candidate set through the driver's remaps (mo_contact_driver_remap,
+   doc/theory.md (T185)) instead of keys, a key map and a map of their own: stepped side by side
+   with metrics that keep their keys (created without the driver) on a deposit whose set changes
+   at most steps, with steps that fail (a NaN velocity in the attempt) and are cut as mo_run cuts
+   them (a restore, then the halves), the two give the same summary (oscillation index, flips,
+   chatter, impacts) at every tenth step and at the end. */
+static void metrics_follow(void)
+{
+  static char t[8192];
+  follow_run F;
+  const char *saved = nscd_opts;
+  int st = 0, k, same = 1, checks = 0;
+  char *ja = NULL, *jb = NULL;
+  memset(&F, 0, sizeof F);
+  nscd_opts = "stop = \"quad\"; tol = 1.0e-6; max_sweeps = 100;";
+  disks_text(t, sizeof t, 80, 0.3, "", "");
+  nscd_opts = saved;
+  if (tl_steps_open(&F.R, t, "follow.cfg", NULL, 0)) {
+    ok(0, "metrics through the driver's remaps: the deposit opens (%s)", F.R.ctx.errmsg);
+    return;
+  }
+  st = mo_metrics_create(F.R.sc, F.R.C, F.R.D, NULL, &F.M[0], &F.R.ctx);
+  if (!st) st = mo_metrics_create(F.R.sc, F.R.C, NULL, NULL, &F.M[1], &F.R.ctx);
+  for (k = 0; k < 3 && !st; k++) {
+    st = mo_state_alloc(F.R.sc, &F.save[k], &F.R.ctx);
+    if (!st) st = mo_contact_snapshot_create(F.R.D, &F.X[k], &F.R.ctx);
+  }
+  for (k = 0; k < 2 && !st; k++) mo_metrics_step(F.M[k], &F.R.s, NULL);
+  while (!st && F.R.s.step < F.R.sc->time.steps) {
+    if ((st = follow_step(&F, F.R.sc->time.dt, 0))) break;
+    if (F.R.s.step % 10 == 0 || F.R.s.step == F.R.sc->time.steps) {
+      json_t *a = mo_metrics_json(F.M[0]), *b = mo_metrics_json(F.M[1]);
+      free(ja);
+      free(jb);
+      ja = json_dumps(a, JSON_SORT_KEYS);
+      jb = json_dumps(b, JSON_SORT_KEYS);
+      json_decref(a);
+      json_decref(b);
+      checks++;
+      if (!ja || !jb || strcmp(ja, jb)) {
+        same = 0;
+        break;
+      }
+    }
+  }
+  ok(!st && F.R.s.step == 300, "metrics through the driver's remaps: 300 steps of 80 disks (%d taken, %d cut) %s",
+     F.steps, F.cuts, st ? F.R.ctx.errmsg : "");
+  ok(F.changes > 150 && F.cuts >= 10 && F.moved >= 10, "the candidate set changed at %d steps taken; %d steps were cut, "
+     "%d of them after a new set", F.changes, F.cuts, F.moved);
+  ok(same && checks >= 30, "the metrics through the remaps and through their own keys agree at %d checks%s%s", checks,
+     same ? "" : ": ", same ? "" : (ja ? ja : "(none)"));
+  ok(ja && !strstr(ja, "history_restarts"), "no history restarted");
+  free(ja);
+  free(jb);
+  for (k = 0; k < 3; k++) {
+    mo_state_release(&F.save[k]);
+    mo_contact_snapshot_free(F.X[k]);
+  }
+  mo_metrics_free(F.M[0]);
+  mo_metrics_free(F.M[1]);
+  tl_steps_free(&F.R);
+}
+
 int main(void)
 {
   disks();
@@ -439,5 +553,6 @@ int main(void)
   memory();
   report_norms("natural");
   report_norms("scaled");
+  metrics_follow();
   return done_testing();
 }

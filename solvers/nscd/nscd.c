@@ -73,11 +73,11 @@ static void nscd_free(void *state)
   mo_free(S->cv);
   mo_free(S->aux);
   mo_free(S->act);
-  mo_free(S->order);
+  mo_free(S->ordown);
   mo_free(S->Uown);
   mo_free(S->rold);
   mo_free(S->scale);
-  mo_free(S->mu);
+  mo_free(S->muown);
   mo_free(S->rng_state);
   mo_free(S->sprev);
   mo_free(S->wnown);
@@ -109,8 +109,14 @@ static int fit_set(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
 #define GROW(ptr, n) if (!(q = mo_realloc(ctx, ptr, (n) * sizeof *(ptr)))) return MO_ENOMEM; ptr = q
   if (nc > S->cap) {
     nc += nc / 4; /* sets grow a little at a time while grains settle */
-    GROW(S->act, nc); GROW(S->order, nc); GROW(S->mu, nc);
+    GROW(S->act, nc);
     S->cap = nc;
+  }
+  /* the friction coefficients: the granular path's are the problem's own until a contact differs
+     (nscd_grains_prepare makes them then) */
+  if ((!S->grains || S->muown) && S->cap > S->mucap) {
+    GROW(S->muown, S->cap);
+    S->mucap = S->cap;
   }
   /* W_aa's pointers and the scaling: the granular path reads them from its records */
   if (S->grains) {
@@ -185,10 +191,11 @@ static int nscd_reinit(void *state, const mo_contact_problem *P, mo_ctx *ctx)
 void nscd_prepare_local(nscd_state *S, const mo_contact_problem *P)
 {
   int d = S->d, a, t;
+  S->mu = S->muown;
   for (a = 0; a < S->nc; a++) {
     double wtt = 0;
     for (t = 1; t < d; t++) wtt += S->diag[a][t * d + t];
-    S->mu[a] = P->mu && !(d > 1 && !(wtt > 1e-12 * S->diag[a][0])) ? P->mu[a] : 0;
+    S->muown[a] = P->mu && !(d > 1 && !(wtt > 1e-12 * S->diag[a][0])) ? P->mu[a] : 0;
     nscd_local_prepare(d, S->diag[a], S->mu[a], S->aux + (size_t)a * NSCD_AUX);
     S->scale[a] = S->diag[a][0] > 0 ? 1 / S->diag[a][0] : 0;
   }
@@ -704,8 +711,19 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
     sa = nscd_scale(S, a);
     S->qs2 += sa * sa * q2;
   }
-  for (k = 0; k < S->nact; k++) S->order[k] = S->act[p->order == NSCD_ORDER_REVERSE ? S->nact - 1 - k : k];
-  if (p->order == NSCD_ORDER_SHUFFLED) gsl_ran_shuffle(&S->rng, S->order, (size_t)S->nact, sizeof(int));
+  if (p->order == NSCD_ORDER_NATURAL)
+    S->order = S->act;
+  else {
+    if (S->cap > S->ocap) {
+      void *q = mo_realloc(ctx, S->ordown, S->cap * sizeof *S->ordown);
+      if (!q) return MO_ENOMEM;
+      S->ordown = q;
+      S->ocap = S->cap;
+    }
+    S->order = S->ordown;
+    for (k = 0; k < S->nact; k++) S->order[k] = S->act[p->order == NSCD_ORDER_REVERSE ? S->nact - 1 - k : k];
+    if (p->order == NSCD_ORDER_SHUFFLED) gsl_ran_shuffle(&S->rng, S->order, (size_t)S->nact, sizeof(int));
+  }
   /* over MPI ranks: each rank's slab of the contacts (doc/parallel.md §4) */
   S->par = 0;
   if (S->grains && ctx->nranks > 1 && (st = nscd_grains_partition(S, P, ctx))) return st;

@@ -118,7 +118,10 @@ typedef struct {
   double *aux;                  /* nc * NSCD_AUX: per-contact data of the local solvers */
   const mo_delassus *wsrc;      /* the W the cached data were built for, and its version */
   long wver;
-  int *act, nact, *order;
+  int *act, nact, *order;       /* the active contacts, and the sweep's order of them: act itself in the
+                                   natural order (the granular path's many contacts), else ordown */
+  int *ordown;
+  size_t ocap;
   double *U;                    /* U = W r + q kept up to date by the column updates: Uown, or on the
                                    granular path the caller's array of the solve */
   double *Uown;
@@ -126,9 +129,14 @@ typedef struct {
                                    granular path on one rank, whose sweep sums Jean's parts itself */
   double *scale;                /* nc: 1 / W_aa,nn, the scaling of (T42) (0 when W_nn = 0); NULL on the
                                    granular path (nscd_scale computes it from the record's W_aa) */
-  double *mu;                   /* nc: friction coefficients, 0 where no free dof moves the
+  const double *mu;             /* nc: friction coefficients, 0 where no free dof moves the
                                    contact tangentially (W_tt = 0, e.g. on a symmetry axis: its
-                                   friction impulse acts on nothing, any r_t in the cone would do) */
+                                   friction impulse acts on nothing, any r_t in the cone would do);
+                                   read for the active contacts only. muown, or on the granular
+                                   path the problem's own P->mu while no active contact differs
+                                   from it (doc/theory.md (T186)) */
+  double *muown;
+  size_t mucap;
   double qn2, qs2;              /* |q|^2 and |S q|^2 over the active contacts */
   /* a GSL generator on our own memory (gsl_rng_alloc aborts on failure) */
   gsl_rng rng;

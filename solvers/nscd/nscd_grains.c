@@ -140,11 +140,11 @@ KERNEL void side_rows(const int d, const double *F, const double *x, const doubl
    nscd_bodies.c's prepare computes them from H (an entry H does not store, a zero, gives a zero
    product here: the sums differ at most by the sign of a zero), then the local data as
    nscd_prepare_local computes them. */
-KERNEL void prepare_d(nscd_state *S, const mo_contact_problem *P, const int d)
+KERNEL int prepare_d(nscd_state *S, const mo_contact_problem *P, const int d)
 {
   const mo_grains *Gr = P->grains;
   const double *iv = S->gi;
-  int a, s, i, j, k;
+  int a, s, i, j, k, differ = 0;
   for (a = 0; a < S->nc; a++) {
     char *rec = REC(S, a, d);
     double *Waa = R_W(rec, d), *ca = R_C(rec), wtt = 0;
@@ -172,19 +172,21 @@ KERNEL void prepare_d(nscd_state *S, const mo_contact_problem *P, const int d)
       }
     }
     if (!act) { /* out of the step's problem: its U only (r = 0), no local data; W_aa = 0 (its scaling 0) */
-      S->mu[a] = 0;
+      if (S->muown) S->muown[a] = 0;
       continue;
     }
     /* nscd_prepare_local: friction where a free dof moves the contact tangentially, the local
        solvers' data, the scaling (T42) */
     for (i = 1; i < d; i++) wtt += Waa[i * d + i];
-    S->mu[a] = P->mu && wtt > 1e-12 * Waa[0] ? P->mu[a] : 0;
     {
-      double aux[NSCD_AUX];
-      nscd_local_prepare(d, Waa, S->mu[a], aux);
+      double aux[NSCD_AUX], mua = P->mu && wtt > 1e-12 * Waa[0] ? P->mu[a] : 0;
+      if (S->muown) S->muown[a] = mua;
+      else differ |= !P->mu || mua != P->mu[a];
+      nscd_local_prepare(d, Waa, mua, aux);
       memcpy(R_AUX(rec, d), aux, NAUX(d) * sizeof *aux);
     }
   }
+  return differ;
 }
 
 int nscd_grains_prepare(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
@@ -195,8 +197,18 @@ int nscd_grains_prepare(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
   if ((st = reserve(S, P->nfree, ctx)) || (st = inverse_diagonal(S, P->Wi, P->nfree, ctx))) return st;
   S->gw = REC(S, 0, S->d) + OFF_W(S->d); /* nscd_waa */
   S->gstride = RECSZ(S->d);
-  if (S->d == 2) prepare_d(S, P, 2);
-  else prepare_d(S, P, 3);
+  /* the friction coefficients are P->mu's (no copy: (T186)) unless an active contact's differs */
+  if (S->d == 2 ? prepare_d(S, P, 2) : prepare_d(S, P, 3)) {
+    if (S->cap > S->mucap) {
+      void *p = mo_realloc(ctx, S->muown, S->cap * sizeof *S->muown);
+      if (!p) return MO_ENOMEM;
+      S->muown = p;
+      S->mucap = S->cap;
+    }
+    if (S->d == 2) prepare_d(S, P, 2);
+    else prepare_d(S, P, 3);
+  }
+  S->mu = S->muown ? S->muown : P->mu;
   return MO_OK;
 }
 

@@ -541,6 +541,13 @@ size_t mo_contact_driver_bytes(const mo_contact_driver *D, size_t *per_dof);
 long mo_contact_driver_failures(const mo_contact_driver *D);
 /* Candidates added to velocity-level index sets after a solve found them ending inside (§5). */
 long mo_contact_driver_index_added(const mo_contact_driver *D);
+/* The driver's last remap of its arrays, when it went from set version `from` to `to`
+   (mo_contact_set_version): each candidate's place in the old set, -1 for a new one; NULL
+   otherwise. Within a step taken again (a snapshot restored, then the step), the remaps are
+   composed from the set of the last step completed, so that whoever follows the candidate set
+   after each completed step (the metrics) may read it instead of keeping keys (doc/theory.md
+   (T185)). */
+const int *mo_contact_driver_remap(const mo_contact_driver *D, long from, long to);
 /* The most candidates a step of the run had (the peak the memory figures per candidate divide by). */
 int mo_contact_driver_candidates_max(const mo_contact_driver *D);
 /* The last step's local problem over every candidate (W dense, q, mu), the inactive ones
