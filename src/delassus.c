@@ -218,98 +218,40 @@ static int touching(mo_delassus *D, const mo_csc *H, int nfe, int *fe, mo_ctx *c
 
 /* The nodal part: c H_a^T What_fe^-1 H_b for the candidates whose columns touch the nodal block
    (rows 0 .. nfe-1), by chunks of right-hand sides through the factorization; the columns
-   What_fe^-1 H are kept when they fit. */
-static int build_nodal(mo_delassus *D, const mo_csc *H, const mo_what_inverse *Wi, double c, rows *R, mo_ctx *ctx)
-{
-  int nfe = Wi->nfe, d = D->d, nb = D->nb, nbf, a, b, k, p, j0, st = MO_OK;
-  int *fe = NULL;
-  double *B = NULL, *X = NULL;
-  fe = mo_malloc(ctx, ((size_t)nb + 1) * sizeof *fe);
-  if (!fe) { st = MO_ENOMEM; goto done; }
-  if ((st = touching(D, H, nfe, fe, ctx))) goto done;
-  nbf = D->nbf;
-  D->r1 = nfe;
-  count_rows(ctx, nfe, nfe, nbf * d);
-  if (!nbf || !nfe) goto done;
-  B = mo_calloc(ctx, (size_t)nfe * MO_CHUNK + 1, sizeof(double));
-  X = mo_malloc(ctx, ((size_t)nfe * MO_CHUNK + 1) * sizeof(double));
-  if (!B || !X) { st = MO_ENOMEM; goto done; }
-  if ((double)nfe * (double)nbf * d <= MO_KEEP_COLUMNS_MAX) {
-    D->C = mo_malloc(ctx, ((size_t)nfe * (size_t)nbf * (size_t)d + 1) * sizeof(double));
-    if (!D->C) { st = MO_ENOMEM; goto done; }
-  } else
-    mo_note_skip(ctx, "storing What^-1 H (%d x %d would exceed %.0f MB): one solve per correction",
-                 nfe, nbf * d, MO_KEEP_COLUMNS_MAX * 8 / 1e6);
-  /* chunks of whole candidates so that each block column is computed at once */
-  for (j0 = 0; j0 < nbf; j0 += MO_CHUNK / d) {
-    int nbc = MO_CHUNK / d, ncols;
-    if (j0 + nbc > nbf) nbc = nbf - j0;
-    ncols = nbc * d;
-    memset(B, 0, (size_t)nfe * (size_t)ncols * sizeof(double));
-    for (b = 0; b < nbc; b++)
-      for (k = 0; k < d; k++) {
-        int col = fe[j0 + b] * d + k;
-        for (p = H->p[col]; p < H->p[col + 1]; p++)
-          if (H->i[p] < nfe) B[(size_t)(b * d + k) * nfe + (size_t)H->i[p]] = H->x[p];
-      }
-    if ((st = mo_linsolver_solve_multi(Wi->ls, ncols, B, X, ctx))) goto done;
-    if (D->C) memcpy(D->C + (size_t)j0 * d * nfe, X, (size_t)nfe * (size_t)ncols * sizeof(double));
-    /* W(a, chunk) = c H_a^T X over the nodal rows */
-    for (k = 0; k < nbf; k++)
-      for (b = 0; b < nbc; b++) {
-        double blk[9];
-        int nz = 0, ii, jj;
-        a = fe[k];
-        for (ii = 0; ii < d; ii++)
-          for (jj = 0; jj < d; jj++) {
-            int r = a * d + ii, col = b * d + jj;
-            double sum = 0;
-            for (p = H->p[r]; p < H->p[r + 1]; p++)
-              if (H->i[p] < nfe) sum += H->x[p] * X[(size_t)col * nfe + (size_t)H->i[p]];
-            blk[ii * d + jj] = c * sum;
-            nz |= sum != 0;
-          }
-        if (nz && (st = rows_add(R, a, fe[j0 + b], blk, ctx))) goto done;
-      }
-  }
-done:
-  mo_free(fe);
-  mo_free(B);
-  mo_free(X);
-  return st;
-}
-
-/* The nodal part when the solver's rows are split over the ranks (doc/theory.md (T210)-(T212)):
-   each rank solves for and keeps its rows r0 .. r1-1 of the columns X = What_fe^-1 H (no rank
-   holds them whole), takes its rows' share of c H_a^T X and one sum over the ranks a chunk
-   completes the chunk's blocks of W (T211), the same on every rank. */
-static int build_nodal_rows(mo_delassus *D, const mo_csc *H, const mo_what_inverse *Wi, double c, rows *R, int r0,
-                            int r1, mo_ctx *ctx)
+   X = What_fe^-1 H are kept when they fit. When the solver's rows are split over the ranks
+   (split: doc/theory.md (T210)-(T212)) each rank solves for and keeps its rows r0 .. r1-1 of X (no
+   rank holds them whole), takes its rows' share of c H_a^T X, and one sum over the ranks a chunk
+   completes the chunk's blocks of W (T211), the same on every rank; otherwise r0 = 0, r1 = nfe. */
+static int build_nodal(mo_delassus *D, const mo_csc *H, const mo_what_inverse *Wi, double c, rows *R, int split,
+                       int r0, int r1, mo_ctx *ctx)
 {
   int nfe = Wi->nfe, d = D->d, nb = D->nb, nloc = r1 - r0, nbf, mb, a, b, k, p, j0, q0, q1, i, st = MO_OK;
   int *fe = NULL;
-  double *B = NULL, *X = NULL, *Wp = NULL, *cnt = NULL, largest = 0, total = 0;
+  double *B = NULL, *X = NULL, *Wp = NULL, *cnt = NULL, largest = nloc, total = 0;
   fe = mo_malloc(ctx, ((size_t)nb + 1) * sizeof *fe);
-  cnt = mo_calloc(ctx, (size_t)ctx->nranks, sizeof *cnt);
-  D->rcnt = mo_malloc(ctx, (size_t)ctx->nranks * sizeof *D->rcnt);
-  D->part = mo_malloc(ctx, ((size_t)nloc + 1) * sizeof *D->part);
-  if (!fe || !cnt || !D->rcnt || !D->part) { st = MO_ENOMEM; goto done; }
-  /* every rank's rows: the correction's gather (T212) and the count of summary.json */
-  cnt[ctx->rank] = nloc;
-  if ((st = mo_par_sum(cnt, ctx->nranks, ctx))) goto done;
-  for (i = 0; i < ctx->nranks; i++) {
-    D->rcnt[i] = (int)cnt[i];
-    total += cnt[i];
-    if (cnt[i] > largest) largest = cnt[i];
+  if (!fe) { st = MO_ENOMEM; goto done; }
+  if (split) {
+    cnt = mo_calloc(ctx, (size_t)ctx->nranks, sizeof *cnt);
+    D->rcnt = mo_malloc(ctx, (size_t)ctx->nranks * sizeof *D->rcnt);
+    D->part = mo_malloc(ctx, ((size_t)nloc + 1) * sizeof *D->part);
+    if (!cnt || !D->rcnt || !D->part) { st = MO_ENOMEM; goto done; }
+    /* every rank's rows: the correction's gather (T212) and the count of summary.json */
+    cnt[ctx->rank] = nloc;
+    if ((st = mo_par_sum(cnt, ctx->nranks, ctx))) goto done;
+    for (i = 0, largest = 0; i < ctx->nranks; i++) {
+      D->rcnt[i] = (int)cnt[i];
+      total += cnt[i];
+      if (cnt[i] > largest) largest = cnt[i];
+    }
+    if (total != nfe) { st = mo_error(ctx, MO_EINTERNAL, "Delassus: the ranks' rows sum to %.0f of %d", total, nfe); goto done; }
   }
-  if (total != nfe) { st = mo_error(ctx, MO_EINTERNAL, "Delassus: the ranks' rows sum to %.0f of %d", total, nfe); goto done; }
   D->r0 = r0;
   D->r1 = r1;
   if ((st = touching(D, H, nfe, fe, ctx))) goto done;
   nbf = D->nbf;
   mb = nbf * d;
   count_rows(ctx, largest, nfe, mb);
-  if (!nbf) goto done;
+  if (!nbf || !nfe) goto done;
   B = mo_calloc(ctx, (size_t)nloc * MO_CHUNK + 1, sizeof *B);
   X = mo_malloc(ctx, ((size_t)nloc * MO_CHUNK + 1) * sizeof *X);
   Wp = mo_malloc(ctx, ((size_t)mb * MO_CHUNK + 1) * sizeof *Wp);
@@ -319,8 +261,9 @@ static int build_nodal_rows(mo_delassus *D, const mo_csc *H, const mo_what_inver
     D->C = mo_malloc(ctx, ((size_t)nloc * (size_t)mb + 1) * sizeof *D->C);
     if (!D->C) { st = MO_ENOMEM; goto done; }
   } else
-    mo_note_skip(ctx, "storing What^-1 H by rows (%.0f x %d would exceed %.0f MB): one solve per correction",
-                 largest, mb, MO_KEEP_COLUMNS_MAX * 8 / 1e6);
+    mo_note_skip(ctx, "storing What^-1 H%s (%.0f x %d would exceed %.0f MB): one solve per correction",
+                 split ? " by rows" : "", largest, mb, MO_KEEP_COLUMNS_MAX * 8 / 1e6);
+  /* chunks of whole candidates so that each block column is computed at once */
   for (j0 = 0; j0 < nbf; j0 += MO_CHUNK / d) {
     int nbc = MO_CHUNK / d, ncols;
     if (j0 + nbc > nbf) nbc = nbf - j0;
@@ -332,13 +275,12 @@ static int build_nodal_rows(mo_delassus *D, const mo_csc *H, const mo_what_inver
         for (p = H->p[col]; p < H->p[col + 1]; p++)
           if (H->i[p] >= r0 && H->i[p] < r1) B[(size_t)(b * d + k) * nloc + (size_t)(H->i[p] - r0)] = H->x[p];
       }
-    if ((st = mo_linsolver_solve_rows(Wi->ls, ncols, B, X, &q0, &q1, ctx))) goto done;
-    if (q0 != r0 || q1 != r1) {
+    if (!split) st = mo_linsolver_solve_multi(Wi->ls, ncols, B, X, ctx);
+    else if (!(st = mo_linsolver_solve_rows(Wi->ls, ncols, B, X, &q0, &q1, ctx)) && (q0 != r0 || q1 != r1))
       st = mo_error(ctx, MO_EINTERNAL, "Delassus: the solver's rows moved (%d .. %d, then %d .. %d)", r0, r1, q0, q1);
-      goto done;
-    }
+    if (st) goto done;
     if (D->C) memcpy(D->C + (size_t)j0 * d * nloc, X, (size_t)nloc * (size_t)ncols * sizeof *X);
-    /* this rank's rows' share of c H^T X (T211), mb x ncols column-major, summed over the ranks */
+    /* these rows' share of c H^T X (all of it on one rank), mb x ncols column-major (T211) */
     for (b = 0; b < ncols; b++)
       for (k = 0; k < mb; k++) {
         int r = fe[k / d] * d + k % d;
@@ -347,7 +289,7 @@ static int build_nodal_rows(mo_delassus *D, const mo_csc *H, const mo_what_inver
           if (H->i[p] >= r0 && H->i[p] < r1) sum += H->x[p] * X[(size_t)b * nloc + (size_t)(H->i[p] - r0)];
         Wp[(size_t)b * mb + (size_t)k] = c * sum;
       }
-    if ((st = mo_par_sum(Wp, (long)mb * ncols, ctx))) goto done;
+    if (split && (st = mo_par_sum(Wp, (long)mb * ncols, ctx))) goto done;
     for (k = 0; k < nbf; k++)
       for (b = 0; b < nbc; b++) {
         double blk[9];
@@ -729,7 +671,7 @@ int mo_delassus_update(mo_delassus *D, const mo_csc *H, long hversion, const mo_
     if ((st = build_schur(D, H, Wi, &E, c, NULL, ctx))) goto done;
   } else if ((st = rows_init(&R, D->nb, dim, ctx)) ||
              (st = covered ? build_schur(D, H, Wi, &E, c, &R, ctx)
-                   : split ? build_nodal_rows(D, H, Wi, c, &R, r0, r1, ctx) : build_nodal(D, H, Wi, c, &R, ctx)) ||
+                   : build_nodal(D, H, Wi, c, &R, split, split ? r0 : 0, split ? r1 : Wi->nfe, ctx)) ||
              (st = build_rigid(D, H, Wi, c, &R, ctx)) || (st = rows_compress(&R, D, ctx)))
     goto done;
   if ((st = keep_normal(D, ctx))) goto done;
