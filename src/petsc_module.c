@@ -805,7 +805,7 @@ static int direct_memory_check(petsc_state *s, mo_ctx *ctx)
   if (sum + have > 2e9 || ctx->verbosity >= 3)
     mo_log(ctx, 1, "moreau: MUMPS's factorization of %d dofs%s: %.4g factor entries (%.2f GB), %.3g flops; MUMPS's "
            "estimate %.2f GB in core, %.2f GB out of core; the Schur complement on %d contact dofs and the Delassus "
-           "operator %.2f GB; beside %.2f GB in use: %.2f GB of the %.2f GB this run may take (%s)\\n",
+           "operator %.2f GB; beside %.2f GB in use: %.2f GB of the %.2f GB this run may take (%s)\n",
            s->n, s->ooc ? " out of core" : "", s->info.nnz_L, s->info.bytes_factor / 1e9, s->info.flops,
            s->info.bytes_in_core / 1e9, s->info.bytes_out_of_core / 1e9, s->schur ? s->nlast : 0, (sc + reserve) / 1e9,
            have / 1e9, (need + have) / 1e9, limit / 1e9, s->ooc ? "the factor on disk" : "in core");
@@ -823,7 +823,7 @@ static int direct_memory_check(petsc_state *s, mo_ctx *ctx)
                     "Schur complement and the Delassus operator %.2f GB) beside the %.2f GB the run holds already; "
                     "this machine gives a run %.2f GB (doc/theory.md (T181)). Refused before the numeric "
                     "factorization: %s",
-                    s->n, s->info.nnz_L, s->info.flops, need, s->ooc ? "out of core" : "in core",
+                    s->n, s->info.nnz_L, s->info.flops, need / 1e9, s->ooc ? "out of core" : "in core",
                     s->info.bytes_in_core / 1e9, s->info.bytes_out_of_core / 1e9, (sc + reserve) / 1e9, have / 1e9,
                     limit / 1e9,
                     !s->ooc && need_ooc + have <= limit ? "linear_solver.out_of_core = true fits"
