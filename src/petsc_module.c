@@ -407,13 +407,15 @@ static void drop(petsc_state *s)
    own estimates of the memory (INFOG(17) in core, INFOG(27) out of core, in MB = 1e6 bytes, over
    the ranks) are checked against what the run may take, and the run is refused with the figures
    before the hour-long numeric factorization when even out of core does not fit (T181). The
-   contact dofs ordered last become MUMPS's Schur variables (ICNTL(19) through MatFactorSetSchurIS):
-   the numeric factorization leaves S = A_CC - A_CI A_II^-1 A_IC dense, PETSc inverts it in place
-   (LAPACK's Cholesky and its inverse, potrf and potri) and G = S^-1 = (A^-1)_CC is W's middle
-   factor as CHOLMOD's L22 gives it (T150)-(T151), with no solve per column. PETSc 3.18 refuses
+   contact dofs ordered last become MUMPS's Schur variables (ICNTL(19)): for a Cholesky factor
+   through MUMPS's own struct in CHOLMOD's order (dm_*, (T183)), for LU through PETSc's
+   MatFactorSetSchurIS. The numeric factorization leaves S = A_CC - A_CI A_II^-1 A_IC dense,
+   inverted in place (LAPACK's Cholesky and its inverse, potrf and potri), and G = S^-1 =
+   (A^-1)_CC is W's middle factor as CHOLMOD's L22 gives it (T150)-(T151), with no solve per
+   column. PETSc 3.18 refuses
    Schur complements on more than one rank ("MUMPS distributed parallel Schur complements not yet
    supported from PETSc"): there the contact dofs are not ordered and W is built by solves. The
-   whole solves stay: PETSc's MatSolve condenses on S, solves with G and expands (ICNTL(26) 1 and
+   whole solves stay: MUMPS condenses on S, the product with G, MUMPS expands (ICNTL(26) 1 and
    2); MUMPS keeps the condensed interior right-hand side inside between the two, so the split
    solves of (T153) (a forward solve kept and summed with an impulse's) have no counterpart and
    the type has none (T180). Out of core (ICNTL(22) = 1) MUMPS writes the factor to files under
