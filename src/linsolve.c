@@ -309,19 +309,20 @@ static const char *ordering_name(int o)
 
 /* The fill-reducing order of the rows not ordered last: CHOLMOD's default choice on the pattern
    of A_II (its postordered permutation), written into perm[0 .. n - nlast - 1] as rows of A. */
-static int order_rest(chol_state *s, const cholmod_sparse *A, sslong *perm, mo_ctx *ctx)
+static int order_rest_c(cholmod_common *c, const cholmod_sparse *A, int nlast, const int *last, sslong *perm,
+                        const char **ordering, mo_ctx *ctx)
 {
   const sslong *Ap = A->p, *Ai = A->i;
-  sslong n = (sslong)A->ncol, nI = n - s->nlast, j, p, k, nz = 0;
+  sslong n = (sslong)A->ncol, nI = n - nlast, j, p, k, nz = 0;
   sslong *map = NULL, *Ip = NULL, *Ii = NULL, *rest = NULL;
   cholmod_sparse B;
   cholmod_factor *LI = NULL;
-  int st = MO_OK, super = s->c.supernodal;
+  int st = MO_OK, super = c->supernodal;
   map = mo_malloc(ctx, ((size_t)n + 1) * sizeof *map);
   rest = mo_malloc(ctx, ((size_t)nI + 1) * sizeof *rest);
   if (!map || !rest) { st = MO_ENOMEM; goto done; }
   for (j = 0; j < n; j++) map[j] = 0;
-  for (k = 0; k < s->nlast; k++) map[s->last[k]] = -1;
+  for (k = 0; k < nlast; k++) map[last[k]] = -1;
   for (j = 0, k = 0; j < n; j++)
     if (map[j] == 0) { rest[k] = j; map[j] = k++; }
   if (nI == 0) goto done;
@@ -351,19 +352,51 @@ static int order_rest(chol_state *s, const cholmod_sparse *A, sslong *perm, mo_c
   B.sorted = 1;
   B.packed = 1;
   /* only the permutation is kept: the simplicial analysis is enough to choose it */
-  s->c.supernodal = CHOLMOD_SIMPLICIAL;
-  LI = cholmod_l_analyze(&B, &s->c);
-  s->c.supernodal = super;
-  if (!LI) { st = mo_ss_cholmod_error(&s->c, "ordering of the dofs without contact", ctx); goto done; }
-  s->info.ordering = ordering_name(s->c.method[s->c.selected].ordering);
+  c->supernodal = CHOLMOD_SIMPLICIAL;
+  LI = cholmod_l_analyze(&B, c);
+  c->supernodal = super;
+  if (!LI) { st = mo_ss_cholmod_error(c, "ordering of the dofs without contact", ctx); goto done; }
+  *ordering = ordering_name(c->method[c->selected].ordering);
   for (k = 0; k < nI; k++) perm[k] = rest[((sslong *)LI->Perm)[k]];
 done:
-  if (!st && nI == 0) s->info.ordering = "given";
-  if (LI) cholmod_l_free_factor(&LI, &s->c);
+  if (!st && nI == 0) *ordering = "given";
+  if (LI) cholmod_l_free_factor(&LI, c);
   mo_free(map);
   mo_free(rest);
   mo_free(Ip);
   mo_free(Ii);
+  return st;
+}
+
+static int order_rest(chol_state *s, const cholmod_sparse *A, sslong *perm, mo_ctx *ctx)
+{
+  return order_rest_c(&s->c, A, s->nlast, s->last, perm, &s->info.ordering, ctx);
+}
+
+/* The order of the rows ordered last (sparse.h): CHOLMOD's own, as chol_analyze takes it, for a
+   factorization by another package (MUMPS's PERM_IN, doc/theory.md (T183)). */
+int mo_order_last(const mo_csc *A, int nlast, const int *last, int *perm, const char **ordering, mo_ctx *ctx)
+{
+  cholmod_common c;
+  cholmod_sparse S;
+  sslong *p = NULL, *i = NULL, *pl = NULL, n = A->ncol, nI = n - nlast, k;
+  int st;
+  *ordering = "given";
+  if (nlast < 0 || nlast > A->ncol || A->nrow != A->ncol)
+    return mo_error(ctx, MO_EINTERNAL, "mo_order_last: %d rows last of a %d x %d matrix", nlast, A->nrow, A->ncol);
+  cholmod_l_start(&c);
+  c.print = 0;
+  st = chol_long_view(A, &S, &p, &i, ctx);
+  if (!st && !(pl = mo_malloc(ctx, ((size_t)n + 1) * sizeof *pl))) st = MO_ENOMEM;
+  if (!st) st = order_rest_c(&c, &S, nlast, last, pl, ordering, ctx);
+  if (!st) {
+    for (k = 0; k < nI; k++) perm[k] = (int)pl[k];
+    for (k = 0; k < nlast; k++) perm[nI + k] = last[k];
+  }
+  mo_free(p);
+  mo_free(i);
+  mo_free(pl);
+  cholmod_l_finish(&c);
   return st;
 }
 

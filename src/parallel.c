@@ -36,7 +36,7 @@ int mo_parallel_launched(void)
 
 #ifdef HAVE_PETSC
 static const mo_petsc_host host = {mo_verror, mo_malloc, mo_calloc, mo_free, mo_csc_transpose, mo_csc_free, mo_clock,
-                                   mo_memory_rss, mo_memory_limit, mo_log};
+                                   mo_memory_rss, mo_memory_limit, mo_log, mo_order_last};
 
 static int exists(const char *path)
 {

@@ -6,6 +6,7 @@
 #include <moreau/mesh.h>
 
 #include <petscksp.h>
+#include <dmumps_c.h>
 #include <mpi.h>
 #include <dirent.h>
 #include <errno.h>
@@ -40,6 +41,7 @@ static int module_error(mo_ctx *ctx, int code, const char *fmt, ...)
 #define mo_memory_rss() H->memory_rss()
 #define mo_memory_limit() H->memory_limit()
 #define mo_log H->log
+#define mo_order_last H->order_last
 
 /* --- MPI ---------------------------------------------------------------------------------------- */
 
@@ -191,6 +193,15 @@ typedef struct {
   double t_solve;
   long n_solve;
   mo_linsolver_info info;
+  /* one rank, Cholesky, the contact dofs last: MUMPS's own struct instead of F, given our order
+     (PERM_IN: PETSc 3.18's Cholesky passes none, and with Schur variables MUMPS would order by
+     AMD), the lower triangle's entries by coordinates, S dense by columns (T183) */
+  int dm, dm_live, dm_inverted;
+  DMUMPS_STRUC_C id;
+  MUMPS_INT *irn, *jcn, *perm_in, *listvar;
+  double *a, *S, *red;
+  int red_cap;
+  char ordname[96];
 } petsc_state;
 
 /* A PETSc error as moreau's: the call and PETSc's own message. */
@@ -375,9 +386,12 @@ static int make_matrix(petsc_state *s, const mo_csc *A, mo_ctx *ctx)
   return st;
 }
 
+static void dm_drop(petsc_state *s);
+
 static void drop(petsc_state *s)
 {
   if (s->F) MatDestroy(&s->F);
+  dm_drop(s);
   if (s->ksp_obj) KSPDestroy(&s->ksp_obj);
   if (s->A) MatDestroy(&s->A);
   if (s->b) VecDestroy(&s->b);
@@ -393,13 +407,15 @@ static void drop(petsc_state *s)
    own estimates of the memory (INFOG(17) in core, INFOG(27) out of core, in MB = 1e6 bytes, over
    the ranks) are checked against what the run may take, and the run is refused with the figures
    before the hour-long numeric factorization when even out of core does not fit (T181). The
-   contact dofs ordered last become MUMPS's Schur variables (ICNTL(19) through MatFactorSetSchurIS):
-   the numeric factorization leaves S = A_CC - A_CI A_II^-1 A_IC dense, PETSc inverts it in place
-   (LAPACK's Cholesky and its inverse, potrf and potri) and G = S^-1 = (A^-1)_CC is W's middle
-   factor as CHOLMOD's L22 gives it (T150)-(T151), with no solve per column. PETSc 3.18 refuses
+   contact dofs ordered last become MUMPS's Schur variables (ICNTL(19)): for a Cholesky factor
+   through MUMPS's own struct in CHOLMOD's order (dm_*, (T183)), for LU through PETSc's
+   MatFactorSetSchurIS. The numeric factorization leaves S = A_CC - A_CI A_II^-1 A_IC dense,
+   inverted in place (LAPACK's Cholesky and its inverse, potrf and potri), and G = S^-1 =
+   (A^-1)_CC is W's middle factor as CHOLMOD's L22 gives it (T150)-(T151), with no solve per
+   column. PETSc 3.18 refuses
    Schur complements on more than one rank ("MUMPS distributed parallel Schur complements not yet
    supported from PETSc"): there the contact dofs are not ordered and W is built by solves. The
-   whole solves stay: PETSc's MatSolve condenses on S, solves with G and expands (ICNTL(26) 1 and
+   whole solves stay: MUMPS condenses on S, the product with G, MUMPS expands (ICNTL(26) 1 and
    2); MUMPS keeps the condensed interior right-hand side inside between the two, so the split
    solves of (T153) (a forward solve kept and summed with an impulse's) have no counterpart and
    the type has none (T180). Out of core (ICNTL(22) = 1) MUMPS writes the factor to files under
@@ -446,6 +462,246 @@ static void ooc_remove(petsc_state *s)
   }
   rmdir(s->ooc_dir);
   s->ooc_dir[0] = 0;
+}
+
+/* --- MUMPS's own struct: the Schur path in our order (T183) ------------------------------------ */
+
+#define ICNTL(I) icntl[(I) - 1]
+#define INFOG(I) infog[(I) - 1]
+#define RINFOG(I) rinfog[(I) - 1]
+
+extern void dpotrf_(const char *uplo, const int *n, double *a, const int *lda, int *info);
+extern void dpotri_(const char *uplo, const int *n, double *a, const int *lda, int *info);
+extern void dsymm_(const char *side, const char *uplo, const int *m, const int *n, const double *alpha,
+                   const double *a, const int *lda, const double *b, const int *ldb, const double *beta, double *c,
+                   const int *ldc);
+
+/* INFOG(k) of the struct, its negative counts in millions. */
+static double dm_infog(const petsc_state *s, int k)
+{
+  MUMPS_INT v = s->id.infog[k - 1];
+  return v < 0 ? -1e6 * (double)v : (double)v;
+}
+
+static void dm_drop(petsc_state *s)
+{
+  if (s->dm_live) {
+    s->id.job = -2;
+    dmumps_c(&s->id);
+    s->dm_live = 0;
+  }
+  mo_free(s->irn);
+  mo_free(s->jcn);
+  mo_free(s->a);
+  mo_free(s->perm_in);
+  mo_free(s->listvar);
+  mo_free(s->S);
+  mo_free(s->red);
+  s->irn = s->jcn = s->perm_in = s->listvar = NULL;
+  s->a = s->S = s->red = NULL;
+  s->red_cap = 0;
+  s->dm = s->dm_inverted = 0;
+}
+
+/* The lower triangle's values of A (both triangles stored) in the order of irn and jcn. */
+static void dm_values(petsc_state *s, const mo_csc *A)
+{
+  int j, p;
+  long q = 0;
+  for (j = 0; j < A->ncol; j++)
+    for (p = A->p[j]; p < A->p[j + 1]; p++)
+      if (A->i[p] >= j) s->a[q++] = A->x[p];
+}
+
+/* The analysis with PERM_IN = CHOLMOD's order with the contact dofs last (mo_order_last), the
+   contact dofs MUMPS's Schur variables (ICNTL(19) = 3), and MUMPS's estimates (T181), (T183). */
+static int dm_analyze(petsc_state *s, const mo_csc *A, mo_ctx *ctx)
+{
+  int j, p, k, n = A->ncol, *perm = NULL, st = MO_OK;
+  long nz = 0, q = 0;
+  const char *ord = "?";
+  double t0 = mo_clock();
+  dm_drop(s);
+  s->dm = 1;
+  s->last_new = 0;
+  if (s->ooc && (st = ooc_folder(s, ctx))) return st;
+  for (j = 0; j < n; j++)
+    for (p = A->p[j]; p < A->p[j + 1]; p++) nz += A->i[p] >= j;
+  if (!(s->irn = mo_malloc(ctx, ((size_t)nz + 1) * sizeof *s->irn)) ||
+      !(s->jcn = mo_malloc(ctx, ((size_t)nz + 1) * sizeof *s->jcn)) ||
+      !(s->a = mo_malloc(ctx, ((size_t)nz + 1) * sizeof *s->a)) ||
+      !(s->perm_in = mo_malloc(ctx, ((size_t)n + 1) * sizeof *s->perm_in)) ||
+      !(s->listvar = mo_malloc(ctx, ((size_t)s->nlast + 1) * sizeof *s->listvar)) ||
+      !(perm = mo_malloc(ctx, ((size_t)n + 1) * sizeof *perm)))
+    { st = MO_ENOMEM; goto done; }
+  for (j = 0; j < n; j++)
+    for (p = A->p[j]; p < A->p[j + 1]; p++)
+      if (A->i[p] >= j) {
+        s->irn[q] = A->i[p] + 1;
+        s->jcn[q++] = j + 1;
+      }
+  if ((st = mo_order_last(A, s->nlast, s->last, perm, &ord, ctx))) goto done;
+  /* PERM_IN(i): the position of variable i in the pivot order, from 1 */
+  for (k = 0; k < n; k++) s->perm_in[perm[k]] = k + 1;
+  for (k = 0; k < s->nlast; k++) s->listvar[k] = s->last[k] + 1;
+  memset(&s->id, 0, sizeof s->id);
+  s->id.job = -1;
+  s->id.par = 1;
+  s->id.sym = 1;
+  s->id.comm_fortran = (MUMPS_INT)MPI_Comm_c2f(PETSC_COMM_SELF);
+  dmumps_c(&s->id);
+  if (s->id.INFOG(1) < 0) {
+    st = mo_error(ctx, MO_EINTERNAL, "MUMPS's initialization failed (INFOG(1) = %g)", dm_infog(s, 1));
+    goto done;
+  }
+  s->dm_live = 1;
+  s->id.ICNTL(1) = s->id.ICNTL(2) = s->id.ICNTL(3) = -1;
+  s->id.ICNTL(4) = 0;
+  s->id.n = n;
+  s->id.nnz = nz;
+  s->id.irn = s->irn;
+  s->id.jcn = s->jcn;
+  s->id.a = s->a;
+  s->id.ICNTL(7) = 1;
+  s->id.perm_in = s->perm_in;
+  s->id.ICNTL(19) = 3;
+  s->id.size_schur = s->nlast;
+  s->id.listvar_schur = s->listvar;
+  s->id.ICNTL(22) = s->ooc;
+  if (s->ooc) {
+    size_t len = strlen(s->ooc_dir);
+    if (len >= sizeof s->id.ooc_tmpdir) {
+      st = mo_error(ctx, MO_EINPUT, "linear_solver.ooc_dir: the folder '%s' is longer than MUMPS takes (%d characters)",
+                    s->ooc_dir, (int)sizeof s->id.ooc_tmpdir - 1);
+      goto done;
+    }
+    memcpy(s->id.ooc_tmpdir, s->ooc_dir, len + 1);
+  }
+  s->id.job = 1;
+  dmumps_c(&s->id);
+  if (s->id.INFOG(1) < 0) {
+    st = mo_error(ctx, MO_EINTERNAL, "MUMPS's analysis failed (INFOG(1) = %g, INFOG(2) = %g)", dm_infog(s, 1),
+                  dm_infog(s, 2));
+    goto done;
+  }
+  s->info.nnz_L = dm_infog(s, 20);
+  s->info.flops = s->id.RINFOG(1);
+  s->info.bytes_in_core = 1e6 * dm_infog(s, 17);
+  s->info.bytes_out_of_core = 1e6 * dm_infog(s, 27);
+  s->info.bytes_factor = 8 * s->info.nnz_L;
+  s->info.bytes_work = s->ooc ? s->info.bytes_out_of_core : s->info.bytes_in_core;
+  s->info.out_of_core = s->ooc;
+  /* INFOG(7) = 1: MUMPS took the order given */
+  snprintf(s->ordname, sizeof s->ordname, "%s, given to mumps (INFOG(7) = %d)", ord, (int)s->id.INFOG(7));
+  s->info.ordering = s->ordname;
+  s->schur = 1;
+done:
+  s->info.t_analyze += mo_clock() - t0;
+  mo_free(perm);
+  return st;
+}
+
+/* The numeric factorization: S = A_CC - A_CI A_II^-1 A_IC dense in s->S (T150). */
+static int dm_numeric(petsc_state *s, const mo_csc *A, mo_ctx *ctx)
+{
+  size_t nC = (size_t)s->nlast;
+  double t0 = mo_clock();
+  mo_free(s->S);
+  if (!(s->S = mo_calloc(ctx, nC * nC + 1, sizeof *s->S))) return MO_ENOMEM;
+  dm_values(s, A);
+  s->id.schur = s->S;
+  s->id.schur_lld = s->nlast;
+  s->id.nprow = s->id.npcol = 1;
+  s->id.mblock = s->id.nblock = s->nlast;
+  s->id.job = 2;
+  dmumps_c(&s->id);
+  s->info.t_numeric = mo_clock() - t0;
+  s->dm_inverted = 0;
+  if (s->id.INFOG(1) == -10)
+    return mo_error(ctx, MO_ESINGULAR, "factorization by MUMPS: a zero pivot: the matrix is singular (a body free to "
+                    "move rigidly with zero mass, or a missing support)");
+  if (s->id.INFOG(1) == -9 || s->id.INFOG(1) == -13 || s->id.INFOG(1) == -19)
+    return mo_error(ctx, MO_ENOMEM, "factorization by MUMPS: out of memory (INFOG(1) = %g, INFOG(2) = %g)",
+                    dm_infog(s, 1), dm_infog(s, 2));
+  if (s->id.INFOG(1) < 0)
+    return mo_error(ctx, MO_EINTERNAL, "factorization by MUMPS failed (INFOG(1) = %g, INFOG(2) = %g)", dm_infog(s, 1),
+                    dm_infog(s, 2));
+  s->info.nlast = s->nlast;
+  s->info.trailing = 1;
+  return MO_OK;
+}
+
+/* S^-1 in place, both triangles: MUMPS gives one triangle of S (which one: the one it filled,
+   the other left zero), LAPACK's Cholesky and its inverse (T151). */
+static int dm_invert(petsc_state *s, mo_ctx *ctx)
+{
+  size_t nC = (size_t)s->nlast, a, b;
+  int n = s->nlast, info = 0, upper = 0, lower = 0;
+  double *S = s->S;
+  if (s->dm_inverted) return MO_OK;
+  for (b = 0; b < nC; b++)
+    for (a = b + 1; a < nC; a++) {
+      upper |= S[b + a * nC] != 0;
+      lower |= S[a + b * nC] != 0;
+    }
+  if (upper && !lower)
+    for (b = 0; b < nC; b++)
+      for (a = b + 1; a < nC; a++) S[a + b * nC] = S[b + a * nC];
+  if (n > 0) dpotrf_("L", &n, S, &n, &info);
+  if (!info && n > 0) dpotri_("L", &n, S, &n, &info);
+  if (info)
+    return mo_error(ctx, MO_ESINGULAR, "MUMPS's Schur complement on the contact dofs is singular (LAPACK %d)", info);
+  for (b = 0; b < nC; b++)
+    for (a = b + 1; a < nC; a++) S[b + a * nC] = S[a + b * nC];
+  for (a = 0; a < nC * nC; a++)
+    if (!isfinite(S[a])) return mo_error(ctx, MO_ENAN, "the inverse of MUMPS's Schur complement holds a NaN");
+  s->dm_inverted = 1;
+  return MO_OK;
+}
+
+/* X = A^-1 B (nrhs columns of n): MUMPS condenses on the Schur variables (ICNTL(26) = 1), the
+   condensed right-hand side times S^-1, then MUMPS expands (ICNTL(26) = 2) (T180). */
+static int dm_solve(petsc_state *s, int nrhs, const double *B, double *X, mo_ctx *ctx)
+{
+  int st, n = s->nlast;
+  size_t need = (size_t)s->nlast * (size_t)nrhs;
+  double one = 1, zero = 0, t0 = mo_clock(), *y;
+  if (!nrhs) return MO_OK;
+  if ((st = dm_invert(s, ctx))) return st;
+  if ((size_t)s->red_cap < need) {
+    mo_free(s->red);
+    s->red_cap = 0;
+    if (!(s->red = mo_malloc(ctx, (2 * need + 1) * sizeof *s->red))) return MO_ENOMEM;
+    s->red_cap = (int)need;
+  }
+  y = s->red + need;
+  if (X != B) memcpy(X, B, (size_t)s->n * (size_t)nrhs * sizeof *X);
+  s->id.rhs = X;
+  s->id.nrhs = nrhs;
+  s->id.lrhs = s->n;
+  s->id.redrhs = s->red;
+  s->id.lredrhs = s->nlast;
+  s->id.ICNTL(26) = 1;
+  s->id.job = 3;
+  dmumps_c(&s->id);
+  if (s->id.INFOG(1) < 0)
+    return mo_error(ctx, MO_EINTERNAL, "MUMPS's condensed solve failed (INFOG(1) = %g, INFOG(2) = %g)", dm_infog(s, 1),
+                    dm_infog(s, 2));
+  if (n > 0) {
+    dsymm_("L", "L", &n, &nrhs, &one, s->S, &n, s->red, &n, &zero, y, &n);
+    memcpy(s->red, y, need * sizeof *y);
+  }
+  s->id.ICNTL(26) = 2;
+  dmumps_c(&s->id);
+  s->id.ICNTL(26) = 0;
+  if (s->id.INFOG(1) < 0)
+    return mo_error(ctx, MO_EINTERNAL, "MUMPS's expansion failed (INFOG(1) = %g, INFOG(2) = %g)", dm_infog(s, 1),
+                    dm_infog(s, 2));
+  s->t_solve += (mo_clock() - t0) / nrhs;
+  s->n_solve++;
+  for (need = 0; need < (size_t)s->n * (size_t)nrhs; need++)
+    if (!isfinite(X[need])) return mo_error(ctx, MO_ENAN, "a solve by MUMPS gave a NaN");
+  return MO_OK;
 }
 
 static int petsc_set_last(void *state, int nlast, const int *last, double reserve, mo_ctx *ctx)
@@ -551,7 +807,7 @@ static int direct_memory_check(petsc_state *s, mo_ctx *ctx)
   if (sum + have > 2e9 || ctx->verbosity >= 3)
     mo_log(ctx, 1, "moreau: MUMPS's factorization of %d dofs%s: %.4g factor entries (%.2f GB), %.3g flops; MUMPS's "
            "estimate %.2f GB in core, %.2f GB out of core; the Schur complement on %d contact dofs and the Delassus "
-           "operator %.2f GB; beside %.2f GB in use: %.2f GB of the %.2f GB this run may take (%s)\\n",
+           "operator %.2f GB; beside %.2f GB in use: %.2f GB of the %.2f GB this run may take (%s)\n",
            s->n, s->ooc ? " out of core" : "", s->info.nnz_L, s->info.bytes_factor / 1e9, s->info.flops,
            s->info.bytes_in_core / 1e9, s->info.bytes_out_of_core / 1e9, s->schur ? s->nlast : 0, (sc + reserve) / 1e9,
            have / 1e9, (need + have) / 1e9, limit / 1e9, s->ooc ? "the factor on disk" : "in core");
@@ -569,7 +825,7 @@ static int direct_memory_check(petsc_state *s, mo_ctx *ctx)
                     "Schur complement and the Delassus operator %.2f GB) beside the %.2f GB the run holds already; "
                     "this machine gives a run %.2f GB (doc/theory.md (T181)). Refused before the numeric "
                     "factorization: %s",
-                    s->n, s->info.nnz_L, s->info.flops, need, s->ooc ? "out of core" : "in core",
+                    s->n, s->info.nnz_L, s->info.flops, need / 1e9, s->ooc ? "out of core" : "in core",
                     s->info.bytes_in_core / 1e9, s->info.bytes_out_of_core / 1e9, (sc + reserve) / 1e9, have / 1e9,
                     limit / 1e9,
                     !s->ooc && need_ooc + have <= limit ? "linear_solver.out_of_core = true fits"
@@ -577,12 +833,22 @@ static int direct_memory_check(petsc_state *s, mo_ctx *ctx)
   return MO_OK;
 }
 
-static int direct_factor(petsc_state *s, mo_ctx *ctx)
+static int direct_factor(petsc_state *s, const mo_csc *A, mo_ctx *ctx)
 {
   MatFactorInfo fi;
   MatFactorError fe = MAT_FACTOR_NOERROR;
   int st, chol = !strcmp(s->pc, "cholesky");
   double t0;
+  if (s->nlast && chol && ctx->nranks == 1) {
+    /* the Schur path in our order: MUMPS's struct (T183) */
+    if (s->F) MatDestroy(&s->F);
+    if (!s->dm || s->last_new) {
+      if ((st = dm_analyze(s, A, ctx))) return st;
+      if ((st = direct_memory_check(s, ctx))) return st;
+    }
+    return dm_numeric(s, A, ctx);
+  }
+  if (s->dm) dm_drop(s);
   if (!s->F || s->last_new) {
     if ((st = direct_analyze(s, ctx))) return st;
     if ((st = direct_memory_check(s, ctx))) return st;
@@ -616,7 +882,12 @@ static int petsc_schur_inverse(void *state, double *G, mo_ctx *ctx)
   MatFactorSchurStatus ss;
   const PetscScalar *a;
   PetscInt lda, m, nn;
-  int j, n = s->nlast;
+  int j, n = s->nlast, st;
+  if (s->dm) {
+    if ((st = dm_invert(s, ctx))) return st;
+    memcpy(G, s->S, (size_t)n * (size_t)n * sizeof *G);
+    return MO_OK;
+  }
   if (!s->schur || !s->F) return mo_error(ctx, MO_EINTERNAL, "no Schur complement in this factor");
   P(MatFactorInvertSchurComplement(s->F));
   P(MatFactorGetSchurComplement(s->F, &S, &ss));
@@ -638,7 +909,7 @@ static int petsc_schur_inverse(void *state, double *G, mo_ctx *ctx)
 static void petsc_info(const void *state, mo_linsolver_info *out)
 {
   const petsc_state *s = state;
-  if (!s->direct || !s->F) return;
+  if (!s->direct || (!s->F && !s->dm)) return;
   *out = s->info;
   out->two_solves = s->n_solve ? s->t_solve / s->n_solve : NAN;
 }
@@ -694,7 +965,7 @@ static int petsc_factor(void *state, const mo_csc *A, int same, mo_ctx *ctx)
   }
   P(MatAssemblyBegin(s->A, MAT_FINAL_ASSEMBLY));
   P(MatAssemblyEnd(s->A, MAT_FINAL_ASSEMBLY));
-  if (s->direct) return direct_factor(s, ctx);
+  if (s->direct) return direct_factor(s, A, ctx);
   P(KSPSetOperators(s->ksp_obj, s->A, s->A));
   /* the factorization (or the preconditioner's set-up) now, where the stepper times it */
   P(KSPSetUp(s->ksp_obj));
@@ -819,6 +1090,7 @@ static int petsc_solve_rows(void *state, int nrhs, const double *B, double *X, i
   *r0 = s->rstart;
   *r1 = s->rend;
   if (!nrhs) return MO_OK;
+  if (s->dm) return dm_solve(s, nrhs, B, X, ctx);
   return solve_local(s, nrhs, B, (size_t)(s->rend - s->rstart), 0, X, ctx);
 }
 
@@ -826,6 +1098,7 @@ static int petsc_solve(void *state, int nrhs, const double *B, double *X, mo_ctx
 {
   petsc_state *s = state;
   int k, st;
+  if (s->dm) return dm_solve(s, nrhs, B, X, ctx);
   if (nrhs > 1) return solve_block(s, nrhs, B, X, ctx);
   for (k = 0; k < nrhs; k++)
     if ((st = solve_one(s, B + (size_t)k * (size_t)s->n, X + (size_t)k * (size_t)s->n, ctx))) return st;

@@ -14,7 +14,7 @@
 #include <moreau/sparse.h>
 
 /* Raised whenever a member changes meaning or position. */
-#define MO_PETSC_ABI 5
+#define MO_PETSC_ABI 6
 #define MO_PETSC_SYMBOL "mo_petsc_module_v1"
 #define MO_PETSC_MODULE_NAME "moreau_petsc.so"
 
@@ -30,6 +30,8 @@ typedef struct mo_petsc_host {
   double (*memory_rss)(void);
   double (*memory_limit)(void);
   void (*log)(const mo_ctx *ctx, int level, const char *fmt, ...);
+  /* CHOLMOD's order with the contact dofs last, given to MUMPS (doc/theory.md (T183)) */
+  int (*order_last)(const mo_csc *A, int nlast, const int *last, int *perm, const char **ordering, mo_ctx *ctx);
 } mo_petsc_host;
 
 typedef struct mo_petsc_module {

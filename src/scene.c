@@ -1140,12 +1140,22 @@ static double memory_limit(const mo_ctx *ctx)
    and indices), the larger of the factorization's largest update (s^2) and W and G on the contact
    face (2 s^2, with the contact dofs last), 4.5 kB per dof (K, M, What, the vectors) and 17.5 MB of
    the process: peak RSS of the box scaling runs 14^3 .. 45^3 within 4.3 % (bench/README.md). */
-static double box_bytes(const double *n, int last)
+static double box_bytes(const double *n, int last, int ooc)
 {
   double a = n[0] + 1, b = n[1] + 1, c = n[2] + 1, N = 3 * a * b * c, s, nnz;
   s = 3 * fmin(a * b, fmin(b * c, a * c));
   nnz = (last ? 3.55 + 1.41 * log(N) : 1.97 + 1.20 * log(N)) * N * sqrt(s);
-  return 17.5e6 + 4490 * N + 10 * nnz + (last ? 16 : 8) * s * s;
+  /* MUMPS's factor out of core is on disk: its workspace in the given order, INFOG(27) over
+     INFOG(20), is 4.5 bytes per entry at 31^3 and 3.8 at 68^3 (T183); MUMPS's analysis then
+     states its own figure (T181) */
+  return 17.5e6 + 4490 * N + (ooc ? 4.5 : 10) * nnz + (last ? 16 : 8) * s * s;
+}
+
+/* linear_solver.out_of_core: MUMPS's factor on disk (T182) */
+static int out_of_core(const mo_case *cs)
+{
+  const config_setting_t *lg = config_lookup(&cs->cfg, "linear_solver");
+  return lg && mo_cfg_bool(lg, "out_of_core", 0);
 }
 
 /* Whether body `name` is in an active contact pair whose dofs the factorization orders last
@@ -1222,7 +1232,7 @@ static int estimate_size(const mo_case *cs, const config_setting_t *bl, int nent
     nodes += c * nn;
     elems += c * ne;
     dofs += c * nn * d;
-    eb = d == 3 && !strcmp(gen, "box") ? box_bytes(n, contact_last(cs, mo_cfg_string(bg, "name", ""))) : nn * d * bytes_per_dof[d];
+    eb = d == 3 && !strcmp(gen, "box") ? box_bytes(n, contact_last(cs, mo_cfg_string(bg, "name", "")), out_of_core(cs)) : nn * d * bytes_per_dof[d];
     bytes += c * eb;
     if (c * ne > 1e7 || dofs > limit || bytes > mem) {
       char why[160];

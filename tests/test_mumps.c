@@ -95,6 +95,16 @@ static void check_scene(const char *name, const char *text, mo_ctx *ctx)
      "%s: W from MUMPS's Schur complement on %d contact dofs (no split solves)", name, nlast[1]);
   ok(wmax > 0 && wd <= 1e-12 * wmax, "%s: W (%d x %d) from MUMPS's Schur complement = CHOLMOD's trailing block: "
      "max |dW| = %.3g of max |W| = %.3g", name, m, m, wd, wmax);
+  {
+    /* MUMPS took CHOLMOD's order with the contact dofs last (PERM_IN, INFOG(7) = 1, (T183)) */
+    mo_linsolver_info I[2];
+    char want[128];
+    memset(I, 0, sizeof I);
+    for (k = 0; k < 2; k++) mo_linsolver_info_get(mo_stepper_solver(X[k].S), &I[k]);
+    snprintf(want, sizeof want, "%s, given to mumps (INFOG(7) = 1)", I[0].ordering ? I[0].ordering : "?");
+    ok(I[1].ordering && !strcmp(I[1].ordering, want), "%s: MUMPS factors in CHOLMOD's order: '%s' (CHOLMOD: '%s')", name,
+       I[1].ordering ? I[1].ordering : "?", I[0].ordering ? I[0].ordering : "?");
+  }
   /* the correction What^-1 H r: whole solves (MUMPS) against the split ones (CHOLMOD) */
   n = mo_contact_H(X[0].C)->nrow;
   r = malloc((size_t)m * sizeof *r);

@@ -180,6 +180,10 @@ void mo_linsolver_free(mo_linsolver *S);
    they change; nlast = 0 clears), and bytes the caller will need beside the factor (counted in
    the memory check). MO_EUNSUPPORTED from a type that cannot order (nlast > 0). */
 int mo_linsolver_set_last(mo_linsolver *S, int nlast, const int *last, double reserve, mo_ctx *ctx);
+/* The order CHOLMOD's factor takes with nlast rows last: its own choice (AMD or METIS) on the
+   other rows, then last[] as given; perm[k] is the row of A at position k (n values), *ordering
+   the name of the choice. For a package given the order (MUMPS's PERM_IN). */
+int mo_order_last(const mo_csc *A, int nlast, const int *last, int *perm, const char **ordering, mo_ctx *ctx);
 /* The rows the factor holds as its trailing block (0: none, the split solves do not apply). */
 int mo_linsolver_nlast(const mo_linsolver *S);
 int mo_linsolver_split(mo_linsolver *S, mo_split_op op, const double *in, double *out, mo_ctx *ctx);
