@@ -137,35 +137,6 @@ done:
   }
 }
 
-static const char *block_2d =
-  "bodies = (\n"
-  "  { name = \"block\"; mesh = { generator = \"rectangle\"; origin = [0.0, 0.0]; size = [0.2, 0.1]; elements = [6, 4]; element = \"%s\"; };\n"
-  "    material = { E = 7.0e10; nu = 0.3; rho = 2700.0; hypothesis = \"plane_strain\"; }; body_force = [0.0, -9.81]; },\n"
-  "  { name = \"floor\"; type = \"plane\"; point = [0.0, 0.0]; normal = [0.0, 1.0]; }\n"
-  ");\n"
-  "time = { scheme = \"theta\"; dt = 1.0e-5; steps = 1; };\n"
-  "contact = { pairs = ( { slave = \"block\"; slave_set = \"bottom\"; master = \"floor\"; %s } ); };\n";
-
-static const char *box_3d =
-  "bodies = (\n"
-  "  { name = \"box\"; mesh = { generator = \"box\"; size = [0.1, 0.1, 0.05]; elements = [4, 4, 2]; };\n"
-  "    material = { E = 2.1e11; nu = 0.3; rho = 7800.0; };\n"
-  "    loads = ( { type = \"pressure\"; set = \"zmax\"; value = 1.0e6; } ); },\n"
-  "  { name = \"ground\"; type = \"plane\"; point = [0.0, 0.0, 0.0]; normal = [0.0, 0.0, 1.0]; }\n"
-  ");\n"
-  "time = { scheme = \"theta\"; dt = 1.0e-5; steps = 1; };\n"
-  "contact = { pairs = ( { slave = \"box\"; slave_set = \"zmin\"; master = \"ground\"; %s } ); };\n";
-
-static const char *boxes_3d =
-  "bodies = (\n"
-  "  { name = \"lower\"; mesh = { generator = \"box\"; size = [0.1, 0.1, 0.05]; elements = [3, 3, 2]; };\n"
-  "    material = { E = 2.1e11; nu = 0.3; rho = 7800.0; }; fix = ( { set = \"zmin\"; } ); },\n"
-  "  { name = \"upper\"; mesh = { generator = \"box\"; origin = [0.0, 0.0, 0.05]; size = [0.1, 0.1, 0.05]; elements = [4, 4, 2]; };\n"
-  "    material = { E = 2.1e11; nu = 0.3; rho = 7800.0; }; body_force = [0.0, 0.0, -9.81]; }\n"
-  ");\n"
-  "time = { scheme = \"theta\"; dt = 1.0e-5; steps = 1; };\n"
-  "contact = { pairs = ( { slave = \"upper\"; slave_set = \"zmin\"; master = \"lower\"; master_set = \"zmax\"; mu = 0.3; } ); };\n";
-
 int main(int argc, char **argv)
 {
   mo_ctx ctx;
@@ -180,14 +151,15 @@ int main(int argc, char **argv)
     printf("1..1\nnot ok 1 - MPI starts: %s\n", ctx.errmsg);
     return 1;
   }
-  snprintf(text, sizeof text, box_3d, "");
+  snprintf(text, sizeof text, tl_box_3d, "");
   check_scene("3D H8 on a plane, concentrated", text, &ctx);
-  snprintf(text, sizeof text, box_3d, "reactions = \"weighted\"; mu = 0.3;");
+  snprintf(text, sizeof text, tl_box_3d, "reactions = \"weighted\"; mu = 0.3;");
   check_scene("3D H8 on a plane, weighted reactions, friction", text, &ctx);
-  check_scene("3D H8 on H8 (mesh master)", boxes_3d, &ctx);
-  snprintf(text, sizeof text, block_2d, "Q4", "mu = 0.3;");
+  check_scene("3D H8 on H8 (mesh master)", tl_boxes_3d, &ctx);
+  snprintf(text, sizeof text, tl_block_2d, "Q4", "plane_strain", "scheme = \"theta\"; dt = 1.0e-5; steps = 1;", "mu = 0.3;");
   check_scene("2D Q4 plane strain, concentrated, friction", text, &ctx);
-  snprintf(text, sizeof text, block_2d, "T3", "reactions = \"weighted\";");
+  snprintf(text, sizeof text, tl_block_2d, "T3", "plane_strain", "scheme = \"theta\"; dt = 1.0e-5; steps = 1;",
+           "reactions = \"weighted\";");
   check_scene("2D T3, weighted reactions", text, &ctx);
   printf("1..%d\n", tap_n);
   mo_parallel_finish(&ctx);

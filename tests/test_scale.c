@@ -219,16 +219,6 @@ static const char *bars_1d =
   "time = { scheme = \"theta\"; theta = 1.0; dt = 2.0e-6; steps = 1; };\n"
   "contact = { pairs = ( { slave = \"left\"; slave_set = \"right\"; master = \"right\"; master_set = \"left\"; } ); };\n";
 
-/* a 2D block on a plane: %s element, %s hypothesis, extra pair keys */
-static const char *block_2d =
-  "bodies = (\n"
-  "  { name = \"block\"; mesh = { generator = \"rectangle\"; origin = [0.0, 0.0]; size = [0.2, 0.1]; elements = [6, 4]; element = \"%s\"; };\n"
-  "    material = { E = 7.0e10; nu = 0.3; rho = 2700.0; hypothesis = \"%s\"; }; body_force = [0.0, -9.81]; },\n"
-  "  { name = \"floor\"; type = \"plane\"; point = [0.0, 0.0]; normal = [0.0, 1.0]; }\n"
-  ");\n"
-  "time = { %s };\n"
-  "contact = { pairs = ( { slave = \"block\"; slave_set = \"bottom\"; master = \"floor\"; %s } ); };\n";
-
 static const char *blocks_2d =
   "bodies = (\n"
   "  { name = \"lower\"; mesh = { generator = \"rectangle\"; size = [1.0, 0.5]; elements = [4, 2]; };\n"
@@ -239,49 +229,28 @@ static const char *blocks_2d =
   "time = { scheme = \"theta\"; dt = 1.0e-5; steps = 1; };\n"
   "contact = { pairs = ( { slave = \"lower\"; slave_set = \"top\"; master = \"upper\"; master_set = \"bottom\"; collocation = \"gauss\"; mu = 0.2; } ); };\n";
 
-/* a 3D box on a plane, extra pair keys */
-static const char *box_3d =
-  "bodies = (\n"
-  "  { name = \"box\"; mesh = { generator = \"box\"; size = [0.1, 0.1, 0.05]; elements = [4, 4, 2]; };\n"
-  "    material = { E = 2.1e11; nu = 0.3; rho = 7800.0; };\n"
-  "    loads = ( { type = \"pressure\"; set = \"zmax\"; value = 1.0e6; } ); },\n"
-  "  { name = \"ground\"; type = \"plane\"; point = [0.0, 0.0, 0.0]; normal = [0.0, 0.0, 1.0]; }\n"
-  ");\n"
-  "time = { scheme = \"theta\"; dt = 1.0e-5; steps = 1; };\n"
-  "contact = { pairs = ( { slave = \"box\"; slave_set = \"zmin\"; master = \"ground\"; %s } ); };\n";
-
-static const char *boxes_3d =
-  "bodies = (\n"
-  "  { name = \"lower\"; mesh = { generator = \"box\"; size = [0.1, 0.1, 0.05]; elements = [3, 3, 2]; };\n"
-  "    material = { E = 2.1e11; nu = 0.3; rho = 7800.0; }; fix = ( { set = \"zmin\"; } ); },\n"
-  "  { name = \"upper\"; mesh = { generator = \"box\"; origin = [0.0, 0.0, 0.05]; size = [0.1, 0.1, 0.05]; elements = [4, 4, 2]; };\n"
-  "    material = { E = 2.1e11; nu = 0.3; rho = 7800.0; }; body_force = [0.0, 0.0, -9.81]; }\n"
-  ");\n"
-  "time = { scheme = \"theta\"; dt = 1.0e-5; steps = 1; };\n"
-  "contact = { pairs = ( { slave = \"upper\"; slave_set = \"zmin\"; master = \"lower\"; master_set = \"zmax\"; mu = 0.3; } ); };\n";
-
 static void test_scenes(void)
 {
   char text[4096], src[4096];
   char path[4200];
   check_scene("1D bars (bar2), mesh master", bars_1d, 1);
-  snprintf(text, sizeof text, block_2d, "Q4", "plane_strain", "scheme = \"theta\"; dt = 1.0e-5; steps = 1;", "mu = 0.3;");
+  snprintf(text, sizeof text, tl_block_2d, "Q4", "plane_strain", "scheme = \"theta\"; dt = 1.0e-5; steps = 1;", "mu = 0.3;");
   check_scene("2D Q4 plane strain, concentrated, friction", text, 1);
-  snprintf(text, sizeof text, block_2d, "T3", "plane_stress", "scheme = \"theta\"; dt = 1.0e-5; steps = 1;",
+  snprintf(text, sizeof text, tl_block_2d, "T3", "plane_stress", "scheme = \"theta\"; dt = 1.0e-5; steps = 1;",
            "reactions = \"weighted\";");
   check_scene("2D T3 plane stress, weighted reactions", text, 1);
-  snprintf(text, sizeof text, block_2d, "Q4", "axisymmetric", "scheme = \"theta\"; dt = 1.0e-5; steps = 1;",
+  snprintf(text, sizeof text, tl_block_2d, "Q4", "axisymmetric", "scheme = \"theta\"; dt = 1.0e-5; steps = 1;",
            "collocation = \"gauss\"; gauss = 2;");
   check_scene("2D Q4 axisymmetric, Gauss points", text, 1);
-  snprintf(text, sizeof text, block_2d, "Q4", "plane_strain", "scheme = \"newmark\"; beta = 0.3025; gamma = 0.6; dt = 1.0e-5; steps = 1;",
+  snprintf(text, sizeof text, tl_block_2d, "Q4", "plane_strain", "scheme = \"newmark\"; beta = 0.3025; gamma = 0.6; dt = 1.0e-5; steps = 1;",
            "mu = 0.3; reactions = \"weighted\";");
   check_scene("2D Q4, Newmark, weighted reactions, friction", text, 1);
   check_scene("2D Q4 on Q4 (mesh master, Gauss points on segments)", blocks_2d, 1);
-  snprintf(text, sizeof text, box_3d, "mu = 0.3;");
+  snprintf(text, sizeof text, tl_box_3d, "mu = 0.3;");
   check_scene("3D H8 on a plane, concentrated, friction", text, 1);
-  snprintf(text, sizeof text, box_3d, "reactions = \"weighted\";");
+  snprintf(text, sizeof text, tl_box_3d, "reactions = \"weighted\";");
   check_scene("3D H8 on a plane, weighted reactions", text, 1);
-  check_scene("3D H8 on H8 (mesh master)", boxes_3d, 1);
+  check_scene("3D H8 on H8 (mesh master)", tl_boxes_3d, 1);
   /* the quasi-static box of the shipped case (W = H^T K^-1 H) */
   tl_case_path(path, sizeof path, "box-on-plane/case.cfg");
   {
@@ -358,7 +327,7 @@ static void test_long_indices(void)
   int n, i, info, *piv = NULL, one = 1;
   unsigned long seed = 7;
   char text[4096];
-  snprintf(text, sizeof text, block_2d, "Q4", "plane_strain", "scheme = \"theta\"; dt = 1.0e-5; steps = 1;", "");
+  snprintf(text, sizeof text, tl_block_2d, "Q4", "plane_strain", "scheme = \"theta\"; dt = 1.0e-5; steps = 1;", "");
   if (scene_open(&X, "long indices", text)) {
     ok(0, "long indices: set-up: %s", X.ctx.errmsg);
     scene_free(&X);

@@ -326,4 +326,35 @@ static void rotation(const double *n, double t, double *R)
   R[6] = n[2] * n[0] * C - n[1] * s; R[7] = n[2] * n[1] * C + n[0] * s; R[8] = c + n[2] * n[2] * C;
 }
 
+/* Small FE scenes on contact (tests/test_scale, tests/test_mumps), each a format for snprintf. */
+/* a 2D block on a plane: %s element, %s hypothesis, %s time keys, %s extra pair keys */
+static const char *const tl_block_2d TL_UNUSED =
+  "bodies = (\n"
+  "  { name = \"block\"; mesh = { generator = \"rectangle\"; origin = [0.0, 0.0]; size = [0.2, 0.1]; elements = [6, 4]; element = \"%s\"; };\n"
+  "    material = { E = 7.0e10; nu = 0.3; rho = 2700.0; hypothesis = \"%s\"; }; body_force = [0.0, -9.81]; },\n"
+  "  { name = \"floor\"; type = \"plane\"; point = [0.0, 0.0]; normal = [0.0, 1.0]; }\n"
+  ");\n"
+  "time = { %s };\n"
+  "contact = { pairs = ( { slave = \"block\"; slave_set = \"bottom\"; master = \"floor\"; %s } ); };\n";
+/* a 3D box pressed on a plane: %s extra pair keys */
+static const char *const tl_box_3d TL_UNUSED =
+  "bodies = (\n"
+  "  { name = \"box\"; mesh = { generator = \"box\"; size = [0.1, 0.1, 0.05]; elements = [4, 4, 2]; };\n"
+  "    material = { E = 2.1e11; nu = 0.3; rho = 7800.0; };\n"
+  "    loads = ( { type = \"pressure\"; set = \"zmax\"; value = 1.0e6; } ); },\n"
+  "  { name = \"ground\"; type = \"plane\"; point = [0.0, 0.0, 0.0]; normal = [0.0, 0.0, 1.0]; }\n"
+  ");\n"
+  "time = { scheme = \"theta\"; dt = 1.0e-5; steps = 1; };\n"
+  "contact = { pairs = ( { slave = \"box\"; slave_set = \"zmin\"; master = \"ground\"; %s } ); };\n";
+/* a 3D box on a fixed box (a mesh master, mu = 0.3): no format */
+static const char *const tl_boxes_3d TL_UNUSED =
+  "bodies = (\n"
+  "  { name = \"lower\"; mesh = { generator = \"box\"; size = [0.1, 0.1, 0.05]; elements = [3, 3, 2]; };\n"
+  "    material = { E = 2.1e11; nu = 0.3; rho = 7800.0; }; fix = ( { set = \"zmin\"; } ); },\n"
+  "  { name = \"upper\"; mesh = { generator = \"box\"; origin = [0.0, 0.0, 0.05]; size = [0.1, 0.1, 0.05]; elements = [4, 4, 2]; };\n"
+  "    material = { E = 2.1e11; nu = 0.3; rho = 7800.0; }; body_force = [0.0, 0.0, -9.81]; }\n"
+  ");\n"
+  "time = { scheme = \"theta\"; dt = 1.0e-5; steps = 1; };\n"
+  "contact = { pairs = ( { slave = \"upper\"; slave_set = \"zmin\"; master = \"lower\"; master_set = \"zmax\"; mu = 0.3; } ); };\n";
+
 #endif
