@@ -5,6 +5,7 @@
 #define MOREAU_LEVELSET_H
 
 #include <moreau/contact.h>
+#include <math.h>
 
 /* --- parameters (contact.levelset.*) ---------------------------------------------------------- */
 
@@ -94,6 +95,21 @@ typedef struct {
 static inline int ls_phi(const ls_system *S, int j)
 {
   return S->dt && (S->phi ? S->phi[j] != 0 : S->mu[j] > 0 && S->pg[j] > 0);
+}
+
+/* The sliding direction e = G / |G| of BDZ07 (42), G = Lam + h2_t U_t, and its derivative
+   D = (I - e e^T) / |G| (the generalized Newton step of §5.3; D = 0 in 2D, where e = sign G):
+   the same for the frozen-status system (levelset_system.c) and the reduced step
+   (levelset_reduced.c). */
+static inline void ls_slide_dir(int dt, const double *lam, const double *Ut, double h2, double *e, double *D)
+{
+  double G[2], g = 0;
+  int t, s;
+  for (t = 0; t < dt; t++) { G[t] = lam[t] + h2 * Ut[t]; g += G[t] * G[t]; }
+  g = sqrt(g);
+  for (t = 0; t < dt; t++) e[t] = g > 0 ? G[t] / g : 0;
+  for (t = 0; t < dt; t++)
+    for (s = 0; s < dt; s++) D[t * dt + s] = g > 0 ? ((t == s) - e[t] * e[s]) / g : 0;
 }
 
 /* Set up Cset, Mset and the projection for the frozen statuses (allocating what the sizes

@@ -544,19 +544,6 @@ int ls_reduced_solve(ls_reduced *R, const ls_system *S, const double *y, double 
 
 /* --- one Newton step ------------------------------------------------------------------------------ */
 
-/* The sliding direction e = G / |G| and its derivative D = (I - e e^T) / |G| (BDZ07 (42); the
-   generalized Newton of §5.3), as levelset_system.c evaluates them. */
-static void slide_dir(int dt, const double *lam, const double *Ut, double h2, double *e, double *D)
-{
-  double G[2], g = 0;
-  int t, s;
-  for (t = 0; t < dt; t++) { G[t] = lam[t] + h2 * Ut[t]; g += G[t] * G[t]; }
-  g = sqrt(g);
-  for (t = 0; t < dt; t++) e[t] = g > 0 ? G[t] / g : 0;
-  for (t = 0; t < dt; t++)
-    for (s = 0; s < dt; s++) D[t * dt + s] = g > 0 ? ((t == s) - e[t] * e[s]) / g : 0;
-}
-
 /* The 3D sliders' Newton corrections dLam (into b2, 2 nS) from the Schur complement on the
    sliding directions (T133):
      [(I - D) + h2 D Wred T] dLam = -F_L + h2 D (U'_S - U_S) + h2 D W_SX t1,   t1 = W_XX^-1 b_X. */
@@ -573,7 +560,7 @@ static int slider_step(ls_reduced *R, const ls_system *S, const double *WCC, con
   for (s = 0; s < R->nS; s++) {
     int jc = R->sc[s];
     const double *lam = y + offl + jc * 2, *Ut = U + jc * nr + 1;
-    slide_dir(2, lam, Ut, S->h2_t, e, D);
+    ls_slide_dir(2, lam, Ut, S->h2_t, e, D);
     for (t = 0; t < 2; t++) {
       int row = 2 * s + t;
       double rhs = e[t] - lam[t];
@@ -645,7 +632,7 @@ int ls_reduced_step(ls_reduced *R, const ls_system *S, const mo_delassus *W, con
     for (s = 0; s < R->nS; s++) {
       int jc = R->sc[s];
       double D;
-      if (dt == 1) slide_dir(1, y + offl + jc, U + jc * nr + 1, S->h2_t, R->es + s, &D);
+      if (dt == 1) ls_slide_dir(1, y + offl + jc, U + jc * nr + 1, S->h2_t, R->es + s, &D);
       for (t = 0; S->edir && t < dt; t++) R->es[s * dt + t] = S->edir[2 * S->cset[jc] + t];
       R->scode[s] = 3 * S->cset[jc] + 1 + (R->es[s * dt] > 0) - (R->es[s * dt] < 0);
       nks++;
@@ -682,7 +669,7 @@ int ls_reduced_step(ls_reduced *R, const ls_system *S, const mo_delassus *W, con
       target = -S->mu[S->cset[jc]] * R->es[s * dt + (e % nr) - 1] * y[jc * nr];
     } else if (dt == 1) {
       double ev, D;
-      slide_dir(1, y + offl + jc, U + e, S->h2_t, &ev, &D);
+      ls_slide_dir(1, y + offl + jc, U + e, S->h2_t, &ev, &D);
       target = -tau_of(S, S->cset[jc]) * ev;
     } else
       target = -tau_of(S, S->cset[jc]) * y[offl + jc * 2 + (e % nr) - 1];
@@ -721,7 +708,7 @@ int ls_reduced_step(ls_reduced *R, const ls_system *S, const mo_delassus *W, con
       y[e] = -S->mu[S->cset[jc]] * R->es[s * dt + t1] * y[jc * nr];
     } else if (dt == 1) {
       double ev, D;
-      slide_dir(1, y + offl + jc, U + e, S->h2_t, &ev, &D); /* as for r' above: Lam = e */
+      ls_slide_dir(1, y + offl + jc, U + e, S->h2_t, &ev, &D); /* as for r' above: Lam = e */
       y[offl + jc] = ev;
     } else
       y[e] = -tau_of(S, S->cset[jc]) * y[offl + jc * 2 + (e % nr) - 1];

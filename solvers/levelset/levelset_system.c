@@ -287,19 +287,6 @@ int ls_system_jacobians(ls_system *S, mo_ctx *ctx)
   return MO_OK;
 }
 
-/* The sliding direction e = G / |G| of BDZ07 (42), G = Lam + h2_t U_t, and its derivative
-   D = (I - e e^T) / |G| (the generalized Newton step of §5.3; D = 0 in 2D, where e = sign G). */
-static void slide_dir(int dt, const double *lam, const double *Ut, double h2, double *e, double *D)
-{
-  double G[2], g = 0;
-  int t, s;
-  for (t = 0; t < dt; t++) { G[t] = lam[t] + h2 * Ut[t]; g += G[t] * G[t]; }
-  g = sqrt(g);
-  for (t = 0; t < dt; t++) e[t] = g > 0 ? G[t] / g : 0;
-  for (t = 0; t < dt; t++)
-    for (s = 0; s < dt; s++) D[t * dt + s] = g > 0 ? ((t == s) - e[t] * e[s]) / g : 0;
-}
-
 void ls_system_eval(ls_system *S, const ls_space *A, const double *y, const double *U,
                     const double *Umag)
 {
@@ -360,7 +347,7 @@ void ls_system_eval(ls_system *S, const ls_space *A, const double *y, const doub
       int phi = ls_phi(S, j);
       ls_lam_at(S, A, y, j, lam);
       tau = c * wj * mu * pg;
-      if (phi && !S->sf[j]) slide_dir(dt, lam, U + e + 1, S->h2_t, ev, D);
+      if (phi && !S->sf[j]) ls_slide_dir(dt, lam, U + e + 1, S->h2_t, ev, D);
       for (t = 0; t < dt; t++) {
         int e2 = e + 1 + t;
         JY(e2, e2, 1);
@@ -425,7 +412,7 @@ void ls_system_eval(ls_system *S, const ls_space *A, const double *y, const doub
       double wa = S->w[j] * A->cx[q], mu = S->mu[j], pg = S->pg[j], lam[2], ev[2], D[4];
       int phi = kc >= 0 && ls_phi(S, j);
       ls_lam_at(S, A, y, j, lam);
-      if (phi && !S->sf[j]) slide_dir(dt, lam, U + kc * nr + 1, S->h2_t, ev, D);
+      if (phi && !S->sf[j]) ls_slide_dir(dt, lam, U + kc * nr + 1, S->h2_t, ev, D);
       for (t = 0; t < dt; t++) {
         int e = offl + mi * dt + t;
         if (!phi) { /* free of friction: Lam = 0 */
