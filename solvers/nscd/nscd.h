@@ -4,6 +4,7 @@
 #define MOREAU_NSCD_H
 
 #include <moreau/contact.h>
+#include <math.h>
 
 /* --- parameters (case keys contact.nscd.<option>) -------------------------------------------- */
 
@@ -248,6 +249,19 @@ void nscd_bodies_exact_U(nscd_state *S, const mo_contact_problem *P);
 int nscd_bodies_sweep(nscd_state *S, const mo_contact_problem *P, double *r, int *status);
 void nscd_bodies_dx(const nscd_state *S, const mo_contact_problem *P, double *dx);
 void nscd_bodies_free(nscd_state *S);
+/* The unknowns contact a adds to the count of (T84) with its impulse ra: none when open, one when
+   frictionless or sliding (r_t follows r_n), d when sticking; for nscd_bodies_count and
+   nscd_grains_count alike. */
+static inline int nscd_closed_unknowns(const nscd_state *S, int a, const double *ra, int d)
+{
+  double rt = 0;
+  int i;
+  if (!(ra[0] > 0)) return 0;
+  for (i = 1; i < d; i++) rt += ra[i] * ra[i];
+  return d == 1 || S->mu[a] == 0 || sqrt(rt) >= S->mu[a] * ra[0] * (1 - 1e-9) ? 1 : d;
+}
+/* S->bmark with room for n marks, every one cleared (the blocks or bodies the count has seen). */
+int nscd_marks_clear(nscd_state *S, size_t n, mo_ctx *ctx);
 /* The closed contacts' unknowns (1 per frictionless or sliding contact, d per sticking one) and
    the dofs of the bodies they touch: more unknowns than dofs is redundancy (T84), the count
    n - dofs a lower bound of it (the rank is not computed on the sweep on bodies). */

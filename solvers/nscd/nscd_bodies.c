@@ -255,27 +255,29 @@ void nscd_bodies_dx(const nscd_state *S, const mo_contact_problem *P, double *dx
   for (i = 0; i < P->nfree; i++) dx[i] = S->vb[i] - P->xfree[i];
 }
 
+int nscd_marks_clear(nscd_state *S, size_t n, mo_ctx *ctx)
+{
+  if (n > S->bmcap) {
+    int *q = mo_realloc(ctx, S->bmark, n * sizeof *q);
+    if (!q) return MO_ENOMEM;
+    S->bmark = q;
+    S->bmcap = n;
+  }
+  memset(S->bmark, 0, n * sizeof *S->bmark);
+  return MO_OK;
+}
+
 int nscd_bodies_count(nscd_state *S, const mo_contact_problem *P, const double *r, int *unknowns, int *dofs,
                       mo_ctx *ctx)
 {
   const mo_what_inverse *Wi = P->Wi;
   const int d = S->d;
-  int k, i, s, nu = 0, nd = 0;
-  if ((size_t)Wi->nblk + 1 > S->bmcap) {
-    int *q = mo_realloc(ctx, S->bmark, ((size_t)Wi->nblk + 1) * sizeof *q);
-    if (!q) return MO_ENOMEM;
-    S->bmark = q;
-    S->bmcap = (size_t)Wi->nblk + 1;
-  }
-  memset(S->bmark, 0, ((size_t)Wi->nblk + 1) * sizeof *S->bmark);
+  int k, s, st, nu = 0, nd = 0;
+  if ((st = nscd_marks_clear(S, (size_t)Wi->nblk + 1, ctx))) return st;
   for (k = 0; k < S->nact; k++) {
-    const int a = S->act[k];
-    const double *ra = r + (size_t)a * d;
-    double rt = 0;
-    if (!(ra[0] > 0)) continue;
-    for (i = 1; i < d; i++) rt += ra[i] * ra[i];
-    /* one unknown for a frictionless or sliding contact (r_t follows r_n), d for a sticking one */
-    nu += d == 1 || S->mu[a] == 0 || sqrt(rt) >= S->mu[a] * ra[0] * (1 - 1e-9) ? 1 : d;
+    const int a = S->act[k], u = nscd_closed_unknowns(S, a, r + (size_t)a * d, d);
+    if (!u) continue;
+    nu += u;
     for (s = 0; s < S->nsd[a]; s++) {
       int b = S->sblk[2 * a + s];
       if (!S->bmark[b]) {

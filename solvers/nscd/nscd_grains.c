@@ -564,21 +564,12 @@ int nscd_grains_count(nscd_state *S, const mo_contact_problem *P, const double *
                       mo_ctx *ctx)
 {
   const int d = S->d;
-  int k, i, s, nu = 0, nd = 0;
-  if ((size_t)P->nfree + 1 > S->bmcap) {
-    int *q = mo_realloc(ctx, S->bmark, ((size_t)P->nfree + 1) * sizeof *q);
-    if (!q) return MO_ENOMEM;
-    S->bmark = q;
-    S->bmcap = (size_t)P->nfree + 1;
-  }
-  memset(S->bmark, 0, ((size_t)P->nfree + 1) * sizeof *S->bmark);
+  int k, s, st, nu = 0, nd = 0;
+  if ((st = nscd_marks_clear(S, (size_t)P->nfree + 1, ctx))) return st;
   for (k = 0; k < S->nact; k++) {
-    const int a = S->act[k], *gs = R_SIDE(REC(S, a, d));
-    const double *ra = r + (size_t)a * d;
-    double rt = 0;
-    if (!(ra[0] > 0)) continue;
-    for (i = 1; i < d; i++) rt += ra[i] * ra[i];
-    nu += S->mu[a] == 0 || sqrt(rt) >= S->mu[a] * ra[0] * (1 - 1e-9) ? 1 : d;
+    const int a = S->act[k], *gs = R_SIDE(REC(S, a, d)), u = nscd_closed_unknowns(S, a, r + (size_t)a * d, d);
+    if (!u) continue;
+    nu += u;
     for (s = 0; s < 2 && gs[s]; s++) {
       int o = (gs[s] > 0 ? gs[s] : -gs[s]) - 1;
       if (!S->bmark[o]) {
