@@ -409,23 +409,35 @@ static int network_fill(mo_vtk_contacts *N, mo_ctx *ctx)
   return MO_OK;
 }
 
-int mo_contact_network(const mo_scene *sc, const mo_contact *C, const mo_contact_driver *Dr,
-                       const mo_state *s, mo_vtk_contacts *N, mo_ctx *ctx)
+/* A frame's source for mo_contact_network and mo_contact_points: what its fill reads, kept in
+   src, and the count of the entries it lists (every candidate, or the closed ones). */
+static long frame_source(mo_vtk_source *src, const mo_scene *sc, const mo_contact *C, const mo_contact_driver *Dr,
+                         const mo_state *s, int closed_only)
 {
   cand_values v;
   long total = 0;
-  int a, st;
+  int a;
+  cand_values_get(sc, C, Dr, &v);
+  for (a = 0; a < C->nc; a++) total += !closed_only || cand_closed(&v, C->dim, a);
+  src->sc = sc;
+  src->C = C;
+  src->D = Dr;
+  src->s = s;
+  src->closed_only = closed_only;
+  return total;
+}
+
+int mo_contact_network(const mo_scene *sc, const mo_contact *C, const mo_contact_driver *Dr,
+                       const mo_state *s, mo_vtk_contacts *N, mo_ctx *ctx)
+{
+  long total;
+  int st;
   N->total = 0;
   N->fill = NULL;
   mo_vtk_contacts_rewind(N);
   if (!C || !Dr) return MO_OK;
-  cand_values_get(sc, C, Dr, &v);
-  for (a = 0; a < mo_contact_ncandidates(C); a++) total += cand_closed(&v, C->dim, a);
+  total = frame_source(&N->src, sc, C, Dr, s, 1);
   if ((st = mo_vtk_contacts_reserve(N, total < MO_VTK_CHUNK ? (int)total : MO_VTK_CHUNK, ctx))) return st;
-  N->src.sc = sc;
-  N->src.C = C;
-  N->src.D = Dr;
-  N->src.s = s;
   N->total = total;
   N->fill = network_fill;
   return MO_OK;
@@ -491,21 +503,14 @@ static int points_fill(mo_vtk_points *P, mo_ctx *ctx)
 int mo_contact_points(const mo_scene *sc, const mo_contact *C, const mo_contact_driver *Dr, const mo_state *s,
                       int closed_only, mo_vtk_points *P, mo_ctx *ctx)
 {
-  cand_values v;
-  long total = 0;
-  int a, st;
+  long total;
+  int st;
   P->total = 0;
   P->fill = NULL;
   mo_vtk_points_rewind(P);
   if (!C || !Dr) return MO_OK;
-  cand_values_get(sc, C, Dr, &v);
-  for (a = 0; a < C->nc; a++) total += !closed_only || cand_closed(&v, C->dim, a);
+  total = frame_source(&P->src, sc, C, Dr, s, closed_only);
   if ((st = mo_vtk_points_reserve(P, total < MO_VTK_CHUNK ? (int)total : MO_VTK_CHUNK, C->dim, ctx))) return st;
-  P->src.sc = sc;
-  P->src.C = C;
-  P->src.D = Dr;
-  P->src.s = s;
-  P->src.closed_only = closed_only;
   P->total = total;
   P->fill = points_fill;
   return MO_OK;
