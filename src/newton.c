@@ -104,6 +104,18 @@ static void halve(mo_stepper *S, double *x, double *g, double tn)
   mo_stepper_presc_unknown(S, tn, x);
 }
 
+/* An iterate that cannot be linearized (inverted elements, or a tangent not definite): its
+   error cleared, the update halved toward the last linearization point, counted as one of the
+   MAX_HALVINGS in a row and as a damped iterate. */
+static void retreat(mo_stepper *S, double *x, double *g, double tn, mo_ctx *ctx)
+{
+  mo_ctx_clear_error(ctx);
+  halve(S, x, g, tn);
+  S->ndamp = 1;
+  S->nhalf++;
+  S->rep.damped++;
+}
+
 int mo_newton_begin(mo_stepper *S, const mo_state *s, double *x, double *g, mo_ctx *ctx)
 {
   const mo_scene *sc = S->sc;
@@ -221,11 +233,7 @@ int mo_newton_iterate(mo_stepper *S, const mo_state *s, double *x, double *g, co
       /* an iterate that inverts elements: back toward the last linearization point */
       snprintf(S->inverted, sizeof S->inverted, "%s", ctx->errmsg);
       S->ninv++;
-      mo_ctx_clear_error(ctx);
-      halve(S, x, g, tn);
-      S->ndamp = 1;
-      S->nhalf++;
-      rep->damped++;
+      retreat(S, x, g, tn, ctx);
       continue;
     }
     if (st == MO_ENAN) {
@@ -279,11 +287,7 @@ int mo_newton_iterate(mo_stepper *S, const mo_state *s, double *x, double *g, co
     if (st == MO_ESINGULAR && it > 0 && S->nhalf < MAX_HALVINGS) {
       /* the tangent is not definite here (crushed elements whose compressive geometric
          stiffness outweighs their mass): back toward the last linearization point */
-      mo_ctx_clear_error(ctx);
-      halve(S, x, g, tn);
-      S->ndamp = 1;
-      S->nhalf++;
-      rep->damped++;
+      retreat(S, x, g, tn, ctx);
       continue;
     }
     if (st == MO_ESINGULAR) {
