@@ -250,22 +250,26 @@ static void chol_start(chol_state *s)
   s->started = 1;
 }
 
+int mo_order_last_set(int nlast, const int *last, int *nkeep, int **keep, int *fresh, mo_ctx *ctx)
+{
+  if (nlast == *nkeep && (!nlast || !memcmp(last, *keep, (size_t)nlast * sizeof *last))) return MO_OK;
+  mo_free(*keep);
+  *keep = NULL;
+  *nkeep = 0;
+  if (nlast) {
+    if (!(*keep = mo_malloc(ctx, (size_t)nlast * sizeof **keep))) return MO_ENOMEM;
+    memcpy(*keep, last, (size_t)nlast * sizeof *last);
+  }
+  *nkeep = nlast;
+  *fresh = 1;
+  return MO_OK;
+}
+
 static int chol_set_last(void *state, int nlast, const int *last, double reserve, mo_ctx *ctx)
 {
   chol_state *s = state;
-  int same = nlast == s->nlast && (!nlast || !memcmp(last, s->last, (size_t)nlast * sizeof *last));
   s->reserve = reserve;
-  if (same) return MO_OK;
-  mo_free(s->last);
-  s->last = NULL;
-  s->nlast = 0;
-  if (nlast) {
-    if (!(s->last = mo_malloc(ctx, (size_t)nlast * sizeof *s->last))) return MO_ENOMEM;
-    memcpy(s->last, last, (size_t)nlast * sizeof *last);
-  }
-  s->nlast = nlast;
-  s->last_new = 1;
-  return MO_OK;
+  return mo_order_last_set(nlast, last, &s->nlast, &s->last, &s->last_new, ctx);
 }
 
 /* A long-index cholmod_sparse of the pattern of A (both triangles stored, stype = -1 reads the

@@ -36,7 +36,8 @@ int mo_parallel_launched(void)
 
 #ifdef HAVE_PETSC
 static const mo_petsc_host host = {mo_verror, mo_malloc, mo_calloc, mo_free, mo_csc_transpose, mo_csc_free, mo_clock,
-                                   mo_memory_rss, mo_memory_limit, mo_log, mo_order_last};
+                                   mo_memory_rss, mo_memory_limit, mo_log, mo_order_last,
+                                   mo_order_last_set};
 
 static int exists(const char *path)
 {

@@ -42,6 +42,7 @@ static int module_error(mo_ctx *ctx, int code, const char *fmt, ...)
 #define mo_memory_limit() H->memory_limit()
 #define mo_log H->log
 #define mo_order_last H->order_last
+#define mo_order_last_set H->order_last_set
 
 /* --- MPI ---------------------------------------------------------------------------------------- */
 
@@ -707,7 +708,6 @@ static int dm_solve(petsc_state *s, int nrhs, const double *B, double *X, mo_ctx
 static int petsc_set_last(void *state, int nlast, const int *last, double reserve, mo_ctx *ctx)
 {
   petsc_state *s = state;
-  int same;
   s->reserve = reserve;
   if (nlast && (!s->direct || ctx->nranks > 1)) {
     /* W by solves: said once */
@@ -717,18 +717,7 @@ static int petsc_set_last(void *state, int nlast, const int *last, double reserv
                              : "needs ksp preonly with a direct pc by MUMPS");
     nlast = 0;
   }
-  same = nlast == s->nlast && (!nlast || !memcmp(last, s->last, (size_t)nlast * sizeof *last));
-  if (same) return MO_OK;
-  mo_free(s->last);
-  s->last = NULL;
-  s->nlast = 0;
-  if (nlast) {
-    if (!(s->last = mo_malloc(ctx, (size_t)nlast * sizeof *s->last))) return MO_ENOMEM;
-    memcpy(s->last, last, (size_t)nlast * sizeof *last);
-  }
-  s->nlast = nlast;
-  s->last_new = 1;
-  return MO_OK;
+  return mo_order_last_set(nlast, last, &s->nlast, &s->last, &s->last_new, ctx);
 }
 
 /* The symbolic factorization, with the Schur variables, and MUMPS's estimates (T181). */

@@ -14,7 +14,7 @@
 #include <moreau/sparse.h>
 
 /* Raised whenever a member changes meaning or position. */
-#define MO_PETSC_ABI 6
+#define MO_PETSC_ABI 7
 #define MO_PETSC_SYMBOL "mo_petsc_module_v1"
 #define MO_PETSC_MODULE_NAME "moreau_petsc.so"
 
@@ -32,6 +32,8 @@ typedef struct mo_petsc_host {
   void (*log)(const mo_ctx *ctx, int level, const char *fmt, ...);
   /* CHOLMOD's order with the contact dofs last, given to MUMPS (doc/theory.md (T183)) */
   int (*order_last)(const mo_csc *A, int nlast, const int *last, int *perm, const char **ordering, mo_ctx *ctx);
+  /* the copy of the rows to order last that set_last keeps (the same as CHOLMOD's type) */
+  int (*order_last_set)(int nlast, const int *last, int *nkeep, int **keep, int *fresh, mo_ctx *ctx);
 } mo_petsc_host;
 
 typedef struct mo_petsc_module {

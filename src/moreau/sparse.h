@@ -184,6 +184,10 @@ int mo_linsolver_set_last(mo_linsolver *S, int nlast, const int *last, double re
    other rows, then last[] as given; perm[k] is the row of A at position k (n values), *ordering
    the name of the choice. For a package given the order (MUMPS's PERM_IN). */
 int mo_order_last(const mo_csc *A, int nlast, const int *last, int *perm, const char **ordering, mo_ctx *ctx);
+/* A type's copy of the rows to order last, for its set_last: *keep (*nkeep entries) becomes a
+   copy of last[] when the two differ, and *fresh is set (a new analysis is due); left as it is
+   when they are the same. */
+int mo_order_last_set(int nlast, const int *last, int *nkeep, int **keep, int *fresh, mo_ctx *ctx);
 /* The rows the factor holds as its trailing block (0: none, the split solves do not apply). */
 int mo_linsolver_nlast(const mo_linsolver *S);
 int mo_linsolver_split(mo_linsolver *S, mo_split_op op, const double *in, double *out, mo_ctx *ctx);
