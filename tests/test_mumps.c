@@ -9,22 +9,6 @@
 
 #include <math.h>
 
-static double max_abs(const double *x, size_t n)
-{
-  double m = 0;
-  size_t i;
-  for (i = 0; i < n; i++) m = fmax(m, fabs(x[i]));
-  return m;
-}
-
-static double max_diff(const double *a, const double *b, size_t n)
-{
-  double m = 0;
-  size_t i;
-  for (i = 0; i < n; i++) m = fmax(m, fabs(a[i] - b[i]));
-  return m;
-}
-
 /* One side: the scene (CHOLMOD's or PETSc's linear solver), its contact, the stepper with the
    contact dofs last, W. */
 typedef struct {
@@ -88,8 +72,8 @@ static void check_scene(const char *name, const char *text, mo_ctx *ctx)
       goto done;
     }
   }
-  wmax = max_abs(W[0], (size_t)m * m);
-  wd = max_diff(W[0], W[1], (size_t)m * m);
+  wmax = maxabs(W[0], m * m);
+  wd = maxdiff(W[0], W[1], m * m);
   ok(mo_delassus_from_schur(X[0].D) && mo_delassus_from_schur(X[1].D) && nlast[1] == nlast[0] && nlast[1] > 0 &&
          !mo_stepper_split_ready(X[1].S),
      "%s: W from MUMPS's Schur complement on %d contact dofs (no split solves)", name, nlast[1]);
@@ -123,8 +107,8 @@ static void check_scene(const char *name, const char *text, mo_ctx *ctx)
       ok(0, "%s: correction (%s): %s", name, k ? "MUMPS" : "CHOLMOD", ctx->errmsg);
       goto done;
     }
-  cmax = max_abs(dx[0], (size_t)n);
-  cd = max_diff(dx[0], dx[1], (size_t)n);
+  cmax = maxabs(dx[0], n);
+  cd = maxdiff(dx[0], dx[1], n);
   ok(cmax > 0 && cd <= 1e-12 * cmax, "%s: What^-1 H r by MUMPS's whole solves = CHOLMOD's split ones: max diff %.3g of %.3g",
      name, cd, cmax);
 done:

@@ -20,22 +20,6 @@ static double rnd(unsigned long *s)
   return (double)(*s >> 11) / (double)(1UL << 53) * 2 - 1;
 }
 
-static double max_abs(const double *x, size_t n)
-{
-  double m = 0;
-  size_t i;
-  for (i = 0; i < n; i++) m = fmax(m, fabs(x[i]));
-  return m;
-}
-
-static double max_diff(const double *a, const double *b, size_t n)
-{
-  double m = 0;
-  size_t i;
-  for (i = 0; i < n; i++) m = fmax(m, fabs(a[i] - b[i]));
-  return m;
-}
-
 /* One scene: the stepper without (0) and with (1) the contact dofs last, W, the correction and
    the split step compared. */
 typedef struct {
@@ -97,8 +81,8 @@ static void check_mult(const char *name, const mo_delassus *D, const double *Wd,
       ref[i] = acc + beta * y[i];
     }
     mo_delassus_mult(D, x, beta, y);
-    ymax = max_abs(ref, (size_t)m);
-    dy = max_diff(ref, y, (size_t)m);
+    ymax = maxabs(ref, m);
+    dy = maxdiff(ref, y, m);
     ok(ymax > 0 && dy <= 1e-12 * ymax, "%s: W r + %d y (%s) equals the dense product: max difference %.2e of %.3e",
        name, beta, d == 1 ? "1D" : nonly ? "r_t = 0: the normal column's copies" : "r_t != 0: the whole blocks", dy, ymax);
   }
@@ -136,8 +120,8 @@ static void check_scene(const char *name, const char *text, int schur)
       ok(0, "%s: W: %s", name, X.ctx.errmsg);
       goto done;
     }
-  wmax = max_abs(W[0], (size_t)m * m);
-  wd = max_diff(W[0], W[1], (size_t)m * m);
+  wmax = maxabs(W[0], m * m);
+  wd = maxdiff(W[0], W[1], m * m);
   ok(!mo_delassus_from_schur(X.D[0]) && mo_delassus_from_schur(X.D[1]) == schur && (!schur || nlast > 0),
      "%s: W by %s (%d contact dofs last of %d nodal free dofs)", name, schur ? "the trailing block" : "solves (no fixed contact rows)",
      nlast, X.sc->nfe_free);
@@ -170,8 +154,8 @@ static void check_scene(const char *name, const char *text, int schur)
       goto done;
     }
   }
-  cmax = max_abs(dx[0], (size_t)n);
-  cd = max_diff(dx[0], dx[1], (size_t)n);
+  cmax = maxabs(dx[0], n);
+  cd = maxdiff(dx[0], dx[1], n);
   ok(cmax > 0 && cd <= 1e-12 * cmax, "%s: What^-1 H r equal: max difference %.2e of %.3e", name, cd, cmax);
   /* the split step against predict + correct with the impulse H r over full dofs */
   imp = calloc((size_t)nd + 1, sizeof *imp);
@@ -191,8 +175,8 @@ static void check_scene(const char *name, const char *text, int schur)
     ok(0, "%s: split step: %s", name, X.ctx.errmsg);
     goto done;
   }
-  xmax = max_abs(x[0], (size_t)nd);
-  xd = max_diff(x[0], x[1], (size_t)nd);
+  xmax = maxabs(x[0], nd);
+  xd = maxdiff(x[0], x[1], nd);
   ok(xmax > 0 && xd <= 1e-12 * xmax, "%s: the split step (forward solve, contact dofs, correction, one backward solve) "
      "equals predict + correct: max difference %.2e of %.3e", name, xd, xmax);
 done:
@@ -348,8 +332,8 @@ static void test_long_indices(void)
   for (i = 0; i < n; i++) xr[i] = b[i] = rnd(&seed);
   mo_linsolver_solve(ls, b, x, &X.ctx);
   dgesv_(&n, &one, Ad, &n, piv, xr, &n, &info);
-  ok(!info && max_diff(x, xr, (size_t)n) <= 1e-11 * max_abs(xr, (size_t)n),
-     "its solve equals LAPACK's dense LU to %.2e (%d dofs)", max_diff(x, xr, (size_t)n) / max_abs(xr, (size_t)n), n);
+  ok(!info && maxdiff(x, xr, n) <= 1e-11 * maxabs(xr, n),
+     "its solve equals LAPACK's dense LU to %.2e (%d dofs)", maxdiff(x, xr, n) / maxabs(xr, n), n);
   mo_free(Ad);
   free(b);
   free(x);

@@ -304,6 +304,17 @@ static double maxabs(const double *a, int n)
   return m;
 }
 
+/* max |a_i - b_i| */
+static double maxdiff(const double *a, const double *b, int n) TL_UNUSED;
+static double maxdiff(const double *a, const double *b, int n)
+{
+  double m = 0;
+  int i;
+  for (i = 0; i < n; i++)
+    if (fabs(a[i] - b[i]) > m) m = fabs(a[i] - b[i]);
+  return m;
+}
+
 /* C = A B */
 static void mul3(const double *A, const double *B, double *C) TL_UNUSED;
 static void mul3(const double *A, const double *B, double *C)
