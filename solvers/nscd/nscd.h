@@ -4,6 +4,7 @@
 #define MOREAU_NSCD_H
 
 #include <moreau/contact.h>
+#include <math.h>
 
 /* --- parameters (case keys contact.nscd.<option>) -------------------------------------------- */
 
@@ -39,6 +40,9 @@ void nscd_params_default(nscd_params *p);
    or the computation produced a non-finite number (r is then left unchanged). On entry r holds
    the previous iterate, the 3D Newton's starting point. */
 #define NSCD_AUX 12
+/* A d x d block is taken as singular below this relative determinant: |det W| against the
+   product of its diagonal (Hadamard: det <= prod diag for SPD blocks). */
+#define NSCD_SINGULAR 1e-13
 
 typedef struct {
   long newton;         /* 3D Newton iterations */
@@ -49,6 +53,23 @@ typedef struct {
 } nscd_local_stats;
 
 void nscd_local_prepare(int d, const double *W, double mu, double *aux);
+/* Its 2D case, the entries aux[0 .. 6] the 2D solvers read (the granular sweep forms them at
+   each visit, T188). */
+static inline void nscd_local_prepare_2d(const double *W, double mu, double *aux)
+{
+  double a = W[0], b = W[1], c = W[2], e = W[3], det = a * e - b * c;
+  aux[0] = aux[1] = aux[2] = aux[3] = aux[6] = 0;
+  if (fabs(det) > NSCD_SINGULAR * fabs(a * e) && a * e != 0) {
+    aux[0] = e / det;
+    aux[1] = -b / det;
+    aux[2] = -c / det;
+    aux[3] = a / det;
+    aux[6] = 1;
+  }
+  /* sliding: U_n = (W_nn -+ mu W_nt) r_n + q_n = 0  (T38) */
+  aux[4] = a - mu * b > 0 ? 1 / (a - mu * b) : 0;
+  aux[5] = a + mu * b > 0 ? 1 / (a + mu * b) : 0;
+}
 int nscd_local_solve(int d, const double *W, const double *aux, const double *q, double mu,
                      double *r, const nscd_params *p, nscd_local_stats *st);
 
@@ -189,8 +210,8 @@ typedef struct {
      on body velocities reads per contact its sides and the moments of its frame (vb above as in
      the sweep on H) */
   int grains;
-  void *grec;                   /* per contact its record (nscd_grains.c): sides, c_a, W_aa, the rows of H
-                                   on the sides' rotations, the local solver's data */
+  void *grec;                   /* per contact its record (nscd_grains.c): sides, c_a, W_aa (the rows of
+                                   H on the rotations and the local data formed at each visit, T188) */
   double *giv;                  /* nfree: the diagonal of What^-1 on the rigid dofs, when the stepper's
                                    (What^-1's dinv) cannot serve */
   const double *gi;             /* the one the sweep reads (giv or dinv), indexed by free dof */
