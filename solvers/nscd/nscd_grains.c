@@ -114,7 +114,7 @@ KERNEL void sides(const mo_grains *G, int a, int *gs)
 }
 
 /* The rows of H on a side (d x NK(d), row-major): cf F_i on the translations, cf (x - c) x F_i on
-   the rotations (T68). */
+   the rotations (T68); rot gets the moments (x - c) x F_i without the sign cf. */
 KERNEL void side_rows(const int d, const double *F, const double *x, const double *c, double cf, double *G,
                       double *rot)
 {
@@ -125,19 +125,19 @@ KERNEL void side_rows(const int d, const double *F, const double *x, const doubl
     const double *Fi = F + i * d;
     for (j = 0; j < d; j++) G[i * NK(d) + j] = cf * Fi[j];
     if (d == 2)
-      rot[i] = G[i * NK(d) + 2] = cf * (r[0] * Fi[1] - r[1] * Fi[0]);
+      G[i * NK(d) + 2] = cf * (rot[i] = r[0] * Fi[1] - r[1] * Fi[0]);
     else {
       double w[3] = {r[1] * Fi[2] - r[2] * Fi[1], r[2] * Fi[0] - r[0] * Fi[2], r[0] * Fi[1] - r[1] * Fi[0]};
-      for (j = 0; j < 3; j++) rot[i * 3 + j] = G[i * NK(d) + 3 + j] = cf * w[j];
+      for (j = 0; j < 3; j++) G[i * NK(d) + 3 + j] = cf * (rot[i * 3 + j] = w[j]);
     }
   }
 }
 
-/* Contact a's rows of H on its sides' rotations (rot, d x NR(d) per side) and, for the first nw
-   rows and columns (d, or 1: W_nn alone), W_aa = sum_s G inv_s G^T as nscd_bodies.c's prepare
-   computes it from H (an entry H does not store, a zero, gives a zero product here: the sums
-   differ at most by the sign of a zero); with ca, c_a -= sum_s G v_free as well. The same
-   operations at every call: W_aa formed at a visit is the one formed at the preparation (T188). */
+/* Contact a's moments on its sides' rotations (rot, d x NR(d) per side, without the side's sign)
+   and, for the first nw rows and columns (d, or 1: W_nn alone; 0: none), W_aa = sum_s G inv_s G^T
+   as nscd_bodies.c's prepare computes it from H (an entry H does not store, a zero, gives a zero
+   product here: the sums differ at most by the sign of a zero); with ca, c_a -= sum_s G v_free as
+   well. The same operations at every call: what a visit forms is what the preparation formed (T188). */
 KERNEL void geometry(const int d, const nscd_state *S, const mo_contact_problem *P, int a, const int *gs,
                      double *rot, const int nw, double *Waa, double *ca)
 {
@@ -154,8 +154,8 @@ KERNEL void geometry(const int d, const nscd_state *S, const mo_contact_problem 
       const double *c = Gr->centre + (size_t)(gs[s] > 0 ? key[1] : key[2]) * 2;
       const double r0 = x[0] - c[0], r1 = x[1] - c[1];
       const double u0 = r0 * F[1] - r1 * F[0], u1 = r0 * F[3] - r1 * F[2]; /* the moments, unsigned */
-      rot[2 * s] = gs[s] > 0 ? u0 : -u0;
-      rot[2 * s + 1] = gs[s] > 0 ? u1 : -u1;
+      rot[2 * s] = u0;
+      rot[2 * s + 1] = u1;
       if (nw) { /* MG = inv G^T, column 0 (m*0) and 1 (m*1) */
         const double m00 = iv[o] * F[0], m10 = iv[o + 1] * F[1], m20 = iv[o + 2] * u0;
         w00 = w00 + F[0] * m00 + F[1] * m10 + u0 * m20;
@@ -255,7 +255,7 @@ int nscd_grains_prepare(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
 }
 
 /* u += G_s v_s over one side of sign cf: the products (cf F_ik) v_k of the sweep on H are
-   cf (F_ik v_k) to the bit, so the master side subtracts. */
+   cf (F_ik v_k) to the bit, so the master side subtracts (rot: the moments without the sign). */
 KERNEL void side_U(const int d, const double *F, const double *rot, const double *restrict v, int slave, double *u)
 {
   int i, k;
@@ -265,7 +265,10 @@ KERNEL void side_U(const int d, const double *F, const double *rot, const double
       for (k = 0; k < d; k++) t += F[i * d + k] * v[k];
     else
       for (k = 0; k < d; k++) t -= F[i * d + k] * v[k];
-    for (k = 0; k < NR(d); k++) t += rot[i * NR(d) + k] * v[d + k];
+    if (slave)
+      for (k = 0; k < NR(d); k++) t += rot[i * NR(d) + k] * v[d + k];
+    else
+      for (k = 0; k < NR(d); k++) t -= rot[i * NR(d) + k] * v[d + k];
     u[i] = t;
   }
 }
@@ -309,7 +312,7 @@ KERNEL void side_push(const int d, const double *F, const double *rot, const dou
   }
   for (k = 0; k < NR(d); k++) {
     double acc = 0;
-    for (j = 0; j < d; j++) acc += iv[d + k] * rot[j * NR(d) + k] * dr[j];
+    for (j = 0; j < d; j++) acc += iv[d + k] * (slave ? rot[j * NR(d) + k] : -rot[j * NR(d) + k]) * dr[j];
     v[d + k] += acc;
   }
 }
@@ -405,9 +408,13 @@ KERNEL int sweep_d(nscd_state *S, const mo_contact_problem *P, double *r, int *s
       if (ql[0] >= 0) { /* open: nscd_local_2d_fast's first case, without the local data */
         rl[0] = rl[1] = 0;
         st = MO_CS_OPEN;
-      } else {
-        nscd_local_prepare_2d(Waa, mu[a], aux);
-        st = nscd_local_2d_fast(Waa, aux, ql, mu[a], rl);
+      } else { /* nscd_local_2d_fast's other cases, the slide denominators only when they are read */
+        nscd_local_inverse_2d(Waa, aux);
+        if (nscd_local_2d_stick(Waa, aux, ql, mu[a], rl)) st = MO_CS_STICK;
+        else {
+          nscd_local_slide_2d(Waa, mu[a], aux);
+          st = nscd_local_2d(Waa, aux, ql, mu[a], rl);
+        }
       }
     } else {
       nscd_local_prepare(3, Waa, mu[a], aux);
