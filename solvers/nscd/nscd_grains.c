@@ -1,8 +1,9 @@
 /* nscd_grains.c: nscd's sweep on body velocities for the granular path (doc/theory.md §12.9):
    the contacts come as compact records (bodies, point, frame; P->grains) instead of columns of
-   H, and each contact keeps only what its updates read: its two sides' first velocities, the
-   moments of its frame about the sides' centres, W_aa and c_a. The arithmetic is that of the sweep
-   on H (nscd_bodies.c, (T79)) to the bit: the same rows of H, the same sums in the same order. */
+   H, and each contact keeps its two sides' first velocities, W_aa and c_a; the moments of its
+   frame about the sides' centres and the local solver's data are formed at each visit (T188).
+   The arithmetic is that of the sweep on H (nscd_bodies.c, (T79)) to the bit: the same rows of
+   H, the same sums in the same order. */
 #include "config.h"
 #include "nscd.h"
 #include <moreau/parallel.h>
