@@ -40,6 +40,9 @@ void nscd_params_default(nscd_params *p);
    or the computation produced a non-finite number (r is then left unchanged). On entry r holds
    the previous iterate, the 3D Newton's starting point. */
 #define NSCD_AUX 12
+/* A d x d block is taken as singular below this relative determinant: |det W| against the
+   product of its diagonal (Hadamard: det <= prod diag for SPD blocks). */
+#define NSCD_SINGULAR 1e-13
 
 typedef struct {
   long newton;         /* 3D Newton iterations */
@@ -50,6 +53,33 @@ typedef struct {
 } nscd_local_stats;
 
 void nscd_local_prepare(int d, const double *W, double mu, double *aux);
+/* Its 2D case, the entries aux[0 .. 6] the 2D solvers read, in two parts: the inverse of W for the
+   stick trial (aux[0 .. 3], aux[6] = 1 when W is regular) and the slide denominators (aux[4 .. 5]).
+   The granular sweep forms them at each visit, the second only when the stick trial fails (T188). */
+static inline void nscd_local_inverse_2d(const double *W, double *aux)
+{
+  double a = W[0], b = W[1], c = W[2], e = W[3], det = a * e - b * c;
+  aux[0] = aux[1] = aux[2] = aux[3] = aux[6] = 0;
+  if (fabs(det) > NSCD_SINGULAR * fabs(a * e) && a * e != 0) {
+    aux[0] = e / det;
+    aux[1] = -b / det;
+    aux[2] = -c / det;
+    aux[3] = a / det;
+    aux[6] = 1;
+  }
+}
+static inline void nscd_local_slide_2d(const double *W, double mu, double *aux)
+{
+  double a = W[0], b = W[1];
+  /* sliding: U_n = (W_nn -+ mu W_nt) r_n + q_n = 0  (T38) */
+  aux[4] = a - mu * b > 0 ? 1 / (a - mu * b) : 0;
+  aux[5] = a + mu * b > 0 ? 1 / (a + mu * b) : 0;
+}
+static inline void nscd_local_prepare_2d(const double *W, double mu, double *aux)
+{
+  nscd_local_inverse_2d(W, aux);
+  nscd_local_slide_2d(W, mu, aux);
+}
 int nscd_local_solve(int d, const double *W, const double *aux, const double *q, double mu,
                      double *r, const nscd_params *p, nscd_local_stats *st);
 
@@ -58,21 +88,27 @@ int nscd_local_1d(const double *W, const double *q, double *r);
 int nscd_local_2d(const double *W, const double *aux, const double *q, double mu, double *r);
 /* nscd_local_2d with its two common cases inline (open; stick inside the cone), the others
    through it: the same result, without a call for most updates of a sweep. */
-static inline int nscd_local_2d_fast(const double *W, const double *aux, const double *q, double mu, double *r)
+/* The stick trial of the 2D problem (q_n < 0): r = -W^-1 q when inside the cone (returns 1). */
+static inline int nscd_local_2d_stick(const double *W, const double *aux, const double *q, double mu, double *r)
 {
   double qn = q[0], qt = q[1];
-  if (qn >= 0) {
-    r[0] = r[1] = 0;
-    return MO_CS_OPEN;
-  }
   if (W[0] > 0 && aux[6] != 0) {
     double rn = -(aux[0] * qn + aux[1] * qt), rt = -(aux[2] * qn + aux[3] * qt);
     if (rn > 0 && (rt < 0 ? -rt : rt) <= mu * rn) {
       r[0] = rn;
       r[1] = rt;
-      return MO_CS_STICK;
+      return 1;
     }
   }
+  return 0;
+}
+static inline int nscd_local_2d_fast(const double *W, const double *aux, const double *q, double mu, double *r)
+{
+  if (q[0] >= 0) {
+    r[0] = r[1] = 0;
+    return MO_CS_OPEN;
+  }
+  if (nscd_local_2d_stick(W, aux, q, mu, r)) return MO_CS_STICK;
   return nscd_local_2d(W, aux, q, mu, r);
 }
 int nscd_local_3d(const double *W, const double *aux, const double *q, double mu, double *r,
@@ -190,8 +226,8 @@ typedef struct {
      on body velocities reads per contact its sides and the moments of its frame (vb above as in
      the sweep on H) */
   int grains;
-  void *grec;                   /* per contact its record (nscd_grains.c): sides, c_a, W_aa, the rows of H
-                                   on the sides' rotations, the local solver's data */
+  void *grec;                   /* per contact its record (nscd_grains.c): sides, c_a, W_aa (the rows of
+                                   H on the rotations and the local data formed at each visit, T188) */
   double *giv;                  /* nfree: the diagonal of What^-1 on the rigid dofs, when the stepper's
                                    (What^-1's dinv) cannot serve */
   const double *gi;             /* the one the sweep reads (giv or dinv), indexed by free dof */

@@ -1,8 +1,9 @@
 /* nscd_grains.c: nscd's sweep on body velocities for the granular path (doc/theory.md §12.9):
    the contacts come as compact records (bodies, point, frame; P->grains) instead of columns of
-   H, and each contact keeps only what its updates read: its two sides' first velocities, the
-   moments of its frame about the sides' centres, W_aa and c_a. The arithmetic is that of the sweep
-   on H (nscd_bodies.c, (T79)) to the bit: the same rows of H, the same sums in the same order. */
+   H, and each contact keeps its two sides' first velocities, W_aa and c_a; the moments of its
+   frame about the sides' centres and the local solver's data are formed at each visit (T188).
+   The arithmetic is that of the sweep on H (nscd_bodies.c, (T79)) to the bit: the same rows of
+   H, the same sums in the same order. */
 #include "config.h"
 #include "nscd.h"
 #include <moreau/parallel.h>
@@ -16,22 +17,19 @@
 /* The kernels below take d as a constant of each call site: inlined, their loops unroll. */
 #define KERNEL static inline __attribute__((always_inline))
 
-/* One record per contact, what its updates read, in one block (d = 2: 144 bytes, d = 3: 344):
-   its two sides (+ (o + 1) a slave side, - (o + 1) a master side whose body's velocities start at o
-   in vb, increasing o; 0 none), c_a = q_a - H_a^T v_free, W_aa, the rows of H on the sides'
-   rotations (d x NR per side) and the local solver's data (nscd_local_prepare). */
-#define NAUX(d) ((d) == 3 ? 12 : 7)
+/* One record per contact (d = 2: 56 bytes, d = 3: 104): its two sides (+ (o + 1) a slave side,
+   - (o + 1) a master side whose body's velocities start at o in vb, increasing o; 0 none),
+   c_a = q_a - H_a^T v_free and W_aa. The rows of H on the sides' rotations and the local solver's
+   data are formed again at each visit from the point, the frame and the sides' centres (geometry)
+   and from W_aa, in the operations that formed them once: the same numbers (T188). */
 #define OFF_C 8
 #define OFF_W(d) (OFF_C + 8 * (d))
-#define OFF_ROT(d) (OFF_W(d) + 8 * (d) * (d))
-#define OFF_AUX(d) (OFF_ROT(d) + 16 * (d) * NR(d))
-#define RECSZ(d) ((size_t)(OFF_AUX(d) + 8 * NAUX(d)))
+#define RECSZ(d) ((size_t)(OFF_W(d) + 8 * (d) * (d)))
 #define REC(S, a, d) ((char *)(S)->grec + (size_t)(a) * RECSZ(d))
 #define R_SIDE(p) ((int *)(p))
 #define R_C(p) ((double *)((p) + OFF_C))
 #define R_W(p, d) ((double *)((p) + OFF_W(d)))
-#define R_ROT(p, d) ((double *)((p) + OFF_ROT(d)))
-#define R_AUX(p, d) ((double *)((p) + OFF_AUX(d)))
+#define SIDE_O(g) (((g) > 0 ? (g) : -(g)) - 1)
 
 void nscd_grains_free(nscd_state *S)
 {
@@ -117,7 +115,7 @@ KERNEL void sides(const mo_grains *G, int a, int *gs)
 }
 
 /* The rows of H on a side (d x NK(d), row-major): cf F_i on the translations, cf (x - c) x F_i on
-   the rotations (T68). */
+   the rotations (T68); rot gets the moments (x - c) x F_i without the sign cf. */
 KERNEL void side_rows(const int d, const double *F, const double *x, const double *c, double cf, double *G,
                       double *rot)
 {
@@ -128,63 +126,108 @@ KERNEL void side_rows(const int d, const double *F, const double *x, const doubl
     const double *Fi = F + i * d;
     for (j = 0; j < d; j++) G[i * NK(d) + j] = cf * Fi[j];
     if (d == 2)
-      rot[i] = G[i * NK(d) + 2] = cf * (r[0] * Fi[1] - r[1] * Fi[0]);
+      G[i * NK(d) + 2] = cf * (rot[i] = r[0] * Fi[1] - r[1] * Fi[0]);
     else {
       double w[3] = {r[1] * Fi[2] - r[2] * Fi[1], r[2] * Fi[0] - r[0] * Fi[2], r[0] * Fi[1] - r[1] * Fi[0]};
-      for (j = 0; j < 3; j++) rot[i * 3 + j] = G[i * NK(d) + 3 + j] = cf * w[j];
+      for (j = 0; j < 3; j++) G[i * NK(d) + 3 + j] = cf * (rot[i * 3 + j] = w[j]);
     }
   }
 }
 
-/* The records of every contact: W_aa = sum_s G inv G^T and c_a = q_a - sum_s G v_free as
-   nscd_bodies.c's prepare computes them from H (an entry H does not store, a zero, gives a zero
-   product here: the sums differ at most by the sign of a zero), then the local data as
-   nscd_prepare_local computes them. */
-KERNEL int prepare_d(nscd_state *S, const mo_contact_problem *P, const int d)
+/* Contact a's moments on its sides' rotations (rot, d x NR(d) per side, without the side's sign)
+   and, for the first nw rows and columns (d, or 1: W_nn alone; 0: none), W_aa = sum_s G inv_s G^T
+   as nscd_bodies.c's prepare computes it from H (an entry H does not store, a zero, gives a zero
+   product here: the sums differ at most by the sign of a zero); with ca, c_a -= sum_s G v_free as
+   well. The same operations at every call: what a visit forms is what the preparation formed (T188). */
+KERNEL void geometry(const int d, const nscd_state *S, const mo_contact_problem *P, int a, const int *gs,
+                     double *rot, const int nw, double *Waa, double *ca)
 {
   const mo_grains *Gr = P->grains;
-  const double *iv = S->gi;
-  int a, s, i, j, k, differ = 0;
-  for (a = 0; a < S->nc; a++) {
-    char *rec = REC(S, a, d);
-    double *Waa = R_W(rec, d), *ca = R_C(rec), wtt = 0;
-    const double *F = P->frame + (size_t)a * d * d, *x = Gr->x + (size_t)a * d;
-    const int *key = Gr->key + (size_t)a * MO_KEY;
-    int *gs = R_SIDE(rec), act = !P->active || P->active[a];
-    sides(Gr, a, gs);
-    for (i = 0; i < d * d; i++) Waa[i] = 0;
-    for (i = 0; i < d; i++) ca[i] = P->b[a * d + i];
+  const double *F = P->frame + (size_t)a * d * d, *x = Gr->x + (size_t)a * d, *iv = S->gi;
+  const int *key = Gr->key + (size_t)a * MO_KEY;
+  int s, i, j, k;
+  if (d == 2) {
+    /* the loops below written out, the same products and sums in the same order; W_aa's products
+       without the side's sign cf = -+1: (cf a) (iv (cf b)) = a (iv b) exactly in IEEE arithmetic */
+    double w00 = 0, w01 = 0, w10 = 0, w11 = 0;
     for (s = 0; s < 2 && gs[s]; s++) {
-      const int o = (gs[s] > 0 ? gs[s] : -gs[s]) - 1, b = gs[s] > 0 ? key[1] : key[2];
-      double G[3 * 6], MG[6 * 3];
-      side_rows(d, F, x, Gr->centre + (size_t)b * d, gs[s] > 0 ? 1 : -1, G, R_ROT(rec, d) + s * d * NR(d));
-      if (act) /* W_aa for the contacts of the step's problem only */
-        for (k = 0; k < NK(d); k++) /* inv_k G^T: the diagonal times G^T */
-          for (j = 0; j < d; j++) MG[k * d + j] = iv[o + k] * G[j * NK(d) + k];
-      for (i = 0; i < d; i++) {
-        if (act)
-          for (j = 0; j < d; j++) {
-            double acc = Waa[i * d + j];
-            for (k = 0; k < NK(d); k++) acc += G[i * NK(d) + k] * MG[k * d + j];
-            Waa[i * d + j] = acc;
-          }
-        for (k = 0; k < NK(d); k++) ca[i] -= G[i * NK(d) + k] * P->xfree[o + k];
+      const int o = SIDE_O(gs[s]);
+      const double *c = Gr->centre + (size_t)(gs[s] > 0 ? key[1] : key[2]) * 2;
+      const double r0 = x[0] - c[0], r1 = x[1] - c[1];
+      const double u0 = r0 * F[1] - r1 * F[0], u1 = r0 * F[3] - r1 * F[2]; /* the moments, unsigned */
+      rot[2 * s] = u0;
+      rot[2 * s + 1] = u1;
+      if (nw) { /* MG = inv G^T, column 0 (m*0) and 1 (m*1) */
+        const double m00 = iv[o] * F[0], m10 = iv[o + 1] * F[1], m20 = iv[o + 2] * u0;
+        w00 = w00 + F[0] * m00 + F[1] * m10 + u0 * m20;
+        if (nw > 1) {
+          const double m01 = iv[o] * F[2], m11 = iv[o + 1] * F[3], m21 = iv[o + 2] * u1;
+          w01 = w01 + F[0] * m01 + F[1] * m11 + u0 * m21;
+          w10 = w10 + F[2] * m00 + F[3] * m10 + u1 * m20;
+          w11 = w11 + F[2] * m01 + F[3] * m11 + u1 * m21;
+        }
+      }
+      if (ca) {
+        const double cf = gs[s] > 0 ? 1 : -1, *xf = P->xfree + o;
+        ca[0] = ca[0] - (cf * F[0]) * xf[0] - (cf * F[1]) * xf[1] - (cf * u0) * xf[2];
+        ca[1] = ca[1] - (cf * F[2]) * xf[0] - (cf * F[3]) * xf[1] - (cf * u1) * xf[2];
       }
     }
-    if (!act) { /* out of the step's problem: its U only (r = 0), no local data; W_aa = 0 (its scaling 0) */
+    if (nw) Waa[0] = w00;
+    if (nw > 1) {
+      Waa[1] = w01;
+      Waa[2] = w10;
+      Waa[3] = w11;
+    }
+    return;
+  }
+  for (i = 0; i < nw * d; i++) Waa[i] = 0;
+  for (s = 0; s < 2 && gs[s]; s++) {
+    const int o = SIDE_O(gs[s]), b = gs[s] > 0 ? key[1] : key[2];
+    double G[3 * 6], MG[6 * 3];
+    side_rows(d, F, x, Gr->centre + (size_t)b * d, gs[s] > 0 ? 1 : -1, G, rot + s * d * NR(d));
+    if (nw) /* inv_k G^T: the diagonal times G^T */
+      for (k = 0; k < NK(d); k++)
+        for (j = 0; j < nw; j++) MG[k * d + j] = iv[o + k] * G[j * NK(d) + k];
+    for (i = 0; i < d; i++) {
+      if (i < nw)
+        for (j = 0; j < nw; j++) {
+          double acc = Waa[i * d + j];
+          for (k = 0; k < NK(d); k++) acc += G[i * NK(d) + k] * MG[k * d + j];
+          Waa[i * d + j] = acc;
+        }
+      if (ca)
+        for (k = 0; k < NK(d); k++) ca[i] -= G[i * NK(d) + k] * P->xfree[o + k];
+    }
+  }
+}
+
+/* The records of every contact: its sides and c_a = q_a - sum_s G v_free; W_aa of the active
+   ones for the friction coefficients as nscd_prepare_local keeps them (a coefficient where a free
+   dof moves the contact tangentially). Returns 1 when an active contact's coefficient differs
+   from the problem's. */
+KERNEL int prepare_d(nscd_state *S, const mo_contact_problem *P, const int d)
+{
+  int a, i, differ = 0;
+  for (a = 0; a < S->nc; a++) {
+    char *rec = REC(S, a, d);
+    double *Waa = R_W(rec, d), rot[2 * 3 * 3], *ca = R_C(rec), wtt = 0, mua;
+    int *gs = R_SIDE(rec), act = !P->active || P->active[a];
+    sides(P->grains, a, gs);
+    for (i = 0; i < d; i++) ca[i] = P->b[a * d + i];
+    /* W_aa for the contacts of the step's problem only; out of it, c_a (its U, r = 0) only and
+       W_aa = 0 (its scaling 0) */
+    if (act) geometry(d, S, P, a, gs, rot, d, Waa, ca);
+    else {
+      for (i = 0; i < d * d; i++) Waa[i] = 0;
+      geometry(d, S, P, a, gs, rot, 0, Waa, ca);
       if (S->muown) S->muown[a] = 0;
       continue;
     }
-    /* nscd_prepare_local: friction where a free dof moves the contact tangentially, the local
-       solvers' data, the scaling (T42) */
     for (i = 1; i < d; i++) wtt += Waa[i * d + i];
-    {
-      double aux[NSCD_AUX], mua = P->mu && wtt > 1e-12 * Waa[0] ? P->mu[a] : 0;
-      if (S->muown) S->muown[a] = mua;
-      else differ |= !P->mu || mua != P->mu[a];
-      nscd_local_prepare(d, Waa, mua, aux);
-      memcpy(R_AUX(rec, d), aux, NAUX(d) * sizeof *aux);
-    }
+    mua = P->mu && wtt > 1e-12 * Waa[0] ? P->mu[a] : 0;
+    if (S->muown) S->muown[a] = mua;
+    else differ |= !P->mu || mua != P->mu[a];
   }
   return differ;
 }
@@ -213,7 +256,7 @@ int nscd_grains_prepare(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
 }
 
 /* u += G_s v_s over one side of sign cf: the products (cf F_ik) v_k of the sweep on H are
-   cf (F_ik v_k) to the bit, so the master side subtracts. */
+   cf (F_ik v_k) to the bit, so the master side subtracts (rot: the moments without the sign). */
 KERNEL void side_U(const int d, const double *F, const double *rot, const double *restrict v, int slave, double *u)
 {
   int i, k;
@@ -223,25 +266,37 @@ KERNEL void side_U(const int d, const double *F, const double *rot, const double
       for (k = 0; k < d; k++) t += F[i * d + k] * v[k];
     else
       for (k = 0; k < d; k++) t -= F[i * d + k] * v[k];
-    for (k = 0; k < NR(d); k++) t += rot[i * NR(d) + k] * v[d + k];
+    if (slave)
+      for (k = 0; k < NR(d); k++) t += rot[i * NR(d) + k] * v[d + k];
+    else
+      for (k = 0; k < NR(d); k++) t -= rot[i * NR(d) + k] * v[d + k];
     u[i] = t;
   }
 }
 
-/* U_a = c_a + sum_s G_as v_s. */
-KERNEL void local_U(const nscd_state *S, const mo_contact_problem *P, const char *rec, int a, double *restrict U,
-                    const int d)
+/* U_a = c_a + sum_s G_as v_s, rot the rows of geometry. */
+KERNEL void local_U(const nscd_state *S, const mo_contact_problem *P, const char *rec, const double *rot, int a,
+                    double *restrict U, const int d)
 {
   const int *gs = R_SIDE(rec);
-  const double *F = P->frame + (size_t)a * d * d, *rot = R_ROT(rec, d), *c = R_C(rec);
+  const double *F = P->frame + (size_t)a * d * d, *c = R_C(rec);
   double u[3] = {0, 0, 0};
   int i;
   for (i = 0; i < d; i++) u[i] = c[i];
   if (gs[0]) {
-    side_U(d, F, rot, S->vb + (gs[0] > 0 ? gs[0] : -gs[0]) - 1, gs[0] > 0, u);
-    if (gs[1]) side_U(d, F, rot + d * NR(d), S->vb + (gs[1] > 0 ? gs[1] : -gs[1]) - 1, gs[1] > 0, u);
+    side_U(d, F, rot, S->vb + SIDE_O(gs[0]), gs[0] > 0, u);
+    if (gs[1]) side_U(d, F, rot + d * NR(d), S->vb + SIDE_O(gs[1]), gs[1] > 0, u);
   }
   for (i = 0; i < d; i++) U[i] = u[i];
+}
+
+/* U_a with its rows formed here. */
+KERNEL void contact_U(const nscd_state *S, const mo_contact_problem *P, int a, double *restrict U, const int d)
+{
+  const char *rec = REC(S, a, d);
+  double Waa[1], rot[2 * 3 * 3];
+  geometry(d, S, P, a, R_SIDE(rec), rot, 0, Waa, NULL);
+  local_U(S, P, rec, rot, a, U, d);
 }
 
 /* v_s += inv_s G_s^T dr on one side: (inv_k (cf F_jk)) dr_j summed over j, that is cf times the
@@ -258,22 +313,31 @@ KERNEL void side_push(const int d, const double *F, const double *rot, const dou
   }
   for (k = 0; k < NR(d); k++) {
     double acc = 0;
-    for (j = 0; j < d; j++) acc += iv[d + k] * rot[j * NR(d) + k] * dr[j];
+    for (j = 0; j < d; j++) acc += iv[d + k] * (slave ? rot[j * NR(d) + k] : -rot[j * NR(d) + k]) * dr[j];
     v[d + k] += acc;
   }
 }
 
-KERNEL void push(nscd_state *S, const mo_contact_problem *P, const char *rec, int a, const double *dr, const int d)
+KERNEL void push(nscd_state *S, const mo_contact_problem *P, const char *rec, const double *rot, int a,
+                 const double *dr, const int d)
 {
   const int *gs = R_SIDE(rec);
-  const double *F = P->frame + (size_t)a * d * d, *rot = R_ROT(rec, d);
+  const double *F = P->frame + (size_t)a * d * d;
   int o;
   if (!gs[0]) return;
-  o = (gs[0] > 0 ? gs[0] : -gs[0]) - 1;
+  o = SIDE_O(gs[0]);
   side_push(d, F, rot, S->gi + o, S->vb + o, gs[0] > 0, dr);
   if (!gs[1]) return;
-  o = (gs[1] > 0 ? gs[1] : -gs[1]) - 1;
+  o = SIDE_O(gs[1]);
   side_push(d, F, rot + d * NR(d), S->gi + o, S->vb + o, gs[1] > 0, dr);
+}
+
+KERNEL void push_r(nscd_state *S, const mo_contact_problem *P, int a, const double *dr, const int d)
+{
+  const char *rec = REC(S, a, d);
+  double Waa[1], rot[2 * 3 * 3];
+  geometry(d, S, P, a, R_SIDE(rec), rot, 0, Waa, NULL);
+  push(S, P, rec, rot, a, dr, d);
 }
 
 void nscd_grains_velocities(nscd_state *S, const mo_contact_problem *P, const double *r)
@@ -283,19 +347,19 @@ void nscd_grains_velocities(nscd_state *S, const mo_contact_problem *P, const do
   /* a contact without reaction moves nothing (its push would add zeros) */
   if (S->d == 2) {
     for (a = 0; a < S->nc; a++)
-      if (r[2 * a] != 0 || r[2 * a + 1] != 0) push(S, P, REC(S, a, 2), a, r + (size_t)a * 2, 2);
+      if (r[2 * a] != 0 || r[2 * a + 1] != 0) push_r(S, P, a, r + (size_t)a * 2, 2);
   } else
     for (a = 0; a < S->nc; a++)
-      if (r[3 * a] != 0 || r[3 * a + 1] != 0 || r[3 * a + 2] != 0) push(S, P, REC(S, a, 3), a, r + (size_t)a * 3, 3);
+      if (r[3 * a] != 0 || r[3 * a + 1] != 0 || r[3 * a + 2] != 0) push_r(S, P, a, r + (size_t)a * 3, 3);
 }
 
 void nscd_grains_exact_U(nscd_state *S, const mo_contact_problem *P)
 {
   int a;
   if (S->d == 2)
-    for (a = 0; a < S->nc; a++) local_U(S, P, REC(S, a, 2), a, S->U + (size_t)a * 2, 2);
+    for (a = 0; a < S->nc; a++) contact_U(S, P, a, S->U + (size_t)a * 2, 2);
   else
-    for (a = 0; a < S->nc; a++) local_U(S, P, REC(S, a, 3), a, S->U + (size_t)a * 3, 3);
+    for (a = 0; a < S->nc; a++) contact_U(S, P, a, S->U + (size_t)a * 3, 3);
 }
 
 /* Contact a's terms of Jean's norms (T11) after its update dr (r_a now holds the new reaction):
@@ -331,17 +395,32 @@ KERNEL int sweep_d(nscd_state *S, const mo_contact_problem *P, double *r, int *s
     const int a = order[k];
     const char *rec = REC(S, a, d);
     const double *Waa = R_W(rec, d);
-    double *ra = r + (size_t)a * d, U[3], ql[3], rl[3], dr[3];
+    double *ra = r + (size_t)a * d, U[3], ql[3], rl[3], dr[3], rot[2 * 3 * 3], aux[NSCD_AUX], w0[1];
     int st, nz = 0;
-    local_U(S, P, rec, a, U, d);
+    geometry(d, S, P, a, R_SIDE(rec), rot, 0, w0, NULL);
+    local_U(S, P, rec, rot, a, U, d);
     for (i = 0; i < d; i++) {
       double acc = U[i];
       for (j = 0; j < d; j++) acc -= Waa[i * d + j] * ra[j];
       ql[i] = acc;
       rl[i] = ra[i];
     }
-    st = d == 2 ? nscd_local_2d_fast(Waa, R_AUX(rec, d), ql, mu[a], rl)
-                : nscd_local_3d(Waa, R_AUX(rec, d), ql, mu[a], rl, &S->lp, &S->lst);
+    if (d == 2) {
+      if (ql[0] >= 0) { /* open: nscd_local_2d_fast's first case, without the local data */
+        rl[0] = rl[1] = 0;
+        st = MO_CS_OPEN;
+      } else { /* nscd_local_2d_fast's other cases, the slide denominators only when they are read */
+        nscd_local_inverse_2d(Waa, aux);
+        if (nscd_local_2d_stick(Waa, aux, ql, mu[a], rl)) st = MO_CS_STICK;
+        else {
+          nscd_local_slide_2d(Waa, mu[a], aux);
+          st = nscd_local_2d(Waa, aux, ql, mu[a], rl);
+        }
+      }
+    } else {
+      nscd_local_prepare(3, Waa, mu[a], aux);
+      st = nscd_local_3d(Waa, aux, ql, mu[a], rl, &S->lp, &S->lst);
+    }
     if (st < 0) return a;
     status[a] = st;
     for (i = 0; i < d; i++) {
@@ -350,7 +429,7 @@ KERNEL int sweep_d(nscd_state *S, const mo_contact_problem *P, double *r, int *s
       nz |= dr[i] != 0;
     }
     if (nz) {
-      push(S, P, rec, a, dr, d);
+      push(S, P, rec, rot, a, dr, d);
       for (i = 0; i < d; i++) ra[i] = rl[i];
     }
     /* a contact is updated once a sweep: r_a - rold_a is dr (0 when nz is 0) */
@@ -361,7 +440,7 @@ KERNEL int sweep_d(nscd_state *S, const mo_contact_problem *P, double *r, int *s
   if (!S->par && (S->p.stop == NSCD_STOP_SCALED || S->p.stop == NSCD_STOP_NATURAL))
     for (k = 0; k < S->nact; k++) {
       const int a = S->act[k];
-      local_U(S, P, REC(S, a, d), a, S->U + (size_t)a * d, d);
+      contact_U(S, P, a, S->U + (size_t)a * d, d);
     }
   return -1;
 }
@@ -499,8 +578,8 @@ void nscd_grains_owned_U(nscd_state *S, const mo_contact_problem *P)
   int k;
   for (k = 0; k < S->noact; k++) {
     const int a = S->oorder[k];
-    if (S->d == 2) local_U(S, P, REC(S, a, 2), a, S->U + (size_t)a * 2, 2);
-    else local_U(S, P, REC(S, a, 3), a, S->U + (size_t)a * 3, 3);
+    if (S->d == 2) contact_U(S, P, a, S->U + (size_t)a * 2, 2);
+    else contact_U(S, P, a, S->U + (size_t)a * 3, 3);
   }
 }
 

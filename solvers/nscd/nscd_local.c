@@ -7,28 +7,15 @@
 #include <math.h>
 #include <string.h>
 
-/* A d x d block is taken as singular below this relative determinant: |det W| against the
-   product of its diagonal (Hadamard: det <= prod diag for SPD blocks). */
-#define NSCD_SINGULAR 1e-13
 
 void nscd_local_prepare(int d, const double *W, double mu, double *aux)
 {
   memset(aux, 0, NSCD_AUX * sizeof *aux);
   if (d == 1) {
     aux[0] = W[0] > 0 ? 1 / W[0] : 0;
-  } else if (d == 2) {
-    double a = W[0], b = W[1], c = W[2], e = W[3], det = a * e - b * c;
-    if (fabs(det) > NSCD_SINGULAR * fabs(a * e) && a * e != 0) {
-      aux[0] = e / det;
-      aux[1] = -b / det;
-      aux[2] = -c / det;
-      aux[3] = a / det;
-      aux[6] = 1;
-    }
-    /* sliding: U_n = (W_nn -+ mu W_nt) r_n + q_n = 0  (T38) */
-    aux[4] = a - mu * b > 0 ? 1 / (a - mu * b) : 0;
-    aux[5] = a + mu * b > 0 ? 1 / (a + mu * b) : 0;
-  } else {
+  } else if (d == 2)
+    nscd_local_prepare_2d(W, mu, aux);
+  else {
     double c00 = W[4] * W[8] - W[5] * W[7], c01 = W[5] * W[6] - W[3] * W[8], c02 = W[3] * W[7] - W[4] * W[6];
     double det = W[0] * c00 + W[1] * c01 + W[2] * c02, pd = W[0] * W[4] * W[8];
     if (pd != 0 && fabs(det) > NSCD_SINGULAR * fabs(pd)) {
