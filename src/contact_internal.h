@@ -6,6 +6,7 @@
 #include <moreau/contact.h>
 
 struct mo_broad;
+struct mo_pdetect;
 
 
 struct mo_contact {
@@ -91,6 +92,7 @@ struct mo_contact {
   long vl_n, vl_builds;
   double vl_reach;
   int vl_built;
+  struct mo_pdetect *pd;      /* the detection split over MPI ranks (parallel_detect.c), or NULL */
 };
 
 /* Candidate a's pair: a detected candidate carries it in its key, a mesh point fixed at build in

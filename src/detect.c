@@ -5,6 +5,7 @@
 #include <moreau/body.h>
 #include <moreau/contact.h>
 #include "broad.h"
+#include "parallel_detect.h"
 #include "contact_internal.h"
 #include "narrow.h"
 
@@ -36,6 +37,7 @@ void mo_contact_detect_free(mo_contact *C)
   mo_free(C->dmask);
   mo_free(C->bcur);
   mo_free(C->bdof);
+  mo_pdetect_free(C);
   C->broad = NULL;
 }
 
@@ -407,7 +409,10 @@ static int shapes_obstacle(mo_contact *C, int k, const mo_state *s, double t, mo
     dyn_side ds;
     if (M->type->flags & MO_BODY_F_OBSTACLE) {
       double h = 0, reach;
+      int from = C->nc;
       if (t > M->until) return MO_OK; /* the gate has opened */
+      /* split over the ranks: the shapes of this rank's slab only (T215) */
+      if (C->pd && !mo_pdetect_owns(C->pd, sb)) continue;
       for (j = 0; j < sc->dim; j++) p[j] = M->point[j] + M->velocity[j] * t;
       /* a shape whose bounding ball is farther from the plane than any alert distance of theirs
          (pair_alert <= alert + 2 h (s_b + s_plane)) is passed over before its narrow phase */
@@ -428,6 +433,7 @@ static int shapes_obstacle(mo_contact *C, int k, const mo_state *s, double t, mo
         ds.mfeat = -1;
         if ((st = add_contact(C, &ds, &out[j], t, ctx))) return st;
       }
+      if (C->pd && C->nc > from && (st = mo_pdetect_tag(C, from, k, i, 0, ctx))) return st;
     } else if (S->kind == MO_BODY_POLYGON) {
       alert = pair_alert(C, sb, P->mb[0]);
       shape_world(sc, S, s, c, v);
@@ -508,7 +514,11 @@ static int pair_list(mo_contact *C, const mo_state *s, mo_ctx *ctx)
       C->br[b] = sc->body[b].bound + C->be[b];
     }
   C->vl_reach = C->alert + C->skin;
-  if ((st = mo_broad_pairs(C->broad, D, sc->nbody, C->bc, C->br, C->bmask, C->vl_reach, &pairs, &np, ctx))) {
+  /* split over the ranks: the slabs of this build, and the broad phase on this rank's slab and
+     its halo (T215)-(T216) */
+  if (C->pd) mo_pdetect_build(C, ctx);
+  if ((st = mo_broad_pairs(C->broad, D, sc->nbody, C->bc, C->br, C->pd ? mo_pdetect_mask(C) : C->bmask, C->vl_reach,
+                           &pairs, &np, ctx))) {
     C->vl_built = 0;
     C->vl_n = 0;
     return st;
@@ -541,12 +551,14 @@ static int rigid_pairs(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx)
   const mo_scene *sc = C->sc;
   long q;
   int st;
-  if ((st = pair_list(C, s, ctx))) return st;
+  /* split over the ranks, the list is made before the obstacles' narrow phases (mo_contact_detect) */
+  if (!C->pd && (st = pair_list(C, s, ctx))) return st;
   for (q = 0; q < C->vl_n; q++) {
-    int i = C->vl[2 * q], j = C->vl[2 * q + 1], r;
+    int i = C->vl[2 * q], j = C->vl[2 * q + 1], r, from = C->nc;
     unsigned long long ij = C->mside[i] & C->sside[j], ji = C->mside[j] & C->sside[i];
     unsigned long long any = ij | ji;
     if (!any) continue;
+    if (C->pd && !mo_pdetect_owns(C->pd, i)) continue; /* another rank's pair (T215) */
     if ((sc->body[i].type->flags & sc->body[j].type->flags & MO_BODY_F_BALL) && balls_apart(C, s, i, j, sc->dim))
       continue;
     for (r = 0; !(any >> r & 1ULL); r++) {}
@@ -554,6 +566,7 @@ static int rigid_pairs(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx)
     if (ij >> r & 1ULL) st = shape_shape(C, C->rr[r], j, i, s, t, ctx);
     else st = shape_shape(C, C->rr[r], i, j, s, t, ctx);
     if (st) return st;
+    if (C->pd && C->nc > from && (st = mo_pdetect_tag(C, from, C->npair, i, j, ctx))) return st;
   }
   return MO_OK;
 }
@@ -606,7 +619,7 @@ int mo_contact_broad_stats(const mo_contact *C, long *builds, long *pairs)
 
 int mo_contact_detect(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx)
 {
-  int k, st = MO_OK;
+  int k, split, st = MO_OK;
   body_speeds(C, s);
   /* the new keys are compared with the old ones as they overwrite them (set_key) */
   C->knold = C->nc;
@@ -614,6 +627,10 @@ int mo_contact_detect(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx)
   C->npt = C->npt_static;
   C->nc = C->nc_static;
   C->ncoef = C->ncoef_static;
+  /* the granular path over MPI ranks: each rank its slab's pairs, then every rank's gathered
+     (doc/parallel.md §4, (T215)-(T217)) */
+  if ((split = mo_pdetect_active(C, ctx)) < 0) return MO_ENOMEM;
+  if (split && !(st = pair_list(C, s, ctx))) st = mo_pdetect_begin(C, ctx);
   for (k = 0; k < C->npair && !st; k++) {
     const mo_contact_pair *P = &C->pair[k];
     const mo_body *S, *M;
@@ -627,6 +644,7 @@ int mo_contact_detect(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx)
       st = shapes_obstacle(C, k, s, t, ctx);
   }
   if (!st && C->nrr) st = rigid_pairs(C, s, t, ctx);
+  if (split) st = mo_pdetect_finish(C, st, ctx);
   if (!st && !(C->ksame && C->nc == C->knold)) C->cset_version++;
   return st;
 }

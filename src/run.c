@@ -336,6 +336,12 @@ static json_t *parallel_json(const mo_ctx *ctx, const mo_scene *sc)
     json_object_set_new(j, "grain_interface_bodies_mean", jnum(ctx->par_grain_interface / n));
     json_object_set_new(j, "grain_slab_imbalance_mean", jnum(ctx->par_grain_imbalance / n));
   }
+  if (ctx->par_detect_total) {
+    /* the detection split over the ranks (doc/parallel.md §4, (T215)): the candidates the largest
+       rank detected itself over the run, and every rank's */
+    json_object_set_new(j, "grain_detected_largest_rank", json_integer(ctx->par_detect_largest));
+    json_object_set_new(j, "grain_detected", json_integer(ctx->par_detect_total));
+  }
   return j;
 }
 

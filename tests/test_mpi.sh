@@ -104,7 +104,15 @@ grains_pair() { # grains_pair NAME CASE ARGS...
   is "$(json "$OUT/$name-2/summary.json" "d['contact']['failed_solves']")" "0" "$name: every solve of the 2-rank run converged"
   ok $([ "$(json "$OUT/$name-2/summary.json" "d['parallel'].get('grain_sweeps', 0) > 0")" = True ] && echo 0 || echo 1) \
     "$name: the 2-rank run swept its grains split over the ranks"
+  detected_split "$name"
   check_runs "$OUT/$name-1" "$OUT/$name-2" 1e-8 "$name" grains
+}
+# the detection split over the ranks (doc/parallel.md §4, (T215)-(T217)): each rank the pairs of
+# its slab, the largest rank 60 % of every rank's candidates at most (the set gathered, in the
+# serial order, is compared with the serial run's by check_runs: contact.csv)
+detected_split() { # detected_split NAME
+  is "$(json "$OUT/$1-2/summary.json" "(lambda p: [p.get('grain_detected', 0) > 0, p.get('grain_detected_largest_rank', 1) <= 0.6 * p.get('grain_detected', 0)])(d['parallel'])")" \
+    "[True, True]" "$1: each rank detected a part, the largest rank $(json "$OUT/$1-2/summary.json" "d['parallel'].get('grain_detected_largest_rank')") of the $(json "$OUT/$1-2/summary.json" "d['parallel'].get('grain_detected')") candidates"
 }
 grains_pair disk-pile "$MOREAU_SRCDIR/cases/disk-pile" --set bodies.grains.pack.count=60 --set time.end=0.22
 grains_pair sphere-deposit "$MOREAU_SRCDIR/cases/sphere-deposit" --set bodies.grains.pack.count=200 --set time.end=0.12
@@ -118,6 +126,7 @@ mpi 2 "$MOREAU" run "$c" --out "$OUT/arch-2" --quiet > "$OUT/arch-2.log" 2>&1
 ran $? "$OUT/arch-2.log" "masonry-arch: mpirun -np 2 completes"
 is "$(json "$OUT/arch-2/summary.json" "[d['contact']['failed_solves'], d['parallel']['grain_sweeps'] > 0, d['parallel']['grain_serial_fallbacks'] > 0]")" \
   "[0, True, True]" "masonry-arch: every solve of the 2-rank run converged, split sweeps that stalled went on serial"
+detected_split arch
 # the arch stands: its velocities are round-off (1e-11 m/s), so the runs are compared by the
 # voussoirs' final positions (to 1e-9 m) and both runs' largest speed (below 1e-8 m/s)
 is "$(/usr/bin/python3 -c "

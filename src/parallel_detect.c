@@ -1,0 +1,260 @@
+/* parallel_detect.c: the granular path's detection split over MPI ranks (doc/parallel.md §4,
+   doc/theory.md (T215)-(T217)). At every build of the broad phase's pair list the bodies are cut
+   into slabs of equal counts along their largest extent (the same cut on every rank: the same
+   replicated positions); a rank runs the broad phase on its slab plus a halo and the narrow phase
+   on the pairs it owns (those of its slab's bodies), then the ranks' candidates are gathered into
+   the serial detection's order, so that everything after the detection sees the set a single
+   process finds. */
+#include "config.h"
+#include "contact_internal.h"
+#include "parallel_detect.h"
+#include <moreau/parallel.h>
+
+#include <math.h>
+#include <string.h>
+
+#define NBIN 4096
+#define NTAG MO_PDETECT_NTAG
+
+
+int mo_pdetect_slabs(int dim, int n, const double *c, const double *r, const unsigned char *mask, double reach,
+                     int nranks, int rank, int *owner, unsigned char *rmask)
+{
+  double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+  double w, rmax = 0, slo = HUGE_VAL, shi = -HUGE_VAL, halo;
+  long cnt[NBIN], cum = 0, m = 0;
+  int b, k, ax = 0, bin2rank[NBIN];
+  for (b = 0; b < n; b++)
+    if (!mask || mask[b]) {
+      for (k = 0; k < dim; k++) {
+        lo[k] = fmin(lo[k], c[(size_t)dim * b + k]);
+        hi[k] = fmax(hi[k], c[(size_t)dim * b + k]);
+      }
+      rmax = fmax(rmax, r[b]);
+      m++;
+    }
+  for (k = 1; k < dim; k++)
+    if (hi[k] - lo[k] > hi[ax] - lo[ax]) ax = k;
+  w = hi[ax] > lo[ax] ? (hi[ax] - lo[ax]) / NBIN : 1;
+  /* (T215): a histogram of the centres along the axis, each bin in the slab of its first body */
+  memset(cnt, 0, sizeof cnt);
+  for (b = 0; b < n; b++)
+    if (!mask || mask[b]) {
+      long q = (long)((c[(size_t)dim * b + ax] - lo[ax]) / w);
+      cnt[q < 0 ? 0 : q >= NBIN ? NBIN - 1 : q]++;
+    }
+  for (k = 0; k < NBIN; k++) {
+    long q = m ? cum * nranks / m : 0;
+    bin2rank[k] = (int)(q < nranks ? q : nranks - 1);
+    cum += cnt[k];
+  }
+  for (b = 0; b < n; b++) {
+    double x = c[(size_t)dim * b + ax];
+    long q = (long)((x - lo[ax]) / w);
+    owner[b] = -1;
+    if (mask && !mask[b]) continue;
+    owner[b] = bin2rank[q < 0 ? 0 : q >= NBIN ? NBIN - 1 : q];
+    if (owner[b] == rank) {
+      slo = fmin(slo, x);
+      shi = fmax(shi, x);
+    }
+  }
+  /* (T216): a pair within reach is within 2 r_max + reach along the axis */
+  halo = (2 * rmax + reach) * (1 + 1e-9);
+  for (b = 0; b < n; b++) {
+    double x = c[(size_t)dim * b + ax];
+    rmask[b] = owner[b] >= 0 && (owner[b] == rank || (x >= slo - halo && x <= shi + halo));
+  }
+  return ax;
+}
+
+void mo_pdetect_free(mo_contact *C)
+{
+  struct mo_pdetect *P = C->pd;
+  if (!P) return;
+  mo_free(P->owner);
+  mo_free(P->rmask);
+  mo_free(P->okey);
+  mo_free(P->tag);
+  mo_free(P->buf);
+  mo_free(P->all);
+  mo_free(P->cnt);
+  mo_free(P->one);
+  mo_free(P->rc);
+  mo_free(P->tot);
+  mo_free(P);
+  C->pd = NULL;
+}
+
+int mo_pdetect_active(mo_contact *C, mo_ctx *ctx)
+{
+  const mo_scene *sc = C->sc;
+  struct mo_pdetect *P;
+  int k, r;
+  if (ctx->nranks < 2 || !C->compact || !C->nrr || !mo_parallel_started(ctx)) return 0;
+  if (C->pd) return 1;
+  for (k = 0; k < C->npair; k++) {
+    const mo_contact_pair *Q = &C->pair[k];
+    int rr = 0;
+    for (r = 0; r < C->nrr; r++) rr |= C->rr[r] == k;
+    if (Q->dynamic && !rr && !(sc->body[Q->mb[0]].type->flags & MO_BODY_F_OBSTACLE)) return 0;
+  }
+  if (!(P = mo_calloc(ctx, 1, sizeof *P))) return -1;
+  C->pd = P;
+  P->rank = ctx->rank;
+  P->nranks = ctx->nranks;
+  if (!(P->owner = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *P->owner)) ||
+      !(P->rmask = mo_calloc(ctx, (size_t)sc->nbody + 1, 1)) ||
+      !(P->cnt = mo_malloc(ctx, (size_t)P->nranks * sizeof *P->cnt)) ||
+      !(P->one = mo_malloc(ctx, (size_t)P->nranks * sizeof *P->one)) ||
+      !(P->rc = mo_malloc(ctx, (size_t)P->nranks * sizeof *P->rc)) ||
+      !(P->tot = mo_calloc(ctx, (size_t)P->nranks, sizeof *P->tot))) {
+    mo_pdetect_free(C);
+    return -1;
+  }
+  for (r = 0; r < P->nranks; r++) P->one[r] = 1;
+  for (k = 0; k < sc->nbody; k++) P->owner[k] = -1;
+  return 1;
+}
+
+/* Room for n values in *p of capacity *cap. */
+static int room(void **p, size_t *cap, size_t n, size_t sz, mo_ctx *ctx)
+{
+  void *q;
+  if (n <= *cap) return MO_OK;
+  n += n / 4 + 16;
+  if (!(q = mo_realloc(ctx, *p, n * sz))) return MO_ENOMEM;
+  *p = q;
+  *cap = n;
+  return MO_OK;
+}
+
+int mo_pdetect_begin(mo_contact *C, mo_ctx *ctx)
+{
+  struct mo_pdetect *P = C->pd;
+  size_t n = C->knold > C->nc ? (size_t)(C->knold - C->nc) : 0;
+  int st;
+  P->nc0 = C->nc;
+  P->knold = C->knold;
+  P->ksame = C->ksame;
+  if ((st = room((void **)&P->okey, &P->okcap, n * MO_KEY + 1, sizeof *P->okey, ctx))) return st;
+  if (n) memcpy(P->okey, C->key + (size_t)C->nc * MO_KEY, n * MO_KEY * sizeof *P->okey);
+  return MO_OK;
+}
+
+int mo_pdetect_build(mo_contact *C, mo_ctx *ctx)
+{
+  (void)ctx;
+  mo_pdetect_slabs(C->sc->dim, C->sc->nbody, C->bc, C->br, C->bmask, C->vl_reach, C->pd->nranks, C->pd->rank,
+                   C->pd->owner, C->pd->rmask);
+  return MO_OK;
+}
+
+const unsigned char *mo_pdetect_mask(const mo_contact *C) { return C->pd->rmask; }
+
+
+
+int mo_pdetect_tag(mo_contact *C, int from, int s0, int s1, int s2, mo_ctx *ctx)
+{
+  struct mo_pdetect *P = C->pd;
+  size_t a;
+  int st;
+  if ((st = room((void **)&P->tag, &P->tagcap, (size_t)(C->nc - P->nc0) * NTAG + 1, sizeof *P->tag, ctx))) return st;
+  for (a = (size_t)(from - P->nc0); a < (size_t)(C->nc - P->nc0); a++) {
+    P->tag[NTAG * a] = s0;
+    P->tag[NTAG * a + 1] = s1;
+    P->tag[NTAG * a + 2] = s2;
+  }
+  return MO_OK;
+}
+
+/* The values of one candidate in the gather: its order key, its key, point, frame, gap, obstacle
+   velocity (when stored) and activity. */
+static size_t record_size(const mo_contact *C)
+{
+  const size_t D = (size_t)C->sc->dim, d = (size_t)C->dim;
+  return NTAG + MO_KEY + D + d * d + 1 + (C->U0 ? d : 0) + 1;
+}
+
+static void pack(const mo_contact *C, const int *tag, int a, double *v)
+{
+  const size_t D = (size_t)C->sc->dim, d = (size_t)C->dim;
+  size_t i;
+  for (i = 0; i < NTAG; i++) *v++ = tag[i];
+  for (i = 0; i < MO_KEY; i++) *v++ = C->key[(size_t)a * MO_KEY + i];
+  for (i = 0; i < D; i++) *v++ = C->x[(size_t)a * D + i];
+  for (i = 0; i < d * d; i++) *v++ = C->frame[(size_t)a * d * d + i];
+  *v++ = C->g[a];
+  if (C->U0)
+    for (i = 0; i < d; i++) *v++ = C->U0[(size_t)a * d + i];
+  *v = C->active[a];
+}
+
+/* Candidate a of the set from record v; its key compared with the previous set's (C->ksame). */
+static void unpack(mo_contact *C, const struct mo_pdetect *P, int a, const double *v)
+{
+  const size_t D = (size_t)C->sc->dim, d = (size_t)C->dim;
+  int *key = C->key + (size_t)a * MO_KEY;
+  const int *old = P->okey + (size_t)(a - P->nc0) * MO_KEY;
+  size_t i;
+  v += NTAG;
+  for (i = 0; i < MO_KEY; i++) key[i] = (int)v[i];
+  if (a >= P->knold || memcmp(key, old, MO_KEY * sizeof *key)) C->ksame = 0;
+  v += MO_KEY;
+  for (i = 0; i < D; i++) C->x[(size_t)a * D + i] = *v++;
+  for (i = 0; i < d * d; i++) C->frame[(size_t)a * d * d + i] = *v++;
+  C->g[a] = *v++;
+  if (C->U0)
+    for (i = 0; i < d; i++) C->U0[(size_t)a * d + i] = *v++;
+  C->active[a] = (unsigned char)*v;
+}
+
+/* Record v before record u in the serial detection's order (T217). */
+static int before(const double *v, const double *u)
+{
+  int i;
+  for (i = 0; i < NTAG; i++)
+    if (v[i] != u[i]) return v[i] < u[i];
+  return 0;
+}
+
+int mo_pdetect_finish(mo_contact *C, int st, mo_ctx *ctx)
+{
+  struct mo_pdetect *P = C->pd;
+  const size_t R = record_size(C);
+  size_t n = (size_t)(C->nc - P->nc0), total = 0, head[64], end[64];
+  double mine = st ? -1 : (double)n, largest = 0;
+  int r, a, st2;
+  /* every rank's count, or -1 for a rank that failed: then every rank fails */
+  if ((st2 = mo_par_gatherv(&mine, P->one, P->rc, ctx))) return st ? st : st2;
+  for (r = 0; r < P->nranks; r++)
+    if (P->rc[r] < 0) return st ? st : mo_error(ctx, MO_EINPUT, "contact detection failed on rank %d", r);
+  if (P->nranks > 64) return mo_error(ctx, MO_ELIMIT, "contact detection over %d ranks (at most 64)", P->nranks);
+  for (r = 0; r < P->nranks; r++) {
+    P->cnt[r] = (int)(P->rc[r] * (double)R);
+    head[r] = total;
+    total += (size_t)P->rc[r];
+    end[r] = total;
+    P->tot[r] += (long)P->rc[r];
+    if ((double)P->tot[r] > largest) largest = (double)P->tot[r];
+  }
+  ctx->par_detect_largest = (long)largest;
+  ctx->par_detect_total += (long)total;
+  if ((st = room((void **)&P->buf, &P->bufcap, n * R + 1, sizeof *P->buf, ctx)) ||
+      (st = room((void **)&P->all, &P->allcap, total * R + 1, sizeof *P->all, ctx)))
+    return st;
+  for (a = 0; a < (int)n; a++) pack(C, P->tag + (size_t)NTAG * a, P->nc0 + a, P->buf + (size_t)a * R);
+  if ((st = mo_par_gatherv(P->buf, P->cnt, P->all, ctx))) return st;
+  if ((st = mo_contact_reserve(C, P->nc0 + (int)total, ctx))) return st;
+  /* the ranks' lists, each in the serial order, merged (T217) */
+  C->ksame = P->ksame;
+  for (a = P->nc0; a < P->nc0 + (int)total; a++) {
+    int best = -1;
+    for (r = 0; r < P->nranks; r++)
+      if (head[r] < end[r] && (best < 0 || before(P->all + head[r] * R, P->all + head[best] * R))) best = r;
+    unpack(C, P, a, P->all + head[best] * R);
+    head[best]++;
+  }
+  C->nc = P->nc0 + (int)total;
+  return MO_OK;
+}

@@ -1,0 +1,67 @@
+/* parallel_detect.h: the granular path's detection split over MPI ranks (doc/parallel.md §4,
+   doc/theory.md (T215)-(T217)). Private to the core (detect.c and the tests). */
+#ifndef MOREAU_PARALLEL_DETECT_H
+#define MOREAU_PARALLEL_DETECT_H
+
+#include <stddef.h>
+
+#include <moreau/ctx.h>
+
+struct mo_contact;
+
+/* The split's state, per contact set (parallel_detect.c). */
+#define MO_PDETECT_NTAG 3
+struct mo_pdetect {
+  int rank, nranks;
+  int *owner;              /* per body: its slab at the last build of the pair list (-1: none) */
+  unsigned char *rmask;    /* per body: in this rank's broad phase (its slab and halo) */
+  int nc0;                 /* the first candidate of the split part of the detection */
+  int *okey;               /* the previous set's keys from nc0 on (knold - nc0 of them) */
+  size_t okcap;
+  int knold, ksame;        /* as C's, before the split part */
+  int *tag;                /* MO_PDETECT_NTAG per candidate this rank appended: the serial order's key */
+  size_t tagcap;
+  double *buf, *all;       /* this rank's records, every rank's */
+  size_t bufcap, allcap;
+  int *cnt, *one;          /* per rank: its values in the gather; 1 each */
+  double *rc;              /* per rank: its candidates (or -1: it failed) */
+  long *tot;               /* per rank: its candidates over the run */
+};
+
+/* Whether this rank detects the pairs of body b (it owns its slab); a body in no pair between
+   shapes (a shape against obstacles only) is rank 0's. */
+static inline int mo_pdetect_owns(const struct mo_pdetect *P, int b)
+{
+  return P->owner[b] == P->rank || (P->owner[b] < 0 && P->rank == 0);
+}
+
+/* The slabs of the broad phase's bodies (T215)-(T216), the same on every rank from the same data:
+   the n balls (centres c: dim * n, radii r) with mask[b] != 0 cut along the axis of their centres'
+   largest extent into `nranks` slabs of about equal counts; owner[b] the slab of body b (-1 when
+   mask[b] is 0). A pair (i, j), i < j, of balls within `reach` (|c_i - c_j| - r_i - r_j <= reach)
+   is owned by owner[i]. rmask[b] = 1 for the bodies rank `rank` needs to find every pair it owns:
+   its own and those within 2 max r + reach of its slab along the axis (its halo). Returns the
+   axis. */
+int mo_pdetect_slabs(int dim, int n, const double *c, const double *r, const unsigned char *mask, double reach,
+                     int nranks, int rank, int *owner, unsigned char *rmask);
+
+/* Whether the detection of C is split over the ranks of ctx: more than one rank, the granular
+   path's compact records, pairs between rigid shapes, and every other dynamic pair a shape
+   against an obstacle. The state is made on the first call. */
+int mo_pdetect_active(struct mo_contact *C, mo_ctx *ctx);
+/* Before the split part of a detection: its first candidate, and the previous keys kept. */
+int mo_pdetect_begin(struct mo_contact *C, mo_ctx *ctx);
+/* After a broad-phase build: the slabs and this rank's mask of the bodies (from C->bc, C->br). */
+int mo_pdetect_build(struct mo_contact *C, mo_ctx *ctx);
+/* This rank's broad-phase mask. */
+const unsigned char *mo_pdetect_mask(const struct mo_contact *C);
+/* The candidates this rank just appended (from `from` to C->nc) carry the order key (s0, s1, s2)
+   of the serial detection: (pair, slave index, 0) against an obstacle, (npair, i, j) between two
+   shapes. */
+int mo_pdetect_tag(struct mo_contact *C, int from, int s0, int s1, int s2, mo_ctx *ctx);
+/* Every rank's candidates gathered, in the serial detection's order, into C on every rank (st:
+   this rank's status so far, passed to every rank: a failure on one rank fails them all). */
+int mo_pdetect_finish(struct mo_contact *C, int st, mo_ctx *ctx);
+void mo_pdetect_free(struct mo_contact *C);
+
+#endif
