@@ -65,16 +65,22 @@ size_t mo_broad_bytes(const mo_broad *B)
 }
 
 /* p with room for need elements of size sz (*cap counts them), grown geometrically so that stable
-   sizes allocate nothing. NULL with MO_ENOMEM recorded in ctx; the old block then stays with the
-   caller. */
-static void *reserve(void *p, size_t *cap, size_t need, size_t sz, mo_ctx *ctx)
+   sizes allocate nothing: doubled, or by a quarter (quarter != 0: the pair list, which grows a
+   little at a time while a pile settles, as the contact set's arrays do). NULL with MO_ENOMEM
+   recorded in ctx; the old block then stays with the caller. */
+static void *reserve_by(void *p, size_t *cap, size_t need, size_t sz, int quarter, mo_ctx *ctx)
 {
   size_t c = *cap ? *cap : 16;
   if (need <= *cap) return p;
-  while (c < need) c *= 2;
+  while (c < need) c = quarter ? c + c / 4 + 2 : 2 * c;
   p = mo_realloc(ctx, p, c * sz);
   if (p) *cap = c;
   return p;
+}
+
+static void *reserve(void *p, size_t *cap, size_t need, size_t sz, mo_ctx *ctx)
+{
+  return reserve_by(p, cap, need, sz, 0, ctx);
 }
 
 /* Check the bodies taking part, count them in *m, and when there are 2 or more size the grid:
@@ -252,7 +258,7 @@ static int pair_room(mo_broad *B, mo_ctx *ctx)
 {
   void *p;
   if (2 * ((size_t)B->npair + 1) <= B->cap_pair) return MO_OK;
-  if (!(p = reserve(B->pair, &B->cap_pair, 2 * ((size_t)B->npair + 1), sizeof(int), ctx))) return MO_ENOMEM;
+  if (!(p = reserve_by(B->pair, &B->cap_pair, 2 * ((size_t)B->npair + 1), sizeof(int), 1, ctx))) return MO_ENOMEM;
   B->pair = p;
   return MO_OK;
 }
