@@ -62,6 +62,12 @@ double mo_fc_natural_map_unit(int d, double mu, const double *r, const double *U
 double mo_fc_natural_map_subset(int d, int n, const int *idx, const double *mu, const double *scale,
                                 const double *r, const double *U, double qnorm)
 {
+  return mo_fc_natural_map_subset_pairs(d, n, idx, mu, NULL, NULL, scale, r, U, qnorm);
+}
+
+double mo_fc_natural_map_subset_pairs(int d, int n, const int *idx, const double *mu, const int *key, const double *pmu,
+                                      const double *scale, const double *r, const double *U, double qnorm)
+{
   double e = 0, rn = 0, un = 0, den;
   int k, i;
   for (k = 0; k < n; k++) {
@@ -72,7 +78,7 @@ double mo_fc_natural_map_subset(int d, int n, const int *idx, const double *mu, 
       for (i = 0; i < d; i++) Us[i] = scale[a] * Ua[i];
       Ua = Us;
     }
-    e += natural_map_unit(d, mu ? mu[a] : 0, ra, Ua);
+    e += natural_map_unit(d, mu ? mu[a] : pmu ? pmu[key[(size_t)a * MO_KEY]] : 0, ra, Ua);
     for (i = 0; i < d; i++) {
       rn += ra[i] * ra[i];
       un += Ua[i] * Ua[i];
@@ -272,6 +278,9 @@ struct mo_contact_driver {
   mo_contact_report rep;
   int nc, m, d, cap;         /* candidates, m = d nc, capacity (candidates) of the arrays */
   double *q, *U, *Uprev, *r, *rprev, *mu, *gk, *w;
+  double *pmu;               /* per pair its friction coefficient, on the granular path (the back end
+                                sweeps the compact records): there a candidate's is its pair's, read
+                                through its key, and mu is NULL (doc/theory.md (T189)) */
   double *bn;                /* nc: the normal component of b (q's tangential ones are b's) */
   double *ukin;              /* W r of the last solve (with W), then U without the Signorini
                                 offsets: W r + b (contact_finish); allocated by the first solve on W */
@@ -335,6 +344,12 @@ double mo_contact_driver_dt(const mo_contact_driver *D) { return mo_stepper_dt(D
    carrying a candidate's reaction (the warm start), status and local velocity over by its key
    (pair, bodies, features; doc/theory.md §12.3). */
 
+/* Candidate a's friction coefficient: the driver's copy, or on the granular path its pair's (T189). */
+static inline double mu_of(const mo_contact_driver *D, int a)
+{
+  return D->mu ? D->mu[a] : D->pmu[mo_contact_pair_of(D->C, a)];
+}
+
 static int grow(mo_contact_driver *D, int nc, mo_ctx *ctx)
 {
   int cap = D->cap, d = D->d;
@@ -344,7 +359,10 @@ static int grow(mo_contact_driver *D, int nc, mo_ctx *ctx)
 #define GROW(ptr, n) if (!(p = mo_realloc(ctx, ptr, (size_t)(n) * sizeof *(ptr)))) return MO_ENOMEM; ptr = p
   GROW(D->bn, cap); GROW(D->q, (size_t)cap * d); GROW(D->U, (size_t)cap * d);
   GROW(D->Uprev, (size_t)cap * d); GROW(D->r, (size_t)cap * d);
-  GROW(D->mu, cap); GROW(D->active, cap); GROW(D->act, cap + 1);
+  if (!D->pmu || D->mu) {
+    GROW(D->mu, cap);
+  }
+  GROW(D->active, cap); GROW(D->act, cap + 1);
   GROW(D->status, cap); GROW(D->key, (size_t)cap * MO_KEY); GROW(D->itmp, (size_t)cap + 1);
   /* the reactions of the previous step for Newton's iterates (nonlinear scenes), the gaps of the
      step's start (the compact records keep theirs through the solve), W r (the Delassus path) */
@@ -471,10 +489,10 @@ static int fit(mo_contact_driver *D, const mo_state *s, long oset, const int *ok
       D->status[a] = o < 0 ? MO_CS_OPEN : ostd ? (int)ostd[o] : ost[o];
     }
   mo_free(spare);
-  for (a = 0; a < nc; a++) {
+  for (a = 0; a < nc && (D->mu || D->w); a++) {
     mo_candidate cb;
     const mo_candidate *c = mo_contact_cand_get(C, a, &cb);
-    D->mu[a] = c->mu;
+    if (D->mu) D->mu[a] = c->mu;
     if (D->w) D->w[a] = c->w;
   }
   /* the key list after the remap: okey may be D->key itself, read above */
@@ -616,9 +634,10 @@ long mo_contact_driver_failures(const mo_contact_driver *D) { return D->failures
 size_t mo_contact_driver_bytes(const mo_contact_driver *D, size_t *per_dof)
 {
   const size_t d = (size_t)D->d, cap = (size_t)D->cap, sd = sizeof(double);
-  size_t c = cap * (4 * d * sd + 2 * sd + 1 + 4 * sizeof(int) + MO_KEY * sizeof(int));
+  size_t c = cap * (4 * d * sd + (D->mu ? 2 : 1) * sd + 1 + 4 * sizeof(int) + MO_KEY * sizeof(int));
   size_t n = (size_t)D->sc->ndof, nf = (size_t)D->sc->nfree, dof = (2 * n + 2 * nf) * sd;
   if (D->rprev) c += cap * d * sd;
+  if (D->pmu) c += (size_t)D->C->npair * sd;
   if (D->gk) c += cap * sd;
   if (D->w) c += cap * sd;
   if (D->tmp) c += (cap * (2 * d + 1) + 1) * sd;
@@ -697,7 +716,7 @@ void mo_contact_driver_free(mo_contact_driver *D)
   mo_delassus_free(D->W);
   mo_free(D->bn); mo_free(D->q); mo_free(D->U); mo_free(D->Uprev); mo_free(D->r); mo_free(D->rprev);
   mo_free(D->eqf); mo_free(D->eqk);
-  mo_free(D->xfull); mo_free(D->xf); mo_free(D->dx); mo_free(D->dxfull); mo_free(D->mu); mo_free(D->gk);
+  mo_free(D->xfull); mo_free(D->xf); mo_free(D->dx); mo_free(D->dxfull); mo_free(D->mu); mo_free(D->pmu); mo_free(D->gk);
   mo_free(D->pforce);
   mo_free(D->sv_idx); mo_free(D->sv_mu); mo_free(D->sv_q); mo_free(D->sv_r); mo_free(D->sv_U);
   mo_free(D->w); mo_free(D->ukin); mo_free(D->xnl); mo_free(D->gnl); mo_free(D->tmp); mo_free(D->itmp);
@@ -795,6 +814,14 @@ int mo_contact_driver_create(const mo_scene *sc, mo_contact *C, mo_stepper *S,
     }
     D->grains.D = sc->dim;
     D->grains.key = NULL; /* the set's, at each solve */
+    if (D->T->needs & MO_NEEDS_GRAINS) { /* the back end reads the pairs' friction coefficients (T189) */
+      if (!(D->pmu = mo_malloc(ctx, ((size_t)C->npair + 1) * sizeof *D->pmu))) {
+        mo_contact_driver_free(D);
+        return MO_ENOMEM;
+      }
+      for (k = 0; k < C->npair; k++) D->pmu[k] = C->pair[k].mu;
+      D->grains.pmu = D->pmu;
+    }
     D->grains.vel = D->gvel;
     D->grains.centre = D->gcentre;
   }
@@ -857,7 +884,7 @@ static void worst_candidates(const mo_contact_driver *D, char *buf, size_t n)
     if (!D->active[a]) continue;
     if (Waa && Waa[0] > 0) w = Waa[0];
     for (i = 0; i < d; i++) Us[i] = D->U[a * d + i] / w;
-    e = mo_fc_natural_map_unit(d, D->mu[a], D->r + a * d, Us);
+    e = mo_fc_natural_map_unit(d, mu_of(D, a), D->r + a * d, Us);
     for (k = 0; k < 3; k++)
       if (e > val[k]) {
         int j;
@@ -963,7 +990,7 @@ static int keep_solved(mo_contact_driver *D, int newton, mo_ctx *ctx)
   for (k = 0; k < D->nact; k++) {
     int a = D->act[k];
     D->sv_idx[k] = a;
-    D->sv_mu[k] = D->mu[a];
+    D->sv_mu[k] = mu_of(D, a);
     for (i = 0; i < d; i++) {
       D->sv_q[k * d + i] = D->q[a * d + i];
       D->sv_r[k * d + i] = D->r[a * d + i];
@@ -1106,7 +1133,13 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
   P->dim = d;
   P->nc = nc;
   P->m = m;
-  P->mu = D->mu;
+  if (!D->mu && !grains) {
+    /* the compact records on H after all (W kept for FCLIB dumps, contact.delassus = "always"): the
+       coefficients per candidate from now on */
+    if (!(D->mu = mo_malloc(ctx, ((size_t)D->cap + 1) * sizeof *D->mu))) return MO_ENOMEM;
+    for (a = 0; a < nc; a++) D->mu[a] = D->pmu[mo_contact_pair_of(C, a)];
+  }
+  P->mu = D->mu;              /* NULL on the granular path: the pairs' (grains.pmu, (T189)) */
   P->g = D->gk ? D->gk : mo_contact_gaps(C);
   P->Uprev = D->Uprev;
   P->frame = mo_contact_frames(C);
@@ -1217,7 +1250,8 @@ resolve:
     int k;
     for (k = 0; k < D->nact; k++)
       for (i = 0; i < d; i++) qn += D->q[D->act[k] * d + i] * D->q[D->act[k] * d + i];
-    rep->residual = mo_fc_natural_map_subset(d, D->nact, D->act, D->mu, NULL, D->r, D->U, sqrt(qn));
+    rep->residual = mo_fc_natural_map_subset_pairs(d, D->nact, D->act, D->mu, D->C->key, D->pmu, NULL, D->r, D->U,
+                                                   sqrt(qn));
   }
   if (D->wkeep && (st = keep_solved(D, newton, ctx))) return st;
   for (a = 0; a < nc; a++) {
@@ -1544,7 +1578,7 @@ static int step_body(mo_contact_driver *D, mo_state *s, mo_ctx *ctx)
 int mo_contact_driver_local_problem(const mo_contact_driver *D, double **W, double **q, double **mu,
                                     int *nc, int *d, mo_ctx *ctx)
 {
-  int st;
+  int st, a;
   *W = *q = *mu = NULL;
   if (!D->wused)
     return mo_error(ctx, MO_EUNSUPPORTED, "back end %s did not use the Delassus operator at this step%s", D->T->name,
@@ -1557,7 +1591,7 @@ int mo_contact_driver_local_problem(const mo_contact_driver *D, double **W, doub
     return MO_ENOMEM;
   }
   memcpy(*q, D->q, (size_t)D->m * sizeof(double));
-  memcpy(*mu, D->mu, (size_t)D->nc * sizeof(double));
+  for (a = 0; a < D->nc; a++) (*mu)[a] = mu_of(D, a);
   *nc = D->nc;
   *d = D->d;
   return MO_OK;

@@ -228,7 +228,7 @@ static int prepare_normal(nscd_state *S, mo_ctx *ctx)
   size_t nnz = 0, q = 0;
   void *p;
   S->nonly = S->d > 1 && nb > 0;
-  for (a = 0; a < nb && S->nonly; a++) S->nonly = S->mu[a] == 0;
+  for (a = 0; a < nb && S->nonly; a++) S->nonly = nscd_mu(S, a) == 0;
   if (!S->nonly) return MO_OK;
   for (a = 0; a < nb; a++) nnz += (size_t)S->rcnt[a];
   if ((size_t)nb + 1 > S->wnccap || !S->wnp) {
@@ -408,8 +408,8 @@ static double residual(const nscd_state *S, const double *r, int scaled)
     if (sqrt(parts[2]) > den) den = sqrt(parts[2]);
     return den > 1e-300 ? sqrt(parts[0]) / den : sqrt(parts[0]);
   }
-  return mo_fc_natural_map_subset(S->d, S->nact, S->act, S->mu, scaled ? S->scale : NULL, r, S->U,
-                                  sqrt(scaled ? S->qs2 : S->qn2));
+  return mo_fc_natural_map_subset_pairs(S->d, S->nact, S->act, S->mu, S->gkey, S->gpmu, scaled ? S->scale : NULL, r, S->U,
+                                        sqrt(scaled ? S->qs2 : S->qn2));
 }
 
 /* One sweep over the active contacts in S->order (J88 (3.3)_5-6 solved contact by contact,
@@ -577,7 +577,7 @@ static void natural_parts(const nscd_state *S, const int *list, int n, const dou
     const double *ra = r + (size_t)a * d, *Ua = S->U + (size_t)a * d;
     double Us[3], sa = scaled ? nscd_scale(S, a) : 1;
     for (i = 0; i < d; i++) Us[i] = scaled ? sa * Ua[i] : Ua[i];
-    parts[0] += mo_fc_natural_map_unit(d, S->mu[a], ra, Us);
+    parts[0] += mo_fc_natural_map_unit(d, nscd_mu(S, a), ra, Us);
     for (i = 0; i < d; i++) {
       parts[1] += ra[i] * ra[i];
       parts[2] += Us[i] * Us[i];
@@ -636,7 +636,7 @@ static void worst_candidates(const nscd_state *S, const mo_contact_problem *P, c
   double we[3] = {-1, -1, -1};
   for (k = 0; k < S->nact; k++) {
     int a = S->act[k];
-    double e = sqrt(mo_fc_natural_map_unit(S->d, S->mu[a], r + a * S->d, S->U + a * S->d));
+    double e = sqrt(mo_fc_natural_map_unit(S->d, nscd_mu(S, a), r + a * S->d, S->U + a * S->d));
     if (!isfinite(e)) { /* a NaN or an infinity: the culprit before any finite residual */
       if (!nbad++) bad = a;
       continue;
@@ -837,7 +837,7 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
         int early = !S->lu.builds && S->nact >= NSCD_EARLY_LU;
         if (sweeps >= 10 && ((stable && res > 0.5 * rhist[sweeps % 10]) || early) && sweeps - tried >= wait)
           for (k = 0; k < S->nact; k++) {
-            nclosed += r[S->act[k] * d] > 0 ? (S->mu[S->act[k]] > 0 ? d : 1) : 0; /* unknowns, at most */
+            nclosed += r[S->act[k] * d] > 0 ? (nscd_mu(S, S->act[k]) > 0 ? d : 1) : 0; /* unknowns, at most */
             nb += S->rcnt[S->act[k]];
           }
         /* a factorization kept for the next steps (T157) pays for itself while it is reused: the
@@ -933,7 +933,7 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
     rep->reason = MO_CR_BREAKDOWN;
     snprintf(rep->message, sizeof rep->message,
              "the local problem of %s has no solution or broke down (W_nn = %.3e, friction %.3g): "
-             "a candidate the scene cannot push back", nm, Waa[0], S->mu[broke]);
+             "a candidate the scene cannot push back", nm, Waa[0], nscd_mu(S, broke));
   } else if (conv) {
     rep->reason = MO_CR_CONVERGED;
   } else {

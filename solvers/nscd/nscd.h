@@ -174,6 +174,8 @@ typedef struct {
                                    from it (doc/theory.md (T186)) */
   double *muown;
   size_t mucap;
+  const int *gkey;              /* the granular path with mu NULL: contact a's coefficient is its pair's, */
+  const double *gpmu;           /* gpmu[gkey[a MO_KEY]] (P->grains, doc/theory.md (T189)) */
   double qn2, qs2;              /* |q|^2 and |S q|^2 over the active contacts */
   /* a GSL generator on our own memory (gsl_rng_alloc aborts on failure) */
   gsl_rng rng;
@@ -288,13 +290,19 @@ void nscd_bodies_free(nscd_state *S);
 /* The unknowns contact a adds to the count of (T84) with its impulse ra: none when open, one when
    frictionless or sliding (r_t follows r_n), d when sticking; for nscd_bodies_count and
    nscd_grains_count alike. */
+/* Contact a's friction coefficient: S->mu's, or on the granular path without a copy its pair's (T189). */
+static inline double nscd_mu(const nscd_state *S, int a)
+{
+  return S->mu ? S->mu[a] : S->gpmu[S->gkey[(size_t)a * MO_KEY]];
+}
+
 static inline int nscd_closed_unknowns(const nscd_state *S, int a, const double *ra, int d)
 {
   double rt = 0;
   int i;
   if (!(ra[0] > 0)) return 0;
   for (i = 1; i < d; i++) rt += ra[i] * ra[i];
-  return d == 1 || S->mu[a] == 0 || sqrt(rt) >= S->mu[a] * ra[0] * (1 - 1e-9) ? 1 : d;
+  return d == 1 || nscd_mu(S, a) == 0 || sqrt(rt) >= nscd_mu(S, a) * ra[0] * (1 - 1e-9) ? 1 : d;
 }
 /* S->bmark with room for n marks, every one cleared (the blocks or bodies the count has seen). */
 int nscd_marks_clear(nscd_state *S, size_t n, mo_ctx *ctx);

@@ -82,7 +82,7 @@ static int set_kinds(const nscd_state *S, const double *r, const double *U, doub
   int k, i, changed = 0;
   for (k = 0; k < S->nact; k++) {
     const int a = S->act[k];
-    const double *ra = r + (size_t)a * d, *Ua = U + (size_t)a * d, mu = S->mu[a];
+    const double *ra = r + (size_t)a * d, *Ua = U + (size_t)a * d, mu = nscd_mu(S, a);
     double rt = 0, ut = 0, e[3] = {1, 0, 0};
     int kd;
     for (i = 1; i < d; i++) {
@@ -402,7 +402,7 @@ int nscd_status_step(nscd_state *S, const mo_contact_problem *P, double *r, int 
       mo_delassus_mult(P->W, rnew, 0, Unew);
       for (i = 0; i < S->m; i++) Unew[i] += P->b[i];
     }
-    res1 = mo_fc_natural_map_subset(d, S->nact, S->act, S->mu, S->scale, rnew, Unew, sqrt(S->qs2));
+    res1 = mo_fc_natural_map_subset_pairs(d, S->nact, S->act, S->mu, S->gkey, S->gpmu, S->scale, rnew, Unew, sqrt(S->qs2));
     if (tol >= 0 && (res1 <= tol || res1 <= nscd_roundoff_floor(S, P, rnew))) {
       info->accepted = 1;
       break;

@@ -206,6 +206,12 @@ KERNEL void geometry(const int d, const nscd_state *S, const mo_contact_problem 
    ones for the friction coefficients as nscd_prepare_local keeps them (a coefficient where a free
    dof moves the contact tangentially). Returns 1 when an active contact's coefficient differs
    from the problem's. */
+/* The problem's coefficient of contact a: P->mu's, or its pair's (T189); 0 without either. */
+static inline double problem_mu(const mo_contact_problem *P, int a)
+{
+  return P->mu ? P->mu[a] : P->grains->pmu ? P->grains->pmu[P->grains->key[(size_t)a * MO_KEY]] : 0;
+}
+
 KERNEL int prepare_d(nscd_state *S, const mo_contact_problem *P, const int d)
 {
   int a, i, differ = 0;
@@ -225,9 +231,9 @@ KERNEL int prepare_d(nscd_state *S, const mo_contact_problem *P, const int d)
       continue;
     }
     for (i = 1; i < d; i++) wtt += Waa[i * d + i];
-    mua = P->mu && wtt > 1e-12 * Waa[0] ? P->mu[a] : 0;
+    mua = wtt > 1e-12 * Waa[0] ? problem_mu(P, a) : 0;
     if (S->muown) S->muown[a] = mua;
-    else differ |= !P->mu || mua != P->mu[a];
+    else differ |= (!P->mu && !P->grains->pmu) || mua != problem_mu(P, a);
   }
   return differ;
 }
@@ -240,7 +246,10 @@ int nscd_grains_prepare(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
   if ((st = reserve(S, P->nfree, ctx)) || (st = inverse_diagonal(S, P->Wi, P->nfree, ctx))) return st;
   S->gw = REC(S, 0, S->d) + OFF_W(S->d); /* nscd_waa */
   S->gstride = RECSZ(S->d);
-  /* the friction coefficients are P->mu's (no copy: (T186)) unless an active contact's differs */
+  /* the friction coefficients are the problem's (no copy: (T186)), P->mu's or the pairs' (T189),
+     unless an active contact's differs */
+  S->gkey = P->grains->key;
+  S->gpmu = P->grains->pmu;
   if (S->d == 2 ? prepare_d(S, P, 2) : prepare_d(S, P, 3)) {
     if (S->cap > S->mucap) {
       void *p = mo_realloc(ctx, S->muown, S->cap * sizeof *S->muown);
@@ -387,8 +396,8 @@ KERNEL void jean_add(const int d, const double *Waa, const double *ra, const dou
 KERNEL int sweep_d(nscd_state *S, const mo_contact_problem *P, double *r, int *status, const int *order, int n,
                    const int d)
 {
-  const double omega = S->p.relax, *mu = S->mu;
-  const int jw = S->jwant;
+  const double omega = S->p.relax, *mu = S->mu, *pmu = S->gpmu;
+  const int jw = S->jwant, *key = S->gkey;
   double jp[4] = {0, 0, 0, 0};
   int k, i, j;
   for (k = 0; k < n; k++) {
@@ -410,16 +419,18 @@ KERNEL int sweep_d(nscd_state *S, const mo_contact_problem *P, double *r, int *s
         rl[0] = rl[1] = 0;
         st = MO_CS_OPEN;
       } else { /* nscd_local_2d_fast's other cases, the slide denominators only when they are read */
+        const double mua = mu ? mu[a] : pmu[key[(size_t)a * MO_KEY]]; /* (T189) */
         nscd_local_inverse_2d(Waa, aux);
-        if (nscd_local_2d_stick(Waa, aux, ql, mu[a], rl)) st = MO_CS_STICK;
+        if (nscd_local_2d_stick(Waa, aux, ql, mua, rl)) st = MO_CS_STICK;
         else {
-          nscd_local_slide_2d(Waa, mu[a], aux);
-          st = nscd_local_2d(Waa, aux, ql, mu[a], rl);
+          nscd_local_slide_2d(Waa, mua, aux);
+          st = nscd_local_2d(Waa, aux, ql, mua, rl);
         }
       }
     } else {
-      nscd_local_prepare(3, Waa, mu[a], aux);
-      st = nscd_local_3d(Waa, aux, ql, mu[a], rl, &S->lp, &S->lst);
+      const double mua = mu ? mu[a] : pmu[key[(size_t)a * MO_KEY]];
+      nscd_local_prepare(3, Waa, mua, aux);
+      st = nscd_local_3d(Waa, aux, ql, mua, rl, &S->lp, &S->lst);
     }
     if (st < 0) return a;
     status[a] = st;

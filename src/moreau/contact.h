@@ -264,6 +264,10 @@ double mo_fc_natural_map(int d, int nc, const double *mu, const double *r, const
    (scaled likewise). Back ends that stop on the core's measure call this one. */
 double mo_fc_natural_map_subset(int d, int n, const int *idx, const double *mu, const double *scale,
                                 const double *r, const double *U, double qnorm);
+/* The same with contact a's coefficient pmu[key[a MO_KEY]] (its pair's) where mu is NULL (the
+   granular path, doc/theory.md (T189)); both NULL: 0. */
+double mo_fc_natural_map_subset_pairs(int d, int n, const int *idx, const double *mu, const int *key, const double *pmu,
+                                      const double *scale, const double *r, const double *U, double qnorm);
 /* The unit (one contact) term of the residual: |r - P_K(r - (U + mu |U_t| e_n))|^2. */
 double mo_fc_natural_map_unit(int d, double mu, const double *r, const double *U);
 /* Projection onto the Coulomb cone |r_t| <= mu r_n (in place, dimension d). */
@@ -293,6 +297,8 @@ typedef struct mo_grains {
   const double *x;           /* D per contact: the contact point */
   const int *vel;            /* per body of the scene: its first free dof, or -1 */
   const double *centre;      /* D per body: its centre at the step's start (moving bodies) */
+  const double *pmu;         /* per pair its friction coefficient: contact a's is pmu[key[a MO_KEY]]
+                                (the problem's mu is NULL on this path, doc/theory.md (T189)) */
 } mo_grains;
 
 /* The contact problem of one step, built by the core and handed to a back end. Everything is
@@ -300,7 +306,7 @@ typedef struct mo_grains {
 typedef struct mo_contact_problem {
   int dim;                   /* local dimension d: 1 (1D), 2 or 3; normal first */
   int nc, m;                 /* candidates; m = d nc */
-  const double *mu;          /* nc friction coefficients */
+  const double *mu;          /* nc friction coefficients; NULL on the granular path (grains->pmu) */
   const double *g;           /* nc gaps at the start of the step */
   const double *Uprev;       /* m local velocities at the start of the step */
   const double *w;           /* nc candidate measures (NULL on the granular path: every one is 1) */
