@@ -4,7 +4,8 @@
    (contact.compact = false): the final states, the histories and contact.csv agree to the bit
    (the records' sweep does the arithmetic of the sweep on H; under Jean's Quad rule too, whose
    parts it sums as it sweeps), and so do the gap law and a run that
-   dumps FCLIB problems (W built from H on demand) against contact.delassus = "always". The memory
+   dumps FCLIB problems (W built from H on demand) against contact.delassus = "always"; a
+   coefficient of friction per pair (T189) as well. The memory
    of the contact set: the records hold a bounded number of bytes per candidate, a fraction of the
    points, candidates and columns of H. levelset, which reads candidates and H, runs the same
    scene on the general path. Jean's norms in nscd's report under the residual rules: the sweep on
@@ -22,6 +23,15 @@ static const char *const pairs2 =
     "            { name = \"left\"; master = \"left\"; slave = \"grains\"; mu = 0.5; %s },\n"
     "            { name = \"right\"; master = \"right\"; slave = \"grains\"; mu = 0.5; %s } );\n";
 
+/* The same pairs with a coefficient of their own: the floor's and the walls' differ from the
+   grains' (T189: a candidate's is its pair's, read through its key on the granular path). */
+static const char *const pairs_mu =
+    "  pairs = ( { name = \"grains\"; master = \"grains\"; slave = \"grains\"; mu = 0.5; %s },\n"
+    "            { name = \"floor\"; master = \"floor\"; slave = \"grains\"; mu = 0.05; %s },\n"
+    "            { name = \"left\"; master = \"left\"; slave = \"grains\"; mu = 1.0; %s },\n"
+    "            { name = \"right\"; master = \"right\"; slave = \"grains\"; mu = 0.8; %s } );\n";
+static const char *pairs_fmt = NULL; /* pairs2 unless set */
+
 /* A deposit of n disks in a box 10 lattice cells wide (as cases/disk-pile), to end, nscd held to
    12 sweeps a step (the stop rule does not change the comparison; a fixed count keeps it short);
    law: extra keys of every pair ("" for Moreau's impact law). */
@@ -29,7 +39,7 @@ static const char *nscd_opts = "stop = \"sweeps\"; max_sweeps = 12;";
 static void disks_text(char *buf, size_t len, int n, double end, const char *law, const char *contact_extra)
 {
   char pairs[2048];
-  snprintf(pairs, sizeof pairs, pairs2, law, law, law, law);
+  snprintf(pairs, sizeof pairs, pairs_fmt ? pairs_fmt : pairs2, law, law, law, law);
   snprintf(buf, len,
            "title = \"disk deposit\";\n"
            "bodies = (\n"
@@ -247,6 +257,35 @@ static void disks(void)
   disks_text(t2, sizeof t2, 60, 0.3, "", "compact = false;");
   compare("60 disks, stop = quad, 0.3 s", t1, t2, "quad", 0);
   nscd_opts = "stop = \"sweeps\"; max_sweeps = 12;";
+}
+
+/* A coefficient per pair (T189): the records' sweep reads a candidate's through its key, the
+   general path from its candidate record; the two runs agree, and differ from the run whose pairs
+   all have the grains' coefficient (the floor's and the walls' reach the solve). */
+static void pair_friction(void)
+{
+  static char t1[8192], t2[8192];
+  const char *a = "tests/out/compact/pairmu-uniform", *b = "tests/out/compact/pairmu-own";
+  char fa[400], fb[400];
+  double d = -1;
+  pairs_fmt = pairs_mu;
+  disks_text(t1, sizeof t1, 80, 0.4, "", "");
+  disks_text(t2, sizeof t2, 80, 0.4, "", "compact = false;");
+  compare("80 disks, the floor's friction 0.05 and the walls' 1.0 and 0.8 (T189), 0.4 s", t1, t2, "pairmu", 0);
+  if (!tl_run_text(t1, b, "pair coefficients", NULL)) {
+    pairs_fmt = NULL;
+    disks_text(t2, sizeof t2, 80, 0.4, "", "");
+    if (!tl_run_text(t2, a, "uniform coefficients", NULL)) {
+      snprintf(fa, sizeof fa, "%s/bodies.csv", a);
+      snprintf(fb, sizeof fb, "%s/bodies.csv", b);
+      d = csv_diff(fa, fb);
+    }
+  }
+  pairs_fmt = NULL;
+  ok(d > 1e-6, "80 disks, 0.4 s: the pairs' own coefficients change the deposit (bodies.csv differs by %.1e of its "
+     "column's scale from the run with 0.5 everywhere)", d);
+  tl_remove_dir(a);
+  tl_remove_dir(b);
 }
 
 /* Jean's norms in nscd's report under the residual rules (scaled, natural), whose stopping test
@@ -547,6 +586,7 @@ static void metrics_follow(void)
 int main(void)
 {
   disks();
+  pair_friction();
   spheres();
   polygons();
   fclib_dump();
