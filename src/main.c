@@ -421,6 +421,7 @@ static int cmd_run(const cli_command *cmd, int argc, char **argv, mo_ctx *ctx)
   if (!(c.sets = calloc((size_t)argc, sizeof *c.sets))) return 2;
   c.o.sets = c.sets;
   c.o.progress = 1;
+  c.o.map_large = 1;
   rc = cli_parse(cmd, argc, argv, run_option, &c);
   if (!rc && !c.o.case_path) rc = cli_refuse(cmd, "which case? (a folder holding case.cfg, or a file)");
   if (rc) {
