@@ -332,6 +332,8 @@ struct mo_contact_driver {
   /* the state the detected candidates' Uprev were last computed at (mo_contact_driver_uprev) */
   long up_step;
   const double *up_v;
+  int free_alias;            /* every dof free and no mesh (rigid bodies and obstacles): xf is xfull and
+                                dx is dxfull, one array each (doc/theory.md (T236)) */
   int split;                 /* this step is split (doc/theory.md (T153)): x_free known on the contact
                                 dofs only until the correction's backward solve */
 };
@@ -716,7 +718,11 @@ void mo_contact_driver_free(mo_contact_driver *D)
   mo_delassus_free(D->W);
   mo_free(D->bn); mo_free(D->q); mo_free(D->U); mo_free(D->Uprev); mo_free(D->r); mo_free(D->rprev);
   mo_free(D->eqf); mo_free(D->eqk);
-  mo_free(D->xfull); mo_free(D->xf); mo_free(D->dx); mo_free(D->dxfull); mo_free(D->mu); mo_free(D->pmu); mo_free(D->gk);
+  if (!D->free_alias) {
+    mo_free(D->xf);
+    mo_free(D->dx);
+  }
+  mo_free(D->xfull); mo_free(D->dxfull); mo_free(D->mu); mo_free(D->pmu); mo_free(D->gk);
   mo_free(D->pforce);
   mo_free(D->sv_idx); mo_free(D->sv_mu); mo_free(D->sv_q); mo_free(D->sv_r); mo_free(D->sv_U);
   mo_free(D->w); mo_free(D->ukin); mo_free(D->xnl); mo_free(D->gnl); mo_free(D->tmp); mo_free(D->itmp);
@@ -774,8 +780,11 @@ int mo_contact_driver_create(const mo_scene *sc, mo_contact *C, mo_stepper *S,
   D->pforce = mo_calloc(ctx, 3 * (size_t)C->npair + 1, sizeof(double));
   D->xfull = mo_calloc(ctx, (size_t)n + 1, sizeof(double));
   D->dxfull = mo_calloc(ctx, (size_t)n + 1, sizeof(double));
-  D->xf = mo_calloc(ctx, (size_t)nf + 1, sizeof(double));
-  D->dx = mo_calloc(ctx, (size_t)nf + 1, sizeof(double));
+  /* (T236): with every dof free (rigid bodies between obstacles) the free numbering is the full
+     one, and x_free and the correction need no arrays of their own: 48 bytes a 2D grain */
+  D->free_alias = sc->nfree == sc->ndof && sc->nfe_dof == 0;
+  D->xf = D->free_alias ? D->xfull : mo_calloc(ctx, (size_t)nf + 1, sizeof(double));
+  D->dx = D->free_alias ? D->dxfull : mo_calloc(ctx, (size_t)nf + 1, sizeof(double));
   if (sc->time.scheme == MO_SCHEME_QUASISTATIC && !sc->nonlinear && sc->nfe_free) {
     D->eqf = mo_calloc(ctx, (size_t)n + 1, sizeof(double));
     D->eqk = mo_calloc(ctx, (size_t)n + 1, sizeof(double));
@@ -1316,7 +1325,7 @@ resolve:
       memset(rhs, 0, (size_t)n * sizeof(double));
       mo_csc_gaxpy(C->Hfull, 1, D->r, 0, rhs);
       if ((st = mo_stepper_correct(S, rhs, D->dxfull, ctx))) return st;
-      mo_stepper_gather(S, D->dxfull, D->dx);
+      if (!D->free_alias) mo_stepper_gather(S, D->dxfull, D->dx);
     }
   }
   for (i = 0; i < sc->nfree; i++) D->xfull[sc->full_of[i]] += D->dx[i];
@@ -1535,7 +1544,7 @@ static int step_body(mo_contact_driver *D, mo_state *s, mo_ctx *ctx)
       t0 = mo_clock();
       inner0 = mo_phase_total(ctx);
       memcpy(D->xfull, xfree, (size_t)n * sizeof *D->xfull);
-      mo_stepper_gather(S, D->xfull, D->xf);
+      if (!D->free_alias) mo_stepper_gather(S, D->xfull, D->xf);
       st = contact_solve(D, s, D->rprev, iter, &any, ctx);
       mo_phase_rest(ctx, MO_PH_LOCAL, t0, inner0);
       if (st) return st;
@@ -1568,7 +1577,7 @@ static int step_body(mo_contact_driver *D, mo_state *s, mo_ctx *ctx)
     return st;
   t0 = mo_clock();
   inner0 = mo_phase_total(ctx);
-  mo_stepper_gather(S, D->xfull, D->xf);
+  if (!D->free_alias) mo_stepper_gather(S, D->xfull, D->xf);
   st = contact_solve(D, s, D->r, -1, &any, ctx);
   if (!st) st = contact_finish(D, s, D->xfull, ctx);
   mo_phase_rest(ctx, MO_PH_LOCAL, t0, inner0); /* the core's own part of the contact step */
