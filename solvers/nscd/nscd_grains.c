@@ -1,5 +1,5 @@
 /* nscd_grains.c: nscd's sweep on body velocities for the granular path (doc/theory.md §12.9):
-   the contacts come as compact records (bodies, point, frame; P->grains) instead of columns of
+   the contacts come as compact records (bodies, point, normal; P->grains) instead of columns of
    H, and each contact keeps its two sides' first velocities, W_aa and c_a; the moments of its
    frame about the sides' centres and the local solver's data are formed at each visit (T188).
    The arithmetic is that of the sweep on H (nscd_bodies.c, (T79)) to the bit: the same rows of
@@ -20,7 +20,7 @@
 /* One record per contact (d = 2: 56 bytes, d = 3: 104): its two sides (+ (o + 1) a slave side,
    - (o + 1) a master side whose body's velocities start at o in vb, increasing o; 0 none),
    c_a = q_a - H_a^T v_free and W_aa. The rows of H on the sides' rotations and the local solver's
-   data are formed again at each visit from the point, the frame and the sides' centres (geometry)
+   data are formed again at each visit from the point, the frame (from its normal, (T225)) and the sides' centres (geometry)
    and from W_aa, in the operations that formed them once: the same numbers (T188). */
 #define OFF_C 8
 #define OFF_W(d) (OFF_C + 8 * (d))
@@ -140,12 +140,13 @@ KERNEL void side_rows(const int d, const double *F, const double *x, const doubl
    product here: the sums differ at most by the sign of a zero); with ca, c_a -= sum_s G v_free as
    well. The same operations at every call: what a visit forms is what the preparation formed (T188). */
 KERNEL void geometry(const int d, const nscd_state *S, const mo_contact_problem *P, int a, const int *gs,
-                     double *rot, const int nw, double *Waa, double *ca)
+                     double *F, double *rot, const int nw, double *Waa, double *ca)
 {
   const mo_grains *Gr = P->grains;
-  const double *F = P->frame + (size_t)a * d * d, *x = Gr->x + (size_t)a * d, *iv = S->gi;
+  const double *x = Gr->x + (size_t)a * d, *iv = S->gi;
   const int *key = Gr->key + (size_t)a * MO_KEY;
   int s, i, j, k;
+  mo_frame_of_normal(d, Gr->n + (size_t)a * d, F); /* the frame from its normal (T225) */
   if (d == 2) {
     /* the loops below written out, the same products and sums in the same order; W_aa's products
        without the side's sign cf = -+1: (cf a) (iv (cf b)) = a (iv b) exactly in IEEE arithmetic */
@@ -217,16 +218,16 @@ KERNEL int prepare_d(nscd_state *S, const mo_contact_problem *P, const int d)
   int a, i, differ = 0;
   for (a = 0; a < S->nc; a++) {
     char *rec = REC(S, a, d);
-    double *Waa = R_W(rec, d), rot[2 * 3 * 3], *ca = R_C(rec), wtt = 0, mua;
+    double *Waa = R_W(rec, d), rot[2 * 3 * 3], F[9], *ca = R_C(rec), wtt = 0, mua;
     int *gs = R_SIDE(rec), act = !P->active || P->active[a];
     sides(P->grains, a, gs);
     for (i = 0; i < d; i++) ca[i] = P->b[a * d + i];
     /* W_aa for the contacts of the step's problem only; out of it, c_a (its U, r = 0) only and
        W_aa = 0 (its scaling 0) */
-    if (act) geometry(d, S, P, a, gs, rot, d, Waa, ca);
+    if (act) geometry(d, S, P, a, gs, F, rot, d, Waa, ca);
     else {
       for (i = 0; i < d * d; i++) Waa[i] = 0;
-      geometry(d, S, P, a, gs, rot, 0, Waa, ca);
+      geometry(d, S, P, a, gs, F, rot, 0, Waa, ca);
       if (S->muown) S->muown[a] = 0;
       continue;
     }
@@ -283,12 +284,12 @@ KERNEL void side_U(const int d, const double *F, const double *rot, const double
   }
 }
 
-/* U_a = c_a + sum_s G_as v_s, rot the rows of geometry. */
-KERNEL void local_U(const nscd_state *S, const mo_contact_problem *P, const char *rec, const double *rot, int a,
-                    double *restrict U, const int d)
+/* U_a = c_a + sum_s G_as v_s, F and rot the frame and the rows of geometry. */
+KERNEL void local_U(const nscd_state *S, const char *rec, const double *F, const double *rot, double *restrict U,
+                    const int d)
 {
   const int *gs = R_SIDE(rec);
-  const double *F = P->frame + (size_t)a * d * d, *c = R_C(rec);
+  const double *c = R_C(rec);
   double u[3] = {0, 0, 0};
   int i;
   for (i = 0; i < d; i++) u[i] = c[i];
@@ -303,9 +304,9 @@ KERNEL void local_U(const nscd_state *S, const mo_contact_problem *P, const char
 KERNEL void contact_U(const nscd_state *S, const mo_contact_problem *P, int a, double *restrict U, const int d)
 {
   const char *rec = REC(S, a, d);
-  double Waa[1], rot[2 * 3 * 3];
-  geometry(d, S, P, a, R_SIDE(rec), rot, 0, Waa, NULL);
-  local_U(S, P, rec, rot, a, U, d);
+  double Waa[1], rot[2 * 3 * 3], F[9];
+  geometry(d, S, P, a, R_SIDE(rec), F, rot, 0, Waa, NULL);
+  local_U(S, rec, F, rot, U, d);
 }
 
 /* v_s += inv_s G_s^T dr on one side: (inv_k (cf F_jk)) dr_j summed over j, that is cf times the
@@ -327,11 +328,9 @@ KERNEL void side_push(const int d, const double *F, const double *rot, const dou
   }
 }
 
-KERNEL void push(nscd_state *S, const mo_contact_problem *P, const char *rec, const double *rot, int a,
-                 const double *dr, const int d)
+KERNEL void push(nscd_state *S, const char *rec, const double *F, const double *rot, const double *dr, const int d)
 {
   const int *gs = R_SIDE(rec);
-  const double *F = P->frame + (size_t)a * d * d;
   int o;
   if (!gs[0]) return;
   o = SIDE_O(gs[0]);
@@ -344,9 +343,9 @@ KERNEL void push(nscd_state *S, const mo_contact_problem *P, const char *rec, co
 KERNEL void push_r(nscd_state *S, const mo_contact_problem *P, int a, const double *dr, const int d)
 {
   const char *rec = REC(S, a, d);
-  double Waa[1], rot[2 * 3 * 3];
-  geometry(d, S, P, a, R_SIDE(rec), rot, 0, Waa, NULL);
-  push(S, P, rec, rot, a, dr, d);
+  double Waa[1], rot[2 * 3 * 3], F[9];
+  geometry(d, S, P, a, R_SIDE(rec), F, rot, 0, Waa, NULL);
+  push(S, rec, F, rot, dr, d);
 }
 
 void nscd_grains_velocities(nscd_state *S, const mo_contact_problem *P, const double *r)
@@ -404,10 +403,10 @@ KERNEL int sweep_d(nscd_state *S, const mo_contact_problem *P, double *r, int *s
     const int a = order[k];
     const char *rec = REC(S, a, d);
     const double *Waa = R_W(rec, d);
-    double *ra = r + (size_t)a * d, U[3], ql[3], rl[3], dr[3], rot[2 * 3 * 3], aux[NSCD_AUX], w0[1];
+    double *ra = r + (size_t)a * d, U[3], ql[3], rl[3], dr[3], rot[2 * 3 * 3], F[9], aux[NSCD_AUX], w0[1];
     int st, nz = 0;
-    geometry(d, S, P, a, R_SIDE(rec), rot, 0, w0, NULL);
-    local_U(S, P, rec, rot, a, U, d);
+    geometry(d, S, P, a, R_SIDE(rec), F, rot, 0, w0, NULL);
+    local_U(S, rec, F, rot, U, d);
     for (i = 0; i < d; i++) {
       double acc = U[i];
       for (j = 0; j < d; j++) acc -= Waa[i * d + j] * ra[j];
@@ -440,7 +439,7 @@ KERNEL int sweep_d(nscd_state *S, const mo_contact_problem *P, double *r, int *s
       nz |= dr[i] != 0;
     }
     if (nz) {
-      push(S, P, rec, rot, a, dr, d);
+      push(S, rec, F, rot, dr, d);
       for (i = 0; i < d; i++) ra[i] = rl[i];
     }
     /* a contact is updated once a sweep: r_a - rold_a is dr (0 when nz is 0) */
