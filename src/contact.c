@@ -1130,6 +1130,7 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
         for (q = 0; q < D3; q++) D->gcentre[(size_t)D3 * b + q] = sc->body[b].xc0[q] + s->u[sc->body[b].dof0 + q];
     D->grains.key = C->key;
     D->grains.x = C->x;
+    D->grains.n = mo_contact_normals(C); /* the frames' normals alone (T225) */
   } else if ((st = mo_contact_H_ensure(C, s, ctx)))
     return st;
   if (D->wused) {
@@ -1493,17 +1494,17 @@ static int contact_finish(mo_contact_driver *D, mo_state *s, const double *x, mo
   {
     /* the step's resultants, before the end-of-step geometry replaces the candidate set: per pair,
        the force the master exerts on the slaves (world frame), and the sum of normal forces */
-    const double *F = mo_contact_frames(D->C);
     const double fs = scheme == MO_SCHEME_THETA ? 1 / mo_stepper_dt(D->S) : 1;
     int a, j, dim = D->sc->dim;
     memset(D->pforce, 0, 3 * (size_t)D->C->npair * sizeof *D->pforce);
     D->fn_step = 0;
     for (a = 0; a < D->nc; a++) {
       mo_candidate cb;
-      double *f = D->pforce + 3 * (size_t)mo_contact_cand_get(D->C, a, &cb)->pair;
+      double *f = D->pforce + 3 * (size_t)mo_contact_cand_get(D->C, a, &cb)->pair, Fb[9];
+      const double *F = mo_contact_frame_of(D->C, a, Fb); /* formed from its normal on the granular path (T225) */
       D->fn_step += D->r[a * d] * fs;
       for (i = 0; i < d; i++)
-        for (j = 0; j < dim && d == dim; j++) f[j] += D->r[a * d + i] * fs * F[(size_t)a * d * d + (size_t)i * d + j];
+        for (j = 0; j < dim && d == dim; j++) f[j] += D->r[a * d + i] * fs * F[(size_t)i * d + j];
     }
   }
   if ((st = mo_stepper_finish(D->S, s, x, ctx))) return st;

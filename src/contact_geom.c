@@ -117,7 +117,15 @@ const int *mo_contact_cand_points(const mo_contact *C) { return C->cpt; }
 const double *mo_contact_cand_coefs(const mo_contact *C) { return C->ccoef; }
 long mo_contact_h_version(const mo_contact *C) { return C->hversion; }
 const double *mo_contact_gaps(const mo_contact *C) { return C->g; }
-const double *mo_contact_frames(const mo_contact *C) { return C->frame; }
+const double *mo_contact_frames(const mo_contact *C) { return C->compact ? NULL : C->frame; }
+const double *mo_contact_normals(const mo_contact *C) { return C->compact ? C->frame : NULL; }
+
+const double *mo_contact_frame_of(const mo_contact *C, int a, double *buf)
+{
+  if (!C->compact) return C->frame + (size_t)a * (size_t)(C->dim * C->dim);
+  mo_frame_of_normal(C->dim, C->frame + (size_t)a * (size_t)C->dim, buf); /* (T225) */
+  return buf;
+}
 const mo_csc *mo_contact_H(const mo_contact *C) { return C->H; }
 const mo_csc *mo_contact_H_full(const mo_contact *C) { return C->Hfull; }
 const double *mo_contact_U0(const mo_contact *C) { return C->U0; }
@@ -139,32 +147,8 @@ int mo_contact_pair_P(const mo_contact *C, int pair, const double **P, int *n, c
 
 /* --- frames ---------------------------------------------------------------------------------- */
 
-/* Frame rows n, t(, s) from the unit normal n (doc/theory.md §4.1): 2D t = (n_y, -n_x), so that
-   (t, n) is right-handed like (x, y); 3D t from the axis least aligned with n, s = n x t. */
-void mo_contact_frame_from_normal(int dim, const double *n, double *F)
-{
-  if (dim == 1) {
-    F[0] = n[0];
-  } else if (dim == 2) {
-    F[0] = n[0]; F[1] = n[1];
-    F[2] = n[1]; F[3] = -n[0];
-  } else {
-    double e[3] = {0, 0, 0}, t[3], len, d;
-    int k = 0, i;
-    if (fabs(n[1]) < fabs(n[k]) - 1e-12) k = 1;
-    if (fabs(n[2]) < fabs(n[k]) - 1e-12) k = 2;
-    e[k] = 1;
-    d = e[0] * n[0] + e[1] * n[1] + e[2] * n[2];
-    for (i = 0; i < 3; i++) t[i] = e[i] - d * n[i];
-    len = sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]);
-    for (i = 0; i < 3; i++) t[i] /= len;
-    for (i = 0; i < 3; i++) F[i] = n[i];
-    for (i = 0; i < 3; i++) F[3 + i] = t[i];
-    F[6] = n[1] * t[2] - n[2] * t[1];
-    F[7] = n[2] * t[0] - n[0] * t[2];
-    F[8] = n[0] * t[1] - n[1] * t[0];
-  }
-}
+/* Frame rows n, t(, s) from the unit normal n: mo_frame_of_normal's (moreau/contact.h). */
+void mo_contact_frame_from_normal(int dim, const double *n, double *F) { mo_frame_of_normal(dim, n, F); }
 
 /* --- positions -------------------------------------------------------------------------------- */
 
@@ -740,7 +724,8 @@ static int build_H(mo_contact *C, mo_ctx *ctx)
   if (C->h_alias) C->H = C->Hfull; /* every dof free, numbered in order: H over the free dofs is H */
   else if ((st = csc_reuse(&C->H, sc->nfree, m, &C->hpcap, ctx))) return st;
   for (a = 0; a < C->nc; a++) {
-    const double *F = &C->frame[a * d * d];
+    double Fb[9];
+    const double *F = mo_contact_frame_of(C, a, Fb);
     if (C->compact && a >= C->nc_static) { /* a compact record: one point, coefficient 1 */
       mo_cpoint pb;
       const mo_cpoint *p = mo_contact_cand_point(C, a, &pb);
@@ -870,7 +855,7 @@ int mo_contact_is_compact(const mo_contact *C) { return C->compact; }
 size_t mo_contact_bytes(const mo_contact *C, size_t *per_candidate)
 {
   const int d = C->dim, D = C->sc->dim;
-  size_t cand = (size_t)C->nalloc * (sizeof(double) * (size_t)(1 + d * d + (C->U0 ? d : 0) + D) + 1 + MO_KEY * sizeof(int));
+  size_t cand = (size_t)C->nalloc * (sizeof(double) * (size_t)(1 + mo_contact_fstride(C) + (C->U0 ? d : 0) + D) + 1 + MO_KEY * sizeof(int));
   size_t pts = (size_t)C->ptcap * sizeof(mo_cpoint) + (size_t)C->ccap * sizeof(mo_candidate) +
                (size_t)C->coefcap * (sizeof(int) + sizeof(double));
   size_t h = 0, body = 0;
@@ -898,7 +883,7 @@ const mo_cpoint *mo_contact_cand_point(const mo_contact *C, int a, mo_cpoint *bu
   buf->sfeat = key[3];
   buf->mfeat = key[4];
   for (i = 0; i < D; i++) buf->xs[i] = buf->xm[i] = buf->x0[i] = C->x[(size_t)a * D + i];
-  memcpy(buf->frame, C->frame + (size_t)a * C->dim * C->dim, (size_t)(C->dim * C->dim) * sizeof(double));
+  mo_frame_of_normal(C->dim, C->frame + (size_t)a * C->dim, buf->frame); /* (T225) */
   buf->g = C->g[a];
   return buf;
 }
@@ -940,11 +925,13 @@ static inline __attribute__((always_inline)) void compact_columns(const mo_conta
 {
   const mo_scene *sc = C->sc;
   const int *key = C->key + (size_t)a * MO_KEY;
-  const double *F = C->frame + (size_t)a * D * D, *xp = C->x + (size_t)a * D;
+  const double *xp = C->x + (size_t)a * D;
+  double F[9];
   /* the centres of this geometry (detect.c's, the same sums) when s is its state */
   const int here = s->u == C->bcur_u && s->step == C->bcur_step;
   int side[2], dof[2], ns = 0, k, i, q;
   double cf[2];
+  mo_frame_of_normal(D, C->frame + (size_t)a * D, F); /* the normal's frame (T225) */
   if (C->bdof[key[1]] >= 0) { side[ns] = key[1]; dof[ns] = C->bdof[key[1]]; cf[ns++] = 1; }
   if (key[2] >= 0 && C->bdof[key[2]] >= 0) { side[ns] = key[2]; dof[ns] = C->bdof[key[2]]; cf[ns++] = -1; }
   if (ns == 2 && dof[1] < dof[0]) {
@@ -1114,7 +1101,7 @@ int mo_contact_reserve(mo_contact *C, int nc, mo_ctx *ctx)
   while (cap < nc) cap = cap ? cap + cap / 4 + 1 : 64; /* a quarter more: the set grows a little at a time */
 #define GROW(ptr, n) if (!(q = mo_realloc(ctx, ptr, (size_t)(n) * sizeof *(ptr)))) return MO_ENOMEM; ptr = q
   GROW(C->g, cap);
-  GROW(C->frame, (size_t)cap * (size_t)(d * d));
+  GROW(C->frame, (size_t)cap * (size_t)mo_contact_fstride(C));
   if (C->u0_any) { GROW(C->U0, (size_t)cap * (size_t)d); }
   GROW(C->active, cap);
   GROW(C->key, (size_t)cap * MO_KEY);

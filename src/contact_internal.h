@@ -30,7 +30,8 @@ struct mo_contact {
   double *ccoef;              /* and coefficients */
   int nalloc;                 /* capacity of the per-candidate arrays below */
   double *g;                  /* nc gaps */
-  double *frame;              /* nc * dim * dim */
+  double *frame;              /* nc * dim * dim; on the granular path (compact) nc * dim: the normals
+                                 alone, the rest of each frame formed from it (T225) */
   int u0_any;                 /* some obstacle of the scene moves: U0 is stored */
   double *U0;                 /* dim * nc obstacle local velocities; NULL when no obstacle of the
                                  scene moves (every one would be 0) */
@@ -104,6 +105,9 @@ static inline int mo_contact_pair_of(const mo_contact *C, int a)
 }
 
 void mo_contact_frame_from_normal(int dim, const double *n, double *F);
+/* Doubles a candidate's frame takes in C->frame: its normal on the granular path (T225), the whole
+   frame otherwise. */
+static inline int mo_contact_fstride(const mo_contact *C) { return C->compact ? C->dim : C->dim * C->dim; }
 /* contact_geom.c: node a of mesh body b at state s (NULL: reference), and the closest point of x
    on facet f of a facet set of body b (facet coordinates, shape values, point, normal). */
 void mo_contact_node_pos(const mo_scene *sc, int b, int a, const mo_state *s, double *x);

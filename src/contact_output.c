@@ -298,8 +298,8 @@ void mo_contact_print_table(FILE *f, const mo_scene *sc, const mo_contact *C,
             "reactions", "", weighted ? "equiv. concentrated (P rho)" : "equiv. weighted (P^-1 r)");
     for (i = 0; i < n; i++) {
       int a = cands[i];
-      double Dd[3], rt = d > 1 ? r[a * d + 1] * fs : 0, rn = r[a * d] * fs;
-      const double *F = &mo_contact_frames(C)[a * d * d];
+      double Dd[3], rt = d > 1 ? r[a * d + 1] * fs : 0, rn = r[a * d] * fs, Fb[9];
+      const double *F = mo_contact_frame_of(C, a, Fb);
       int j;
       cand_node_disp(sc, C, a, s, Dd);
       fprintf(f, "%5d %13.5e %13.5e %13.5e %13.5e  %-6s| ", i + 1, Dd[0], sc->dim > 1 ? Dd[1] : 0.0, rt, rn,
@@ -460,7 +460,8 @@ static int points_fill(mo_vtk_points *P, mo_ctx *ctx)
     mo_cpoint pb;
     const mo_candidate *c;
     const mo_cpoint *p;
-    const double *F = &mo_contact_frames(C)[(size_t)a * d * d];
+    double Fb[9];
+    const double *F = mo_contact_frame_of(C, a, Fb); /* formed from the normal on the granular path (T225) */
     int n = P->n;
     double *x = P->x + 3 * n, *f = P->force + 3 * n, *w = P->vrel + 3 * n;
     if (P->src.closed_only && !cand_closed(&v, d, a)) continue;

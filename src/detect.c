@@ -137,18 +137,15 @@ static int add_contact(mo_contact *C, const dyn_side *S, const mo_narrow *N, dou
   const mo_contact_pair *P = &C->pair[S->pair];
   const mo_body *M = &sc->body[S->mb];
   int D = sc->dim, d = C->dim, a = C->nc, i, j, st;
-  double *F;
+  double *F, Fb[9];
   if (C->compact) {
-    /* the granular path: the per-candidate arrays and the point, nothing else (§12.9) */
+    /* the granular path: the per-candidate arrays and the point, nothing else (§12.9); of the
+       frame its normal alone, the frame formed from it (T225) */
     if ((st = mo_contact_reserve(C, C->nc + 1, ctx))) return st;
     C->nc++;
-    F = C->frame + (size_t)a * (size_t)(d * d);
-    if (d == D) mo_contact_frame_from_normal(D, N->n, F);
-    else {
-      double Fb[9];
-      mo_contact_frame_from_normal(D, N->n, Fb);
-      memcpy(F, Fb, (size_t)(d * d) * sizeof *F);
-    }
+    for (i = 0; i < d; i++) C->frame[(size_t)a * d + i] = N->n[i];
+    mo_contact_frame_from_normal(D, N->n, Fb);
+    F = Fb;
   } else {
     int pi = C->npt;
     double one = 1;
@@ -209,12 +206,10 @@ static inline int compact_add(mo_contact *C, int pair, int sb, int mb, const mo_
 {
   const int D = C->dim, a = C->nc;
   int i, st;
-  double *F;
   if (a + 1 > C->nalloc && (st = mo_contact_reserve(C, a + 1, ctx))) return st;
   C->nc++;
-  F = C->frame + (size_t)a * (size_t)(D * D);
-  mo_contact_frame_from_normal(D, N->n, F);
   for (i = 0; i < D; i++) {
+    C->frame[(size_t)a * D + i] = N->n[i]; /* the frame's normal alone (T225) */
     C->x[(size_t)a * D + i] = N->x[i];
     if (C->U0) C->U0[(size_t)a * D + i] = 0;
   }

@@ -173,17 +173,18 @@ int mo_pdetect_tag(mo_contact *C, int from, int s0, int s1, int s2, mo_ctx *ctx)
 static size_t record_size(const mo_contact *C)
 {
   const size_t D = (size_t)C->sc->dim, d = (size_t)C->dim;
-  return NTAG + MO_KEY + D + d * d + 1 + (C->U0 ? d : 0) + 1;
+  return NTAG + MO_KEY + D + (size_t)mo_contact_fstride(C) + 1 + (C->U0 ? d : 0) + 1;
 }
 
 static void pack(const mo_contact *C, const int *tag, int a, double *v)
 {
-  const size_t D = (size_t)C->sc->dim, d = (size_t)C->dim;
+  /* of the frame, its normal alone on the granular path (T225) */
+  const size_t D = (size_t)C->sc->dim, d = (size_t)C->dim, f = (size_t)mo_contact_fstride(C);
   size_t i;
   for (i = 0; i < NTAG; i++) *v++ = tag[i];
   for (i = 0; i < MO_KEY; i++) *v++ = C->key[(size_t)a * MO_KEY + i];
   for (i = 0; i < D; i++) *v++ = C->x[(size_t)a * D + i];
-  for (i = 0; i < d * d; i++) *v++ = C->frame[(size_t)a * d * d + i];
+  for (i = 0; i < f; i++) *v++ = C->frame[(size_t)a * f + i];
   *v++ = C->g[a];
   if (C->U0)
     for (i = 0; i < d; i++) *v++ = C->U0[(size_t)a * d + i];
@@ -193,7 +194,7 @@ static void pack(const mo_contact *C, const int *tag, int a, double *v)
 /* Candidate a of the set from record v; its key compared with the previous set's (C->ksame). */
 static void unpack(mo_contact *C, const struct mo_pdetect *P, int a, const double *v)
 {
-  const size_t D = (size_t)C->sc->dim, d = (size_t)C->dim;
+  const size_t D = (size_t)C->sc->dim, d = (size_t)C->dim, f = (size_t)mo_contact_fstride(C);
   int *key = C->key + (size_t)a * MO_KEY;
   const int *old = P->okey + (size_t)(a - P->nc0) * MO_KEY;
   size_t i;
@@ -202,7 +203,7 @@ static void unpack(mo_contact *C, const struct mo_pdetect *P, int a, const doubl
   if (a >= P->knold || memcmp(key, old, MO_KEY * sizeof *key)) C->ksame = 0;
   v += MO_KEY;
   for (i = 0; i < D; i++) C->x[(size_t)a * D + i] = *v++;
-  for (i = 0; i < d * d; i++) C->frame[(size_t)a * d * d + i] = *v++;
+  for (i = 0; i < f; i++) C->frame[(size_t)a * f + i] = *v++;
   C->g[a] = *v++;
   if (C->U0)
     for (i = 0; i < d; i++) C->U0[(size_t)a * d + i] = *v++;

@@ -345,6 +345,59 @@ static void general_of(const char *text, char *out, size_t len)
   snprintf(out, len, "%.*s compact = false;%s", (int)at, text, text + at);
 }
 
+/* The granular path keeps each frame as its normal alone (doc/theory.md (T225)): stepped side by
+   side with the general path, which stores the detection's whole frames, every candidate's frame
+   formed from its normal (mo_contact_frame_of) is the stored one to the bit, an orthonormal frame
+   whose first row is the normal kept. */
+static void frames_of_normals(int dim)
+{
+  static char t1[8192], t2[8192];
+  tl_steps A, B;
+  int st = 0, steps = 0, cands = 0, same = 1, nulls = 1, ortho = 1, a, i, j, k;
+  if (dim == 2) disks_text(t1, sizeof t1, 60, 0.1, "", "");
+  else spheres_text(t1, sizeof t1, 40, 0.1);
+  general_of(t1, t2, sizeof t2);
+  if (tl_steps_open(&A, t1, "records.cfg", NULL, 0)) {
+    ok(0, "%dD frames: the compact run opens (%s)", dim, A.ctx.errmsg);
+    return;
+  }
+  if (tl_steps_open(&B, t2, "general.cfg", NULL, 0)) {
+    ok(0, "%dD frames: the general run opens (%s)", dim, B.ctx.errmsg);
+    tl_steps_free(&A);
+    return;
+  }
+  while (A.s.step < A.sc->time.steps && !st) {
+    const int n = mo_contact_ncandidates(A.C);
+    const double *nr = mo_contact_normals(A.C), *FB = mo_contact_frames(B.C);
+    nulls &= !mo_contact_frames(A.C) && nr && FB && !mo_contact_normals(B.C);
+    if (n != mo_contact_ncandidates(B.C) || !nr || !FB) {
+      same = 0;
+      break;
+    }
+    for (a = 0; a < n; a++) {
+      double buf[9];
+      const double *F = mo_contact_frame_of(A.C, a, buf), *G = FB + (size_t)a * dim * dim;
+      same &= F == buf && !memcmp(F, G, (size_t)(dim * dim) * sizeof *F) &&
+              !memcmp(nr + (size_t)a * dim, F, (size_t)dim * sizeof *F) && mo_contact_frame_of(B.C, a, buf) == G;
+      for (i = 0; i < dim; i++)
+        for (j = 0; j < dim; j++) {
+          double dot = 0;
+          for (k = 0; k < dim; k++) dot += F[i * dim + k] * F[j * dim + k];
+          ortho &= fabs(dot - (i == j)) < 1e-14;
+        }
+    }
+    cands += n;
+    if ((st = mo_contact_step(A.D, &A.s, &A.ctx)) || (st = mo_contact_step(B.D, &B.s, &B.ctx))) break;
+    steps++;
+  }
+  ok(!st && steps == 100 && cands > 1000 && nulls, "%dD frames: 100 steps side by side, %d candidates; the records "
+     "keep normals alone (no frames), the general path frames %s", dim, cands, st ? A.ctx.errmsg : "");
+  ok(same, "%dD frames: every frame formed from its normal is the general path's stored frame to the bit", dim);
+  ok(ortho, "%dD frames: orthonormal to 1e-14", dim);
+  tl_steps_free(&A);
+  tl_steps_free(&B);
+}
+
 static void spheres(void)
 {
   static char t1[8192], t2[8192];
@@ -436,10 +489,10 @@ static void memory(void)
   n = (int)json_integer_value(json_object_get(ca, "candidates"));
   pa = (double)json_integer_value(json_object_get(json_object_get(ca, "memory"), "set_candidates")) / n;
   pb = (double)json_integer_value(json_object_get(json_object_get(cb, "memory"), "set_candidates")) / n;
-  /* gap 8, frame 32, point 16, key 20, active 1 (no obstacle moves: no U0; the law and restitution
-     are the pair's) */
-  ok(n > 50 && pa > 0 && pa <= 2 * 77 + 1e-9, "the compact records hold %.0f bytes a candidate (%d candidates; at most "
-     "2 x 77 at their capacity)", pa, n);
+  /* gap 8, the frame's normal 16 (T225), point 16, key 20, active 1 (no obstacle moves: no U0;
+     the law and restitution are the pair's) */
+  ok(n > 50 && pa > 0 && pa <= 2 * 61 + 1e-9, "the compact records hold %.0f bytes a candidate (%d candidates; at most "
+     "2 x 61 at their capacity)", pa, n);
   ok(pb >= 4 * pa, "points, candidates and H take %.0f bytes a candidate on the general path, %.1f times the records",
      pb, pb / pa);
   json_decref(ja);
@@ -594,5 +647,7 @@ int main(void)
   report_norms("natural");
   report_norms("scaled");
   metrics_follow();
+  frames_of_normals(2);
+  frames_of_normals(3);
   return done_testing();
 }

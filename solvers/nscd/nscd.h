@@ -228,8 +228,9 @@ typedef struct {
      on body velocities reads per contact its sides and the moments of its frame (vb above as in
      the sweep on H) */
   int grains;
-  void *grec;                   /* per contact its record (nscd_grains.c): sides, c_a, W_aa (the rows of
-                                   H on the rotations and the local data formed at each visit, T188) */
+  void *grec;                   /* per contact its record (nscd_grains.c): c_a, W_aa (the sides, the rows
+                                   of H on the rotations and the local data formed at each visit, T188,
+                                   T226) */
   double *giv;                  /* nfree: the diagonal of What^-1 on the rigid dofs, when the stepper's
                                    (What^-1's dinv) cannot serve */
   const double *gi;             /* the one the sweep reads (giv or dinv), indexed by free dof */

@@ -1,5 +1,5 @@
 /* nscd_grains.c: nscd's sweep on body velocities for the granular path (doc/theory.md §12.9):
-   the contacts come as compact records (bodies, point, frame; P->grains) instead of columns of
+   the contacts come as compact records (bodies, point, normal; P->grains) instead of columns of
    H, and each contact keeps its two sides' first velocities, W_aa and c_a; the moments of its
    frame about the sides' centres and the local solver's data are formed at each visit (T188).
    The arithmetic is that of the sweep on H (nscd_bodies.c, (T79)) to the bit: the same rows of
@@ -17,17 +17,17 @@
 /* The kernels below take d as a constant of each call site: inlined, their loops unroll. */
 #define KERNEL static inline __attribute__((always_inline))
 
-/* One record per contact (d = 2: 56 bytes, d = 3: 104): its two sides (+ (o + 1) a slave side,
-   - (o + 1) a master side whose body's velocities start at o in vb, increasing o; 0 none),
-   c_a = q_a - H_a^T v_free and W_aa. The rows of H on the sides' rotations and the local solver's
-   data are formed again at each visit from the point, the frame and the sides' centres (geometry)
-   and from W_aa, in the operations that formed them once: the same numbers (T188). */
-#define OFF_C 8
-#define OFF_W(d) (OFF_C + 8 * (d))
+/* One record per contact (d = 2: 48 bytes, d = 3: 96): c_a = q_a - H_a^T v_free and W_aa. The
+   rows of H on the sides' rotations and the local solver's data are formed again at each visit
+   from the point, the frame (from its normal, (T225)) and the sides' centres (geometry) and from
+   W_aa, in the operations that formed them once: the same numbers (T188); so are the contact's
+   sides (sides: from its key and the bodies' first velocities, (T226)). A side is + (o + 1) for a
+   slave side, - (o + 1) for a master side whose body's velocities start at o in vb, increasing o;
+   0 none. */
+#define OFF_W(d) (8 * (d))
 #define RECSZ(d) ((size_t)(OFF_W(d) + 8 * (d) * (d)))
 #define REC(S, a, d) ((char *)(S)->grec + (size_t)(a) * RECSZ(d))
-#define R_SIDE(p) ((int *)(p))
-#define R_C(p) ((double *)((p) + OFF_C))
+#define R_C(p) ((double *)(p))
 #define R_W(p, d) ((double *)((p) + OFF_W(d)))
 #define SIDE_O(g) (((g) > 0 ? (g) : -(g)) - 1)
 
@@ -140,12 +140,13 @@ KERNEL void side_rows(const int d, const double *F, const double *x, const doubl
    product here: the sums differ at most by the sign of a zero); with ca, c_a -= sum_s G v_free as
    well. The same operations at every call: what a visit forms is what the preparation formed (T188). */
 KERNEL void geometry(const int d, const nscd_state *S, const mo_contact_problem *P, int a, const int *gs,
-                     double *rot, const int nw, double *Waa, double *ca)
+                     double *F, double *rot, const int nw, double *Waa, double *ca)
 {
   const mo_grains *Gr = P->grains;
-  const double *F = P->frame + (size_t)a * d * d, *x = Gr->x + (size_t)a * d, *iv = S->gi;
+  const double *x = Gr->x + (size_t)a * d, *iv = S->gi;
   const int *key = Gr->key + (size_t)a * MO_KEY;
   int s, i, j, k;
+  mo_frame_of_normal(d, Gr->n + (size_t)a * d, F); /* the frame from its normal (T225) */
   if (d == 2) {
     /* the loops below written out, the same products and sums in the same order; W_aa's products
        without the side's sign cf = -+1: (cf a) (iv (cf b)) = a (iv b) exactly in IEEE arithmetic */
@@ -202,9 +203,9 @@ KERNEL void geometry(const int d, const nscd_state *S, const mo_contact_problem 
   }
 }
 
-/* The records of every contact: its sides and c_a = q_a - sum_s G v_free; W_aa of the active
-   ones for the friction coefficients as nscd_prepare_local keeps them (a coefficient where a free
-   dof moves the contact tangentially). Returns 1 when an active contact's coefficient differs
+/* The records of every contact: c_a = q_a - sum_s G v_free; W_aa of the active ones (0 for the
+   others), for the friction coefficients as nscd_prepare_local keeps them (a coefficient where a
+   free dof moves the contact tangentially). Returns 1 when an active contact's coefficient differs
    from the problem's. */
 /* The problem's coefficient of contact a: P->mu's, or its pair's (T189); 0 without either. */
 static inline double problem_mu(const mo_contact_problem *P, int a)
@@ -217,16 +218,16 @@ KERNEL int prepare_d(nscd_state *S, const mo_contact_problem *P, const int d)
   int a, i, differ = 0;
   for (a = 0; a < S->nc; a++) {
     char *rec = REC(S, a, d);
-    double *Waa = R_W(rec, d), rot[2 * 3 * 3], *ca = R_C(rec), wtt = 0, mua;
-    int *gs = R_SIDE(rec), act = !P->active || P->active[a];
+    double *Waa = R_W(rec, d), rot[2 * 3 * 3], F[9], *ca = R_C(rec), wtt = 0, mua;
+    int gs[2], act = !P->active || P->active[a];
     sides(P->grains, a, gs);
     for (i = 0; i < d; i++) ca[i] = P->b[a * d + i];
     /* W_aa for the contacts of the step's problem only; out of it, c_a (its U, r = 0) only and
        W_aa = 0 (its scaling 0) */
-    if (act) geometry(d, S, P, a, gs, rot, d, Waa, ca);
+    if (act) geometry(d, S, P, a, gs, F, rot, d, Waa, ca);
     else {
       for (i = 0; i < d * d; i++) Waa[i] = 0;
-      geometry(d, S, P, a, gs, rot, 0, Waa, ca);
+      geometry(d, S, P, a, gs, F, rot, 0, Waa, ca);
       if (S->muown) S->muown[a] = 0;
       continue;
     }
@@ -283,12 +284,20 @@ KERNEL void side_U(const int d, const double *F, const double *rot, const double
   }
 }
 
-/* U_a = c_a + sum_s G_as v_s, rot the rows of geometry. */
-KERNEL void local_U(const nscd_state *S, const mo_contact_problem *P, const char *rec, const double *rot, int a,
+/* Contact a's sides (gs), frame (F) and moments (rot), formed at its visit in the operations of
+   nscd_grains_prepare (T188, T226). */
+KERNEL void visit(const int d, const nscd_state *S, const mo_contact_problem *P, int a, int *gs, double *F,
+                  double *rot)
+{
+  double w0[1];
+  sides(P->grains, a, gs);
+  geometry(d, S, P, a, gs, F, rot, 0, w0, NULL);
+}
+
+/* U_a = c_a + sum_s G_as v_s, gs, c, F and rot those of visit. */
+KERNEL void local_U(const nscd_state *S, const int *gs, const double *c, const double *F, const double *rot,
                     double *restrict U, const int d)
 {
-  const int *gs = R_SIDE(rec);
-  const double *F = P->frame + (size_t)a * d * d, *c = R_C(rec);
   double u[3] = {0, 0, 0};
   int i;
   for (i = 0; i < d; i++) u[i] = c[i];
@@ -302,10 +311,10 @@ KERNEL void local_U(const nscd_state *S, const mo_contact_problem *P, const char
 /* U_a with its rows formed here. */
 KERNEL void contact_U(const nscd_state *S, const mo_contact_problem *P, int a, double *restrict U, const int d)
 {
-  const char *rec = REC(S, a, d);
-  double Waa[1], rot[2 * 3 * 3];
-  geometry(d, S, P, a, R_SIDE(rec), rot, 0, Waa, NULL);
-  local_U(S, P, rec, rot, a, U, d);
+  double rot[2 * 3 * 3], F[9];
+  int gs[2];
+  visit(d, S, P, a, gs, F, rot);
+  local_U(S, gs, R_C(REC(S, a, d)), F, rot, U, d);
 }
 
 /* v_s += inv_s G_s^T dr on one side: (inv_k (cf F_jk)) dr_j summed over j, that is cf times the
@@ -327,11 +336,8 @@ KERNEL void side_push(const int d, const double *F, const double *rot, const dou
   }
 }
 
-KERNEL void push(nscd_state *S, const mo_contact_problem *P, const char *rec, const double *rot, int a,
-                 const double *dr, const int d)
+KERNEL void push(nscd_state *S, const int *gs, const double *F, const double *rot, const double *dr, const int d)
 {
-  const int *gs = R_SIDE(rec);
-  const double *F = P->frame + (size_t)a * d * d;
   int o;
   if (!gs[0]) return;
   o = SIDE_O(gs[0]);
@@ -343,10 +349,11 @@ KERNEL void push(nscd_state *S, const mo_contact_problem *P, const char *rec, co
 
 KERNEL void push_r(nscd_state *S, const mo_contact_problem *P, int a, const double *dr, const int d)
 {
-  const char *rec = REC(S, a, d);
-  double Waa[1], rot[2 * 3 * 3];
-  geometry(d, S, P, a, R_SIDE(rec), rot, 0, Waa, NULL);
-  push(S, P, rec, rot, a, dr, d);
+  double Waa[1], rot[2 * 3 * 3], F[9];
+  int gs[2];
+  sides(P->grains, a, gs);
+  geometry(d, S, P, a, gs, F, rot, 0, Waa, NULL);
+  push(S, gs, F, rot, dr, d);
 }
 
 void nscd_grains_velocities(nscd_state *S, const mo_contact_problem *P, const double *r)
@@ -404,10 +411,10 @@ KERNEL int sweep_d(nscd_state *S, const mo_contact_problem *P, double *r, int *s
     const int a = order[k];
     const char *rec = REC(S, a, d);
     const double *Waa = R_W(rec, d);
-    double *ra = r + (size_t)a * d, U[3], ql[3], rl[3], dr[3], rot[2 * 3 * 3], aux[NSCD_AUX], w0[1];
-    int st, nz = 0;
-    geometry(d, S, P, a, R_SIDE(rec), rot, 0, w0, NULL);
-    local_U(S, P, rec, rot, a, U, d);
+    double *ra = r + (size_t)a * d, U[3], ql[3], rl[3], dr[3], rot[2 * 3 * 3], F[9], aux[NSCD_AUX];
+    int st, nz = 0, gs[2];
+    visit(d, S, P, a, gs, F, rot);
+    local_U(S, gs, R_C(rec), F, rot, U, d);
     for (i = 0; i < d; i++) {
       double acc = U[i];
       for (j = 0; j < d; j++) acc -= Waa[i * d + j] * ra[j];
@@ -440,7 +447,7 @@ KERNEL int sweep_d(nscd_state *S, const mo_contact_problem *P, double *r, int *s
       nz |= dr[i] != 0;
     }
     if (nz) {
-      push(S, P, rec, rot, a, dr, d);
+      push(S, gs, F, rot, dr, d);
       for (i = 0; i < d; i++) ra[i] = rl[i];
     }
     /* a contact is updated once a sweep: r_a - rold_a is dr (0 when nz is 0) */
@@ -536,7 +543,8 @@ int nscd_grains_partition(nscd_state *S, const mo_contact_problem *P, mo_ctx *ct
   for (k = 0; k < S->nact; k++) {
     const int a = S->act[k];
     int b = (int)((G->x[(size_t)a * D + ax] - lo[ax]) / w), q, s;
-    const int *gs = R_SIDE(REC(S, a, d));
+    int gs[2];
+    sides(G, a, gs);
     q = bin2rank[b < 0 ? 0 : b >= NBIN ? NBIN - 1 : b];
     S->own[a] = q == S->rank;
     for (s = 0; s < 2 && gs[s]; s++) {
@@ -657,8 +665,10 @@ int nscd_grains_count(nscd_state *S, const mo_contact_problem *P, const double *
   int k, s, st, nu = 0, nd = 0;
   if ((st = nscd_marks_clear(S, (size_t)P->nfree + 1, ctx))) return st;
   for (k = 0; k < S->nact; k++) {
-    const int a = S->act[k], *gs = R_SIDE(REC(S, a, d)), u = nscd_closed_unknowns(S, a, r + (size_t)a * d, d);
+    const int a = S->act[k], u = nscd_closed_unknowns(S, a, r + (size_t)a * d, d);
+    int gs[2];
     if (!u) continue;
+    sides(P->grains, a, gs);
     nu += u;
     for (s = 0; s < 2 && gs[s]; s++) {
       int o = (gs[s] > 0 ? gs[s] : -gs[s]) - 1;

@@ -4,6 +4,7 @@
 #ifndef MOREAU_CONTACT_H
 #define MOREAU_CONTACT_H
 
+#include <math.h>
 #include <stdio.h>
 
 #include <moreau/ctx.h>
@@ -184,9 +185,42 @@ int mo_contact_broad_stats(const mo_contact *C, long *builds, long *pairs);
 /* Candidate a's law and restitution coefficient (those of its pair). */
 mo_contact_law mo_contact_law_of(const mo_contact *C, int a);
 double mo_contact_restitution_of(const mo_contact *C, int a);
-/* Candidate gaps (nc) and frames (nc * dim * dim, rows n, t, s) after mo_contact_geometry. */
+/* Candidate gaps (nc) and frames (nc * dim * dim, rows n, t, s) after mo_contact_geometry. The
+   granular path (compact records, doc/theory.md §12.9) stores each candidate's normal alone
+   (T225): mo_contact_frames is then NULL and mo_contact_normals the nc * dim normals (NULL off
+   that path); mo_contact_frame_of gives candidate a's frame on either path (formed in buf, or
+   the stored one). */
 const double *mo_contact_gaps(const mo_contact *C);
 const double *mo_contact_frames(const mo_contact *C);
+const double *mo_contact_normals(const mo_contact *C);
+const double *mo_contact_frame_of(const mo_contact *C, int a, double *buf);
+/* Frame rows n, t(, s) from the unit normal n (doc/theory.md §4.1, (T225)): 2D t = (n_y, -n_x),
+   so that (t, n) is right-handed like (x, y); 3D t from the axis least aligned with n, s = n x t.
+   The one rule of the frames: a frame formed again from its normal is the same doubles. */
+static inline void mo_frame_of_normal(int dim, const double *n, double *F)
+{
+  if (dim == 1) {
+    F[0] = n[0];
+  } else if (dim == 2) {
+    F[0] = n[0]; F[1] = n[1];
+    F[2] = n[1]; F[3] = -n[0];
+  } else {
+    double e[3] = {0, 0, 0}, t[3], len, d;
+    int k = 0, i;
+    if (fabs(n[1]) < fabs(n[k]) - 1e-12) k = 1;
+    if (fabs(n[2]) < fabs(n[k]) - 1e-12) k = 2;
+    e[k] = 1;
+    d = e[0] * n[0] + e[1] * n[1] + e[2] * n[2];
+    for (i = 0; i < 3; i++) t[i] = e[i] - d * n[i];
+    len = sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]);
+    for (i = 0; i < 3; i++) t[i] /= len;
+    for (i = 0; i < 3; i++) F[i] = n[i];
+    for (i = 0; i < 3; i++) F[3 + i] = t[i];
+    F[6] = n[1] * t[2] - n[2] * t[1];
+    F[7] = n[2] * t[0] - n[0] * t[2];
+    F[8] = n[0] * t[1] - n[1] * t[0];
+  }
+}
 /* H over free dofs (nfree x dim*nc): U = H^T v + U0, R = H r. */
 const mo_csc *mo_contact_H(const mo_contact *C);
 /* H over full dofs (ndof x dim*nc), including prescribed rows (for tests and reactions). */
@@ -287,7 +321,8 @@ typedef enum { MO_SIGNORINI_POSITION = 0, MO_SIGNORINI_VELOCITY } mo_signorini;
 
 /* The granular contacts of a step (doc/theory.md §12.9), for a back end with MO_NEEDS_GRAINS:
    contact a joins slave body key[a MO_KEY + 1] and master body key[a MO_KEY + 2] at the point
-   x[a D .. a D + D - 1], in the frame P->frame (rows n, t, s). The rows of H of a side on a rigid
+   x[a D .. a D + D - 1], in the frame of normal n[a D .. a D + D - 1] (rows n, t, s, formed by
+   mo_frame_of_normal, (T225); P->frame is NULL on this path). The rows of H of a side on a rigid
    body b are the side's sign (+1 slave, -1 master) times the frame's rows on b's translations and
    the moments (x - centre_b) x F_i on its rotations (T68), with b's free velocities from vel[b] in
    x_free (-1: a plane, or a body held fixed, whose motion is in P->b already). */
@@ -295,6 +330,7 @@ typedef struct mo_grains {
   int D;                     /* space dimension (2 or 3); 1 + D (2D) or 2 D (3D) dofs per body */
   const int *key;            /* MO_KEY per contact (pair, slave, master, features) */
   const double *x;           /* D per contact: the contact point */
+  const double *n;           /* D per contact: the unit normal (master to slave), its frame's first row */
   const int *vel;            /* per body of the scene: its first free dof, or -1 */
   const double *centre;      /* D per body: its centre at the step's start (moving bodies) */
   const double *pmu;         /* per pair its friction coefficient: contact a's is pmu[key[a MO_KEY]]
@@ -310,7 +346,7 @@ typedef struct mo_contact_problem {
   const double *g;           /* nc gaps at the start of the step */
   const double *Uprev;       /* m local velocities at the start of the step */
   const double *w;           /* nc candidate measures (NULL on the granular path: every one is 1) */
-  const double *frame;       /* nc d x d frames */
+  const double *frame;       /* nc d x d frames; NULL on the granular path (grains->n, (T225)) */
   const mo_contact *contact; /* candidates, points, pairs */
   /* local relation U' = W r + b: U' is the local velocity (theta) or displacement increment
      (newmark, quasistatic), plus in its normal component the Signorini offset of the chosen
