@@ -288,7 +288,9 @@ struct mo_contact_driver {
   unsigned char *active;
   int *act, nact;            /* the active candidates of the last solve, in increasing order */
   int *status;
-  int *key;                  /* nc * MO_KEY: the candidates the arrays hold */
+  int *key;                  /* nc * MO_KEY: the candidates the arrays hold; NULL when the detection
+                                writes the remap itself (the granular path on one rank, T220) */
+  int dmap;                  /* the detection writes the remap: follow_set reads it (T222) */
   double *xfull, *xf, *dx, *dxfull, *xnl, *gnl;
   double *tmp;               /* the general path's remapping scratch (2 m + nc values) and the position
                                 correction's; NULL on the granular path */
@@ -365,7 +367,10 @@ static int grow(mo_contact_driver *D, int nc, mo_ctx *ctx)
     GROW(D->mu, cap);
   }
   GROW(D->active, cap); GROW(D->act, cap + 1);
-  GROW(D->status, cap); GROW(D->key, (size_t)cap * MO_KEY); GROW(D->itmp, (size_t)cap + 1);
+  GROW(D->status, cap); GROW(D->itmp, (size_t)cap + 1);
+  if (!D->dmap) {
+    GROW(D->key, (size_t)cap * MO_KEY);
+  }
   /* the reactions of the previous step for Newton's iterates (nonlinear scenes), the gaps of the
      step's start (the compact records keep theirs through the solve), W r (the Delassus path) */
   if (D->S && mo_stepper_nonlinear(D->S)) {
@@ -406,18 +411,20 @@ static void fresh_uprev(mo_contact_driver *D, const mo_state *s, int a0, int a1)
 }
 
 /* Fit the arrays to the contact set of the last geometry at state s. The old set is described
-   by okey (nold keys) and its r, U, status (the driver's own arrays, or a snapshot's). */
+   by okey (nold keys; NULL: the detection's remap from set oset, T222) and its r, U, status (the
+   driver's own arrays, or a snapshot's). */
 static int fit(mo_contact_driver *D, const mo_state *s, long oset, const int *okey, int nold, const double *orr,
                const double *oU, const int *ost, mo_ctx *ctx)
 {
   const mo_contact *C = D->C;
   int nc = mo_contact_ncandidates(C), d = D->d, a, i, st, ns = mo_contact_nstatic(C);
-  int *map, *prev = NULL, own = okey == D->key, mono = 1, last = -1;
+  int *map, *prev = NULL, own = orr && orr == D->r, mono = 1, last = -1;
+  const int *dmap = NULL;
   double *spare = NULL;
   const double *ostd = NULL; /* the old statuses, when copied aside */
   if ((st = grow(D, nc > nold ? nc : nold, ctx))) return st;
   if (own) { /* grow may have moved the driver's own arrays (their contents kept) */
-    okey = D->key;
+    if (okey) okey = D->key;
     orr = D->r;
     oU = D->U;
     ost = D->status;
@@ -429,14 +436,20 @@ static int fit(mo_contact_driver *D, const mo_state *s, long oset, const int *ok
     memcpy(prev, D->itmp, (size_t)nold * sizeof *prev);
   }
   /* each new candidate's place in the old set (-1: new), in increasing order so far: the
-     detection keeps its order from set to set */
-  if ((st = mo_keymap_build(&D->kmap, okey, nold, ctx))) {
+     detection keeps its order from set to set; written by the detection itself (T222), or
+     found by the old keys */
+  if (!okey && nold && !(dmap = mo_contact_detect_map(C, oset, mo_contact_set_version(C)))) {
+    mo_free(prev);
+    return mo_error(ctx, MO_EINTERNAL, "contact driver: no remap from set %ld to set %ld (T222)", oset,
+                    mo_contact_set_version(C));
+  }
+  if (okey && (st = mo_keymap_build(&D->kmap, okey, nold, ctx))) {
     mo_free(prev);
     return st;
   }
   map = D->itmp;
   for (a = 0; a < nc; a++) {
-    int o = map[a] = mo_keymap_find(&D->kmap, mo_contact_key(C, a));
+    int o = map[a] = dmap ? dmap[a] : okey ? mo_keymap_find(&D->kmap, mo_contact_key(C, a)) : -1;
     if (o >= 0 && o <= last) mono = 0;
     if (o >= 0) last = o;
   }
@@ -498,7 +511,7 @@ static int fit(mo_contact_driver *D, const mo_state *s, long oset, const int *ok
     if (D->w) D->w[a] = c->w;
   }
   /* the key list after the remap: okey may be D->key itself, read above */
-  if (nc) memcpy(D->key, mo_contact_key(C, 0), (size_t)nc * MO_KEY * sizeof *D->key);
+  if (nc && D->key) memcpy(D->key, mo_contact_key(C, 0), (size_t)nc * MO_KEY * sizeof *D->key);
   D->nc = nc;
   if (nc > D->nc_max) D->nc_max = nc;
   D->m = nc * d;
@@ -529,7 +542,7 @@ static int follow_set(mo_contact_driver *D, const mo_state *s, mo_ctx *ctx)
   const mo_contact *C = D->C;
   int a, ns = mo_contact_nstatic(C);
   if (D->cset != mo_contact_set_version(C))
-    return fit(D, s, D->cset, D->key, D->nc, D->r, D->U, D->status, ctx);
+    return fit(D, s, D->cset, D->key, D->nc, D->r, D->U, D->status, ctx); /* D->key NULL: T222 */
   /* the same set: U- of the rigid candidates at the new contact points */
   for (a = 0; a < ns; a++)
     if (law_of(C, a) != MO_LAW_SIGNORINI) fresh_uprev(D, s, a, a + 1);
@@ -587,7 +600,11 @@ int mo_contact_snapshot_save(const mo_contact_driver *D, mo_contact_snapshot *X,
   memcpy(X->Uprev, D->Uprev, m);
   memcpy(X->U, D->U, m);
   memcpy(X->status, D->status, (size_t)D->nc * sizeof(int));
-  memcpy(X->key, D->key, (size_t)D->nc * MO_KEY * sizeof(int));
+  /* the driver's keys, or those of the set, of the same set when the driver keeps none (T222) */
+  if (!D->key && D->cset != mo_contact_set_version(D->C))
+    return mo_error(ctx, MO_EINTERNAL, "contact snapshot: the set moved on from the driver's (T222)");
+  if (D->nc)
+    memcpy(X->key, D->key ? D->key : mo_contact_key(D->C, 0), (size_t)D->nc * MO_KEY * sizeof(int));
   return MO_OK;
 }
 
@@ -636,7 +653,7 @@ long mo_contact_driver_failures(const mo_contact_driver *D) { return D->failures
 size_t mo_contact_driver_bytes(const mo_contact_driver *D, size_t *per_dof)
 {
   const size_t d = (size_t)D->d, cap = (size_t)D->cap, sd = sizeof(double);
-  size_t c = cap * (4 * d * sd + (D->mu ? 2 : 1) * sd + 1 + 4 * sizeof(int) + MO_KEY * sizeof(int));
+  size_t c = cap * (4 * d * sd + (D->mu ? 2 : 1) * sd + 1 + 4 * sizeof(int) + (D->key ? MO_KEY : 0) * sizeof(int));
   size_t n = (size_t)D->sc->ndof, nf = (size_t)D->sc->nfree, dof = (2 * n + 2 * nf) * sd;
   if (D->rprev) c += cap * d * sd;
   if (D->pmu) c += (size_t)D->C->npair * sd;
@@ -775,6 +792,7 @@ int mo_contact_driver_create(const mo_scene *sc, mo_contact *C, mo_stepper *S,
     return st;
   }
   D->d = C->dim;
+  D->dmap = mo_contact_writes_map(C, ctx); /* no keys of its own then (T222) */
   D->params = mo_calloc(ctx, 1, D->T->params_size ? D->T->params_size : 1);
   D->state = mo_calloc(ctx, 1, D->T->state_size ? D->T->state_size : 1);
   D->pforce = mo_calloc(ctx, 3 * (size_t)C->npair + 1, sizeof(double));

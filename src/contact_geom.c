@@ -864,6 +864,8 @@ size_t mo_contact_bytes(const mo_contact *C, size_t *per_candidate)
   if (C->ndyn) /* the detection's per-body arrays (detect.c) and the broad phase */
     body = (size_t)C->sc->nbody * (2 * sizeof(unsigned long long) + (3 + 3 + (size_t)D + 5) * sizeof(double) + 2) +
            mo_contact_broad_bytes(C);
+  /* the detection's remap (T222) and the old keys it held aside */
+  if (C->krr) cand += (size_t)C->smap.mcap * sizeof(int) + (C->smap.hold ? ((size_t)C->smap.hmask + 1) * MO_KEY * sizeof(int) : 0);
   if (per_candidate) *per_candidate = cand + pts + h;
   return cand + pts + h + body;
 }

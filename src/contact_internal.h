@@ -8,6 +8,29 @@
 struct mo_broad;
 struct mo_pdetect;
 
+/* The remap the detection writes while it overwrites the set's keys (setmap.c, doc/theory.md
+   §12.15): map[a] = the place of new candidate a in the old set (-1: new), in the detection's
+   order (T220); the old keys overwritten before they are read held aside in a ring (T221). */
+typedef struct {
+  unsigned long long hi, lo;  /* an order of (T220), packed: compared hi first */
+} mo_setmap_ord;
+typedef struct {
+  int *map, mcap;             /* per candidate of the new set (its capacity grows by a quarter) */
+  int *hold, hmask;           /* the ring of old keys: place p in slot p & hmask */
+  const unsigned char *rr;    /* per pair: 1 between two shapes (the broad phase's list orders it) */
+  int nold;                   /* candidates of the old set */
+  int j;                      /* the first old candidate not passed yet */
+  int g1;                     /* the end of the current group's old candidates [j, g1) */
+  mo_setmap_ord g, og1;       /* the current group's order (T220), and that of the old candidate
+                                 at g1 (when g1 < nold) */
+  int ingroup;
+  int written;                /* places of the set written so far */
+  int bad;                    /* a key out of the detection's order: the map is not to be used */
+} mo_setmap;
+int mo_setmap_begin(mo_setmap *M, const unsigned char *rr, int nold, int nstatic, mo_ctx *ctx);
+/* Write key at place a of keys (the old set's there until now) and map a. */
+int mo_setmap_put(mo_setmap *M, int *keys, int a, const int *key, mo_ctx *ctx);
+void mo_setmap_free(mo_setmap *M);
 
 struct mo_contact {
   const mo_scene *sc;
@@ -90,6 +113,12 @@ struct mo_contact {
      and how many times it was built */
   const int *vl;              /* the broad phase's pair array (owned by C->broad) */
   int knold, ksame;           /* detection: candidates of the previous set; its keys unchanged so far */
+  /* the remap written by the detection on the granular path (smap.map, from set smap_from to
+     smap_to; -1: none), in place of a copy of the old keys in the driver (T220)-(T222) */
+  int smap_ok;                /* the detection's order is that of (T220): the granular path, one rank */
+  unsigned char *krr;         /* per pair: 1 between two shapes */
+  mo_setmap smap;
+  long smap_from, smap_to;
   long vl_n, vl_builds;
   double vl_reach;
   int vl_built;
@@ -158,6 +187,11 @@ int mo_contact_detect_setup(mo_contact *C, mo_ctx *ctx);
    radius, a mesh's shortest edge): the scale of the alert distance and of eps_g (T71). */
 double mo_contact_smallest_size(const mo_contact *C);
 int mo_contact_detect(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx);
+/* 1 when the detection writes the remap of its sets (T220): the driver then keeps no keys */
+int mo_contact_writes_map(const mo_contact *C, const mo_ctx *ctx);
+/* The detection's remap from set `from` to set `to` (each new candidate's place in the old set,
+   -1: new), or NULL when its last detection did not go from one to the other. */
+const int *mo_contact_detect_map(const mo_contact *C, long from, long to);
 /* Bytes held by the broad phase. */
 size_t mo_contact_broad_bytes(const mo_contact *C);
 void mo_contact_detect_free(mo_contact *C);

@@ -38,6 +38,8 @@ void mo_contact_detect_free(mo_contact *C)
   mo_free(C->bcur);
   mo_free(C->bdof);
   mo_pdetect_free(C);
+  mo_free(C->krr);
+  mo_setmap_free(&C->smap);
   C->broad = NULL;
 }
 
@@ -104,6 +106,19 @@ int mo_contact_detect_setup(mo_contact *C, mo_ctx *ctx)
     C->rr[C->nrr++] = k;
   }
   for (i = 0; i < sc->nbody; i++) C->bmask[i] = (C->mside[i] | C->sside[i]) != 0;
+  /* the remap written by the detection (T220): the pairs between shapes in the broad phase's
+     order, those of shapes against a plane by pair, then by slave, which the pair's list must
+     give in increasing order (the granular path has no other pair) */
+  if (!(C->krr = mo_calloc(ctx, (size_t)C->npair + 1, 1))) return MO_ENOMEM;
+  for (k = 0; k < C->nrr; k++) C->krr[C->rr[k]] = 1;
+  C->smap_ok = 1;
+  for (k = 0; k < C->npair; k++) {
+    const mo_contact_pair *P = &C->pair[k];
+    if (!P->dynamic || C->krr[k]) continue;
+    if (!(sc->body[P->mb[0]].type->flags & MO_BODY_F_OBSTACLE)) C->smap_ok = 0;
+    for (i = 1; i < P->ns; i++) C->smap_ok &= P->sb[i] > P->sb[i - 1];
+  }
+  C->smap_from = C->smap_to = -1;
   if (C->nrr && (st = mo_broad_create(&C->broad, ctx))) return st;
   mo_log(ctx, 2, "contact detection: %d dynamic pairs (%d between rigid shapes), alert distance %g m\n", C->ndyn,
          C->nrr, C->alert);
@@ -120,13 +135,19 @@ typedef struct {
 } dyn_side;
 
 /* Write key (pair, slave, master, features) of detected candidate a, noting whether it differs from
-   the key a held in the previous set (C->knold keys; C->ksame: the set is the same so far). */
-static inline void set_key(mo_contact *C, int a, int pair, int sb, int mb, int sfeat, int mfeat)
+   the key a held in the previous set (C->knold keys; C->ksame: the set is the same so far); on the
+   granular path, its place in the old set with it (setmap.c, (T220)-(T222)). */
+static inline int set_key(mo_contact *C, int a, int pair, int sb, int mb, int sfeat, int mfeat, mo_ctx *ctx)
 {
   int *key = C->key + (size_t)a * MO_KEY;
   if (a >= C->knold || key[0] != pair || key[1] != sb || key[2] != mb || key[3] != sfeat || key[4] != mfeat)
     C->ksame = 0;
+  if (C->smap_from == -2) { /* this detection writes the map */
+    const int k[MO_KEY] = {pair, sb, mb, sfeat, mfeat};
+    return mo_setmap_put(&C->smap, C->key, a, k, ctx);
+  }
   key[0] = pair; key[1] = sb; key[2] = mb; key[3] = sfeat; key[4] = mfeat;
+  return MO_OK;
 }
 
 /* Append the contact N of pair k between slave sb and master mb as a point and a candidate,
@@ -195,9 +216,8 @@ static int add_contact(mo_contact *C, const dyn_side *S, const mo_narrow *N, dou
       for (j = 0; j < D; j++) u0 -= F[i * d + j] * M->velocity[j];
     if (C->U0) C->U0[(size_t)a * d + i] = u0;
   }
-  set_key(C, a, S->pair, S->sb, S->mb, S->sfeat, S->mfeat);
   (void)t;
-  return MO_OK;
+  return set_key(C, a, S->pair, S->sb, S->mb, S->sfeat, S->mfeat, ctx);
 }
 
 /* The granular path's append of a contact between two shapes (no mesh side): add_contact's
@@ -215,8 +235,7 @@ static inline int compact_add(mo_contact *C, int pair, int sb, int mb, const mo_
   }
   C->g[a] = N->g;
   C->active[a] = 1;
-  set_key(C, a, pair, sb, mb, N->fb, N->fa);
-  return MO_OK;
+  return set_key(C, a, pair, sb, mb, N->fb, N->fa, ctx);
 }
 
 /* --- narrow phases by the kinds of the two sides ------------------------------------------------ */
@@ -615,6 +634,7 @@ int mo_contact_broad_stats(const mo_contact *C, long *builds, long *pairs)
 int mo_contact_detect(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx)
 {
   int k, split, st = MO_OK;
+  long from;
   body_speeds(C, s);
   /* the new keys are compared with the old ones as they overwrite them (set_key) */
   C->knold = C->nc;
@@ -625,6 +645,13 @@ int mo_contact_detect(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx)
   /* the granular path over MPI ranks: each rank its slab's pairs, then every rank's gathered
      (doc/parallel.md §4, (T215)-(T217)) */
   if ((split = mo_pdetect_active(C, ctx)) < 0) return MO_ENOMEM;
+  /* on one rank the granular path writes the remap as it overwrites the keys (-2: under way) */
+  from = C->cset_version;
+  C->smap_from = C->smap_to = -1;
+  if (mo_contact_writes_map(C, ctx)) {
+    if ((st = mo_setmap_begin(&C->smap, C->krr, C->knold, C->nc_static, ctx))) return st;
+    C->smap_from = -2;
+  }
   if (split && !(st = pair_list(C, s, ctx))) st = mo_pdetect_begin(C, ctx);
   for (k = 0; k < C->npair && !st; k++) {
     const mo_contact_pair *P = &C->pair[k];
@@ -641,5 +668,24 @@ int mo_contact_detect(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx)
   if (!st && C->nrr) st = rigid_pairs(C, s, t, ctx);
   if (split) st = mo_pdetect_finish(C, st, ctx);
   if (!st && !(C->ksame && C->nc == C->knold)) C->cset_version++;
+  if (C->smap_from == -2) {
+    C->smap_from = C->smap_to = -1;
+    if (!st && C->smap.bad)
+      st = mo_error(ctx, MO_EINTERNAL, "contact detection: a candidate out of the detection's order (T220)");
+    else if (!st) {
+      C->smap_from = from;
+      C->smap_to = C->cset_version;
+    }
+  }
   return st;
+}
+
+int mo_contact_writes_map(const mo_contact *C, const mo_ctx *ctx)
+{
+  return C->compact && C->smap_ok && C->krr && ctx->nranks < 2;
+}
+
+const int *mo_contact_detect_map(const mo_contact *C, long from, long to)
+{
+  return C->krr && C->smap_from >= 0 && C->smap_from == from && C->smap_to == to ? C->smap.map : NULL;
 }

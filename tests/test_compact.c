@@ -9,10 +9,13 @@
    of the contact set: the records hold a bounded number of bytes per candidate, a fraction of the
    points, candidates and columns of H. levelset, which reads candidates and H, runs the same
    scene on the general path. Jean's norms in nscd's report under the residual rules: the sweep on
-   H computes them, the records' sweep reports them as not measured (-1), not NaN. */
+   H computes them, the records' sweep reports them as not measured (-1), not NaN. The remap the
+   detection writes as it overwrites the keys (T220-T222) against the key map's over every set of
+   two deposits, and against brute force on random sets in the detection's order. */
 #include "config.h"
 #include "testlib.h"
 #include "metrics.h"
+#include "contact_internal.h" /* the detection's remap (mo_setmap, T220-T222) */
 
 #include <jansson.h>
 #include <math.h>
@@ -636,6 +639,176 @@ static void metrics_follow(void)
   tl_steps_free(&F.R);
 }
 
+
+/* The detection's remap (T222) against the key map's (the driver's way before it) and brute force
+   over every set change of a deposit stepped by the driver: before each step the set's keys are
+   copied, after it the detection's map from the old set to the new is checked candidate by
+   candidate. Returns the sets compared; *bad counts the candidates mapped otherwise. */
+static int remap_sets(const char *text, const char *name, int *bad, int *moved)
+{
+  tl_steps R;
+  mo_keymap K;
+  int *okey = NULL, ocap = 0, sets = 0, st = 0;
+  memset(&K, 0, sizeof K);
+  *bad = *moved = 0;
+  if (tl_steps_open(&R, text, name, NULL, 0)) {
+    ok(0, "%s opens (%s)", name, R.ctx.errmsg);
+    return 0;
+  }
+  if (!mo_contact_writes_map(R.C, &R.ctx)) {
+    ok(0, "%s: the detection writes the remap", name);
+    tl_steps_free(&R);
+    return 0;
+  }
+  while (!st && R.s.step < R.sc->time.steps) {
+    long v = mo_contact_set_version(R.C);
+    int nold = mo_contact_ncandidates(R.C), nc, a, p;
+    const int *map;
+    if (nold > ocap) {
+      ocap = nold + nold / 2;
+      free(okey);
+      if (!(okey = malloc((size_t)ocap * MO_KEY * sizeof *okey))) break;
+    }
+    if (nold) memcpy(okey, mo_contact_key(R.C, 0), (size_t)nold * MO_KEY * sizeof *okey);
+    if ((st = mo_contact_step(R.D, &R.s, &R.ctx))) break;
+    if (mo_contact_set_version(R.C) == v) continue;
+    nc = mo_contact_ncandidates(R.C);
+    map = mo_contact_detect_map(R.C, v, mo_contact_set_version(R.C));
+    if (!map || mo_keymap_build(&K, okey, nold, &R.ctx)) {
+      (*bad)++;
+      break;
+    }
+    sets++;
+    for (a = 0; a < nc; a++) {
+      const int *k = mo_contact_key(R.C, a);
+      int brute = -1;
+      for (p = 0; p < nold && brute < 0; p++)
+        if (!memcmp(okey + (size_t)p * MO_KEY, k, MO_KEY * sizeof *k)) brute = p;
+      if (map[a] != mo_keymap_find(&K, k) || map[a] != brute) (*bad)++;
+      if (map[a] >= 0 && map[a] != a) (*moved)++;
+    }
+  }
+  if (st) ok(0, "%s: %s", name, R.ctx.errmsg);
+  free(okey);
+  mo_keymap_free(&K);
+  tl_steps_free(&R);
+  return sets;
+}
+
+static void remap_deposits(void)
+{
+  static char t[16384];
+  int sets, bad, moved;
+  disks_text(t, sizeof t, 200, 0.3, "", "");
+  sets = remap_sets(t, "remap200.cfg", &bad, &moved);
+  ok(sets >= 200 && !bad && moved > 100, "200 disks, 300 steps: the detection's remap is the key map's and brute "
+     "force's at each of %d new sets (%d candidates otherwise; %d moved to another place)", sets, bad, moved);
+  polygons_text(t, sizeof t, 0.3);
+  sets = remap_sets(t, "remappoly.cfg", &bad, &moved);
+  ok(sets >= 20 && !bad, "polygons and disks (several contacts a pair), 600 steps: the same at each of %d new sets "
+     "(%d candidates otherwise)", sets, bad);
+}
+
+/* Random sets in the detection's order (T220), independent of setmap.c's: pairs 0 and 1 of shapes
+   against planes (body 1000 + k) by pair then slave, pairs 2 and 3 between shapes by the body
+   pair's (lower, higher) index, a pair's contacts (features) in any order. The old set is written
+   over by the new one through mo_setmap_put; its map against brute force (the first old key
+   equal, -1 none) and the keys left against the new set. */
+typedef struct {
+  int o[3];
+  int key[MO_KEY];
+  unsigned r;
+} rkey;
+
+static int rkey_cmp(const void *x, const void *y)
+{
+  const rkey *a = x, *b = y;
+  int i;
+  for (i = 0; i < 3; i++)
+    if (a->o[i] != b->o[i]) return a->o[i] < b->o[i] ? -1 : 1;
+  return a->r < b->r ? -1 : a->r > b->r; /* a group's contacts shuffled */
+}
+
+static unsigned rnd(unsigned *s)
+{
+  *s = *s * 1103515245u + 12345u;
+  return *s >> 8;
+}
+
+/* A random set of up to n keys over nb bodies, in the detection's order; p: the chance (per 1000)
+   that a key of `like` (nl keys) is kept, q: that one of the universe is added. */
+static int random_set(rkey *out, int nb, const rkey *like, int nl, int p, int q, unsigned *s)
+{
+  int n = 0, i, b, c, f;
+  for (i = 0; i < nl; i++)
+    if ((int)(rnd(s) % 1000) < p) out[n++] = like[i];
+  for (b = 0; b < nb; b++)
+    for (c = 0; c < nb + 2; c++)
+      for (f = 0; f < 3; f++) {
+        rkey k;
+        int j, dup = 0;
+        if ((int)(rnd(s) % 1000) >= q) continue;
+        if (c >= nb) { /* b against plane c - nb (pair 0 or 1), feature f */
+          k.o[0] = 0; k.o[1] = c - nb; k.o[2] = b;
+          k.key[0] = c - nb; k.key[1] = b; k.key[2] = 1000 + c - nb; k.key[3] = f; k.key[4] = -1;
+        } else {
+          int lo = b < c ? b : c, hi = b < c ? c : b, flip = (int)(rnd(s) % 2);
+          if (b == c) continue;
+          k.o[0] = 1; k.o[1] = lo; k.o[2] = hi;
+          k.key[0] = 2 + (lo + hi) % 2; k.key[1] = flip ? hi : lo; k.key[2] = flip ? lo : hi;
+          k.key[3] = f; k.key[4] = (int)(rnd(s) % 2);
+        }
+        for (j = 0; j < n && !dup; j++) dup = !memcmp(out[j].key, k.key, sizeof k.key);
+        if (!dup) out[n++] = k;
+      }
+  for (i = 0; i < n; i++) out[i].r = rnd(s);
+  qsort(out, (size_t)n, sizeof *out, rkey_cmp);
+  return n;
+}
+
+static void remap_random(void)
+{
+  static rkey A[4000], B[4000];
+  static int keys[4000 * MO_KEY];
+  static const unsigned char rr[4] = {0, 0, 1, 1};
+  mo_setmap M;
+  mo_ctx ctx;
+  unsigned s = 7;
+  int trial, bad = 0, mapped = 0, fresh = 0, gone = 0, grew = 0, st = 0;
+  memset(&M, 0, sizeof M);
+  mo_ctx_init(&ctx);
+  for (trial = 0; trial < 400 && !st; trial++) {
+    int nb = 2 + (int)(rnd(&s) % 40), mode = trial % 4, na, nn, a, p, kept0;
+    /* old and new alike (a deposit's step), new sets much larger, much smaller, unrelated */
+    int q1 = mode == 1 ? 20 : 150, keep = mode == 2 ? 300 : mode == 3 ? 0 : 900, q2 = mode == 1 ? 300 : 30;
+    na = random_set(A, nb, NULL, 0, 0, q1, &s);
+    nn = random_set(B, nb, A, na, keep, q2, &s);
+    for (a = 0; a < na; a++) memcpy(keys + (size_t)a * MO_KEY, A[a].key, sizeof A[a].key);
+    if ((st = mo_setmap_begin(&M, rr, na, 0, &ctx))) break;
+    for (a = 0; a < nn && !st; a++) st = mo_setmap_put(&M, keys, a, B[a].key, &ctx);
+    if (st || M.bad) {
+      bad++;
+      break;
+    }
+    grew += nn > na + 50;
+    kept0 = mapped;
+    for (a = 0; a < nn; a++) {
+      int brute = -1;
+      for (p = 0; p < na && brute < 0; p++)
+        if (!memcmp(A[p].key, B[a].key, sizeof B[a].key)) brute = p;
+      bad += M.map[a] != brute || memcmp(keys + (size_t)a * MO_KEY, B[a].key, sizeof B[a].key);
+      mapped += brute >= 0;
+      fresh += brute < 0;
+    }
+    gone += na - (mapped - kept0);
+  }
+  ok(!st && !bad && mapped > 10000 && fresh > 10000 && grew >= 50, "400 random sets written over the old (%d kept, %d "
+     "new, %d gone; %d at least 50 larger): the map is brute force's and the keys the new set's (%d otherwise)",
+     mapped, fresh, gone, grew, bad);
+  mo_setmap_free(&M);
+  mo_ctx_release(&ctx);
+}
+
 int main(void)
 {
   disks();
@@ -649,5 +822,7 @@ int main(void)
   metrics_follow();
   frames_of_normals(2);
   frames_of_normals(3);
+  remap_deposits();
+  remap_random();
   return done_testing();
 }
