@@ -82,6 +82,9 @@ void mo_pdetect_free(mo_contact *C)
   mo_free(P->one);
   mo_free(P->rc);
   mo_free(P->tot);
+  mo_free(P->own);
+  mo_free(P->near);
+  mo_free(P->rest);
   mo_free(P);
   C->pd = NULL;
 }
@@ -108,7 +111,10 @@ int mo_pdetect_active(mo_contact *C, mo_ctx *ctx)
       !(P->cnt = mo_malloc(ctx, (size_t)P->nranks * sizeof *P->cnt)) ||
       !(P->one = mo_malloc(ctx, (size_t)P->nranks * sizeof *P->one)) ||
       !(P->rc = mo_malloc(ctx, (size_t)P->nranks * sizeof *P->rc)) ||
-      !(P->tot = mo_calloc(ctx, (size_t)P->nranks, sizeof *P->tot))) {
+      !(P->tot = mo_calloc(ctx, (size_t)P->nranks, sizeof *P->tot)) ||
+      !(P->own = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *P->own)) ||
+      !(P->near = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *P->near)) ||
+      !(P->rest = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *P->rest))) {
     mo_pdetect_free(C);
     return -1;
   }
@@ -144,9 +150,19 @@ int mo_pdetect_begin(mo_contact *C, mo_ctx *ctx)
 
 int mo_pdetect_build(mo_contact *C, mo_ctx *ctx)
 {
+  struct mo_pdetect *P = C->pd;
+  const mo_scene *sc = C->sc;
+  int b;
   (void)ctx;
-  mo_pdetect_slabs(C->sc->dim, C->sc->nbody, C->bc, C->br, C->bmask, C->vl_reach, C->pd->nranks, C->pd->rank,
-                   C->pd->owner, C->pd->rmask);
+  mo_pdetect_slabs(sc->dim, sc->nbody, C->bc, C->br, C->bmask, C->vl_reach, P->nranks, P->rank, P->owner, P->rmask);
+  /* (T230): the bodies whose validity this rank decides, whose speeds it needs, and the others */
+  P->nown = P->nnear = P->nrest = 0;
+  for (b = 0; b < sc->nbody; b++) {
+    if (C->bmask[b] && P->owner[b] == P->rank) P->own[P->nown++] = b;
+    if (!C->dmask[b]) continue;
+    if (!C->bmask[b] || P->rmask[b]) P->near[P->nnear++] = b;
+    else P->rest[P->nrest++] = b;
+  }
   return MO_OK;
 }
 

@@ -26,6 +26,11 @@ struct mo_pdetect {
   int *cnt, *one;          /* per rank: its values in the gather; 1 each */
   double *rc;              /* per rank: its candidates (or -1: it failed) */
   long *tot;               /* per rank: its candidates over the run */
+  /* lists made at each build (T230): this rank's own bodies of the broad phase; the bodies
+     whose speeds it needs between builds (its slab and halo, and the dynamic bodies outside the
+     broad phase); the other dynamic bodies */
+  int *own, *near, *rest;
+  int nown, nnear, nrest;
 };
 
 /* Whether this rank detects the pairs of body b (it owns its slab); a body in no pair between
@@ -51,8 +56,28 @@ int mo_pdetect_slabs(int dim, int n, const double *c, const double *r, const uns
 int mo_pdetect_active(struct mo_contact *C, mo_ctx *ctx);
 /* Before the split part of a detection: its first candidate, and the previous keys kept. */
 int mo_pdetect_begin(struct mo_contact *C, mo_ctx *ctx);
-/* After a broad-phase build: the slabs and this rank's mask of the bodies (from C->bc, C->br). */
+/* After a broad-phase build: the slabs and this rank's mask of the bodies (from C->bc, C->br),
+   and its lists of bodies (T230). */
 int mo_pdetect_build(struct mo_contact *C, mo_ctx *ctx);
+/* This rank's own bodies of the broad phase at the last build (their count; *b the list). */
+static inline int mo_pdetect_own(const struct mo_pdetect *P, const int **b)
+{
+  *b = P->own;
+  return P->nown;
+}
+/* The dynamic bodies whose speeds this rank needs between builds: its slab and halo, and those
+   outside the broad phase. */
+static inline int mo_pdetect_near(const struct mo_pdetect *P, const int **b)
+{
+  *b = P->near;
+  return P->nnear;
+}
+/* The other dynamic bodies (their speeds are needed at a build only). */
+static inline int mo_pdetect_rest(const struct mo_pdetect *P, const int **b)
+{
+  *b = P->rest;
+  return P->nrest;
+}
 /* This rank's broad-phase mask. */
 const unsigned char *mo_pdetect_mask(const struct mo_contact *C);
 /* The candidates this rank just appended (from `from` to C->nc) carry the order key (s0, s1, s2)
