@@ -401,9 +401,12 @@ static int shapes_obstacle(mo_contact *C, int k, const mo_state *s, double t, mo
   const mo_scene *sc = C->sc;
   const mo_contact_pair *P = &C->pair[k];
   const mo_body *M = &sc->body[P->mb[0]];
-  int i, j, n, st;
-  for (i = 0; i < P->ns; i++) {
-    int sb = P->sb[i];
+  const int *own = NULL;
+  int i, j, n, q, nq = P->ns, st;
+  /* split over the ranks: the shapes of this rank's slab only (T215, T231) */
+  if (C->pd && (M->type->flags & MO_BODY_F_OBSTACLE)) nq = mo_pdetect_walls(C->pd, k, &own);
+  for (q = 0; q < nq; q++) {
+    int sb = P->sb[i = own ? own[q] : q];
     const mo_body *S = &sc->body[sb];
     double c[3], v[2 * MO_POLYGON_MAX], p[3], alert;
     mo_narrow out[MO_POLYGON_MAX];
@@ -412,8 +415,6 @@ static int shapes_obstacle(mo_contact *C, int k, const mo_state *s, double t, mo
       double h = 0, reach;
       int from = C->nc;
       if (t > M->until) return MO_OK; /* the gate has opened */
-      /* split over the ranks: the shapes of this rank's slab only (T215) */
-      if (C->pd && !mo_pdetect_owns(C->pd, sb)) continue;
       for (j = 0; j < sc->dim; j++) p[j] = M->point[j] + M->velocity[j] * t;
       /* a shape whose bounding ball is farther from the plane than any alert distance of theirs
          (pair_alert <= alert + 2 h (s_b + s_plane)) is passed over before its narrow phase */

@@ -85,6 +85,8 @@ void mo_pdetect_free(mo_contact *C)
   mo_free(P->own);
   mo_free(P->near);
   mo_free(P->rest);
+  mo_free(P->wall);
+  mo_free(P->wall0);
   mo_free(P);
   C->pd = NULL;
 }
@@ -114,7 +116,8 @@ int mo_pdetect_active(mo_contact *C, mo_ctx *ctx)
       !(P->tot = mo_calloc(ctx, (size_t)P->nranks, sizeof *P->tot)) ||
       !(P->own = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *P->own)) ||
       !(P->near = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *P->near)) ||
-      !(P->rest = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *P->rest))) {
+      !(P->rest = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *P->rest)) ||
+      !(P->wall0 = mo_calloc(ctx, (size_t)C->npair + 1, sizeof *P->wall0))) {
     mo_pdetect_free(C);
     return -1;
   }
@@ -152,8 +155,8 @@ int mo_pdetect_build(mo_contact *C, mo_ctx *ctx)
 {
   struct mo_pdetect *P = C->pd;
   const mo_scene *sc = C->sc;
-  int b;
-  (void)ctx;
+  size_t nw = 0;
+  int b, k, i;
   mo_pdetect_slabs(sc->dim, sc->nbody, C->bc, C->br, C->bmask, C->vl_reach, P->nranks, P->rank, P->owner, P->rmask);
   /* (T230): the bodies whose validity this rank decides, whose speeds it needs, and the others */
   P->nown = P->nnear = P->nrest = 0;
@@ -163,6 +166,15 @@ int mo_pdetect_build(mo_contact *C, mo_ctx *ctx)
     if (!C->bmask[b] || P->rmask[b]) P->near[P->nnear++] = b;
     else P->rest[P->nrest++] = b;
   }
+  /* (T231): per pair, the shapes of this rank's slab */
+  for (k = 0; k < C->npair; k++) nw += (size_t)C->pair[k].ns;
+  if (room((void **)&P->wall, &P->wallcap, nw + 1, sizeof *P->wall, ctx)) return MO_ENOMEM;
+  for (k = 0, nw = 0; k < C->npair; k++) {
+    P->wall0[k] = (int)nw;
+    for (i = 0; i < C->pair[k].ns; i++)
+      if (mo_pdetect_owns(P, C->pair[k].sb[i])) P->wall[nw++] = i;
+  }
+  P->wall0[C->npair] = (int)nw;
   return MO_OK;
 }
 

@@ -26,10 +26,12 @@ struct mo_pdetect {
   int *cnt, *one;          /* per rank: its values in the gather; 1 each */
   double *rc;              /* per rank: its candidates (or -1: it failed) */
   long *tot;               /* per rank: its candidates over the run */
-  /* lists made at each build (T230): this rank's own bodies of the broad phase; the bodies
+  /* lists made at each build (T230)-(T231): this rank's own bodies of the broad phase; the bodies
      whose speeds it needs between builds (its slab and halo, and the dynamic bodies outside the
-     broad phase); the other dynamic bodies */
-  int *own, *near, *rest;
+     broad phase); the other dynamic bodies; per pair k, the slave indices of this rank's shapes
+     (wall[wall0[k] .. wall0[k + 1]]) */
+  int *own, *near, *rest, *wall, *wall0;
+  size_t wallcap;
   int nown, nnear, nrest;
 };
 
@@ -57,7 +59,7 @@ int mo_pdetect_active(struct mo_contact *C, mo_ctx *ctx);
 /* Before the split part of a detection: its first candidate, and the previous keys kept. */
 int mo_pdetect_begin(struct mo_contact *C, mo_ctx *ctx);
 /* After a broad-phase build: the slabs and this rank's mask of the bodies (from C->bc, C->br),
-   and its lists of bodies (T230). */
+   and its lists of bodies and shapes (T230)-(T231). */
 int mo_pdetect_build(struct mo_contact *C, mo_ctx *ctx);
 /* This rank's own bodies of the broad phase at the last build (their count; *b the list). */
 static inline int mo_pdetect_own(const struct mo_pdetect *P, const int **b)
@@ -77,6 +79,12 @@ static inline int mo_pdetect_rest(const struct mo_pdetect *P, const int **b)
 {
   *b = P->rest;
   return P->nrest;
+}
+/* The slave indices (in the pair's list) of the shapes of pair k this rank detects (T231). */
+static inline int mo_pdetect_walls(const struct mo_pdetect *P, int k, const int **i)
+{
+  *i = P->wall + P->wall0[k];
+  return P->wall0[k + 1] - P->wall0[k];
 }
 /* This rank's broad-phase mask. */
 const unsigned char *mo_pdetect_mask(const struct mo_contact *C);
