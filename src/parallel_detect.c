@@ -281,6 +281,7 @@ int mo_pdetect_finish(mo_contact *C, int st, mo_ctx *ctx)
     return st;
   /* this rank's block: its part of the arrays as it is, and its order keys */
   own = block_at(C, P->buf, n);
+  if (n) P->buf[block_size(C, n) - 1] = 0; /* the padding sent defined */
   copy_fields(C, &own, 0, (size_t)P->nc0, n, 0);
   if (n) memcpy(own.tag, P->tag, n * NTAG * sizeof *own.tag);
   if ((st = mo_par_gatherv(P->buf, P->cnt, P->all, ctx))) return st;
