@@ -6,6 +6,7 @@
 #include <moreau/contact.h>
 #include "broad.h"
 #include "parallel_detect.h"
+#include <moreau/parallel.h>
 #include "contact_internal.h"
 #include "narrow.h"
 
@@ -414,9 +415,12 @@ static int shapes_obstacle(mo_contact *C, int k, const mo_state *s, double t, mo
   const mo_scene *sc = C->sc;
   const mo_contact_pair *P = &C->pair[k];
   const mo_body *M = &sc->body[P->mb[0]];
-  int i, j, n, st;
-  for (i = 0; i < P->ns; i++) {
-    int sb = P->sb[i];
+  const int *own = NULL;
+  int i, j, n, q, nq = P->ns, st;
+  /* split over the ranks: the shapes of this rank's slab only (T215, T231) */
+  if (C->pd && (M->type->flags & MO_BODY_F_OBSTACLE)) nq = mo_pdetect_walls(C->pd, k, &own);
+  for (q = 0; q < nq; q++) {
+    int sb = P->sb[i = own ? own[q] : q];
     const mo_body *S = &sc->body[sb];
     double c[3], v[2 * MO_POLYGON_MAX], p[3], alert;
     mo_narrow out[MO_POLYGON_MAX];
@@ -425,8 +429,6 @@ static int shapes_obstacle(mo_contact *C, int k, const mo_state *s, double t, mo
       double h = 0, reach;
       int from = C->nc;
       if (t > M->until) return MO_OK; /* the gate has opened */
-      /* split over the ranks: the shapes of this rank's slab only (T215) */
-      if (C->pd && !mo_pdetect_owns(C->pd, sb)) continue;
       for (j = 0; j < sc->dim; j++) p[j] = M->point[j] + M->velocity[j] * t;
       /* a shape whose bounding ball is farther from the plane than any alert distance of theirs
          (pair_alert <= alert + 2 h (s_b + s_plane)) is passed over before its narrow phase */
@@ -462,6 +464,68 @@ static int shapes_obstacle(mo_contact *C, int k, const mo_state *s, double t, mo
   return MO_OK;
 }
 
+/* Body b of the dynamic pairs: its centre, velocity, and the largest speed a point of it can have
+   (|v| + |omega| times its bounding radius; a plane's velocity; a mesh's fastest node), the margin
+   of its pairs' alert distances over a step. */
+static inline void body_speed(mo_contact *C, const mo_state *s, int b)
+{
+  const mo_scene *sc = C->sc;
+  const mo_body *B = &sc->body[b];
+  double v2 = 0, w2 = 0, vmax = 0, *v = C->bv + 3 * (size_t)b;
+  int a, i, D = sc->dim;
+  v[0] = v[1] = v[2] = 0;
+  C->bw[b] = 0;
+  if (B->type->flags & MO_BODY_F_RIGID) {
+    for (a = 0; a < D; a++) C->bcur[(size_t)D * b + a] = B->xc0[a] + s->u[B->dof0 + a]; /* mo_rigid_center */
+    for (a = 0; a < D; a++) v2 += (v[a] = s->v[B->dof0 + a]) * s->v[B->dof0 + a];
+    for (a = D; a < B->ndof; a++) w2 += s->v[B->dof0 + a] * s->v[B->dof0 + a];
+    C->bw[b] = sqrt(w2) * B->bound;
+    vmax = sqrt(v2) + C->bw[b];
+  } else if (B->type->flags & MO_BODY_F_OBSTACLE) {
+    for (a = 0; a < D; a++) v2 += (v[a] = B->velocity[a]) * B->velocity[a];
+    vmax = sqrt(v2);
+  } else {
+    /* a mesh: its fastest node, as a spread about no common velocity */
+    for (a = 0; a < B->mesh->nnode; a++) {
+      v2 = 0;
+      for (i = 0; i < D; i++) v2 += s->v[B->dof0 + a * D + i] * s->v[B->dof0 + a * D + i];
+      vmax = fmax(vmax, sqrt(v2));
+    }
+    C->bw[b] = vmax;
+  }
+  C->bs[b] = vmax;
+}
+
+/* Every body of the dynamic pairs (body_speed). Split over the ranks with the list built, the
+   bodies of this rank's slab and halo and those outside the broad phase only (T230): the others'
+   are taken at the next build, and their centres are not kept for contact_geom.c (bcur_u NULL). */
+static void body_speeds(mo_contact *C, const mo_state *s)
+{
+  int b;
+  C->bcur_u = s->u;
+  C->bcur_step = s->step;
+  if (C->pd && C->vl_built) {
+    const int *near;
+    const int n = mo_pdetect_near(C->pd, &near);
+    C->bcur_u = NULL;
+    for (b = 0; b < n; b++) body_speed(C, s, near[b]);
+    return;
+  }
+  if (C->pd) C->bcur_u = NULL;
+  for (b = 0; b < C->sc->nbody; b++)
+    if (C->dmask[b]) body_speed(C, s, b);
+}
+
+/* Body b's speed relative to the mean translation velocity vm plus what its rotation adds,
+   s'_b = |v_b - vm| + w_b, into bs2 (doc/theory.md (T110)). */
+static inline void relative_speed(mo_contact *C, int D, const double *vm, int b)
+{
+  double e2 = 0;
+  int k;
+  for (k = 0; k < D; k++) e2 += (C->bv[3 * (size_t)b + k] - vm[k]) * (C->bv[3 * (size_t)b + k] - vm[k]);
+  C->bs2[b] = sqrt(e2) + C->bw[b];
+}
+
 /* The mean translation velocity of the broad phase's bodies (bv), and each body's speed relative to
    it plus what its rotation adds, s'_b = |v_b - vm| + w_b, into bs2 (doc/theory.md (T110)). */
 static void relative_speeds(mo_contact *C, int D, double *vm)
@@ -476,11 +540,53 @@ static void relative_speeds(mo_contact *C, int D, double *vm)
     }
   for (k = 0; k < D && n; k++) vm[k] /= n;
   for (b = 0; b < sc->nbody; b++)
-    if (C->bmask[b]) {
-      double e2 = 0;
-      for (k = 0; k < D; k++) e2 += (C->bv[3 * (size_t)b + k] - vm[k]) * (C->bv[3 * (size_t)b + k] - vm[k]);
-      C->bs2[b] = sqrt(e2) + C->bw[b];
+    if (C->bmask[b]) relative_speed(C, D, vm, b);
+}
+
+/* Whether body b keeps the list valid: its displacement since the build relative to the mean one
+   (dm), plus what it can close at its relative speed now, within half the skin plus its e_b. */
+static inline int body_valid(const mo_contact *C, int D, const double *dm, int b)
+{
+  double dd = 0;
+  int k;
+  for (k = 0; k < D; k++) {
+    double e = C->bcur[(size_t)D * b + k] - C->bc[(size_t)D * b + k] - dm[k];
+    dd += e * e;
+  }
+  return sqrt(dd) + 2 * C->h * C->bs2[b] <= 0.5 * C->skin + C->be[b];
+}
+
+/* The list's validity split over the ranks (doc/theory.md (T230)): the sums of the velocities and
+   displacements of each rank's own bodies (its slab at the last build) summed over the ranks into
+   the means vm and dm, each rank's own bodies tested, and one maximum over the ranks: every rank
+   takes the decision one process takes over every body (to the rounding of the means' sums). */
+static int valid_split(mo_contact *C, int D, double *vm, int *valid, mo_ctx *ctx)
+{
+  const int *own;
+  const int n = mo_pdetect_own(C->pd, &own);
+  double sum[7] = {0, 0, 0, 0, 0, 0, 0}, dm[3], bad = 0;
+  int i, k, st;
+  for (i = 0; i < n; i++) {
+    const int b = own[i];
+    for (k = 0; k < D; k++) {
+      sum[k] += C->bv[3 * (size_t)b + k];
+      sum[D + k] += C->bcur[(size_t)D * b + k] - C->bc[(size_t)D * b + k];
     }
+  }
+  sum[2 * D] = n;
+  if ((st = mo_par_sum(sum, 2 * D + 1, ctx))) return st;
+  for (k = 0; k < 3; k++) vm[k] = dm[k] = 0;
+  for (k = 0; k < D && sum[2 * D] > 0; k++) {
+    vm[k] = sum[k] / sum[2 * D];
+    dm[k] = sum[D + k] / sum[2 * D];
+  }
+  for (i = 0; i < n; i++) {
+    relative_speed(C, D, vm, own[i]);
+    if (!bad && !body_valid(C, D, dm, own[i])) bad = 1;
+  }
+  if ((st = mo_par_max(&bad, 1, ctx))) return st;
+  *valid = bad == 0;
+  return MO_OK;
 }
 
 /* The broad phase's pair list, kept while it holds every pair closer than its alert distance
@@ -498,24 +604,30 @@ static int pair_list(mo_contact *C, const mo_state *s, mo_ctx *ctx)
   long np;
   int b, k, st, valid = C->vl_built, n = 0;
   double t0 = mo_clock(), vm[3], dm[3] = {0, 0, 0};
-  relative_speeds(C, D, vm);
-  if (valid) {
-    /* the mean displacement since the build, then each body's displacement relative to it */
-    for (b = 0; b < sc->nbody; b++)
-      if (C->bmask[b]) {
-        for (k = 0; k < D; k++) dm[k] += C->bcur[(size_t)D * b + k] - C->bc[(size_t)D * b + k];
-        n++;
-      }
-    for (k = 0; k < D && n; k++) dm[k] /= n;
-    for (b = 0; b < sc->nbody && valid; b++)
-      if (C->bmask[b]) {
-        double dd = 0;
-        for (k = 0; k < D; k++) {
-          double e = C->bcur[(size_t)D * b + k] - C->bc[(size_t)D * b + k] - dm[k];
-          dd += e * e;
+  if (C->pd && valid) {
+    /* split over the ranks: each rank its own bodies (T230); at a build, the speeds of the bodies
+       outside its slab and halo, then every body's relative speed */
+    if ((st = valid_split(C, D, vm, &valid, ctx))) return st;
+    if (!valid) {
+      const int *rest;
+      const int nr = mo_pdetect_rest(C->pd, &rest);
+      for (b = 0; b < nr; b++) body_speed(C, s, rest[b]);
+      for (b = 0; b < sc->nbody; b++)
+        if (C->bmask[b]) relative_speed(C, D, vm, b);
+    }
+  } else {
+    relative_speeds(C, D, vm);
+    if (valid) {
+      /* the mean displacement since the build, then each body's displacement relative to it */
+      for (b = 0; b < sc->nbody; b++)
+        if (C->bmask[b]) {
+          for (k = 0; k < D; k++) dm[k] += C->bcur[(size_t)D * b + k] - C->bc[(size_t)D * b + k];
+          n++;
         }
-        valid = sqrt(dd) + 2 * C->h * C->bs2[b] <= 0.5 * C->skin + C->be[b];
-      }
+      for (k = 0; k < D && n; k++) dm[k] /= n;
+      for (b = 0; b < sc->nbody && valid; b++)
+        if (C->bmask[b]) valid = body_valid(C, D, dm, b);
+    }
   }
   if (valid) {
     mo_phase_add(ctx, MO_PH_BROAD, t0);
@@ -530,7 +642,7 @@ static int pair_list(mo_contact *C, const mo_state *s, mo_ctx *ctx)
   C->vl_reach = C->alert + C->skin;
   /* split over the ranks: the slabs of this build, and the broad phase on this rank's slab and
      its halo (T215)-(T216) */
-  if (C->pd) mo_pdetect_build(C, ctx);
+  if (C->pd && (st = mo_pdetect_build(C, ctx))) return st;
   if ((st = mo_broad_pairs(C->broad, D, sc->nbody, C->bc, C->br, C->pd ? mo_pdetect_mask(C) : C->bmask, C->vl_reach,
                            &pairs, &np, ctx))) {
     C->vl_built = 0;
@@ -585,43 +697,6 @@ static int rigid_pairs(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx)
   return MO_OK;
 }
 
-/* Each body of the dynamic pairs: the largest speed a point of it can have (|v| + |omega| times
-   its bounding radius; a plane's velocity; a mesh's fastest node), the margin of its pairs'
-   alert distances over a step. */
-static void body_speeds(mo_contact *C, const mo_state *s)
-{
-  const mo_scene *sc = C->sc;
-  int b, a, i, D = sc->dim;
-  C->bcur_u = s->u;
-  C->bcur_step = s->step;
-  for (b = 0; b < sc->nbody; b++) {
-    const mo_body *B = &sc->body[b];
-    double v2 = 0, w2 = 0, vmax = 0, *v = C->bv + 3 * (size_t)b;
-    if (!C->dmask[b]) continue;
-    v[0] = v[1] = v[2] = 0;
-    C->bw[b] = 0;
-    if (B->type->flags & MO_BODY_F_RIGID) {
-      for (a = 0; a < D; a++) C->bcur[(size_t)D * b + a] = B->xc0[a] + s->u[B->dof0 + a]; /* mo_rigid_center */
-      for (a = 0; a < D; a++) v2 += (v[a] = s->v[B->dof0 + a]) * s->v[B->dof0 + a];
-      for (a = D; a < B->ndof; a++) w2 += s->v[B->dof0 + a] * s->v[B->dof0 + a];
-      C->bw[b] = sqrt(w2) * B->bound;
-      vmax = sqrt(v2) + C->bw[b];
-    } else if (B->type->flags & MO_BODY_F_OBSTACLE) {
-      for (a = 0; a < D; a++) v2 += (v[a] = B->velocity[a]) * B->velocity[a];
-      vmax = sqrt(v2);
-    } else {
-      /* a mesh: its fastest node, as a spread about no common velocity */
-      for (a = 0; a < B->mesh->nnode; a++) {
-        v2 = 0;
-        for (i = 0; i < D; i++) v2 += s->v[B->dof0 + a * D + i] * s->v[B->dof0 + a * D + i];
-        vmax = fmax(vmax, sqrt(v2));
-      }
-      C->bw[b] = vmax;
-    }
-    C->bs[b] = vmax;
-  }
-}
-
 size_t mo_contact_broad_bytes(const mo_contact *C) { return mo_broad_bytes(C->broad); }
 
 int mo_contact_broad_stats(const mo_contact *C, long *builds, long *pairs)
@@ -635,6 +710,9 @@ int mo_contact_detect(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx)
 {
   int k, split, st = MO_OK;
   long from;
+  /* the granular path over MPI ranks: each rank its slab's pairs, then every rank's gathered
+     (doc/parallel.md §4, (T215)-(T217)) */
+  if ((split = mo_pdetect_active(C, ctx)) < 0) return MO_ENOMEM;
   body_speeds(C, s);
   /* the new keys are compared with the old ones as they overwrite them (set_key) */
   C->knold = C->nc;
@@ -642,9 +720,6 @@ int mo_contact_detect(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx)
   C->npt = C->npt_static;
   C->nc = C->nc_static;
   C->ncoef = C->ncoef_static;
-  /* the granular path over MPI ranks: each rank its slab's pairs, then every rank's gathered
-     (doc/parallel.md §4, (T215)-(T217)) */
-  if ((split = mo_pdetect_active(C, ctx)) < 0) return MO_ENOMEM;
   /* on one rank the granular path writes the remap as it overwrites the keys (-2: under way) */
   from = C->cset_version;
   C->smap_from = C->smap_to = -1;

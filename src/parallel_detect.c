@@ -82,6 +82,11 @@ void mo_pdetect_free(mo_contact *C)
   mo_free(P->one);
   mo_free(P->rc);
   mo_free(P->tot);
+  mo_free(P->own);
+  mo_free(P->near);
+  mo_free(P->rest);
+  mo_free(P->wall);
+  mo_free(P->wall0);
   mo_free(P);
   C->pd = NULL;
 }
@@ -108,7 +113,11 @@ int mo_pdetect_active(mo_contact *C, mo_ctx *ctx)
       !(P->cnt = mo_malloc(ctx, (size_t)P->nranks * sizeof *P->cnt)) ||
       !(P->one = mo_malloc(ctx, (size_t)P->nranks * sizeof *P->one)) ||
       !(P->rc = mo_malloc(ctx, (size_t)P->nranks * sizeof *P->rc)) ||
-      !(P->tot = mo_calloc(ctx, (size_t)P->nranks, sizeof *P->tot))) {
+      !(P->tot = mo_calloc(ctx, (size_t)P->nranks, sizeof *P->tot)) ||
+      !(P->own = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *P->own)) ||
+      !(P->near = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *P->near)) ||
+      !(P->rest = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *P->rest)) ||
+      !(P->wall0 = mo_calloc(ctx, (size_t)C->npair + 1, sizeof *P->wall0))) {
     mo_pdetect_free(C);
     return -1;
   }
@@ -144,9 +153,28 @@ int mo_pdetect_begin(mo_contact *C, mo_ctx *ctx)
 
 int mo_pdetect_build(mo_contact *C, mo_ctx *ctx)
 {
-  (void)ctx;
-  mo_pdetect_slabs(C->sc->dim, C->sc->nbody, C->bc, C->br, C->bmask, C->vl_reach, C->pd->nranks, C->pd->rank,
-                   C->pd->owner, C->pd->rmask);
+  struct mo_pdetect *P = C->pd;
+  const mo_scene *sc = C->sc;
+  size_t nw = 0;
+  int b, k, i;
+  mo_pdetect_slabs(sc->dim, sc->nbody, C->bc, C->br, C->bmask, C->vl_reach, P->nranks, P->rank, P->owner, P->rmask);
+  /* (T230): the bodies whose validity this rank decides, whose speeds it needs, and the others */
+  P->nown = P->nnear = P->nrest = 0;
+  for (b = 0; b < sc->nbody; b++) {
+    if (C->bmask[b] && P->owner[b] == P->rank) P->own[P->nown++] = b;
+    if (!C->dmask[b]) continue;
+    if (!C->bmask[b] || P->rmask[b]) P->near[P->nnear++] = b;
+    else P->rest[P->nrest++] = b;
+  }
+  /* (T231): per pair, the shapes of this rank's slab */
+  for (k = 0; k < C->npair; k++) nw += (size_t)C->pair[k].ns;
+  if (room((void **)&P->wall, &P->wallcap, nw + 1, sizeof *P->wall, ctx)) return MO_ENOMEM;
+  for (k = 0, nw = 0; k < C->npair; k++) {
+    P->wall0[k] = (int)nw;
+    for (i = 0; i < C->pair[k].ns; i++)
+      if (mo_pdetect_owns(P, C->pair[k].sb[i])) P->wall[nw++] = i;
+  }
+  P->wall0[C->npair] = (int)nw;
   return MO_OK;
 }
 
@@ -168,94 +196,122 @@ int mo_pdetect_tag(mo_contact *C, int from, int s0, int s1, int s2, mo_ctx *ctx)
   return MO_OK;
 }
 
-/* The values of one candidate in the gather: its order key, its key, point, frame, gap, obstacle
-   velocity (when stored) and activity. */
-static size_t record_size(const mo_contact *C)
+/* A rank's block in the gather (T232): its n candidates field by field, each field a copy of
+   the rank's contiguous part of the set's arrays: points, frames, gaps, obstacle velocities (when
+   stored), then the order keys and keys (ints) and the activities (bytes), padded to doubles. */
+struct block {
+  double *x, *frame, *g, *U0;
+  int *tag, *key;
+  unsigned char *active;
+};
+
+/* The doubles of a block of n candidates. */
+static size_t block_size(const mo_contact *C, size_t n)
 {
   const size_t D = (size_t)C->sc->dim, d = (size_t)C->dim;
-  return NTAG + MO_KEY + D + (size_t)mo_contact_fstride(C) + 1 + (C->U0 ? d : 0) + 1;
-}
-
-static void pack(const mo_contact *C, const int *tag, int a, double *v)
-{
   /* of the frame, its normal alone on the granular path (T225) */
-  const size_t D = (size_t)C->sc->dim, d = (size_t)C->dim, f = (size_t)mo_contact_fstride(C);
-  size_t i;
-  for (i = 0; i < NTAG; i++) *v++ = tag[i];
-  for (i = 0; i < MO_KEY; i++) *v++ = C->key[(size_t)a * MO_KEY + i];
-  for (i = 0; i < D; i++) *v++ = C->x[(size_t)a * D + i];
-  for (i = 0; i < f; i++) *v++ = C->frame[(size_t)a * f + i];
-  *v++ = C->g[a];
-  if (C->U0)
-    for (i = 0; i < d; i++) *v++ = C->U0[(size_t)a * d + i];
-  *v = C->active[a];
+  const size_t f = (size_t)mo_contact_fstride(C);
+  size_t bytes = n * (8 * (D + f + 1 + (C->U0 ? d : 0)) + 4 * (NTAG + MO_KEY) + 1);
+  return (bytes + 7) / 8;
 }
 
-/* Candidate a of the set from record v; its key compared with the previous set's (C->ksame). */
-static void unpack(mo_contact *C, const struct mo_pdetect *P, int a, const double *v)
+/* The fields of the block of n candidates at v. */
+static struct block block_at(const mo_contact *C, double *v, size_t n)
 {
   const size_t D = (size_t)C->sc->dim, d = (size_t)C->dim, f = (size_t)mo_contact_fstride(C);
-  int *key = C->key + (size_t)a * MO_KEY;
-  const int *old = P->okey + (size_t)(a - P->nc0) * MO_KEY;
-  size_t i;
-  v += NTAG;
-  for (i = 0; i < MO_KEY; i++) key[i] = (int)v[i];
-  if (a >= P->knold || memcmp(key, old, MO_KEY * sizeof *key)) C->ksame = 0;
-  v += MO_KEY;
-  for (i = 0; i < D; i++) C->x[(size_t)a * D + i] = *v++;
-  for (i = 0; i < f; i++) C->frame[(size_t)a * f + i] = *v++;
-  C->g[a] = *v++;
-  if (C->U0)
-    for (i = 0; i < d; i++) C->U0[(size_t)a * d + i] = *v++;
-  C->active[a] = (unsigned char)*v;
+  struct block B;
+  B.x = v;
+  B.frame = B.x + n * D;
+  B.g = B.frame + n * f;
+  B.U0 = B.g + n;
+  B.tag = (int *)(B.U0 + (C->U0 ? n * d : 0));
+  B.key = B.tag + n * NTAG;
+  B.active = (unsigned char *)(B.key + n * MO_KEY);
+  return B;
 }
 
-/* Record v before record u in the serial detection's order (T217). */
-static int before(const double *v, const double *u)
+/* m candidates from i of block B into the set's candidates from a (to == 0: the other way, the
+   set's candidates from a into B's from i). */
+static void copy_fields(mo_contact *C, const struct block *B, size_t i, size_t a, size_t m, int to)
+{
+  const size_t D = (size_t)C->sc->dim, d = (size_t)C->dim;
+#define FIELD(dst, src, w) \
+  do { \
+    if (to) memcpy((dst) + a * (w), (src) + i * (w), m * (w) * sizeof *(dst)); \
+    else memcpy((src) + i * (w), (dst) + a * (w), m * (w) * sizeof *(dst)); \
+  } while (0)
+  FIELD(C->x, B->x, D);
+  FIELD(C->frame, B->frame, (size_t)mo_contact_fstride(C));
+  FIELD(C->g, B->g, 1);
+  if (C->U0) FIELD(C->U0, B->U0, d);
+  FIELD(C->key, B->key, (size_t)MO_KEY);
+  FIELD(C->active, B->active, 1);
+#undef FIELD
+}
+
+/* Order key u before order key w in the serial detection's order (T217). */
+static inline int before(const int *u, const int *w)
 {
   int i;
   for (i = 0; i < NTAG; i++)
-    if (v[i] != u[i]) return v[i] < u[i];
+    if (u[i] != w[i]) return u[i] < w[i];
   return 0;
 }
 
 int mo_pdetect_finish(mo_contact *C, int st, mo_ctx *ctx)
 {
   struct mo_pdetect *P = C->pd;
-  const size_t R = record_size(C);
-  size_t n = (size_t)(C->nc - P->nc0), total = 0, head[64], end[64];
+  size_t n = (size_t)(C->nc - P->nc0), total = 0, off = 0, head[64], end[64], a;
   double mine = st ? -1 : (double)n, largest = 0;
-  int r, a, st2;
+  struct block B[64], own;
+  int r, st2;
   /* every rank's count, or -1 for a rank that failed: then every rank fails */
   if ((st2 = mo_par_gatherv(&mine, P->one, P->rc, ctx))) return st ? st : st2;
   for (r = 0; r < P->nranks; r++)
     if (P->rc[r] < 0) return st ? st : mo_error(ctx, MO_EINPUT, "contact detection failed on rank %d", r);
   if (P->nranks > 64) return mo_error(ctx, MO_ELIMIT, "contact detection over %d ranks (at most 64)", P->nranks);
   for (r = 0; r < P->nranks; r++) {
-    P->cnt[r] = (int)(P->rc[r] * (double)R);
-    head[r] = total;
+    P->cnt[r] = (int)block_size(C, (size_t)P->rc[r]);
     total += (size_t)P->rc[r];
-    end[r] = total;
     P->tot[r] += (long)P->rc[r];
     if ((double)P->tot[r] > largest) largest = (double)P->tot[r];
   }
   ctx->par_detect_largest = (long)largest;
   ctx->par_detect_total += (long)total;
-  if ((st = room((void **)&P->buf, &P->bufcap, n * R + 1, sizeof *P->buf, ctx)) ||
-      (st = room((void **)&P->all, &P->allcap, total * R + 1, sizeof *P->all, ctx)))
+  if ((st = room((void **)&P->buf, &P->bufcap, block_size(C, n) + 1, sizeof *P->buf, ctx)) ||
+      (st = room((void **)&P->all, &P->allcap, block_size(C, total) + (size_t)P->nranks + 1, sizeof *P->all, ctx)))
     return st;
-  for (a = 0; a < (int)n; a++) pack(C, P->tag + (size_t)NTAG * a, P->nc0 + a, P->buf + (size_t)a * R);
+  /* this rank's block: its part of the arrays as it is, and its order keys */
+  own = block_at(C, P->buf, n);
+  if (n) P->buf[block_size(C, n) - 1] = 0; /* the padding sent defined */
+  copy_fields(C, &own, 0, (size_t)P->nc0, n, 0);
+  if (n) memcpy(own.tag, P->tag, n * NTAG * sizeof *own.tag);
   if ((st = mo_par_gatherv(P->buf, P->cnt, P->all, ctx))) return st;
   if ((st = mo_contact_reserve(C, P->nc0 + (int)total, ctx))) return st;
-  /* the ranks' lists, each in the serial order, merged (T217) */
-  C->ksame = P->ksame;
-  for (a = P->nc0; a < P->nc0 + (int)total; a++) {
-    int best = -1;
-    for (r = 0; r < P->nranks; r++)
-      if (head[r] < end[r] && (best < 0 || before(P->all + head[r] * R, P->all + head[best] * R))) best = r;
-    unpack(C, P, a, P->all + head[best] * R);
-    head[best]++;
+  for (r = 0; r < P->nranks; r++) {
+    B[r] = block_at(C, P->all + off, (size_t)P->rc[r]);
+    off += (size_t)P->cnt[r];
+    head[r] = 0;
+    end[r] = (size_t)P->rc[r];
   }
+  /* the ranks' lists, each in the serial order, merged by runs (T217, T232): the rank whose next
+     order key comes first, and as many of its candidates as come before every other rank's next */
+  for (a = 0; a < total;) {
+    int best = -1, next = -1;
+    size_t h;
+    for (r = 0; r < P->nranks; r++)
+      if (head[r] < end[r] && (best < 0 || before(B[r].tag + head[r] * NTAG, B[best].tag + head[best] * NTAG))) best = r;
+    for (r = 0; r < P->nranks; r++)
+      if (r != best && head[r] < end[r] && (next < 0 || before(B[r].tag + head[r] * NTAG, B[next].tag + head[next] * NTAG)))
+        next = r;
+    for (h = head[best] + 1; h < end[best] && (next < 0 || before(B[best].tag + h * NTAG, B[next].tag + head[next] * NTAG));) h++;
+    copy_fields(C, &B[best], head[best], (size_t)P->nc0 + a, h - head[best], 1);
+    a += h - head[best];
+    head[best] = h;
+  }
+  /* the keys compared with the previous set's as one process compares them (set_key) */
+  C->ksame = P->ksame && (size_t)P->nc0 + total <= (size_t)P->knold &&
+             !memcmp(C->key + (size_t)P->nc0 * MO_KEY, P->okey, total * MO_KEY * sizeof *C->key);
   C->nc = P->nc0 + (int)total;
   return MO_OK;
 }

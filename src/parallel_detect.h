@@ -26,6 +26,13 @@ struct mo_pdetect {
   int *cnt, *one;          /* per rank: its values in the gather; 1 each */
   double *rc;              /* per rank: its candidates (or -1: it failed) */
   long *tot;               /* per rank: its candidates over the run */
+  /* lists made at each build (T230)-(T231): this rank's own bodies of the broad phase; the bodies
+     whose speeds it needs between builds (its slab and halo, and the dynamic bodies outside the
+     broad phase); the other dynamic bodies; per pair k, the slave indices of this rank's shapes
+     (wall[wall0[k] .. wall0[k + 1]]) */
+  int *own, *near, *rest, *wall, *wall0;
+  size_t wallcap;
+  int nown, nnear, nrest;
 };
 
 /* Whether this rank detects the pairs of body b (it owns its slab); a body in no pair between
@@ -51,8 +58,34 @@ int mo_pdetect_slabs(int dim, int n, const double *c, const double *r, const uns
 int mo_pdetect_active(struct mo_contact *C, mo_ctx *ctx);
 /* Before the split part of a detection: its first candidate, and the previous keys kept. */
 int mo_pdetect_begin(struct mo_contact *C, mo_ctx *ctx);
-/* After a broad-phase build: the slabs and this rank's mask of the bodies (from C->bc, C->br). */
+/* After a broad-phase build: the slabs and this rank's mask of the bodies (from C->bc, C->br),
+   and its lists of bodies and shapes (T230)-(T231). */
 int mo_pdetect_build(struct mo_contact *C, mo_ctx *ctx);
+/* This rank's own bodies of the broad phase at the last build (their count; *b the list). */
+static inline int mo_pdetect_own(const struct mo_pdetect *P, const int **b)
+{
+  *b = P->own;
+  return P->nown;
+}
+/* The dynamic bodies whose speeds this rank needs between builds: its slab and halo, and those
+   outside the broad phase. */
+static inline int mo_pdetect_near(const struct mo_pdetect *P, const int **b)
+{
+  *b = P->near;
+  return P->nnear;
+}
+/* The other dynamic bodies (their speeds are needed at a build only). */
+static inline int mo_pdetect_rest(const struct mo_pdetect *P, const int **b)
+{
+  *b = P->rest;
+  return P->nrest;
+}
+/* The slave indices (in the pair's list) of the shapes of pair k this rank detects (T231). */
+static inline int mo_pdetect_walls(const struct mo_pdetect *P, int k, const int **i)
+{
+  *i = P->wall + P->wall0[k];
+  return P->wall0[k + 1] - P->wall0[k];
+}
 /* This rank's broad-phase mask. */
 const unsigned char *mo_pdetect_mask(const struct mo_contact *C);
 /* The candidates this rank just appended (from `from` to C->nc) carry the order key (s0, s1, s2)

@@ -72,6 +72,10 @@ static double dot(const double *a, const double *b, int n)
   return s;
 }
 
+/* Whether products with K and M are summed over the ranks: K and M in parts, and some nodal dofs
+   (a scene of rigid bodies only has K and M empty on every rank, the sums all zeros: (T233)). */
+static inline int parts_summed(const mo_scene *sc) { return sc->kpart && sc->nfe_dof > 0; }
+
 /* x^T A x / 2 over the first n rows; with K and M in parts (T200) the sum over the ranks of the
    parts' (one sum of one value): work then holds this rank's A_r x only. */
 static double half_form(const mo_scene *sc, const mo_csc *A, const double *x, int n, double *work)
@@ -79,7 +83,7 @@ static double half_form(const mo_scene *sc, const mo_csc *A, const double *x, in
   double e;
   mo_csc_gaxpy(A, 1, x, 0, work);
   e = 0.5 * dot(x, work, n);
-  if (sc->kpart) mo_par_sum(&e, 1, sc->pctx);
+  if (parts_summed(sc)) mo_par_sum(&e, 1, sc->pctx);
   return e;
 }
 
@@ -939,7 +943,7 @@ int mo_stepper_init_state(mo_stepper *S, mo_state *s, mo_ctx *ctx)
    scene's accumulator, summed over the ranks once for all of them (parts_end). */
 static double *parts_begin(const mo_scene *sc, double *y)
 {
-  if (!sc->kpart) return y;
+  if (!parts_summed(sc)) return y;
   memset(sc->pwork, 0, (size_t)sc->ndof * sizeof *sc->pwork);
   return sc->pwork;
 }
@@ -947,7 +951,7 @@ static double *parts_begin(const mo_scene *sc, double *y)
 static void parts_end(const mo_scene *sc, double *y)
 {
   int i;
-  if (!sc->kpart) return;
+  if (!parts_summed(sc)) return;
   mo_par_sum(sc->pwork, sc->ndof, sc->pctx);
   for (i = 0; i < sc->ndof; i++) y[i] += sc->pwork[i];
 }
@@ -1219,7 +1223,7 @@ static void reactions(const mo_stepper *S, mo_state *s)
   }
   if (S->nl) return;
   /* K and M in parts over the ranks: the columns' products are the sums of the parts' */
-  if (sc->kpart) {
+  if (parts_summed(sc)) {
     for (k = 0; k < sc->npresc; k++) sc->pwork[k] = s->reac[sc->presc[k].dof];
     mo_par_sum(sc->pwork, sc->npresc, sc->pctx);
     for (k = 0; k < sc->npresc; k++) s->reac[sc->presc[k].dof] = sc->pwork[k];

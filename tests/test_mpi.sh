@@ -109,8 +109,12 @@ grains_pair() { # grains_pair NAME CASE ARGS...
 }
 # the detection split over the ranks (doc/parallel.md §4, (T215)-(T217)): each rank the pairs of
 # its slab, the largest rank 60 % of every rank's candidates at most (the set gathered, in the
-# serial order, is compared with the serial run's by check_runs: contact.csv)
+# serial order, is compared with the serial run's by check_runs: contact.csv); the Verlet list's
+# validity decided by each rank on its own bodies and one maximum over the ranks (T230): the
+# list rebuilt at as many steps as the serial run's, which decides over every body
 detected_split() { # detected_split NAME
+  b1=$(json "$OUT/$1-1/summary.json" "d['contact']['broad']['builds']")
+  is "$(json "$OUT/$1-2/summary.json" "d['contact']['broad']['builds']")" "$b1" "$1: the 2-rank run rebuilt its pair list as often as the serial run ($b1)"
   is "$(json "$OUT/$1-2/summary.json" "(lambda p: [p.get('grain_detected', 0) > 0, p.get('grain_detected_largest_rank', 1) <= 0.6 * p.get('grain_detected', 0)])(d['parallel'])")" \
     "[True, True]" "$1: each rank detected a part, the largest rank $(json "$OUT/$1-2/summary.json" "d['parallel'].get('grain_detected_largest_rank')") of the $(json "$OUT/$1-2/summary.json" "d['parallel'].get('grain_detected')") candidates"
 }
