@@ -286,6 +286,7 @@ struct mo_contact_driver {
                                 (doc/theory.md (T240)) */
   int qu;                    /* the granular path this step: q is formed in U (the back end reads it
                                 before it writes U) and D->q is not kept (T240) */
+  int qb;                    /* some pair's index set reads b (Signorini): q kept in its own array */
   double qn2;                /* the granular path: |q|^2 over the index set, summed as q is formed */
   double *ukin;              /* W r of the last solve (with W), then U without the Signorini
                                 offsets: W r + b (contact_finish); allocated by the first solve on W */
@@ -864,6 +865,7 @@ int mo_contact_driver_create(const mo_scene *sc, mo_contact *C, mo_stepper *S,
     mo_contact_driver_free(D);
     return st;
   }
+  for (k = 0; k < C->npair; k++) D->qb |= C->pair[k].law == MO_LAW_SIGNORINI; /* (none on the granular path) */
   for (k = 0; k < C->npair; k++)
     if (C->pair[k].law == MO_LAW_NEWTON && C->pair[k].e > 0 && sc->time.scheme != MO_SCHEME_THETA) {
       mo_note_skip(ctx, "restitution (the %s scheme is displacement-based: it has no velocity impact law, e is "
@@ -1210,7 +1212,7 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
   /* the compact records go to a back end that reads them; any other use builds H from them */
   grains = mo_contact_is_compact(C) && (D->T->needs & MO_NEEDS_GRAINS) && !D->wused;
   /* q formed in U on the granular path (T240), in an array of its own elsewhere */
-  D->qu = grains && !mo_stepper_nonlinear(S);
+  D->qu = grains && !D->qb && !mo_stepper_nonlinear(S);
   if (!D->qu && !D->q && !(D->q = mo_malloc(ctx, ((size_t)D->cap * d + 1) * sizeof *D->q))) return MO_ENOMEM;
   c = local_problem(D, s, rstep, &any);
   *any_out = any;
