@@ -281,7 +281,13 @@ struct mo_contact_driver {
   double *pmu;               /* per pair its friction coefficient, on the granular path (the back end
                                 sweeps the compact records): there a candidate's is its pair's, read
                                 through its key, and mu is NULL (doc/theory.md (T189)) */
-  double *bn;                /* nc: the normal component of b (q's tangential ones are b's) */
+  double *bn;                /* nc: the normal component of b (q's tangential ones are b's); on the
+                                granular path q - b's normal component as rounded, the law's offset
+                                (doc/theory.md (T240)) */
+  int qu;                    /* the granular path this step: q is formed in U (the back end reads it
+                                before it writes U) and D->q is not kept (T240) */
+  int qb;                    /* some pair's index set reads b (Signorini): q kept in its own array */
+  double qn2;                /* the granular path: |q|^2 over the index set, summed as q is formed */
   double *ukin;              /* W r of the last solve (with W), then U without the Signorini
                                 offsets: W r + b (contact_finish); allocated by the first solve on W */
   int ukcap;
@@ -361,7 +367,10 @@ static int grow(mo_contact_driver *D, int nc, mo_ctx *ctx)
   if (nc <= cap) return MO_OK;
   while (cap < nc) cap = cap ? cap + cap / 4 + 1 : 16; /* a quarter more: the set grows a little at a time */
 #define GROW(ptr, n) if (!(p = mo_realloc(ctx, ptr, (size_t)(n) * sizeof *(ptr)))) return MO_ENOMEM; ptr = p
-  GROW(D->bn, cap); GROW(D->q, (size_t)cap * d); GROW(D->U, (size_t)cap * d);
+  GROW(D->bn, cap); GROW(D->U, (size_t)cap * d);
+  if (!D->pmu || D->q) { /* the granular path forms q in U (T240) */
+    GROW(D->q, (size_t)cap * d);
+  }
   GROW(D->Uprev, (size_t)cap * d); GROW(D->r, (size_t)cap * d);
   if (!D->pmu || D->mu) {
     GROW(D->mu, cap);
@@ -653,7 +662,7 @@ long mo_contact_driver_failures(const mo_contact_driver *D) { return D->failures
 size_t mo_contact_driver_bytes(const mo_contact_driver *D, size_t *per_dof)
 {
   const size_t d = (size_t)D->d, cap = (size_t)D->cap, sd = sizeof(double);
-  size_t c = cap * (4 * d * sd + (D->mu ? 2 : 1) * sd + 1 + 4 * sizeof(int) + (D->key ? MO_KEY : 0) * sizeof(int));
+  size_t c = cap * ((D->q ? 4 : 3) * d * sd + (D->mu ? 2 : 1) * sd + 1 + 4 * sizeof(int) + (D->key ? MO_KEY : 0) * sizeof(int));
   size_t n = (size_t)D->sc->ndof, nf = (size_t)D->sc->nfree, dof = (2 * n + 2 * nf) * sd;
   if (D->rprev) c += cap * d * sd;
   if (D->pmu) c += (size_t)D->C->npair * sd;
@@ -856,6 +865,7 @@ int mo_contact_driver_create(const mo_scene *sc, mo_contact *C, mo_stepper *S,
     mo_contact_driver_free(D);
     return st;
   }
+  for (k = 0; k < C->npair; k++) D->qb |= C->pair[k].law == MO_LAW_SIGNORINI; /* (none on the granular path) */
   for (k = 0; k < C->npair; k++)
     if (C->pair[k].law == MO_LAW_NEWTON && C->pair[k].e > 0 && sc->time.scheme != MO_SCHEME_THETA) {
       mo_note_skip(ctx, "restitution (the %s scheme is displacement-based: it has no velocity impact law, e is "
@@ -933,6 +943,83 @@ static void worst_candidates(const mo_contact_driver *D, char *buf, size_t n)
   if (!len) snprintf(buf, n, "none active");
 }
 
+/* Candidate a's law on q_a (qa: d values, b_a on entry): the offset its law adds to the normal
+   component (the index set's prediction reads b_n = bn), and whether it is in the index set. */
+static inline int law_offset(const mo_contact_driver *D, int a, const double *g, const double *rstep, double bn,
+                             double dtpos, double *qa)
+{
+  const mo_contact *C = D->C;
+  const int d = D->d;
+  const mo_scheme scheme = D->sc->time.scheme;
+  const double h = mo_stepper_dt(D->S), theta = D->sc->time.theta;
+  int act = C->active[a];
+  if (scheme == MO_SCHEME_THETA && law_of(C, a) == MO_LAW_NEWTON) {
+    /* Moreau's impact law (T71): U_n+ + e U_n- >= 0 _|_ r_n >= 0 on the contacts closed at the
+       predicted position g + h (1 - theta) U_n- (doc/theory.md (T71), Jean/LMGC90 practice) */
+    if (g[a] + h * (1 - theta) * D->Uprev[a * d] > C->gtol) act = 0;
+    qa[0] += C->pair[mo_contact_pair_of(C, a)].e * D->Uprev[a * d];
+  } else if (scheme == MO_SCHEME_THETA && (law_of(C, a) == MO_LAW_GAP || C->signorini == MO_SIGNORINI_POSITION))
+    /* g_k+1 = g_k + h (theta U+ + (1 - theta) U-) >= 0  (J88 (3.2)_1 with theta) */
+    qa[0] += (g[a] + h * (1 - theta) * D->Uprev[a * d]) / dtpos;
+  else if (scheme == MO_SCHEME_THETA) {
+    /* velocity level on the index set: the candidates predicted closed (the end-of-step gap
+       of (T2) if no contact impulse acted this step, g_k + h (theta U_free + (1 - theta) U-))
+       and those that carried a compressive impulse in the previous step (doc/theory.md §5):
+       a theta = 1 landing step leaves the gap it started with, and the contact must stay
+       in the set until the back end releases it (r = 0), not drop out on that gap */
+    if (g[a] + h * (theta * bn + (1 - theta) * D->Uprev[a * d]) > 0 && !(rstep[a * d] > 0))
+      act = 0;
+  } else
+    qa[0] += g[a];
+  return act;
+}
+
+/* The granular path's q (T240): formed in U, which the back end reads as b before it writes its
+   solution there; bn keeps q_n - b_n as rounded (contact_finish's U without the offsets), and qn2
+   |q|^2 over the index set in the core's order (the residual's scale). A step with no candidate in
+   the index set has no solve, and U keeps the values the step started with: q_a is formed aside,
+   for bn. The index set does not read b here: a granular candidate's law is Moreau's or the gap's
+   (rigid shapes only), whose prediction reads g and U- alone. */
+static void granular_q(mo_contact_driver *D, const mo_state *s, const double *x, double u0h, const double *rstep,
+                       double dtpos, int *any_out)
+{
+  mo_contact *C = D->C;
+  const double *U0 = mo_contact_U0(C), *g = mo_contact_gaps(C);
+  int d = D->d, nc = D->nc, a, i, any = 0;
+  D->nact = 0;
+  D->qn2 = 0;
+  for (a = 0; a < nc && !any; a++) {
+    double qa[3] = {0, 0, 0};
+    any = law_offset(D, a, g, rstep, 0, dtpos, qa);
+  }
+  *any_out = any;
+  if (!any) {
+    for (a = 0; a < nc; a++) {
+      double qa[3], bn;
+      mo_contact_Htx1(C, s, x, a, NULL, qa);
+      if (U0)
+        for (i = 0; i < d; i++) qa[i] += U0[a * d + i] * u0h;
+      bn = qa[0];
+      D->active[a] = (unsigned char)law_offset(D, a, g, rstep, bn, dtpos, qa);
+      D->bn[a] = qa[0] - bn;
+    }
+    return;
+  }
+  mo_contact_Htx(C, s, x, 0, nc, NULL, D->U);
+  if (U0)
+    for (i = 0; i < D->m; i++) D->U[i] += U0[i] * u0h;
+  for (a = 0; a < nc; a++) {
+    double *qa = D->U + (size_t)a * d, bn = qa[0];
+    int act = law_offset(D, a, g, rstep, bn, dtpos, qa);
+    D->bn[a] = qa[0] - bn;
+    D->active[a] = (unsigned char)act;
+    if (act) {
+      D->act[D->nact++] = a;
+      for (i = 0; i < d; i++) D->qn2 += qa[i] * qa[i];
+    }
+  }
+}
+
 /* Steps 3-4 (doc/theory.md §5, §12.4): the local free kinematics b from the unconstrained
    iterate, then q = b with the offset of each candidate's law, and the index set. rstep: the
    reactions of the previous step. Returns the scale c of W (du = c dx). */
@@ -942,14 +1029,13 @@ static double local_problem(mo_contact_driver *D, const mo_state *s, const doubl
   mo_contact *C = D->C;
   const double *U0 = mo_contact_U0(C);
   int d = D->d, m = D->m, nc = D->nc, n = sc->ndof, a, i, any = 0;
-  double h = mo_stepper_dt(D->S), theta = sc->time.theta, c, dtpos;
-  const double *g = mo_contact_gaps(C);
+  double h = mo_stepper_dt(D->S), theta = sc->time.theta, c, dtpos, u0h;
+  const double *g = mo_contact_gaps(C), *x;
   mo_scheme scheme = sc->time.scheme;
   if (D->gk) memcpy(D->gk, g, (size_t)nc * sizeof(double));
   if (scheme == MO_SCHEME_THETA) {
-    mo_contact_Htx(C, s, D->xfull, 0, nc, NULL, D->q);
-    if (U0) /* (q is never -0 here: adding U0 = 0 would not change a bit) */
-      for (i = 0; i < m; i++) D->q[i] += U0[i];
+    x = D->xfull;
+    u0h = 1; /* (U0 times 1 is U0 to the bit) */
     c = 1;
     dtpos = h * theta;
   } else {
@@ -962,34 +1048,22 @@ static double local_problem(mo_contact_driver *D, const mo_state *s, const doubl
       for (i = 0; i < n; i++) du[i] = D->xfull[i] - s->u[i];
       c = 1;
     }
-    mo_contact_Htx(C, s, du, 0, nc, NULL, D->q);
-    if (U0)
-      for (i = 0; i < m; i++) D->q[i] += U0[i] * h;
+    x = du;
+    u0h = h;
     dtpos = 1;
   }
+  if (D->qu) {
+    granular_q(D, s, x, u0h, rstep, dtpos, any_out);
+    return c;
+  }
+  mo_contact_Htx(C, s, x, 0, nc, NULL, D->q);
+  if (U0) /* (q is never -0 here: adding U0 = 0 would not change a bit) */
+    for (i = 0; i < m; i++) D->q[i] += U0[i] * u0h;
   /* q = b, then the laws' offsets on the normal components: b's normal ones kept aside */
   for (a = 0; a < nc; a++) D->bn[a] = D->q[a * d];
   D->nact = 0;
   for (a = 0; a < nc; a++) {
-    int act = C->active[a];
-    if (scheme == MO_SCHEME_THETA && law_of(C, a) == MO_LAW_NEWTON) {
-      /* Moreau's impact law (T71): U_n+ + e U_n- >= 0 _|_ r_n >= 0 on the contacts closed at the
-         predicted position g + h (1 - theta) U_n- (doc/theory.md (T71), Jean/LMGC90 practice) */
-      if (g[a] + h * (1 - theta) * D->Uprev[a * d] > C->gtol) act = 0;
-      D->q[a * d] += C->pair[mo_contact_pair_of(C, a)].e * D->Uprev[a * d];
-    } else if (scheme == MO_SCHEME_THETA && (law_of(C, a) == MO_LAW_GAP || C->signorini == MO_SIGNORINI_POSITION))
-      /* g_k+1 = g_k + h (theta U+ + (1 - theta) U-) >= 0  (J88 (3.2)_1 with theta) */
-      D->q[a * d] += (g[a] + h * (1 - theta) * D->Uprev[a * d]) / dtpos;
-    else if (scheme == MO_SCHEME_THETA) {
-      /* velocity level on the index set: the candidates predicted closed (the end-of-step gap
-         of (T2) if no contact impulse acted this step, g_k + h (theta U_free + (1 - theta) U-))
-         and those that carried a compressive impulse in the previous step (doc/theory.md §5):
-         a theta = 1 landing step leaves the gap it started with, and the contact must stay
-         in the set until the back end releases it (r = 0), not drop out on that gap */
-      if (g[a] + h * (theta * D->bn[a] + (1 - theta) * D->Uprev[a * d]) > 0 && !(rstep[a * d] > 0))
-        act = 0;
-    } else
-      D->q[a * d] += g[a];
+    int act = law_offset(D, a, g, rstep, D->bn[a], dtpos, D->q + (size_t)a * d);
     D->active[a] = (unsigned char)act;
     if (act) D->act[D->nact++] = a;
     any |= act;
@@ -1131,14 +1205,17 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
   double h = mo_stepper_dt(S), t0, c;
   mo_scheme scheme = sc->time.scheme;
 
-  c = local_problem(D, s, rstep, &any);
-  *any_out = any;
   D->wused = D->W && !bodies_only(D, Wi);
   if (D->W && !D->wused)
     mo_note_skip(ctx, "the Delassus operator (every contact joins rigid bodies: back end %s sweeps on their velocities)",
                  D->T->name);
   /* the compact records go to a back end that reads them; any other use builds H from them */
   grains = mo_contact_is_compact(C) && (D->T->needs & MO_NEEDS_GRAINS) && !D->wused;
+  /* q formed in U on the granular path (T240), in an array of its own elsewhere */
+  D->qu = grains && !D->qb && !mo_stepper_nonlinear(S);
+  if (!D->qu && !D->q && !(D->q = mo_malloc(ctx, ((size_t)D->cap * d + 1) * sizeof *D->q))) return MO_ENOMEM;
+  c = local_problem(D, s, rstep, &any);
+  *any_out = any;
   if (grains) {
     const int D3 = sc->dim;
     int b;
@@ -1173,7 +1250,7 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
   P->frame = mo_contact_frames(C);
   P->contact = C;
   P->W = D->wused ? D->W : NULL;
-  P->b = D->q;
+  P->b = D->qu ? D->U : D->q; /* the granular path: q in U, read before the solution is written (T240) */
   P->active = D->active;
   P->scheme = scheme;
   P->h = h;
@@ -1276,8 +1353,11 @@ resolve:
     /* over the active candidates only (the others are out of the problem this step) */
     double qn = 0;
     int k;
-    for (k = 0; k < D->nact; k++)
-      for (i = 0; i < d; i++) qn += D->q[D->act[k] * d + i] * D->q[D->act[k] * d + i];
+    if (D->qu) /* summed as q was formed, in the same order (no candidate joined the set since) */
+      qn = D->qn2;
+    else
+      for (k = 0; k < D->nact; k++)
+        for (i = 0; i < d; i++) qn += D->q[D->act[k] * d + i] * D->q[D->act[k] * d + i];
     rep->residual = mo_fc_natural_map_subset_pairs(d, D->nact, D->act, D->mu, D->C->key, D->pmu, NULL, D->r, D->U,
                                                    sqrt(qn));
   }
@@ -1488,7 +1568,9 @@ static int contact_finish(mo_contact_driver *D, mo_state *s, const double *x, mo
   if (!D->wused) {
     /* without W: U+ computed, its work added and (theta) taken as U- at once */
     for (i = 0; i < m; i++) {
-      double uk = D->U[i] - (D->q[i] - (i % d ? D->q[i] : D->bn[i / d]));
+      /* the granular path: bn holds q_n - b_n, and q_t - b_t is q_t - q_t, 0 (T240) */
+      double uk = D->qu ? (i % d ? D->U[i] : D->U[i] - D->bn[i / d])
+                        : D->U[i] - (D->q[i] - (i % d ? D->q[i] : D->bn[i / d]));
       w += D->r[i] * (scheme == MO_SCHEME_THETA ? 0.5 * (uk + D->Uprev[i]) : uk);
       if (scheme == MO_SCHEME_THETA) D->Uprev[i] = uk;
     }

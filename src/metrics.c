@@ -11,16 +11,20 @@
 
 #define MAX_IMPACTS 64
 
-/* One candidate's history, carried from set to set by its key (24 bytes): what the contact
-   measures of every law read. */
+/* One candidate's history, carried from set to set by its key: what the contact measures of every
+   law read, its two values (16 bytes) and its counts and flags in one word (4 bytes) beside them
+   (doc/theory.md (T242)). */
 typedef struct {
   double Unprev;             /* the normal relative velocity of the previous step */
   double tv;                 /* the total variation of U_n while closed */
-  int nsign;                 /* the sign changes of U_n while closed (T97) */
-  signed char prevstatus;    /* the status of the previous step (MO_CS_*) */
-  unsigned char incontact;   /* in contact at the previous step */
-  unsigned char landed;      /* it has borne once (its first landing is behind) */
 } cand_hist;
+#define MO_NSIGN_MAX ((1u << 28) - 1) /* at most one sign change a step: reached after 2.7e8 steps */
+typedef struct {
+  unsigned nsign : 28;       /* the sign changes of U_n while closed (T97), up to MO_NSIGN_MAX */
+  unsigned prevstatus : 2;   /* the status of the previous step (MO_CS_*: 0, 1, 2) */
+  unsigned incontact : 1;    /* in contact at the previous step */
+  unsigned landed : 1;       /* it has borne once (its first landing is behind) */
+} cand_flags;
 
 struct mo_metrics {
   const mo_scene *sc;
@@ -37,6 +41,7 @@ struct mo_metrics {
   int nc, d;                 /* candidates: those of the last step (static ones first) */
   int cap;                   /* capacity of the per-candidate arrays: detected ones come and go */
   cand_hist *hist;           /* per candidate */
+  cand_flags *hf;            /* per candidate: its counts and flags */
   /* the chatter detector's (T93), for the laws it watches (Signorini, the gap law) only: NULL
      when no pair has one of them (granular scenes under Moreau's impact law) */
   int watch_any;
@@ -80,6 +85,7 @@ void mo_metrics_free(mo_metrics *M)
   if (!M) return;
   if (M->own_work) mo_free(M->work);
   mo_free(M->hist);
+  mo_free(M->hf);
   mo_free(M->dUp);
   mo_free(M->alt);
   mo_free(M->keys);
@@ -108,7 +114,7 @@ static int room(mo_metrics *M, int nc, mo_ctx *ctx)
   if (nc <= M->cap && M->hist) return 1;
   n = (size_t)(nc + nc / 4) + 1;
 #define GROW(ptr, k) if (!(p = mo_realloc(ctx, ptr, (k) * sizeof *(ptr)))) return 0; ptr = p
-  GROW(M->hist, n);
+  GROW(M->hist, n); GROW(M->hf, n);
   if (!M->bydrv) {
     GROW(M->map, n); GROW(M->keys, n * MO_KEY);
   }
@@ -118,7 +124,8 @@ static int room(mo_metrics *M, int nc, mo_ctx *ctx)
     memset(M->alt + old, 0, (n - old) * sizeof *M->alt);
   }
 #undef GROW
-  memset(M->hist + old, 0, (n - old) * sizeof *M->hist); /* MO_CS_OPEN is 0 */
+  memset(M->hist + old, 0, (n - old) * sizeof *M->hist);
+  memset(M->hf + old, 0, (n - old) * sizeof *M->hf); /* MO_CS_OPEN is 0 */
   M->cap = (int)n - 1;
   return 1;
 }
@@ -127,6 +134,7 @@ static int room(mo_metrics *M, int nc, mo_ctx *ctx)
 static void move_hist(mo_metrics *M, int a, int o)
 {
   M->hist[a] = M->hist[o];
+  M->hf[a] = M->hf[o];
   if (M->dUp) {
     M->dUp[a] = M->dUp[o];
     M->alt[a] = M->alt[o];
@@ -143,6 +151,7 @@ static int follow(mo_metrics *M, const mo_contact_driver *D)
   int nold = M->nc, nc = mo_contact_ncandidates(C), a, ok, mono = 1, last = -1, lost = 0;
   const int *dmap = NULL;
   cand_hist *copy = NULL;
+  cand_flags *fcopy = NULL;
   double *wcopy = NULL;
 #define OLD(a) (lost ? -1 : dmap ? dmap[a] : M->map[a])
   ok = room(M, nc > nold ? nc : nold, NULL);
@@ -155,7 +164,7 @@ static int follow(mo_metrics *M, const mo_contact_driver *D)
   if (!ok) nold = 0, lost = 1;
   for (a = 0; a < nold; a++) {
     if (M->hist[a].tv > M->tv_gone) M->tv_gone = M->hist[a].tv;
-    if (M->hist[a].nsign > M->nsign_gone) M->nsign_gone = M->hist[a].nsign;
+    if ((int)M->hf[a].nsign > M->nsign_gone) M->nsign_gone = (int)M->hf[a].nsign;
     if (M->alt && M->alt[a] > M->alt_max) M->alt_max = M->alt[a];
   }
   if (lost) nold = 0;
@@ -171,12 +180,14 @@ static int follow(mo_metrics *M, const mo_contact_driver *D)
   if (nold && !mono) {
     /* out of order: from a copy of the moment (none: the histories restart) */
     copy = mo_malloc(NULL, (size_t)nold * sizeof *copy);
+    fcopy = mo_malloc(NULL, (size_t)nold * sizeof *fcopy);
     wcopy = M->dUp ? mo_malloc(NULL, 2 * (size_t)nold * sizeof *wcopy) : NULL;
-    if (!copy || (M->dUp && !wcopy)) {
+    if (!copy || !fcopy || (M->dUp && !wcopy)) {
       ok = 0;
       lost = 1;
     } else {
       memcpy(copy, M->hist, (size_t)nold * sizeof *copy);
+      memcpy(fcopy, M->hf, (size_t)nold * sizeof *fcopy);
       if (M->dUp) {
         memcpy(wcopy, M->dUp, (size_t)nold * sizeof *wcopy);
         memcpy(wcopy + nold, M->alt, (size_t)nold * sizeof *wcopy);
@@ -185,6 +196,7 @@ static int follow(mo_metrics *M, const mo_contact_driver *D)
         int o = OLD(a);
         if (o < 0) continue;
         M->hist[a] = copy[o];
+        M->hf[a] = fcopy[o];
         if (M->dUp) {
           M->dUp[a] = wcopy[o];
           M->alt[a] = wcopy[nold + o];
@@ -202,10 +214,12 @@ static int follow(mo_metrics *M, const mo_contact_driver *D)
   for (a = 0; a < nc; a++)
     if (OLD(a) < 0) {
       memset(&M->hist[a], 0, sizeof M->hist[a]);
+      memset(&M->hf[a], 0, sizeof M->hf[a]);
       if (M->dUp) M->dUp[a] = M->alt[a] = 0;
     }
 #undef OLD
   mo_free(copy);
+  mo_free(fcopy);
   mo_free(wcopy);
   if (nc && !M->bydrv) memcpy(M->keys, mo_contact_key(C, 0), (size_t)nc * MO_KEY * sizeof *M->keys);
   M->nc = nc;
@@ -378,6 +392,7 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
     if (h > 0 && 1e-9 * M->lscale / h > M->vround) M->vround = 1e-9 * M->lscale / h;
     for (a = 0; a < M->nc; a++) {
       cand_hist *H = &M->hist[a];
+      cand_flags *F = &M->hf[a];
       static const double none[3] = {0, 0, 0}; /* U0 when no obstacle moves */
       const double *u0 = U0 ? U0 + (size_t)a * d : none;
       double Un[3], un;
@@ -413,7 +428,7 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
       }
       if (inc) {
         closed++;
-        if (H->incontact) {
+        if (F->incontact) {
           /* chatter measures: the increments of U_n between bearing steps that exceed 1e-2 of
              the landing speed and how often their sign alternates (T93, reported); the sign
              changes of U_n itself above a floor (T97, the verdict's) */
@@ -427,24 +442,26 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
             M->dUp[a] = du;
           } else if (M->dUp)
             M->dUp[a] = 0;
-          if ((un > floor && H->Unprev < -floor) || (un < -floor && H->Unprev > floor)) H->nsign++;
+          if ((un > floor && H->Unprev < -floor) || (un < -floor && H->Unprev > floor)) {
+            if (F->nsign < MO_NSIGN_MAX) F->nsign++;
+          }
         } else {
           /* a landing: the approach speed of the step before it (any landing: T93; the
              candidate's first landing: T97, later ones may be the chatter's own bounces) */
           if (watch && fabs(H->Unprev) > M->vland) M->vland = fabs(H->Unprev);
-          if (!H->landed && -H->Unprev > M->vimpact) M->vimpact = -H->Unprev;
+          if (!F->landed && -H->Unprev > M->vimpact) M->vimpact = -H->Unprev;
           if (M->dUp) M->dUp[a] = 0;
         }
-        H->landed = 1;
-      } else if (H->incontact && g[a] > M->gtol && isnan(M->first_release))
+        F->landed = 1;
+      } else if (F->incontact && g[a] > M->gtol && isnan(M->first_release))
         M->first_release = s->t;
       if (s->step > 0 && st) {
-        if (st[a] != H->prevstatus) M->flips++;
-        H->prevstatus = (signed char)st[a];
+        if (st[a] != (int)F->prevstatus) M->flips++;
+        F->prevstatus = (unsigned)st[a] & 3u;
       }
       /* a bearing contact stays "in contact" through steps that close the gap without
          reaction (grazing), so that chatter at a closed gap is not a release */
-      H->incontact = (unsigned char)(inc || (H->incontact && g[a] <= M->gtol));
+      F->incontact = (unsigned)(inc || (F->incontact && g[a] <= M->gtol));
       H->Unprev = un;
       if (r && s->step > 0)
         M->impulse += r[a * d] * (sc->time.scheme == MO_SCHEME_THETA ? 1 : h);
@@ -525,7 +542,7 @@ json_t *mo_metrics_json(const mo_metrics *M)
     json_object_set_new(c, "restitution", json_real(restitution(M)));
     {
       int ns = M->nsign_gone;
-      for (a = 0; a < M->nc; a++) if (M->hist[a].nsign > ns) ns = M->hist[a].nsign;
+      for (a = 0; a < M->nc; a++) if ((int)M->hf[a].nsign > ns) ns = (int)M->hf[a].nsign;
       json_object_set_new(c, "vn_sign_changes", json_integer(ns));
     }
     json_object_set_new(c, "status_flips", json_integer(M->flips));
@@ -578,7 +595,7 @@ void mo_metrics_chatter_input(const mo_metrics *M, mo_chatter_input *in)
 {
   int a, ns = M->nsign_gone;
   for (a = 0; a < M->nc; a++)
-    if (M->hist[a].nsign > ns) ns = M->hist[a].nsign;
+    if ((int)M->hf[a].nsign > ns) ns = (int)M->hf[a].nsign;
   in->impact_velocity = M->vimpact;
   in->velocity_scale = M->vscale;
   in->max_vn_in_contact = M->max_vn_closed;

@@ -354,7 +354,9 @@ typedef struct mo_contact_problem {
      the law is U'_n >= 0 _|_ r_n >= 0 with Coulomb on U'_t; W is NULL when the back end did not
      ask for it */
   const mo_delassus *W;
-  const double *b;           /* m: the affine term q of U' = W r + q, Signorini offsets included */
+  const double *b;           /* m: the affine term q of U' = W r + q, Signorini offsets included; on
+                                the granular path (grains) the array of the solution's U itself: a
+                                back end reads b before it writes U (doc/theory.md (T240)) */
   const unsigned char *active; /* nc: candidates that may close this step (0: keep r = 0) */
   mo_scheme scheme;
   double h, theta, theta_f, beta, gamma;
