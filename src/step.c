@@ -20,11 +20,13 @@ int mo_state_alloc(const mo_scene *sc, mo_state *s, mo_ctx *ctx)
   s->u = mo_calloc(ctx, n, sizeof(double));
   s->v = mo_calloc(ctx, n, sizeof(double));
   s->f = mo_calloc(ctx, n, sizeof(double));
-  s->reac = mo_calloc(ctx, n, sizeof(double));
+  /* the reactions live on prescribed dofs: none on a scene of rigid bodies and obstacles without
+     any (T245), where nothing reads them (a probe observes a deformable body) */
+  if (sc->npresc || sc->nfe_dof) s->reac = mo_calloc(ctx, n, sizeof(double));
   if (sc->time.scheme == MO_SCHEME_NEWMARK) s->a = mo_calloc(ctx, n, sizeof(double));
   if (sc->nq) s->q = mo_calloc(ctx, sc->nq, sizeof(double));
   if (sc->norient) s->orient = mo_calloc(ctx, 4 * (size_t)sc->norient, sizeof(double));
-  if (!s->u || !s->v || !s->f || !s->reac || (sc->time.scheme == MO_SCHEME_NEWMARK && !s->a) ||
+  if (!s->u || !s->v || !s->f || ((sc->npresc || sc->nfe_dof) && !s->reac) || (sc->time.scheme == MO_SCHEME_NEWMARK && !s->a) ||
       (sc->nq && !s->q) || (sc->norient && !s->orient)) {
     mo_state_release(s);
     return MO_ENOMEM;
@@ -59,7 +61,7 @@ int mo_state_copy(const mo_scene *sc, const mo_state *src, mo_state *dst)
   memcpy(dst->u, src->u, n);
   memcpy(dst->v, src->v, n);
   memcpy(dst->f, src->f, n);
-  memcpy(dst->reac, src->reac, n);
+  if (src->reac && dst->reac) memcpy(dst->reac, src->reac, n);
   if (src->a && dst->a) memcpy(dst->a, src->a, n);
   return MO_OK;
 }
@@ -880,7 +882,7 @@ int mo_stepper_init_state(mo_stepper *S, mo_state *s, mo_ctx *ctx)
   memcpy(s->v, sc->v0, (size_t)n * sizeof(double));
   presc_values(S, 0, s->u, s->v, NULL);
   mo_scene_fext(sc, 0, s->f);
-  memset(s->reac, 0, (size_t)n * sizeof(double));
+  if (s->reac) memset(s->reac, 0, (size_t)n * sizeof(double));
   s->psi = s->wplastic = 0;
   /* 3D rigid bodies start in their reference orientation (the body frame is the world's) */
   for (st = 0; st < sc->norient; st++) {

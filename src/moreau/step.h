@@ -17,7 +17,8 @@ typedef struct mo_state {
   long step;
   double *u, *v, *a;  /* a: Newmark only (NULL otherwise) */
   double *f;          /* external force f_ext(t) */
-  double *reac;       /* support reactions on prescribed dofs (0 elsewhere), over the last step */
+  double *reac;       /* support reactions on prescribed dofs (0 elsewhere), over the last step;
+                         NULL on a scene without a prescribed dof or a mesh (doc/theory.md (T245)) */
   double wext;        /* work of external forces since t = 0 (trapezoidal rule) */
   double wsupport;    /* work of the support reactions (moving supports) */
   double wcontact;    /* work of contact impulses (filled by the contact layer) */
