@@ -109,7 +109,7 @@ void mo_stepper_free(mo_stepper *S)
   mo_csc_free(S->Wfull);
   mo_csc_free(S->W);
   mo_linsolver_free(S->ls);
-  mo_free(S->rhs);
+  if (S->rhs != S->w1) mo_free(S->rhs);
   mo_free(S->xf);
   mo_free(S->w1);
   mo_free(S->w2);
@@ -638,7 +638,7 @@ int mo_stepper_create_ordered(const mo_scene *sc, int nlast, const int *last, do
 {
   mo_stepper *S;
   mo_csc *Wf = NULL;
-  int st, n = sc->ndof;
+  int st, n = sc->ndof, need_w2;
   double t0;
   *out = NULL;
   S = mo_calloc(ctx, 1, sizeof *S);
@@ -655,10 +655,14 @@ int mo_stepper_create_ordered(const mo_scene *sc, int nlast, const int *last, do
   S->beta = sc->time.beta;
   S->gamma = sc->time.gamma;
   coefficients(S);
-  S->rhs = mo_calloc(ctx, (size_t)(sc->nfree ? sc->nfree : 1), sizeof(double));
-  S->xf = mo_calloc(ctx, (size_t)(sc->nfree ? sc->nfree : 1), sizeof(double));
+  /* every dof free and no mesh (T246): the free numbering is the full one, rhs is w1 and What^-1
+     is solved into the caller's full vector; w2 holds u + c v for K's product alone */
+  S->alias = sc->nfree == sc->ndof && !sc->nfe_dof && !sc->nonlinear && !sc->kpart;
   S->w1 = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
-  S->w2 = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
+  S->rhs = S->alias ? S->w1 : mo_calloc(ctx, (size_t)(sc->nfree ? sc->nfree : 1), sizeof(double));
+  S->xf = S->alias ? NULL : mo_calloc(ctx, (size_t)(sc->nfree ? sc->nfree : 1), sizeof(double));
+  need_w2 = !(S->alias && S->scheme == MO_SCHEME_THETA && (!sc->K || !mo_csc_nnz(sc->K)));
+  if (need_w2) S->w2 = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
   /* w3: Newton's work, or the unknown of a step without contact (mo_stepper_step, made there) */
   S->w3 = sc->nonlinear ? mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double)) : NULL;
   S->uprev = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
@@ -667,7 +671,7 @@ int mo_stepper_create_ordered(const mo_scene *sc, int nlast, const int *last, do
     S->vprev = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
     S->fprev = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
   }
-  if (!S->rhs || !S->xf || !S->w1 || !S->w2 || (sc->nonlinear && !S->w3) || !S->uprev || (sc->npresc && (!S->vprev || !S->fprev))) {
+  if (!S->rhs || (!S->alias && !S->xf) || !S->w1 || (need_w2 && !S->w2) || (sc->nonlinear && !S->w3) || !S->uprev || (sc->npresc && (!S->vprev || !S->fprev))) {
     mo_stepper_free(S);
     return MO_ENOMEM;
   }
@@ -910,7 +914,7 @@ int mo_stepper_init_state(mo_stepper *S, mo_state *s, mo_ctx *ctx)
     } else
       mo_scene_gaxpy(sc, sc->K, -1, s->u, 1, S->w1);
     mo_scene_gaxpy(sc, sc->M, -1, s->a, 1, S->w1); /* once a run: two sums */
-    mo_stepper_gather(S, S->w1, S->rhs);
+    if (!S->alias) mo_stepper_gather(S, S->w1, S->rhs);
     st = MO_OK;
     if (sc->nfe_free) {
       /* the nodal rows through M_ff; the rigid rows' mass blocks are What's (What = M + beta h^2 K) */
@@ -925,11 +929,11 @@ int mo_stepper_init_state(mo_stepper *S, mo_state *s, mo_ctx *ctx)
       if (S->blk_varies) st = mo_stepper_rigid_update(S, s, ctx);
       rigid_rhs(S, s, s->a, S->rhs);
       Wr.nfe = 0; /* the rigid blocks alone */
-      memcpy(S->w2, S->xf, (size_t)sc->nfe_free * sizeof(double));
-      if (!st) st = mo_what_solve(&Wr, 1, S->rhs, S->xf, ctx);
-      memcpy(S->xf, S->w2, (size_t)sc->nfe_free * sizeof(double));
+      if (sc->nfe_free) memcpy(S->w2, S->xf, (size_t)sc->nfe_free * sizeof(double));
+      if (!st) st = mo_what_solve(&Wr, 1, S->rhs, S->alias ? s->a : S->xf, ctx);
+      if (sc->nfe_free) memcpy(S->xf, S->w2, (size_t)sc->nfe_free * sizeof(double));
     }
-    if (!st) mo_stepper_scatter(S, S->xf, s->a);
+    if (!st && !S->alias) mo_stepper_scatter(S, S->xf, s->a);
     mo_linsolver_free(Ml);
     mo_csc_free(Mff);
     if (st) return mo_error_prefix(ctx, "initial acceleration (mass matrix)");
@@ -976,13 +980,16 @@ static int predict_rhs(mo_stepper *S, const mo_state *s, double *x, mo_ctx *ctx)
     /* central differences (T100): s->v is the velocity at t_k, the unknown v+ the one at
        t_k+1/2, reached by half the step's kick: M v+ = M v_k + h/2 f(t_k, u_k) (+ H r) */
     if (sc->time.explicit_cd) hf = 0.5 * h;
-    for (i = 0; i < n; i++) {
-      w[i] = s->u[i] + c * s->v[i];
-      f1[i] = hf * (tf * f1[i] + (1 - tf) * s->f[i]);
-    }
+    if (w)
+      for (i = 0; i < n; i++) {
+        w[i] = s->u[i] + c * s->v[i];
+        f1[i] = hf * (tf * f1[i] + (1 - tf) * s->f[i]);
+      }
+    else /* K has no entry (T246): its product adds nothing */
+      for (i = 0; i < n; i++) f1[i] = hf * (tf * f1[i] + (1 - tf) * s->f[i]);
     acc = parts_begin(sc, f1);
     mo_csc_gaxpy(sc->M, 1, s->v, 1, acc);
-    mo_csc_gaxpy(sc->K, -hf, w, 1, acc);
+    if (w) mo_csc_gaxpy(sc->K, -hf, w, 1, acc);
     memset(x, 0, (size_t)n * sizeof(double));
     presc_values(S, tn, NULL, x, NULL);
     if (S->Wfull) mo_csc_gaxpy(S->Wfull, -1, x, 1, acc);
@@ -1015,7 +1022,7 @@ static int predict_rhs(mo_stepper *S, const mo_state *s, double *x, mo_ctx *ctx)
     memcpy(x, w, (size_t)n * sizeof(double));
     break;
   }
-  mo_stepper_gather(S, f1, S->rhs);
+  if (!S->alias) mo_stepper_gather(S, f1, S->rhs); /* with alias rhs is f1 itself */
   if (S->nblk) rigid_rhs(S, s, x, S->rhs);
   return MO_OK;
 }
@@ -1025,8 +1032,8 @@ int mo_stepper_predict(mo_stepper *S, const mo_state *s, double *x, mo_ctx *ctx)
   double t0 = mo_clock();
   int st = predict_rhs(S, s, x, ctx);
   S->split_state = 0;
-  if (!st) st = mo_stepper_what_solve(S, 1, S->rhs, S->xf, ctx);
-  if (!st) mo_stepper_scatter(S, S->xf, x);
+  if (!st) st = mo_stepper_what_solve(S, 1, S->rhs, S->alias ? x : S->xf, ctx);
+  if (!st && !S->alias) mo_stepper_scatter(S, S->xf, x);
   mo_phase_add(ctx, MO_PH_SOLVE, t0);
   return st;
 }
@@ -1134,10 +1141,14 @@ int mo_stepper_correct(mo_stepper *S, const double *imp, double *dx, mo_ctx *ctx
 {
   int st;
   double t0 = mo_clock();
-  mo_stepper_gather(S, imp, S->rhs);
-  st = mo_stepper_what_solve(S, 1, S->rhs, S->xf, ctx);
-  memset(dx, 0, (size_t)S->sc->ndof * sizeof(double));
-  if (!st) mo_stepper_scatter(S, S->xf, dx);
+  if (S->alias) /* T246: the full numbering is the free one, What^-1 imp solved into dx */
+    st = mo_stepper_what_solve(S, 1, imp, dx, ctx);
+  else {
+    mo_stepper_gather(S, imp, S->rhs);
+    st = mo_stepper_what_solve(S, 1, S->rhs, S->xf, ctx);
+    memset(dx, 0, (size_t)S->sc->ndof * sizeof(double));
+    if (!st) mo_stepper_scatter(S, S->xf, dx);
+  }
   mo_phase_add(ctx, MO_PH_SOLVE, t0);
   return st;
 }
@@ -1323,13 +1334,13 @@ int mo_stepper_finish(mo_stepper *S, mo_state *s, const double *x, mo_ctx *ctx)
     /* central differences (T100): the second half kick, v_k+1 = v+ + h/2 M^-1 f(t_k+1, u_k+1)
        on free dofs, so that the state holds velocities at the time of its displacements */
     int st;
-    double *r = S->w1;
+    double *r = S->w1, *xf = S->alias ? S->w1 : S->xf; /* alias: solved in place (block_apply) */
     memcpy(r, s->f, (size_t)n * sizeof(double));
     mo_scene_gaxpy(sc, sc->K, -1, s->u, 1, r);
-    mo_stepper_gather(S, r, S->rhs);
-    if ((st = mo_stepper_what_solve(S, 1, S->rhs, S->xf, ctx))) return st;
-    for (i = 0; i < sc->nfree; i++) S->xf[i] *= 0.5 * h;
-    for (i = 0; i < sc->nfree; i++) s->v[sc->full_of[i]] += S->xf[i];
+    if (!S->alias) mo_stepper_gather(S, r, S->rhs);
+    if ((st = mo_stepper_what_solve(S, 1, S->rhs, xf, ctx))) return st;
+    for (i = 0; i < sc->nfree; i++) xf[i] *= 0.5 * h;
+    for (i = 0; i < sc->nfree; i++) s->v[sc->full_of[i]] += xf[i];
   }
   /* external work, trapezoidal in time, over the load patterns only */
   for (l = 0; l < sc->nload; l++) {
