@@ -665,13 +665,18 @@ int mo_stepper_create_ordered(const mo_scene *sc, int nlast, const int *last, do
   if (need_w2) S->w2 = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
   /* w3: Newton's work, or the unknown of a step without contact (mo_stepper_step, made there) */
   S->w3 = sc->nonlinear ? mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double)) : NULL;
-  S->uprev = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
+  /* the displacements of the step's start, for the increments of the load work, the reactions
+     and the 3D rotations; with alias under the theta-scheme and no prescribed dof the increments
+     are formed from the step's own terms before u moves (T247) */
+  if (!(S->alias && S->scheme == MO_SCHEME_THETA && !sc->npresc))
+    S->uprev = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
   /* the velocities and forces of the step's start: the reactions of prescribed dofs only */
   if (sc->npresc) {
     S->vprev = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
     S->fprev = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
   }
-  if (!S->rhs || (!S->alias && !S->xf) || !S->w1 || (need_w2 && !S->w2) || (sc->nonlinear && !S->w3) || !S->uprev || (sc->npresc && (!S->vprev || !S->fprev))) {
+  if (!S->rhs || (!S->alias && !S->xf) || !S->w1 || (need_w2 && !S->w2) || (sc->nonlinear && !S->w3) ||
+      (!(S->alias && S->scheme == MO_SCHEME_THETA && !sc->npresc) && !S->uprev) || (sc->npresc && (!S->vprev || !S->fprev))) {
     mo_stepper_free(S);
     return MO_ENOMEM;
   }
@@ -1287,6 +1292,34 @@ static int nan_diagnosis(const mo_stepper *S, const mo_state *s, const double *x
                   "scheme cannot resolve)", s->step + 1, tn, nbad, dof, where);
 }
 
+/* The theta-scheme's increment of u at dof i over the step, u_k+1 - u_k, formed before u moves
+   from the same operations as the update (T247): the value u_k+1 - uprev gives, to the bit. */
+static inline double theta_du(const mo_stepper *S, const mo_state *s, const double *x, int i)
+{
+  return (s->u[i] + S->h * (S->theta * x[i] + (1 - S->theta) * s->v[i])) - s->u[i];
+}
+
+/* Without uprev (T247): the load patterns' work over the step and the 3D rotations, from the
+   increments before u moves (the same sums, in the same order, as after it with uprev). */
+static double ahead_of_update(const mo_stepper *S, mo_state *s, const double *x)
+{
+  const mo_scene *sc = S->sc;
+  double tn = s->t + S->h, dw = 0;
+  int l, k, i;
+  for (k = 0; k < sc->nrigid && sc->dim == 3; k++) {
+    const mo_body *B = &sc->body[sc->rigid[k]];
+    double phi[3];
+    for (i = 0; i < 3; i++) phi[i] = theta_du(S, s, x, B->dof0 + 3 + i);
+    mo_quat_rotate(s->orient + 4 * B->orient, phi);
+  }
+  for (l = 0; l < sc->nload; l++) {
+    const mo_load *L = &sc->load[l];
+    double a0 = L->amp ? mo_expr_eval(L->amp, &s->t) : 1, a1 = L->amp ? mo_expr_eval(L->amp, &tn) : 1;
+    for (k = 0; k < L->n; k++) dw += 0.5 * (a0 + a1) * L->val[k] * theta_du(S, s, x, L->dof[k]);
+  }
+  return dw;
+}
+
 int mo_stepper_finish(mo_stepper *S, mo_state *s, const double *x, mo_ctx *ctx)
 {
   const mo_scene *sc = S->sc;
@@ -1294,7 +1327,8 @@ int mo_stepper_finish(mo_stepper *S, mo_state *s, const double *x, mo_ctx *ctx)
   double h = S->h, tn = s->t + h, t0 = mo_clock(), dw = 0, ws = 0;
   for (i = 0; i < n; i++)
     if (!isfinite(x[i])) return nan_diagnosis(S, s, x, i, ctx);
-  memcpy(S->uprev, s->u, (size_t)n * sizeof(double));
+  if (S->uprev) memcpy(S->uprev, s->u, (size_t)n * sizeof(double));
+  else dw = ahead_of_update(S, s, x);
   if (S->vprev) memcpy(S->vprev, s->v, (size_t)n * sizeof(double));
   if (S->fprev) memcpy(S->fprev, s->f, (size_t)n * sizeof(double));
   switch (S->scheme) {
@@ -1323,7 +1357,7 @@ int mo_stepper_finish(mo_stepper *S, mo_state *s, const double *x, mo_ctx *ctx)
   /* prescribed dofs exactly on their path */
   presc_values(S, tn, s->u, S->scheme == MO_SCHEME_QUASISTATIC ? NULL : s->v, NULL);
   /* 3D rigid bodies turn by the increment of the integral of omega over the step (T69) */
-  for (k = 0; k < sc->nrigid && sc->dim == 3; k++) {
+  for (k = 0; k < sc->nrigid && sc->dim == 3 && S->uprev; k++) {
     const mo_body *B = &sc->body[sc->rigid[k]];
     double phi[3];
     for (i = 0; i < 3; i++) phi[i] = s->u[B->dof0 + 3 + i] - S->uprev[B->dof0 + 3 + i];
@@ -1343,7 +1377,7 @@ int mo_stepper_finish(mo_stepper *S, mo_state *s, const double *x, mo_ctx *ctx)
     for (i = 0; i < sc->nfree; i++) s->v[sc->full_of[i]] += xf[i];
   }
   /* external work, trapezoidal in time, over the load patterns only */
-  for (l = 0; l < sc->nload; l++) {
+  for (l = 0; l < sc->nload && S->uprev; l++) {
     const mo_load *L = &sc->load[l];
     double a0 = L->amp ? mo_expr_eval(L->amp, &s->t) : 1, a1 = L->amp ? mo_expr_eval(L->amp, &tn) : 1;
     for (k = 0; k < L->n; k++) dw += 0.5 * (a0 + a1) * L->val[k] * (s->u[L->dof[k]] - S->uprev[L->dof[k]]);
