@@ -1211,8 +1211,13 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
     sc->u0 = sc->v0 = NULL;
   }
   table = mo_case_lookup_bool(cs, "output.contact_table");
-  /* the run's scratch, lent to the metrics too (their calls and the run's uses do not overlap) */
-  if (!(work = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof *work))) { st = MO_ENOMEM; goto done; }
+  /* the run's scratch, lent to the metrics too (their calls and the run's uses do not overlap):
+     the energies' products with K and M, and the deformable bodies' momenta; none on a scene of
+     rigid bodies and obstacles (T249) */
+  if (mo_energy_needs_work(sc) && !(work = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof *work))) {
+    st = MO_ENOMEM;
+    goto done;
+  }
   if ((st = mo_metrics_create(sc, C, drv, work, &met, ctx))) goto done;
   stepper.sc = sc;
   stepper.S = S;
