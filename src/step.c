@@ -26,8 +26,8 @@ int mo_state_alloc(const mo_scene *sc, mo_state *s, mo_ctx *ctx)
   if (sc->time.scheme == MO_SCHEME_NEWMARK) s->a = mo_calloc(ctx, n, sizeof(double));
   if (sc->nq) s->q = mo_calloc(ctx, sc->nq, sizeof(double));
   if (sc->norient) s->orient = mo_calloc(ctx, 4 * (size_t)sc->norient, sizeof(double));
-  if (!s->u || !s->v || !s->f || ((sc->npresc || sc->nfe_dof) && !s->reac) || (sc->time.scheme == MO_SCHEME_NEWMARK && !s->a) ||
-      (sc->nq && !s->q) || (sc->norient && !s->orient)) {
+  if (!s->u || !s->v || !s->f || ((sc->npresc || sc->nfe_dof) && !s->reac) ||
+      (sc->time.scheme == MO_SCHEME_NEWMARK && !s->a) || (sc->nq && !s->q) || (sc->norient && !s->orient)) {
     mo_state_release(s);
     return MO_ENOMEM;
   }
@@ -651,7 +651,7 @@ int mo_stepper_create_ordered(const mo_scene *sc, int nlast, const int *last, do
 {
   mo_stepper *S;
   mo_csc *Wf = NULL;
-  int st, n = sc->ndof, need_w2;
+  int st, n = sc->ndof, need_w2, keep_uprev;
   double t0;
   *out = NULL;
   S = mo_calloc(ctx, 1, sizeof *S);
@@ -681,15 +681,15 @@ int mo_stepper_create_ordered(const mo_scene *sc, int nlast, const int *last, do
   /* the displacements of the step's start, for the increments of the load work, the reactions
      and the 3D rotations; with alias under the theta-scheme and no prescribed dof the increments
      are formed from the step's own terms before u moves (T247) */
-  if (!(S->alias && S->scheme == MO_SCHEME_THETA && !sc->npresc))
-    S->uprev = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
+  keep_uprev = !(S->alias && S->scheme == MO_SCHEME_THETA && !sc->npresc);
+  if (keep_uprev) S->uprev = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
   /* the velocities and forces of the step's start: the reactions of prescribed dofs only */
   if (sc->npresc) {
     S->vprev = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
     S->fprev = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
   }
   if (!S->rhs || (!S->alias && !S->xf) || !S->w1 || (need_w2 && !S->w2) || (sc->nonlinear && !S->w3) ||
-      (!(S->alias && S->scheme == MO_SCHEME_THETA && !sc->npresc) && !S->uprev) || (sc->npresc && (!S->vprev || !S->fprev))) {
+      (keep_uprev && !S->uprev) || (sc->npresc && (!S->vprev || !S->fprev))) {
     mo_stepper_free(S);
     return MO_ENOMEM;
   }
