@@ -38,6 +38,14 @@ static int extreme(double x)
   return !isfinite(x) || fabs(x) > MO_FINITE_EXTREME;
 }
 
+int mo_finite_initial(const mo_scene *sc)
+{
+  int k;
+  for (k = 0; sc->u0 && sc->v0 && k < sc->ndof; k++)
+    if (extreme(sc->u0[k]) || extreme(sc->v0[k])) return k;
+  return -1;
+}
+
 void mo_finite_cause(const mo_scene *sc, double t, char *buf, size_t n)
 {
   const config_setting_t *bl = config_lookup(&sc->cs->cfg, "bodies");
@@ -66,13 +74,12 @@ void mo_finite_cause(const mo_scene *sc, double t, char *buf, size_t n)
     }
   }
   /* 2. the initial fields */
-  for (k = 0; k < sc->ndof; k++)
-    if (extreme(sc->u0[k]) || extreme(sc->v0[k])) {
-      b = dof_body(sc, k);
-      snprintf(buf, n, "The likely cause: bodies.%s.initial.%s: %g", b >= 0 ? entry_name(sc, b) : "?",
-               extreme(sc->v0[k]) ? "velocity" : "displacement", extreme(sc->v0[k]) ? sc->v0[k] : sc->u0[k]);
-      return;
-    }
+  if ((k = mo_finite_initial(sc)) >= 0) {
+    b = dof_body(sc, k);
+    snprintf(buf, n, "The likely cause: bodies.%s.initial.%s: %g", b >= 0 ? entry_name(sc, b) : "?",
+             extreme(sc->v0[k]) ? "velocity" : "displacement", extreme(sc->v0[k]) ? sc->v0[k] : sc->u0[k]);
+    return;
+  }
   /* 3. the materials: a modulus or a density far from any material, a wave speed past 1e100 */
   for (b = 0; b < sc->nbody; b++) {
     const mo_body *B = &sc->body[b];

@@ -268,9 +268,10 @@ int mo_metrics_create(const mo_scene *sc, const mo_contact *C, const mo_contact_
   if (!M) return MO_ENOMEM;
   M->sc = sc;
   M->C = C;
-  M->own_work = !work;
-  M->work = work ? work : mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof(double));
-  if (!M->work) { mo_metrics_free(M); return MO_ENOMEM; }
+  /* the energies' work vector: none on a scene of rigid bodies and obstacles (T249) */
+  M->own_work = !work && mo_energy_needs_work(sc);
+  M->work = work ? work : M->own_work ? mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof(double)) : NULL;
+  if (M->own_work && !M->work) { mo_metrics_free(M); return MO_ENOMEM; }
   M->first_release = NAN;
   M->fields = R->type != MO_REF_NONE && R->type != MO_REF_ENERGY && R->type < MO_REF_BOUNCE && R->body >= 0 &&
               sc->body[R->body].kind == MO_BODY_DEFORMABLE && sc->body[R->body].mesh->dim == 1;

@@ -77,6 +77,9 @@ int mo_chatter_verdict(const mo_chatter_input *in, char *why, size_t n);
 void mo_finite_cause(const mo_scene *sc, double t, char *buf, size_t n);
 int mo_finite_error(const mo_scene *sc, long step, double t, const char *what, double value, mo_ctx *ctx);
 int mo_finite_state(const mo_scene *sc, const mo_state *s, mo_ctx *ctx);
+/* The first dof whose initial displacement or velocity (sc->u0, sc->v0) is extreme, or -1 (also
+   when the scene no longer holds them: they were released only when none was, T248). */
+int mo_finite_initial(const mo_scene *sc);
 void mo_matrix_cause(const mo_scene *sc, char *buf, size_t n);
 int mo_finite_row(const mo_scene *sc, const mo_state *s, const double *row, const char *const *names, int ncol,
                   mo_ctx *ctx);

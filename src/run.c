@@ -1202,9 +1202,22 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   if (drv && opt->dump_fclib) mo_contact_driver_keep_delassus(drv);
   if ((st = mo_state_alloc(sc, &s, ctx))) goto done;
   if ((st = mo_stepper_init_state(S, &s, ctx))) goto done;
+  /* (T248) a scene of rigid bodies and obstacles: the initial fields live in the state from here
+     on; the scene's were read by the contact set's and the driver's first geometry (done) and by
+     the cause of a non-finite value, which looks for an extreme one: released when there is none */
+  if (!sc->nfe_dof && mo_finite_initial(sc) < 0) {
+    mo_free(sc->u0);
+    mo_free(sc->v0);
+    sc->u0 = sc->v0 = NULL;
+  }
   table = mo_case_lookup_bool(cs, "output.contact_table");
-  /* the run's scratch, lent to the metrics too (their calls and the run's uses do not overlap) */
-  if (!(work = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof *work))) { st = MO_ENOMEM; goto done; }
+  /* the run's scratch, lent to the metrics too (their calls and the run's uses do not overlap):
+     the energies' products with K and M, and the deformable bodies' momenta; none on a scene of
+     rigid bodies and obstacles (T249) */
+  if (mo_energy_needs_work(sc) && !(work = mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof *work))) {
+    st = MO_ENOMEM;
+    goto done;
+  }
   if ((st = mo_metrics_create(sc, C, drv, work, &met, ctx))) goto done;
   stepper.sc = sc;
   stepper.S = S;

@@ -20,12 +20,14 @@ int mo_state_alloc(const mo_scene *sc, mo_state *s, mo_ctx *ctx)
   s->u = mo_calloc(ctx, n, sizeof(double));
   s->v = mo_calloc(ctx, n, sizeof(double));
   s->f = mo_calloc(ctx, n, sizeof(double));
-  s->reac = mo_calloc(ctx, n, sizeof(double));
+  /* the reactions live on prescribed dofs: none on a scene of rigid bodies and obstacles without
+     any (T245), where nothing reads them (a probe observes a deformable body) */
+  if (sc->npresc || sc->nfe_dof) s->reac = mo_calloc(ctx, n, sizeof(double));
   if (sc->time.scheme == MO_SCHEME_NEWMARK) s->a = mo_calloc(ctx, n, sizeof(double));
   if (sc->nq) s->q = mo_calloc(ctx, sc->nq, sizeof(double));
   if (sc->norient) s->orient = mo_calloc(ctx, 4 * (size_t)sc->norient, sizeof(double));
-  if (!s->u || !s->v || !s->f || !s->reac || (sc->time.scheme == MO_SCHEME_NEWMARK && !s->a) ||
-      (sc->nq && !s->q) || (sc->norient && !s->orient)) {
+  if (!s->u || !s->v || !s->f || ((sc->npresc || sc->nfe_dof) && !s->reac) ||
+      (sc->time.scheme == MO_SCHEME_NEWMARK && !s->a) || (sc->nq && !s->q) || (sc->norient && !s->orient)) {
     mo_state_release(s);
     return MO_ENOMEM;
   }
@@ -59,7 +61,7 @@ int mo_state_copy(const mo_scene *sc, const mo_state *src, mo_state *dst)
   memcpy(dst->u, src->u, n);
   memcpy(dst->v, src->v, n);
   memcpy(dst->f, src->f, n);
-  memcpy(dst->reac, src->reac, n);
+  if (src->reac && dst->reac) memcpy(dst->reac, src->reac, n);
   if (src->a && dst->a) memcpy(dst->a, src->a, n);
   return MO_OK;
 }
@@ -95,8 +97,21 @@ double mo_energy_kinetic(const mo_scene *sc, const mo_state *s, double *work)
   return e + mo_rigid_kinetic(sc, s);
 }
 
+int mo_energy_needs_work(const mo_scene *sc)
+{
+  return sc->nfe_dof || sc->kpart || (sc->K && mo_csc_nnz(sc->K));
+}
+
 double mo_energy_elastic(const mo_scene *sc, const double *u, double *work)
 {
+  if (!mo_energy_needs_work(sc)) {
+    /* K has no entry (T249): K u is +0 everywhere, and x^T (K u) / 2 its sum, u_i 0 in turn
+       (a non-finite u_i gives NaN, as the product with K would) */
+    double e = 0;
+    int i;
+    for (i = 0; i < sc->ndof; i++) e += u[i] * 0.0;
+    return 0.5 * e;
+  }
   return half_form(sc, sc->K, u, sc->ndof, work);
 }
 
@@ -111,7 +126,7 @@ void mo_stepper_free(mo_stepper *S)
   mo_csc_free(S->Wfull);
   mo_csc_free(S->W);
   mo_linsolver_free(S->ls);
-  mo_free(S->rhs);
+  if (S->rhs != S->w1) mo_free(S->rhs);
   mo_free(S->xf);
   mo_free(S->w1);
   mo_free(S->w2);
@@ -640,7 +655,7 @@ int mo_stepper_create_ordered(const mo_scene *sc, int nlast, const int *last, do
 {
   mo_stepper *S;
   mo_csc *Wf = NULL;
-  int st, n = sc->ndof;
+  int st, n = sc->ndof, need_w2, keep_uprev;
   double t0;
   *out = NULL;
   S = mo_calloc(ctx, 1, sizeof *S);
@@ -657,19 +672,28 @@ int mo_stepper_create_ordered(const mo_scene *sc, int nlast, const int *last, do
   S->beta = sc->time.beta;
   S->gamma = sc->time.gamma;
   coefficients(S);
-  S->rhs = mo_calloc(ctx, (size_t)(sc->nfree ? sc->nfree : 1), sizeof(double));
-  S->xf = mo_calloc(ctx, (size_t)(sc->nfree ? sc->nfree : 1), sizeof(double));
+  /* every dof free and no mesh (T246): the free numbering is the full one, rhs is w1 and What^-1
+     is solved into the caller's full vector; w2 holds u + c v for K's product alone */
+  S->alias = sc->nfree == sc->ndof && !sc->nfe_dof && !sc->nonlinear && !sc->kpart;
   S->w1 = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
-  S->w2 = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
+  S->rhs = S->alias ? S->w1 : mo_calloc(ctx, (size_t)(sc->nfree ? sc->nfree : 1), sizeof(double));
+  S->xf = S->alias ? NULL : mo_calloc(ctx, (size_t)(sc->nfree ? sc->nfree : 1), sizeof(double));
+  need_w2 = !(S->alias && S->scheme == MO_SCHEME_THETA && (!sc->K || !mo_csc_nnz(sc->K)));
+  if (need_w2) S->w2 = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
   /* w3: Newton's work, or the unknown of a step without contact (mo_stepper_step, made there) */
   S->w3 = sc->nonlinear ? mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double)) : NULL;
-  S->uprev = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
+  /* the displacements of the step's start, for the increments of the load work, the reactions
+     and the 3D rotations; with alias under the theta-scheme and no prescribed dof the increments
+     are formed from the step's own terms before u moves (T247) */
+  keep_uprev = !(S->alias && S->scheme == MO_SCHEME_THETA && !sc->npresc);
+  if (keep_uprev) S->uprev = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
   /* the velocities and forces of the step's start: the reactions of prescribed dofs only */
   if (sc->npresc) {
     S->vprev = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
     S->fprev = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
   }
-  if (!S->rhs || !S->xf || !S->w1 || !S->w2 || (sc->nonlinear && !S->w3) || !S->uprev || (sc->npresc && (!S->vprev || !S->fprev))) {
+  if (!S->rhs || (!S->alias && !S->xf) || !S->w1 || (need_w2 && !S->w2) || (sc->nonlinear && !S->w3) ||
+      (keep_uprev && !S->uprev) || (sc->npresc && (!S->vprev || !S->fprev))) {
     mo_stepper_free(S);
     return MO_ENOMEM;
   }
@@ -884,7 +908,7 @@ int mo_stepper_init_state(mo_stepper *S, mo_state *s, mo_ctx *ctx)
   memcpy(s->v, sc->v0, (size_t)n * sizeof(double));
   presc_values(S, 0, s->u, s->v, NULL);
   mo_scene_fext(sc, 0, s->f);
-  memset(s->reac, 0, (size_t)n * sizeof(double));
+  if (s->reac) memset(s->reac, 0, (size_t)n * sizeof(double));
   s->psi = s->wplastic = 0;
   /* 3D rigid bodies start in their reference orientation (the body frame is the world's) */
   for (st = 0; st < sc->norient; st++) {
@@ -912,7 +936,7 @@ int mo_stepper_init_state(mo_stepper *S, mo_state *s, mo_ctx *ctx)
     } else
       mo_scene_gaxpy(sc, sc->K, -1, s->u, 1, S->w1);
     mo_scene_gaxpy(sc, sc->M, -1, s->a, 1, S->w1); /* once a run: two sums */
-    mo_stepper_gather(S, S->w1, S->rhs);
+    if (!S->alias) mo_stepper_gather(S, S->w1, S->rhs);
     st = MO_OK;
     if (sc->nfe_free) {
       /* the nodal rows through M_ff; the rigid rows' mass blocks are What's (What = M + beta h^2 K) */
@@ -927,11 +951,11 @@ int mo_stepper_init_state(mo_stepper *S, mo_state *s, mo_ctx *ctx)
       if (S->blk_varies) st = mo_stepper_rigid_update(S, s, ctx);
       rigid_rhs(S, s, s->a, S->rhs);
       Wr.nfe = 0; /* the rigid blocks alone */
-      memcpy(S->w2, S->xf, (size_t)sc->nfe_free * sizeof(double));
-      if (!st) st = mo_what_solve(&Wr, 1, S->rhs, S->xf, ctx);
-      memcpy(S->xf, S->w2, (size_t)sc->nfe_free * sizeof(double));
+      if (sc->nfe_free) memcpy(S->w2, S->xf, (size_t)sc->nfe_free * sizeof(double));
+      if (!st) st = mo_what_solve(&Wr, 1, S->rhs, S->alias ? s->a : S->xf, ctx);
+      if (sc->nfe_free) memcpy(S->xf, S->w2, (size_t)sc->nfe_free * sizeof(double));
     }
-    if (!st) mo_stepper_scatter(S, S->xf, s->a);
+    if (!st && !S->alias) mo_stepper_scatter(S, S->xf, s->a);
     mo_linsolver_free(Ml);
     mo_csc_free(Mff);
     if (st) return mo_error_prefix(ctx, "initial acceleration (mass matrix)");
@@ -978,13 +1002,16 @@ static int predict_rhs(mo_stepper *S, const mo_state *s, double *x, mo_ctx *ctx)
     /* central differences (T100): s->v is the velocity at t_k, the unknown v+ the one at
        t_k+1/2, reached by half the step's kick: M v+ = M v_k + h/2 f(t_k, u_k) (+ H r) */
     if (sc->time.explicit_cd) hf = 0.5 * h;
-    for (i = 0; i < n; i++) {
-      w[i] = s->u[i] + c * s->v[i];
-      f1[i] = hf * (tf * f1[i] + (1 - tf) * s->f[i]);
-    }
+    if (w)
+      for (i = 0; i < n; i++) {
+        w[i] = s->u[i] + c * s->v[i];
+        f1[i] = hf * (tf * f1[i] + (1 - tf) * s->f[i]);
+      }
+    else /* K has no entry (T246): its product adds nothing */
+      for (i = 0; i < n; i++) f1[i] = hf * (tf * f1[i] + (1 - tf) * s->f[i]);
     acc = parts_begin(sc, f1);
     mo_csc_gaxpy(sc->M, 1, s->v, 1, acc);
-    mo_csc_gaxpy(sc->K, -hf, w, 1, acc);
+    if (w) mo_csc_gaxpy(sc->K, -hf, w, 1, acc);
     memset(x, 0, (size_t)n * sizeof(double));
     presc_values(S, tn, NULL, x, NULL);
     if (S->Wfull) mo_csc_gaxpy(S->Wfull, -1, x, 1, acc);
@@ -1017,7 +1044,7 @@ static int predict_rhs(mo_stepper *S, const mo_state *s, double *x, mo_ctx *ctx)
     memcpy(x, w, (size_t)n * sizeof(double));
     break;
   }
-  mo_stepper_gather(S, f1, S->rhs);
+  if (!S->alias) mo_stepper_gather(S, f1, S->rhs); /* with alias rhs is f1 itself */
   if (S->nblk) rigid_rhs(S, s, x, S->rhs);
   return MO_OK;
 }
@@ -1027,8 +1054,8 @@ int mo_stepper_predict(mo_stepper *S, const mo_state *s, double *x, mo_ctx *ctx)
   double t0 = mo_clock();
   int st = predict_rhs(S, s, x, ctx);
   S->split_state = 0;
-  if (!st) st = mo_stepper_what_solve(S, 1, S->rhs, S->xf, ctx);
-  if (!st) mo_stepper_scatter(S, S->xf, x);
+  if (!st) st = mo_stepper_what_solve(S, 1, S->rhs, S->alias ? x : S->xf, ctx);
+  if (!st && !S->alias) mo_stepper_scatter(S, S->xf, x);
   mo_phase_add(ctx, MO_PH_SOLVE, t0);
   return st;
 }
@@ -1136,10 +1163,14 @@ int mo_stepper_correct(mo_stepper *S, const double *imp, double *dx, mo_ctx *ctx
 {
   int st;
   double t0 = mo_clock();
-  mo_stepper_gather(S, imp, S->rhs);
-  st = mo_stepper_what_solve(S, 1, S->rhs, S->xf, ctx);
-  memset(dx, 0, (size_t)S->sc->ndof * sizeof(double));
-  if (!st) mo_stepper_scatter(S, S->xf, dx);
+  if (S->alias) /* T246: the full numbering is the free one, What^-1 imp solved into dx */
+    st = mo_stepper_what_solve(S, 1, imp, dx, ctx);
+  else {
+    mo_stepper_gather(S, imp, S->rhs);
+    st = mo_stepper_what_solve(S, 1, S->rhs, S->xf, ctx);
+    memset(dx, 0, (size_t)S->sc->ndof * sizeof(double));
+    if (!st) mo_stepper_scatter(S, S->xf, dx);
+  }
   mo_phase_add(ctx, MO_PH_SOLVE, t0);
   return st;
 }
@@ -1278,6 +1309,34 @@ static int nan_diagnosis(const mo_stepper *S, const mo_state *s, const double *x
                   "scheme cannot resolve)", s->step + 1, tn, nbad, dof, where);
 }
 
+/* The theta-scheme's increment of u at dof i over the step, u_k+1 - u_k, formed before u moves
+   from the same operations as the update (T247): the value u_k+1 - uprev gives, to the bit. */
+static inline double theta_du(const mo_stepper *S, const mo_state *s, const double *x, int i)
+{
+  return (s->u[i] + S->h * (S->theta * x[i] + (1 - S->theta) * s->v[i])) - s->u[i];
+}
+
+/* Without uprev (T247): the load patterns' work over the step and the 3D rotations, from the
+   increments before u moves (the same sums, in the same order, as after it with uprev). */
+static double ahead_of_update(const mo_stepper *S, mo_state *s, const double *x)
+{
+  const mo_scene *sc = S->sc;
+  double tn = s->t + S->h, dw = 0;
+  int l, k, i;
+  for (k = 0; k < sc->nrigid && sc->dim == 3; k++) {
+    const mo_body *B = &sc->body[sc->rigid[k]];
+    double phi[3];
+    for (i = 0; i < 3; i++) phi[i] = theta_du(S, s, x, B->dof0 + 3 + i);
+    mo_quat_rotate(s->orient + 4 * B->orient, phi);
+  }
+  for (l = 0; l < sc->nload; l++) {
+    const mo_load *L = &sc->load[l];
+    double a0 = L->amp ? mo_expr_eval(L->amp, &s->t) : 1, a1 = L->amp ? mo_expr_eval(L->amp, &tn) : 1;
+    for (k = 0; k < L->n; k++) dw += 0.5 * (a0 + a1) * L->val[k] * theta_du(S, s, x, L->dof[k]);
+  }
+  return dw;
+}
+
 int mo_stepper_finish(mo_stepper *S, mo_state *s, const double *x, mo_ctx *ctx)
 {
   const mo_scene *sc = S->sc;
@@ -1285,7 +1344,8 @@ int mo_stepper_finish(mo_stepper *S, mo_state *s, const double *x, mo_ctx *ctx)
   double h = S->h, tn = s->t + h, t0 = mo_clock(), dw = 0, ws = 0;
   for (i = 0; i < n; i++)
     if (!isfinite(x[i])) return nan_diagnosis(S, s, x, i, ctx);
-  memcpy(S->uprev, s->u, (size_t)n * sizeof(double));
+  if (S->uprev) memcpy(S->uprev, s->u, (size_t)n * sizeof(double));
+  else dw = ahead_of_update(S, s, x);
   if (S->vprev) memcpy(S->vprev, s->v, (size_t)n * sizeof(double));
   if (S->fprev) memcpy(S->fprev, s->f, (size_t)n * sizeof(double));
   switch (S->scheme) {
@@ -1314,7 +1374,7 @@ int mo_stepper_finish(mo_stepper *S, mo_state *s, const double *x, mo_ctx *ctx)
   /* prescribed dofs exactly on their path */
   presc_values(S, tn, s->u, S->scheme == MO_SCHEME_QUASISTATIC ? NULL : s->v, NULL);
   /* 3D rigid bodies turn by the increment of the integral of omega over the step (T69) */
-  for (k = 0; k < sc->nrigid && sc->dim == 3; k++) {
+  for (k = 0; k < sc->nrigid && sc->dim == 3 && S->uprev; k++) {
     const mo_body *B = &sc->body[sc->rigid[k]];
     double phi[3];
     for (i = 0; i < 3; i++) phi[i] = s->u[B->dof0 + 3 + i] - S->uprev[B->dof0 + 3 + i];
@@ -1325,16 +1385,16 @@ int mo_stepper_finish(mo_stepper *S, mo_state *s, const double *x, mo_ctx *ctx)
     /* central differences (T100): the second half kick, v_k+1 = v+ + h/2 M^-1 f(t_k+1, u_k+1)
        on free dofs, so that the state holds velocities at the time of its displacements */
     int st;
-    double *r = S->w1;
+    double *r = S->w1, *xf = S->alias ? S->w1 : S->xf; /* alias: solved in place (block_apply) */
     memcpy(r, s->f, (size_t)n * sizeof(double));
     mo_scene_gaxpy(sc, sc->K, -1, s->u, 1, r);
-    mo_stepper_gather(S, r, S->rhs);
-    if ((st = mo_stepper_what_solve(S, 1, S->rhs, S->xf, ctx))) return st;
-    for (i = 0; i < sc->nfree; i++) S->xf[i] *= 0.5 * h;
-    for (i = 0; i < sc->nfree; i++) s->v[sc->full_of[i]] += S->xf[i];
+    if (!S->alias) mo_stepper_gather(S, r, S->rhs);
+    if ((st = mo_stepper_what_solve(S, 1, S->rhs, xf, ctx))) return st;
+    for (i = 0; i < sc->nfree; i++) xf[i] *= 0.5 * h;
+    for (i = 0; i < sc->nfree; i++) s->v[sc->full_of[i]] += xf[i];
   }
   /* external work, trapezoidal in time, over the load patterns only */
-  for (l = 0; l < sc->nload; l++) {
+  for (l = 0; l < sc->nload && S->uprev; l++) {
     const mo_load *L = &sc->load[l];
     double a0 = L->amp ? mo_expr_eval(L->amp, &s->t) : 1, a1 = L->amp ? mo_expr_eval(L->amp, &tn) : 1;
     for (k = 0; k < L->n; k++) dw += 0.5 * (a0 + a1) * L->val[k] * (s->u[L->dof[k]] - S->uprev[L->dof[k]]);

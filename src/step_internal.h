@@ -13,8 +13,12 @@ struct mo_stepper {
   mo_csc *Wfull;    /* M + c K over full dofs (for prescribed couplings); NULL when not needed */
   mo_csc *W;        /* free-free restriction */
   mo_linsolver *ls; /* its factorization */
-  double *rhs, *xf; /* free-size work */
-  double *w1, *w2, *w3; /* full-size work */
+  double *rhs, *xf; /* free-size work; on a scene of rigid bodies and obstacles whose dofs are
+                       all free (alias), rhs is w1 and xf is not made: What^-1 is solved into
+                       the caller's full vector (doc/theory.md (T246)) */
+  int alias;
+  double *w1, *w2, *w3; /* full-size work (w2 not made with alias under the theta-scheme when K
+                           is empty: its one use is K's product) */
   double *uprev, *vprev, *fprev; /* previous state for reactions (vprev, fprev: prescribed dofs only) */
   /* nonlinear scenes (newton.c); all NULL for linear ones */
   int nl;

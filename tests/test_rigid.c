@@ -433,6 +433,66 @@ static void free_box(const char *out)
   tl_remove_dir(out);
 }
 
+/* --- free fall: the increments of a step formed before u moves (T247) ----------------------------
+   A body falling from rest under its weight, spinning at a constant rate, with the theta-scheme at
+   theta = 1/2 (the trapezoidal rule, exact for a constant acceleration): y(T) = y0 - g T^2 / 2, the
+   external work m g^2 T^2 / 2, the turn omega T. Without a prescribed dof the scene takes the path
+   without the start-of-step displacements (T245-T249); a second body with one fixed rotation, far
+   away and without a load, puts the run on the general path: the same numbers to the bit. */
+static void free_fall(int dim, const char *out)
+{
+  char text[2000], out2[600];
+  const double g = 9.81, T = 0.5, w = 3.0, R = 0.05, rho = 1000.0;
+  const double m = dim == 2 ? rho * M_PI * R * R : rho * 4.0 / 3 * M_PI * R * R * R;
+  tl_table A, B;
+  int k, same = 1, i;
+  snprintf(out2, sizeof out2, "%s-fixed", out);
+  for (k = 0; k < 2; k++) {
+    const char *fix = k ? (dim == 2 ? "fix = ( { dofs = [\"theta\"]; } );" : "fix = ( { dofs = [\"rx\"]; } );") : "";
+    if (dim == 2)
+      snprintf(text, sizeof text,
+               "title = \"free fall\";\n"
+               "bodies = ( { name = \"a\"; type = \"disk\"; center = [0.0, 1.0]; radius = %g; density = %g;\n"
+               "  body_force = [0.0, %g]; initial = { omega = %g; }; },\n"
+               "  { name = \"b\"; type = \"disk\"; center = [5.0, 1.0]; radius = %g; density = %g; %s } );\n"
+               "time = { scheme = \"theta\"; theta = 0.5; dt = 1.0e-3; end = %g; };\n"
+               "output = { every = 10; };\n",
+               R, rho, -g, w, R, rho, fix, T);
+    else
+      snprintf(text, sizeof text,
+               "title = \"free fall\";\n"
+               "bodies = ( { name = \"a\"; type = \"sphere\"; center = [0.0, 1.0, 0.0]; radius = %g; density = %g;\n"
+               "  body_force = [0.0, %g, 0.0]; initial = { omega = [0.0, %.3f, 0.0]; }; },\n"
+               "  { name = \"b\"; type = \"sphere\"; center = [5.0, 1.0, 0.0]; radius = %g; density = %g; %s } );\n"
+               "time = { scheme = \"theta\"; theta = 0.5; dt = 1.0e-3; end = %g; };\n"
+               "output = { every = 10; };\n",
+               R, rho, -g, w, R, rho, fix, T);
+    if (run_text(text, k ? out2 : out, k ? &B : &A)) {
+      ok(0, "free fall (%dD) runs", dim);
+      if (k) tl_table_free(&A);
+      return;
+    }
+  }
+  is_close(last(&A, "a.y"), 1.0 - 0.5 * g * T * T, 1e-12, "free fall (%dD): y(T) = y0 - g T^2 / 2", dim);
+  is_close(last(&A, "energy.external_work"), 0.5 * m * g * g * T * T, 1e-11 * m * g * g * T * T,
+           "free fall (%dD): the external work m g^2 T^2 / 2 = %.9g J", dim, 0.5 * m * g * g * T * T);
+  if (dim == 2) is_close(last(&A, "a.theta"), w * T, 1e-12, "free fall (2D): the turn omega T");
+  else /* a turn about y: q = (cos(omega T / 2), 0, sin(omega T / 2), 0) */
+    is_close(last(&A, "a.q2"), sin(0.5 * w * T), 1e-9, /* the history's 10 digits */
+             "free fall (3D): the quaternion's sin(omega T / 2)");
+  for (i = 0; i < A.ncol && same; i++) {
+    int j = tl_col(&B, A.name[i]), r;
+    if (j < 0) continue;
+    for (r = 0; r < A.nrow && r < B.nrow; r++)
+      if (strcmp(A.cell[r][i], B.cell[r][j])) same = 0;
+  }
+  ok(same && A.nrow == B.nrow, "free fall (%dD): the same history to the bit with a prescribed dof elsewhere (the general path)", dim);
+  tl_table_free(&A);
+  tl_table_free(&B);
+  tl_remove_dir(out);
+  tl_remove_dir(out2);
+}
+
 /* --- a disk resting on a deformable block ---------------------------------------------------------- */
 
 static void disk_on_block(const char *solver, const char *out)
@@ -490,6 +550,8 @@ int main(void)
   }
   bounce("ball-bounce/sphere.cfg", "nscd", "tests/out/rigid-sphere");
   free_box("tests/out/rigid-box");
+  free_fall(2, "tests/out/rigid-fall2");
+  free_fall(3, "tests/out/rigid-fall3");
   arch(0.13, 1, "tests/out/rigid-arch");
   arch(0.09, 0, "tests/out/rigid-arch");
   done_testing();

@@ -243,7 +243,8 @@ typedef struct mo_scene {
   mo_load *load;
   mo_csc *K, *M;  /* full ndof x ndof (M is NULL for quasi-static scenes); K holds the linear
                      bodies only (finite-strain bodies have no constant stiffness) */
-  double *u0, *v0;
+  double *u0, *v0;  /* the initial fields; released by mo_run once its state holds them on a scene
+                      without a mesh and without an extreme one (doc/theory.md (T248)) */
   double mass_total;
   /* the elements whose K and M each rank computed, and its seconds in that loop (nranks values
      each; one process: its count and time; doc/parallel.md §3) */

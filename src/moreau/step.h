@@ -17,7 +17,8 @@ typedef struct mo_state {
   long step;
   double *u, *v, *a;  /* a: Newmark only (NULL otherwise) */
   double *f;          /* external force f_ext(t) */
-  double *reac;       /* support reactions on prescribed dofs (0 elsewhere), over the last step */
+  double *reac;       /* support reactions on prescribed dofs (0 elsewhere), over the last step;
+                         NULL on a scene without a prescribed dof or a mesh (doc/theory.md (T245)) */
   double wext;        /* work of external forces since t = 0 (trapezoidal rule) */
   double wsupport;    /* work of the support reactions (moving supports) */
   double wcontact;    /* work of contact impulses (filled by the contact layer) */
@@ -41,6 +42,9 @@ int mo_state_copy(const mo_scene *sc, const mo_state *src, mo_state *dst);
    their stored energy is mo_state.psi). */
 double mo_energy_kinetic(const mo_scene *sc, const mo_state *s, double *work);
 double mo_energy_elastic(const mo_scene *sc, const double *u, double *work);
+/* 1 when the energies need their work vector (ndof): a mesh, or K with an entry or in parts; a
+   scene of rigid bodies and obstacles passes NULL (doc/theory.md (T249)). */
+int mo_energy_needs_work(const mo_scene *sc);
 /* Stored elastic energy of every body: 1/2 u.Ku + psi. */
 double mo_energy_stored(const mo_scene *sc, const mo_state *s, double *work);
 
