@@ -7,7 +7,9 @@
 # a scene of one grain: per grain = (start - empty) / N, per contact = (end - start) / contacts
 # at the end (the candidates of the last geometry), and the same over the most candidates a step
 # had (summary.json contact.candidates_max: the peak holds them); and what the contact set and the
-# driver hold per candidate at the end (summary.json contact.memory). Times are the thread's CPU time
+# driver hold per candidate at the end (summary.json contact.memory); and the issue's target as
+# one figure: the full run's peak less the empty scene's, over 1 000 bytes a grain plus 200 a
+# candidate at the end (vs_target <= 1: within it). Times are the thread's CPU time
 # (MOREAU_CLOCK=cpu for moreau, cpu_per_step_ms for Box2D): the steps alone, and the broad phase's
 # share of them, with the builds of its pair list.
 #   bench/granular_scaling.sh [STEPS [MOREAU [COUNTS]]]   defaults: 1000, build/moreau, "1000 10000 100000"
@@ -37,8 +39,8 @@ run() {
 field() { python3 -c "import json,sys; s=json.load(open(sys.argv[1])); print(eval(sys.argv[2]))" "$tmp/$1/summary.json" "$2"; }
 run 1 0.001 empty
 empty=$(field empty "s['peak_rss_bytes']")
-printf '%8s %10s %12s %12s %8s %8s %8s %10s %12s %10s %10s %10s\n' N contacts moreau_ms box2d_ms ratio broad_% builds \
-  B/grain B/contact B/peak set/cand drv/cand > "$tmp/table"
+printf '%8s %10s %12s %12s %8s %8s %8s %10s %12s %10s %10s %10s %10s\n' N contacts moreau_ms box2d_ms ratio broad_% builds \
+  B/grain B/contact B/peak set/cand drv/cand vs_target > "$tmp/table"
 for n in $counts; do
   run "$n" 0.001 "start$n"
   run "$n" "$t" "full$n" --set contact.nscd.stop=sweeps --set contact.nscd.max_sweeps=8
@@ -57,14 +59,16 @@ nc = max(1, c['candidates'])
 per_contact = (s['peak_rss_bytes'] - start) / nc
 ncmax = max(nc, c.get('candidates_max', 0))
 mem = c.get('memory', {})
-print('%d %.1f %.4f %.3f %.0f %.0f %d %d %.0f %.0f %.0f %d' % (n, sum(closed) / len(closed), 1e3 * loop / steps,
+# the target (issue 13): below 1 000 bytes a grain plus 200 a contact, the whole run over the empty scene
+vs_target = (s['peak_rss_bytes'] - empty) / (1000.0 * n + 200.0 * c['candidates'])
+print('%d %.1f %.4f %.3f %.0f %.0f %d %d %.0f %.0f %.0f %d %.3f' % (n, sum(closed) / len(closed), 1e3 * loop / steps,
       T.get('broad', 0) / loop, per_grain, per_contact, c['candidates'], c.get('broad', {}).get('builds', 0),
       mem.get('set_candidates', 0) / nc, mem.get('driver_candidates', 0) / nc,
-      (s['peak_rss_bytes'] - start) / ncmax, ncmax))
+      (s['peak_rss_bytes'] - start) / ncmax, ncmax, vs_target))
 PY
 )
   set -- $line
-  echo "moreau N=$1 steps=$steps contacts=$2 cpu_per_step_ms=$3 broad_share=$4 bytes_per_grain=$5 bytes_per_contact=$6 candidates_end=$7 broad_builds=$8 set_bytes_per_candidate=$9 driver_bytes_per_candidate=${10} bytes_per_contact_peak=${11} candidates_max=${12}"
+  echo "moreau N=$1 steps=$steps contacts=$2 cpu_per_step_ms=$3 broad_share=$4 bytes_per_grain=$5 bytes_per_contact=$6 candidates_end=$7 broad_builds=$8 set_bytes_per_candidate=$9 driver_bytes_per_candidate=${10} bytes_per_contact_peak=${11} candidates_max=${12} vs_target=${13}"
   tb=nan
   if [ "$have_box2d" = 1 ]; then
     pile_geometry "$n"
@@ -72,7 +76,7 @@ PY
     echo "$bline"
     tb=$(echo "$bline" | sed 's/.*cpu_per_step_ms=\([^ ]*\).*/\1/')
   fi
-  awk -v n="$1" -v c="$2" -v m="$3" -v b="$tb" -v br="$4" -v g="$5" -v k="$6" -v nb="$8" -v sc="$9" -v dc="${10}" -v kp="${11}" \
-    'BEGIN { printf "%8d %10.0f %12.3f %12s %8s %8.1f %8d %10.0f %12.0f %10.0f %10.0f %10.0f\n", n, c, m, b, (b == "nan" ? "-" : sprintf("%.3f", m / b)), 100 * br, nb, g, k, kp, sc, dc }' >> "$tmp/table"
+  awk -v n="$1" -v c="$2" -v m="$3" -v b="$tb" -v br="$4" -v g="$5" -v k="$6" -v nb="$8" -v sc="$9" -v dc="${10}" -v kp="${11}" -v vt="${13}" \
+    'BEGIN { printf "%8d %10.0f %12.3f %12s %8s %8.1f %8d %10.0f %12.0f %10.0f %10.0f %10.0f %10.3f\n", n, c, m, b, (b == "nan" ? "-" : sprintf("%.3f", m / b)), 100 * br, nb, g, k, kp, sc, dc, vt }' >> "$tmp/table"
 done
 cat "$tmp/table"
