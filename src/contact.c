@@ -809,7 +809,7 @@ int mo_contact_driver_create(const mo_scene *sc, mo_contact *C, mo_stepper *S,
   D->dxfull = mo_calloc(ctx, (size_t)n + 1, sizeof(double));
   /* (T236): with every dof free (rigid bodies between obstacles) the free numbering is the full
      one, and x_free and the correction need no arrays of their own: 48 bytes a 2D grain */
-  D->free_alias = sc->nfree == sc->ndof && sc->nfe_dof == 0;
+  D->free_alias = mo_scene_all_free_rigid(sc);
   D->xf = D->free_alias ? D->xfull : mo_calloc(ctx, (size_t)nf + 1, sizeof(double));
   D->dx = D->free_alias ? D->dxfull : mo_calloc(ctx, (size_t)nf + 1, sizeof(double));
   if (sc->time.scheme == MO_SCHEME_QUASISTATIC && !sc->nonlinear && sc->nfe_free) {

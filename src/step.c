@@ -674,7 +674,7 @@ int mo_stepper_create_ordered(const mo_scene *sc, int nlast, const int *last, do
   coefficients(S);
   /* every dof free and no mesh (T246): the free numbering is the full one, rhs is w1 and What^-1
      is solved into the caller's full vector; w2 holds u + c v for K's product alone */
-  S->alias = sc->nfree == sc->ndof && !sc->nfe_dof && !sc->nonlinear && !sc->kpart;
+  S->alias = mo_scene_all_free_rigid(sc) && !sc->nonlinear && !sc->kpart;
   S->w1 = mo_calloc(ctx, (size_t)(n ? n : 1), sizeof(double));
   S->rhs = S->alias ? S->w1 : mo_calloc(ctx, (size_t)(sc->nfree ? sc->nfree : 1), sizeof(double));
   S->xf = S->alias ? NULL : mo_calloc(ctx, (size_t)(sc->nfree ? sc->nfree : 1), sizeof(double));

@@ -276,6 +276,11 @@ typedef struct mo_scene {
 int mo_scene_build(const mo_case *cs, mo_scene **out, mo_ctx *ctx);
 void mo_scene_free(mo_scene *sc);
 
+/* Every dof free and no nodal dof (rigid bodies and obstacles only): the free numbering is the
+   full one, so the driver's and the stepper's free-dof vectors are their full ones
+   (doc/theory.md (T236), (T246)). */
+static inline int mo_scene_all_free_rigid(const mo_scene *sc) { return sc->nfree == sc->ndof && sc->nfe_dof == 0; }
+
 /* External force f(t) over full dofs (overwrites f). */
 void mo_scene_fext(const mo_scene *sc, double t, double *f);
 /* Prescribed displacement and velocity of presc[k] at time t. */
