@@ -18,8 +18,8 @@ typedef struct {
   int progress;                 /* draw a progress bar on stderr */
   const char *dump_fclib;       /* --dump-fclib DIR */
   int no_draw;                  /* leave output.draw out (the runs of a comparison) */
-  int map_large;                /* the program's: on the granular path, blocks of 64 kB and more
-                                   mapped rather than taken from the heap (doc/theory.md (T235)) */
+  int map_large;                /* the program's: on the granular path, blocks of 16 kB and more
+                                   mapped rather than taken from the heap (doc/theory.md (T235), (T280)) */
 } mo_run_options;
 
 typedef struct {
