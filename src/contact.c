@@ -1252,6 +1252,10 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
   P->W = D->wused ? D->W : NULL;
   P->b = D->qu ? D->U : D->q; /* the granular path: q in U, read before the solution is written (T240) */
   P->active = D->active;
+  /* the index set as listed by the forming of q, in increasing order: on the granular path no
+     round adds to it (its laws are Moreau's and the gap's), and the back end reads it (T250) */
+  P->act = grains ? D->act : NULL;
+  P->nact = D->nact;
   P->scheme = scheme;
   P->h = h;
   P->theta = sc->time.theta;
@@ -1342,6 +1346,7 @@ resolve:
         added++;
       }
     if (added) {
+      P->act = NULL; /* appended out of order: the back end lists the set itself */
       rounds++;
       D->index_added += added;
       mo_log(ctx, 3, "step %ld: %d candidate%s outside the index set would end inside the obstacle: solved again\n",

@@ -358,6 +358,10 @@ typedef struct mo_contact_problem {
                                 the granular path (grains) the array of the solution's U itself: a
                                 back end reads b before it writes U (doc/theory.md (T240)) */
   const unsigned char *active; /* nc: candidates that may close this step (0: keep r = 0) */
+  const int *act;            /* on the granular path (grains): the nact candidates of active, in
+                                increasing order, which the back end reads instead of listing them
+                                again (doc/theory.md (T250)); NULL otherwise */
+  int nact;
   mo_scheme scheme;
   double h, theta, theta_f, beta, gamma;
   mo_signorini signorini;
