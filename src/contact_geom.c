@@ -109,6 +109,7 @@ void mo_contact_free(mo_contact *C)
 
 int mo_contact_dim(const mo_contact *C) { return C->dim; }
 int mo_contact_ncandidates(const mo_contact *C) { return C->nc; }
+int mo_contact_capacity(const mo_contact *C) { return C->nalloc > C->nc ? C->nalloc : C->nc; }
 int mo_contact_npairs(const mo_contact *C) { return C->npair; }
 const mo_contact_pair *mo_contact_pair_get(const mo_contact *C, int k) { return &C->pair[k]; }
 const mo_candidate *mo_contact_candidate(const mo_contact *C, int a) { return &C->cand[a]; }

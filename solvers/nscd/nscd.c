@@ -108,8 +108,10 @@ static int fit_set(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
     return mo_error(ctx, MO_EINTERNAL, "nscd: the core gave neither W nor the blocks of H and What");
 #define GROW(ptr, n) if (!(q = mo_realloc(ctx, ptr, (n) * sizeof *(ptr)))) return MO_ENOMEM; ptr = q
   if (nc > S->cap) {
-    nc += nc / 4; /* sets grow a little at a time while grains settle */
-    S->cap = nc;
+    /* the contact set's capacity (T252), or a quarter more (sets grow a little at a time while
+       grains settle) */
+    size_t cs = P->contact ? (size_t)mo_contact_capacity(P->contact) : 0;
+    S->cap = cs >= nc ? cs : nc + nc / 4;
   }
   /* the index set: the granular path reads the problem's (T250) */
   if (!S->grains && S->cap > S->aocap) {

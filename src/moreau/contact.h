@@ -117,6 +117,11 @@ void mo_contact_free(mo_contact *C);
 
 int mo_contact_dim(const mo_contact *C);          /* local dimension (1 in 1D, 2, 3) */
 int mo_contact_ncandidates(const mo_contact *C);
+/* The room the contact set keeps for its candidates (at least mo_contact_ncandidates), grown by
+   steps as the set outgrows it. The modules that keep arrays over the candidates (the driver, the
+   back end, the metrics) size theirs to it: one capacity for the set, not one spare room of each
+   module's own steps (doc/theory.md (T252)). */
+int mo_contact_capacity(const mo_contact *C);
 int mo_contact_npairs(const mo_contact *C);
 const mo_contact_pair *mo_contact_pair_get(const mo_contact *C, int k);
 const mo_candidate *mo_contact_candidate(const mo_contact *C, int alpha);
