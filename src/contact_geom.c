@@ -1101,7 +1101,7 @@ int mo_contact_reserve(mo_contact *C, int nc, mo_ctx *ctx)
   int cap = C->nalloc, d = C->dim;
   void *q;
   if (nc <= cap) return MO_OK;
-  while (cap < nc) cap = cap ? cap + cap / 8 + 1 : 64; /* an eighth more: the set grows a little at a time (T253) */
+  while (cap < nc) cap = cap ? cap + cap / 8 + 1 : 16; /* an eighth more: the set grows a little at a time (T253) */
 #define GROW(ptr, n) if (!(q = mo_realloc(ctx, ptr, (size_t)(n) * sizeof *(ptr)))) return MO_ENOMEM; ptr = q
   GROW(C->g, cap);
   GROW(C->frame, (size_t)cap * (size_t)mo_contact_fstride(C));
