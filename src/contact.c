@@ -365,7 +365,9 @@ static int grow(mo_contact_driver *D, int nc, mo_ctx *ctx)
   int cap = D->cap, d = D->d;
   void *p;
   if (nc <= cap) return MO_OK;
-  while (cap < nc) cap = cap ? cap + cap / 4 + 1 : 16; /* a quarter more: the set grows a little at a time */
+  /* the contact set's capacity (T252); a quarter more where it is short (an old set larger than it) */
+  if (cap < mo_contact_capacity(D->C)) cap = mo_contact_capacity(D->C);
+  while (cap < nc) cap = cap ? cap + cap / 4 + 1 : 16;
 #define GROW(ptr, n) if (!(p = mo_realloc(ctx, ptr, (size_t)(n) * sizeof *(ptr)))) return MO_ENOMEM; ptr = p
   GROW(D->bn, cap); GROW(D->U, (size_t)cap * d);
   if (!D->pmu || D->q) { /* the granular path forms q in U (T240) */
@@ -1252,6 +1254,10 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
   P->W = D->wused ? D->W : NULL;
   P->b = D->qu ? D->U : D->q; /* the granular path: q in U, read before the solution is written (T240) */
   P->active = D->active;
+  /* the index set as listed by the forming of q, in increasing order: on the granular path no
+     round adds to it (its laws are Moreau's and the gap's), and the back end reads it (T250) */
+  P->act = grains ? D->act : NULL;
+  P->nact = D->nact;
   P->scheme = scheme;
   P->h = h;
   P->theta = sc->time.theta;
@@ -1342,6 +1348,7 @@ resolve:
         added++;
       }
     if (added) {
+      P->act = NULL; /* appended out of order: the back end lists the set itself */
       rounds++;
       D->index_added += added;
       mo_log(ctx, 3, "step %ld: %d candidate%s outside the index set would end inside the obstacle: solved again\n",

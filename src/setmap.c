@@ -86,7 +86,7 @@ int mo_setmap_put(mo_setmap *M, int *keys, int a, const int *key, mo_ctx *ctx)
   int p, st;
   if (a >= M->mcap) {
     int cap = M->mcap, *q;
-    while (cap <= a) cap = cap ? cap + cap / 4 + 1 : 64; /* a quarter more, as the set's arrays */
+    while (cap <= a) cap = cap ? cap + cap / 8 + 1 : 16; /* an eighth more, as the set's arrays (T253) */
     if (!(q = mo_realloc(ctx, M->map, (size_t)cap * sizeof *q))) return MO_ENOMEM;
     M->map = q;
     M->mcap = cap;

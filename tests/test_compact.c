@@ -628,6 +628,8 @@ static void metrics_follow(void)
   ok(same && checks >= 30, "the metrics through the remaps and through their own keys agree at %d checks%s%s", checks,
      same ? "" : ": ", same ? "" : (ja ? ja : "(none)"));
   ok(ja && !strstr(ja, "history_restarts"), "no history restarted");
+  ok(ja && !strstr(ja, "steps_not_measured"), "every candidate measured (the metrics' room, the contact set's "
+     "capacity and one slot over it, holds every set)");
   free(ja);
   free(jb);
   for (k = 0; k < 3; k++) {

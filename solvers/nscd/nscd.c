@@ -72,7 +72,7 @@ static void nscd_free(void *state)
   mo_free(S->cb);
   mo_free(S->cv);
   mo_free(S->aux);
-  mo_free(S->act);
+  mo_free(S->actown);
   mo_free(S->ordown);
   mo_free(S->Uown);
   mo_free(S->rold);
@@ -108,9 +108,15 @@ static int fit_set(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
     return mo_error(ctx, MO_EINTERNAL, "nscd: the core gave neither W nor the blocks of H and What");
 #define GROW(ptr, n) if (!(q = mo_realloc(ctx, ptr, (n) * sizeof *(ptr)))) return MO_ENOMEM; ptr = q
   if (nc > S->cap) {
-    nc += nc / 4; /* sets grow a little at a time while grains settle */
-    GROW(S->act, nc);
-    S->cap = nc;
+    /* the contact set's capacity (T252), or a quarter more (sets grow a little at a time while
+       grains settle) */
+    size_t cs = P->contact ? (size_t)mo_contact_capacity(P->contact) : 0;
+    S->cap = cs >= nc ? cs : nc + nc / 4;
+  }
+  /* the index set: the granular path reads the problem's (T250) */
+  if (!S->grains && S->cap > S->aocap) {
+    GROW(S->actown, S->cap);
+    S->aocap = S->cap;
   }
   /* the friction coefficients: the granular path's are the problem's own until a contact differs
      (nscd_grains_prepare makes them then) */
@@ -288,7 +294,7 @@ static int prepare_matrix(nscd_state *S, const mo_contact_problem *P, mo_ctx *ct
      Rows are sorted by block column, so one cursor per row finds W_ba in O(nnz). */
   S->sym = sorted;
   if (sorted) {
-    int *cur = S->act; /* scratch */
+    int *cur = S->actown; /* scratch */
     double wmax = 0, asym = 0;
     for (a = 0; a < nb; a++) cur[a] = 0;
     for (a = 0; a < nb && S->sym; a++)
@@ -329,7 +335,7 @@ static int prepare_matrix(nscd_state *S, const mo_contact_problem *P, mo_ctx *ct
       S->cv = cv;
       S->ccap = need;
     }
-    cnt = S->act; /* scratch */
+    cnt = S->actown; /* scratch */
     for (a = 0; a <= nb; a++) S->cp[a] = 0;
     for (a = 0; a < nb; a++)
       for (k = 0; k < S->rcnt[a]; k++) S->cp[S->rcol[a][k] + 1]++;
@@ -692,15 +698,31 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
                       : prepare_matrix(S, P, ctx)))
     return st;
   if (!S->bodies && S->nonly) do_sweep = sweep_normal;
-  /* the active contacts, in the chosen order */
-  S->nact = 0;
-  for (a = 0; a < S->nc; a++) {
-    if (P->active && !P->active[a]) {
-      for (i = 0; i < d; i++) r[a * d + i] = 0;
-      x->status[a] = MO_CS_OPEN;
-      continue;
+  /* the active contacts, in the chosen order: on the granular path the problem's list of them,
+     the same candidates in the same increasing order (T250) */
+  {
+    const int listed = S->grains && P->act;
+    if (listed) {
+      S->act = P->act;
+      S->nact = P->nact;
+    } else {
+      if (S->aocap < S->cap) {
+        void *q = mo_realloc(ctx, S->actown, S->cap * sizeof *S->actown);
+        if (!q) return MO_ENOMEM;
+        S->actown = q;
+        S->aocap = S->cap;
+      }
+      S->act = S->actown;
+      S->nact = 0;
     }
-    S->act[S->nact++] = a;
+    for (a = 0; a < S->nc; a++) {
+      if (P->active && !P->active[a]) {
+        for (i = 0; i < d; i++) r[a * d + i] = 0;
+        x->status[a] = MO_CS_OPEN;
+        continue;
+      }
+      if (!listed) S->actown[S->nact++] = a;
+    }
   }
   S->qn2 = S->qs2 = 0;
   for (k = 0; k < S->nact; k++) {
@@ -721,8 +743,8 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
       S->ocap = S->cap;
     }
     S->order = S->ordown;
-    for (k = 0; k < S->nact; k++) S->order[k] = S->act[p->order == NSCD_ORDER_REVERSE ? S->nact - 1 - k : k];
-    if (p->order == NSCD_ORDER_SHUFFLED) gsl_ran_shuffle(&S->rng, S->order, (size_t)S->nact, sizeof(int));
+    for (k = 0; k < S->nact; k++) S->ordown[k] = S->act[p->order == NSCD_ORDER_REVERSE ? S->nact - 1 - k : k];
+    if (p->order == NSCD_ORDER_SHUFFLED) gsl_ran_shuffle(&S->rng, S->ordown, (size_t)S->nact, sizeof(int));
   }
   /* over MPI ranks: each rank's slab of the contacts (doc/parallel.md §4) */
   S->par = 0;
@@ -766,7 +788,7 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
   while (!conv && sweeps < p->max_sweeps) {
     if (!S->par && !repl && ctx->interrupt && *ctx->interrupt) break;
     if (sweeps && p->order == NSCD_ORDER_SHUFFLED && p->reshuffle && !S->par && !repl)
-      gsl_ran_shuffle(&S->rng, S->order, (size_t)S->nact, sizeof(int));
+      gsl_ran_shuffle(&S->rng, S->ordown, (size_t)S->nact, sizeof(int));
     /* the 3D Newton solves to 1e-2 of the last residual (never looser than 1e-4, never tighter
        than local_tol): early sweeps need no exact local solve, the last ones get it */
     if (res < HUGE_VAL) S->lp.local_tol = fmax(p->local_tol, fmin(1e-4, 1e-2 * res));

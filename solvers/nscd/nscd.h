@@ -149,14 +149,19 @@ typedef struct {
   double *cv;
   size_t ccap, cpcap;
   size_t cap, mcap;             /* room of the per-contact arrays (contacts) and of U, rold (m) */
+  size_t aocap;                 /* room of actown (contacts) */
   size_t wcap, acap, ucap;      /* room of the sweep on W's arrays (rcnt, rcol, rval, sprev), of aux, of Uown */
   size_t dcap, rcap;            /* room of diag and scale (contacts), of rold (m): not made on the
                                    granular path (rold: on one rank) */
   double *aux;                  /* nc * NSCD_AUX: per-contact data of the local solvers */
   const mo_delassus *wsrc;      /* the W the cached data were built for, and its version */
   long wver;
-  int *act, nact, *order;       /* the active contacts, and the sweep's order of them: act itself in the
-                                   natural order (the granular path's many contacts), else ordown */
+  const int *act;               /* the active contacts in increasing order: actown, or on the granular
+                                   path the problem's own list (P->act, doc/theory.md (T250)) */
+  int nact;
+  int *actown;                  /* cap: listed here off the granular path (and scratch for prepare) */
+  const int *order;             /* the sweep's order of the active contacts: act itself in the natural
+                                   order (the granular path's many contacts), else ordown */
   int *ordown;
   size_t ocap;
   double *U;                    /* U = W r + q kept up to date by the column updates: Uown, or on the

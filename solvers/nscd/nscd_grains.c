@@ -45,13 +45,15 @@ void nscd_grains_free(nscd_state *S)
 }
 
 /* Room for nc contacts and nfree velocities. */
-static int reserve(nscd_state *S, int nfree, mo_ctx *ctx)
+static int reserve(nscd_state *S, const mo_contact_problem *P, int nfree, mo_ctx *ctx)
 {
   size_t nc = (size_t)S->nc + 1;
   void *p;
 #define GROW(ptr, n) if (!(p = mo_realloc(ctx, ptr, (n)))) return MO_ENOMEM; ptr = p
   if (nc > S->gcap) {
-    nc += nc / 4;
+    /* the contact set's capacity (T252) and the one record over it, or a quarter more */
+    size_t cs = P->contact ? (size_t)mo_contact_capacity(P->contact) + 1 : 0;
+    nc = cs >= nc ? cs : nc + nc / 4;
     GROW(S->grec, nc * RECSZ(S->d));
     S->gcap = nc;
   }
@@ -244,7 +246,7 @@ int nscd_grains_prepare(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
   int st;
   if (S->d != 2 && S->d != 3)
     return mo_error(ctx, MO_EINTERNAL, "nscd: granular contacts in dimension %d", S->d);
-  if ((st = reserve(S, P->nfree, ctx)) || (st = inverse_diagonal(S, P->Wi, P->nfree, ctx))) return st;
+  if ((st = reserve(S, P, P->nfree, ctx)) || (st = inverse_diagonal(S, P->Wi, P->nfree, ctx))) return st;
   S->gw = REC(S, 0, S->d) + OFF_W(S->d); /* nscd_waa */
   S->gstride = RECSZ(S->d);
   /* the friction coefficients are the problem's (no copy: (T186)), P->mu's or the pairs' (T189),

@@ -117,6 +117,11 @@ void mo_contact_free(mo_contact *C);
 
 int mo_contact_dim(const mo_contact *C);          /* local dimension (1 in 1D, 2, 3) */
 int mo_contact_ncandidates(const mo_contact *C);
+/* The room the contact set keeps for its candidates (at least mo_contact_ncandidates), grown by
+   steps as the set outgrows it. The modules that keep arrays over the candidates (the driver, the
+   back end, the metrics) size theirs to it: one capacity for the set, not one spare room of each
+   module's own steps (doc/theory.md (T252)). */
+int mo_contact_capacity(const mo_contact *C);
 int mo_contact_npairs(const mo_contact *C);
 const mo_contact_pair *mo_contact_pair_get(const mo_contact *C, int k);
 const mo_candidate *mo_contact_candidate(const mo_contact *C, int alpha);
@@ -358,6 +363,10 @@ typedef struct mo_contact_problem {
                                 the granular path (grains) the array of the solution's U itself: a
                                 back end reads b before it writes U (doc/theory.md (T240)) */
   const unsigned char *active; /* nc: candidates that may close this step (0: keep r = 0) */
+  const int *act;            /* on the granular path (grains): the nact candidates of active, in
+                                increasing order, which the back end reads instead of listing them
+                                again (doc/theory.md (T250)); NULL otherwise */
+  int nact;
   mo_scheme scheme;
   double h, theta, theta_f, beta, gamma;
   mo_signorini signorini;

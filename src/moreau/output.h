@@ -58,8 +58,11 @@ int mo_csv_close(mo_csv *c, mo_ctx *ctx);
    (mo_contact_network, mo_contact_points in moreau/contact.h, so that the writers need not know
    the contact layer) sets total, the frame's entries, and next, which fills the chunk after the
    current one: first its first entry, n its entries (0 past the end). A reader goes through the
-   frame as: mo_vtk_*_rewind; while (!(st = mo_vtk_*_next(X, ctx)) && X->n) use entries 0..n-1. */
-#define MO_VTK_CHUNK 512
+   frame as: mo_vtk_*_rewind; while (!(st = mo_vtk_*_next(X, ctx)) && X->n) use entries 0..n-1.
+   128 entries hold 44 kB (348 bytes an entry, both kinds), a slice of an array 0.5 to 6 kB: the
+   buffers stay small beside a run's contact set (at 512, 178 kB were a tenth of the heap at the end
+   of a 10^3 pile, its peak), and the writes still large (doc/theory.md (T251)). */
+#define MO_VTK_CHUNK 128
 
 /* What a source keeps between chunks (its own, opaque to the writers). */
 typedef struct mo_vtk_source {
