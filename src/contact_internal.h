@@ -28,8 +28,12 @@ typedef struct {
   int bad;                    /* a key out of the detection's order: the map is not to be used */
 } mo_setmap;
 int mo_setmap_begin(mo_setmap *M, const unsigned char *rr, int nold, int nstatic, mo_ctx *ctx);
-/* Write key at place a of keys (the old set's there until now) and map a. */
+/* Write key at place a of keys (the old set's there until now) and map a. The keys put may be
+   any subsequence of the new set in the order of (T220) (a rank's part of it, (T270)): each is
+   mapped as in the whole set. */
 int mo_setmap_put(mo_setmap *M, int *keys, int a, const int *key, mo_ctx *ctx);
+/* Room in the map for places [0, n). */
+int mo_setmap_reserve(mo_setmap *M, int n, mo_ctx *ctx);
 void mo_setmap_free(mo_setmap *M);
 
 struct mo_contact {
@@ -115,7 +119,8 @@ struct mo_contact {
   int knold, ksame;           /* detection: candidates of the previous set; its keys unchanged so far */
   /* the remap written by the detection on the granular path (smap.map, from set smap_from to
      smap_to; -1: none), in place of a copy of the old keys in the driver (T220)-(T222) */
-  int smap_ok;                /* the detection's order is that of (T220): the granular path, one rank */
+  int smap_ok;                /* the detection's order is that of (T220): the granular path (on one rank
+                                 or several, each rank's part in that order, (T270)) */
   unsigned char *krr;         /* per pair: 1 between two shapes */
   mo_setmap smap;
   long smap_from, smap_to;

@@ -720,7 +720,8 @@ int mo_contact_detect(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx)
   C->npt = C->npt_static;
   C->nc = C->nc_static;
   C->ncoef = C->ncoef_static;
-  /* on one rank the granular path writes the remap as it overwrites the keys (-2: under way) */
+  /* the granular path writes the remap as it overwrites the keys (-2: under way); over several
+     ranks each its part's, merged with the set (T270)-(T271) */
   from = C->cset_version;
   C->smap_from = C->smap_to = -1;
   if (mo_contact_writes_map(C, ctx)) {
@@ -741,6 +742,9 @@ int mo_contact_detect(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx)
       st = shapes_obstacle(C, k, s, t, ctx);
   }
   if (!st && C->nrr) st = rigid_pairs(C, s, t, ctx);
+  /* a rank's part out of the order (T220) fails every rank in the gather, not this one alone */
+  if (split && !st && C->smap_from == -2 && C->smap.bad)
+    st = mo_error(ctx, MO_EINTERNAL, "contact detection: a candidate out of the detection's order (T220)");
   if (split) st = mo_pdetect_finish(C, st, ctx);
   if (!st && !(C->ksame && C->nc == C->knold)) C->cset_version++;
   if (C->smap_from == -2) {
@@ -757,7 +761,10 @@ int mo_contact_detect(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx)
 
 int mo_contact_writes_map(const mo_contact *C, const mo_ctx *ctx)
 {
-  return C->compact && C->smap_ok && C->krr && ctx->nranks < 2;
+  /* over several ranks too: the whole detection on each (the same as one process), or each its
+     part, the parts' maps merged with the set (T270)-(T271) */
+  (void)ctx;
+  return C->compact && C->smap_ok && C->krr;
 }
 
 const int *mo_contact_detect_map(const mo_contact *C, long from, long to)

@@ -16,6 +16,12 @@
 #define NBIN 4096
 #define NTAG MO_PDETECT_NTAG
 
+/* The detection writes the remap (T270): each rank its part's, the blocks carry them (T271). */
+static inline int with_map(const mo_contact *C)
+{
+  return C->smap_from == -2;
+}
+
 
 int mo_pdetect_slabs(int dim, int n, const double *c, const double *r, const unsigned char *mask, double reach,
                      int nranks, int rank, int *owner, unsigned char *rmask)
@@ -146,6 +152,7 @@ int mo_pdetect_begin(mo_contact *C, mo_ctx *ctx)
   P->nc0 = C->nc;
   P->knold = C->knold;
   P->ksame = C->ksame;
+  if (with_map(C)) return MO_OK; /* the keys compared through the map (mo_pdetect_finish) */
   if ((st = room((void **)&P->okey, &P->okcap, n * MO_KEY + 1, sizeof *P->okey, ctx))) return st;
   if (n) memcpy(P->okey, C->key + (size_t)C->nc * MO_KEY, n * MO_KEY * sizeof *P->okey);
   return MO_OK;
@@ -198,12 +205,14 @@ int mo_pdetect_tag(mo_contact *C, int from, int s0, int s1, int s2, mo_ctx *ctx)
 
 /* A rank's block in the gather (T232): its n candidates field by field, each field a copy of
    the rank's contiguous part of the set's arrays: points, frames, gaps, obstacle velocities (when
-   stored), then the order keys and keys (ints) and the activities (bytes), padded to doubles. */
+   stored), then the order keys, keys and, when the detection writes the remap, each candidate's
+   place in the previous set (ints, (T271)), and the activities (bytes), padded to doubles. */
 struct block {
   double *x, *frame, *g, *U0;
-  int *tag, *key;
+  int *tag, *key, *map;
   unsigned char *active;
 };
+
 
 /* The doubles of a block of n candidates. */
 static size_t block_size(const mo_contact *C, size_t n)
@@ -211,7 +220,7 @@ static size_t block_size(const mo_contact *C, size_t n)
   const size_t D = (size_t)C->sc->dim, d = (size_t)C->dim;
   /* of the frame, its normal alone on the granular path (T225) */
   const size_t f = (size_t)mo_contact_fstride(C);
-  size_t bytes = n * (8 * (D + f + 1 + (C->U0 ? d : 0)) + 4 * (NTAG + MO_KEY) + 1);
+  size_t bytes = n * (8 * (D + f + 1 + (C->U0 ? d : 0)) + 4 * (NTAG + MO_KEY + (with_map(C) ? 1 : 0)) + 1);
   return (bytes + 7) / 8;
 }
 
@@ -226,7 +235,8 @@ static struct block block_at(const mo_contact *C, double *v, size_t n)
   B.U0 = B.g + n;
   B.tag = (int *)(B.U0 + (C->U0 ? n * d : 0));
   B.key = B.tag + n * NTAG;
-  B.active = (unsigned char *)(B.key + n * MO_KEY);
+  B.map = B.key + n * MO_KEY;
+  B.active = (unsigned char *)(B.map + (with_map(C) ? n : 0));
   return B;
 }
 
@@ -245,6 +255,9 @@ static void copy_fields(mo_contact *C, const struct block *B, size_t i, size_t a
   FIELD(C->g, B->g, 1);
   if (C->U0) FIELD(C->U0, B->U0, d);
   FIELD(C->key, B->key, (size_t)MO_KEY);
+  /* each candidate's place in the previous set, found by its rank against the whole previous set
+     (replicated): it moves with the candidate (T271) */
+  if (with_map(C)) FIELD(C->smap.map, B->map, 1);
   FIELD(C->active, B->active, 1);
 #undef FIELD
 }
@@ -281,13 +294,16 @@ int mo_pdetect_finish(mo_contact *C, int st, mo_ctx *ctx)
   if ((st = room((void **)&P->buf, &P->bufcap, block_size(C, n) + 1, sizeof *P->buf, ctx)) ||
       (st = room((void **)&P->all, &P->allcap, block_size(C, total) + (size_t)P->nranks + 1, sizeof *P->all, ctx)))
     return st;
+  /* the set's arrays and the map for the merged set (their contents kept) */
+  if ((st = mo_contact_reserve(C, P->nc0 + (int)total, ctx)) ||
+      (with_map(C) && (st = mo_setmap_reserve(&C->smap, P->nc0 + (int)total + 1, ctx))))
+    return st;
   /* this rank's block: its part of the arrays as it is, and its order keys */
   own = block_at(C, P->buf, n);
   if (n) P->buf[block_size(C, n) - 1] = 0; /* the padding sent defined */
   copy_fields(C, &own, 0, (size_t)P->nc0, n, 0);
   if (n) memcpy(own.tag, P->tag, n * NTAG * sizeof *own.tag);
   if ((st = mo_par_gatherv(P->buf, P->cnt, P->all, ctx))) return st;
-  if ((st = mo_contact_reserve(C, P->nc0 + (int)total, ctx))) return st;
   for (r = 0; r < P->nranks; r++) {
     B[r] = block_at(C, P->all + off, (size_t)P->rc[r]);
     off += (size_t)P->cnt[r];
@@ -309,9 +325,13 @@ int mo_pdetect_finish(mo_contact *C, int st, mo_ctx *ctx)
     a += h - head[best];
     head[best] = h;
   }
-  /* the keys compared with the previous set's as one process compares them (set_key) */
-  C->ksame = P->ksame && (size_t)P->nc0 + total <= (size_t)P->knold &&
-             !memcmp(C->key + (size_t)P->nc0 * MO_KEY, P->okey, total * MO_KEY * sizeof *C->key);
+  /* the keys compared with the previous set's as one process compares them (set_key): with the
+     map, a key is the old one at its place when it maps there (a key is unique in a set) */
+  C->ksame = P->ksame && (size_t)P->nc0 + total <= (size_t)P->knold;
+  if (with_map(C))
+    for (a = (size_t)P->nc0; a < (size_t)P->nc0 + total && C->ksame; a++) C->ksame = C->smap.map[a] == (int)a;
+  else
+    C->ksame = C->ksame && !memcmp(C->key + (size_t)P->nc0 * MO_KEY, P->okey, total * MO_KEY * sizeof *C->key);
   C->nc = P->nc0 + (int)total;
   return MO_OK;
 }

@@ -80,17 +80,22 @@ static int hold_room(mo_setmap *M, int a, mo_ctx *ctx)
   return MO_OK;
 }
 
+int mo_setmap_reserve(mo_setmap *M, int n, mo_ctx *ctx)
+{
+  int cap = M->mcap, *q;
+  if (n <= cap) return MO_OK;
+  while (cap < n) cap = cap ? cap + cap / 4 + 1 : 64; /* a quarter more, as the set's arrays */
+  if (!(q = mo_realloc(ctx, M->map, (size_t)cap * sizeof *q))) return MO_ENOMEM;
+  M->map = q;
+  M->mcap = cap;
+  return MO_OK;
+}
+
 int mo_setmap_put(mo_setmap *M, int *keys, int a, const int *key, mo_ctx *ctx)
 {
   ord_t g;
   int p, st;
-  if (a >= M->mcap) {
-    int cap = M->mcap, *q;
-    while (cap <= a) cap = cap ? cap + cap / 4 + 1 : 64; /* a quarter more, as the set's arrays */
-    if (!(q = mo_realloc(ctx, M->map, (size_t)cap * sizeof *q))) return MO_ENOMEM;
-    M->map = q;
-    M->mcap = cap;
-  }
+  if ((st = mo_setmap_reserve(M, a + 1, ctx))) return st;
   /* old candidate a not read yet: aside before its place is written (T221) */
   if (a >= M->j && a < M->nold) {
     if ((st = hold_room(M, a, ctx))) return st;
