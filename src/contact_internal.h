@@ -14,6 +14,31 @@ struct mo_pdetect;
 typedef struct {
   unsigned long long hi, lo;  /* an order of (T220), packed: compared hi first */
 } mo_setmap_ord;
+
+/* The detection's order of candidate key k (T220), packed in two words compared in turn: a pair
+   between two shapes (rr[pair]) visits the body pairs of the broad phase's list, sorted by
+   (lower, higher) index, after every other pair; the others go by pair, slave, master (indices
+   >= 0). */
+static inline mo_setmap_ord mo_setmap_order(const unsigned char *rr, const int *k)
+{
+  mo_setmap_ord o;
+  if (rr[k[0]]) {
+    const unsigned long long a = (unsigned)(k[1] < k[2] ? k[1] : k[2]), b = (unsigned)(k[1] < k[2] ? k[2] : k[1]);
+    o.hi = 1ULL << 32 | a;
+    o.lo = b << 32;
+  } else {
+    o.hi = (unsigned)k[0];
+    o.lo = (unsigned long long)(unsigned)k[1] << 32 | (unsigned)k[2];
+  }
+  return o;
+}
+
+/* -1, 0, 1 as order a is before, the same as, after order b. */
+static inline int mo_setmap_cmp(mo_setmap_ord a, mo_setmap_ord b)
+{
+  if (a.hi != b.hi) return a.hi < b.hi ? -1 : 1;
+  return a.lo < b.lo ? -1 : a.lo > b.lo;
+}
 typedef struct {
   int *map, mcap;             /* per candidate of the new set (its capacity grows by a quarter) */
   int *hold, hmask;           /* the ring of old keys: place p in slot p & hmask */

@@ -194,6 +194,7 @@ int mo_pdetect_tag(mo_contact *C, int from, int s0, int s1, int s2, mo_ctx *ctx)
   struct mo_pdetect *P = C->pd;
   size_t a;
   int st;
+  if (with_map(C)) return MO_OK; /* the keys give the order (T271) */
   if ((st = room((void **)&P->tag, &P->tagcap, (size_t)(C->nc - P->nc0) * NTAG + 1, sizeof *P->tag, ctx))) return st;
   for (a = (size_t)(from - P->nc0); a < (size_t)(C->nc - P->nc0); a++) {
     P->tag[NTAG * a] = s0;
@@ -205,8 +206,9 @@ int mo_pdetect_tag(mo_contact *C, int from, int s0, int s1, int s2, mo_ctx *ctx)
 
 /* A rank's block in the gather (T232): its n candidates field by field, each field a copy of
    the rank's contiguous part of the set's arrays: points, frames, gaps, obstacle velocities (when
-   stored), then the order keys, keys and, when the detection writes the remap, each candidate's
-   place in the previous set (ints, (T271)), and the activities (bytes), padded to doubles. */
+   stored), then the order keys, keys (ints) and the activities (bytes), padded to doubles. When
+   the detection writes the remap (T271) the order is the keys' own (T220), and in place of the
+   order keys each candidate's place in the previous set. */
 struct block {
   double *x, *frame, *g, *U0;
   int *tag, *key, *map;
@@ -220,7 +222,7 @@ static size_t block_size(const mo_contact *C, size_t n)
   const size_t D = (size_t)C->sc->dim, d = (size_t)C->dim;
   /* of the frame, its normal alone on the granular path (T225) */
   const size_t f = (size_t)mo_contact_fstride(C);
-  size_t bytes = n * (8 * (D + f + 1 + (C->U0 ? d : 0)) + 4 * (NTAG + MO_KEY + (with_map(C) ? 1 : 0)) + 1);
+  size_t bytes = n * (8 * (D + f + 1 + (C->U0 ? d : 0)) + 4 * ((with_map(C) ? 1 : NTAG) + MO_KEY) + 1);
   return (bytes + 7) / 8;
 }
 
@@ -234,7 +236,7 @@ static struct block block_at(const mo_contact *C, double *v, size_t n)
   B.g = B.frame + n * f;
   B.U0 = B.g + n;
   B.tag = (int *)(B.U0 + (C->U0 ? n * d : 0));
-  B.key = B.tag + n * NTAG;
+  B.key = B.tag + (with_map(C) ? 0 : n * NTAG);
   B.map = B.key + n * MO_KEY;
   B.active = (unsigned char *)(B.map + (with_map(C) ? n : 0));
   return B;
@@ -262,12 +264,16 @@ static void copy_fields(mo_contact *C, const struct block *B, size_t i, size_t a
 #undef FIELD
 }
 
-/* Order key u before order key w in the serial detection's order (T217). */
-static inline int before(const int *u, const int *w)
+/* Candidate h of block U before candidate i of block W in the serial detection's order: by
+   their order keys (T217), or with the remap by their keys' order (T220), the same order then
+   (a pair's slaves in increasing index, smap_ok) */
+static inline int before(const mo_contact *C, const struct block *U, size_t h, const struct block *W, size_t i)
 {
-  int i;
-  for (i = 0; i < NTAG; i++)
-    if (u[i] != w[i]) return u[i] < w[i];
+  int k;
+  if (with_map(C))
+    return mo_setmap_cmp(mo_setmap_order(C->krr, U->key + h * MO_KEY), mo_setmap_order(C->krr, W->key + i * MO_KEY)) < 0;
+  for (k = 0; k < NTAG; k++)
+    if (U->tag[h * NTAG + k] != W->tag[i * NTAG + k]) return U->tag[h * NTAG + k] < W->tag[i * NTAG + k];
   return 0;
 }
 
@@ -302,7 +308,7 @@ int mo_pdetect_finish(mo_contact *C, int st, mo_ctx *ctx)
   own = block_at(C, P->buf, n);
   if (n) P->buf[block_size(C, n) - 1] = 0; /* the padding sent defined */
   copy_fields(C, &own, 0, (size_t)P->nc0, n, 0);
-  if (n) memcpy(own.tag, P->tag, n * NTAG * sizeof *own.tag);
+  if (n && !with_map(C)) memcpy(own.tag, P->tag, n * NTAG * sizeof *own.tag);
   if ((st = mo_par_gatherv(P->buf, P->cnt, P->all, ctx))) return st;
   for (r = 0; r < P->nranks; r++) {
     B[r] = block_at(C, P->all + off, (size_t)P->rc[r]);
@@ -316,11 +322,10 @@ int mo_pdetect_finish(mo_contact *C, int st, mo_ctx *ctx)
     int best = -1, next = -1;
     size_t h;
     for (r = 0; r < P->nranks; r++)
-      if (head[r] < end[r] && (best < 0 || before(B[r].tag + head[r] * NTAG, B[best].tag + head[best] * NTAG))) best = r;
+      if (head[r] < end[r] && (best < 0 || before(C, &B[r], head[r], &B[best], head[best]))) best = r;
     for (r = 0; r < P->nranks; r++)
-      if (r != best && head[r] < end[r] && (next < 0 || before(B[r].tag + head[r] * NTAG, B[next].tag + head[next] * NTAG)))
-        next = r;
-    for (h = head[best] + 1; h < end[best] && (next < 0 || before(B[best].tag + h * NTAG, B[next].tag + head[next] * NTAG));) h++;
+      if (r != best && head[r] < end[r] && (next < 0 || before(C, &B[r], head[r], &B[next], head[next]))) next = r;
+    for (h = head[best] + 1; h < end[best] && (next < 0 || before(C, &B[best], h, &B[next], head[next]));) h++;
     copy_fields(C, &B[best], head[best], (size_t)P->nc0 + a, h - head[best], 1);
     a += h - head[best];
     head[best] = h;

@@ -5,30 +5,9 @@
 #include <string.h>
 #include "contact_internal.h"
 
-/* The detection's order of candidate key k (T220), packed in two words compared in turn: a pair
-   between two shapes visits the body pairs of the broad phase's list, sorted by (lower, higher)
-   index, after every other pair; the others go by pair, slave, master (indices >= 0). */
 typedef mo_setmap_ord ord_t;
-
-static inline ord_t order_of(const unsigned char *rr, const int *k)
-{
-  ord_t o;
-  if (rr[k[0]]) {
-    const unsigned long long a = (uint32_t)(k[1] < k[2] ? k[1] : k[2]), b = (uint32_t)(k[1] < k[2] ? k[2] : k[1]);
-    o.hi = 1ULL << 32 | a;
-    o.lo = b << 32;
-  } else {
-    o.hi = (uint32_t)k[0];
-    o.lo = (unsigned long long)(uint32_t)k[1] << 32 | (uint32_t)k[2];
-  }
-  return o;
-}
-
-static inline int order_cmp(ord_t a, ord_t b)
-{
-  if (a.hi != b.hi) return a.hi < b.hi ? -1 : 1;
-  return a.lo < b.lo ? -1 : a.lo > b.lo;
-}
+#define order_of mo_setmap_order
+#define order_cmp mo_setmap_cmp
 
 /* Old candidate p's key: aside when its place has been written, else still in the set. */
 static inline const int *old_key(const mo_setmap *M, const int *keys, int p)
