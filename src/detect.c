@@ -449,7 +449,7 @@ static int shapes_obstacle(mo_contact *C, int k, const mo_state *s, double t, mo
         ds.mfeat = -1;
         if ((st = add_contact(C, &ds, &out[j], t, ctx))) return st;
       }
-      if (C->pd && C->nc > from && (st = mo_pdetect_tag(C, from, k, i, 0, ctx))) return st;
+      if (C->pd && C->smap_from != -2 && C->nc > from && (st = mo_pdetect_tag(C, from, k, i, 0, ctx))) return st;
     } else if (S->kind == MO_BODY_POLYGON) {
       alert = pair_alert(C, sb, P->mb[0]);
       shape_world(sc, S, s, c, v);
@@ -692,7 +692,8 @@ static int rigid_pairs(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx)
     if (ij >> r & 1ULL) st = shape_shape(C, C->rr[r], j, i, s, t, ctx);
     else st = shape_shape(C, C->rr[r], i, j, s, t, ctx);
     if (st) return st;
-    if (C->pd && C->nc > from && (st = mo_pdetect_tag(C, from, C->npair, i, j, ctx))) return st;
+    if (C->pd && C->smap_from != -2 && C->nc > from && (st = mo_pdetect_tag(C, from, C->npair, i, j, ctx)))
+      return st;
   }
   return MO_OK;
 }

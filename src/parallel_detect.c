@@ -264,17 +264,17 @@ static void copy_fields(mo_contact *C, const struct block *B, size_t i, size_t a
 #undef FIELD
 }
 
-/* Candidate h of block U before candidate i of block W in the serial detection's order: by
-   their order keys (T217), or with the remap by their keys' order (T220), the same order then
-   (a pair's slaves in increasing index, smap_ok) */
-static inline int before(const mo_contact *C, const struct block *U, size_t h, const struct block *W, size_t i)
+/* Candidate h of block B's place in the serial detection's order: its order key (T217), or with
+   the remap its key's order (T220), the same order then (a pair's slaves in increasing index,
+   smap_ok); packed as (T220)'s, the order keys' ints being >= 0 */
+static inline mo_setmap_ord order_at(const mo_contact *C, const struct block *B, size_t h)
 {
-  int k;
-  if (with_map(C))
-    return mo_setmap_cmp(mo_setmap_order(C->krr, U->key + h * MO_KEY), mo_setmap_order(C->krr, W->key + i * MO_KEY)) < 0;
-  for (k = 0; k < NTAG; k++)
-    if (U->tag[h * NTAG + k] != W->tag[i * NTAG + k]) return U->tag[h * NTAG + k] < W->tag[i * NTAG + k];
-  return 0;
+  mo_setmap_ord o;
+  const int *t = B->tag + h * NTAG;
+  if (with_map(C)) return mo_setmap_order(C->krr, B->key + h * MO_KEY);
+  o.hi = (unsigned long long)(unsigned)t[0] << 32 | (unsigned)t[1];
+  o.lo = (unsigned long long)(unsigned)t[2] << 32;
+  return o;
 }
 
 int mo_pdetect_finish(mo_contact *C, int st, mo_ctx *ctx)
@@ -320,12 +320,38 @@ int mo_pdetect_finish(mo_contact *C, int st, mo_ctx *ctx)
      order key comes first, and as many of its candidates as come before every other rank's next */
   for (a = 0; a < total;) {
     int best = -1, next = -1;
+    mo_setmap_ord ob = {0, 0}, on = {0, 0}, o;
     size_t h;
     for (r = 0; r < P->nranks; r++)
-      if (head[r] < end[r] && (best < 0 || before(C, &B[r], head[r], &B[best], head[best]))) best = r;
+      if (head[r] < end[r] && (o = order_at(C, &B[r], head[r]), best < 0 || mo_setmap_cmp(o, ob) < 0)) {
+        best = r;
+        ob = o;
+      }
     for (r = 0; r < P->nranks; r++)
-      if (r != best && head[r] < end[r] && (next < 0 || before(C, &B[r], head[r], &B[next], head[next]))) next = r;
-    for (h = head[best] + 1; h < end[best] && (next < 0 || before(C, &B[best], h, &B[next], head[next]));) h++;
+      if (r != best && head[r] < end[r] && (o = order_at(C, &B[r], head[r]), next < 0 || mo_setmap_cmp(o, on) < 0)) {
+        next = r;
+        on = o;
+      }
+    /* the run ends at best's first candidate not before next's head: the block is sorted, so
+       found by galloping from the head, then bisection (a few orders a run, not one a candidate,
+       (T272)) */
+    if (next < 0)
+      h = end[best];
+    else {
+      size_t lo = head[best] + 1, hi = lo, step = 1;
+      while (hi < end[best] && mo_setmap_cmp(order_at(C, &B[best], hi), on) < 0) {
+        lo = hi + 1;
+        hi += step;
+        step *= 2;
+      }
+      if (hi > end[best]) hi = end[best];
+      while (lo < hi) { /* [head, lo) before next's head; hi the end, or not before it */
+        const size_t mid = lo + (hi - lo) / 2;
+        if (mo_setmap_cmp(order_at(C, &B[best], mid), on) < 0) lo = mid + 1;
+        else hi = mid;
+      }
+      h = lo;
+    }
     copy_fields(C, &B[best], head[best], (size_t)P->nc0 + a, h - head[best], 1);
     a += h - head[best];
     head[best] = h;
