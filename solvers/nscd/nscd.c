@@ -778,7 +778,18 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
                                     : !(S->grains && (p->stop == NSCD_STOP_NATURAL || scaled)))
       rold_at = sweeps;
     S->jwant = rold_at == sweeps && S->grains && !S->par;
-    if (rold_at == sweeps && S->rold) memcpy(S->rold, r, (size_t)m * sizeof *r);
+    if (rold_at == sweeps && S->rold) {
+      /* split over the ranks, Jean's parts read the reactions of this rank's contacts only (its
+         slab's, jean_parts over S->oorder): those alone are copied, not the whole set's every sweep
+         (O(N) a sweep on every rank, (T273)); a sweep gone serial copies them all */
+      if (S->par)
+        for (k = 0; k < S->noact; k++) {
+          const size_t o = (size_t)S->oorder[k] * d;
+          for (i = 0; i < d; i++) S->rold[o + i] = r[o + i];
+        }
+      else
+        memcpy(S->rold, r, (size_t)m * sizeof *r);
+    }
     if (S->par) {
       /* the sweep split over the ranks: its rule decided on every rank's contacts */
       int stop = 0;
