@@ -93,9 +93,28 @@ int mo_setmap_put(mo_setmap *M, int *keys, int a, const int *key, mo_ctx *ctx)
       if (!M->ingroup) M->og1 = order_of(M->rr, old_key(M, keys, M->j)); /* the first group */
       c = order_cmp(M->og1, g);
     }
-    while (c < 0 && ++M->j < M->nold) {
-      M->og1 = order_of(M->rr, old_key(M, keys, M->j));
-      c = order_cmp(M->og1, g);
+    if (c < 0) {
+      /* the old set is in the order too: its first candidate not before g found by galloping
+         from j, then bisection (over a rank's part of the new set (T270) the other parts' old
+         groups are passed at a few orders each, not one a candidate; on one rank the first probe
+         ends it as a step would) */
+      int lo = M->j + 1, hi = lo;
+      long step = 1;
+      while (hi < M->nold && order_cmp(order_of(M->rr, old_key(M, keys, hi)), g) < 0) {
+        lo = hi + 1;
+        hi = M->nold - hi > step ? hi + (int)step : M->nold;
+        step *= 2;
+      }
+      while (lo < hi) { /* [j, lo) before g; hi the end, or not before g */
+        const int mid = lo + (hi - lo) / 2;
+        if (order_cmp(order_of(M->rr, old_key(M, keys, mid)), g) < 0) lo = mid + 1;
+        else hi = mid;
+      }
+      M->j = lo;
+      if (M->j < M->nold) {
+        M->og1 = order_of(M->rr, old_key(M, keys, M->j));
+        c = order_cmp(M->og1, g);
+      }
     }
     /* [j, g1): the old candidates of this group */
     for (M->g1 = M->j; c == 0;) {
