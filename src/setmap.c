@@ -100,19 +100,26 @@ int mo_setmap_put(mo_setmap *M, int *keys, int a, const int *key, mo_ctx *ctx)
          ends it as a step would) */
       int lo = M->j + 1, hi = lo;
       long step = 1;
-      while (hi < M->nold && order_cmp(order_of(M->rr, old_key(M, keys, hi)), g) < 0) {
+      ord_t oh = M->og1; /* the order at hi when hi < nold has been probed */
+      while (hi < M->nold) {
+        oh = order_of(M->rr, old_key(M, keys, hi));
+        if (order_cmp(oh, g) >= 0) break;
         lo = hi + 1;
         hi = M->nold - hi > step ? hi + (int)step : M->nold;
         step *= 2;
       }
-      while (lo < hi) { /* [j, lo) before g; hi the end, or not before g */
+      while (lo < hi) { /* [j, lo) before g; hi the end, or not before g with order oh */
         const int mid = lo + (hi - lo) / 2;
-        if (order_cmp(order_of(M->rr, old_key(M, keys, mid)), g) < 0) lo = mid + 1;
-        else hi = mid;
+        const ord_t om = order_of(M->rr, old_key(M, keys, mid));
+        if (order_cmp(om, g) < 0) lo = mid + 1;
+        else {
+          hi = mid;
+          oh = om;
+        }
       }
       M->j = lo;
-      if (M->j < M->nold) {
-        M->og1 = order_of(M->rr, old_key(M, keys, M->j));
+      if (M->j < M->nold) { /* hi = lo = j, probed: oh is its order */
+        M->og1 = oh;
         c = order_cmp(M->og1, g);
       }
     }
