@@ -217,7 +217,8 @@ int mo_contact_detect_setup(mo_contact *C, mo_ctx *ctx);
    radius, a mesh's shortest edge): the scale of the alert distance and of eps_g (T71). */
 double mo_contact_smallest_size(const mo_contact *C);
 int mo_contact_detect(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx);
-/* 1 when the detection writes the remap of its sets (T220): the driver then keeps no keys */
+/* 1 when the detection writes the remap of its sets (T220; over MPI ranks each its part, T270): the
+   driver then keeps no keys */
 int mo_contact_writes_map(const mo_contact *C, const mo_ctx *ctx);
 /* The detection's remap from set `from` to set `to` (each new candidate's place in the old set,
    -1: new), or NULL when its last detection did not go from one to the other. */
