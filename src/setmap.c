@@ -74,7 +74,7 @@ int mo_setmap_put(mo_setmap *M, int *keys, int a, const int *key, mo_ctx *ctx)
 {
   ord_t g;
   int p, st;
-  if ((st = mo_setmap_reserve(M, a + 1, ctx))) return st;
+  if (a >= M->mcap && (st = mo_setmap_reserve(M, a + 1, ctx))) return st;
   /* old candidate a not read yet: aside before its place is written (T221) */
   if (a >= M->j && a < M->nold) {
     if ((st = hold_room(M, a, ctx))) return st;
