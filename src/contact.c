@@ -295,7 +295,8 @@ struct mo_contact_driver {
   int *act, nact;            /* the active candidates of the last solve, in increasing order */
   int *status;
   int *key;                  /* nc * MO_KEY: the candidates the arrays hold; NULL when the detection
-                                writes the remap itself (the granular path on one rank, T220) */
+                                writes the remap itself (the granular path, on one rank or several:
+                                T220, T270) */
   int dmap;                  /* the detection writes the remap: follow_set reads it (T222) */
   double *xfull, *xf, *dx, *dxfull, *xnl, *gnl;
   double *tmp;               /* the general path's remapping scratch (2 m + nc values) and the position

@@ -14,6 +14,31 @@ struct mo_pdetect;
 typedef struct {
   unsigned long long hi, lo;  /* an order of (T220), packed: compared hi first */
 } mo_setmap_ord;
+
+/* The detection's order of candidate key k (T220), packed in two words compared in turn: a pair
+   between two shapes (rr[pair]) visits the body pairs of the broad phase's list, sorted by
+   (lower, higher) index, after every other pair; the others go by pair, slave, master (indices
+   >= 0). */
+static inline mo_setmap_ord mo_setmap_order(const unsigned char *rr, const int *k)
+{
+  mo_setmap_ord o;
+  if (rr[k[0]]) {
+    const unsigned long long a = (unsigned)(k[1] < k[2] ? k[1] : k[2]), b = (unsigned)(k[1] < k[2] ? k[2] : k[1]);
+    o.hi = 1ULL << 32 | a;
+    o.lo = b << 32;
+  } else {
+    o.hi = (unsigned)k[0];
+    o.lo = (unsigned long long)(unsigned)k[1] << 32 | (unsigned)k[2];
+  }
+  return o;
+}
+
+/* -1, 0, 1 as order a is before, the same as, after order b. */
+static inline int mo_setmap_cmp(mo_setmap_ord a, mo_setmap_ord b)
+{
+  if (a.hi != b.hi) return a.hi < b.hi ? -1 : 1;
+  return a.lo < b.lo ? -1 : a.lo > b.lo;
+}
 typedef struct {
   int *map, mcap;             /* per candidate of the new set (its capacity grows by a quarter) */
   int *hold, hmask;           /* the ring of old keys: place p in slot p & hmask */
@@ -28,8 +53,12 @@ typedef struct {
   int bad;                    /* a key out of the detection's order: the map is not to be used */
 } mo_setmap;
 int mo_setmap_begin(mo_setmap *M, const unsigned char *rr, int nold, int nstatic, mo_ctx *ctx);
-/* Write key at place a of keys (the old set's there until now) and map a. */
+/* Write key at place a of keys (the old set's there until now) and map a. The keys put may be
+   any subsequence of the new set in the order of (T220) (a rank's part of it, (T270)): each is
+   mapped as in the whole set. */
 int mo_setmap_put(mo_setmap *M, int *keys, int a, const int *key, mo_ctx *ctx);
+/* Room in the map for places [0, n). */
+int mo_setmap_reserve(mo_setmap *M, int n, mo_ctx *ctx);
 void mo_setmap_free(mo_setmap *M);
 
 struct mo_contact {
@@ -115,7 +144,8 @@ struct mo_contact {
   int knold, ksame;           /* detection: candidates of the previous set; its keys unchanged so far */
   /* the remap written by the detection on the granular path (smap.map, from set smap_from to
      smap_to; -1: none), in place of a copy of the old keys in the driver (T220)-(T222) */
-  int smap_ok;                /* the detection's order is that of (T220): the granular path, one rank */
+  int smap_ok;                /* the detection's order is that of (T220): the granular path (on one rank
+                                 or several, each rank's part in that order, (T270)) */
   unsigned char *krr;         /* per pair: 1 between two shapes */
   mo_setmap smap;
   long smap_from, smap_to;
@@ -187,7 +217,8 @@ int mo_contact_detect_setup(mo_contact *C, mo_ctx *ctx);
    radius, a mesh's shortest edge): the scale of the alert distance and of eps_g (T71). */
 double mo_contact_smallest_size(const mo_contact *C);
 int mo_contact_detect(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx);
-/* 1 when the detection writes the remap of its sets (T220): the driver then keeps no keys */
+/* 1 when the detection writes the remap of its sets (T220; over MPI ranks each its part, T270): the
+   driver then keeps no keys */
 int mo_contact_writes_map(const mo_contact *C, const mo_ctx *ctx);
 /* The detection's remap from set `from` to set `to` (each new candidate's place in the old set,
    -1: new), or NULL when its last detection did not go from one to the other. */

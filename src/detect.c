@@ -449,7 +449,7 @@ static int shapes_obstacle(mo_contact *C, int k, const mo_state *s, double t, mo
         ds.mfeat = -1;
         if ((st = add_contact(C, &ds, &out[j], t, ctx))) return st;
       }
-      if (C->pd && C->nc > from && (st = mo_pdetect_tag(C, from, k, i, 0, ctx))) return st;
+      if (C->pd && C->smap_from != -2 && C->nc > from && (st = mo_pdetect_tag(C, from, k, i, 0, ctx))) return st;
     } else if (S->kind == MO_BODY_POLYGON) {
       alert = pair_alert(C, sb, P->mb[0]);
       shape_world(sc, S, s, c, v);
@@ -692,7 +692,8 @@ static int rigid_pairs(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx)
     if (ij >> r & 1ULL) st = shape_shape(C, C->rr[r], j, i, s, t, ctx);
     else st = shape_shape(C, C->rr[r], i, j, s, t, ctx);
     if (st) return st;
-    if (C->pd && C->nc > from && (st = mo_pdetect_tag(C, from, C->npair, i, j, ctx))) return st;
+    if (C->pd && C->smap_from != -2 && C->nc > from && (st = mo_pdetect_tag(C, from, C->npair, i, j, ctx)))
+      return st;
   }
   return MO_OK;
 }
@@ -720,7 +721,8 @@ int mo_contact_detect(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx)
   C->npt = C->npt_static;
   C->nc = C->nc_static;
   C->ncoef = C->ncoef_static;
-  /* on one rank the granular path writes the remap as it overwrites the keys (-2: under way) */
+  /* the granular path writes the remap as it overwrites the keys (-2: under way); over several
+     ranks each its part's, merged with the set (T270)-(T271) */
   from = C->cset_version;
   C->smap_from = C->smap_to = -1;
   if (mo_contact_writes_map(C, ctx)) {
@@ -741,6 +743,9 @@ int mo_contact_detect(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx)
       st = shapes_obstacle(C, k, s, t, ctx);
   }
   if (!st && C->nrr) st = rigid_pairs(C, s, t, ctx);
+  /* a rank's part out of the order (T220) fails every rank in the gather, not this one alone */
+  if (split && !st && C->smap_from == -2 && C->smap.bad)
+    st = mo_error(ctx, MO_EINTERNAL, "contact detection: a candidate out of the detection's order (T220)");
   if (split) st = mo_pdetect_finish(C, st, ctx);
   if (!st && !(C->ksame && C->nc == C->knold)) C->cset_version++;
   if (C->smap_from == -2) {
@@ -757,7 +762,10 @@ int mo_contact_detect(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx)
 
 int mo_contact_writes_map(const mo_contact *C, const mo_ctx *ctx)
 {
-  return C->compact && C->smap_ok && C->krr && ctx->nranks < 2;
+  /* over several ranks too: the whole detection on each (the same as one process), or each its
+     part, the parts' maps merged with the set (T270)-(T271) */
+  (void)ctx;
+  return C->compact && C->smap_ok && C->krr;
 }
 
 const int *mo_contact_detect_map(const mo_contact *C, long from, long to)

@@ -16,6 +16,12 @@
 #define NBIN 4096
 #define NTAG MO_PDETECT_NTAG
 
+/* The detection writes the remap (T270): each rank its part's, the blocks carry them (T271). */
+static inline int with_map(const mo_contact *C)
+{
+  return C->smap_from == -2;
+}
+
 
 int mo_pdetect_slabs(int dim, int n, const double *c, const double *r, const unsigned char *mask, double reach,
                      int nranks, int rank, int *owner, unsigned char *rmask)
@@ -146,6 +152,7 @@ int mo_pdetect_begin(mo_contact *C, mo_ctx *ctx)
   P->nc0 = C->nc;
   P->knold = C->knold;
   P->ksame = C->ksame;
+  if (with_map(C)) return MO_OK; /* the keys compared through the map (mo_pdetect_finish) */
   if ((st = room((void **)&P->okey, &P->okcap, n * MO_KEY + 1, sizeof *P->okey, ctx))) return st;
   if (n) memcpy(P->okey, C->key + (size_t)C->nc * MO_KEY, n * MO_KEY * sizeof *P->okey);
   return MO_OK;
@@ -187,6 +194,7 @@ int mo_pdetect_tag(mo_contact *C, int from, int s0, int s1, int s2, mo_ctx *ctx)
   struct mo_pdetect *P = C->pd;
   size_t a;
   int st;
+  if (with_map(C)) return MO_OK; /* the keys give the order (T271) */
   if ((st = room((void **)&P->tag, &P->tagcap, (size_t)(C->nc - P->nc0) * NTAG + 1, sizeof *P->tag, ctx))) return st;
   for (a = (size_t)(from - P->nc0); a < (size_t)(C->nc - P->nc0); a++) {
     P->tag[NTAG * a] = s0;
@@ -198,12 +206,15 @@ int mo_pdetect_tag(mo_contact *C, int from, int s0, int s1, int s2, mo_ctx *ctx)
 
 /* A rank's block in the gather (T232): its n candidates field by field, each field a copy of
    the rank's contiguous part of the set's arrays: points, frames, gaps, obstacle velocities (when
-   stored), then the order keys and keys (ints) and the activities (bytes), padded to doubles. */
+   stored), then the order keys, keys (ints) and the activities (bytes), padded to doubles. When
+   the detection writes the remap (T271) the order is the keys' own (T220), and in place of the
+   order keys each candidate's place in the previous set. */
 struct block {
   double *x, *frame, *g, *U0;
-  int *tag, *key;
+  int *tag, *key, *map;
   unsigned char *active;
 };
+
 
 /* The doubles of a block of n candidates. */
 static size_t block_size(const mo_contact *C, size_t n)
@@ -211,7 +222,7 @@ static size_t block_size(const mo_contact *C, size_t n)
   const size_t D = (size_t)C->sc->dim, d = (size_t)C->dim;
   /* of the frame, its normal alone on the granular path (T225) */
   const size_t f = (size_t)mo_contact_fstride(C);
-  size_t bytes = n * (8 * (D + f + 1 + (C->U0 ? d : 0)) + 4 * (NTAG + MO_KEY) + 1);
+  size_t bytes = n * (8 * (D + f + 1 + (C->U0 ? d : 0)) + 4 * ((with_map(C) ? 1 : NTAG) + MO_KEY) + 1);
   return (bytes + 7) / 8;
 }
 
@@ -225,8 +236,9 @@ static struct block block_at(const mo_contact *C, double *v, size_t n)
   B.g = B.frame + n * f;
   B.U0 = B.g + n;
   B.tag = (int *)(B.U0 + (C->U0 ? n * d : 0));
-  B.key = B.tag + n * NTAG;
-  B.active = (unsigned char *)(B.key + n * MO_KEY);
+  B.key = B.tag + (with_map(C) ? 0 : n * NTAG);
+  B.map = B.key + n * MO_KEY;
+  B.active = (unsigned char *)(B.map + (with_map(C) ? n : 0));
   return B;
 }
 
@@ -245,17 +257,24 @@ static void copy_fields(mo_contact *C, const struct block *B, size_t i, size_t a
   FIELD(C->g, B->g, 1);
   if (C->U0) FIELD(C->U0, B->U0, d);
   FIELD(C->key, B->key, (size_t)MO_KEY);
+  /* each candidate's place in the previous set, found by its rank against the whole previous set
+     (replicated): it moves with the candidate (T271) */
+  if (with_map(C)) FIELD(C->smap.map, B->map, 1);
   FIELD(C->active, B->active, 1);
 #undef FIELD
 }
 
-/* Order key u before order key w in the serial detection's order (T217). */
-static inline int before(const int *u, const int *w)
+/* Candidate h of block B's place in the serial detection's order: its order key (T217), or with
+   the remap its key's order (T220), the same order then (a pair's slaves in increasing index,
+   smap_ok); packed as (T220)'s, the order keys' ints being >= 0 */
+static inline mo_setmap_ord order_at(const mo_contact *C, const struct block *B, size_t h)
 {
-  int i;
-  for (i = 0; i < NTAG; i++)
-    if (u[i] != w[i]) return u[i] < w[i];
-  return 0;
+  mo_setmap_ord o;
+  const int *t = B->tag + h * NTAG;
+  if (with_map(C)) return mo_setmap_order(C->krr, B->key + h * MO_KEY);
+  o.hi = (unsigned long long)(unsigned)t[0] << 32 | (unsigned)t[1];
+  o.lo = (unsigned long long)(unsigned)t[2] << 32;
+  return o;
 }
 
 int mo_pdetect_finish(mo_contact *C, int st, mo_ctx *ctx)
@@ -281,13 +300,16 @@ int mo_pdetect_finish(mo_contact *C, int st, mo_ctx *ctx)
   if ((st = room((void **)&P->buf, &P->bufcap, block_size(C, n) + 1, sizeof *P->buf, ctx)) ||
       (st = room((void **)&P->all, &P->allcap, block_size(C, total) + (size_t)P->nranks + 1, sizeof *P->all, ctx)))
     return st;
+  /* the set's arrays and the map for the merged set (their contents kept) */
+  if ((st = mo_contact_reserve(C, P->nc0 + (int)total, ctx)) ||
+      (with_map(C) && (st = mo_setmap_reserve(&C->smap, P->nc0 + (int)total + 1, ctx))))
+    return st;
   /* this rank's block: its part of the arrays as it is, and its order keys */
   own = block_at(C, P->buf, n);
   if (n) P->buf[block_size(C, n) - 1] = 0; /* the padding sent defined */
   copy_fields(C, &own, 0, (size_t)P->nc0, n, 0);
-  if (n) memcpy(own.tag, P->tag, n * NTAG * sizeof *own.tag);
+  if (n && !with_map(C)) memcpy(own.tag, P->tag, n * NTAG * sizeof *own.tag);
   if ((st = mo_par_gatherv(P->buf, P->cnt, P->all, ctx))) return st;
-  if ((st = mo_contact_reserve(C, P->nc0 + (int)total, ctx))) return st;
   for (r = 0; r < P->nranks; r++) {
     B[r] = block_at(C, P->all + off, (size_t)P->rc[r]);
     off += (size_t)P->cnt[r];
@@ -298,20 +320,49 @@ int mo_pdetect_finish(mo_contact *C, int st, mo_ctx *ctx)
      order key comes first, and as many of its candidates as come before every other rank's next */
   for (a = 0; a < total;) {
     int best = -1, next = -1;
+    mo_setmap_ord ob = {0, 0}, on = {0, 0}, o;
     size_t h;
     for (r = 0; r < P->nranks; r++)
-      if (head[r] < end[r] && (best < 0 || before(B[r].tag + head[r] * NTAG, B[best].tag + head[best] * NTAG))) best = r;
+      if (head[r] < end[r] && (o = order_at(C, &B[r], head[r]), best < 0 || mo_setmap_cmp(o, ob) < 0)) {
+        best = r;
+        ob = o;
+      }
     for (r = 0; r < P->nranks; r++)
-      if (r != best && head[r] < end[r] && (next < 0 || before(B[r].tag + head[r] * NTAG, B[next].tag + head[next] * NTAG)))
+      if (r != best && head[r] < end[r] && (o = order_at(C, &B[r], head[r]), next < 0 || mo_setmap_cmp(o, on) < 0)) {
         next = r;
-    for (h = head[best] + 1; h < end[best] && (next < 0 || before(B[best].tag + h * NTAG, B[next].tag + head[next] * NTAG));) h++;
+        on = o;
+      }
+    /* the run ends at best's first candidate not before next's head: the block is sorted, so
+       found by galloping from the head, then bisection (a few orders a run, not one a candidate,
+       (T272)) */
+    if (next < 0)
+      h = end[best];
+    else {
+      size_t lo = head[best] + 1, hi = lo, step = 1;
+      while (hi < end[best] && mo_setmap_cmp(order_at(C, &B[best], hi), on) < 0) {
+        lo = hi + 1;
+        hi += step;
+        step *= 2;
+      }
+      if (hi > end[best]) hi = end[best];
+      while (lo < hi) { /* [head, lo) before next's head; hi the end, or not before it */
+        const size_t mid = lo + (hi - lo) / 2;
+        if (mo_setmap_cmp(order_at(C, &B[best], mid), on) < 0) lo = mid + 1;
+        else hi = mid;
+      }
+      h = lo;
+    }
     copy_fields(C, &B[best], head[best], (size_t)P->nc0 + a, h - head[best], 1);
     a += h - head[best];
     head[best] = h;
   }
-  /* the keys compared with the previous set's as one process compares them (set_key) */
-  C->ksame = P->ksame && (size_t)P->nc0 + total <= (size_t)P->knold &&
-             !memcmp(C->key + (size_t)P->nc0 * MO_KEY, P->okey, total * MO_KEY * sizeof *C->key);
+  /* the keys compared with the previous set's as one process compares them (set_key): with the
+     map, a key is the old one at its place when it maps there (a key is unique in a set) */
+  C->ksame = P->ksame && (size_t)P->nc0 + total <= (size_t)P->knold;
+  if (with_map(C))
+    for (a = (size_t)P->nc0; a < (size_t)P->nc0 + total && C->ksame; a++) C->ksame = C->smap.map[a] == (int)a;
+  else
+    C->ksame = C->ksame && !memcmp(C->key + (size_t)P->nc0 * MO_KEY, P->okey, total * MO_KEY * sizeof *C->key);
   C->nc = P->nc0 + (int)total;
   return MO_OK;
 }

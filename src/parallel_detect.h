@@ -16,10 +16,12 @@ struct mo_pdetect {
   int *owner;              /* per body: its slab at the last build of the pair list (-1: none) */
   unsigned char *rmask;    /* per body: in this rank's broad phase (its slab and halo) */
   int nc0;                 /* the first candidate of the split part of the detection */
-  int *okey;               /* the previous set's keys from nc0 on (knold - nc0 of them) */
+  int *okey;               /* the previous set's keys from nc0 on (knold - nc0 of them); not kept when
+                              the detection writes the remap: the keys compared through it (T271) */
   size_t okcap;
   int knold, ksame;        /* as C's, before the split part */
-  int *tag;                /* MO_PDETECT_NTAG per candidate this rank appended: the serial order's key */
+  int *tag;                /* MO_PDETECT_NTAG per candidate this rank appended: the serial order's key
+                              (none when the detection writes the remap: the keys give the order, T271) */
   size_t tagcap;
   double *buf, *all;       /* this rank's records, every rank's */
   size_t bufcap, allcap;

@@ -5,30 +5,9 @@
 #include <string.h>
 #include "contact_internal.h"
 
-/* The detection's order of candidate key k (T220), packed in two words compared in turn: a pair
-   between two shapes visits the body pairs of the broad phase's list, sorted by (lower, higher)
-   index, after every other pair; the others go by pair, slave, master (indices >= 0). */
 typedef mo_setmap_ord ord_t;
-
-static inline ord_t order_of(const unsigned char *rr, const int *k)
-{
-  ord_t o;
-  if (rr[k[0]]) {
-    const unsigned long long a = (uint32_t)(k[1] < k[2] ? k[1] : k[2]), b = (uint32_t)(k[1] < k[2] ? k[2] : k[1]);
-    o.hi = 1ULL << 32 | a;
-    o.lo = b << 32;
-  } else {
-    o.hi = (uint32_t)k[0];
-    o.lo = (unsigned long long)(uint32_t)k[1] << 32 | (uint32_t)k[2];
-  }
-  return o;
-}
-
-static inline int order_cmp(ord_t a, ord_t b)
-{
-  if (a.hi != b.hi) return a.hi < b.hi ? -1 : 1;
-  return a.lo < b.lo ? -1 : a.lo > b.lo;
-}
+#define order_of mo_setmap_order
+#define order_cmp mo_setmap_cmp
 
 /* Old candidate p's key: aside when its place has been written, else still in the set. */
 static inline const int *old_key(const mo_setmap *M, const int *keys, int p)
@@ -80,17 +59,22 @@ static int hold_room(mo_setmap *M, int a, mo_ctx *ctx)
   return MO_OK;
 }
 
+int mo_setmap_reserve(mo_setmap *M, int n, mo_ctx *ctx)
+{
+  int cap = M->mcap, *q;
+  if (n <= cap) return MO_OK;
+  while (cap < n) cap = cap ? cap + cap / 8 + 1 : 16; /* an eighth more, as the set's arrays (T253) */
+  if (!(q = mo_realloc(ctx, M->map, (size_t)cap * sizeof *q))) return MO_ENOMEM;
+  M->map = q;
+  M->mcap = cap;
+  return MO_OK;
+}
+
 int mo_setmap_put(mo_setmap *M, int *keys, int a, const int *key, mo_ctx *ctx)
 {
   ord_t g;
   int p, st;
-  if (a >= M->mcap) {
-    int cap = M->mcap, *q;
-    while (cap <= a) cap = cap ? cap + cap / 8 + 1 : 16; /* an eighth more, as the set's arrays (T253) */
-    if (!(q = mo_realloc(ctx, M->map, (size_t)cap * sizeof *q))) return MO_ENOMEM;
-    M->map = q;
-    M->mcap = cap;
-  }
+  if (a >= M->mcap && (st = mo_setmap_reserve(M, a + 1, ctx))) return st;
   /* old candidate a not read yet: aside before its place is written (T221) */
   if (a >= M->j && a < M->nold) {
     if ((st = hold_room(M, a, ctx))) return st;
@@ -109,9 +93,35 @@ int mo_setmap_put(mo_setmap *M, int *keys, int a, const int *key, mo_ctx *ctx)
       if (!M->ingroup) M->og1 = order_of(M->rr, old_key(M, keys, M->j)); /* the first group */
       c = order_cmp(M->og1, g);
     }
-    while (c < 0 && ++M->j < M->nold) {
-      M->og1 = order_of(M->rr, old_key(M, keys, M->j));
-      c = order_cmp(M->og1, g);
+    if (c < 0) {
+      /* the old set is in the order too: its first candidate not before g found by galloping
+         from j, then bisection (over a rank's part of the new set (T270) the other parts' old
+         groups are passed at a few orders each, not one a candidate; on one rank the first probe
+         ends it as a step would) */
+      int lo = M->j + 1, hi = lo;
+      long step = 1;
+      ord_t oh = M->og1; /* the order at hi when hi < nold has been probed */
+      while (hi < M->nold) {
+        oh = order_of(M->rr, old_key(M, keys, hi));
+        if (order_cmp(oh, g) >= 0) break;
+        lo = hi + 1;
+        hi = M->nold - hi > step ? hi + (int)step : M->nold;
+        step *= 2;
+      }
+      while (lo < hi) { /* [j, lo) before g; hi the end, or not before g with order oh */
+        const int mid = lo + (hi - lo) / 2;
+        const ord_t om = order_of(M->rr, old_key(M, keys, mid));
+        if (order_cmp(om, g) < 0) lo = mid + 1;
+        else {
+          hi = mid;
+          oh = om;
+        }
+      }
+      M->j = lo;
+      if (M->j < M->nold) { /* hi = lo = j, probed: oh is its order */
+        M->og1 = oh;
+        c = order_cmp(M->og1, g);
+      }
     }
     /* [j, g1): the old candidates of this group */
     for (M->g1 = M->j; c == 0;) {

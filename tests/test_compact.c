@@ -11,7 +11,9 @@
    scene on the general path. Jean's norms in nscd's report under the residual rules: the sweep on
    H computes them, the records' sweep reports them as not measured (-1), not NaN. The remap the
    detection writes as it overwrites the keys (T220-T222) against the key map's over every set of
-   two deposits, and against brute force on random sets in the detection's order. */
+   two deposits, and against brute force on random sets in the detection's order; the same sets
+   dealt to several ranks, each rank's part mapped over its copy of the old set and the parts'
+   maps merged with the set (T270-T271). */
 #include "config.h"
 #include "testlib.h"
 #include "metrics.h"
@@ -642,17 +644,53 @@ static void metrics_follow(void)
 }
 
 
+/* The remap over p ranks (T270)-(T271), as the split detection writes it: the new set's nn keys
+   (in the order of (T220)) dealt to p parts by the lower body of their group (a body pair, or a
+   shape against a plane: every contact of a group in one part, as a slab owns a pair), each part
+   written through mo_setmap_put over its own copy of the nold old keys (a rank's replicated set)
+   from place 0 on, its map taken with its candidates to their places in the whole set. Returns
+   the candidates whose map differs from want (or -1 on failure); *parts: the parts not empty. */
+static int parts_map(const unsigned char *rr, const int *okey, int nold, const int *nkey, int nn, int p,
+                     const int *want, int *parts)
+{
+  mo_setmap M;
+  mo_ctx ctx;
+  int *keys = malloc(((size_t)(nold > nn ? nold : nn) + 1) * MO_KEY * sizeof *keys), q, a, bad = 0, st = 0;
+  memset(&M, 0, sizeof M);
+  mo_ctx_init(&ctx);
+  *parts = 0;
+  for (q = 0; q < p && keys && !st; q++) {
+    int n = 0;
+    if (nold) memcpy(keys, okey, (size_t)nold * MO_KEY * sizeof *keys);
+    if ((st = mo_setmap_begin(&M, rr, nold, 0, &ctx))) break;
+    for (a = 0; a < nn && !st; a++) {
+      const int *k = nkey + (size_t)a * MO_KEY;
+      int lo = rr[k[0]] ? (k[1] < k[2] ? k[1] : k[2]) : k[1];
+      if ((int)(((unsigned)lo * 2654435761u) >> 7) % p != q) continue;
+      if ((st = mo_setmap_put(&M, keys, n, k, &ctx))) break;
+      bad += M.map[n] != want[a];
+      n++;
+    }
+    bad += M.bad;
+    *parts += n > 0;
+  }
+  mo_setmap_free(&M);
+  mo_ctx_release(&ctx);
+  free(keys);
+  return !keys || st ? -1 : bad;
+}
+
 /* The detection's remap (T222) against the key map's (the driver's way before it) and brute force
    over every set change of a deposit stepped by the driver: before each step the set's keys are
    copied, after it the detection's map from the old set to the new is checked candidate by
    candidate. Returns the sets compared; *bad counts the candidates mapped otherwise. */
-static int remap_sets(const char *text, const char *name, int *bad, int *moved)
+static int remap_sets(const char *text, const char *name, int *bad, int *moved, int *pbad)
 {
   tl_steps R;
   mo_keymap K;
   int *okey = NULL, ocap = 0, sets = 0, st = 0;
   memset(&K, 0, sizeof K);
-  *bad = *moved = 0;
+  *bad = *moved = *pbad = 0;
   if (tl_steps_open(&R, text, name, NULL, 0)) {
     ok(0, "%s opens (%s)", name, R.ctx.errmsg);
     return 0;
@@ -689,6 +727,11 @@ static int remap_sets(const char *text, const char *name, int *bad, int *moved)
       if (map[a] != mo_keymap_find(&K, k) || map[a] != brute) (*bad)++;
       if (map[a] >= 0 && map[a] != a) (*moved)++;
     }
+    /* the same set split over 2 and 3 ranks, each its part's map (T270): the whole set's */
+    for (p = 2; p <= 3; p++) {
+      int parts, b = parts_map(R.C->krr, okey, nold, mo_contact_key(R.C, 0), nc, p, map, &parts);
+      *pbad += b < 0 || (nc > 20 && parts < p) ? 1 : b;
+    }
   }
   if (st) ok(0, "%s: %s", name, R.ctx.errmsg);
   free(okey);
@@ -700,15 +743,19 @@ static int remap_sets(const char *text, const char *name, int *bad, int *moved)
 static void remap_deposits(void)
 {
   static char t[16384];
-  int sets, bad, moved;
+  int sets, bad, moved, pbad;
   disks_text(t, sizeof t, 200, 0.3, "", "");
-  sets = remap_sets(t, "remap200.cfg", &bad, &moved);
+  sets = remap_sets(t, "remap200.cfg", &bad, &moved, &pbad);
   ok(sets >= 200 && !bad && moved > 100, "200 disks, 300 steps: the detection's remap is the key map's and brute "
      "force's at each of %d new sets (%d candidates otherwise; %d moved to another place)", sets, bad, moved);
+  ok(sets >= 200 && !pbad, "200 disks: each set dealt to 2 and 3 ranks by body pair, the parts' maps merged are "
+     "the whole set's (T270)-(T271) (%d candidates otherwise)", pbad);
   polygons_text(t, sizeof t, 0.3);
-  sets = remap_sets(t, "remappoly.cfg", &bad, &moved);
+  sets = remap_sets(t, "remappoly.cfg", &bad, &moved, &pbad);
   ok(sets >= 20 && !bad, "polygons and disks (several contacts a pair), 600 steps: the same at each of %d new sets "
      "(%d candidates otherwise)", sets, bad);
+  ok(sets >= 20 && !pbad, "polygons and disks: the parts' maps over 2 and 3 ranks, merged, the whole set's (%d "
+     "candidates otherwise)", pbad);
 }
 
 /* Random sets in the detection's order (T220), independent of setmap.c's: pairs 0 and 1 of shapes
@@ -771,12 +818,12 @@ static int random_set(rkey *out, int nb, const rkey *like, int nl, int p, int q,
 static void remap_random(void)
 {
   static rkey A[4000], B[4000];
-  static int keys[4000 * MO_KEY];
+  static int keys[4000 * MO_KEY], okeys[4000 * MO_KEY], nkeys[4000 * MO_KEY], want[4000];
   static const unsigned char rr[4] = {0, 0, 1, 1};
   mo_setmap M;
   mo_ctx ctx;
   unsigned s = 7;
-  int trial, bad = 0, mapped = 0, fresh = 0, gone = 0, grew = 0, st = 0;
+  int trial, bad = 0, mapped = 0, fresh = 0, gone = 0, grew = 0, st = 0, pbad = 0, split = 0;
   memset(&M, 0, sizeof M);
   mo_ctx_init(&ctx);
   for (trial = 0; trial < 400 && !st; trial++) {
@@ -799,14 +846,25 @@ static void remap_random(void)
       for (p = 0; p < na && brute < 0; p++)
         if (!memcmp(A[p].key, B[a].key, sizeof B[a].key)) brute = p;
       bad += M.map[a] != brute || memcmp(keys + (size_t)a * MO_KEY, B[a].key, sizeof B[a].key);
+      want[a] = brute;
       mapped += brute >= 0;
       fresh += brute < 0;
     }
     gone += na - (mapped - kept0);
+    /* the new set over 2 to 5 ranks (T270)-(T271), each part over its copy of the old keys */
+    for (a = 0; a < na; a++) memcpy(okeys + (size_t)a * MO_KEY, A[a].key, sizeof A[a].key);
+    for (a = 0; a < nn; a++) memcpy(nkeys + (size_t)a * MO_KEY, B[a].key, sizeof B[a].key);
+    {
+      int parts, b = parts_map(rr, okeys, na, nkeys, nn, 2 + trial % 4, want, &parts);
+      pbad += b < 0 ? 1 : b;
+      split += parts > 1;
+    }
   }
   ok(!st && !bad && mapped > 10000 && fresh > 10000 && grew >= 50, "400 random sets written over the old (%d kept, %d "
      "new, %d gone; %d at least 50 larger): the map is brute force's and the keys the new set's (%d otherwise)",
      mapped, fresh, gone, grew, bad);
+  ok(!st && !pbad && split >= 350, "the same sets dealt to 2 to 5 ranks by body (%d of them in 2 parts or more): the "
+     "parts' maps, each over its copy of the old set, merged, are brute force's (%d otherwise)", split, pbad);
   mo_setmap_free(&M);
   mo_ctx_release(&ctx);
 }

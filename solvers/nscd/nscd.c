@@ -149,9 +149,9 @@ static int fit_set(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
     m += m / 2;
     S->mcap = m;
   }
-  /* the reactions before a sweep, for Jean's norms: the granular sweep on one rank sums their
-     parts as it goes (S->jp) */
-  if (S->grains && ctx->nranks <= 1) {
+  /* the reactions before a sweep, for Jean's norms: the granular sweep sums their parts as it
+     goes (S->jp), on one rank and over several (T273) */
+  if (S->grains) {
     mo_free(S->rold);
     S->rold = NULL;
     S->rcap = 0;
@@ -602,8 +602,13 @@ static int sweep_ranks(nscd_state *S, const mo_contact_problem *P, double *r, in
   double parts[5] = {0, 0, 0, 0, 0}, mx[2];
   int st, natural = p->stop == NSCD_STOP_NATURAL || scaled;
   *broke = nscd_grains_sweep_owned(S, P, r, status);
-  if (!natural) jean_parts(S, S->oorder, S->noact, S->rold, r, &parts[0], &parts[1], &parts[2], &mx[1]);
-  else mx[1] = 0;
+  if (!natural) { /* Jean's parts over the rank's contacts, summed by its sweep (T273) */
+    parts[0] = S->jp[0];
+    parts[1] = S->jp[1];
+    parts[2] = S->jp[2];
+    mx[1] = S->jp[3];
+  } else
+    mx[1] = 0;
   parts[3] = ctx->interrupt && *ctx->interrupt;
   mx[0] = *broke;
   if ((st = nscd_grains_sync(S, parts, 4, mx, 2, ctx))) return st;
@@ -799,8 +804,11 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
     if (p->stop == NSCD_STOP_SWEEPS ? sweeps == p->max_sweeps - 1
                                     : !(S->grains && (p->stop == NSCD_STOP_NATURAL || scaled)))
       rold_at = sweeps;
-    S->jwant = rold_at == sweeps && S->grains && !S->par;
-    if (rold_at == sweeps && S->rold) memcpy(S->rold, r, (size_t)m * sizeof *r);
+    /* the granular sweep sums Jean's parts as it goes, on one rank and over several (each rank
+       its own contacts', summed by the sync: no copy of the whole set's r on every rank every
+       sweep, (T273)) */
+    S->jwant = rold_at == sweeps && S->grains;
+    if (rold_at == sweeps && !S->jwant && S->rold) memcpy(S->rold, r, (size_t)m * sizeof *r);
     if (S->par) {
       /* the sweep split over the ranks: its rule decided on every rank's contacts */
       int stop = 0;

@@ -152,7 +152,7 @@ typedef struct {
   size_t aocap;                 /* room of actown (contacts) */
   size_t wcap, acap, ucap;      /* room of the sweep on W's arrays (rcnt, rcol, rval, sprev), of aux, of Uown */
   size_t dcap, rcap;            /* room of diag and scale (contacts), of rold (m): not made on the
-                                   granular path (rold: on one rank) */
+                                   granular path (rold: whatever the ranks, T273) */
   double *aux;                  /* nc * NSCD_AUX: per-contact data of the local solvers */
   const mo_delassus *wsrc;      /* the W the cached data were built for, and its version */
   long wver;
@@ -168,7 +168,8 @@ typedef struct {
                                    granular path the caller's array of the solve */
   double *Uown;
   double *rold;                 /* m: the reactions at the start of the sweep (Jean's norms); not on the
-                                   granular path on one rank, whose sweep sums Jean's parts itself */
+                                   granular path, whose sweep sums Jean's parts itself (over MPI ranks
+                                   each rank its contacts', T273) */
   double *scale;                /* nc: 1 / W_aa,nn, the scaling of (T42) (0 when W_nn = 0); NULL on the
                                    granular path (nscd_scale computes it from the record's W_aa) */
   const double *mu;             /* nc: friction coefficients, 0 where no free dof moves the

@@ -441,7 +441,10 @@ KERNEL int sweep_d(nscd_state *S, const mo_contact_problem *P, double *r, int *s
       nscd_local_prepare(3, Waa, mua, aux);
       st = nscd_local_3d(Waa, aux, ql, mua, rl, &S->lp, &S->lst);
     }
-    if (st < 0) return a;
+    if (st < 0) {
+      if (jw) memcpy(S->jp, jp, sizeof jp); /* the parts of the contacts updated before it */
+      return a;
+    }
     status[a] = st;
     for (i = 0; i < d; i++) {
       if (omega != 1) rl[i] = omega * rl[i] + (1 - omega) * ra[i]; /* (T37) */
