@@ -1115,6 +1115,19 @@ static int loads(mo_scene *sc, const config_setting_t *bl, int nentry, double *f
     for (m = 0; m < (c < 1 ? 1 : c); m++, b++)
       if (T->loads && (st = T->loads(sc, b, bg, f, ctx))) return st;
   }
+  /* the patterns at their size: a pack's body forces grew by doubling (up to twice the entries) */
+  for (e = 0; e < sc->nload; e++) {
+    mo_load *L = &sc->load[e];
+    if (L->cap > L->n && L->n > 0) {
+      int *d = mo_realloc(ctx, L->dof, (size_t)L->n * sizeof *d);
+      double *v;
+      if (!d) return MO_ENOMEM;
+      L->dof = d;
+      if (!(v = mo_realloc(ctx, L->val, (size_t)L->n * sizeof *v))) return MO_ENOMEM;
+      L->val = v;
+      L->cap = L->n;
+    }
+  }
   return MO_OK;
 }
 
