@@ -209,6 +209,14 @@ static inline double rig_mass(const mo_stepper *S, int r, int nd, int i, int j)
   return S->rig_M[(size_t)r * (size_t)(nd * nd) + (size_t)(i * nd + j)];
 }
 
+/* The local dofs (in its body) of the block whose first free index is o: the identity when every
+   block is full (blk_loc NULL, T260). */
+static inline const int *blk_local(const mo_stepper *S, int o)
+{
+  static const int ident[6] = {0, 1, 2, 3, 4, 5};
+  return S->blk_loc ? S->blk_loc + (o - S->nfe) : ident;
+}
+
 int mo_stepper_rigid_update(mo_stepper *S, const mo_state *s, mo_ctx *ctx)
 {
   const mo_scene *sc = S->sc;
@@ -227,7 +235,7 @@ int mo_stepper_rigid_update(mo_stepper *S, const mo_state *s, mo_ctx *ctx)
   }
   for (k = 0; k < S->nblk; k++) {
     int b = S->blk_body[k], nk = S->blk_off[k + 1] - S->blk_off[k], ri;
-    const int *loc = S->blk_loc + (S->blk_off[k] - S->nfe);
+    const int *loc = blk_local(S, S->blk_off[k]);
     double Mff[36];
     const double *M;
     ri = S->blk_rig[k];
@@ -257,7 +265,7 @@ int mo_stepper_rigid_update(mo_stepper *S, const mo_state *s, mo_ctx *ctx)
 static int rigid_setup(mo_stepper *S, mo_ctx *ctx)
 {
   const mo_scene *sc = S->sc;
-  int r, k = 0, nfree_r = sc->nfree - sc->nfe_free, ninv = 0, i, nd = mo_rigid_ndof(sc->dim);
+  int r, k = 0, nfree_r = sc->nfree - sc->nfe_free, ninv = 0, i, nd = mo_rigid_ndof(sc->dim), full;
   S->nfe = sc->nfe_free;
   /* diagonal storage when every body's block is diagonal at the reference and never turns (2D;
      3D with isotropic inertia): nd values a body instead of nd^2, and as many inverses */
@@ -295,10 +303,18 @@ static int rigid_setup(mo_stepper *S, mo_ctx *ctx)
     k++;
   }
   S->nblk = k;
+  /* every block full (nk <= nd each, nblk nd dofs in all: a pack of free grains): a dof's local
+     index and its block follow from its index, (i - nfe) mod nd and (i - nfe) / nd, and neither
+     map is kept (8 bytes a dof, T260) */
+  full = nfree_r == S->nblk * nd;
+  if (full) {
+    mo_free(S->blk_loc);
+    S->blk_loc = NULL;
+  }
   S->blk_inv = mo_malloc(ctx, ((size_t)ninv + 1) * sizeof *S->blk_inv);
-  S->blk_of = mo_malloc(ctx, ((size_t)nfree_r + 1) * sizeof *S->blk_of);
-  if (!S->blk_inv || !S->blk_of) return MO_ENOMEM;
-  for (k = 0; k < S->nblk; k++)
+  S->blk_of = full ? NULL : mo_malloc(ctx, ((size_t)nfree_r + 1) * sizeof *S->blk_of);
+  if (!S->blk_inv || (!full && !S->blk_of)) return MO_ENOMEM;
+  for (k = 0; k < S->nblk && !full; k++)
     for (i = S->blk_off[k]; i < S->blk_off[k + 1]; i++) S->blk_of[i - S->nfe] = k;
   if (!S->blk_varies && sc->nrigid)
     mo_note_skip(ctx, "rigid mass blocks updates (2D bodies, or 3D bodies with isotropic inertia)");
@@ -311,6 +327,7 @@ static int rigid_setup(mo_stepper *S, mo_ctx *ctx)
   S->Wi.inv = S->blk_diag ? NULL : S->blk_inv;
   S->Wi.dinv = S->blk_diag ? S->blk_inv : NULL;
   S->Wi.blkof = S->blk_of;
+  S->Wi.bsize = nd;
   S->Wi.last = mo_stepper_contact_dofs(S, &S->Wi.nlast);
   return mo_stepper_rigid_update(S, NULL, ctx);
 }
@@ -416,7 +433,7 @@ int mo_stepper_matrix_full(mo_stepper *S, const mo_csc **W, mo_ctx *ctx)
       if ((st = mo_triplet_add(&T, Wn->i[p], j, Wn->x[p], ctx))) goto done;
   for (k = 0; k < S->nblk; k++) {
     int o = S->blk_off[k], nk = S->blk_off[k + 1] - o, r, nd = mo_rigid_ndof(sc->dim);
-    const int *loc = S->blk_loc + (o - S->nfe);
+    const int *loc = blk_local(S, o);
     r = S->blk_rig[k];
     for (i = 0; i < nk; i++)
       for (j = 0; j < nk; j++) {
@@ -867,7 +884,7 @@ static void rigid_rhs(const mo_stepper *S, const mo_state *s, const double *x, d
   for (k = 0; k < S->nblk; k++) {
     const mo_body *B = &sc->body[S->blk_body[k]];
     int o = S->blk_off[k], nk = S->blk_off[k + 1] - o;
-    const int *loc = S->blk_loc + (o - S->nfe);
+    const int *loc = blk_local(S, o);
     const double *v = s->v + B->dof0, *xb = x + B->dof0;
     r = S->blk_rig[k];
     for (i = 0; i < nk; i++) {

@@ -46,9 +46,11 @@ struct mo_stepper {
   int nblk;
   int *blk_body;        /* nblk: the body of each block */
   int *blk_rig;         /* nblk: its rank in sc->rigid (its mass block in rig_M) */
-  int *blk_of;          /* per free rigid dof (index - nfe): its block */
+  int *blk_of;          /* per free rigid dof (index - nfe): its block; NULL when every block is
+                           full (nd dofs, the block of a dof its index over nd: Wi.bsize, T260) */
   int *blk_off;         /* nblk + 1: free index of each block's first dof (blk_off[0] = nfe) */
-  int *blk_loc;         /* per free rigid dof (index - nfe): its local dof in the body */
+  int *blk_loc;         /* per free rigid dof (index - nfe): its local dof in the body; NULL when
+                           every block is full (the identity, blk_local) */
   int *blk_ioff;        /* nblk: offset of the block's inverse in blk_inv (NULL when blk_diag) */
   double *blk_inv;      /* the blocks' inverses, or with blk_diag their diagonals (one per rigid free dof) */
   double *rig_M;        /* per rigid body (scene order), its full mass block (ndof^2, 36 max), or
