@@ -105,7 +105,7 @@ struct mo_contact {
   long bcur_step;
   int *bdof;                  /* per body: its first dof when it is rigid, else -1 */
   double *bs, *be;            /* per body: its speed bound, and its alert margin when the pair list was built */
-  double *bv, *bw;            /* per body: its translation velocity (3), and what its rotation adds (omega r_bound) */
+  double *bv, *bw;            /* per body: its translation velocity (D), and what its rotation adds (omega r_bound) */
   double *bs2;                /* per body of the broad phase: its speed relative to their mean velocity, plus bw */
   unsigned char *dmask;       /* per body: 1 when in a dynamic pair (its speed is needed) */
   unsigned char *bmask;
