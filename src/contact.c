@@ -671,7 +671,8 @@ size_t mo_contact_driver_bytes(const mo_contact_driver *D, size_t *per_dof)
   if (D->tmp) c += (cap * (2 * d + 1) + 1) * sd;
   if (D->ukin) c += (size_t)D->ukcap * d * sd;
   if (D->kmap.tab) c += ((size_t)D->kmap.mask + 1) * sizeof(int);
-  if (D->gvel) dof += (size_t)D->sc->nbody * (sizeof(int) + (size_t)D->sc->dim * sd);
+  if (D->gvel) dof += (size_t)D->sc->nbody * sizeof(int);
+  if (D->gcentre) dof += (size_t)D->sc->nbody * (size_t)D->sc->dim * sd;
   if (per_dof) *per_dof = dof;
   return c + dof;
 }
@@ -839,8 +840,7 @@ int mo_contact_driver_create(const mo_scene *sc, mo_contact *C, mo_stepper *S,
     /* the granular path: each body's first free dof (-1: a plane, or a body held fixed) */
     int b;
     D->gvel = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *D->gvel);
-    D->gcentre = mo_calloc(ctx, (size_t)sc->dim * sc->nbody + 1, sizeof *D->gcentre);
-    if (!D->gvel || !D->gcentre) {
+    if (!D->gvel) {
       mo_contact_driver_free(D);
       return MO_ENOMEM;
     }
@@ -859,7 +859,6 @@ int mo_contact_driver_create(const mo_scene *sc, mo_contact *C, mo_stepper *S,
       D->grains.pmu = D->pmu;
     }
     D->grains.vel = D->gvel;
-    D->grains.centre = D->gcentre;
   }
   if ((D->T->needs & MO_NEEDS_DELASSUS) && (st = mo_delassus_create(&D->W, ctx))) {
     mo_contact_driver_free(D);
@@ -1220,9 +1219,17 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
     const int D3 = sc->dim;
     int b;
     int q;
-    for (b = 0; b < sc->nbody; b++)
-      if (D->gvel[b] >= 0) /* as mo_rigid_center, D values */
-        for (q = 0; q < D3; q++) D->gcentre[(size_t)D3 * b + q] = sc->body[b].xc0[q] + s->u[sc->body[b].dof0 + q];
+    /* the detection's centres of this state (the same sums), current for every body of a dynamic
+       pair, which holds every body of a candidate: no copy of them (16 bytes a 2D grain, T261) */
+    D->grains.centre = mo_contact_centres(C, s);
+    if (!D->grains.centre) { /* over several ranks: a copy of its own */
+      if (!D->gcentre && !(D->gcentre = mo_calloc(ctx, (size_t)D3 * sc->nbody + 1, sizeof *D->gcentre)))
+        return MO_ENOMEM;
+      for (b = 0; b < sc->nbody; b++)
+        if (D->gvel[b] >= 0) /* as mo_rigid_center, D values */
+          for (q = 0; q < D3; q++) D->gcentre[(size_t)D3 * b + q] = sc->body[b].xc0[q] + s->u[sc->body[b].dof0 + q];
+      D->grains.centre = D->gcentre;
+    }
     D->grains.key = C->key;
     D->grains.x = C->x;
     D->grains.n = mo_contact_normals(C); /* the frames' normals alone (T225) */

@@ -187,6 +187,9 @@ int mo_contact_detect_setup(mo_contact *C, mo_ctx *ctx);
    radius, a mesh's shortest edge): the scale of the alert distance and of eps_g (T71). */
 double mo_contact_smallest_size(const mo_contact *C);
 int mo_contact_detect(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx);
+/* The centres of the rigid bodies of the dynamic pairs at state s (D per body, detect.c's bcur, made
+   current for s when it is of another state), or NULL over several ranks (T261). */
+const double *mo_contact_centres(mo_contact *C, const mo_state *s);
 /* 1 when the detection writes the remap of its sets (T220): the driver then keeps no keys */
 int mo_contact_writes_map(const mo_contact *C, const mo_ctx *ctx);
 /* The detection's remap from set `from` to set `to` (each new candidate's place in the old set,

@@ -708,6 +708,22 @@ int mo_contact_broad_stats(const mo_contact *C, long *builds, long *pairs)
   return C->nrr > 0;
 }
 
+const double *mo_contact_centres(mo_contact *C, const mo_state *s)
+{
+  const mo_scene *sc = C->sc;
+  int b, a, D = sc->dim;
+  if (C->pd || !C->bcur) return NULL; /* over ranks only the slab's and halo's are kept */
+  if (s->u == C->bcur_u && s->step == C->bcur_step) return C->bcur;
+  /* another state (the scene's initial one, which the first geometry is of): body_speed's sums at s,
+     which the next detection forms again before it reads them */
+  for (b = 0; b < sc->nbody; b++)
+    if (C->dmask[b] && (sc->body[b].type->flags & MO_BODY_F_RIGID))
+      for (a = 0; a < D; a++) C->bcur[(size_t)D * b + a] = sc->body[b].xc0[a] + s->u[sc->body[b].dof0 + a];
+  C->bcur_u = s->u;
+  C->bcur_step = s->step;
+  return C->bcur;
+}
+
 int mo_contact_detect(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx)
 {
   int k, split, st = MO_OK;
