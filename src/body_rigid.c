@@ -528,7 +528,7 @@ static int rigid_loads(mo_scene *sc, int b, const config_setting_t *bg, double *
   (void)f;
   /* a component that is exactly zero is no entry (gravity along y: one entry a 2D grain, not two,
      12 bytes): f's sum (from +0), the load work and the cause of a non-finite value add +-0 for
-     it, which leaves every sum as it was (x + -0 = x, +0 + -0 = +0); a NaN product is kept */
+     it, which leaves every sum as it was (x + -0 = x, +0 + -0 = +0); a NaN product is kept (T264) */
   for (k = 0, n = 0; k < sc->dim; k++)
     if (B->mass * bf[k] != 0) {
       dof[n] = B->dof0 + k;

@@ -1212,7 +1212,7 @@ static int side_bodies(const mo_scene *sc, const char *name, int **list, int *n,
 /* The bodies of one side of pair k (side_bodies), sharing the list of an earlier side that holds
    the same bodies: a pack is on both sides of its own pair and on the slave side of each wall's,
    one list of its bodies instead of five (16 bytes a 2D grain in a box). The lists are read
-   only once built (mo_contact_free frees each once, side_owner). */
+   only once built (mo_contact_free frees each once, side_owner; T265). */
 static int pair_side(const mo_contact *C, int k, int master, const char *name, int **list, int *n, mo_ctx *ctx)
 {
   int st, j, s;

@@ -80,7 +80,7 @@ int mo_contact_detect_setup(mo_contact *C, mo_ctx *ctx)
   C->br = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->br);
   C->bs = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->bs);
   C->be = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->be);
-  C->bv = mo_calloc(ctx, (size_t)sc->dim * sc->nbody + 1, sizeof *C->bv); /* D per body: 8 bytes a 2D grain less than 3 */
+  C->bv = mo_calloc(ctx, (size_t)sc->dim * sc->nbody + 1, sizeof *C->bv); /* D per body: 8 bytes a 2D grain less than 3 (T266) */
   C->bw = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->bw);
   C->bs2 = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->bs2);
   C->bmask = mo_calloc(ctx, (size_t)sc->nbody + 1, 1);

@@ -1115,7 +1115,7 @@ static int loads(mo_scene *sc, const config_setting_t *bl, int nentry, double *f
     for (m = 0; m < (c < 1 ? 1 : c); m++, b++)
       if (T->loads && (st = T->loads(sc, b, bg, f, ctx))) return st;
   }
-  /* the patterns at their size: a pack's body forces grew by doubling (up to twice the entries) */
+  /* the patterns at their size: a pack's body forces grew by doubling (up to twice the entries, T264) */
   for (e = 0; e < sc->nload; e++) {
     mo_load *L = &sc->load[e];
     if (L->cap > L->n && L->n > 0) {
