@@ -236,7 +236,7 @@ typedef struct mo_scene {
   int *rigid;     /* nrigid body indices */
   int norient;    /* 3D rigid bodies (quaternions in mo_state.orient) */
   int *free_of;   /* ndof: free index of each dof, or -1 when prescribed */
-  int *full_of;   /* nfree: dof of each free index */
+  int *full_of;   /* nfree: dof of each free index (free_of itself when every dof is free) */
   int npresc;
   mo_presc *presc;
   int nload, loadcap;
