@@ -209,6 +209,17 @@ static inline double rig_mass(const mo_stepper *S, int r, int nd, int i, int j)
   return S->rig_M[(size_t)r * (size_t)(nd * nd) + (size_t)(i * nd + j)];
 }
 
+/* Block k's body and its rank in sc->rigid (its mass block in rig_M): the k-th rigid body when
+   every rigid body has a block (blk_body and blk_rig NULL, T260). */
+static inline int blk_bodyof(const mo_stepper *S, int k)
+{
+  return S->blk_body ? S->blk_body[k] : S->sc->rigid[k];
+}
+static inline int blk_rank(const mo_stepper *S, int k)
+{
+  return S->blk_rig ? S->blk_rig[k] : k;
+}
+
 /* The local dofs (in its body) of the block whose first free index is o: the identity when every
    block is full (blk_loc NULL, T260). */
 static inline const int *blk_local(const mo_stepper *S, int o)
@@ -234,11 +245,11 @@ int mo_stepper_rigid_update(mo_stepper *S, const mo_state *s, mo_ctx *ctx)
     if (s && S->gyro) mo_rigid_gyroscopic(sc, B, s, s->v + B->dof0, S->gyro + B->dof0);
   }
   for (k = 0; k < S->nblk; k++) {
-    int b = S->blk_body[k], nk = S->blk_off[k + 1] - S->blk_off[k], ri;
+    int b = blk_bodyof(S, k), nk = S->blk_off[k + 1] - S->blk_off[k], ri;
     const int *loc = blk_local(S, S->blk_off[k]);
     double Mff[36];
     const double *M;
-    ri = S->blk_rig[k];
+    ri = blk_rank(S, k);
     if (S->blk_diag) { /* small_inverse's Gauss-Jordan on a diagonal block: 1 / M_ii to the bit */
       for (i = 0; i < nk; i++) {
         double piv = S->rig_M[(size_t)ri * (size_t)nd + (size_t)loc[i]];
@@ -310,6 +321,12 @@ static int rigid_setup(mo_stepper *S, mo_ctx *ctx)
   if (full) {
     mo_free(S->blk_loc);
     S->blk_loc = NULL;
+  }
+  /* a block for every rigid body: block k is body rigid[k], the k-th of rigid_M (blk_bodyof) */
+  if (S->nblk == sc->nrigid) {
+    mo_free(S->blk_body);
+    mo_free(S->blk_rig);
+    S->blk_body = S->blk_rig = NULL;
   }
   S->blk_inv = mo_malloc(ctx, ((size_t)ninv + 1) * sizeof *S->blk_inv);
   S->blk_of = full ? NULL : mo_malloc(ctx, ((size_t)nfree_r + 1) * sizeof *S->blk_of);
@@ -434,7 +451,7 @@ int mo_stepper_matrix_full(mo_stepper *S, const mo_csc **W, mo_ctx *ctx)
   for (k = 0; k < S->nblk; k++) {
     int o = S->blk_off[k], nk = S->blk_off[k + 1] - o, r, nd = mo_rigid_ndof(sc->dim);
     const int *loc = blk_local(S, o);
-    r = S->blk_rig[k];
+    r = blk_rank(S, k);
     for (i = 0; i < nk; i++)
       for (j = 0; j < nk; j++) {
         double Mij = rig_mass(S, r, nd, loc[i], loc[j]);
@@ -882,11 +899,11 @@ static void rigid_rhs(const mo_stepper *S, const mo_state *s, const double *x, d
   const mo_scene *sc = S->sc;
   int nd = mo_rigid_ndof(sc->dim), k, i, j, r;
   for (k = 0; k < S->nblk; k++) {
-    const mo_body *B = &sc->body[S->blk_body[k]];
+    const mo_body *B = &sc->body[blk_bodyof(S, k)];
     int o = S->blk_off[k], nk = S->blk_off[k + 1] - o;
     const int *loc = blk_local(S, o);
     const double *v = s->v + B->dof0, *xb = x + B->dof0;
-    r = S->blk_rig[k];
+    r = blk_rank(S, k);
     for (i = 0; i < nk; i++) {
       double g = S->gyro ? S->gyro[B->dof0 + loc[i]] : 0;
       double acc = S->scheme == MO_SCHEME_THETA ? S->h * g : g;

@@ -44,8 +44,8 @@ struct mo_stepper {
      the free-free part of its mass matrix, inverted */
   int nfe;
   int nblk;
-  int *blk_body;        /* nblk: the body of each block */
-  int *blk_rig;         /* nblk: its rank in sc->rigid (its mass block in rig_M) */
+  int *blk_body;        /* nblk: the body of each block (NULL: rigid[k], every rigid body has one) */
+  int *blk_rig;         /* nblk: its rank in sc->rigid (its mass block in rig_M; NULL: k) */
   int *blk_of;          /* per free rigid dof (index - nfe): its block; NULL when every block is
                            full (nd dofs, the block of a dof its index over nd: Wi.bsize, T260) */
   int *blk_off;         /* nblk + 1: free index of each block's first dof (blk_off[0] = nfe) */
