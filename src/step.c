@@ -202,10 +202,18 @@ static int is_diagonal(int n, const double *M)
   return 1;
 }
 
+/* Diagonal entry i of the mass block of rigid body r (scene order), B, with diagonal storage: in
+   2D the body's own mass and inertia, mo_rigid_mass's diag(m, m, I), and rig_M is not kept (24
+   bytes a grain, T267). */
+static inline double rig_diag(const mo_stepper *S, const mo_body *B, int r, int nd, int i)
+{
+  return S->rig_M ? S->rig_M[(size_t)r * (size_t)nd + (size_t)i] : i < 2 ? B->mass : B->J[0];
+}
+
 /* Entry (i, j) of the mass block of rigid body r (scene order), full or diagonal storage. */
 static inline double rig_mass(const mo_stepper *S, int r, int nd, int i, int j)
 {
-  if (S->blk_diag) return i == j ? S->rig_M[(size_t)r * (size_t)nd + (size_t)i] : 0;
+  if (S->blk_diag) return i == j ? rig_diag(S, &S->sc->body[S->sc->rigid[r]], r, nd, i) : 0;
   return S->rig_M[(size_t)r * (size_t)(nd * nd) + (size_t)(i * nd + j)];
 }
 
@@ -240,7 +248,7 @@ int mo_stepper_rigid_update(mo_stepper *S, const mo_state *s, mo_ctx *ctx)
       mo_rigid_mass(sc, B, s, Md);
       if (!is_diagonal(nd, Md))
         return mo_error(ctx, MO_EINTERNAL, "rigid body '%s': its mass block is not diagonal", B->name);
-      for (i = 0; i < nd; i++) S->rig_M[(size_t)r * (size_t)nd + (size_t)i] = Md[i * nd + i];
+      for (i = 0; i < nd && S->rig_M; i++) S->rig_M[(size_t)r * (size_t)nd + (size_t)i] = Md[i * nd + i];
     }
     if (s && S->gyro) mo_rigid_gyroscopic(sc, B, s, s->v + B->dof0, S->gyro + B->dof0);
   }
@@ -252,7 +260,7 @@ int mo_stepper_rigid_update(mo_stepper *S, const mo_state *s, mo_ctx *ctx)
     ri = blk_rank(S, k);
     if (S->blk_diag) { /* small_inverse's Gauss-Jordan on a diagonal block: 1 / M_ii to the bit */
       for (i = 0; i < nk; i++) {
-        double piv = S->rig_M[(size_t)ri * (size_t)nd + (size_t)loc[i]];
+        double piv = rig_diag(S, &sc->body[b], ri, nd, loc[i]);
         if (!(fabs(piv) > 0))
           return mo_error(ctx, MO_ESINGULAR, "rigid body '%s': its mass matrix is singular (zero mass or "
                           "inertia on a free dof)", sc->body[b].name);
@@ -293,9 +301,13 @@ static int rigid_setup(mo_stepper *S, mo_ctx *ctx)
   S->blk_ioff = S->blk_diag ? NULL : mo_malloc(ctx, ((size_t)sc->nrigid + 1) * sizeof *S->blk_ioff);
   S->blk_loc = mo_malloc(ctx, ((size_t)nfree_r + 1) * sizeof *S->blk_loc);
   /* nd x nd per body (nd with blk_diag); the gyroscopic forces exist in 3D only */
-  S->rig_M = mo_calloc(ctx, (size_t)(S->blk_diag ? nd : nd * nd) * (size_t)sc->nrigid + 1, sizeof *S->rig_M);
+  /* 2D diagonal blocks are read from the bodies (rig_diag) */
+  S->rig_M = S->blk_diag && sc->dim == 2
+                 ? NULL
+                 : mo_calloc(ctx, (size_t)(S->blk_diag ? nd : nd * nd) * (size_t)sc->nrigid + 1, sizeof *S->rig_M);
   S->gyro = sc->dim == 3 ? mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof *S->gyro) : NULL;
-  if (!S->blk_body || !S->blk_rig || !S->blk_off || (!S->blk_diag && !S->blk_ioff) || !S->blk_loc || !S->rig_M ||
+  if (!S->blk_body || !S->blk_rig || !S->blk_off || (!S->blk_diag && !S->blk_ioff) || !S->blk_loc ||
+      (!S->rig_M && !(S->blk_diag && sc->dim == 2)) ||
       (sc->dim == 3 && !S->gyro))
     return MO_ENOMEM;
   S->blk_off[0] = S->nfe;
@@ -910,10 +922,10 @@ static void rigid_rhs(const mo_stepper *S, const mo_state *s, const double *x, d
       /* a diagonal block: the full row's sum to the bit for finite v (block_apply), its zeros'
          products summed only after a -0 start or with prescribed dofs */
       if (S->blk_diag && nk == nd && S->scheme == MO_SCHEME_THETA && (acc != 0 || !signbit(acc)))
-        acc += S->rig_M[(size_t)r * (size_t)nd + (size_t)loc[i]] * v[loc[i]];
+        acc += rig_diag(S, B, r, nd, loc[i]) * v[loc[i]];
       else if (S->blk_diag) { /* the full row's sums, its zeros' products (signed zeros) kept */
         const int li = loc[i];
-        const double mii = S->rig_M[(size_t)r * (size_t)nd + (size_t)li];
+        const double mii = rig_diag(S, B, r, nd, li);
         for (j = 0; j < nd; j++) {
           double Mij = j == li ? mii : 0.0;
           if (S->scheme == MO_SCHEME_THETA) acc += Mij * v[j];

@@ -54,7 +54,8 @@ struct mo_stepper {
   int *blk_ioff;        /* nblk: offset of the block's inverse in blk_inv (NULL when blk_diag) */
   double *blk_inv;      /* the blocks' inverses, or with blk_diag their diagonals (one per rigid free dof) */
   double *rig_M;        /* per rigid body (scene order), its full mass block (ndof^2, 36 max), or
-                           with blk_diag its diagonal (ndof) */
+                           with blk_diag its diagonal (ndof); NULL with blk_diag in 2D: the
+                           bodies' own diag(m, m, I) (rig_diag, T267) */
   int blk_diag;         /* every rigid body's mass block is diagonal and fixed: diagonals stored */
   int blk_varies;       /* some block turns with its body (3D, anisotropic inertia) */
   long blk_version;     /* changes with the blocks */
