@@ -257,7 +257,7 @@ static double pair_alert(const mo_contact *C, int a, int b)
   const int D = C->dim;
   const double *va = C->bv + (size_t)D * a, *vb = C->bv + (size_t)D * b;
   double dv2 = (va[0] - vb[0]) * (va[0] - vb[0]) + (va[1] - vb[1]) * (va[1] - vb[1]), dv;
-  if (D == 3) dv2 += (va[2] - vb[2]) * (va[2] - vb[2]); /* in 2D the sum the third term's +0 left */
+  if (D == 3) dv2 += (va[2] - vb[2]) * (va[2] - vb[2]); /* in 2D it was +0: the same sum (T266) */
   dv = sqrt(dv2);
   return C->alert + 2 * C->h * (dv + C->bw[a] + C->bw[b]);
 }
