@@ -520,17 +520,21 @@ static int rigid_loads(mo_scene *sc, int b, const config_setting_t *bg, double *
 {
   mo_body *B = &sc->body[b];
   double bf[3], val[3];
-  int k, st, dof[3];
+  int k, n, st, dof[3];
   if (mo_cfg_member(bg, "loads"))
     return mo_case_error(sc->cs, mo_cfg_member(bg, "loads"), ctx, "a rigid body takes a 'body_force', not 'loads'");
   if (!mo_cfg_member(bg, "body_force")) return MO_OK;
   if ((st = eval_at_center(sc, B, bg, "body_force", sc->dim, bf, ctx))) return st;
   (void)f;
-  for (k = 0; k < sc->dim; k++) {
-    dof[k] = B->dof0 + k;
-    val[k] = B->mass * bf[k];
-  }
-  return mo_scene_add_load_sparse(sc, sc->dim, dof, val, NULL, ctx);
+  /* a component that is exactly zero is no entry (gravity along y: one entry a 2D grain, not two,
+     12 bytes): f's sum (from +0), the load work and the cause of a non-finite value add +-0 for
+     it, which leaves every sum as it was (x + -0 = x, +0 + -0 = +0); a NaN product is kept (T264) */
+  for (k = 0, n = 0; k < sc->dim; k++)
+    if (B->mass * bf[k] != 0) {
+      dof[n] = B->dof0 + k;
+      val[n++] = B->mass * bf[k];
+    }
+  return mo_scene_add_load_sparse(sc, n, dof, val, NULL, ctx);
 }
 
 /* --- the kinds ------------------------------------------------------------------------------------ */

@@ -674,7 +674,8 @@ size_t mo_contact_driver_bytes(const mo_contact_driver *D, size_t *per_dof)
   if (D->tmp) c += (cap * (2 * d + 1) + 1) * sd;
   if (D->ukin) c += (size_t)D->ukcap * d * sd;
   if (D->kmap.tab) c += ((size_t)D->kmap.mask + 1) * sizeof(int);
-  if (D->gvel) dof += (size_t)D->sc->nbody * (sizeof(int) + (size_t)D->sc->dim * sd);
+  if (D->gvel) dof += (size_t)D->sc->nbody * sizeof(int);
+  if (D->gcentre) dof += (size_t)D->sc->nbody * (size_t)D->sc->dim * sd;
   if (per_dof) *per_dof = dof;
   return c + dof;
 }
@@ -841,15 +842,27 @@ int mo_contact_driver_create(const mo_scene *sc, mo_contact *C, mo_stepper *S,
   if (mo_contact_is_compact(C)) {
     /* the granular path: each body's first free dof (-1: a plane, or a body held fixed) */
     int b;
-    D->gvel = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *D->gvel);
-    D->gcentre = mo_calloc(ctx, (size_t)sc->dim * sc->nbody + 1, sizeof *D->gcentre);
-    if (!D->gvel || !D->gcentre) {
-      mo_contact_driver_free(D);
-      return MO_ENOMEM;
-    }
-    for (b = 0; b < sc->nbody; b++) {
+    /* where the free numbering is the full one on the rigid bodies (every dof free), these are the
+       detection's first dofs of the rigid bodies (its bdof, -1 elsewhere): read there, not copied
+       (4 bytes a grain, T261) */
+    int same = C->bdof != NULL;
+    for (b = 0; b < sc->nbody && same; b++) {
       const mo_body *B = &sc->body[b];
-      D->gvel[b] = (B->type->flags & MO_BODY_F_RIGID) && B->ndof ? sc->free_of[B->dof0] : -1;
+      same = C->bdof[b] == ((B->type->flags & MO_BODY_F_RIGID) && B->ndof ? sc->free_of[B->dof0] : -1);
+    }
+    if (same)
+      D->grains.vel = C->bdof;
+    else {
+      D->gvel = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *D->gvel);
+      if (!D->gvel) {
+        mo_contact_driver_free(D);
+        return MO_ENOMEM;
+      }
+      for (b = 0; b < sc->nbody; b++) {
+        const mo_body *B = &sc->body[b];
+        D->gvel[b] = (B->type->flags & MO_BODY_F_RIGID) && B->ndof ? sc->free_of[B->dof0] : -1;
+      }
+      D->grains.vel = D->gvel;
     }
     D->grains.D = sc->dim;
     D->grains.key = NULL; /* the set's, at each solve */
@@ -861,8 +874,6 @@ int mo_contact_driver_create(const mo_scene *sc, mo_contact *C, mo_stepper *S,
       for (k = 0; k < C->npair; k++) D->pmu[k] = C->pair[k].mu;
       D->grains.pmu = D->pmu;
     }
-    D->grains.vel = D->gvel;
-    D->grains.centre = D->gcentre;
   }
   if ((D->T->needs & MO_NEEDS_DELASSUS) && (st = mo_delassus_create(&D->W, ctx))) {
     mo_contact_driver_free(D);
@@ -1223,9 +1234,17 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
     const int D3 = sc->dim;
     int b;
     int q;
-    for (b = 0; b < sc->nbody; b++)
-      if (D->gvel[b] >= 0) /* as mo_rigid_center, D values */
-        for (q = 0; q < D3; q++) D->gcentre[(size_t)D3 * b + q] = sc->body[b].xc0[q] + s->u[sc->body[b].dof0 + q];
+    /* the detection's centres of this state (the same sums), current for every body of a dynamic
+       pair, which holds every body of a candidate: no copy of them (16 bytes a 2D grain, T261) */
+    D->grains.centre = mo_contact_centres(C, s);
+    if (!D->grains.centre) { /* over several ranks: a copy of its own */
+      if (!D->gcentre && !(D->gcentre = mo_calloc(ctx, (size_t)D3 * sc->nbody + 1, sizeof *D->gcentre)))
+        return MO_ENOMEM;
+      for (b = 0; b < sc->nbody; b++)
+        if (D->grains.vel[b] >= 0) /* as mo_rigid_center, D values */
+          for (q = 0; q < D3; q++) D->gcentre[(size_t)D3 * b + q] = sc->body[b].xc0[q] + s->u[sc->body[b].dof0 + q];
+      D->grains.centre = D->gcentre;
+    }
     D->grains.key = C->key;
     D->grains.x = C->x;
     D->grains.n = mo_contact_normals(C); /* the frames' normals alone (T225) */

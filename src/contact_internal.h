@@ -134,7 +134,7 @@ struct mo_contact {
   long bcur_step;
   int *bdof;                  /* per body: its first dof when it is rigid, else -1 */
   double *bs, *be;            /* per body: its speed bound, and its alert margin when the pair list was built */
-  double *bv, *bw;            /* per body: its translation velocity (3), and what its rotation adds (omega r_bound) */
+  double *bv, *bw;            /* per body: its translation velocity (D), and what its rotation adds (omega r_bound) */
   double *bs2;                /* per body of the broad phase: its speed relative to their mean velocity, plus bw */
   unsigned char *dmask;       /* per body: 1 when in a dynamic pair (its speed is needed) */
   unsigned char *bmask;
@@ -217,6 +217,9 @@ int mo_contact_detect_setup(mo_contact *C, mo_ctx *ctx);
    radius, a mesh's shortest edge): the scale of the alert distance and of eps_g (T71). */
 double mo_contact_smallest_size(const mo_contact *C);
 int mo_contact_detect(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx);
+/* The centres of the rigid bodies of the dynamic pairs at state s (D per body, detect.c's bcur, made
+   current for s when it is of another state), or NULL over several ranks (T261). */
+const double *mo_contact_centres(mo_contact *C, const mo_state *s);
 /* 1 when the detection writes the remap of its sets (T220; over MPI ranks each its part, T270): the
    driver then keeps no keys */
 int mo_contact_writes_map(const mo_contact *C, const mo_ctx *ctx);

@@ -80,7 +80,7 @@ int mo_contact_detect_setup(mo_contact *C, mo_ctx *ctx)
   C->br = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->br);
   C->bs = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->bs);
   C->be = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->be);
-  C->bv = mo_calloc(ctx, 3 * (size_t)sc->nbody + 1, sizeof *C->bv);
+  C->bv = mo_calloc(ctx, (size_t)sc->dim * sc->nbody + 1, sizeof *C->bv); /* D per body: 8 bytes a 2D grain less than 3 (T266) */
   C->bw = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->bw);
   C->bs2 = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->bs2);
   C->bmask = mo_calloc(ctx, (size_t)sc->nbody + 1, 1);
@@ -254,9 +254,11 @@ static inline void shape_world(const mo_scene *sc, const mo_body *B, const mo_st
    falling together are not candidates of each other; a fast grain widens its own pairs only. */
 static double pair_alert(const mo_contact *C, int a, int b)
 {
-  const double *va = C->bv + 3 * (size_t)a, *vb = C->bv + 3 * (size_t)b;
-  double dv = sqrt((va[0] - vb[0]) * (va[0] - vb[0]) + (va[1] - vb[1]) * (va[1] - vb[1]) +
-                   (va[2] - vb[2]) * (va[2] - vb[2]));
+  const int D = C->dim;
+  const double *va = C->bv + (size_t)D * a, *vb = C->bv + (size_t)D * b;
+  double dv2 = (va[0] - vb[0]) * (va[0] - vb[0]) + (va[1] - vb[1]) * (va[1] - vb[1]), dv;
+  if (D == 3) dv2 += (va[2] - vb[2]) * (va[2] - vb[2]); /* in 2D it was +0: the same sum (T266) */
+  dv = sqrt(dv2);
   return C->alert + 2 * C->h * (dv + C->bw[a] + C->bw[b]);
 }
 
@@ -471,9 +473,9 @@ static inline void body_speed(mo_contact *C, const mo_state *s, int b)
 {
   const mo_scene *sc = C->sc;
   const mo_body *B = &sc->body[b];
-  double v2 = 0, w2 = 0, vmax = 0, *v = C->bv + 3 * (size_t)b;
   int a, i, D = sc->dim;
-  v[0] = v[1] = v[2] = 0;
+  double v2 = 0, w2 = 0, vmax = 0, *v = C->bv + (size_t)D * b;
+  for (a = 0; a < D; a++) v[a] = 0;
   C->bw[b] = 0;
   if (B->type->flags & MO_BODY_F_RIGID) {
     for (a = 0; a < D; a++) C->bcur[(size_t)D * b + a] = B->xc0[a] + s->u[B->dof0 + a]; /* mo_rigid_center */
@@ -522,7 +524,7 @@ static inline void relative_speed(mo_contact *C, int D, const double *vm, int b)
 {
   double e2 = 0;
   int k;
-  for (k = 0; k < D; k++) e2 += (C->bv[3 * (size_t)b + k] - vm[k]) * (C->bv[3 * (size_t)b + k] - vm[k]);
+  for (k = 0; k < D; k++) e2 += (C->bv[(size_t)D * b + k] - vm[k]) * (C->bv[(size_t)D * b + k] - vm[k]);
   C->bs2[b] = sqrt(e2) + C->bw[b];
 }
 
@@ -535,7 +537,7 @@ static void relative_speeds(mo_contact *C, int D, double *vm)
   vm[0] = vm[1] = vm[2] = 0;
   for (b = 0; b < sc->nbody; b++)
     if (C->bmask[b]) {
-      for (k = 0; k < D; k++) vm[k] += C->bv[3 * (size_t)b + k];
+      for (k = 0; k < D; k++) vm[k] += C->bv[(size_t)D * b + k];
       n++;
     }
   for (k = 0; k < D && n; k++) vm[k] /= n;
@@ -569,7 +571,7 @@ static int valid_split(mo_contact *C, int D, double *vm, int *valid, mo_ctx *ctx
   for (i = 0; i < n; i++) {
     const int b = own[i];
     for (k = 0; k < D; k++) {
-      sum[k] += C->bv[3 * (size_t)b + k];
+      sum[k] += C->bv[(size_t)D * b + k];
       sum[D + k] += C->bcur[(size_t)D * b + k] - C->bc[(size_t)D * b + k];
     }
   }
@@ -705,6 +707,22 @@ int mo_contact_broad_stats(const mo_contact *C, long *builds, long *pairs)
   *builds = C->vl_builds;
   *pairs = C->vl_n;
   return C->nrr > 0;
+}
+
+const double *mo_contact_centres(mo_contact *C, const mo_state *s)
+{
+  const mo_scene *sc = C->sc;
+  int b, a, D = sc->dim;
+  if (C->pd || !C->bcur) return NULL; /* over ranks only the slab's and halo's are kept */
+  if (s->u == C->bcur_u && s->step == C->bcur_step) return C->bcur;
+  /* another state (the scene's initial one, which the first geometry is of): body_speed's sums at s,
+     which the next detection forms again before it reads them */
+  for (b = 0; b < sc->nbody; b++)
+    if (C->dmask[b] && (sc->body[b].type->flags & MO_BODY_F_RIGID))
+      for (a = 0; a < D; a++) C->bcur[(size_t)D * b + a] = sc->body[b].xc0[a] + s->u[sc->body[b].dof0 + a];
+  C->bcur_u = s->u;
+  C->bcur_step = s->step;
+  return C->bcur;
 }
 
 int mo_contact_detect(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx)

@@ -320,8 +320,8 @@ void mo_scene_free(mo_scene *sc)
     mo_free(sc->out.extent[i].node);
   }
   mo_free(sc->out.extent);
+  if (sc->full_of != sc->free_of) mo_free(sc->full_of);
   mo_free(sc->free_of);
-  mo_free(sc->full_of);
   mo_csc_free(sc->K);
   mo_csc_free(sc->M);
   mo_free(sc->pwork);
@@ -1087,7 +1087,10 @@ static int conditions(mo_scene *sc, const config_setting_t *bl, int nentry, int 
     sc->free_of[k] = owner[k] >= 0 ? -1 : sc->nfree++;
     if (k < sc->nfe_dof && owner[k] < 0) sc->nfe_free++;
   }
-  sc->full_of = mo_malloc(ctx, (size_t)(sc->nfree ? sc->nfree : 1) * sizeof(int));
+  /* every dof free: both maps are the identity over ndof = nfree entries, one array serves as
+     both (12 bytes a 2D grain, T262) */
+  sc->full_of = sc->nfree == sc->ndof ? sc->free_of
+                                      : mo_malloc(ctx, (size_t)(sc->nfree ? sc->nfree : 1) * sizeof(int));
   if (!sc->full_of) return MO_ENOMEM;
   for (k = 0; k < sc->ndof; k++)
     if (sc->free_of[k] >= 0) sc->full_of[sc->free_of[k]] = k;
@@ -1114,6 +1117,19 @@ static int loads(mo_scene *sc, const config_setting_t *bl, int nentry, double *f
     int c = T->count ? T->count(bg) : 1;
     for (m = 0; m < (c < 1 ? 1 : c); m++, b++)
       if (T->loads && (st = T->loads(sc, b, bg, f, ctx))) return st;
+  }
+  /* the patterns at their size: a pack's body forces grew by doubling (up to twice the entries, T264) */
+  for (e = 0; e < sc->nload; e++) {
+    mo_load *L = &sc->load[e];
+    if (L->cap > L->n && L->n > 0) {
+      int *d = mo_realloc(ctx, L->dof, (size_t)L->n * sizeof *d);
+      double *v;
+      if (!d) return MO_ENOMEM;
+      L->dof = d;
+      if (!(v = mo_realloc(ctx, L->val, (size_t)L->n * sizeof *v))) return MO_ENOMEM;
+      L->val = v;
+      L->cap = L->n;
+    }
   }
   return MO_OK;
 }

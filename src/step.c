@@ -202,11 +202,38 @@ static int is_diagonal(int n, const double *M)
   return 1;
 }
 
+/* Diagonal entry i of the mass block of rigid body r (scene order), B, with diagonal storage: in
+   2D the body's own mass and inertia, mo_rigid_mass's diag(m, m, I), and rig_M is not kept (24
+   bytes a grain, T267). */
+static inline double rig_diag(const mo_stepper *S, const mo_body *B, int r, int nd, int i)
+{
+  return S->rig_M ? S->rig_M[(size_t)r * (size_t)nd + (size_t)i] : i < 2 ? B->mass : B->J[0];
+}
+
 /* Entry (i, j) of the mass block of rigid body r (scene order), full or diagonal storage. */
 static inline double rig_mass(const mo_stepper *S, int r, int nd, int i, int j)
 {
-  if (S->blk_diag) return i == j ? S->rig_M[(size_t)r * (size_t)nd + (size_t)i] : 0;
+  if (S->blk_diag) return i == j ? rig_diag(S, &S->sc->body[S->sc->rigid[r]], r, nd, i) : 0;
   return S->rig_M[(size_t)r * (size_t)(nd * nd) + (size_t)(i * nd + j)];
+}
+
+/* Block k's body and its rank in sc->rigid (its mass block in rig_M): the k-th rigid body when
+   every rigid body has a block (blk_body and blk_rig NULL, T260). */
+static inline int blk_bodyof(const mo_stepper *S, int k)
+{
+  return S->blk_body ? S->blk_body[k] : S->sc->rigid[k];
+}
+static inline int blk_rank(const mo_stepper *S, int k)
+{
+  return S->blk_rig ? S->blk_rig[k] : k;
+}
+
+/* The local dofs (in its body) of the block whose first free index is o: the identity when every
+   block is full (blk_loc NULL, T260). */
+static inline const int *blk_local(const mo_stepper *S, int o)
+{
+  static const int ident[6] = {0, 1, 2, 3, 4, 5};
+  return S->blk_loc ? S->blk_loc + (o - S->nfe) : ident;
 }
 
 int mo_stepper_rigid_update(mo_stepper *S, const mo_state *s, mo_ctx *ctx)
@@ -221,19 +248,19 @@ int mo_stepper_rigid_update(mo_stepper *S, const mo_state *s, mo_ctx *ctx)
       mo_rigid_mass(sc, B, s, Md);
       if (!is_diagonal(nd, Md))
         return mo_error(ctx, MO_EINTERNAL, "rigid body '%s': its mass block is not diagonal", B->name);
-      for (i = 0; i < nd; i++) S->rig_M[(size_t)r * (size_t)nd + (size_t)i] = Md[i * nd + i];
+      for (i = 0; i < nd && S->rig_M; i++) S->rig_M[(size_t)r * (size_t)nd + (size_t)i] = Md[i * nd + i];
     }
     if (s && S->gyro) mo_rigid_gyroscopic(sc, B, s, s->v + B->dof0, S->gyro + B->dof0);
   }
   for (k = 0; k < S->nblk; k++) {
-    int b = S->blk_body[k], nk = S->blk_off[k + 1] - S->blk_off[k], ri;
-    const int *loc = S->blk_loc + (S->blk_off[k] - S->nfe);
+    int b = blk_bodyof(S, k), nk = S->blk_off[k + 1] - S->blk_off[k], ri;
+    const int *loc = blk_local(S, S->blk_off[k]);
     double Mff[36];
     const double *M;
-    ri = S->blk_rig[k];
+    ri = blk_rank(S, k);
     if (S->blk_diag) { /* small_inverse's Gauss-Jordan on a diagonal block: 1 / M_ii to the bit */
       for (i = 0; i < nk; i++) {
-        double piv = S->rig_M[(size_t)ri * (size_t)nd + (size_t)loc[i]];
+        double piv = rig_diag(S, &sc->body[b], ri, nd, loc[i]);
         if (!(fabs(piv) > 0))
           return mo_error(ctx, MO_ESINGULAR, "rigid body '%s': its mass matrix is singular (zero mass or "
                           "inertia on a free dof)", sc->body[b].name);
@@ -257,7 +284,7 @@ int mo_stepper_rigid_update(mo_stepper *S, const mo_state *s, mo_ctx *ctx)
 static int rigid_setup(mo_stepper *S, mo_ctx *ctx)
 {
   const mo_scene *sc = S->sc;
-  int r, k = 0, nfree_r = sc->nfree - sc->nfe_free, ninv = 0, i, nd = mo_rigid_ndof(sc->dim);
+  int r, k = 0, nfree_r = sc->nfree - sc->nfe_free, ninv = 0, i, nd = mo_rigid_ndof(sc->dim), full;
   S->nfe = sc->nfe_free;
   /* diagonal storage when every body's block is diagonal at the reference and never turns (2D;
      3D with isotropic inertia): nd values a body instead of nd^2, and as many inverses */
@@ -274,9 +301,13 @@ static int rigid_setup(mo_stepper *S, mo_ctx *ctx)
   S->blk_ioff = S->blk_diag ? NULL : mo_malloc(ctx, ((size_t)sc->nrigid + 1) * sizeof *S->blk_ioff);
   S->blk_loc = mo_malloc(ctx, ((size_t)nfree_r + 1) * sizeof *S->blk_loc);
   /* nd x nd per body (nd with blk_diag); the gyroscopic forces exist in 3D only */
-  S->rig_M = mo_calloc(ctx, (size_t)(S->blk_diag ? nd : nd * nd) * (size_t)sc->nrigid + 1, sizeof *S->rig_M);
+  /* 2D diagonal blocks are read from the bodies (rig_diag) */
+  S->rig_M = S->blk_diag && sc->dim == 2
+                 ? NULL
+                 : mo_calloc(ctx, (size_t)(S->blk_diag ? nd : nd * nd) * (size_t)sc->nrigid + 1, sizeof *S->rig_M);
   S->gyro = sc->dim == 3 ? mo_calloc(ctx, (size_t)sc->ndof + 1, sizeof *S->gyro) : NULL;
-  if (!S->blk_body || !S->blk_rig || !S->blk_off || (!S->blk_diag && !S->blk_ioff) || !S->blk_loc || !S->rig_M ||
+  if (!S->blk_body || !S->blk_rig || !S->blk_off || (!S->blk_diag && !S->blk_ioff) || !S->blk_loc ||
+      (!S->rig_M && !(S->blk_diag && sc->dim == 2)) ||
       (sc->dim == 3 && !S->gyro))
     return MO_ENOMEM;
   S->blk_off[0] = S->nfe;
@@ -295,10 +326,24 @@ static int rigid_setup(mo_stepper *S, mo_ctx *ctx)
     k++;
   }
   S->nblk = k;
+  /* every block full (nk <= nd each, nblk nd dofs in all: a pack of free grains): a dof's local
+     index and its block follow from its index, (i - nfe) mod nd and (i - nfe) / nd, and neither
+     map is kept (8 bytes a dof, T260) */
+  full = nfree_r == S->nblk * nd;
+  if (full) {
+    mo_free(S->blk_loc);
+    S->blk_loc = NULL;
+  }
+  /* a block for every rigid body: block k is body rigid[k], the k-th of rigid_M (blk_bodyof) */
+  if (S->nblk == sc->nrigid) {
+    mo_free(S->blk_body);
+    mo_free(S->blk_rig);
+    S->blk_body = S->blk_rig = NULL;
+  }
   S->blk_inv = mo_malloc(ctx, ((size_t)ninv + 1) * sizeof *S->blk_inv);
-  S->blk_of = mo_malloc(ctx, ((size_t)nfree_r + 1) * sizeof *S->blk_of);
-  if (!S->blk_inv || !S->blk_of) return MO_ENOMEM;
-  for (k = 0; k < S->nblk; k++)
+  S->blk_of = full ? NULL : mo_malloc(ctx, ((size_t)nfree_r + 1) * sizeof *S->blk_of);
+  if (!S->blk_inv || (!full && !S->blk_of)) return MO_ENOMEM;
+  for (k = 0; k < S->nblk && !full; k++)
     for (i = S->blk_off[k]; i < S->blk_off[k + 1]; i++) S->blk_of[i - S->nfe] = k;
   if (!S->blk_varies && sc->nrigid)
     mo_note_skip(ctx, "rigid mass blocks updates (2D bodies, or 3D bodies with isotropic inertia)");
@@ -311,6 +356,7 @@ static int rigid_setup(mo_stepper *S, mo_ctx *ctx)
   S->Wi.inv = S->blk_diag ? NULL : S->blk_inv;
   S->Wi.dinv = S->blk_diag ? S->blk_inv : NULL;
   S->Wi.blkof = S->blk_of;
+  S->Wi.bsize = nd;
   S->Wi.last = mo_stepper_contact_dofs(S, &S->Wi.nlast);
   return mo_stepper_rigid_update(S, NULL, ctx);
 }
@@ -416,8 +462,8 @@ int mo_stepper_matrix_full(mo_stepper *S, const mo_csc **W, mo_ctx *ctx)
       if ((st = mo_triplet_add(&T, Wn->i[p], j, Wn->x[p], ctx))) goto done;
   for (k = 0; k < S->nblk; k++) {
     int o = S->blk_off[k], nk = S->blk_off[k + 1] - o, r, nd = mo_rigid_ndof(sc->dim);
-    const int *loc = S->blk_loc + (o - S->nfe);
-    r = S->blk_rig[k];
+    const int *loc = blk_local(S, o);
+    r = blk_rank(S, k);
     for (i = 0; i < nk; i++)
       for (j = 0; j < nk; j++) {
         double Mij = rig_mass(S, r, nd, loc[i], loc[j]);
@@ -865,21 +911,21 @@ static void rigid_rhs(const mo_stepper *S, const mo_state *s, const double *x, d
   const mo_scene *sc = S->sc;
   int nd = mo_rigid_ndof(sc->dim), k, i, j, r;
   for (k = 0; k < S->nblk; k++) {
-    const mo_body *B = &sc->body[S->blk_body[k]];
+    const mo_body *B = &sc->body[blk_bodyof(S, k)];
     int o = S->blk_off[k], nk = S->blk_off[k + 1] - o;
-    const int *loc = S->blk_loc + (o - S->nfe);
+    const int *loc = blk_local(S, o);
     const double *v = s->v + B->dof0, *xb = x + B->dof0;
-    r = S->blk_rig[k];
+    r = blk_rank(S, k);
     for (i = 0; i < nk; i++) {
       double g = S->gyro ? S->gyro[B->dof0 + loc[i]] : 0;
       double acc = S->scheme == MO_SCHEME_THETA ? S->h * g : g;
       /* a diagonal block: the full row's sum to the bit for finite v (block_apply), its zeros'
          products summed only after a -0 start or with prescribed dofs */
       if (S->blk_diag && nk == nd && S->scheme == MO_SCHEME_THETA && (acc != 0 || !signbit(acc)))
-        acc += S->rig_M[(size_t)r * (size_t)nd + (size_t)loc[i]] * v[loc[i]];
+        acc += rig_diag(S, B, r, nd, loc[i]) * v[loc[i]];
       else if (S->blk_diag) { /* the full row's sums, its zeros' products (signed zeros) kept */
         const int li = loc[i];
-        const double mii = S->rig_M[(size_t)r * (size_t)nd + (size_t)li];
+        const double mii = rig_diag(S, B, r, nd, li);
         for (j = 0; j < nd; j++) {
           double Mij = j == li ? mii : 0.0;
           if (S->scheme == MO_SCHEME_THETA) acc += Mij * v[j];

@@ -44,15 +44,18 @@ struct mo_stepper {
      the free-free part of its mass matrix, inverted */
   int nfe;
   int nblk;
-  int *blk_body;        /* nblk: the body of each block */
-  int *blk_rig;         /* nblk: its rank in sc->rigid (its mass block in rig_M) */
-  int *blk_of;          /* per free rigid dof (index - nfe): its block */
+  int *blk_body;        /* nblk: the body of each block (NULL: rigid[k], every rigid body has one) */
+  int *blk_rig;         /* nblk: its rank in sc->rigid (its mass block in rig_M; NULL: k) */
+  int *blk_of;          /* per free rigid dof (index - nfe): its block; NULL when every block is
+                           full (nd dofs, the block of a dof its index over nd: Wi.bsize, T260) */
   int *blk_off;         /* nblk + 1: free index of each block's first dof (blk_off[0] = nfe) */
-  int *blk_loc;         /* per free rigid dof (index - nfe): its local dof in the body */
+  int *blk_loc;         /* per free rigid dof (index - nfe): its local dof in the body; NULL when
+                           every block is full (the identity, blk_local) */
   int *blk_ioff;        /* nblk: offset of the block's inverse in blk_inv (NULL when blk_diag) */
   double *blk_inv;      /* the blocks' inverses, or with blk_diag their diagonals (one per rigid free dof) */
   double *rig_M;        /* per rigid body (scene order), its full mass block (ndof^2, 36 max), or
-                           with blk_diag its diagonal (ndof) */
+                           with blk_diag its diagonal (ndof); NULL with blk_diag in 2D: the
+                           bodies' own diag(m, m, I) (rig_diag, T267) */
   int blk_diag;         /* every rigid body's mass block is diagonal and fixed: diagonals stored */
   int blk_varies;       /* some block turns with its body (3D, anisotropic inertia) */
   long blk_version;     /* changes with the blocks */

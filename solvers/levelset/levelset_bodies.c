@@ -62,7 +62,7 @@ static int sides(ls_bodies *B, const mo_contact_problem *P, int j)
     for (p = H->p[j * d + i]; p < H->p[j * d + i + 1]; p++) {
       int row = H->i[p];
       if (row < Wi->nfe) return 0;
-      k = Wi->blkof[row - Wi->nfe];
+      k = mo_what_block_of(Wi, row);
       for (s = 0; s < *ns && blk[s] != k; s++) {}
       if (s == *ns) {
         if (*ns == 2 || Wi->off[k + 1] - Wi->off[k] > LS_BODY_NK) return 0;

@@ -65,7 +65,7 @@ static inline int contact_sides(nscd_state *S, const mo_contact_problem *P, int 
       int row = H->i[p], k, s;
       if (row < Wi->nfe)
         return mo_error(ctx, MO_EINTERNAL, "nscd: contact %d touches a deformable body, the core should have built W", a);
-      k = Wi->blkof[row - Wi->nfe];
+      k = mo_what_block_of(Wi, row);
       for (s = 0; s < *ns && blk[s] != k; s++) {}
       if (s == *ns) {
         if (*ns == 2) return mo_error(ctx, MO_EINTERNAL, "nscd: contact %d touches more than two bodies", a);

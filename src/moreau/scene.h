@@ -27,23 +27,26 @@ typedef struct mo_body {
   char *name;
   char *group;          /* the entry that generated it with others (an arch's voussoirs), or NULL */
   int entry;            /* its entry in the case's bodies list */
-  mo_body_kind kind;    /* (the int-sized fields in pairs: no padding, 232 bytes a body) */
+  mo_body_kind kind;    /* (the int-sized fields in pairs: no padding, 216 bytes a body) */
   const struct mo_body_type *type;
   mo_mesh *mesh;        /* deformable and rigid-mesh bodies */
   mo_material *mat;     /* bodies with a mesh (deformable, rigid mesh; owned), NULL for shapes and
                            planes: 64 bytes a grain less */
-  int lumped;           /* lumped mass */
   /* finite-strain bodies (material models hencky and j2, moreau/material.h): their internal
      forces and tangents come from the kernels of fe_nonlinear.c, not from the scene's K */
   int nl;
-  int npoint;           /* quadrature points per element (state blocks per element) */
   int nvert;            /* polygon: its vertices (vert below) */
-  size_t q0;            /* offset of its first state block in mo_state.q (doubles) */
   int dof0, ndof;       /* global dofs dof0 .. dof0+ndof-1; node a, component i: dof0+a*dim+i */
   double mass;          /* total mass (kg, or kg per unit thickness as the hypothesis says) */
-  /* a plane's fields and a rigid body's share their memory (a body is one or the other, and
-     nothing reads the other's: 80 bytes less a grain) */
+  /* a plane's fields, a rigid body's and a deformable body's share their memory (a body is one of
+     the three, and nothing reads another's: 96 bytes less a grain, T263) */
   union {
+    /* deformable bodies (kind MO_BODY_DEFORMABLE; read only there) */
+    struct {
+      size_t q0;        /* offset of its first state block in mo_state.q (doubles) */
+      int lumped;       /* lumped mass */
+      int npoint;       /* quadrature points per element (state blocks per element) */
+    };
     struct {
       double point[3], normal[3], velocity[3]; /* plane obstacles (unit normal) */
       double until;     /* plane: gone after this time (a gate that opens); HUGE_VAL: always there */
@@ -236,7 +239,7 @@ typedef struct mo_scene {
   int *rigid;     /* nrigid body indices */
   int norient;    /* 3D rigid bodies (quaternions in mo_state.orient) */
   int *free_of;   /* ndof: free index of each dof, or -1 when prescribed */
-  int *full_of;   /* nfree: dof of each free index */
+  int *full_of;   /* nfree: dof of each free index (free_of itself when every dof is free) */
   int npresc;
   mo_presc *presc;
   int nload, loadcap;

@@ -165,7 +165,9 @@ typedef struct mo_what_inverse {
   const double *inv;
   const double *dinv;     /* the diagonal blocks' inverses, one per rigid free dof i (at i - off[0];
                              off[0], not nfe, which a caller may zero to act on the blocks alone), or NULL */
-  const int *blkof;       /* n - nfe: the block of each rigid free dof (index i - nfe) */
+  const int *blkof;       /* n - nfe: the block of each rigid free dof (index i - nfe), or NULL when
+                             every block has bsize dofs (mo_what_block_of) */
+  int bsize;              /* with blkof NULL: the dofs of every block (a pack's grains, all free) */
   long version;           /* changes whenever the factorization or a block changes */
   /* the nodal free dofs the factorization holds last, as its trailing block (doc/theory.md §13),
      in its order: (What^-1)_CC is ls's Schur inverse; 0 and NULL when it holds none */
@@ -180,6 +182,12 @@ static inline void mo_what_block(const mo_what_inverse *Wi, int k, double *A)
   for (i = 0; i < nk; i++)
     for (j = 0; j < nk; j++)
       A[i * nk + j] = Wi->dinv ? (i == j ? Wi->dinv[o - Wi->off[0] + i] : 0) : Wi->inv[Wi->ioff[k] + i * nk + j];
+}
+/* The block of rigid free dof i (i >= nfe): (i - nfe) / bsize when the blocks are all of one size
+   (blkof NULL: 4 bytes a dof less, T260). */
+static inline int mo_what_block_of(const mo_what_inverse *Wi, int i)
+{
+  return Wi->blkof ? Wi->blkof[i - Wi->nfe] : (i - Wi->nfe) / Wi->bsize;
 }
 /* X = What^-1 B over free dofs (nrhs columns, leading dimension n; X may alias B). */
 int mo_what_solve(const mo_what_inverse *Wi, int nrhs, const double *B, double *X, mo_ctx *ctx);
