@@ -67,10 +67,19 @@ ok $(below "$w" 1e-9) "greco-jean-mu1: coupled threshold = threshold loop to $w 
 
 # 3. a block resting on a 20-degree incline (2 corners, redundant friction impulses: the minimum
 #    weighted norm of (T76)/(T132)): the core rebuilds W at every step of a dynamic pair, with the
-#    same values; the dense path factored 1002 times over its 1000 steps
-run incline "$C/incline-block" --solver levelset
+#    same values; the dense path factored 1002 times over its 1000 steps. The block sticks, but
+#    not to the last bit (its velocity is round-off, 1e-18 m/s), and whether the reduced
+#    system's key (the closed set, the sliding codes, W_XX's values) repeats to the bit from step
+#    to step depends on that round-off, which differs between OpenBLAS's kernels (Haswell's: 5
+#    factorizations; AVX-512's on an AMD EPYC: 137, the results the same to 1e-10): the count is
+#    checked on Haswell's kernels, and on the machine's own the cache must still account for
+#    every Newton iteration and be used
+OPENBLAS_CORETYPE=Haswell run incline "$C/incline-block" --solver levelset
 nf=$(sum incline factorizations) it=$(sum incline iterations_total) ns=$(sum incline steps_with_contact)
-ok $(test "$nf" -le 10 -a "$it" -le $((ns + 5)); echo $?) "incline-block: $nf factorizations (<= 10) and $it Newton iterations for $ns contact steps (one per step)"
+ok $(test "$nf" -le 10 -a "$it" -le $((ns + 5)); echo $?) "incline-block: $nf factorizations (<= 10) and $it Newton iterations for $ns contact steps (one per step; OpenBLAS's Haswell kernels)"
+run incline-native "$C/incline-block" --solver levelset
+nf=$(sum incline-native factorizations) nr=$(sum incline-native factor_reuses) it=$(sum incline-native iterations_total)
+ok $(test $((nf + nr)) -eq "$it" -a "$nr" -gt $((it / 2)); echo $?) "incline-block, the machine's BLAS kernels: factorizations + reuses = Newton iterations ($nf + $nr = $it), more than half reused"
 run incline-nscd "$C/incline-block" --solver nscd
 w=$(diff_runs incline incline-nscd block.x,block.y,base.fy)
 ok $(below "$w" 1e-9) "incline-block: levelset = nscd to $w (<= 1e-9; the block sticks, mu = 0.5 > tan 20 deg)"
