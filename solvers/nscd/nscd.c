@@ -600,7 +600,7 @@ static int sweep_ranks(nscd_state *S, const mo_contact_problem *P, double *r, in
 {
   const nscd_params *p = &S->p;
   double parts[5] = {0, 0, 0, 0, 0}, mx[2];
-  int st, natural = p->stop == NSCD_STOP_NATURAL || scaled;
+  int st, natural = p->stop == NSCD_STOP_NATURAL || scaled, nparts = 4;
   *broke = nscd_grains_sweep_owned(S, P, r, status);
   if (!natural) { /* Jean's parts over the rank's contacts, summed by its sweep (T273) */
     parts[0] = S->jp[0];
@@ -611,7 +611,15 @@ static int sweep_ranks(nscd_state *S, const mo_contact_problem *P, double *r, in
     mx[1] = 0;
   parts[3] = ctx->interrupt && *ctx->interrupt;
   mx[0] = *broke;
-  if ((st = nscd_grains_sync(S, parts, 4, mx, 2, ctx))) return st;
+  if (S->qs2part) { /* the first sync: the ranks' parts of |S q|^2 (T276) */
+    parts[4] = S->qs2;
+    nparts = 5;
+  }
+  if ((st = nscd_grains_sync(S, parts, nparts, mx, 2, ctx))) return st;
+  if (S->qs2part) {
+    S->qs2 = parts[4];
+    S->qs2part = 0;
+  }
   *broke = (int)mx[0];
   *stop = parts[3] > 0;
   if (natural) {
@@ -692,6 +700,7 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
   double *r = x->r, quad = 0, maxm = 0, res = HUGE_VAL, rhist[10] = {HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL};
   const int scaled = p->stop == NSCD_STOP_SCALED;
   int repl = 0;        /* the split sweep stalled: the serial sweep replicated on every rank */
+  int pnu = 0, pnd = 0; /* the split solve's redundancy count, from its gather (T279) */
   double pstall = HUGE_VAL;
   int (*do_sweep)(nscd_state *, const mo_contact_problem *, double *, int *) =
       d == 3 ? sweep3 : d == 2 ? sweep2 : sweep1;
@@ -699,9 +708,8 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
     return mo_error(ctx, MO_EINTERNAL, "nscd: the problem changed size (%d x %d, was %d x %d)", P->nc, P->dim, S->nc, S->d);
   /* U = W r + q: the granular path keeps it in the caller's array, the others in their own */
   S->U = S->grains ? x->U : S->Uown;
-  if ((st = S->grains ? nscd_grains_prepare(S, P, ctx) : S->bodies ? nscd_bodies_prepare(S, P, ctx)
-                      : prepare_matrix(S, P, ctx)))
-    return st;
+  /* the granular path makes its records after the slabs are cut (below) */
+  if (!S->grains && (st = S->bodies ? nscd_bodies_prepare(S, P, ctx) : prepare_matrix(S, P, ctx))) return st;
   if (!S->bodies && S->nonly) do_sweep = sweep_normal;
   /* the active contacts, in the chosen order: on the granular path the problem's list of them,
      the same candidates in the same increasing order (T250) */
@@ -729,15 +737,6 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
       if (!listed) S->actown[S->nact++] = a;
     }
   }
-  S->qn2 = S->qs2 = 0;
-  for (k = 0; k < S->nact; k++) {
-    double q2 = 0, sa;
-    a = S->act[k];
-    for (i = 0; i < d; i++) q2 += P->b[a * d + i] * P->b[a * d + i];
-    S->qn2 += q2;
-    sa = nscd_scale(S, a);
-    S->qs2 += sa * sa * q2;
-  }
   if (p->order == NSCD_ORDER_NATURAL)
     S->order = S->act;
   else {
@@ -751,18 +750,36 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
     for (k = 0; k < S->nact; k++) S->ordown[k] = S->act[p->order == NSCD_ORDER_REVERSE ? S->nact - 1 - k : k];
     if (p->order == NSCD_ORDER_SHUFFLED) gsl_ran_shuffle(&S->rng, S->ordown, (size_t)S->nact, sizeof(int));
   }
-  /* over MPI ranks: each rank's slab of the contacts (doc/parallel.md §4) */
+  /* over MPI ranks: each rank's slab of the contacts (doc/parallel.md §4), cut before the records
+     so that each rank makes its own contacts' only (T274) */
   S->par = 0;
-  if (S->grains && ctx->nranks > 1 && (st = nscd_grains_partition(S, P, ctx))) return st;
+  if (S->grains) {
+    if (ctx->nranks > 1 && (st = nscd_grains_partition(S, P, ctx))) return st;
+    if ((st = nscd_grains_prepare(S, P, ctx))) return st;
+  }
+  /* |q|^2 and the scaled |S q|^2 of the active contacts: over the ranks, the second over the rank's
+     own contacts (their records), summed by the first sweep's sync (T276) */
+  S->qn2 = S->qs2 = 0;
+  S->qs2part = S->par;
+  for (k = 0; k < S->nact; k++) {
+    double q2 = 0, sa;
+    a = S->act[k];
+    for (i = 0; i < d; i++) q2 += P->b[a * d + i] * P->b[a * d + i];
+    S->qn2 += q2;
+    if (S->par && !S->own[a]) continue;
+    sa = nscd_scale(S, a);
+    S->qs2 += sa * sa * q2;
+  }
   if (!p->warm_start) memset(r, 0, (size_t)m * sizeof *r);
   for (i = 0; i < m; i++)
     if (!isfinite(r[i])) { memset(r, 0, (size_t)m * sizeof *r); break; }
   if (!S->bodies && S->nonly) /* frictionless: no tangential reaction, whatever the warm start */
     for (a = 0; a < S->nc; a++)
       for (i = 1; i < d; i++) r[(size_t)a * d + i] = 0;
-  if (S->bodies && p->stop != NSCD_STOP_SCALED && p->stop != NSCD_STOP_NATURAL) {
+  if (S->par || (S->bodies && p->stop != NSCD_STOP_SCALED && p->stop != NSCD_STOP_NATURAL)) {
     /* the sweeps on body velocities read U from the velocities; the rules that do not stop on U
-       need it exact only at the end */
+       need it exact only at the end; the split sweep's rule forms U of the rank's contacts after
+       each sync, and a serial sweep after a switch forms its own (T278) */
     if (S->grains) nscd_grains_velocities(S, P, r);
     else nscd_bodies_velocities(S, P, r);
   } else
@@ -830,7 +847,8 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
            ranks stay equal, and it converges wherever the serial run does (doc/parallel.md §4) */
         double now = p->stop == NSCD_STOP_NATURAL || scaled ? res : p->stop == NSCD_STOP_QUAD ? quad : maxm;
         if (!(now <= 0.5 * pstall)) {
-          if ((st = nscd_grains_gather(S, P, r, x->status, ctx))) return st;
+          if ((st = nscd_grains_gather(S, P, r, x->status, NULL, NULL, ctx))) return st;
+          nscd_grains_complete(S, P); /* the serial sweep reads every contact's record (T277) */
           S->par = 0;
           repl = 1;
           ctx->par_grain_serial++;
@@ -899,7 +917,11 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
   /* a fixed number of sweeps was asked for: done unless interrupted */
   if (p->stop == NSCD_STOP_SWEEPS && broke < 0 && sweeps == p->max_sweeps) conv = 1;
   /* over MPI ranks: every contact's reaction and status, every body's velocity, on every rank */
-  if (S->par && (st = nscd_grains_gather(S, P, r, x->status, ctx))) return st;
+  /* with the redundancy count of the rank's contacts joined in the same sum (T279) */
+  if (S->par && (st = nscd_grains_gather(S, P, r, x->status, broke < 0 ? &pnu : NULL, &pnd, ctx))) return st;
+  /* a breakdown's message and a failed solve's residual and culprits read other ranks' contacts'
+     records (T277) */
+  if (S->par && (broke >= 0 || !conv)) nscd_grains_complete(S, P);
   /* U is exact already when a residual rule has just confirmed convergence */
   if (S->par || !(conv && (scaled || p->stop == NSCD_STOP_NATURAL))) exact_U(S, P, r, 1);
   /* the tangential U of frictionless contacts, unless the core measures U itself (T156) */
@@ -923,8 +945,9 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
   }
   if (S->bodies && broke < 0) {
     /* redundancy on the sweep on bodies: closed unknowns against the dofs they move (T84) */
-    int nu = 0, nd = 0;
-    if ((st = S->grains ? nscd_grains_count(S, P, r, &nu, &nd, ctx) : nscd_bodies_count(S, P, r, &nu, &nd, ctx)))
+    int nu = pnu, nd = pnd;
+    if (!S->par &&
+        (st = S->grains ? nscd_grains_count(S, P, r, &nu, &nd, ctx) : nscd_bodies_count(S, P, r, &nu, &nd, ctx)))
       return st;
     memset(&S->ai, 0, sizeof S->ai);
     S->ai.tried = nu > 0;

@@ -264,6 +264,10 @@ typedef struct {
   double *ibase;                /* the interface velocities at the start of the sweep */
   size_t pcap, pncap, pbcap;
   long par_sweeps;              /* sweeps synchronized, for the run's log */
+  /* the set-up over the slab (doc/theory.md (T274)-(T279)): gpart, the records are those of the
+     rank's own active contacts only (the others' made by nscd_grains_complete when a serial sweep
+     or a report needs them); qs2part, qs2 is the rank's part, summed by the first sweep's sync */
+  int gpart, qs2part;
 } nscd_state;
 
 /* W_aa of contact a, and its scaling 1 / W_aa,nn of (T42) (0 when W_aa,nn = 0; the granular path
@@ -335,7 +339,15 @@ int nscd_grains_partition(nscd_state *S, const mo_contact_problem *P, mo_ctx *ct
 int nscd_grains_sweep_owned(nscd_state *S, const mo_contact_problem *P, double *r, int *status);
 void nscd_grains_owned_U(nscd_state *S, const mo_contact_problem *P);
 int nscd_grains_sync(nscd_state *S, double *parts, int nparts, double *maxparts, int nmax, mo_ctx *ctx);
-int nscd_grains_gather(nscd_state *S, const mo_contact_problem *P, double *r, int *status, mo_ctx *ctx);
+/* The gather; with unknowns (not NULL), the redundancy count of nscd_grains_count over the rank's
+   own contacts joined in the same sum (T279). */
+int nscd_grains_gather(nscd_state *S, const mo_contact_problem *P, double *r, int *status, int *unknowns,
+                       int *dofs, mo_ctx *ctx);
+/* The records of the contacts other than the rank's own active ones (after a prepare over the
+   slab: gpart), for a sweep over every contact or a report over them (T277); nothing otherwise. */
+void nscd_grains_complete(nscd_state *S, const mo_contact_problem *P);
+/* Closed unknowns and the dofs they move (T84), over every active contact (over the ranks: the
+   gather's count). */
 int nscd_grains_count(nscd_state *S, const mo_contact_problem *P, const double *r, int *unknowns, int *dofs,
                       mo_ctx *ctx);
 void nscd_grains_free(nscd_state *S);

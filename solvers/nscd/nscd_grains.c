@@ -205,55 +205,77 @@ KERNEL void geometry(const int d, const nscd_state *S, const mo_contact_problem 
   }
 }
 
-/* The records of every contact: c_a = q_a - sum_s G v_free; W_aa of the active ones (0 for the
-   others), for the friction coefficients as nscd_prepare_local keeps them (a coefficient where a
-   free dof moves the contact tangentially). Returns 1 when an active contact's coefficient differs
-   from the problem's. */
+/* The records: c_a = q_a - sum_s G v_free; W_aa of the active contacts (0 for the others), for the
+   friction coefficients as nscd_prepare_local keeps them (a coefficient where a free dof moves the
+   contact tangentially). */
 /* The problem's coefficient of contact a: P->mu's, or its pair's (T189); 0 without either. */
 static inline double problem_mu(const mo_contact_problem *P, int a)
 {
   return P->mu ? P->mu[a] : P->grains->pmu ? P->grains->pmu[P->grains->key[(size_t)a * MO_KEY]] : 0;
 }
 
+/* Contact a's record: for an active contact (act) c_a and W_aa, and whether its coefficient
+   differs from the problem's (the return); otherwise c_a (its U, r = 0) only and W_aa = 0 (its
+   scaling 0). */
+KERNEL int record(nscd_state *S, const mo_contact_problem *P, int a, int act, const int d)
+{
+  char *rec = REC(S, a, d);
+  double *Waa = R_W(rec, d), rot[2 * 3 * 3], F[9], *ca = R_C(rec), wtt = 0, mua;
+  int gs[2], i;
+  sides(P->grains, a, gs);
+  for (i = 0; i < d; i++) ca[i] = P->b[a * d + i];
+  /* W_aa for the contacts of the step's problem only */
+  if (act) geometry(d, S, P, a, gs, F, rot, d, Waa, ca);
+  else {
+    for (i = 0; i < d * d; i++) Waa[i] = 0;
+    geometry(d, S, P, a, gs, F, rot, 0, Waa, ca);
+    if (S->muown) S->muown[a] = 0;
+    return 0;
+  }
+  for (i = 1; i < d; i++) wtt += Waa[i * d + i];
+  mua = wtt > 1e-12 * Waa[0] ? problem_mu(P, a) : 0;
+  if (S->muown) S->muown[a] = mua;
+  else return (!P->mu && !P->grains->pmu) || mua != problem_mu(P, a);
+  return 0;
+}
+
+/* The records of every contact or, over the ranks (gpart), of the rank's own active contacts
+   only (T274): no other record is read by the split sweep, its stopping rule or the U of its end
+   (T278). */
 KERNEL int prepare_d(nscd_state *S, const mo_contact_problem *P, const int d)
 {
-  int a, i, differ = 0;
-  for (a = 0; a < S->nc; a++) {
-    char *rec = REC(S, a, d);
-    double *Waa = R_W(rec, d), rot[2 * 3 * 3], F[9], *ca = R_C(rec), wtt = 0, mua;
-    int gs[2], act = !P->active || P->active[a];
-    sides(P->grains, a, gs);
-    for (i = 0; i < d; i++) ca[i] = P->b[a * d + i];
-    /* W_aa for the contacts of the step's problem only; out of it, c_a (its U, r = 0) only and
-       W_aa = 0 (its scaling 0) */
-    if (act) geometry(d, S, P, a, gs, F, rot, d, Waa, ca);
-    else {
-      for (i = 0; i < d * d; i++) Waa[i] = 0;
-      geometry(d, S, P, a, gs, F, rot, 0, Waa, ca);
-      if (S->muown) S->muown[a] = 0;
-      continue;
-    }
-    for (i = 1; i < d; i++) wtt += Waa[i * d + i];
-    mua = wtt > 1e-12 * Waa[0] ? problem_mu(P, a) : 0;
-    if (S->muown) S->muown[a] = mua;
-    else differ |= (!P->mu && !P->grains->pmu) || mua != problem_mu(P, a);
-  }
+  int a, k, differ = 0;
+  if (S->gpart)
+    for (k = 0; k < S->noact; k++) differ |= record(S, P, S->oorder[k], 1, d);
+  else
+    for (a = 0; a < S->nc; a++) differ |= record(S, P, a, !P->active || P->active[a], d);
   return differ;
 }
 
 int nscd_grains_prepare(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
 {
-  int st;
+  int st, differ;
   if (S->d != 2 && S->d != 3)
     return mo_error(ctx, MO_EINTERNAL, "nscd: granular contacts in dimension %d", S->d);
   if ((st = reserve(S, P, P->nfree, ctx)) || (st = inverse_diagonal(S, P->Wi, P->nfree, ctx))) return st;
   S->gw = REC(S, 0, S->d) + OFF_W(S->d); /* nscd_waa */
   S->gstride = RECSZ(S->d);
+  /* over the ranks, the slab's records only: nscd_grains_partition has cut the slabs (T274) */
+  S->gpart = S->par;
   /* the friction coefficients are the problem's (no copy: (T186)), P->mu's or the pairs' (T189),
      unless an active contact's differs */
   S->gkey = P->grains->key;
   S->gpmu = P->grains->pmu;
-  if (S->d == 2 ? prepare_d(S, P, 2) : prepare_d(S, P, 3)) {
+  differ = S->d == 2 ? prepare_d(S, P, 2) : prepare_d(S, P, 3);
+  if (S->gpart && !S->muown) {
+    /* each rank has seen its own contacts: the copy is made on every rank or on none (T275), so
+       that the records made later for the others (T277) and the count (T279) read the same
+       coefficients on every rank */
+    double x = differ;
+    if ((st = mo_par_max(&x, 1, ctx))) return st;
+    differ = x > 0;
+  }
+  if (differ) {
     if (S->cap > S->mucap) {
       void *p = mo_realloc(ctx, S->muown, S->cap * sizeof *S->muown);
       if (!p) return MO_ENOMEM;
@@ -265,6 +287,20 @@ int nscd_grains_prepare(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
   }
   S->mu = S->muown ? S->muown : P->mu;
   return MO_OK;
+}
+
+void nscd_grains_complete(nscd_state *S, const mo_contact_problem *P)
+{
+  int a;
+  if (!S->gpart) return;
+  /* the others' records as nscd_grains_prepare makes them on one process: the same numbers (T277) */
+  for (a = 0; a < S->nc; a++)
+    if (!S->own[a]) {
+      const int act = !P->active || P->active[a];
+      if (S->d == 2) record(S, P, a, act, 2);
+      else record(S, P, a, act, 3);
+    }
+  S->gpart = 0;
 }
 
 /* u += G_s v_s over one side of sign cf: the products (cf F_ik) v_k of the sweep on H are
@@ -371,13 +407,34 @@ void nscd_grains_velocities(nscd_state *S, const mo_contact_problem *P, const do
       if (r[3 * a] != 0 || r[3 * a + 1] != 0 || r[3 * a + 2] != 0) push_r(S, P, a, r + (size_t)a * 3, 3);
 }
 
-void nscd_grains_exact_U(nscd_state *S, const mo_contact_problem *P)
+/* U_a without its record: c_a formed at the visit, in the operations of the record's (the same
+   numbers, (T278)), then U_a = c_a + sum_s G_as v_s. */
+KERNEL void fresh_U(const nscd_state *S, const mo_contact_problem *P, int a, double *restrict U, const int d)
+{
+  double rot[2 * 3 * 3], F[9], c[3], w0[1];
+  int gs[2], i;
+  sides(P->grains, a, gs);
+  for (i = 0; i < d; i++) c[i] = P->b[a * d + i];
+  geometry(d, S, P, a, gs, F, rot, 0, w0, c);
+  local_U(S, gs, c, F, rot, U, d);
+}
+
+KERNEL void exact_U_d(nscd_state *S, const mo_contact_problem *P, const int d)
 {
   int a;
-  if (S->d == 2)
-    for (a = 0; a < S->nc; a++) contact_U(S, P, a, S->U + (size_t)a * 2, 2);
+  if (S->gpart) /* the others' records not made (T278) */
+    for (a = 0; a < S->nc; a++) {
+      if (S->own[a]) contact_U(S, P, a, S->U + (size_t)a * d, d);
+      else fresh_U(S, P, a, S->U + (size_t)a * d, d);
+    }
   else
-    for (a = 0; a < S->nc; a++) contact_U(S, P, a, S->U + (size_t)a * 3, 3);
+    for (a = 0; a < S->nc; a++) contact_U(S, P, a, S->U + (size_t)a * d, d);
+}
+
+void nscd_grains_exact_U(nscd_state *S, const mo_contact_problem *P)
+{
+  if (S->d == 2) exact_U_d(S, P, 2);
+  else exact_U_d(S, P, 3);
 }
 
 /* Contact a's terms of Jean's norms (T11) after its update dr (r_a now holds the new reaction):
@@ -474,6 +531,9 @@ int nscd_grains_sweep(nscd_state *S, const mo_contact_problem *P, double *r, int
 }
 
 /* --- over MPI ranks (doc/parallel.md §4) ------------------------------------------------------ */
+
+static int count_list(nscd_state *S, const mo_contact_problem *P, const double *r, const int *list, int n, int *nu_,
+                      int *nd_, mo_ctx *ctx);
 
 #define NBIN 4096
 
@@ -626,12 +686,19 @@ int nscd_grains_sync(nscd_state *S, double *parts, int nparts, double *maxparts,
   return nmax ? mo_par_max(maxparts, nmax, ctx) : MO_OK;
 }
 
-int nscd_grains_gather(nscd_state *S, const mo_contact_problem *P, double *r, int *status, mo_ctx *ctx)
+int nscd_grains_gather(nscd_state *S, const mo_contact_problem *P, double *r, int *status, int *unknowns,
+                       int *dofs, mo_ctx *ctx)
 {
   const int d = S->d, nk = NK(d);
-  size_t m = (size_t)S->nc * d, n = m + (size_t)S->nc + (size_t)P->nfree, k;
+  /* with the count: its 2 + nifc numbers after the velocities (T279) */
+  size_t m = (size_t)S->nc * d, n = m + (size_t)S->nc + (size_t)P->nfree, nv = n, k;
   double *b;
-  int a, i, st;
+  int a, i, st, nu = 0, nd = 0;
+  if (unknowns) {
+    /* the rank's own closed contacts, before the sum (their r and coefficients are the rank's) */
+    if ((st = count_list(S, P, r, S->oorder, S->noact, &nu, &nd, ctx))) return st;
+    n += 2 + (size_t)S->nifc;
+  }
   if (n + 1 > S->pbcap) {
     void *p = mo_realloc(ctx, S->pbuf, (n + 1) * sizeof *S->pbuf);
     if (!p) return MO_ENOMEM;
@@ -652,7 +719,25 @@ int nscd_grains_gather(nscd_state *S, const mo_contact_problem *P, double *r, in
       int l;
       for (l = 0; l < nk && i + l < P->nfree; l++) b[m + S->nc + i + l] = S->vb[i + l] - P->xfree[i + l];
     }
+  if (unknowns) {
+    /* a body that no other rank's contact touches is counted by one rank at most; an interface
+       body by every rank whose closed contacts move it: those are joined by their marks' sum */
+    double *c = b + nv;
+    for (i = 0; i < S->nifc; i++) {
+      c[2 + i] = S->bmark[S->ifc[i]];
+      if (S->bmark[S->ifc[i]]) nd -= nk;
+    }
+    c[0] = nu;
+    c[1] = nd;
+  }
   if ((st = mo_par_sum(b, (long)n, ctx))) return st;
+  if (unknowns) {
+    const double *c = b + nv;
+    *unknowns = (int)c[0];
+    *dofs = (int)c[1];
+    for (i = 0; i < S->nifc; i++)
+      if (c[2 + i] > 0) *dofs += nk;
+  }
   for (a = 0; a < S->nc; a++) {
     if (!S->own[a]) {
       for (i = 0; i < d; i++) r[(size_t)a * d + i] = b[(size_t)a * d + i];
@@ -663,14 +748,16 @@ int nscd_grains_gather(nscd_state *S, const mo_contact_problem *P, double *r, in
   return MO_OK;
 }
 
-int nscd_grains_count(nscd_state *S, const mo_contact_problem *P, const double *r, int *unknowns, int *dofs,
-                      mo_ctx *ctx)
+/* The closed unknowns of the contacts list[0 .. n-1] and the bodies they move, marked in bmark
+   (T84); *nd counts nk dofs a marked body. */
+static int count_list(nscd_state *S, const mo_contact_problem *P, const double *r, const int *list, int n, int *nu_,
+                      int *nd_, mo_ctx *ctx)
 {
   const int d = S->d;
   int k, s, st, nu = 0, nd = 0;
   if ((st = nscd_marks_clear(S, (size_t)P->nfree + 1, ctx))) return st;
-  for (k = 0; k < S->nact; k++) {
-    const int a = S->act[k], u = nscd_closed_unknowns(S, a, r + (size_t)a * d, d);
+  for (k = 0; k < n; k++) {
+    const int a = list[k], u = nscd_closed_unknowns(S, a, r + (size_t)a * d, d);
     int gs[2];
     if (!u) continue;
     sides(P->grains, a, gs);
@@ -683,7 +770,13 @@ int nscd_grains_count(nscd_state *S, const mo_contact_problem *P, const double *
       }
     }
   }
-  *unknowns = nu;
-  *dofs = nd;
+  *nu_ = nu;
+  *nd_ = nd;
   return MO_OK;
+}
+
+int nscd_grains_count(nscd_state *S, const mo_contact_problem *P, const double *r, int *unknowns, int *dofs,
+                      mo_ctx *ctx)
+{
+  return count_list(S, P, r, S->act, S->nact, unknowns, dofs, ctx);
 }
