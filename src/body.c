@@ -176,6 +176,20 @@ double mo_rigid_kinetic(const mo_scene *sc, const mo_state *s)
 {
   double e = 0, M[36];
   int k, i, j, n = mo_rigid_ndof(sc->dim);
+  if (sc->dim == 2) {
+    /* M = diag(m, m, J) (mo_rigid_mass): the sum below without its six zero entries (T292). A
+       zero entry's term 0.5 v_i 0 v_j is +-0 for finite v, and e, which starts at +0, is never
+       -0, so adding it changes no bit; a non-finite v_i made a term NaN, and makes e NaN here. */
+    for (k = 0; k < sc->nrigid; k++) {
+      const mo_body *B = &sc->body[sc->rigid[k]];
+      const double *v = s->v + B->dof0;
+      e += 0.5 * v[0] * B->mass * v[0];
+      e += 0.5 * v[1] * B->mass * v[1];
+      e += 0.5 * v[2] * B->J[0] * v[2];
+      if (!isfinite(v[0]) || !isfinite(v[1]) || !isfinite(v[2])) e += NAN;
+    }
+    return e;
+  }
   for (k = 0; k < sc->nrigid; k++) {
     const mo_body *B = &sc->body[sc->rigid[k]];
     const double *v = s->v + B->dof0;

@@ -959,13 +959,15 @@ static void worst_candidates(const mo_contact_driver *D, char *buf, size_t n)
 
 /* Candidate a's law on q_a (qa: d values, b_a on entry): the offset its law adds to the normal
    component (the index set's prediction reads b_n = bn), and whether it is in the index set. */
-static inline int law_offset(const mo_contact_driver *D, int a, const double *g, const double *rstep, double bn,
-                             double dtpos, double *qa)
+/* Inlined in its loops over the candidates, which read h = mo_stepper_dt once (T291). */
+static inline __attribute__((always_inline)) int law_offset(const mo_contact_driver *D, int a, const double *g,
+                                                            const double *rstep, double bn, double dtpos, double h,
+                                                            double *qa)
 {
   const mo_contact *C = D->C;
   const int d = D->d;
   const mo_scheme scheme = D->sc->time.scheme;
-  const double h = mo_stepper_dt(D->S), theta = D->sc->time.theta;
+  const double theta = D->sc->time.theta;
   int act = C->active[a];
   if (scheme == MO_SCHEME_THETA && law_of(C, a) == MO_LAW_NEWTON) {
     /* Moreau's impact law (T71): U_n+ + e U_n- >= 0 _|_ r_n >= 0 on the contacts closed at the
@@ -998,13 +1000,13 @@ static void granular_q(mo_contact_driver *D, const mo_state *s, const double *x,
                        double dtpos, int *any_out)
 {
   mo_contact *C = D->C;
-  const double *U0 = mo_contact_U0(C), *g = mo_contact_gaps(C);
+  const double *U0 = mo_contact_U0(C), *g = mo_contact_gaps(C), h = mo_stepper_dt(D->S);
   int d = D->d, nc = D->nc, a, i, any = 0;
   D->nact = 0;
   D->qn2 = 0;
   for (a = 0; a < nc && !any; a++) {
     double qa[3] = {0, 0, 0};
-    any = law_offset(D, a, g, rstep, 0, dtpos, qa);
+    any = law_offset(D, a, g, rstep, 0, dtpos, h, qa);
   }
   *any_out = any;
   if (!any) {
@@ -1014,7 +1016,7 @@ static void granular_q(mo_contact_driver *D, const mo_state *s, const double *x,
       if (U0)
         for (i = 0; i < d; i++) qa[i] += U0[a * d + i] * u0h;
       bn = qa[0];
-      D->active[a] = (unsigned char)law_offset(D, a, g, rstep, bn, dtpos, qa);
+      D->active[a] = (unsigned char)law_offset(D, a, g, rstep, bn, dtpos, h, qa);
       D->bn[a] = qa[0] - bn;
     }
     return;
@@ -1024,7 +1026,7 @@ static void granular_q(mo_contact_driver *D, const mo_state *s, const double *x,
     for (i = 0; i < D->m; i++) D->U[i] += U0[i] * u0h;
   for (a = 0; a < nc; a++) {
     double *qa = D->U + (size_t)a * d, bn = qa[0];
-    int act = law_offset(D, a, g, rstep, bn, dtpos, qa);
+    int act = law_offset(D, a, g, rstep, bn, dtpos, h, qa);
     D->bn[a] = qa[0] - bn;
     D->active[a] = (unsigned char)act;
     if (act) {
@@ -1077,7 +1079,7 @@ static double local_problem(mo_contact_driver *D, const mo_state *s, const doubl
   for (a = 0; a < nc; a++) D->bn[a] = D->q[a * d];
   D->nact = 0;
   for (a = 0; a < nc; a++) {
-    int act = law_offset(D, a, g, rstep, D->bn[a], dtpos, D->q + (size_t)a * d);
+    int act = law_offset(D, a, g, rstep, D->bn[a], dtpos, h, D->q + (size_t)a * d);
     D->active[a] = (unsigned char)act;
     if (act) D->act[D->nact++] = a;
     any |= act;
@@ -1625,10 +1627,13 @@ static int contact_finish(mo_contact_driver *D, mo_state *s, const double *x, mo
     int a, j, dim = D->sc->dim;
     memset(D->pforce, 0, 3 * (size_t)D->C->npair * sizeof *D->pforce);
     D->fn_step = 0;
+    const mo_contact *C = D->C;
     for (a = 0; a < D->nc; a++) {
-      mo_candidate cb;
-      double *f = D->pforce + 3 * (size_t)mo_contact_cand_get(D->C, a, &cb)->pair, Fb[9];
-      const double *F = mo_contact_frame_of(D->C, a, Fb); /* formed from its normal on the granular path (T225) */
+      /* the candidate's pair from its key or record, its frame formed from its normal on the
+         granular path (T225), without a call for each (T291) */
+      double *f = D->pforce + 3 * (size_t)mo_contact_pair_of(C, a), Fb[9];
+      const double *F = C->compact ? Fb : C->frame + (size_t)a * (size_t)(C->dim * C->dim);
+      if (C->compact) mo_frame_of_normal(C->dim, C->frame + (size_t)a * (size_t)C->dim, Fb);
       D->fn_step += D->r[a * d] * fs;
       for (i = 0; i < d; i++)
         for (j = 0; j < dim && d == dim; j++) f[j] += D->r[a * d + i] * fs * F[(size_t)i * d + j];

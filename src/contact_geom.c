@@ -933,15 +933,17 @@ const mo_candidate *mo_contact_cand_get(const mo_contact *C, int a, mo_candidate
    sums a column of Hfull. A side's sign (slave +, master -) is applied to the products, which IEEE
    arithmetic makes the same as applying it to the entries; an entry H does not store (zero) adds a
    zero product (the sums differ at most by the sign of a zero). */
+/* here: s is the state of this geometry, whose centres detect.c formed (bcur, the same sums):
+   C_HERE(C, s), one test for all the records of a product (T296). */
+#define C_HERE(C, s) ((s)->u == (C)->bcur_u && (s)->step == (C)->bcur_step)
 static inline __attribute__((always_inline)) void compact_columns(const mo_contact *C, int a, const mo_state *s,
-                                                                  const double *x, double *acc, const int D)
+                                                                  const double *x, double *acc, const int here,
+                                                                  const int D)
 {
   const mo_scene *sc = C->sc;
   const int *key = C->key + (size_t)a * MO_KEY;
   const double *xp = C->x + (size_t)a * D;
   double F[9];
-  /* the centres of this geometry (detect.c's, the same sums) when s is its state */
-  const int here = s->u == C->bcur_u && s->step == C->bcur_step;
   int side[2], dof[2], ns = 0, k, i, q;
   double cf[2];
   mo_frame_of_normal(D, C->frame + (size_t)a * D, F); /* the normal's frame (T225) */
@@ -990,8 +992,8 @@ void mo_contact_Htx1(const mo_contact *C, const mo_state *s, const double *x, in
   int i, j, p;
   for (i = 0; i < d; i++) acc[i] = start ? start[i] : 0;
   if (C->compact && a >= C->nc_static) {
-    if (d == 2) compact_columns(C, a, s, x, acc, 2);
-    else compact_columns(C, a, s, x, acc, 3);
+    if (d == 2) compact_columns(C, a, s, x, acc, C_HERE(C, s), 2);
+    else compact_columns(C, a, s, x, acc, C_HERE(C, s), 3);
   } else {
     const mo_csc *H = C->Hfull;
     for (i = 0; i < d; i++)
@@ -1000,19 +1002,37 @@ void mo_contact_Htx1(const mo_contact *C, const mo_state *s, const double *x, in
   for (i = 0; i < d; i++) y[i] = start ? acc[i] : 1 * acc[i] + 0;
 }
 
+/* The records a0..a1 of H^T x (+ start), d a constant of each call site and the test of start and
+   of the state's centres made once for all of them (T296): mo_contact_Htx1's operations. */
+static inline __attribute__((always_inline)) void compact_Htx(const mo_contact *C, const mo_state *s, const double *x,
+                                                              int a0, int a1, const double *start, double *y,
+                                                              const int d)
+{
+  const int here = C_HERE(C, s);
+  int a, i;
+  if (start)
+    for (a = a0; a < a1; a++) {
+      double acc[3] = {0, 0, 0};
+      for (i = 0; i < d; i++) acc[i] = start[(size_t)a * d + i];
+      compact_columns(C, a, s, x, acc, here, d);
+      for (i = 0; i < d; i++) y[(size_t)a * d + i] = acc[i];
+    }
+  else
+    for (a = a0; a < a1; a++) {
+      double acc[3] = {0, 0, 0};
+      compact_columns(C, a, s, x, acc, here, d);
+      for (i = 0; i < d; i++) y[(size_t)a * d + i] = 1 * acc[i] + 0;
+    }
+}
+
 void mo_contact_Htx(const mo_contact *C, const mo_state *s, const double *x, int a0, int a1, const double *start,
                     double *y)
 {
   const int d = C->dim;
-  int a, i;
+  int a;
   if (C->compact && a0 >= C->nc_static && (d == 2 || d == 3)) { /* the records, without a call each */
-    for (a = a0; a < a1; a++) {
-      double acc[3] = {0, 0, 0};
-      for (i = 0; i < d; i++) acc[i] = start ? start[(size_t)a * d + i] : 0;
-      if (d == 2) compact_columns(C, a, s, x, acc, 2);
-      else compact_columns(C, a, s, x, acc, 3);
-      for (i = 0; i < d; i++) y[(size_t)a * d + i] = start ? acc[i] : 1 * acc[i] + 0;
-    }
+    if (d == 2) compact_Htx(C, s, x, a0, a1, start, y, 2);
+    else compact_Htx(C, s, x, a0, a1, start, y, 3);
     return;
   }
   for (a = a0; a < a1; a++) mo_contact_Htx1(C, s, x, a, start ? start + (size_t)a * d : NULL, y + (size_t)a * d);

@@ -273,10 +273,11 @@ static int shape_shape(mo_contact *C, int k, int sb, int mb, const mo_state *s, 
   dyn_side ds;
   int n = 0, i, st, flip = 0;
   if (C->compact && S->kind != MO_BODY_POLYGON && M->kind != MO_BODY_POLYGON) {
-    /* two balls on the granular path: at most one contact, appended as a compact record */
-    shape_world(sc, S, s, cs, vs);
-    shape_world(sc, M, s, cm, vm);
-    if (!mo_narrow_ball_ball(sc->dim, cm, M->radius, cs, S->radius, alert, out)) return MO_OK;
+    /* two balls on the granular path: at most one contact, appended as a compact record. Their
+       centres are body_speed's of this detection (bcur: x_c0 + u, the sums of shape_world), read
+       where they are instead of formed again for every pair (T290) */
+    const double *bs = C->bcur + (size_t)sc->dim * sb, *bm = C->bcur + (size_t)sc->dim * mb;
+    if (!mo_narrow_ball_ball(sc->dim, bm, M->radius, bs, S->radius, alert, out)) return MO_OK;
     return compact_add(C, k, sb, mb, out, ctx);
   }
   shape_world(sc, S, s, cs, vs);
@@ -420,27 +421,34 @@ static int shapes_obstacle(mo_contact *C, int k, const mo_state *s, double t, mo
   const int *own = NULL;
   int i, j, n, q, nq = P->ns, st;
   /* split over the ranks: the shapes of this rank's slab only (T215, T231) */
+  double p[3] = {0, 0, 0};
   if (C->pd && (M->type->flags & MO_BODY_F_OBSTACLE)) nq = mo_pdetect_walls(C->pd, k, &own);
+  if (M->type->flags & MO_BODY_F_OBSTACLE) {
+    if (t > M->until) return MO_OK; /* the gate has opened */
+    /* the plane's point at t: one for every shape of the pair (T290) */
+    for (j = 0; j < sc->dim; j++) p[j] = M->point[j] + M->velocity[j] * t;
+  }
   for (q = 0; q < nq; q++) {
     int sb = P->sb[i = own ? own[q] : q];
     const mo_body *S = &sc->body[sb];
-    double c[3], v[2 * MO_POLYGON_MAX], p[3], alert;
+    double c[3], v[2 * MO_POLYGON_MAX], alert;
     mo_narrow out[MO_POLYGON_MAX];
     dyn_side ds;
     if (M->type->flags & MO_BODY_F_OBSTACLE) {
+      const double *cb = C->bcur + (size_t)sc->dim * sb; /* body_speed's centre (T290) */
       double h = 0, reach;
       int from = C->nc;
-      if (t > M->until) return MO_OK; /* the gate has opened */
-      for (j = 0; j < sc->dim; j++) p[j] = M->point[j] + M->velocity[j] * t;
       /* a shape whose bounding ball is farther from the plane than any alert distance of theirs
          (pair_alert <= alert + 2 h (s_b + s_plane)) is passed over before its narrow phase */
       reach = S->bound + (C->alert + 2 * C->h * (C->bs[sb] + C->bs[P->mb[0]])) * (1 + 1e-9);
-      for (j = 0; j < sc->dim; j++) h += (C->bcur[(size_t)sc->dim * sb + j] - p[j]) * M->normal[j];
+      for (j = 0; j < sc->dim; j++) h += (cb[j] - p[j]) * M->normal[j];
       if (h > reach) continue;
       alert = pair_alert(C, sb, P->mb[0]);
-      shape_world(sc, S, s, c, v);
-      n = S->kind == MO_BODY_POLYGON ? mo_narrow_plane_polygon(p, M->normal, S->nvert, v, alert, out)
-                                     : mo_narrow_plane_ball(sc->dim, p, M->normal, c, S->radius, alert, out);
+      if (S->kind == MO_BODY_POLYGON) {
+        shape_world(sc, S, s, c, v);
+        n = mo_narrow_plane_polygon(p, M->normal, S->nvert, v, alert, out);
+      } else
+        n = mo_narrow_plane_ball(sc->dim, p, M->normal, cb, S->radius, alert, out);
       memset(&ds, 0, sizeof ds);
       ds.pair = k;
       ds.sb = sb;

@@ -393,6 +393,8 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
     vfloor = h > 0 && isfinite(M->gtol) ? M->gtol / h : 0;
     M->vfloor = vfloor;
     if (h > 0 && 1e-9 * M->lscale / h > M->vround) M->vround = 1e-9 * M->lscale / h;
+    /* the impulse's factor of a reaction (theta: r is an impulse already), read once (T294) */
+    const double fimp = sc->time.scheme == MO_SCHEME_THETA ? 1 : h;
     for (a = 0; a < M->nc; a++) {
       cand_hist *H = &M->hist[a];
       cand_flags *F = &M->hf[a];
@@ -400,7 +402,8 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
       const double *u0 = U0 ? U0 + (size_t)a * d : none;
       double Un[3], un;
       int i, zero = Up && a >= ns;
-      for (i = 0; i < d && zero; i++) zero = u0[i] == 0;
+      /* without U0 every obstacle is still: no entry to test (T294) */
+      for (i = 0; U0 && i < d && zero; i++) zero = u0[i] == 0;
       if (zero)
         for (i = 0; i < d; i++) Un[i] = Up[a * d + i];
       else
@@ -467,7 +470,7 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
       F->incontact = (unsigned)(inc || (F->incontact && g[a] <= M->gtol));
       H->Unprev = un;
       if (r && s->step > 0)
-        M->impulse += r[a * d] * (sc->time.scheme == MO_SCHEME_THETA ? 1 : h);
+        M->impulse += r[a * d] * fimp;
     }
     /* the end of an impact: every candidate open again after some were closed */
     if (M->closed_prev > 0 && closed == 0) {

@@ -59,8 +59,11 @@ static double res2(const double *W, const double *q, double mu, double rn, doubl
 
 int nscd_local_2d(const double *W, const double *aux, const double *q, double mu, double *r)
 {
-  double qn = q[0], qt = q[1], rn, rt, ut, e, best = HUGE_VAL, br[2] = {0, 0};
-  int bs = -1;
+  /* the candidates of the cases that do not hold strictly, in the order stick, forward, backward:
+     their residuals are read only when no case holds (the tie-break below), and formed then, in
+     that order, the same numbers and comparisons as where each case fails (T293) */
+  double qn = q[0], qt = q[1], rn, rt, ut, e, best = HUGE_VAL, br[2] = {0, 0}, cr[3][2];
+  int bs = -1, cs[3], nc = 0, k;
   /* open: r = 0 leaves U = q with U_n >= 0 (J88 (2.1)_1) */
   if (qn >= 0) {
     r[0] = r[1] = 0;
@@ -76,7 +79,7 @@ int nscd_local_2d(const double *W, const double *aux, const double *q, double mu
       r[1] = rt;
       return MO_CS_STICK;
     }
-    if ((e = res2(W, q, mu, rn, rt)) < best) { best = e; br[0] = rn; br[1] = rt; bs = MO_CS_STICK; }
+    cr[nc][0] = rn; cr[nc][1] = rt; cs[nc++] = MO_CS_STICK;
   }
   /* slide forward: U_t > 0, r_t = -mu r_n, U_n = 0 */
   if (aux[4] > 0) {
@@ -87,7 +90,7 @@ int nscd_local_2d(const double *W, const double *aux, const double *q, double mu
       r[1] = -mu * rn;
       return MO_CS_SLIDE;
     }
-    if ((e = res2(W, q, mu, rn, -mu * rn)) < best) { best = e; br[0] = rn; br[1] = -mu * rn; bs = MO_CS_SLIDE; }
+    cr[nc][0] = rn; cr[nc][1] = -mu * rn; cs[nc++] = MO_CS_SLIDE;
   }
   /* slide backward: U_t < 0, r_t = +mu r_n, U_n = 0 */
   if (aux[5] > 0) {
@@ -98,11 +101,13 @@ int nscd_local_2d(const double *W, const double *aux, const double *q, double mu
       r[1] = mu * rn;
       return MO_CS_SLIDE;
     }
-    if ((e = res2(W, q, mu, rn, mu * rn)) < best) { best = e; br[0] = rn; br[1] = mu * rn; bs = MO_CS_SLIDE; }
+    cr[nc][0] = rn; cr[nc][1] = mu * rn; cs[nc++] = MO_CS_SLIDE;
   }
   /* no case holds strictly: round-off at a boundary between two cases (U_t = 0 on the cone's
      edge), or a block for which the one-contact problem has no solution (W_nn <= mu |W_nt|):
      the candidate closest to the law */
+  for (k = 0; k < nc; k++)
+    if ((e = res2(W, q, mu, cr[k][0], cr[k][1])) < best) { best = e; br[0] = cr[k][0]; br[1] = cr[k][1]; bs = cs[k]; }
   if (bs < 0 || !isfinite(br[0]) || !isfinite(br[1])) return -1;
   r[0] = br[0];
   r[1] = br[1];
