@@ -136,6 +136,7 @@ struct mo_contact {
   double *bs, *be;            /* per body: its speed bound, and its alert margin when the pair list was built */
   double *bv, *bw;            /* per body: its translation velocity (D), and what its rotation adds (omega r_bound) */
   double *bs2;                /* per body of the broad phase: its speed relative to their mean velocity, plus bw */
+  double *psb;                /* per pair: the largest bounding radius of its slave shapes (the walls' first test, T297) */
   unsigned char *dmask;       /* per body: 1 when in a dynamic pair (its speed is needed) */
   unsigned char *bmask;
   /* the broad phase's pair list kept between steps (a Verlet list), its reach (alert plus skin)
