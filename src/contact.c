@@ -366,9 +366,7 @@ static int grow(mo_contact_driver *D, int nc, mo_ctx *ctx)
   int cap = D->cap, d = D->d;
   void *p;
   if (nc <= cap) return MO_OK;
-  /* the contact set's capacity (T252); a quarter more where it is short (an old set larger than it) */
-  if (cap < mo_contact_capacity(D->C)) cap = mo_contact_capacity(D->C);
-  while (cap < nc) cap = cap ? cap + cap / 4 + 1 : 16;
+  cap = (int)mo_contact_room(D->C, (size_t)nc); /* the contact set's capacity (T252) */
 #define GROW(ptr, n) if (!(p = mo_realloc(ctx, ptr, (size_t)(n) * sizeof *(ptr)))) return MO_ENOMEM; ptr = p
   GROW(D->bn, cap); GROW(D->U, (size_t)cap * d);
   if (!D->pmu || D->q) { /* the granular path forms q in U (T240) */

@@ -120,6 +120,11 @@ void mo_contact_free(mo_contact *C)
 int mo_contact_dim(const mo_contact *C) { return C->dim; }
 int mo_contact_ncandidates(const mo_contact *C) { return C->nc; }
 int mo_contact_capacity(const mo_contact *C) { return C->nalloc > C->nc ? C->nalloc : C->nc; }
+size_t mo_contact_room(const mo_contact *C, size_t n)
+{
+  size_t cap = C ? (size_t)mo_contact_capacity(C) : 0;
+  return cap >= n ? cap : n + n / 4; /* a quarter more where the set is short of it */
+}
 int mo_contact_npairs(const mo_contact *C) { return C->npair; }
 const mo_contact_pair *mo_contact_pair_get(const mo_contact *C, int k) { return &C->pair[k]; }
 const mo_candidate *mo_contact_candidate(const mo_contact *C, int a) { return &C->cand[a]; }

@@ -112,9 +112,7 @@ static int room(mo_metrics *M, int nc, mo_ctx *ctx)
   size_t n, old = (size_t)M->cap;
   void *p;
   if (nc <= M->cap && M->hist) return 1;
-  /* the contact set's capacity (T252), or a quarter more; one slot over it (cap is n - 1) */
-  n = (size_t)mo_contact_capacity(M->C) + 1;
-  if (n < (size_t)nc + 1) n = (size_t)(nc + nc / 4) + 1;
+  n = mo_contact_room(M->C, (size_t)nc) + 1; /* the contact set's capacity (T252); one slot over it (cap is n - 1) */
 #define GROW(ptr, k) if (!(p = mo_realloc(ctx, ptr, (k) * sizeof *(ptr)))) return 0; ptr = p
   GROW(M->hist, n); GROW(M->hf, n);
   if (!M->bydrv) {

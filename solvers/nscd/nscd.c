@@ -107,12 +107,7 @@ static int fit_set(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
   if (S->bodies && ((!P->H && !P->grains) || !P->Wi || !P->xfree))
     return mo_error(ctx, MO_EINTERNAL, "nscd: the core gave neither W nor the blocks of H and What");
 #define GROW(ptr, n) if (!(q = mo_realloc(ctx, ptr, (n) * sizeof *(ptr)))) return MO_ENOMEM; ptr = q
-  if (nc > S->cap) {
-    /* the contact set's capacity (T252), or a quarter more (sets grow a little at a time while
-       grains settle) */
-    size_t cs = P->contact ? (size_t)mo_contact_capacity(P->contact) : 0;
-    S->cap = cs >= nc ? cs : nc + nc / 4;
-  }
+  if (nc > S->cap) S->cap = mo_contact_room(P->contact, nc); /* the contact set's capacity (T252) */
   /* the index set: the granular path reads the problem's (T250) */
   if (!S->grains && S->cap > S->aocap) {
     GROW(S->actown, S->cap);

@@ -51,9 +51,7 @@ static int reserve(nscd_state *S, const mo_contact_problem *P, int nfree, mo_ctx
   void *p;
 #define GROW(ptr, n) if (!(p = mo_realloc(ctx, ptr, (n)))) return MO_ENOMEM; ptr = p
   if (nc > S->gcap) {
-    /* the contact set's capacity (T252) and the one record over it, or a quarter more */
-    size_t cs = P->contact ? (size_t)mo_contact_capacity(P->contact) + 1 : 0;
-    nc = cs >= nc ? cs : nc + nc / 4;
+    nc = mo_contact_room(P->contact, nc - 1) + 1; /* the contact set's capacity (T252), one record over it */
     GROW(S->grec, nc * RECSZ(S->d));
     S->gcap = nc;
   }

@@ -120,8 +120,10 @@ int mo_contact_ncandidates(const mo_contact *C);
 /* The room the contact set keeps for its candidates (at least mo_contact_ncandidates), grown by
    steps as the set outgrows it. The modules that keep arrays over the candidates (the driver, the
    back end, the metrics) size theirs to it: one capacity for the set, not one spare room of each
-   module's own steps (doc/theory.md (T252)). */
+   module's own steps (doc/theory.md (T252)). mo_contact_room: the candidates to make room for when
+   n must fit: that capacity when it holds n, else n and a quarter more (C NULL: the latter). */
 int mo_contact_capacity(const mo_contact *C);
+size_t mo_contact_room(const mo_contact *C, size_t n);
 int mo_contact_npairs(const mo_contact *C);
 const mo_contact_pair *mo_contact_pair_get(const mo_contact *C, int k);
 const mo_candidate *mo_contact_candidate(const mo_contact *C, int alpha);
