@@ -420,6 +420,23 @@ static void fresh_uprev(mo_contact_driver *D, const mo_state *s, int a0, int a1)
   }
 }
 
+/* U- of candidates [a0, a1) (a1: the set's end) after the geometry at state s: over MPI ranks the
+   detection's, each formed by the rank that found the candidate and gathered with the set (T300:
+   fresh_uprev's sums), the others (the static part, or a detection not split) here. */
+static void detected_uprev(mo_contact_driver *D, const mo_state *s, int a0, int a1)
+{
+  const int d = D->d;
+  int p0 = a1;
+  const double *up = mo_contact_detect_uprev(D->C, s, &p0);
+  if (!up || p0 < a0) p0 = a1;
+  fresh_uprev(D, s, a0, p0);
+  if (p0 < a1) {
+    memcpy(D->Uprev + (size_t)p0 * d, up + (size_t)p0 * d, (size_t)(a1 - p0) * d * sizeof *up);
+    D->up_step = s->step; /* the detected ones are of s now */
+    D->up_v = s->v;
+  }
+}
+
 /* Fit the arrays to the contact set of the last geometry at state s. The old set is described
    by okey (nold keys; NULL: the detection's remap from set oset, T222) and its r, U, status (the
    driver's own arrays, or a snapshot's). */
@@ -479,7 +496,7 @@ static int fit(mo_contact_driver *D, const mo_state *s, long oset, const int *ok
     ostd = nr + (size_t)nold * 2 * d;
     own = 0;
   }
-  fresh_uprev(D, s, ns, nc);
+  detected_uprev(D, s, ns, nc);
   if (own) {
     /* in place (an increasing map): the candidates that move down first, from the front, then
        those that move up, from the back, so that each reads its old values before they are
@@ -556,7 +573,7 @@ static int follow_set(mo_contact_driver *D, const mo_state *s, mo_ctx *ctx)
   /* the same set: U- of the rigid candidates at the new contact points */
   for (a = 0; a < ns; a++)
     if (law_of(C, a) != MO_LAW_SIGNORINI) fresh_uprev(D, s, a, a + 1);
-  fresh_uprev(D, s, ns, D->nc);
+  detected_uprev(D, s, ns, D->nc);
   return MO_OK;
 }
 

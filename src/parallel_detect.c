@@ -93,6 +93,7 @@ void mo_pdetect_free(mo_contact *C)
   mo_free(P->rest);
   mo_free(P->wall);
   mo_free(P->wall0);
+  mo_free(P->up);
   mo_free(P);
   C->pd = NULL;
 }
@@ -129,6 +130,7 @@ int mo_pdetect_active(mo_contact *C, mo_ctx *ctx)
   }
   for (r = 0; r < P->nranks; r++) P->one[r] = 1;
   for (k = 0; k < sc->nbody; k++) P->owner[k] = -1;
+  P->up_nc = -1;
   return 1;
 }
 
@@ -206,11 +208,12 @@ int mo_pdetect_tag(mo_contact *C, int from, int s0, int s1, int s2, mo_ctx *ctx)
 
 /* A rank's block in the gather (T232): its n candidates field by field, each field a copy of
    the rank's contiguous part of the set's arrays: points, frames, gaps, obstacle velocities (when
-   stored), then the order keys, keys (ints) and the activities (bytes), padded to doubles. When
-   the detection writes the remap (T271) the order is the keys' own (T220), and in place of the
-   order keys each candidate's place in the previous set. */
+   stored), U- at the detection's state (T300), then the order keys, keys (ints) and the
+   activities (bytes), padded to doubles. When the detection writes the remap (T271) the order is
+   the keys' own (T220), and in place of the order keys each candidate's place in the previous
+   set. */
 struct block {
-  double *x, *frame, *g, *U0;
+  double *x, *frame, *g, *U0, *up;
   int *tag, *key, *map;
   unsigned char *active;
 };
@@ -222,7 +225,7 @@ static size_t block_size(const mo_contact *C, size_t n)
   const size_t D = (size_t)C->sc->dim, d = (size_t)C->dim;
   /* of the frame, its normal alone on the granular path (T225) */
   const size_t f = (size_t)mo_contact_fstride(C);
-  size_t bytes = n * (8 * (D + f + 1 + (C->U0 ? d : 0)) + 4 * ((with_map(C) ? 1 : NTAG) + MO_KEY) + 1);
+  size_t bytes = n * (8 * (D + f + 1 + (C->U0 ? d : 0) + d) + 4 * ((with_map(C) ? 1 : NTAG) + MO_KEY) + 1);
   return (bytes + 7) / 8;
 }
 
@@ -235,7 +238,8 @@ static struct block block_at(const mo_contact *C, double *v, size_t n)
   B.frame = B.x + n * D;
   B.g = B.frame + n * f;
   B.U0 = B.g + n;
-  B.tag = (int *)(B.U0 + (C->U0 ? n * d : 0));
+  B.up = B.U0 + (C->U0 ? n * d : 0);
+  B.tag = (int *)(B.up + n * d);
   B.key = B.tag + (with_map(C) ? 0 : n * NTAG);
   B.map = B.key + n * MO_KEY;
   B.active = (unsigned char *)(B.map + (with_map(C) ? n : 0));
@@ -256,6 +260,7 @@ static void copy_fields(mo_contact *C, const struct block *B, size_t i, size_t a
   FIELD(C->frame, B->frame, (size_t)mo_contact_fstride(C));
   FIELD(C->g, B->g, 1);
   if (C->U0) FIELD(C->U0, B->U0, d);
+  FIELD(C->pd->up, B->up, d);
   FIELD(C->key, B->key, (size_t)MO_KEY);
   /* each candidate's place in the previous set, found by its rank against the whole previous set
      (replicated): it moves with the candidate (T271) */
@@ -277,13 +282,14 @@ static inline mo_setmap_ord order_at(const mo_contact *C, const struct block *B,
   return o;
 }
 
-int mo_pdetect_finish(mo_contact *C, int st, mo_ctx *ctx)
+int mo_pdetect_finish(mo_contact *C, const mo_state *s, int st, mo_ctx *ctx)
 {
   struct mo_pdetect *P = C->pd;
   size_t n = (size_t)(C->nc - P->nc0), total = 0, off = 0, head[64], end[64], a;
   double mine = st ? -1 : (double)n, largest = 0;
   struct block B[64], own;
   int r, st2;
+  P->up_nc = -1; /* until this detection's U- are gathered (T300) */
   /* every rank's count, or -1 for a rank that failed: then every rank fails */
   if ((st2 = mo_par_gatherv(&mine, P->one, P->rc, ctx))) return st ? st : st2;
   for (r = 0; r < P->nranks; r++)
@@ -302,8 +308,14 @@ int mo_pdetect_finish(mo_contact *C, int st, mo_ctx *ctx)
     return st;
   /* the set's arrays and the map for the merged set (their contents kept) */
   if ((st = mo_contact_reserve(C, P->nc0 + (int)total, ctx)) ||
-      (with_map(C) && (st = mo_setmap_reserve(&C->smap, P->nc0 + (int)total + 1, ctx))))
+      (with_map(C) && (st = mo_setmap_reserve(&C->smap, P->nc0 + (int)total + 1, ctx))) ||
+      (st = room((void **)&P->up, &P->upcap, (size_t)C->dim * ((size_t)P->nc0 + total) + 1, sizeof *P->up, ctx)))
     return st;
+  /* U- = H^T v + U0 of this rank's candidates at the state of the detection (T300): the driver's
+     sum (fresh_uprev's, mo_contact_Htx over the same records, points, normals and obstacle
+     velocities at the same state), made for this rank's part only and carried by the gather */
+  if (n && s->v) mo_contact_Htx(C, s, s->v, P->nc0, C->nc, C->U0, P->up);
+  else if (n) memset(P->up + (size_t)P->nc0 * C->dim, 0, n * (size_t)C->dim * sizeof *P->up);
   /* this rank's block: its part of the arrays as it is, and its order keys */
   own = block_at(C, P->buf, n);
   if (n) P->buf[block_size(C, n) - 1] = 0; /* the padding sent defined */
@@ -364,5 +376,21 @@ int mo_pdetect_finish(mo_contact *C, int st, mo_ctx *ctx)
   else
     C->ksame = C->ksame && !memcmp(C->key + (size_t)P->nc0 * MO_KEY, P->okey, total * MO_KEY * sizeof *C->key);
   C->nc = P->nc0 + (int)total;
+  if (s->v) {
+    P->up_u = s->u;
+    P->up_v = s->v;
+    P->up_step = s->step;
+    P->up_nc = C->nc;
+  }
   return MO_OK;
+}
+
+const double *mo_contact_detect_uprev(const mo_contact *C, const mo_state *s, int *a0)
+{
+  const struct mo_pdetect *P = C->pd;
+  if (!P || P->up_nc != C->nc || P->up_set != C->cset_version || P->up_u != s->u || P->up_v != s->v ||
+      P->up_step != s->step)
+    return NULL;
+  *a0 = P->nc0;
+  return P->up;
 }

@@ -6,6 +6,7 @@
 #include <stddef.h>
 
 #include <moreau/ctx.h>
+#include <moreau/step.h>
 
 struct mo_contact;
 
@@ -35,6 +36,15 @@ struct mo_pdetect {
   int *own, *near, *rest, *wall, *wall0;
   size_t wallcap;
   int nown, nnear, nrest;
+  /* U- = H^T v + U0 of the split part's candidates (d each, from nc0 on, at the set's places), each
+     rank forming its own part's at the detection's state before the gather, which carries them
+     (T300); of state (up_u, up_v, up_step) and of the set up_set of up_nc candidates, up_nc < 0
+     when the last detection made none */
+  double *up;
+  size_t upcap;
+  const double *up_u, *up_v;
+  long up_step, up_set;
+  int up_nc;
 };
 
 /* Whether this rank detects the pairs of body b (it owns its slab); a body in no pair between
@@ -95,8 +105,14 @@ const unsigned char *mo_pdetect_mask(const struct mo_contact *C);
    shapes. */
 int mo_pdetect_tag(struct mo_contact *C, int from, int s0, int s1, int s2, mo_ctx *ctx);
 /* Every rank's candidates gathered, in the serial detection's order, into C on every rank (st:
-   this rank's status so far, passed to every rank: a failure on one rank fails them all). */
-int mo_pdetect_finish(struct mo_contact *C, int st, mo_ctx *ctx);
+   this rank's status so far, passed to every rank: a failure on one rank fails them all), with
+   U- of each at state s, formed by the rank that found it (T300; s->v NULL: none). */
+int mo_pdetect_finish(struct mo_contact *C, const mo_state *s, int st, mo_ctx *ctx);
+/* After the detection, its set's version known: U- of the gathered candidates is of set `set`. */
+static inline void mo_pdetect_seal(struct mo_pdetect *P, long set)
+{
+  P->up_set = set;
+}
 void mo_pdetect_free(struct mo_contact *C);
 
 #endif
