@@ -229,7 +229,8 @@ int mo_contact_writes_map(const mo_contact *C, const mo_ctx *ctx);
 const int *mo_contact_detect_map(const mo_contact *C, long from, long to);
 /* U- = H^T v + U0 at state s of the candidates from *a0 to the set's end (d each, at their places
    in the set), formed over MPI ranks by the rank that detected each and gathered with the set
-   (T300); NULL when the last detection was not split, failed, or was of another state or set. */
+   (T300); NULL when the last detection was not split, failed, or was of another state or set
+   (T301). */
 const double *mo_contact_detect_uprev(const mo_contact *C, const mo_state *s, int *a0);
 /* Bytes held by the broad phase. */
 size_t mo_contact_broad_bytes(const mo_contact *C);

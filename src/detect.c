@@ -784,7 +784,7 @@ int mo_contact_detect(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx)
     st = mo_error(ctx, MO_EINTERNAL, "contact detection: a candidate out of the detection's order (T220)");
   if (split) st = mo_pdetect_finish(C, s, st, ctx);
   if (!st && !(C->ksame && C->nc == C->knold)) C->cset_version++;
-  if (split && !st) mo_pdetect_seal(C->pd, C->cset_version); /* the gathered U- are of this set (T300) */
+  if (split && !st) mo_pdetect_seal(C->pd, C->cset_version); /* the gathered U- are of this set (T301) */
   if (C->smap_from == -2) {
     C->smap_from = C->smap_to = -1;
     if (!st && C->smap.bad)

@@ -39,7 +39,7 @@ struct mo_pdetect {
   /* U- = H^T v + U0 of the split part's candidates (d each, from nc0 on, at the set's places), each
      rank forming its own part's at the detection's state before the gather, which carries them
      (T300); of state (up_u, up_v, up_step) and of the set up_set of up_nc candidates, up_nc < 0
-     when the last detection made none */
+     when the last detection made none (T301) */
   double *up;
   size_t upcap;
   const double *up_u, *up_v;
