@@ -361,6 +361,7 @@ static int build_all(mo_vblocks *V, const mo_vblocks_in *in, mo_broad *B, double
   const int *bp;
   long nbp, q;
   int i, k, a, m = 0, nb = 0, st;
+  const int n_old = V->n, dim_old = V->dim, nb_old = V->nb;
   V->ok = 0;
   V->npair = 0;
   V->ntab = 0;
@@ -388,7 +389,7 @@ static int build_all(mo_vblocks *V, const mo_vblocks_in *in, mo_broad *B, double
   }
   /* each body's acceleration as its old block's mean velocity changed over the last step, for the
      new blocks' frames (a falling column formed again keeps falling in its frames) */
-  if (V->hist && V->nb > 0 && in->t > V->tprev && V->cap_body >= (size_t)n) {
+  if (V->hist && nb_old > 0 && in->t > V->tprev && n_old == n && dim_old == D) {
     if (!(acc = mo_malloc(ctx, (size_t)D * n * sizeof *acc))) return MO_ENOMEM;
     for (i = 0; i < n; i++)
       for (a = 0; a < D; a++)
@@ -594,17 +595,18 @@ int mo_vblocks_update(mo_vblocks *V, const mo_vblocks_in *in, mo_broad *B, const
       make_block(V, in, k, fa);
       V->refreshed++;
     }
-    for (a = 0; a < D; a++) V->vmp[D * k + a] = V->vm[D * k + a];
     sumrho += V->rho[k];
   }
-  V->tprev = in->t;
-  if (sumrho > 2 * V->sumrho0) { /* the blocks spread out: form them again */
+  if (sumrho > 2 * V->sumrho0) { /* the blocks spread out: form them again (their accelerations kept) */
     if ((st = build_all(V, in, B, reach, ctx))) return st;
     *built = 1;
     *pairs = V->pair;
     *npairs = V->npair;
     return MO_OK;
   }
+  for (k = 0; k < V->nb; k++)
+    for (a = 0; a < D; a++) V->vmp[D * k + a] = V->vm[D * k + a];
+  V->tprev = in->t;
   /* the pairs of blocks near each other now against the table: kept while the frames hold, made
      again when one block was or the frames' drift passes the slack, made when new; the entries no
      longer near leave with their pairs (T322)-(T323) */
