@@ -1782,6 +1782,10 @@ int mo_contact_build(const mo_scene *sc, mo_contact **out, mo_ctx *ctx)
     C->moving_h = 1; /* detected contacts move with their bodies */
     C->alert = mo_cfg_float(cg, "alert", -1);
     C->skin = mo_cfg_float(cg, "skin", -1);
+    {
+      const char *vl = mo_cfg_string(cg, "verlet", "auto");
+      C->verlet = !strcmp(vl, "global") ? 1 : !strcmp(vl, "blocks") ? 2 : 0;
+    }
     C->h = sc->time.dt;
     if ((st = mo_contact_detect_setup(C, ctx))) goto fail;
     C->compact_ok = compact_eligible(C);

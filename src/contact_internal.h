@@ -124,6 +124,12 @@ struct mo_contact {
                                  of the smallest body of the dynamic pairs) */
   double h;                   /* the step the margin of the alert distance is taken over */
   struct mo_broad *broad;
+  /* the pair list kept by blocks in their own frames (vblocks.c, doc/theory.md §12.26): contact.verlet
+     (0 auto: from MO_VBLOCKS_MIN bodies of the broad phase on one process, 1 global: (T111)'s one
+     mean, 2 blocks), the list, the bodies' bounding radii it reads (allocated with it) */
+  int verlet;
+  struct mo_vblocks *vb;
+  double *vb_bound;
   unsigned long long *mside, *sside; /* per body: bit k when it is on the master / slave side of
                                         rigid-rigid pair k */
   int nrr;                    /* rigid-rigid pairs (at most 64) */

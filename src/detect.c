@@ -5,6 +5,7 @@
 #include <moreau/body.h>
 #include <moreau/contact.h>
 #include "broad.h"
+#include "vblocks.h"
 #include "parallel_detect.h"
 #include <moreau/parallel.h>
 #include "contact_internal.h"
@@ -24,6 +25,10 @@ static int rigid_rigid(const mo_contact *C, const mo_contact_pair *P)
 void mo_contact_detect_free(mo_contact *C)
 {
   mo_broad_free(C->broad);
+  mo_vblocks_free(C->vb);
+  mo_free(C->vb_bound);
+  C->vb = NULL;
+  C->vb_bound = NULL;
   mo_free(C->mside);
   mo_free(C->sside);
   mo_free(C->rr);
@@ -616,6 +621,49 @@ static int valid_split(mo_contact *C, int D, double *vm, int *valid, mo_ctx *ctx
    it stays valid while every body's displacement relative to the bodies' mean
    displacement since the build, plus what it can close at its relative speed now, stays within
    half the skin plus its e_b. Grains falling together move with the mean: their list stays. */
+/* The list kept by blocks (vblocks.c, doc/theory.md §12.26): on one process, with contact.verlet =
+   blocks, or auto and at least MO_VBLOCKS_MIN shapes in the broad phase (below, a whole build
+   takes a few tens of microseconds and one mean holds the list as long). */
+#define MO_VBLOCKS_MIN 4096
+
+static int pair_list_blocks(mo_contact *C, const mo_state *s, mo_ctx *ctx)
+{
+  const mo_scene *sc = C->sc;
+  mo_vblocks_in in;
+  const int *pairs;
+  long np;
+  int b, st, built;
+  const double t0 = mo_clock();
+  if (!C->vb) {
+    if ((st = mo_vblocks_create(&C->vb, ctx))) return st;
+    if (!(C->vb_bound = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *C->vb_bound))) return MO_ENOMEM;
+    for (b = 0; b < sc->nbody; b++) C->vb_bound[b] = sc->body[b].bound;
+  }
+  in.dim = sc->dim;
+  in.n = sc->nbody;
+  in.mask = C->bmask;
+  in.x = C->bcur;
+  in.v = C->bv;
+  in.w = C->bw;
+  in.bound = C->vb_bound;
+  in.t = s->t;
+  in.h = C->h;
+  in.alert = C->alert;
+  in.skin = C->skin;
+  if ((st = mo_vblocks_update(C->vb, &in, C->broad, &pairs, &np, &built, ctx))) {
+    C->vl_built = 0;
+    C->vl_n = 0;
+    return st;
+  }
+  C->vl = pairs;
+  C->vl_n = np;
+  C->vl_built = 1;
+  C->vl_builds += built;
+  C->vl_reach = C->alert + C->skin;
+  mo_phase_add(ctx, MO_PH_BROAD, t0);
+  return MO_OK;
+}
+
 static int pair_list(mo_contact *C, const mo_state *s, mo_ctx *ctx)
 {
   const mo_scene *sc = C->sc;
@@ -624,6 +672,12 @@ static int pair_list(mo_contact *C, const mo_state *s, mo_ctx *ctx)
   long np;
   int b, k, st, valid = C->vl_built, n = 0;
   double t0 = mo_clock(), vm[3], dm[3] = {0, 0, 0};
+  if (!C->pd && C->verlet == 0) { /* auto: decided once, on the shapes of the broad phase */
+    for (b = 0; b < sc->nbody; b++) n += C->bmask[b] != 0;
+    C->verlet = n >= MO_VBLOCKS_MIN ? 2 : 1;
+    n = 0;
+  }
+  if (!C->pd && C->verlet == 2) return pair_list_blocks(C, s, ctx);
   if (C->pd && valid) {
     /* split over the ranks: each rank its own bodies (T230); at a build, the speeds of the bodies
        outside its slab and halo, then every body's relative speed */
@@ -718,7 +772,16 @@ static int rigid_pairs(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx)
   return MO_OK;
 }
 
-size_t mo_contact_broad_bytes(const mo_contact *C) { return mo_broad_bytes(C->broad); }
+size_t mo_contact_broad_bytes(const mo_contact *C)
+{
+  return mo_broad_bytes(C->broad) + mo_vblocks_bytes(C->vb) + (C->vb_bound ? (size_t)C->sc->nbody * sizeof(double) : 0);
+}
+
+int mo_contact_broad_blocks(const mo_contact *C, long *made, long *nblock)
+{
+  mo_vblocks_stats(C->vb, made, nblock);
+  return C->vb != NULL;
+}
 
 int mo_contact_broad_stats(const mo_contact *C, long *builds, long *pairs)
 {

@@ -920,6 +920,15 @@ static json_t *contact_json(const mo_contact *C, const mo_contact_driver *D)
         json_object_set_new(bp, "builds", json_integer(builds));
         json_object_set_new(bp, "pairs", json_integer(npairs));
         json_object_set_new(bp, "compact", json_boolean(mo_contact_is_compact(C)));
+        {
+          /* the list kept by blocks (doc/theory.md §12.26): the blocks, and how many times one
+             was made again between the whole builds */
+          long made, nblock;
+          if (mo_contact_broad_blocks(C, &made, &nblock)) {
+            json_object_set_new(bp, "blocks", json_integer(nblock));
+            json_object_set_new(bp, "blocks_made", json_integer(made));
+          }
+        }
         json_object_set_new(j, "broad", bp);
       }
     }

@@ -3,6 +3,7 @@
 #include "config.h"
 #include "narrow.h"
 #include "broad.h"
+#include "vblocks.h"
 #include "tap.h"
 
 #include <stdint.h>
@@ -635,6 +636,173 @@ static void test_broad_small(void)
   mo_broad_free(NULL);
 }
 
+/* The list kept by blocks (vblocks.c) against brute force, step by step, on a column of balls
+   (radii 4-6 mm) thrown down at 1.5 m/s under gravity onto a bed that rises through it: balls above the bed fall
+   together (the right half also drifting sideways), balls that reach it stop, a few at rest are
+   kicked at random, some spin. At every step every pair within its alert distance,
+   alert + 2 h (|v_i - v_j| + w_i + w_j), must be in the list, and the list sorted without repeats. */
+static void vblocks_column(int dim, int n, int steps, int masked)
+{
+  const double h = 1e-3, grav = 9.81, alert = 4e-4, skin = 2e-3, side = dim == 2 ? 0.5 : 0.12;
+  double *x = malloc(3 * n * sizeof *x), *v = calloc(3 * n, sizeof *v), *w = calloc(n, sizeof *w);
+  double *bound = malloc(n * sizeof *bound), ybed = 0.05, t = 0;
+  unsigned char *mask = malloc(n), *fall = malloc(n);
+  rng g = {0x9E3779B97F4A7C15u + (unsigned)(dim * 7 + masked)};
+  mo_ctx ctx;
+  mo_vblocks *V;
+  mo_broad *B;
+  long miss = 0, unsorted = 0, whole = 0, made, nblock, maxpairs = 0, nwide, loose = 0;
+  int i, j, k, step, per_row = dim == 2 ? 40 : 10;
+  const int up = dim - 1; /* the vertical axis */
+  mo_ctx_init(&ctx);
+  mo_vblocks_create(&V, &ctx);
+  mo_broad_create(&B, &ctx);
+  for (i = 0; i < n; i++) { /* a loose lattice with a little jitter, 12.5 mm apart */
+    int row = i / (dim == 2 ? per_row : per_row * per_row), col = i % per_row, col2 = i / per_row % per_row;
+    x[dim * i] = 0.0125 * (col + 0.5) + 0.002 * (rnd(&g) - 0.5);
+    if (dim == 3) x[dim * i + 1] = 0.0125 * (col2 + 0.5) + 0.002 * (rnd(&g) - 0.5);
+    x[dim * i + up] = 0.01 + 0.0125 * row + 0.002 * (rnd(&g) - 0.5);
+    bound[i] = 0.004 + 0.002 * rnd(&g);
+    mask[i] = !masked || rnd(&g) < 0.8;
+    fall[i] = x[dim * i + up] > ybed;
+    v[dim * i + up] = fall[i] ? -1.5 : 0; /* thrown down: the bed meets the column at several m/s */
+    w[i] = rnd(&g) < 0.1 ? 0.05 * rnd(&g) : 0;
+  }
+  (void)side;
+  for (step = 0; step < steps; step++) {
+    mo_vblocks_in in = {dim, n, mask, x, v, w, bound, t, h, alert, skin};
+    const int *p;
+    long np, q;
+    int built = 0, st = mo_vblocks_update(V, &in, B, &p, &np, &built, &ctx);
+    if (st) {
+      ok(0, "vblocks %dD: update at step %d: %s", dim, step, ctx.errmsg);
+      break;
+    }
+    whole += built;
+    nwide = 0;
+    for (q = 1; q < np; q++)
+      if (!(p[2 * q - 2] < p[2 * q] || (p[2 * q - 2] == p[2 * q] && p[2 * q - 1] < p[2 * q + 1])) || p[2 * q] >= p[2 * q + 1])
+        unsorted++;
+    for (i = 0; i < n; i++)
+      for (j = i + 1; j < n; j++) {
+        double d2 = 0, dv2 = 0, gap;
+        long lo = 0, hi = np;
+        if (!mask[i] || !mask[j]) continue;
+        for (k = 0; k < dim; k++) {
+          d2 += (x[dim * i + k] - x[dim * j + k]) * (x[dim * i + k] - x[dim * j + k]);
+          dv2 += (v[dim * i + k] - v[dim * j + k]) * (v[dim * i + k] - v[dim * j + k]);
+        }
+        gap = sqrt(d2) - bound[i] - bound[j];
+        nwide += gap <= alert + 3 * skin + 2 * h * (sqrt(dv2) + w[i] + w[j]);
+        if (gap > alert + 2 * h * (sqrt(dv2) + w[i] + w[j])) continue;
+        while (lo < hi) {
+          long mid = (lo + hi) / 2;
+          if (p[2 * mid] < i || (p[2 * mid] == i && p[2 * mid + 1] < j)) lo = mid + 1;
+          else hi = mid;
+        }
+        if (!(lo < np && p[2 * lo] == i && p[2 * lo + 1] == j) && miss++ < 3)
+          diag("step %d: pair (%d, %d) at gap %g not in the list", step, i, j, gap);
+      }
+    if (np > maxpairs) maxpairs = np;
+    if (np > 2 * nwide + n / 10) loose++;
+    /* the motion over the step: the theta-scheme's free flight (x += h (v + v') / 2), the outer
+       thirds drifting sideways towards the middle one (frames of different velocities meeting),
+       the balls that reach the rising bed slowing down to rest, kicks; halfway, every ball of the
+       bed kicked at once */
+    t += h;
+    ybed += 0.4 * h;
+    for (i = 0; i < n; i++) {
+      double *xi = x + dim * i, *vi = v + dim * i, x0[3];
+      for (k = 0; k < dim; k++) x0[k] = xi[k];
+      if (fall[i]) {
+        const double third = xi[0] < 0.15 ? 1 : xi[0] > 0.35 ? -1 : 0, v0 = vi[up];
+        vi[up] -= grav * h;
+        vi[0] = dim == 2 ? 0.4 * third : vi[0];
+        xi[up] += 0.5 * h * (v0 + vi[up]);
+        if (dim == 2) xi[0] += h * vi[0];
+        if (xi[up] <= ybed) fall[i] = 0;
+      } else if (rnd(&g) < 0.003) /* a kick */
+        for (k = 0; k < dim; k++) vi[k] += 0.5 * (rnd(&g) - 0.5);
+      else
+        for (k = 0; k < dim; k++) vi[k] *= 0.3;
+      if (step == steps / 2 && !fall[i])
+        for (k = 0; k < dim; k++) vi[k] += 2 * (rnd(&g) - 0.5);
+      if (!fall[i])
+        for (k = 0; k < dim; k++) xi[k] = x0[k] + h * vi[k];
+    }
+  }
+  mo_vblocks_stats(V, &made, &nblock);
+  ok(miss == 0 && unsorted == 0, "vblocks %dD: %d balls%s, %d steps of a column landing on a rising bed: every pair "
+     "within its alert distance in the list, sorted (%ld missed, %ld out of order)", dim, n, masked ? " (a fifth masked out)" : "",
+     steps, miss, unsorted);
+  ok(whole <= 3 + steps / 20 && made > nblock, "vblocks %dD: the list kept by blocks: %ld whole builds in %d steps, %ld blocks "
+     "made again of %ld", dim, whole, steps, made, nblock);
+  ok(loose == 0, "vblocks %dD: at every step at most twice the pairs within alert + 3 skins + 2 h (|v_i - v_j| + w_i + "
+     "w_j) listed, plus a tenth of the balls (at most %ld pairs for %d balls; %ld steps over)", dim, maxpairs, n, loose);
+  mo_vblocks_free(V);
+  mo_broad_free(B);
+  free(x);
+  free(v);
+  free(w);
+  free(bound);
+  free(mask);
+  free(fall);
+}
+
+/* Every allocation of the list kept by blocks failing in turn, over a few steps of moving balls:
+   MO_ENOMEM, an empty list, no crash, no leak (valgrind, ASan), and the next call builds it whole. */
+static void vblocks_nomem(void)
+{
+  enum { N = 120 };
+  double x[2 * N], v[2 * N], w[N], r[N];
+  unsigned char mask[N];
+  rng g = {4242};
+  long fail, nfail = 0, nok = 0;
+  int i;
+  for (fail = 1; fail < 400; fail++) {
+    mo_ctx ctx;
+    mo_vblocks *V = NULL;
+    mo_broad *B = NULL;
+    int step, st = MO_OK, bad = 0;
+    random_set(&g, 2, N, 0.12, x, r);
+    for (i = 0; i < N; i++) {
+      r[i] *= 0.005;
+      v[2 * i] = 0;
+      v[2 * i + 1] = x[2 * i] > 0.06 ? -1 : 0; /* half the balls falling through the others */
+      w[i] = 0;
+      mask[i] = 1;
+    }
+    mo_ctx_init(&ctx);
+    ctx.alloc_fail_at = fail;
+    if (mo_vblocks_create(&V, &ctx) || mo_broad_create(&B, &ctx)) st = MO_ENOMEM;
+    for (step = 0; !st && step < 20; step++) {
+      mo_vblocks_in in = {2, N, mask, x, v, w, r, 1e-3 * step, 1e-3, 4e-4, 2e-3};
+      const int *p;
+      long np = -1;
+      int built;
+      st = mo_vblocks_update(V, &in, B, &p, &np, &built, &ctx);
+      if (st) bad |= !(st == MO_ENOMEM && np == 0);
+      for (i = 0; i < N; i++) x[2 * i + 1] += 1e-3 * v[2 * i + 1];
+    }
+    nfail += st == MO_ENOMEM && !bad;
+    nok += st == MO_OK;
+    mo_vblocks_free(V);
+    mo_broad_free(B);
+    if (st == MO_OK && ctx.alloc_calls < fail) break;
+  }
+  ok(nok == 1 && nfail == fail - 1, "vblocks: each of %ld allocations over 20 steps failing gives MO_ENOMEM and an "
+     "empty list", fail - 1);
+}
+
+static void test_vblocks(void)
+{
+  vblocks_nomem();
+  vblocks_column(2, 800, 250, 0);
+  vblocks_column(2, 600, 150, 1);
+  vblocks_column(3, 500, 200, 0);
+  mo_vblocks_free(NULL);
+}
+
 /* Every allocation failing in turn: MO_ENOMEM, no crash, no leak (valgrind, ASan). */
 static void test_broad_nomem(void)
 {
@@ -677,5 +845,6 @@ int main(void)
   test_broad_random();
   test_broad_small();
   test_broad_nomem();
+  test_vblocks();
   return done_testing();
 }

@@ -189,6 +189,9 @@ double mo_contact_alert(const mo_contact *C);
 /* The broad phase of the detection between rigid shapes: how many times its pair list was built
    and how many pairs it holds (doc/theory.md (T110)); 0 when the scene has no such pair. */
 int mo_contact_broad_stats(const mo_contact *C, long *builds, long *pairs);
+/* When the list is kept by blocks (contact.verlet, doc/theory.md §12.26): 1, with the blocks made
+   again between the whole builds over the run and the blocks now; else 0. */
+int mo_contact_broad_blocks(const mo_contact *C, long *made, long *nblock);
 /* Candidate a's law and restitution coefficient (those of its pair). */
 mo_contact_law mo_contact_law_of(const mo_contact *C, int a);
 double mo_contact_restitution_of(const mo_contact *C, int a);
