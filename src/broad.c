@@ -43,7 +43,7 @@ int mo_broad_create(mo_broad **out, mo_ctx *ctx)
   return *out ? MO_OK : MO_ENOMEM;
 }
 
-void mo_broad_free(mo_broad *B)
+void mo_broad_trim(mo_broad *B)
 {
   if (!B) return;
   mo_free(B->cell);
@@ -53,6 +53,17 @@ void mo_broad_free(mo_broad *B)
   mo_free(B->slot);
   mo_free(B->pair);
   mo_free(B->scr);
+  B->cell = B->start = B->body = B->slot = B->pair = NULL;
+  B->key = NULL;
+  B->scr = NULL;
+  B->cap_cell = B->cap_start = B->cap_body = B->cap_key = B->cap_slot = B->cap_pair = B->cap_scr = 0;
+  B->npair = 0;
+}
+
+void mo_broad_free(mo_broad *B)
+{
+  if (!B) return;
+  mo_broad_trim(B);
   mo_free(B);
 }
 

@@ -32,6 +32,11 @@ void mo_broad_free(mo_broad *B);
 int mo_broad_pairs(mo_broad *B, int dim, int n, const double *c, const double *r, const unsigned char *mask,
                    double alert, const int **pairs, long *npairs, mo_ctx *ctx);
 
+/* Release what B holds but keep B: its next call allocates again (a broad phase called seldom,
+   vblocks.c's whole builds, need not hold its arrays between calls). The pairs of the last call
+   are gone. */
+void mo_broad_trim(mo_broad *B);
+
 /* Bytes held by B (for memory reports); 0 for NULL. */
 size_t mo_broad_bytes(const mo_broad *B);
 

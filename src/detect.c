@@ -614,16 +614,9 @@ static int valid_split(mo_contact *C, int D, double *vm, int *valid, mo_ctx *ctx
   return MO_OK;
 }
 
-/* The broad phase's pair list, kept while it holds every pair closer than its alert distance
-   (pair_alert; doc/theory.md (T110)): built with each body's bounding ball grown by what it could
-   close relative to the others' mean motion at its speed then (e_b = 2 h s'_b, s'_b its speed
-   relative to the bodies' mean velocity plus what its rotation adds) and a skin (contact.skin),
-   it stays valid while every body's displacement relative to the bodies' mean
-   displacement since the build, plus what it can close at its relative speed now, stays within
-   half the skin plus its e_b. Grains falling together move with the mean: their list stays. */
 /* The list kept by blocks (vblocks.c, doc/theory.md §12.26): on one process, with contact.verlet =
-   blocks, or auto and at least MO_VBLOCKS_MIN shapes in the broad phase (below, a whole build
-   takes a few tens of microseconds and one mean holds the list as long). */
+   blocks, or auto and at least MO_VBLOCKS_MIN shapes in the broad phase (below, the two lists cost
+   about the same, (T326)). */
 #define MO_VBLOCKS_MIN 4096
 
 static int pair_list_blocks(mo_contact *C, const mo_state *s, mo_ctx *ctx)
@@ -664,6 +657,13 @@ static int pair_list_blocks(mo_contact *C, const mo_state *s, mo_ctx *ctx)
   return MO_OK;
 }
 
+/* The broad phase's pair list, kept while it holds every pair closer than its alert distance
+   (pair_alert; doc/theory.md (T110)): built with each body's bounding ball grown by what it could
+   close relative to the others' mean motion at its speed then (e_b = 2 h s'_b, s'_b its speed
+   relative to the bodies' mean velocity plus what its rotation adds) and a skin (contact.skin),
+   it stays valid while every body's displacement relative to the bodies' mean
+   displacement since the build, plus what it can close at its relative speed now, stays within
+   half the skin plus its e_b. Grains falling together move with the mean: their list stays. */
 static int pair_list(mo_contact *C, const mo_state *s, mo_ctx *ctx)
 {
   const mo_scene *sc = C->sc;
@@ -676,6 +676,14 @@ static int pair_list(mo_contact *C, const mo_state *s, mo_ctx *ctx)
     for (b = 0; b < sc->nbody; b++) n += C->bmask[b] != 0;
     C->verlet = n >= MO_VBLOCKS_MIN ? 2 : 1;
     n = 0;
+  }
+  if (!C->pd && C->verlet == 2 && C->bc) {
+    /* the global list's snapshots, radii, margins and relative speeds are not read on this path */
+    mo_free(C->bc);
+    mo_free(C->br);
+    mo_free(C->be);
+    mo_free(C->bs2);
+    C->bc = C->br = C->be = C->bs2 = NULL;
   }
   if (!C->pd && C->verlet == 2) return pair_list_blocks(C, s, ctx);
   if (C->pd && valid) {
