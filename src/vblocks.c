@@ -619,7 +619,7 @@ int mo_vblocks_update(mo_vblocks *V, const mo_vblocks_in *in, mo_broad *B, const
   double T[3], W[3], sumrho = 0;
   const int *bp;
   long nbp, q, i, w, nref = 0;
-  int k, a, st, whole = !V->ok || V->dim != D || V->n != in->n;
+  int k, a, st, nonfinite = 0, whole = !V->ok || V->dim != D || V->n != in->n;
   *pairs = NULL;
   *npairs = 0;
   *built = 0;
@@ -640,6 +640,7 @@ int mo_vblocks_update(mo_vblocks *V, const mo_vblocks_in *in, mo_broad *B, const
           s2 += ev * ev;
           V->vm[D * k + a] += v[a];
         }
+        if (!(e2 + s2 < INFINITY)) nonfinite = 1; /* the whole build, whose cells name the body */
         {
           /* (T321) on the squares first: sqrt(e2) + 2 h sqrt(s2) <= sqrt(2 (e2 + 4 h^2 s2)), so a body
              well within its frame is passed without a square root */
@@ -651,7 +652,7 @@ int mo_vblocks_update(mo_vblocks *V, const mo_vblocks_in *in, mo_broad *B, const
       V->ref[k] = (unsigned char)bad;
       if (bad) nref += V->mstart[k + 1] - V->mstart[k];
     }
-    whole = 2 * nref > V->m;
+    whole = 2 * nref > V->m || nonfinite;
   }
   if (whole) {
     if ((st = build_all(V, in, B, reach, ctx))) return st;

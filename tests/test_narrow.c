@@ -794,8 +794,37 @@ static void vblocks_nomem(void)
      "empty list", fail - 1);
 }
 
+/* A non-finite coordinate after some steps: MO_EINPUT naming the body, an empty list. */
+static void vblocks_nan(void)
+{
+  enum { N = 200 };
+  double x[2 * N], v[2 * N] = {0}, w[N] = {0}, r[N];
+  rng g = {777};
+  mo_ctx ctx;
+  mo_vblocks *V;
+  mo_broad *B;
+  const int *p;
+  long np = 0;
+  int built, step, st = 0, i;
+  random_set(&g, 2, N, 0.2, x, r);
+  for (i = 0; i < N; i++) r[i] *= 0.005;
+  mo_ctx_init(&ctx);
+  mo_vblocks_create(&V, &ctx);
+  mo_broad_create(&B, &ctx);
+  for (step = 0; step < 5 && !st; step++) {
+    mo_vblocks_in in = {2, N, NULL, x, v, w, r, 1e-3 * step, 1e-3, 4e-4, 2e-3};
+    if (step == 4) x[2 * 17 + 1] = NAN;
+    st = mo_vblocks_update(V, &in, B, &p, &np, &built, &ctx);
+  }
+  ok(st == MO_EINPUT && step == 5 && np == 0 && strstr(ctx.errmsg, "body 17"),
+     "vblocks: a non-finite coordinate is an input error naming the body (%s)", ctx.errmsg);
+  mo_vblocks_free(V);
+  mo_broad_free(B);
+}
+
 static void test_vblocks(void)
 {
+  vblocks_nan();
   vblocks_nomem();
   vblocks_column(2, 800, 250, 0);
   vblocks_column(2, 600, 150, 1);
