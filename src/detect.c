@@ -474,29 +474,65 @@ static int nodes_shape(mo_contact *C, int k, int mb, const mo_state *s, double t
   return st;
 }
 
+/* The walls' first test (T297) from the pair's shape q on (own[q], or q, in its list sbl): the first
+   shape whose bounding ball may be within an alert distance of the plane (point p, unit normal nrm),
+   or nq when none is. The loop of shapes_obstacle with the pair's constants read once (the alert
+   distance, 2 h, the plane's speed bound s_m, the largest bounding radius psb) and the dimension a
+   constant of the call (T312): the same sums in the same order, h from +0 over the components and
+   the margin (alert + 2 h (s_b + s_m)) (1 + 1e-9), so the same shapes are passed over. */
+static inline __attribute__((always_inline)) int plane_scan(const mo_contact *C, const int *sbl, const int *own, int q,
+                                                            int nq, const double *p, const double *nrm, double bsm,
+                                                            double psb, const int D)
+{
+  const double *bcur = C->bcur, *bs = C->bs, alert = C->alert, h2 = 2 * C->h;
+  for (; q < nq; q++) {
+    const int sb = sbl[own ? own[q] : q];
+    const double *cb = bcur + (size_t)D * sb; /* body_speed's centre (T290) */
+    const double margin = (alert + h2 * (bs[sb] + bsm)) * (1 + 1e-9);
+    double h = 0;
+    int j;
+    for (j = 0; j < D; j++) h += (cb[j] - p[j]) * nrm[j];
+    if (!(h > psb + margin)) return q;
+  }
+  return nq;
+}
+
+static int plane_next(const mo_contact *C, const int *sbl, const int *own, int q, int nq, const double *p,
+                      const double *nrm, double bsm, double psb)
+{
+  const int D = C->sc->dim;
+  if (D == 2) return plane_scan(C, sbl, own, q, nq, p, nrm, bsm, psb, 2);
+  if (D == 3) return plane_scan(C, sbl, own, q, nq, p, nrm, bsm, psb, 3);
+  return plane_scan(C, sbl, own, q, nq, p, nrm, bsm, psb, D);
+}
+
 /* Every slave shape of pair k against its plane or mesh master (O(bodies of the pair)). */
 static int shapes_obstacle(mo_contact *C, int k, const mo_state *s, double t, mo_ctx *ctx)
 {
   const mo_scene *sc = C->sc;
   const mo_contact_pair *P = &C->pair[k];
   const mo_body *M = &sc->body[P->mb[0]];
-  const int *own = NULL;
+  const int *own = NULL, plane = (M->type->flags & MO_BODY_F_OBSTACLE) != 0;
   int i, j, n, q, nq = P->ns, st;
   /* split over the ranks: the shapes of this rank's slab only (T215, T231) */
   double p[3] = {0, 0, 0};
-  if (C->pd && (M->type->flags & MO_BODY_F_OBSTACLE)) nq = mo_pdetect_walls(C->pd, k, &own);
-  if (M->type->flags & MO_BODY_F_OBSTACLE) {
+  if (C->pd && plane) nq = mo_pdetect_walls(C->pd, k, &own);
+  if (plane) {
     if (t > M->until) return MO_OK; /* the gate has opened */
     /* the plane's point at t: one for every shape of the pair (T290) */
     for (j = 0; j < sc->dim; j++) p[j] = M->point[j] + M->velocity[j] * t;
   }
   for (q = 0; q < nq; q++) {
-    int sb = P->sb[i = own ? own[q] : q];
-    const mo_body *S = &sc->body[sb];
+    int sb;
+    const mo_body *S;
     double c[3], v[2 * MO_POLYGON_MAX], alert;
     mo_narrow out[MO_POLYGON_MAX];
     dyn_side ds;
-    if (M->type->flags & MO_BODY_F_OBSTACLE) {
+    /* a plane: on to the next shape its first test keeps (T312) */
+    if (plane && (q = plane_next(C, P->sb, own, q, nq, p, M->normal, C->bs[P->mb[0]], C->psb[k])) == nq) break;
+    sb = P->sb[i = own ? own[q] : q];
+    S = &sc->body[sb];
+    if (plane) {
       const double *cb = C->bcur + (size_t)sc->dim * sb; /* body_speed's centre (T290) */
       double h = 0, reach;
       int from = C->nc;
