@@ -76,7 +76,9 @@ static unsigned char dyn_bits(const mo_body *B)
 
 /* The classes of the rigid-rigid pairs' sides (T310): from each body's masks ms[2 b] (master
    sides) and ms[2 b + 1] (slave sides), the distinct pairs of masks numbered from 1 in the order
-   of the bodies, each body's class in bmask (0: on no side), the classes' masks in rcm and rcs. The
+   of the bodies, each body's class in bmask (0: on no side), the classes' masks in rcm and rcs. A
+   side names a body or a group, so a body's class follows from whether its name and its group's
+   are sides: the 64 pairs name at most 128 sides, and there are at most 128 classes besides 0. The
    bodies of one entry are consecutive and share their sides: the previous body's class is tried
    first. */
 static int side_classes(mo_contact *C, const unsigned long long *ms, mo_ctx *ctx)
