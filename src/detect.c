@@ -541,9 +541,10 @@ static int shapes_obstacle(mo_contact *C, int k, const mo_state *s, double t, mo
       /* a shape whose bounding ball is farther from the plane than any alert distance of theirs
          (pair_alert <= alert + 2 h (s_b + s_plane)) is passed over before its narrow phase; first
          against the largest bounding radius of the pair's shapes (T297), which reads no body
-         record: almost every shape of a pile is passed over there, and the body records, 216
-         bytes apart, are read only for the few near the plane (the same shapes pass both tests:
-         psb >= bound, and the sums round alike) */
+         record: almost every shape of a pile is passed over there (plane_scan, T312; the test is
+         formed again here for the shape it kept), and the body records, 208 bytes apart, are read
+         only for the few near the plane (the same shapes pass both tests: psb >= bound, and the
+         sums round alike) */
       const double margin = (C->alert + 2 * C->h * (C->bs[sb] + C->bs[P->mb[0]])) * (1 + 1e-9);
       for (j = 0; j < sc->dim; j++) h += (cb[j] - p[j]) * M->normal[j];
       if (h > C->psb[k] + margin) continue;
