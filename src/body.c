@@ -180,6 +180,18 @@ double mo_rigid_kinetic(const mo_scene *sc, const mo_state *s)
     /* M = diag(m, m, J) (mo_rigid_mass): the sum below without its six zero entries (T292). A
        zero entry's term 0.5 v_i 0 v_j is +-0 for finite v, and e, which starts at +0, is never
        -0, so adding it changes no bit; a non-finite v_i made a term NaN, and makes e NaN here. */
+    if (sc->rigid_md) {
+      /* m and I from the scene's compact (m, I), the dofs as number_dofs gives them: the same sums
+         without a body record read (T311) */
+      const double *v = s->v + sc->nfe_dof, *md = sc->rigid_md;
+      for (k = 0; k < sc->nrigid; k++, v += 3, md += 2) {
+        e += 0.5 * v[0] * md[0] * v[0];
+        e += 0.5 * v[1] * md[0] * v[1];
+        e += 0.5 * v[2] * md[1] * v[2];
+        if (!isfinite(v[0]) || !isfinite(v[1]) || !isfinite(v[2])) e += NAN;
+      }
+      return e;
+    }
     for (k = 0; k < sc->nrigid; k++) {
       const mo_body *B = &sc->body[sc->rigid[k]];
       const double *v = s->v + B->dof0;

@@ -26,15 +26,18 @@ static int refuse(const mo_case *cs, const config_setting_t *bg, const char *kin
   return MO_OK;
 }
 
-/* Density and (2D) thickness: mass = density x area x thickness in 2D, density x volume in 3D. */
-static int read_density(mo_body *B, int dim, const mo_case *cs, const config_setting_t *bg, double *rho, mo_ctx *ctx)
+/* Density and (2D) thickness: mass = density x area x thickness in 2D, density x volume in 3D. The
+   thickness is read here and used by the mass and inertia the body's read forms, and not kept in the
+   body (8 bytes a grain, doc/theory.md (T311)). */
+static int read_density(mo_body *B, int dim, const mo_case *cs, const config_setting_t *bg, double *rho, double *th,
+                        mo_ctx *ctx)
 {
   if (!mo_cfg_member(bg, "density"))
     return mo_case_error(cs, bg, ctx, "rigid body '%s' needs its 'density' (kg/m^3)", B->name);
   *rho = mo_cfg_float(bg, "density", 1);
   if (dim == 3 && mo_cfg_member(bg, "thickness"))
     return mo_case_error(cs, mo_cfg_member(bg, "thickness"), ctx, "only 2D rigid bodies take a thickness");
-  B->thickness = dim == 2 ? mo_cfg_float(bg, "thickness", 1) : 1;
+  *th = dim == 2 ? mo_cfg_float(bg, "thickness", 1) : 1;
   return MO_OK;
 }
 
@@ -144,7 +147,7 @@ static int ball_read(mo_body *B, int member, int dim, const mo_case *cs, const c
 {
   static const char *const poly[] = {"size", "sides", "vertices", "arch"};
   const char *kind = B->kind == MO_BODY_SPHERE ? "sphere" : "disk";
-  double rho, R = 0;
+  double rho, th, R = 0;
   int st;
   (void)member;
   if ((st = refuse(cs, bg, kind, mesh_keys, 4, ctx)) || (st = refuse(cs, bg, kind, plane_keys, (int)MO_COUNT(plane_keys), ctx)) ||
@@ -159,19 +162,19 @@ static int ball_read(mo_body *B, int member, int dim, const mo_case *cs, const c
   if (mo_cfg_member(bg, "pack")) {
     const config_setting_t *s2 = mo_cfg_member(bg, "center") ? mo_cfg_member(bg, "center") : mo_cfg_member(bg, "radius");
     if (s2) return mo_case_error(cs, s2, ctx, "a pack places and sizes its grains (pack.box, pack.radius)");
-    if ((st = pack_grain(B, member, dim, cs, bg, B->xc0, &R, ctx)) || (st = read_density(B, dim, cs, bg, &rho, ctx)))
+    if ((st = pack_grain(B, member, dim, cs, bg, B->xc0, &R, ctx)) || (st = read_density(B, dim, cs, bg, &rho, &th, ctx)))
       return st;
     B->radius = R;
   } else {
     if ((st = read_center(B, dim, cs, bg, ctx)) || (st = mo_scene_need(cs, bg, "radius", kind, ctx)) ||
-        (st = read_density(B, dim, cs, bg, &rho, ctx)))
+        (st = read_density(B, dim, cs, bg, &rho, &th, ctx)))
       return st;
     R = B->radius = mo_cfg_float(bg, "radius", 1);
   }
   B->theta0 = mo_cfg_float(bg, "angle", 0);
   memset(B->J, 0, sizeof B->J);
   if (dim == 2) {
-    B->mass = rho * M_PI * R * R * B->thickness;
+    B->mass = rho * M_PI * R * R * th;
     B->J[0] = 0.5 * B->mass * R * R;                 /* I = m R^2 / 2 */
   } else {
     B->mass = rho * 4.0 / 3.0 * M_PI * R * R * R;
@@ -265,7 +268,7 @@ static int polygon_vertices(mo_body *B, int member, const mo_case *cs, const con
 
 static int polygon_read(mo_body *B, int member, int dim, const mo_case *cs, const config_setting_t *bg, mo_ctx *ctx)
 {
-  double v[2 * MO_POLYGON_MAX], c[2], rho, area, r2max = 0;
+  double v[2 * MO_POLYGON_MAX], c[2], rho, th, area, r2max = 0;
   char why[160];
   int nv = 0, k, st;
   const config_setting_t *where;
@@ -277,7 +280,7 @@ static int polygon_read(mo_body *B, int member, int dim, const mo_case *cs, cons
     return mo_case_error(cs, mo_cfg_member(bg, "type"), ctx, "a polygon lives in 2D, but an earlier body is %dD", dim);
   if (mo_cfg_member(bg, "radius") && !mo_cfg_member(bg, "sides"))
     return mo_case_error(cs, mo_cfg_member(bg, "radius"), ctx, "a polygon takes a 'radius' only as a regular polygon (with 'sides')");
-  if ((st = read_density(B, 2, cs, bg, &rho, ctx))) return st;
+  if ((st = read_density(B, 2, cs, bg, &rho, &th, ctx))) return st;
   if ((st = polygon_vertices(B, member, cs, bg, v, &nv, ctx))) return st;
   where = mo_cfg_member(bg, "vertices") ? mo_cfg_member(bg, "vertices") : mo_cfg_member(bg, "arch") ? mo_cfg_member(bg, "arch") : bg;
   if (mo_polygon_check(nv, v, 1e-12, why, sizeof why))
@@ -298,9 +301,9 @@ static int polygon_read(mo_body *B, int member, int dim, const mo_case *cs, cons
   }
   B->xc0[0] = c[0];
   B->xc0[1] = c[1];
-  B->mass = rho * area * B->thickness;
+  B->mass = rho * area * th;
   memset(B->J, 0, sizeof B->J);
-  B->J[0] = rho * B->thickness * mo_polygon_inertia(nv, v, c);
+  B->J[0] = rho * th * mo_polygon_inertia(nv, v, c);
   B->bound = sqrt(r2max);
   B->ndof = 3;
   return read_inertia(B, 2, cs, bg, ctx);
@@ -316,7 +319,7 @@ static void polygon_release(mo_body *B)
 
 /* Mass, centroid and inertia of the mesh by its consistent mass matrix: with M_ab = int rho N_a N_b
    and sum_b N_b x_b = x, sum_ab x_a M_ab = int rho x and sum_ab x_a x_b M_ab = int rho x x^T exactly. */
-static int mesh_mass(mo_body *B, double rho, mo_ctx *ctx)
+static int mesh_mass(mo_body *B, double rho, double th, mo_ctx *ctx)
 {
   const mo_mesh *m = B->mesh;
   mo_material mat;
@@ -327,7 +330,7 @@ static int mesh_mass(mo_body *B, double rho, mo_ctx *ctx)
   mat.E = 1;
   mat.rho = rho;
   mat.area = 1;
-  mat.thickness = B->thickness;
+  mat.thickness = th;
   mat.hyp = D == 3 ? MO_HYP_3D : MO_HYP_PLANE_STRAIN;
   for (e = 0; e < m->nelem; e++) {
     const int *cn = m->conn + (size_t)e * nen;
@@ -367,7 +370,7 @@ static int rigid_mesh_read(mo_body *B, int member, int dim, const mo_case *cs, c
 {
   static const char *const other[] = {"material", "loads", "mass", "center", "radius", "angle", "size", "sides",
                                       "vertices", "arch", "pack"};
-  double rho;
+  double rho, th;
   int st;
   (void)member;
   if ((st = refuse(cs, bg, "rigid_mesh", other, (int)MO_COUNT(other), ctx)) ||
@@ -381,15 +384,15 @@ static int rigid_mesh_read(mo_body *B, int member, int dim, const mo_case *cs, c
   if (dim && B->mesh->dim != dim)
     return mo_case_error(cs, mo_cfg_member(bg, "mesh"), ctx, "body '%s' is %dD but an earlier body is %dD", B->name,
                          B->mesh->dim, dim);
-  if ((st = read_density(B, B->mesh->dim, cs, bg, &rho, ctx))) return st;
-  if ((st = mesh_mass(B, rho, ctx))) return mo_scene_relocate(cs, mo_cfg_member(bg, "mesh"), ctx);
+  if ((st = read_density(B, B->mesh->dim, cs, bg, &rho, &th, ctx))) return st;
+  if ((st = mesh_mass(B, rho, th, ctx))) return mo_scene_relocate(cs, mo_cfg_member(bg, "mesh"), ctx);
   /* the facets' measures of its contact sets (dual cells, Gauss weights) read the material's
      hypothesis and thickness */
   if (!(B->mat = mo_calloc(ctx, 1, sizeof *B->mat))) return MO_ENOMEM;
   B->mat->model = MO_MAT_ELASTIC;
   B->mat->rho = rho;
   B->mat->hyp = B->mesh->dim == 3 ? MO_HYP_3D : MO_HYP_PLANE_STRAIN;
-  B->mat->thickness = B->thickness;
+  B->mat->thickness = th;
   B->mat->area = 1;
   B->theta0 = 0;
   B->ndof = mo_rigid_ndof(B->mesh->dim);

@@ -126,12 +126,14 @@ struct mo_contact {
   struct mo_broad *broad;
   /* the pair list kept by blocks in their own frames (vblocks.c, doc/theory.md §12.26): contact.verlet
      (0 auto: from MO_VBLOCKS_MIN bodies of the broad phase on one process, 1 global: (T111)'s one
-     mean, 2 blocks), the list, the bodies' bounding radii it reads (allocated with it) */
+     mean, 2 blocks), and the list */
   int verlet;
   struct mo_vblocks *vb;
-  double *vb_bound;
-  unsigned long long *mside, *sside; /* per body: bit k when it is on the master / slave side of
-                                        rigid-rigid pair k */
+  /* the rigid-rigid pairs' sides by class (T310): the bodies on the same sides of the same pairs
+     (an entry's grains) share a class, one byte a body in bmask, and the class's masks give bit k
+     when it is on the master (rcm) / slave (rcs) side of rigid-rigid pair k; class 0 is on none */
+  unsigned long long *rcm, *rcs;
+  int nrcls;                  /* classes, 0 included (at most 256) */
   int nrr;                    /* rigid-rigid pairs (at most 64) */
   int *rr;                    /* their pair numbers */
   double *bc, *br;            /* broad phase: centres and radii of the rigid bodies when the list was built */
@@ -143,8 +145,11 @@ struct mo_contact {
   double *bv, *bw;            /* per body: its translation velocity (D), and what its rotation adds (omega r_bound) */
   double *bs2;                /* per body of the broad phase: its speed relative to their mean velocity, plus bw */
   double *psb;                /* per pair: the largest bounding radius of its slave shapes (the walls' first test, T297) */
-  unsigned char *dmask;       /* per body: 1 when in a dynamic pair (its speed is needed) */
-  unsigned char *bmask;
+  double *bR;                 /* per body: its bounding radius (a ball's radius), read where the
+                                 body record was (T310) */
+  unsigned char *dmask;       /* per body: nonzero when in a dynamic pair (its speed is needed): MO_DM_* */
+  unsigned char *bmask;       /* per body: nonzero when in a rigid-rigid pair (the broad phase's bodies):
+                                 its class (rcm, rcs) */
   /* the broad phase's pair list kept between steps (a Verlet list), its reach (alert plus skin)
      and how many times it was built */
   const int *vl;              /* the broad phase's pair array (owned by C->broad) */
@@ -161,6 +166,11 @@ struct mo_contact {
   int vl_built;
   struct mo_pdetect *pd;      /* the detection split over MPI ranks (parallel_detect.c), or NULL */
 };
+
+/* dmask's bits: MO_DM_DYN on every body of the dynamic pairs, and the kind's flags the per-step
+   passes over those bodies test (body_speed, the pairs' loop, the narrow phase of two balls), kept
+   here so that they read no body record (doc/theory.md (T310)) */
+enum { MO_DM_DYN = 1, MO_DM_RIGID = 2, MO_DM_OBSTACLE = 4, MO_DM_BALL = 8 };
 
 /* Candidate a's pair: a detected candidate carries it in its key, a mesh point fixed at build in
    its candidate record. */

@@ -26,11 +26,10 @@ void mo_contact_detect_free(mo_contact *C)
 {
   mo_broad_free(C->broad);
   mo_vblocks_free(C->vb);
-  mo_free(C->vb_bound);
   C->vb = NULL;
-  C->vb_bound = NULL;
-  mo_free(C->mside);
-  mo_free(C->sside);
+  mo_free(C->rcm);
+  mo_free(C->rcs);
+  mo_free(C->bR);
   mo_free(C->rr);
   mo_free(C->bc);
   mo_free(C->br);
@@ -70,15 +69,61 @@ double mo_contact_smallest_size(const mo_contact *C)
   return isfinite(hmin) ? hmin : 1;
 }
 
+/* dmask's bits of body B (MO_DM_*, (T310)): in a dynamic pair, and its kind's flags. */
+static unsigned char dyn_bits(const mo_body *B)
+{
+  const unsigned f = B->type->flags;
+  return (unsigned char)(MO_DM_DYN | (f & MO_BODY_F_RIGID ? MO_DM_RIGID : 0) | (f & MO_BODY_F_OBSTACLE ? MO_DM_OBSTACLE : 0) |
+                         (f & MO_BODY_F_BALL ? MO_DM_BALL : 0));
+}
+
+/* The classes of the rigid-rigid pairs' sides (T310): from each body's masks ms[2 b] (master
+   sides) and ms[2 b + 1] (slave sides), the distinct pairs of masks numbered from 1 in the order
+   of the bodies, each body's class in bmask (0: on no side), the classes' masks in rcm and rcs. A
+   side names a body or a group, so a body's class follows from whether its name and its group's
+   are sides: the 64 pairs name at most 128 sides, and there are at most 128 classes besides 0. The
+   bodies of one entry are consecutive and share their sides: the previous body's class is tried
+   first. */
+static int side_classes(mo_contact *C, const unsigned long long *ms, mo_ctx *ctx)
+{
+  unsigned long long cm[256], cs[256];
+  int n = 1, b, c, last = 0;
+  cm[0] = cs[0] = 0;
+  for (b = 0; b < C->sc->nbody; b++) {
+    const unsigned long long m = ms[2 * (size_t)b], sl = ms[2 * (size_t)b + 1];
+    C->bmask[b] = 0;
+    if (!(m | sl)) continue;
+    c = last;
+    if (cm[c] != m || cs[c] != sl)
+      for (c = 1; c < n && (cm[c] != m || cs[c] != sl); c++) {}
+    if (c == n) {
+      if (n == 256)
+        return mo_error(ctx, MO_EUNSUPPORTED, "%s: the bodies of the contact pairs between rigid shapes are on more "
+                        "than 255 different sets of the pairs' sides; join bodies into groups (one entry making "
+                        "several bodies) and pair the groups", mo_case_file(C->sc->cs));
+      cm[n] = m;
+      cs[n++] = sl;
+    }
+    C->bmask[b] = (unsigned char)c;
+    last = c;
+  }
+  C->nrcls = n;
+  C->rcm = mo_malloc(ctx, (size_t)n * sizeof *C->rcm);
+  C->rcs = mo_malloc(ctx, (size_t)n * sizeof *C->rcs);
+  if (!C->rcm || !C->rcs) return MO_ENOMEM;
+  memcpy(C->rcm, cm, (size_t)n * sizeof *cm);
+  memcpy(C->rcs, cs, (size_t)n * sizeof *cs);
+  return MO_OK;
+}
+
 int mo_contact_detect_setup(mo_contact *C, mo_ctx *ctx)
 {
   const mo_scene *sc = C->sc;
+  unsigned long long *ms;
   int k, i, st;
   if (C->alert < 0) C->alert = 0.1 * mo_contact_smallest_size(C);
   /* the Verlet list's skin (T110): half the smallest body, never less than the alert distance */
   if (C->skin < 0) C->skin = fmax(C->alert, 0.5 * mo_contact_smallest_size(C));
-  C->mside = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->mside);
-  C->sside = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->sside);
   C->rr = mo_malloc(ctx, ((size_t)C->npair + 1) * sizeof *C->rr);
   C->bc = mo_calloc(ctx, (size_t)sc->dim * sc->nbody + 1, sizeof *C->bc); /* D per body (T110) */
   C->bcur = mo_calloc(ctx, (size_t)sc->dim * sc->nbody + 1, sizeof *C->bcur);
@@ -89,33 +134,42 @@ int mo_contact_detect_setup(mo_contact *C, mo_ctx *ctx)
   C->bv = mo_calloc(ctx, (size_t)sc->dim * sc->nbody + 1, sizeof *C->bv); /* D per body: 8 bytes a 2D grain less than 3 (T266) */
   C->bw = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->bw);
   C->bs2 = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *C->bs2);
+  C->bR = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *C->bR);
   C->bmask = mo_calloc(ctx, (size_t)sc->nbody + 1, 1);
   C->dmask = mo_calloc(ctx, (size_t)sc->nbody + 1, 1);
   C->psb = mo_calloc(ctx, (size_t)C->npair + 1, sizeof *C->psb);
-  if (!C->mside || !C->sside || !C->rr || !C->bc || !C->bcur || !C->bdof || !C->br || !C->bs || !C->be || !C->bv || !C->bw || !C->bs2 ||
+  if (!C->rr || !C->bc || !C->bcur || !C->bdof || !C->br || !C->bs || !C->be || !C->bv || !C->bw || !C->bs2 || !C->bR ||
       !C->bmask || !C->dmask || !C->psb)
     return MO_ENOMEM;
   for (k = 0; k < C->npair; k++)
     for (i = 0; i < C->pair[k].ns; i++) C->psb[k] = fmax(C->psb[k], sc->body[C->pair[k].sb[i]].bound);
-  for (i = 0; i < sc->nbody; i++) C->bdof[i] = (sc->body[i].type->flags & MO_BODY_F_RIGID) ? sc->body[i].dof0 : -1;
+  for (i = 0; i < sc->nbody; i++) {
+    C->bdof[i] = (sc->body[i].type->flags & MO_BODY_F_RIGID) ? sc->body[i].dof0 : -1;
+    C->bR[i] = sc->body[i].bound;
+  }
   for (k = 0; k < C->npair; k++) {
     const mo_contact_pair *P = &C->pair[k];
     if (!P->dynamic) continue;
-    for (i = 0; i < P->ns; i++) C->dmask[P->sb[i]] = 1;
-    for (i = 0; i < P->nm; i++) C->dmask[P->mb[i]] = 1;
+    for (i = 0; i < P->ns; i++) C->dmask[P->sb[i]] = dyn_bits(&sc->body[P->sb[i]]);
+    for (i = 0; i < P->nm; i++) C->dmask[P->mb[i]] = dyn_bits(&sc->body[P->mb[i]]);
   }
   C->nrr = 0;
+  if (!(ms = mo_calloc(ctx, 2 * (size_t)sc->nbody + 1, sizeof *ms))) return MO_ENOMEM;
   for (k = 0; k < C->npair; k++) {
     const mo_contact_pair *P = &C->pair[k];
     if (!rigid_rigid(C, P)) continue;
-    if (C->nrr == 64)
+    if (C->nrr == 64) {
+      mo_free(ms);
       return mo_error(ctx, MO_EUNSUPPORTED, "%s: more than 64 contact pairs between rigid shapes; join bodies into "
                       "groups (one entry making several bodies) and pair the groups", mo_case_file(sc->cs));
-    for (i = 0; i < P->nm; i++) C->mside[P->mb[i]] |= 1ULL << C->nrr;
-    for (i = 0; i < P->ns; i++) C->sside[P->sb[i]] |= 1ULL << C->nrr;
+    }
+    for (i = 0; i < P->nm; i++) ms[2 * (size_t)P->mb[i]] |= 1ULL << C->nrr;
+    for (i = 0; i < P->ns; i++) ms[2 * (size_t)P->sb[i] + 1] |= 1ULL << C->nrr;
     C->rr[C->nrr++] = k;
   }
-  for (i = 0; i < sc->nbody; i++) C->bmask[i] = (C->mside[i] | C->sside[i]) != 0;
+  st = side_classes(C, ms, ctx);
+  mo_free(ms);
+  if (st) return st;
   /* the remap written by the detection (T220): the pairs between shapes in the broad phase's
      order, those of shapes against a plane by pair, then by slave, which the pair's list must
      give in increasing order (the granular path has no other pair) */
@@ -276,19 +330,23 @@ static int shape_shape(mo_contact *C, int k, int sb, int mb, const mo_state *s, 
 {
   const double alert = pair_alert(C, sb, mb);
   const mo_scene *sc = C->sc;
-  const mo_body *S = &sc->body[sb], *M = &sc->body[mb];
+  const mo_body *S, *M;
   double cs[3], cm[3], vs[2 * MO_POLYGON_MAX], vm[2 * MO_POLYGON_MAX];
   mo_narrow out[2];
   dyn_side ds;
   int n = 0, i, st, flip = 0;
-  if (C->compact && S->kind != MO_BODY_POLYGON && M->kind != MO_BODY_POLYGON) {
-    /* two balls on the granular path: at most one contact, appended as a compact record. Their
-       centres are body_speed's of this detection (bcur: x_c0 + u, the sums of shape_world), read
-       where they are instead of formed again for every pair (T290) */
+  if (C->compact && (C->dmask[sb] & C->dmask[mb] & MO_DM_BALL)) {
+    /* two balls on the granular path (the shapes of a rigid-rigid pair are balls or polygons): at
+       most one contact, appended as a compact record. Their centres are body_speed's of this
+       detection (bcur: x_c0 + u, the sums of shape_world), read where they are instead of formed
+       again for every pair (T290); their radii are bR's, their kinds dmask's: no body record read
+       (T310) */
     const double *bs = C->bcur + (size_t)sc->dim * sb, *bm = C->bcur + (size_t)sc->dim * mb;
-    if (!mo_narrow_ball_ball(sc->dim, bm, M->radius, bs, S->radius, alert, out)) return MO_OK;
+    if (!mo_narrow_ball_ball(sc->dim, bm, C->bR[mb], bs, C->bR[sb], alert, out)) return MO_OK;
     return compact_add(C, k, sb, mb, out, ctx);
   }
+  S = &sc->body[sb];
+  M = &sc->body[mb];
   shape_world(sc, S, s, cs, vs);
   shape_world(sc, M, s, cm, vm);
   if (S->kind != MO_BODY_POLYGON && M->kind != MO_BODY_POLYGON)
@@ -421,38 +479,75 @@ static int nodes_shape(mo_contact *C, int k, int mb, const mo_state *s, double t
   return st;
 }
 
+/* The walls' first test (T297) from the pair's shape q on (own[q], or q, in its list sbl): the first
+   shape whose bounding ball may be within an alert distance of the plane (point p, unit normal nrm),
+   or nq when none is. The loop of shapes_obstacle with the pair's constants read once (the alert
+   distance, 2 h, the plane's speed bound s_m, the largest bounding radius psb) and the dimension a
+   constant of the call (T312): the same sums in the same order, h from +0 over the components and
+   the margin (alert + 2 h (s_b + s_m)) (1 + 1e-9), so the same shapes are passed over. */
+static inline __attribute__((always_inline)) int plane_scan(const mo_contact *C, const int *sbl, const int *own, int q,
+                                                            int nq, const double *p, const double *nrm, double bsm,
+                                                            double psb, const int D)
+{
+  const double *bcur = C->bcur, *bs = C->bs, alert = C->alert, h2 = 2 * C->h;
+  for (; q < nq; q++) {
+    const int sb = sbl[own ? own[q] : q];
+    const double *cb = bcur + (size_t)D * sb; /* body_speed's centre (T290) */
+    const double margin = (alert + h2 * (bs[sb] + bsm)) * (1 + 1e-9);
+    double h = 0;
+    int j;
+    for (j = 0; j < D; j++) h += (cb[j] - p[j]) * nrm[j];
+    if (!(h > psb + margin)) return q;
+  }
+  return nq;
+}
+
+static int plane_next(const mo_contact *C, const int *sbl, const int *own, int q, int nq, const double *p,
+                      const double *nrm, double bsm, double psb)
+{
+  const int D = C->sc->dim;
+  if (D == 2) return plane_scan(C, sbl, own, q, nq, p, nrm, bsm, psb, 2);
+  if (D == 3) return plane_scan(C, sbl, own, q, nq, p, nrm, bsm, psb, 3);
+  return plane_scan(C, sbl, own, q, nq, p, nrm, bsm, psb, D);
+}
+
 /* Every slave shape of pair k against its plane or mesh master (O(bodies of the pair)). */
 static int shapes_obstacle(mo_contact *C, int k, const mo_state *s, double t, mo_ctx *ctx)
 {
   const mo_scene *sc = C->sc;
   const mo_contact_pair *P = &C->pair[k];
   const mo_body *M = &sc->body[P->mb[0]];
-  const int *own = NULL;
+  const int *own = NULL, plane = (M->type->flags & MO_BODY_F_OBSTACLE) != 0;
   int i, j, n, q, nq = P->ns, st;
   /* split over the ranks: the shapes of this rank's slab only (T215, T231) */
   double p[3] = {0, 0, 0};
-  if (C->pd && (M->type->flags & MO_BODY_F_OBSTACLE)) nq = mo_pdetect_walls(C->pd, k, &own);
-  if (M->type->flags & MO_BODY_F_OBSTACLE) {
+  if (C->pd && plane) nq = mo_pdetect_walls(C->pd, k, &own);
+  if (plane) {
     if (t > M->until) return MO_OK; /* the gate has opened */
     /* the plane's point at t: one for every shape of the pair (T290) */
     for (j = 0; j < sc->dim; j++) p[j] = M->point[j] + M->velocity[j] * t;
   }
   for (q = 0; q < nq; q++) {
-    int sb = P->sb[i = own ? own[q] : q];
-    const mo_body *S = &sc->body[sb];
+    int sb;
+    const mo_body *S;
     double c[3], v[2 * MO_POLYGON_MAX], alert;
     mo_narrow out[MO_POLYGON_MAX];
     dyn_side ds;
-    if (M->type->flags & MO_BODY_F_OBSTACLE) {
+    /* a plane: on to the next shape its first test keeps (T312) */
+    if (plane && (q = plane_next(C, P->sb, own, q, nq, p, M->normal, C->bs[P->mb[0]], C->psb[k])) == nq) break;
+    sb = P->sb[i = own ? own[q] : q];
+    S = &sc->body[sb];
+    if (plane) {
       const double *cb = C->bcur + (size_t)sc->dim * sb; /* body_speed's centre (T290) */
       double h = 0, reach;
       int from = C->nc;
       /* a shape whose bounding ball is farther from the plane than any alert distance of theirs
          (pair_alert <= alert + 2 h (s_b + s_plane)) is passed over before its narrow phase; first
          against the largest bounding radius of the pair's shapes (T297), which reads no body
-         record: almost every shape of a pile is passed over there, and the body records, 216
-         bytes apart, are read only for the few near the plane (the same shapes pass both tests:
-         psb >= bound, and the sums round alike) */
+         record: almost every shape of a pile is passed over there (plane_scan, T312; the test is
+         formed again here for the shape it kept), and the body records, 208 bytes apart, are read
+         only for the few near the plane (the same shapes pass both tests: psb >= bound, and the
+         sums round alike) */
       const double margin = (C->alert + 2 * C->h * (C->bs[sb] + C->bs[P->mb[0]])) * (1 + 1e-9);
       for (j = 0; j < sc->dim; j++) h += (cb[j] - p[j]) * M->normal[j];
       if (h > C->psb[k] + margin) continue;
@@ -496,20 +591,25 @@ static inline void body_speed(mo_contact *C, const mo_state *s, int b)
 {
   const mo_scene *sc = C->sc;
   const mo_body *B = &sc->body[b];
+  const unsigned char fl = C->dmask[b];
   int a, i, D = sc->dim;
   double v2 = 0, w2 = 0, vmax = 0, *v = C->bv + (size_t)D * b;
-  for (a = 0; a < D; a++) v[a] = 0;
-  C->bw[b] = 0;
-  if (B->type->flags & MO_BODY_F_RIGID) {
-    for (a = 0; a < D; a++) C->bcur[(size_t)D * b + a] = B->xc0[a] + s->u[B->dof0 + a]; /* mo_rigid_center */
-    for (a = 0; a < D; a++) v2 += (v[a] = s->v[B->dof0 + a]) * s->v[B->dof0 + a];
-    for (a = D; a < B->ndof; a++) w2 += s->v[B->dof0 + a] * s->v[B->dof0 + a];
-    C->bw[b] = sqrt(w2) * B->bound;
+  if (fl & MO_DM_RIGID) {
+    /* the kind from dmask, the first dof from bdof, the bounding radius from bR, the dofs
+       mo_rigid_ndof's: of the body record its centroid alone is read (T310) */
+    const int d0 = C->bdof[b], nd = D == 3 ? 6 : 3; /* mo_rigid_ndof */
+    const double *x0 = B->xc0;
+    for (a = 0; a < D; a++) C->bcur[(size_t)D * b + a] = x0[a] + s->u[d0 + a]; /* mo_rigid_center */
+    for (a = 0; a < D; a++) v2 += (v[a] = s->v[d0 + a]) * s->v[d0 + a];
+    for (a = D; a < nd; a++) w2 += s->v[d0 + a] * s->v[d0 + a];
+    C->bw[b] = sqrt(w2) * C->bR[b];
     vmax = sqrt(v2) + C->bw[b];
-  } else if (B->type->flags & MO_BODY_F_OBSTACLE) {
+  } else if (fl & MO_DM_OBSTACLE) {
+    C->bw[b] = 0;
     for (a = 0; a < D; a++) v2 += (v[a] = B->velocity[a]) * B->velocity[a];
     vmax = sqrt(v2);
   } else {
+    for (a = 0; a < D; a++) v[a] = 0;
     /* a mesh: its fastest node, as a spread about no common velocity */
     for (a = 0; a < B->mesh->nnode; a++) {
       v2 = 0;
@@ -537,8 +637,12 @@ static void body_speeds(mo_contact *C, const mo_state *s)
     return;
   }
   if (C->pd) C->bcur_u = NULL;
-  for (b = 0; b < C->sc->nbody; b++)
+  for (b = 0; b < C->sc->nbody; b++) {
+    /* of its body record body_speed reads the centroid alone (T310), 208 bytes from the last one:
+       at 10^5 grains past the caches, and the loop waits on it; asked for 16 bodies ahead (T313) */
+    if (b + 16 < C->sc->nbody) __builtin_prefetch(C->sc->body[b + 16].xc0);
     if (C->dmask[b]) body_speed(C, s, b);
+  }
 }
 
 /* Body b's speed relative to the mean translation velocity vm plus what its rotation adds,
@@ -625,20 +729,16 @@ static int pair_list_blocks(mo_contact *C, const mo_state *s, mo_ctx *ctx)
   mo_vblocks_in in;
   const int *pairs;
   long np;
-  int b, st, built;
+  int st, built;
   const double t0 = mo_clock();
-  if (!C->vb) {
-    if ((st = mo_vblocks_create(&C->vb, ctx))) return st;
-    if (!(C->vb_bound = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *C->vb_bound))) return MO_ENOMEM;
-    for (b = 0; b < sc->nbody; b++) C->vb_bound[b] = sc->body[b].bound;
-  }
+  if (!C->vb && (st = mo_vblocks_create(&C->vb, ctx))) return st;
   in.dim = sc->dim;
   in.n = sc->nbody;
   in.mask = C->bmask;
   in.x = C->bcur;
   in.v = C->bv;
   in.w = C->bw;
-  in.bound = C->vb_bound;
+  in.bound = C->bR;
   in.t = s->t;
   in.h = C->h;
   in.alert = C->alert;
@@ -744,9 +844,8 @@ static int pair_list(mo_contact *C, const mo_state *s, mo_ctx *ctx)
    the narrow phase, which would find it out of reach too. */
 static inline int balls_apart(const mo_contact *C, const mo_state *s, int i, int j, int D)
 {
-  const mo_body *A = &C->sc->body[i], *B = &C->sc->body[j];
   const double *ci = C->bcur + (size_t)D * i, *cj = C->bcur + (size_t)D * j;
-  double d2 = 0, reach = A->radius + B->radius + C->alert + 2 * C->h * (C->bs[i] + C->bs[j]);
+  double d2 = 0, reach = C->bR[i] + C->bR[j] + C->alert + 2 * C->h * (C->bs[i] + C->bs[j]);
   int k;
   (void)s;
   for (k = 0; k < D; k++) d2 += (cj[k] - ci[k]) * (cj[k] - ci[k]);
@@ -763,12 +862,13 @@ static int rigid_pairs(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx)
   if (!C->pd && (st = pair_list(C, s, ctx))) return st;
   for (q = 0; q < C->vl_n; q++) {
     int i = C->vl[2 * q], j = C->vl[2 * q + 1], r, from = C->nc;
-    unsigned long long ij = C->mside[i] & C->sside[j], ji = C->mside[j] & C->sside[i];
+    const unsigned char ci = C->bmask[i], cj = C->bmask[j]; /* the bodies' side classes (T310) */
+    unsigned long long ij = C->rcm[ci] & C->rcs[cj], ji = C->rcm[cj] & C->rcs[ci];
     unsigned long long any = ij | ji;
     if (!any) continue;
     if (C->pd && !mo_pdetect_owns(C->pd, i)) continue; /* another rank's pair (T215) */
-    if ((sc->body[i].type->flags & sc->body[j].type->flags & MO_BODY_F_BALL) && balls_apart(C, s, i, j, sc->dim))
-      continue;
+    /* two balls: their flags and radii from the compact arrays, no body record read (T310) */
+    if ((C->dmask[i] & C->dmask[j] & MO_DM_BALL) && balls_apart(C, s, i, j, sc->dim)) continue;
     for (r = 0; !(any >> r & 1ULL); r++) {}
     /* master i, slave j when pair r reads so (for a pair within a group: the lower index) */
     if (ij >> r & 1ULL) st = shape_shape(C, C->rr[r], j, i, s, t, ctx);
@@ -782,7 +882,7 @@ static int rigid_pairs(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx)
 
 size_t mo_contact_broad_bytes(const mo_contact *C)
 {
-  return mo_broad_bytes(C->broad) + mo_vblocks_bytes(C->vb) + (C->vb_bound ? (size_t)C->sc->nbody * sizeof(double) : 0);
+  return mo_broad_bytes(C->broad) + mo_vblocks_bytes(C->vb);
 }
 
 int mo_contact_broad_blocks(const mo_contact *C, long *made, long *nblock)
@@ -807,8 +907,8 @@ const double *mo_contact_centres(mo_contact *C, const mo_state *s)
   /* another state (the scene's initial one, which the first geometry is of): body_speed's sums at s,
      which the next detection forms again before it reads them */
   for (b = 0; b < sc->nbody; b++)
-    if (C->dmask[b] && (sc->body[b].type->flags & MO_BODY_F_RIGID))
-      for (a = 0; a < D; a++) C->bcur[(size_t)D * b + a] = sc->body[b].xc0[a] + s->u[sc->body[b].dof0 + a];
+    if (C->dmask[b] & MO_DM_RIGID)
+      for (a = 0; a < D; a++) C->bcur[(size_t)D * b + a] = sc->body[b].xc0[a] + s->u[C->bdof[b] + a];
   C->bcur_u = s->u;
   C->bcur_step = s->step;
   return C->bcur;

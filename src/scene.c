@@ -298,6 +298,7 @@ void mo_scene_free(mo_scene *sc)
     if (!i || sc->body[i - 1].group != B->group) mo_free(B->group); /* one string per group */
   }
   mo_free(sc->rigid);
+  mo_free(sc->rigid_md);
   mo_free(sc->asm_elems);
   mo_free(sc->asm_seconds);
   mo_free(sc->asm_entries);
@@ -1070,6 +1071,31 @@ static int number_dofs(mo_scene *sc, mo_ctx *ctx)
   return MO_OK;
 }
 
+/* The 2D rigid bodies' mass diagonals diag(m, m, I) as (m, I) in the order of sc->rigid: the
+   stepper's right-hand side and the kinetic energy, the two passes a step makes over every rigid
+   body's mass, read them there and not in the body records, 208 bytes apart (doc/theory.md
+   (T311)). Rigid body r's first dof is nfe_dof + 3 r (number_dofs: the rigid bodies' dofs after the
+   nodal ones, nd each in that order), which those passes use in place of the record's dof0: checked
+   here in every dimension. */
+static int rigid_diagonals(mo_scene *sc, mo_ctx *ctx)
+{
+  const int nd = mo_rigid_ndof(sc->dim);
+  int r;
+  for (r = 0; r < sc->nrigid; r++) {
+    const mo_body *B = &sc->body[sc->rigid[r]];
+    if (B->dof0 != sc->nfe_dof + nd * r || B->ndof != nd)
+      return mo_error(ctx, MO_EINTERNAL, "rigid body '%s': dofs %d.. where number_dofs gives %d..", B->name, B->dof0,
+                      sc->nfe_dof + nd * r);
+  }
+  if (sc->dim != 2 || !sc->nrigid) return MO_OK;
+  if (!(sc->rigid_md = mo_malloc(ctx, 2 * (size_t)sc->nrigid * sizeof *sc->rigid_md))) return MO_ENOMEM;
+  for (r = 0; r < sc->nrigid; r++) {
+    sc->rigid_md[2 * (size_t)r] = sc->body[sc->rigid[r]].mass;
+    sc->rigid_md[2 * (size_t)r + 1] = sc->body[sc->rigid[r]].J[0];
+  }
+  return MO_OK;
+}
+
 /* Pass 2: supports, prescribed motions and initial fields, then the free numbering. */
 static int conditions(mo_scene *sc, const config_setting_t *bl, int nentry, int *owner, mo_ctx *ctx)
 {
@@ -1293,7 +1319,7 @@ int mo_scene_build(const mo_case *cs, mo_scene **out, mo_ctx *ctx)
   sc->nbody = total;
   if ((st = build_time(sc, cs, ctx))) goto fail;
   if ((st = read_bodies(sc, bl, nentry, ctx))) goto fail;
-  if ((st = number_dofs(sc, ctx))) goto fail;
+  if ((st = number_dofs(sc, ctx)) || (st = rigid_diagonals(sc, ctx))) goto fail;
   if (sc->nrigid && sc->time.scheme == MO_SCHEME_QUASISTATIC) {
     st = mo_case_error(cs, config_lookup(&cs->cfg, "time.scheme"), ctx, "rigid bodies need a dynamic scheme "
                        "(theta or newmark): without inertia nothing holds a rigid body but its contacts");

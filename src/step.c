@@ -106,10 +106,14 @@ double mo_energy_elastic(const mo_scene *sc, const double *u, double *work)
 {
   if (!mo_energy_needs_work(sc)) {
     /* K has no entry (T249): K u is +0 everywhere, and x^T (K u) / 2 its sum, u_i 0 in turn
-       (a non-finite u_i gives NaN, as the product with K would) */
+       (a non-finite u_i gives NaN, as the product with K would). Every term u_i 0 of a finite u_i
+       is +0 or -0 and a sum from +0 of such terms stays +0 (round to nearest), so the sum is formed
+       from the first non-finite u_i on, found by a scan without the chain of dependent additions
+       that made this a pass of one addition's latency a dof at 10^5 grains (T314) */
     double e = 0;
-    int i;
-    for (i = 0; i < sc->ndof; i++) e += u[i] * 0.0;
+    int i = 0;
+    while (i < sc->ndof && isfinite(u[i])) i++;
+    for (; i < sc->ndof; i++) e += u[i] * 0.0;
     return 0.5 * e;
   }
   return half_form(sc, sc->K, u, sc->ndof, work);
@@ -204,10 +208,13 @@ static int is_diagonal(int n, const double *M)
 
 /* Diagonal entry i of the mass block of rigid body r (scene order), B, with diagonal storage: in
    2D the body's own mass and inertia, mo_rigid_mass's diag(m, m, I), and rig_M is not kept (24
-   bytes a grain, T267). */
+   bytes a grain, T267); they are read from the scene's (m, I) per rigid body, not from the body
+   record (T311). */
 static inline double rig_diag(const mo_stepper *S, const mo_body *B, int r, int nd, int i)
 {
-  return S->rig_M ? S->rig_M[(size_t)r * (size_t)nd + (size_t)i] : i < 2 ? B->mass : B->J[0];
+  if (S->rig_M) return S->rig_M[(size_t)r * (size_t)nd + (size_t)i];
+  if (S->sc->rigid_md) return S->sc->rigid_md[2 * (size_t)r + (i < 2 ? 0 : 1)];
+  return i < 2 ? B->mass : B->J[0];
 }
 
 /* Entry (i, j) of the mass block of rigid body r (scene order), full or diagonal storage. */
@@ -909,15 +916,36 @@ void mo_stepper_presc_unknown(const mo_stepper *S, double t, double *x)
 static void rigid_rhs(const mo_stepper *S, const mo_state *s, const double *x, double *rhs)
 {
   const mo_scene *sc = S->sc;
+  const double h0 = S->h * 0.0; /* h g, g = 0 without gyroscopic forces */
   int nd = mo_rigid_ndof(sc->dim), k, i, j, r;
+  if (S->blk_diag && !S->rig_M && sc->rigid_md && !S->blk_loc && S->scheme == MO_SCHEME_THETA && !S->gyro && h0 == 0 &&
+      !signbit(h0)) {
+    /* 2D bodies with every dof free (the grains): each row's h g + m_i v_i below (its first
+       branch), with (m, I) from the scene's rigid_md and the dofs number_dofs's, no body record
+       read (T311) */
+    for (k = 0; k < S->nblk; k++) {
+      const int o = S->blk_off[k];
+      const size_t rk = (size_t)blk_rank(S, k);
+      const double *v = s->v + sc->nfe_dof + 3 * rk, *md = sc->rigid_md + 2 * rk;
+      rhs[o] += h0 + md[0] * v[0];
+      rhs[o + 1] += h0 + md[0] * v[1];
+      rhs[o + 2] += h0 + md[1] * v[2];
+    }
+    return;
+  }
   for (k = 0; k < S->nblk; k++) {
     const mo_body *B = &sc->body[blk_bodyof(S, k)];
-    int o = S->blk_off[k], nk = S->blk_off[k + 1] - o;
+    int o = S->blk_off[k], nk = S->blk_off[k + 1] - o, d0;
     const int *loc = blk_local(S, o);
-    const double *v = s->v + B->dof0, *xb = x + B->dof0;
+    const double *v, *xb;
     r = blk_rank(S, k);
+    /* the body's first dof as number_dofs gives it, nfe_dof + nd r (checked at the scene's build,
+       rigid_diagonals): with rig_diag's (m, I) no body record is read on the 2D path (T311) */
+    d0 = sc->nfe_dof + nd * r;
+    v = s->v + d0;
+    xb = x + d0;
     for (i = 0; i < nk; i++) {
-      double g = S->gyro ? S->gyro[B->dof0 + loc[i]] : 0;
+      double g = S->gyro ? S->gyro[d0 + loc[i]] : 0;
       double acc = S->scheme == MO_SCHEME_THETA ? S->h * g : g;
       /* a diagonal block: the full row's sum to the bit for finite v (block_apply), its zeros'
          products summed only after a -0 start or with prescribed dofs */
@@ -929,13 +957,13 @@ static void rigid_rhs(const mo_stepper *S, const mo_state *s, const double *x, d
         for (j = 0; j < nd; j++) {
           double Mij = j == li ? mii : 0.0;
           if (S->scheme == MO_SCHEME_THETA) acc += Mij * v[j];
-          if (sc->free_of[B->dof0 + j] < 0) acc -= Mij * xb[j];
+          if (sc->free_of[d0 + j] < 0) acc -= Mij * xb[j];
         }
       } else {
         const double *Mi = S->rig_M + (size_t)r * (size_t)(nd * nd) + (size_t)(loc[i] * nd);
         for (j = 0; j < nd; j++) {
           if (S->scheme == MO_SCHEME_THETA) acc += Mi[j] * v[j];
-          if (sc->free_of[B->dof0 + j] < 0) acc -= Mi[j] * xb[j];
+          if (sc->free_of[d0 + j] < 0) acc -= Mi[j] * xb[j];
         }
       }
       rhs[o + i] += acc;

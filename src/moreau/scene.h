@@ -27,7 +27,7 @@ typedef struct mo_body {
   char *name;
   char *group;          /* the entry that generated it with others (an arch's voussoirs), or NULL */
   int entry;            /* its entry in the case's bodies list */
-  mo_body_kind kind;    /* (the int-sized fields in pairs: no padding, 216 bytes a body) */
+  mo_body_kind kind;    /* (the int-sized fields in pairs: no padding, 208 bytes a body) */
   const struct mo_body_type *type;
   mo_mesh *mesh;        /* deformable and rigid-mesh bodies */
   mo_material *mat;     /* bodies with a mesh (deformable, rigid mesh; owned), NULL for shapes and
@@ -60,7 +60,6 @@ typedef struct mo_body {
   double theta0;        /* 2D: orientation in the reference configuration (rad) */
   double radius;        /* disk, sphere */
   double *vert;         /* polygon: vertices about the centroid in the body frame, counter-clockwise */
-  double thickness;     /* 2D rigid bodies: out-of-plane thickness the mass is computed with */
   int orient;           /* 3D rigid bodies: index of the quaternion in mo_state.orient, else -1 */
   int fixed;            /* every dof held fixed (a support: no history columns) */
   double bound;         /* bounding radius about the centroid */
@@ -236,7 +235,9 @@ typedef struct mo_scene {
      nfe_free-1: the block of What factored by CHOLMOD), the rigid bodies' after */
   int nfe_dof, nfe_free;
   int nrigid;
-  int *rigid;     /* nrigid body indices */
+  int *rigid;     /* nrigid body indices; rigid body r's dofs are nfe_dof + r nd .. + nd - 1 (number_dofs) */
+  double *rigid_md; /* 2D: per rigid body (rigid's order), its mass and inertia (m, I), the diagonal of
+                       diag(m, m, I) the per-step passes read instead of the body records (T311); NULL in 3D */
   int norient;    /* 3D rigid bodies (quaternions in mo_state.orient) */
   int *free_of;   /* ndof: free index of each dof, or -1 when prescribed */
   int *full_of;   /* nfree: dof of each free index (free_of itself when every dof is free) */
