@@ -578,14 +578,7 @@ static int sort_keys(mo_vblocks *V, mo_ctx *ctx)
       a = b;
       b = t;
     }
-  if (a != V->add) { /* an odd number of passes: the sorted keys are in the scratch */
-    uint64_t *t = V->add;
-    size_t c = V->cap_add;
-    V->add = V->add2;
-    V->cap_add = V->cap_add2;
-    V->add2 = t;
-    V->cap_add2 = c;
-  }
+  /* as many passes over each half: an even count, the sorted keys are back in V->add */
   return MO_OK;
 }
 
