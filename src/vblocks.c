@@ -61,7 +61,7 @@ struct mo_vblocks {
   long nadd;
   double *gath;
   mo_broad *bb; /* the blocks' own broad phase */
-  long refreshed, builds;
+  long refreshed;
   size_t cap_body, cap_mem, cap_block, cap_tab, cap_tab2, cap_chg, cap_pair, cap_add, cap_add2, cap_gath;
 };
 
@@ -238,6 +238,19 @@ static void make_block(mo_vblocks *V, const mo_vblocks_in *in, int k, const doub
     r = fmax(r, dist(V->xs + (size_t)D * b, c, D) + V->R[b]);
   }
   V->rho[k] = r;
+}
+
+/* The block cell of centre x: its coordinates from lo in cells of side `side`, 21 bits each
+   (clamped), packed into one key (< 2^63), the first coordinate lowest. */
+static uint64_t cell_key(const double *x, int D, const double *lo, double side)
+{
+  uint64_t cell = 0;
+  int a;
+  for (a = D - 1; a >= 0; a--) {
+    const double s = floor((x[a] - lo[a]) / side);
+    cell = cell << 21 | (uint64_t)(s < 2097151.0 ? s : 2097151.0);
+  }
+  return cell;
 }
 
 static int cmp_u64(const void *a, const void *b)
@@ -426,15 +439,10 @@ static int build_all(mo_vblocks *V, const mo_vblocks_in *in, mo_broad *B, double
   }
   /* the block of each body: its cell's coordinates (21 bits each, clamped) and its index */
   for (i = 0, k = 0; i < n; i++) {
-    uint64_t cell = 0;
     V->blk[i] = -1;
     V->flag[i] = 0;
     if (in->mask && !in->mask[i]) continue;
-    for (a = D - 1; a >= 0; a--) {
-      double s = floor((in->x[(size_t)D * i + a] - lo[a]) / side);
-      cell = cell << 21 | (uint64_t)(s < 2097151.0 ? s : 2097151.0);
-    }
-    key[k++] = cell; /* < 2^63 */
+    key[k++] = cell_key(in->x + (size_t)D * i, D, lo, side);
   }
   /* counting the blocks: sort the cells, then each body's block by binary search */
   qsort(key, m, sizeof *key, cmp_u64);
@@ -443,13 +451,10 @@ static int build_all(mo_vblocks *V, const mo_vblocks_in *in, mo_broad *B, double
   if ((st = room(V, n, m, nb, ctx))) goto out;
   memset(V->mstart, 0, ((size_t)nb + 1) * sizeof *V->mstart);
   for (i = 0; i < n; i++) {
-    uint64_t cell = 0;
+    uint64_t cell;
     long lo_i = 0, hi_i = nb - 1;
     if (in->mask && !in->mask[i]) continue;
-    for (a = D - 1; a >= 0; a--) {
-      double s = floor((in->x[(size_t)D * i + a] - lo[a]) / side);
-      cell = cell << 21 | (uint64_t)(s < 2097151.0 ? s : 2097151.0);
-    }
+    cell = cell_key(in->x + (size_t)D * i, D, lo, side);
     while (lo_i < hi_i) {
       long mid = (lo_i + hi_i) / 2;
       if (key[mid] < cell) lo_i = mid + 1;
@@ -527,7 +532,6 @@ static int build_all(mo_vblocks *V, const mo_vblocks_in *in, mo_broad *B, double
   }
   V->ntab = nbp;
   V->ok = 1;
-  V->builds++;
 out:
   mo_broad_trim(B); /* the cells' arrays until the next whole build: none (the list is V's) */
   mo_free(key);

@@ -643,7 +643,7 @@ static void test_broad_small(void)
    alert + 2 h (|v_i - v_j| + w_i + w_j), must be in the list, and the list sorted without repeats. */
 static void vblocks_column(int dim, int n, int steps, int masked)
 {
-  const double h = 1e-3, grav = 9.81, alert = 4e-4, skin = 2e-3, side = dim == 2 ? 0.5 : 0.12;
+  const double h = 1e-3, grav = 9.81, alert = 4e-4, skin = 2e-3;
   double *x = malloc(3 * n * sizeof *x), *v = calloc(3 * n, sizeof *v), *w = calloc(n, sizeof *w);
   double *bound = malloc(n * sizeof *bound), ybed = 0.05, t = 0;
   unsigned char *mask = malloc(n), *fall = malloc(n);
@@ -668,7 +668,6 @@ static void vblocks_column(int dim, int n, int steps, int masked)
     v[dim * i + up] = fall[i] ? -1.5 : 0; /* thrown down: the bed meets the column at several m/s */
     w[i] = rnd(&g) < 0.1 ? 0.05 * rnd(&g) : 0;
   }
-  (void)side;
   for (step = 0; step < steps; step++) {
     mo_vblocks_in in = {dim, n, mask, x, v, w, bound, t, h, alert, skin};
     const int *p;
