@@ -198,6 +198,20 @@ int mo_par_gatherv(const double *mine, const int *n, double *all, mo_ctx *ctx)
   return MO_OK;
 }
 
+int mo_par_exchange(int npeer, const int *peer, const int *off, const double *send, double *recv, mo_ctx *ctx)
+{
+#ifdef HAVE_PETSC
+  if (PARALLEL(ctx) && npeer > 0) return MODULE(ctx)->exchange(npeer, peer, off, send, recv, ctx);
+#endif
+  (void)npeer;
+  (void)peer;
+  (void)off;
+  (void)send;
+  (void)recv;
+  (void)ctx;
+  return MO_OK;
+}
+
 int mo_par_agree(int st, mo_ctx *ctx)
 {
 #ifdef HAVE_PETSC

@@ -8,12 +8,12 @@
 #include "config.h"
 #include "contact_internal.h"
 #include "parallel_detect.h"
+#include "partition.h"
 #include <moreau/parallel.h>
 
 #include <math.h>
 #include <string.h>
 
-#define NBIN 4096
 #define NTAG MO_PDETECT_NTAG
 
 /* The detection writes the remap (T270): each rank its part's, the blocks carry them (T271). */
@@ -24,52 +24,32 @@ static inline int with_map(const mo_contact *C)
 
 
 int mo_pdetect_slabs(int dim, int n, const double *c, const double *r, const unsigned char *mask, double reach,
-                     int nranks, int rank, int *owner, unsigned char *rmask)
+                     int nranks, int rank, int *owner, unsigned char *rmask, int *idx)
 {
-  double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
-  double w, rmax = 0, slo = HUGE_VAL, shi = -HUGE_VAL, halo;
-  long cnt[NBIN], cum = 0, m = 0;
-  int b, k, ax = 0, bin2rank[NBIN];
+  double rmax = 0, slo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, shi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL}, halo;
+  int b, k, ax;
+  /* (T215), (T330): the bodies' centres cut into boxes of equal counts, the same on every rank */
+  ax = mo_rcb(dim, n, c, NULL, mask, nranks, owner, idx);
   for (b = 0; b < n; b++)
-    if (!mask || mask[b]) {
-      for (k = 0; k < dim; k++) {
-        lo[k] = fmin(lo[k], c[(size_t)dim * b + k]);
-        hi[k] = fmax(hi[k], c[(size_t)dim * b + k]);
-      }
+    if (owner[b] >= 0) {
       rmax = fmax(rmax, r[b]);
-      m++;
+      if (owner[b] == rank)
+        for (k = 0; k < dim; k++) {
+          slo[k] = fmin(slo[k], c[(size_t)dim * b + k]);
+          shi[k] = fmax(shi[k], c[(size_t)dim * b + k]);
+        }
     }
-  for (k = 1; k < dim; k++)
-    if (hi[k] - lo[k] > hi[ax] - lo[ax]) ax = k;
-  w = hi[ax] > lo[ax] ? (hi[ax] - lo[ax]) / NBIN : 1;
-  /* (T215): a histogram of the centres along the axis, each bin in the slab of its first body */
-  memset(cnt, 0, sizeof cnt);
-  for (b = 0; b < n; b++)
-    if (!mask || mask[b]) {
-      long q = (long)((c[(size_t)dim * b + ax] - lo[ax]) / w);
-      cnt[q < 0 ? 0 : q >= NBIN ? NBIN - 1 : q]++;
-    }
-  for (k = 0; k < NBIN; k++) {
-    long q = m ? cum * nranks / m : 0;
-    bin2rank[k] = (int)(q < nranks ? q : nranks - 1);
-    cum += cnt[k];
-  }
-  for (b = 0; b < n; b++) {
-    double x = c[(size_t)dim * b + ax];
-    long q = (long)((x - lo[ax]) / w);
-    owner[b] = -1;
-    if (mask && !mask[b]) continue;
-    owner[b] = bin2rank[q < 0 ? 0 : q >= NBIN ? NBIN - 1 : q];
-    if (owner[b] == rank) {
-      slo = fmin(slo, x);
-      shi = fmax(shi, x);
-    }
-  }
-  /* (T216): a pair within reach is within 2 r_max + reach along the axis */
+  /* (T216): a pair within reach is within 2 r_max + reach along every axis: the halo is the
+     rank's box of centres grown by it */
   halo = (2 * rmax + reach) * (1 + 1e-9);
   for (b = 0; b < n; b++) {
-    double x = c[(size_t)dim * b + ax];
-    rmask[b] = owner[b] >= 0 && (owner[b] == rank || (x >= slo - halo && x <= shi + halo));
+    int in = owner[b] >= 0;
+    if (in && owner[b] != rank)
+      for (k = 0; k < dim && in; k++) {
+        double x = c[(size_t)dim * b + k];
+        in = x >= slo[k] - halo && x <= shi[k] + halo;
+      }
+    rmask[b] = (unsigned char)in;
   }
   return ax;
 }
@@ -166,7 +146,9 @@ int mo_pdetect_build(mo_contact *C, mo_ctx *ctx)
   const mo_scene *sc = C->sc;
   size_t nw = 0;
   int b, k, i;
-  mo_pdetect_slabs(sc->dim, sc->nbody, C->bc, C->br, C->bmask, C->vl_reach, P->nranks, P->rank, P->owner, P->rmask);
+  /* P->own is the cut's scratch before it lists the rank's own bodies */
+  mo_pdetect_slabs(sc->dim, sc->nbody, C->bc, C->br, C->bmask, C->vl_reach, P->nranks, P->rank, P->owner, P->rmask,
+                   P->own);
   /* (T230): the bodies whose validity this rank decides, whose speeds it needs, and the others */
   P->nown = P->nnear = P->nrest = 0;
   for (b = 0; b < sc->nbody; b++) {

@@ -54,15 +54,16 @@ static inline int mo_pdetect_owns(const struct mo_pdetect *P, int b)
   return P->owner[b] == P->rank || (P->owner[b] < 0 && P->rank == 0);
 }
 
-/* The slabs of the broad phase's bodies (T215)-(T216), the same on every rank from the same data:
-   the n balls (centres c: dim * n, radii r) with mask[b] != 0 cut along the axis of their centres'
-   largest extent into `nranks` slabs of about equal counts; owner[b] the slab of body b (-1 when
-   mask[b] is 0). A pair (i, j), i < j, of balls within `reach` (|c_i - c_j| - r_i - r_j <= reach)
-   is owned by owner[i]. rmask[b] = 1 for the bodies rank `rank` needs to find every pair it owns:
-   its own and those within 2 max r + reach of its slab along the axis (its halo). Returns the
-   axis. */
+/* The parts of the broad phase's bodies (T215)-(T216), (T330), the same on every rank from the
+   same data: the n balls (centres c: dim * n, radii r) with mask[b] != 0 cut into `nranks` boxes of
+   about equal counts by recursive bisection across the largest extent (mo_rcb: with 2 ranks one
+   cut, two slabs); owner[b] the part of body b (-1 when mask[b] is 0). A pair (i, j), i < j, of
+   balls within `reach` (|c_i - c_j| - r_i - r_j <= reach) is owned by owner[i]. rmask[b] = 1 for
+   the bodies rank `rank` needs to find every pair it owns: its own and those whose centres lie in
+   the box of its own centres grown by 2 max r + reach (its halo). idx: n ints of scratch. Returns
+   the axis of the first cut. */
 int mo_pdetect_slabs(int dim, int n, const double *c, const double *r, const unsigned char *mask, double reach,
-                     int nranks, int rank, int *owner, unsigned char *rmask);
+                     int nranks, int rank, int *owner, unsigned char *rmask, int *idx);
 
 /* Whether the detection of C is split over the ranks of ctx: more than one rank, the granular
    path's compact records, pairs between rigid shapes, and every other dynamic pair a shape

@@ -167,6 +167,24 @@ static int agree(int st, mo_ctx *ctx)
   return mo_error(ctx, out[0], "rank %d stopped: %s", from, msg);
 }
 
+static int exchange(int npeer, const int *peer, const int *off, const double *send, double *recv, mo_ctx *ctx)
+{
+  MPI_Request few[32], *req = few;
+  double t0 = mo_clock();
+  int k, rc = MPI_SUCCESS;
+  if (npeer > 16 && !(req = mo_malloc(ctx, 2 * (size_t)npeer * sizeof *req))) return MO_ENOMEM;
+  for (k = 0; k < npeer && rc == MPI_SUCCESS; k++)
+    rc = MPI_Irecv(recv + off[k], off[k + 1] - off[k], MPI_DOUBLE, peer[k], 0x6d6f, PETSC_COMM_WORLD, req + k);
+  for (k = 0; k < npeer && rc == MPI_SUCCESS; k++)
+    rc = MPI_Isend((void *)(send + off[k]), off[k + 1] - off[k], MPI_DOUBLE, peer[k], 0x6d6f, PETSC_COMM_WORLD,
+                   req + npeer + k);
+  if (rc == MPI_SUCCESS) rc = MPI_Waitall(2 * npeer, req, MPI_STATUSES_IGNORE);
+  if (req != few) mo_free(req);
+  if (rc != MPI_SUCCESS) return mpi_fail(ctx, rc, "exchange");
+  traffic(ctx, t0, 8.0 * off[npeer]);
+  return MO_OK;
+}
+
 /* --- the linear-solver type ----------------------------------------------------------------------- */
 
 typedef struct {
@@ -1270,5 +1288,5 @@ static void dmat_counts(void *h, long *nnz, long *allocated, long *sent)
 /* The module's one export (petsc_module.h). */
 extern const mo_petsc_module mo_petsc_module_v1;
 const mo_petsc_module mo_petsc_module_v1 = {MO_PETSC_ABI, PETSC_VERSION_GIT, start, started, finish, allreduce,
-                                            bcast, allgatherv, agree, &petsc_type, dmat_create, dmat_add,
+                                            bcast, allgatherv, agree, exchange, &petsc_type, dmat_create, dmat_add,
                                             dmat_assemble, dmat_mult, dmat_row, dmat_counts, dmat_free};

@@ -14,7 +14,7 @@
 #include <moreau/sparse.h>
 
 /* Raised whenever a member changes meaning or position. */
-#define MO_PETSC_ABI 7
+#define MO_PETSC_ABI 8
 #define MO_PETSC_SYMBOL "mo_petsc_module_v1"
 #define MO_PETSC_MODULE_NAME "moreau_petsc.so"
 
@@ -49,6 +49,10 @@ typedef struct mo_petsc_module {
   int (*allgatherv)(const double *mine, const int *n, double *all, mo_ctx *ctx);
   /* (status, -rank) pairs reduced by MAXLOC, then the failing rank's message to every rank. */
   int (*agree)(int st, mo_ctx *ctx);
+  /* Point to point with each of npeer ranks peer[k]: send[off[k] .. off[k + 1]) to it, as many
+     values from it into recv[off[k] .. off[k + 1]). Every peer must list this rank with the same
+     count. */
+  int (*exchange)(int npeer, const int *peer, const int *off, const double *send, double *recv, mo_ctx *ctx);
   const mo_linsolver_type *linsolver;
   /* A distributed n x n matrix assembled from element blocks (doc/parallel.md §3): dof k is
      PETSc's row and column perm[k] (NULL: k), this rank owns the rows rstart .. rend-1, their

@@ -331,13 +331,16 @@ static json_t *parallel_json(const mo_ctx *ctx, const mo_scene *sc)
   json_object_set_new(j, "collective_seconds", jnum(ctx->par_time));
   json_object_set_new(j, "collective_bytes", jnum(ctx->par_bytes));
   if (ctx->par_grain_solves) {
-    /* the granular sweep over the ranks: Gauss-Seidel within each rank's slab of contacts */
+    /* the granular sweep over the ranks: Gauss-Seidel within each rank's part of the contacts */
     double n = (double)ctx->par_grain_solves;
     json_object_set_new(j, "grain_solves", json_integer(ctx->par_grain_solves));
     json_object_set_new(j, "grain_sweeps", json_integer(ctx->par_grain_sweeps));
     json_object_set_new(j, "grain_serial_fallbacks", json_integer(ctx->par_grain_serial));
     json_object_set_new(j, "grain_interface_bodies_mean", jnum(ctx->par_grain_interface / n));
     json_object_set_new(j, "grain_slab_imbalance_mean", jnum(ctx->par_grain_imbalance / n));
+    /* the interface velocities after each sweep: one sum on 2 ranks, point to point between the
+       ranks that share bodies on more (doc/theory.md (T331)) */
+    json_object_set_new(j, "grain_interface_exchange", json_string(ctx->nranks > 2 ? "point to point" : "sum"));
   }
   if (ctx->par_detect_total) {
     /* the detection split over the ranks (doc/parallel.md §4, (T215)): the candidates the largest

@@ -88,8 +88,8 @@ is "$(ls "$OUT/rods-3d-2" | grep -c '^fields_left_.*_[01]\.vtu$')" "$((2 * $(ls 
   "rods-3d VTK: two pieces per frame of each body"
 run_pair box-14 "$MOREAU_SRCDIR/cases/box-on-plane" --set 'bodies.box.mesh.elements=[14,14,14]'
 
-# 3. grains over the ranks (doc/parallel.md §4): the nscd sweep split into slabs of contacts,
-# Gauss-Seidel within a slab and the interface velocities summed after each sweep. At a natural-map
+# 3. grains over the ranks (doc/parallel.md §4): the nscd sweep split into parts of contacts,
+# Gauss-Seidel within a part and the interface velocities summed after each sweep. At a natural-map
 # tolerance of 1e-11 the motion equals the serial sweep's (the reactions of a pile are not unique:
 # compare_runs.py's `grains` mode); the windows end before the first step whose sweeps stall
 grains_pair() { # grains_pair NAME CASE ARGS...
@@ -120,6 +120,23 @@ detected_split() { # detected_split NAME
 }
 grains_pair disk-pile "$MOREAU_SRCDIR/cases/disk-pile" --set bodies.grains.pack.count=60 --set time.end=0.22
 grains_pair sphere-deposit "$MOREAU_SRCDIR/cases/sphere-deposit" --set bodies.grains.pack.count=200 --set time.end=0.12
+# more than 2 ranks ((T330)-(T331)): the parts boxes cut by recursive bisection (3 ranks: unequal
+# halves), the interface velocities sent point to point between the ranks that share bodies and
+# summed in rank order; against the serial runs above
+grains_more() { # grains_more NAME NP CASE ARGS...
+  name=$1
+  np=$2
+  c=$3
+  shift 3
+  set -- --set contact.nscd.tol=1e-11 --set 'contact.nscd.stop="natural"' --set contact.nscd.max_sweeps=50000 "$@"
+  mpi "$np" "$MOREAU" run "$c" --out "$OUT/$name-$np" --quiet "$@" > "$OUT/$name-$np.log" 2>&1
+  ran $? "$OUT/$name-$np.log" "$name: mpirun -np $np completes"
+  is "$(json "$OUT/$name-$np/summary.json" "[d['parallel']['ranks'], d['contact']['failed_solves'], d['parallel']['grain_sweeps'] > 0, d['parallel']['grain_interface_exchange'], d['parallel']['grain_detected_largest_rank'] <= 0.6 * d['parallel']['grain_detected'] / $np * 2]")" \
+    "[$np, 0, True, 'point to point', True]" "$name on $np ranks: every solve converged, the sweep and the detection split, the interface point to point"
+  check_runs "$OUT/$name-1" "$OUT/$name-$np" 1e-8 "$name on $np ranks" grains
+}
+grains_more disk-pile 3 "$MOREAU_SRCDIR/cases/disk-pile" --set bodies.grains.pack.count=60 --set time.end=0.22
+grains_more sphere-deposit 4 "$MOREAU_SRCDIR/cases/sphere-deposit" --set bodies.grains.pack.count=200 --set time.end=0.12
 # a split sweep that stalls goes on as the serial sweep on every rank (doc/parallel.md §4): on
 # masonry-arch at the case's own tolerance (scaled, 1e-11) the split sweep sat at 1.9e-9 and rank 1
 # failed at step 185 with 200 000 sweeps; the run now ends as the serial one does

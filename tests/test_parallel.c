@@ -364,14 +364,16 @@ done:
   mo_ctx_clear_error(ctx);
 }
 
-/* The detection's slabs (T215)-(T216) against a brute-force enumeration: random balls (radii of
-   ratio 3, a pile's density, some stacked at one abscissa), for 1-4 ranks every pair within reach
-   (all n (n - 1) / 2 tested) found by its owner's broad phase on that rank's slab and halo, and
-   the ranks' owned pairs together every pair exactly once; every rank's cut the same. */
-static void slab_checks(int dim, int n, int nranks, unsigned seed, mo_ctx *ctx)
+/* The detection's parts (T215)-(T216), (T330) against a brute-force enumeration: random balls
+   (radii of ratio 3, a pile's density, some stacked at one abscissa) in a box 4 long (`cube` 0) or
+   a cube, for 1-8 ranks every pair within reach (all n (n - 1) / 2 tested) found by its owner's
+   broad phase on that rank's part and halo, and the ranks' owned pairs together every pair exactly
+   once; every rank's cut the same; the parts of equal counts; in the cube, boxes and not slabs. */
+static void slab_checks(int dim, int n, int nranks, int cube, unsigned seed, mo_ctx *ctx)
 {
   double *c = malloc((size_t)dim * n * sizeof *c), *r = malloc((size_t)n * sizeof *r), reach = 0.05;
   int *owner = malloc((size_t)n * sizeof *owner), *own0 = malloc((size_t)n * sizeof *own0);
+  int *idx = malloc((size_t)n * sizeof *idx);
   int *seen = calloc((size_t)n * n, sizeof *seen);
   unsigned char *rmask = malloc((size_t)n), *mask = malloc((size_t)n);
   long near = 0, twice = 0, missed = 0, far = 0, found = 0, maxmine = 0, q, np;
@@ -380,15 +382,15 @@ static void slab_checks(int dim, int n, int nranks, unsigned seed, mo_ctx *ctx)
   const int *pairs;
   srand(seed);
   for (i = 0; i < n; i++) {
-    for (k = 0; k < dim; k++) c[(size_t)dim * i + k] = (double)rand() / RAND_MAX * (k == 0 ? 4.0 : 1.0);
-    if (i % 17 == 0) c[(size_t)dim * i] = 2.0; /* ties on the cut's axis */
+    for (k = 0; k < dim; k++) c[(size_t)dim * i + k] = (double)rand() / RAND_MAX * (k == 0 && !cube ? 4.0 : 1.0);
+    if (i % 17 == 0) c[(size_t)dim * i] = cube ? 0.5 : 2.0; /* ties on the first cut's axis */
     r[i] = 0.02 + 0.04 * (double)rand() / RAND_MAX;
     mask[i] = i % 23 != 5; /* some bodies out of the broad phase */
   }
   mo_broad_create(&B, ctx);
   for (rank = 0; rank < nranks; rank++) {
     long mine = 0;
-    mo_pdetect_slabs(dim, n, c, r, mask, reach, nranks, rank, owner, rmask);
+    mo_pdetect_slabs(dim, n, c, r, mask, reach, nranks, rank, owner, rmask, idx);
     for (i = 0; i < n; i++) {
       if (rank == 0) own0[i] = owner[i];
       else same &= own0[i] == owner[i];
@@ -415,27 +417,46 @@ static void slab_checks(int dim, int n, int nranks, unsigned seed, mo_ctx *ctx)
       if (!in && seen[(size_t)i * n + j]) far++;
     }
   ok(rank == nranks && same && !bad_owner && near > 0 && found == near && !missed && !twice && !far,
-     "detection slabs, %dD, %d balls, %d rank(s): each of the %ld pairs within reach owned and found by exactly one "
-     "rank (missed %ld, twice %ld, out of reach %ld), the same cut on every rank, the largest rank %ld pairs",
-     dim, n, nranks, near, missed, twice, far, maxmine);
+     "detection parts, %dD %s, %d balls, %d rank(s): each of the %ld pairs within reach owned and found by exactly "
+     "one rank (missed %ld, twice %ld, out of reach %ld), the same cut on every rank, the largest rank %ld pairs",
+     dim, cube ? "cube" : "bar", n, nranks, near, missed, twice, far, maxmine);
   {
-    /* the slabs' balance: equal counts of bodies, but for the bin holding the tied abscissa (one
-       body in 17) */
-    long cnt[4] = {0, 0, 0, 0}, m = 0, most = 0;
+    /* the parts' balance: equal counts of bodies, but for the bins' granularity (a bin of 1/4096
+       of the extent whole on one side, at most 3 cuts deep) and the bin holding the tied abscissa
+       (one body in 17) */
+    long cnt[8] = {0}, m = 0, most = 0;
+    double lo[8][3], hi[8][3], wide = 0;
+    for (k = 0; k < nranks; k++)
+      for (j = 0; j < 3; j++) {
+        lo[k][j] = HUGE_VAL;
+        hi[k][j] = -HUGE_VAL;
+      }
     for (i = 0; i < n; i++)
       if (mask[i]) {
         cnt[own0[i]]++;
         m++;
+        for (j = 0; j < dim; j++) {
+          lo[own0[i]][j] = fmin(lo[own0[i]][j], c[(size_t)dim * i + j]);
+          hi[own0[i]][j] = fmax(hi[own0[i]][j], c[(size_t)dim * i + j]);
+        }
       }
-    for (k = 0; k < nranks; k++) most = cnt[k] > most ? cnt[k] : most;
-    ok(most <= m / nranks + n / 17 + 2, "detection slabs, %dD, %d rank(s): the largest slab %ld of %ld bodies", dim,
-       nranks, most, m);
+    for (k = 0; k < nranks; k++) {
+      most = cnt[k] > most ? cnt[k] : most;
+      for (j = 0; j < dim; j++) wide = fmax(wide, hi[k][j] - lo[k][j]);
+    }
+    ok(most <= m / nranks + n / 17 + 6, "detection parts, %dD %s, %d rank(s): the largest part %ld of %ld bodies", dim,
+       cube ? "cube" : "bar", nranks, most, m);
+    /* in the unit cube, 2^dim ranks take boxes of side 1/2 (slabs would be 1 wide) */
+    if (cube && nranks == (dim == 2 ? 4 : 8))
+      ok(wide < 0.6, "detection parts, %dD cube, %d ranks: boxes, the widest side of a part's centres %.3f", dim,
+         nranks, wide);
   }
   mo_broad_free(B);
   free(c);
   free(r);
   free(owner);
   free(own0);
+  free(idx);
   free(seen);
   free(rmask);
   free(mask);
@@ -448,9 +469,11 @@ int main(int argc, char **argv)
   if (!mo_parallel_available()) {
     /* the detection's slabs are plain arithmetic: checked in every build */
     int p;
-    for (p = 1; p <= 4; p++) {
-      slab_checks(2, 700, p, 11u + p, &ctx);
-      slab_checks(3, 500, p, 29u + p, &ctx);
+    for (p = 1; p <= 8; p++) {
+      slab_checks(2, 700, p, 0, 11u + p, &ctx);
+      slab_checks(3, 500, p, 0, 29u + p, &ctx);
+      slab_checks(2, 700, p, 1, 41u + p, &ctx);
+      slab_checks(3, 500, p, 1, 53u + p, &ctx);
     }
     printf("# the rest skipped: this build has no PETSc (configure --with-petsc)\n");
     return done_testing();
@@ -481,9 +504,11 @@ int main(int argc, char **argv)
   }
   {
     int p;
-    for (p = 1; p <= 4; p++) {
-      slab_checks(2, 700, p, 11u + p, &ctx);
-      slab_checks(3, 500, p, 29u + p, &ctx);
+    for (p = 1; p <= 8; p++) {
+      slab_checks(2, 700, p, 0, 11u + p, &ctx);
+      slab_checks(3, 500, p, 0, 29u + p, &ctx);
+      slab_checks(2, 700, p, 1, 41u + p, &ctx);
+      slab_checks(3, 500, p, 1, 53u + p, &ctx);
     }
   }
   solver_checks(&ctx, "preonly", "cholesky", 1e-12, 0);

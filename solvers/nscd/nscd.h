@@ -261,8 +261,21 @@ typedef struct {
   int *bfirst;                  /* nfree (by first velocity): the lowest rank touching the body, -1 none */
   unsigned char *bmulti;        /* nfree: touched by contacts of more than one rank */
   double *pbuf;                 /* the sums of a sweep: interface increments, then the norms' parts */
-  double *ibase;                /* the interface velocities at the start of the sweep */
+  double *ibase;                /* the interface velocities at the start of the sweep (by ifc index) */
   size_t pcap, pncap, pbcap;
+  /* the parts are boxes of the active contacts' points (mo_rcb, (T330)): apart[k] the part of
+     act[k]; ridx its scratch. On more than 2 ranks (xchg) the interface velocities go point to
+     point, each rank sending its increments of the bodies it shares to the ranks that share them
+     and summing them in rank order (T331): npeer ranks peer[], the values for peer[k] at
+     poff[k] .. poff[k + 1] (nk a body; its bodies' ifc indices pj[], the same order on both
+     sides); the rank's own interface bodies mj[0 .. nmine) and, for each, the ranks that touch it
+     in increasing order as places msrc[msrc0[m] .. msrc0[m + 1]) in rbuf (-1: this rank's own) */
+  int xchg;
+  int *apart, *ridx, *ipos, *pcnt;
+  long *pkey;
+  int npeer, nmine, *peer, *poff, *pj, *mj, *msrc0, *msrc, *pe;
+  double *sbuf, *rbuf;
+  size_t xcap, xrcap;
   long par_sweeps;              /* sweeps synchronized, for the run's log */
   /* the set-up over the slab (doc/theory.md (T274)-(T279)): gpart, the records are those of the
      rank's own active contacts only (the others' made by nscd_grains_complete when a serial sweep

@@ -7,6 +7,7 @@
 #include "config.h"
 #include "nscd.h"
 #include <moreau/parallel.h>
+#include "partition.h"
 
 #include <math.h>
 #include <string.h>
@@ -42,6 +43,20 @@ void nscd_grains_free(nscd_state *S)
   mo_free(S->bmulti);
   mo_free(S->pbuf);
   mo_free(S->ibase);
+  mo_free(S->apart);
+  mo_free(S->ridx);
+  mo_free(S->ipos);
+  mo_free(S->pcnt);
+  mo_free(S->pkey);
+  mo_free(S->peer);
+  mo_free(S->poff);
+  mo_free(S->pj);
+  mo_free(S->mj);
+  mo_free(S->msrc0);
+  mo_free(S->msrc);
+  mo_free(S->pe);
+  mo_free(S->sbuf);
+  mo_free(S->rbuf);
 }
 
 /* Room for nc contacts and nfree velocities. */
@@ -533,17 +548,21 @@ int nscd_grains_sweep(nscd_state *S, const mo_contact_problem *P, double *r, int
 static int count_list(nscd_state *S, const mo_contact_problem *P, const double *r, const int *list, int n, int *nu_,
                       int *nd_, mo_ctx *ctx);
 
-#define NBIN 4096
-
 /* Room for the per-contact and per-dof arrays of the split sweep. */
 static int par_reserve(nscd_state *S, int nfree, mo_ctx *ctx)
 {
-  size_t nc = (size_t)S->nc + 1, nf = (size_t)nfree + 1;
+  size_t nc = (size_t)S->nc + 1, nf = (size_t)nfree + 1, nr = (size_t)S->nranks + 1;
   void *p;
 #define GROW(ptr, n) if (!(p = mo_realloc(ctx, ptr, (n)))) return MO_ENOMEM; ptr = p
   if (nc > S->pcap) {
     GROW(S->own, nc);
     GROW(S->oorder, nc * sizeof *S->oorder);
+    GROW(S->apart, nc * sizeof *S->apart);
+    GROW(S->ridx, nc * sizeof *S->ridx);
+    GROW(S->pkey, 2 * nc * sizeof *S->pkey);
+    GROW(S->pj, 2 * nc * sizeof *S->pj);
+    GROW(S->msrc, 2 * nc * sizeof *S->msrc);
+    GROW(S->pe, 2 * nc * sizeof *S->pe);
     S->pcap = nc;
   }
   if (nf > S->pncap) {
@@ -551,67 +570,145 @@ static int par_reserve(nscd_state *S, int nfree, mo_ctx *ctx)
     GROW(S->bfirst, nf * sizeof *S->bfirst);
     GROW(S->bmulti, nf);
     GROW(S->ibase, nf * sizeof *S->ibase);
+    GROW(S->ipos, nf * sizeof *S->ipos);
+    GROW(S->mj, nf * sizeof *S->mj);
+    GROW(S->msrc0, nf * sizeof *S->msrc0);
     S->pncap = nf;
   }
   if (nf + 16 > S->pbcap) {
     GROW(S->pbuf, (nf + 16) * sizeof *S->pbuf);
     S->pbcap = nf + 16;
   }
+  if (!S->peer) {
+    GROW(S->peer, nr * sizeof *S->peer);
+    GROW(S->poff, nr * sizeof *S->poff);
+    GROW(S->pcnt, nr * sizeof *S->pcnt);
+  }
 #undef GROW
   return MO_OK;
 }
 
-/* The slabs: the active contacts' points cut along the axis of their largest extent into
-   `nranks` slabs of equal counts (a histogram of NBIN bins, each bin in one slab), every rank
-   computing the same cut from the same replicated data; a contact is swept by its point's slab.
-   A body touched by contacts of more than one slab is an interface body. */
+static int cmp_long(const void *a, const void *b)
+{
+  long x = *(const long *)a, y = *(const long *)b;
+  return x < y ? -1 : x > y;
+}
+
+/* The point-to-point pattern of the interface sums on more than 2 ranks (T331), from the parts
+   every rank holds: each interface body's ranks (the parts of the active contacts touching it),
+   the peers this rank shares bodies with, and the order of their values. */
+static int exchange_pattern(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
+{
+  const int nk = NK(S->d), me = S->rank, nr = S->nranks;
+  long nkey = 0, k, e = 0, t;
+  int i, j, s, ns = 0;
+  for (j = 0; j < S->nifc; j++) S->ipos[S->ifc[j]] = j;
+  /* (interface body, rank) for every side of an active contact on an interface body */
+  for (k = 0; k < S->nact; k++) {
+    int gs[2];
+    sides(P->grains, S->act[k], gs);
+    for (s = 0; s < 2 && gs[s]; s++) {
+      int o = SIDE_O(gs[s]);
+      if (S->bmulti[o]) S->pkey[nkey++] = (long)S->ipos[o] * nr + S->apart[k];
+    }
+  }
+  qsort(S->pkey, (size_t)nkey, sizeof *S->pkey, cmp_long);
+  /* per body of this rank: its ranks in increasing order; per entry to another rank, its peer */
+  S->nmine = 0;
+  for (i = 0; i <= nr; i++) S->pcnt[i] = 0;
+  for (k = 0; k < nkey;) {
+    long k1 = k;
+    int mine = 0;
+    j = (int)(S->pkey[k] / nr);
+    while (k1 < nkey && S->pkey[k1] / nr == j) {
+      mine |= S->pkey[k1] % nr == me;
+      k1++;
+    }
+    if (mine) {
+      S->mj[S->nmine] = j;
+      S->msrc0[S->nmine++] = ns;
+      for (t = k; t < k1; t++) {
+        int q = (int)(S->pkey[t] % nr);
+        if (t > k && S->pkey[t] == S->pkey[t - 1]) continue;
+        if (q == me) S->msrc[ns++] = -1;
+        else {
+          S->pj[e] = j;
+          S->pe[e] = q; /* the peer, until the entries are ordered by peer */
+          S->pcnt[q]++;
+          S->msrc[ns++] = (int)e++;
+        }
+      }
+    }
+    k = k1;
+  }
+  S->msrc0[S->nmine] = ns;
+  /* the entries ordered by peer (stable: by body within a peer, as the peer orders them) */
+  S->npeer = 0;
+  {
+    int q, at = 0;
+    for (q = 0; q < nr; q++) {
+      int c = S->pcnt[q];
+      S->pcnt[q] = at;
+      if (c) {
+        S->peer[S->npeer] = q;
+        S->poff[S->npeer++] = at * nk;
+      }
+      at += c;
+    }
+    S->poff[S->npeer] = at * nk;
+  }
+  {
+    /* place of entry e in peer order; the bodies' list in that order */
+    size_t need = (size_t)e * nk + 1;
+    if (need > S->xcap) {
+      void *p;
+      if (!(p = mo_realloc(ctx, S->sbuf, need * sizeof *S->sbuf))) return MO_ENOMEM;
+      S->sbuf = p;
+      if (!(p = mo_realloc(ctx, S->rbuf, need * sizeof *S->rbuf))) return MO_ENOMEM;
+      S->rbuf = p;
+      S->xcap = need;
+    }
+    for (t = 0; t < e; t++) {
+      int place = S->pcnt[S->pe[t]]++;
+      S->pe[t] = place;
+    }
+    /* pj in peer order (the keys' array is free now) */
+    for (t = 0; t < e; t++) S->pkey[S->pe[t]] = S->pj[t];
+    for (t = 0; t < e; t++) S->pj[t] = (int)S->pkey[t];
+    for (t = 0; t < ns; t++)
+      if (S->msrc[t] >= 0) S->msrc[t] = S->pe[S->msrc[t]] * nk;
+  }
+  return MO_OK;
+}
+
+/* The parts: the active contacts' points cut into `nranks` boxes of equal counts by recursive
+   bisection (mo_rcb, (T330); with 2 ranks one cut across the largest extent, the slabs of
+   (T215)), every rank computing the same cut from the same replicated data; a contact is swept by
+   its point's part. A body touched by contacts of more than one part is an interface body. */
 int nscd_grains_partition(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
 {
   const mo_grains *G = P->grains;
-  const int d = S->d, D = G->D, nk = NK(d);
-  double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL}, w;
-  int k, i, ax = 0, st, bin2rank[NBIN];
-  long cnt[NBIN], cum = 0;
+  int k, i, st;
   S->nranks = ctx->nranks;
   S->rank = ctx->rank;
   S->par = ctx->nranks > 1;
   if (!S->par) return MO_OK;
   if ((st = par_reserve(S, P->nfree, ctx))) return st;
-  for (k = 0; k < S->nact; k++) {
-    const double *x = G->x + (size_t)S->act[k] * D;
-    for (i = 0; i < D; i++) {
-      if (x[i] < lo[i]) lo[i] = x[i];
-      if (x[i] > hi[i]) hi[i] = x[i];
-    }
-  }
-  for (i = 1; i < D; i++)
-    if (hi[i] - lo[i] > hi[ax] - lo[ax]) ax = i;
-  w = hi[ax] > lo[ax] ? (hi[ax] - lo[ax]) / NBIN : 1;
-  memset(cnt, 0, sizeof cnt);
-  for (k = 0; k < S->nact; k++) {
-    int b = (int)((G->x[(size_t)S->act[k] * D + ax] - lo[ax]) / w);
-    cnt[b < 0 ? 0 : b >= NBIN ? NBIN - 1 : b]++;
-  }
-  for (k = 0; k < NBIN; k++) {
-    /* the slab of the bin's first contact: slabs of S->nact / nranks contacts each */
-    long r = S->nact ? cum * S->nranks / S->nact : 0;
-    bin2rank[k] = (int)(r < S->nranks ? r : S->nranks - 1);
-    cum += cnt[k];
-  }
+  mo_rcb(G->D, S->nact, G->x, S->act, NULL, S->nranks, S->apart, S->ridx);
   memset(S->own, 0, (size_t)S->nc);
   for (i = 0; i < P->nfree; i++) {
     S->bfirst[i] = -1;
     S->bmulti[i] = 0;
   }
+  for (i = 0; i < S->nranks; i++) S->pcnt[i] = 0;
   for (k = 0; k < S->nact; k++) {
-    const int a = S->act[k];
-    int b = (int)((G->x[(size_t)a * D + ax] - lo[ax]) / w), q, s;
-    int gs[2];
+    const int a = S->act[k], q = S->apart[k];
+    int gs[2], s;
     sides(G, a, gs);
-    q = bin2rank[b < 0 ? 0 : b >= NBIN ? NBIN - 1 : b];
     S->own[a] = q == S->rank;
+    S->pcnt[q]++;
     for (s = 0; s < 2 && gs[s]; s++) {
-      int o = (gs[s] > 0 ? gs[s] : -gs[s]) - 1;
+      int o = SIDE_O(gs[s]);
       if (S->bfirst[o] < 0) S->bfirst[o] = q;
       else if (S->bfirst[o] != q) {
         S->bmulti[o] = 1;
@@ -623,34 +720,33 @@ int nscd_grains_partition(nscd_state *S, const mo_contact_problem *P, mo_ctx *ct
     if (S->bmulti[i]) S->ifc[S->nifc++] = i;
   for (S->noact = 0, k = 0; k < S->nact; k++)
     if (S->own[S->order[k]]) S->oorder[S->noact++] = S->order[k];
-  /* the slabs' balance, from the histogram every rank holds */
   {
-    long most = 0, c = 0;
-    int q = 0;
-    for (k = 0; k <= NBIN; k++) {
-      if (k == NBIN || bin2rank[k] != q) {
-        if (c > most) most = c;
-        if (k == NBIN) break;
-        q = bin2rank[k];
-        c = 0;
-      }
-      c += cnt[k];
-    }
+    /* the parts' balance */
+    long most = 0;
+    for (i = 0; i < S->nranks; i++)
+      if (S->pcnt[i] > most) most = S->pcnt[i];
     ctx->par_grain_solves++;
     ctx->par_grain_interface += S->nifc;
     ctx->par_grain_imbalance += S->nact ? (double)most * S->nranks / S->nact : 1.0;
   }
-  (void)nk;
-  return MO_OK;
+  S->xchg = S->nranks > 2;
+  return S->xchg ? exchange_pattern(S, P, ctx) : MO_OK;
 }
 
 int nscd_grains_sweep_owned(nscd_state *S, const mo_contact_problem *P, double *r, int *status)
 {
   const int nk = NK(S->d);
-  int j, i;
-  /* the interface velocities before the sweep: the ranks' increments are summed after it */
-  for (j = 0; j < S->nifc; j++)
-    for (i = 0; i < nk; i++) S->ibase[(size_t)j * nk + i] = S->vb[S->ifc[j] + i];
+  int j, i, m;
+  /* the interface velocities before the sweep: the ranks' increments are summed after it (on
+     more than 2 ranks those of the rank's own interface bodies only, T331) */
+  if (S->xchg)
+    for (m = 0; m < S->nmine; m++) {
+      j = S->mj[m];
+      for (i = 0; i < nk; i++) S->ibase[(size_t)j * nk + i] = S->vb[S->ifc[j] + i];
+    }
+  else
+    for (j = 0; j < S->nifc; j++)
+      for (i = 0; i < nk; i++) S->ibase[(size_t)j * nk + i] = S->vb[S->ifc[j] + i];
   return S->d == 2 ? sweep_d(S, P, r, status, S->oorder, S->noact, 2)
                    : sweep_d(S, P, r, status, S->oorder, S->noact, 3);
 }
@@ -671,6 +767,31 @@ int nscd_grains_sync(nscd_state *S, double *parts, int nparts, double *maxparts,
   const size_t ni = (size_t)S->nifc * nk;
   int j, i, st;
   double *b = S->pbuf;
+  if (S->xchg) {
+    /* (T331): each shared body's increment to the ranks that share it; then, on every rank that
+       touches it, the ranks' increments summed in increasing rank order (the same sum on each) */
+    const int *pj = S->pj;
+    int t, m, nv = S->poff[S->npeer] / nk;
+    for (t = 0; t < nv; t++) {
+      const int o = S->ifc[pj[t]];
+      for (i = 0; i < nk; i++) S->sbuf[(size_t)t * nk + i] = S->vb[o + i] - S->ibase[(size_t)pj[t] * nk + i];
+    }
+    if ((st = mo_par_exchange(S->npeer, S->peer, S->poff, S->sbuf, S->rbuf, ctx))) return st;
+    for (m = 0; m < S->nmine; m++) {
+      const int jm = S->mj[m], o = S->ifc[jm], s0 = S->msrc0[m], s1 = S->msrc0[m + 1];
+      double *base = S->ibase + (size_t)jm * nk;
+      for (i = 0; i < nk; i++) {
+        const double own = S->vb[o + i] - base[i];
+        double sum = S->msrc[s0] < 0 ? own : S->rbuf[S->msrc[s0] + i];
+        for (t = s0 + 1; t < s1; t++) sum += S->msrc[t] < 0 ? own : S->rbuf[S->msrc[t] + i];
+        S->vb[o + i] = base[i] + sum;
+      }
+    }
+    if ((st = mo_par_sum(parts, nparts, ctx))) return st;
+    S->par_sweeps++;
+    ctx->par_grain_sweeps++;
+    return nmax ? mo_par_max(maxparts, nmax, ctx) : MO_OK;
+  }
   /* one sum: the interface increments and the stopping rule's parts */
   for (j = 0; j < S->nifc; j++)
     for (i = 0; i < nk; i++) b[(size_t)j * nk + i] = S->vb[S->ifc[j] + i] - S->ibase[(size_t)j * nk + i];

@@ -35,6 +35,10 @@ int mo_par_bcast(void *buf, long bytes, int root, mo_ctx *ctx);
 /* Allgather of variable-sized double blocks: rank r contributes n[r] values from mine; all[] gets
    the blocks in rank order (sum n values). */
 int mo_par_gatherv(const double *mine, const int *n, double *all, mo_ctx *ctx);
+/* Point to point with the npeer ranks peer[k] (not collective: only the ranks named take part):
+   send[off[k] .. off[k + 1]) goes to peer[k], as many values from it arrive in recv[off[k] ..
+   off[k + 1]). Each peer must name this rank with the same count. No-op on one rank. */
+int mo_par_exchange(int npeer, const int *peer, const int *off, const double *send, double *recv, mo_ctx *ctx);
 /* The worst status of the ranks: each rank passes its own; every rank gets the largest, and when
    it is another rank's, the message names that rank (so that a rank that failed alone, rank 0 on a
    full disk say, does not leave the others waiting in the next collective call). */
