@@ -22,8 +22,11 @@
 # bench/dist_assembly.c (built here with cc against the build's libmoreau): the slowest rank's
 # seconds, the largest rank's bytes of K and M, the entries a rank stores and sends.
 #
-# SCENE: box:N (the H8 cube of bench/box_scaling.sh, N^3 elements, theta = 1, dt = 1e-4) or
-# pile:N (cases/disk-pile with N grains, h = 1 ms). Default: box:14 box:18 box:21 pile:1000 pile:2000.
+# SCENE: box:N (the H8 cube of bench/box_scaling.sh, N^3 elements, theta = 1, dt = 1e-4),
+# pile:N (cases/disk-pile with N grains, h = 1 ms) or spheres:N (cases/sphere-deposit with N
+# spheres, h = 1 ms). Default: box:14 box:18 box:21 pile:1000 pile:2000. For the grains, `ifc` is
+# the mean count of interface bodies a solve (bodies touched by contacts of several ranks,
+# summary.json parallel.grain_interface_bodies_mean) and `sweeps` the sweeps of the run.
 # Needs a build configured --with-petsc, Open MPI's mpirun and python3. On a machine with fewer
 # cores than ranks the times mean nothing (oversubscribed ranks wait for each other); the
 # message counts and sizes do not depend on the machine.
@@ -44,7 +47,7 @@ while [ $# -gt 0 ]; do
   --out) out=$2; shift ;;
   --assembly) assembly=1 ;;
   -h|--help) sed -n '2,30p' "$0"; exit 0 ;;
-  box:*|pile:*) scenes="$scenes $1" ;;
+  box:*|pile:*|spheres:*) scenes="$scenes $1" ;;
   *) echo "mpi_scaling.sh: unknown argument '$1' (--help)" >&2; exit 2 ;;
   esac
   shift
@@ -82,7 +85,9 @@ output = { energy = false; };
 EOF
     echo "$f"
   else
-    echo "$root/cases/disk-pile --set bodies.grains.pack.count=$n --set time.end=$(awk "BEGIN{print $2 * 1e-3}") --set output.vtk.every=1000000 --set output.draw.frames=1 --set output.draw.gif=false"
+    c=disk-pile
+    [ "$kind" = spheres ] && c=sphere-deposit
+    echo "$root/cases/$c --set bodies.grains.pack.count=$n --set time.end=$(awk "BEGIN{print $2 * 1e-3}") --set output.vtk.every=1000000 --set output.draw.frames=1 --set output.draw.gif=false"
   fi
 }
 
@@ -129,8 +134,8 @@ traffic() { # traffic LOG: messages and bytes sent, point to point and collectiv
               END { printf "%d %d\n", M, B }' "$1.log"
 }
 
-printf '%-10s %5s %-8s %10s %10s %10s %10s %12s %14s %10s %8s %10s %12s\n' scene ranks solver "steps s" "factor s" "W s" "step ms" \
-  "msgs/step" "bytes/step" "setup MB" "elem s" "rank MB" "column rows"
+printf '%-12s %5s %-8s %10s %10s %10s %10s %12s %14s %10s %8s %10s %12s %8s %8s\n' scene ranks solver "steps s" "factor s" "W s" \
+  "step ms" "msgs/step" "bytes/step" "setup MB" "elem s" "rank MB" "column rows" ifc sweeps
 for scene in $scenes; do
   for cfg in "1 cholmod" "1 petsc" "$np petsc"; do
     set -- $cfg
@@ -147,8 +152,11 @@ for scene in $scenes; do
     telem=$(summary "$out/$name" "max(d['parallel']['element_seconds'])")
     # the largest rank's rows of the Delassus columns What^-1 H^T, of the rows (doc/parallel.md §2)
     crows=$(summary "$out/$name" "(lambda c: '%d/%d' % (c['rows_largest_rank'], c['rows']) if c else '-')(d['parallel'].get('delassus_columns'))")
-    printf '%-10s %5s %-8s %10.3f %10.3f %10.3f %10.2f %12.1f %14.0f %10.2f %8.3f %10s %12s\n' "$scene" "$p" "$solver" "$tsteps" "$tfac" "$tw" \
-      "$(awk "BEGIN{print 1e3 * $tsteps / $steps}")" "$(awk "BEGIN{print ($m - $m1) / ($steps - 1)}")" \
-      "$(awk "BEGIN{print ($b - $b1) / ($steps - 1)}")" "$(awk "BEGIN{print $b1 / 1e6}")" "$telem" "$(rss "$out/$name")" "$crows"
+    # the grains' interface bodies a solve and the sweeps (the pile's, over the ranks)
+    ifc=$(summary "$out/$name" "'%.1f' % d['parallel']['grain_interface_bodies_mean'] if 'grain_interface_bodies_mean' in d.get('parallel', {}) else '-'")
+    sw=$(summary "$out/$name" "d['contact'].get('iterations_total', '-') if '${scene%%:*}' != 'box' else '-'")
+    printf '%-12s %5s %-8s %10.3f %10.3f %10.3f %10.2f %12.1f %14.0f %10.2f %8.3f %10s %12s %8s %8s\n' "$scene" "$p" "$solver" "$tsteps" \
+      "$tfac" "$tw" "$(awk "BEGIN{print 1e3 * $tsteps / $steps}")" "$(awk "BEGIN{print ($m - $m1) / ($steps - 1)}")" \
+      "$(awk "BEGIN{print ($b - $b1) / ($steps - 1)}")" "$(awk "BEGIN{print $b1 / 1e6}")" "$telem" "$(rss "$out/$name")" "$crows" "$ifc" "$sw"
   done
 done

@@ -271,6 +271,12 @@ typedef struct {
      sides); the rank's own interface bodies mj[0 .. nmine) and, for each, the ranks that touch it
      in increasing order as places msrc[msrc0[m] .. msrc0[m + 1]) in rbuf (-1: this rank's own) */
   int xchg;
+  /* the split sweep's inverse masses (T332): gi with each interface body's multiplied by the
+     number of ranks that touch it (gl, on the rank's own interface bodies), gs the one the
+     records' W_aa and the pushes read: gl while the sweep is split, else gi */
+  double *gl;
+  size_t glcap;
+  const double *gs;
   int *apart, *ridx, *ipos, *pcnt;
   long *pkey;
   int npeer, nmine, *peer, *poff, *pj, *mj, *msrc0, *msrc, *pe;

@@ -43,6 +43,7 @@ void nscd_grains_free(nscd_state *S)
   mo_free(S->bmulti);
   mo_free(S->pbuf);
   mo_free(S->ibase);
+  mo_free(S->gl);
   mo_free(S->apart);
   mo_free(S->ridx);
   mo_free(S->ipos);
@@ -158,7 +159,7 @@ KERNEL void geometry(const int d, const nscd_state *S, const mo_contact_problem 
                      double *F, double *rot, const int nw, double *Waa, double *ca)
 {
   const mo_grains *Gr = P->grains;
-  const double *x = Gr->x + (size_t)a * d, *iv = S->gi;
+  const double *x = Gr->x + (size_t)a * d, *iv = S->gs;
   const int *key = Gr->key + (size_t)a * MO_KEY;
   int s, i, j, k;
   mo_frame_of_normal(d, Gr->n + (size_t)a * d, F); /* the frame from its normal (T225) */
@@ -252,6 +253,19 @@ KERNEL int record(nscd_state *S, const mo_contact_problem *P, int a, int act, co
   return 0;
 }
 
+/* Contact a's W_aa (an active contact's) formed again, its c_a kept; its coefficient as record
+   decides it. */
+KERNEL void record_w(nscd_state *S, const mo_contact_problem *P, int a, const int d)
+{
+  char *rec = REC(S, a, d);
+  double *Waa = R_W(rec, d), rot[2 * 3 * 3], F[9], wtt = 0;
+  int gs[2], i;
+  sides(P->grains, a, gs);
+  geometry(d, S, P, a, gs, F, rot, d, Waa, NULL);
+  for (i = 1; i < d; i++) wtt += Waa[i * d + i];
+  if (S->muown) S->muown[a] = wtt > 1e-12 * Waa[0] ? problem_mu(P, a) : 0;
+}
+
 /* The records of every contact or, over the ranks (gpart), of the rank's own active contacts
    only (T274): no other record is read by the split sweep, its stopping rule or the U of its end
    (T278). */
@@ -265,12 +279,45 @@ KERNEL int prepare_d(nscd_state *S, const mo_contact_problem *P, const int d)
   return differ;
 }
 
+/* The split sweep's inverse masses (T332): an interface body touched by the contacts of k > 2
+   ranks is, in each of their sweeps, a body of mass 2 m / k (its inverse mass and inertia times
+   f = k / 2), and the ranks' increments are summed divided by f (nscd_grains_sync): the velocity
+   stays v_free + M^-1 H r, and no body moves by more than the sum of two ranks' full increments,
+   the Jacobi step between 2 ranks. Bodies of 2 ranks keep their masses (f = 1). */
+static double split_factor(int k)
+{
+  return k > 2 ? 0.5 * k : 1.0;
+}
+
+static int split_masses(nscd_state *S, int nfree, mo_ctx *ctx)
+{
+  const int nk = NK(S->d);
+  int m, i;
+  if (!S->xchg) return MO_OK; /* 2 ranks: f = 1 for every body */
+  if ((size_t)nfree + 1 > S->glcap) {
+    void *p = mo_realloc(ctx, S->gl, ((size_t)nfree + 1) * sizeof *S->gl);
+    if (!p) return MO_ENOMEM;
+    S->gl = p;
+    S->glcap = (size_t)nfree + 1;
+  }
+  memcpy(S->gl, S->gi, (size_t)nfree * sizeof *S->gl);
+  for (m = 0; m < S->nmine; m++) {
+    const int o = S->ifc[S->mj[m]], k = S->msrc0[m + 1] - S->msrc0[m];
+    if (k > 2)
+      for (i = 0; i < nk; i++) S->gl[o + i] = S->gi[o + i] * split_factor(k);
+  }
+  S->gs = S->gl;
+  return MO_OK;
+}
+
 int nscd_grains_prepare(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
 {
   int st, differ;
   if (S->d != 2 && S->d != 3)
     return mo_error(ctx, MO_EINTERNAL, "nscd: granular contacts in dimension %d", S->d);
   if ((st = reserve(S, P, P->nfree, ctx)) || (st = inverse_diagonal(S, P->Wi, P->nfree, ctx))) return st;
+  S->gs = S->gi;
+  if (S->par && (st = split_masses(S, P->nfree, ctx))) return st;
   S->gw = REC(S, 0, S->d) + OFF_W(S->d); /* nscd_waa */
   S->gstride = RECSZ(S->d);
   /* over the ranks, the slab's records only: nscd_grains_partition has cut the slabs (T274) */
@@ -306,13 +353,24 @@ void nscd_grains_complete(nscd_state *S, const mo_contact_problem *P)
 {
   int a;
   if (!S->gpart) return;
-  /* the others' records as nscd_grains_prepare makes them on one process: the same numbers (T277) */
-  for (a = 0; a < S->nc; a++)
+  {
+  /* the others' records as nscd_grains_prepare makes them on one process: the same numbers
+     (T277); the rank's own again where an interface body's mass was split (T332) */
+  const int split = S->gs != S->gi;
+  S->gs = S->gi;
+  for (a = 0; a < S->nc; a++) {
+    const int act = !P->active || P->active[a];
     if (!S->own[a]) {
-      const int act = !P->active || P->active[a];
       if (S->d == 2) record(S, P, a, act, 2);
       else record(S, P, a, act, 3);
+    } else if (split) {
+      /* W_aa alone, from the bodies' own masses: c_a does not depend on them, and q, which it
+         is formed from, is U's place now (T240) */
+      if (S->d == 2) record_w(S, P, a, 2);
+      else record_w(S, P, a, 3);
     }
+  }
+  }
   S->gpart = 0;
 }
 
@@ -392,10 +450,10 @@ KERNEL void push(nscd_state *S, const int *gs, const double *F, const double *ro
   int o;
   if (!gs[0]) return;
   o = SIDE_O(gs[0]);
-  side_push(d, F, rot, S->gi + o, S->vb + o, gs[0] > 0, dr);
+  side_push(d, F, rot, S->gs + o, S->vb + o, gs[0] > 0, dr);
   if (!gs[1]) return;
   o = SIDE_O(gs[1]);
-  side_push(d, F, rot + d * NR(d), S->gi + o, S->vb + o, gs[1] > 0, dr);
+  side_push(d, F, rot + d * NR(d), S->gs + o, S->vb + o, gs[1] > 0, dr);
 }
 
 KERNEL void push_r(nscd_state *S, const mo_contact_problem *P, int a, const double *dr, const int d)
@@ -409,7 +467,9 @@ KERNEL void push_r(nscd_state *S, const mo_contact_problem *P, int a, const doub
 
 void nscd_grains_velocities(nscd_state *S, const mo_contact_problem *P, const double *r)
 {
+  const double *split = S->gs;
   int a;
+  S->gs = S->gi; /* v = v_free + M^-1 H r: the bodies' own masses (T332) */
   memcpy(S->vb, P->xfree, (size_t)P->nfree * sizeof *S->vb);
   /* a contact without reaction moves nothing (its push would add zeros) */
   if (S->d == 2) {
@@ -418,6 +478,7 @@ void nscd_grains_velocities(nscd_state *S, const mo_contact_problem *P, const do
   } else
     for (a = 0; a < S->nc; a++)
       if (r[3 * a] != 0 || r[3 * a + 1] != 0 || r[3 * a + 2] != 0) push_r(S, P, a, r + (size_t)a * 3, 3);
+  S->gs = split;
 }
 
 /* U_a without its record: c_a formed at the visit, in the operations of the record's (the same
@@ -784,7 +845,7 @@ int nscd_grains_sync(nscd_state *S, double *parts, int nparts, double *maxparts,
         const double own = S->vb[o + i] - base[i];
         double sum = S->msrc[s0] < 0 ? own : S->rbuf[S->msrc[s0] + i];
         for (t = s0 + 1; t < s1; t++) sum += S->msrc[t] < 0 ? own : S->rbuf[S->msrc[t] + i];
-        S->vb[o + i] = base[i] + sum;
+        S->vb[o + i] = base[i] + (s1 - s0 > 2 ? sum / split_factor(s1 - s0) : sum); /* (T332) */
       }
     }
     if ((st = mo_par_sum(parts, nparts, ctx))) return st;
