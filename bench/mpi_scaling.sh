@@ -131,7 +131,7 @@ summary() { # summary DIR EXPR
 }
 traffic() { # traffic LOG: messages and bytes sent, point to point and collective, over the ranks
   awk -F'\t' '$1 == "E" || $1 == "C" { split($4, b, " "); split($5, m, " "); B += b[1]; M += m[1] }
-              END { printf "%d %d\n", M, B }' "$1.log"
+              END { printf "%.0f %.0f\n", M, B }' "$1.log"
 }
 
 printf '%-12s %5s %-8s %10s %10s %10s %10s %12s %14s %10s %8s %10s %12s %8s %8s\n' scene ranks solver "steps s" "factor s" "W s" \

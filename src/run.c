@@ -341,6 +341,8 @@ static json_t *parallel_json(const mo_ctx *ctx, const mo_scene *sc)
     /* the interface velocities after each sweep: one sum on 2 ranks, point to point between the
        ranks that share bodies on more (doc/theory.md (T331)) */
     json_object_set_new(j, "grain_interface_exchange", json_string(ctx->nranks > 2 ? "point to point" : "sum"));
+    /* of them, those of more than 2 ranks: swept as bodies of mass 2 m / k (T332) */
+    json_object_set_new(j, "grain_interface_bodies_over_2_ranks_mean", jnum(ctx->par_grain_multi / n));
   }
   if (ctx->par_detect_total) {
     /* the detection split over the ranks (doc/parallel.md §4, (T215)): the candidates the largest

@@ -679,12 +679,14 @@ static int exchange_pattern(nscd_state *S, const mo_contact_problem *P, mo_ctx *
   for (i = 0; i <= nr; i++) S->pcnt[i] = 0;
   for (k = 0; k < nkey;) {
     long k1 = k;
-    int mine = 0;
+    int mine = 0, nq = 0;
     j = (int)(S->pkey[k] / nr);
     while (k1 < nkey && S->pkey[k1] / nr == j) {
       mine |= S->pkey[k1] % nr == me;
+      nq += k1 == k || S->pkey[k1] != S->pkey[k1 - 1];
       k1++;
     }
+    if (nq > 2) ctx->par_grain_multi++;
     if (mine) {
       S->mj[S->nmine] = j;
       S->msrc0[S->nmine++] = ns;

@@ -98,6 +98,9 @@ typedef struct mo_ctx {
   /* the memory a run may take (bytes; 0: the machine's, mo_memory_limit): the factorization's
      check against it (doc/theory.md (T154)) */
   double max_bytes;
+  /* the granular sweep over more than 2 ranks: the interface bodies touched by the contacts of
+     more than 2 ranks (doc/theory.md (T332)), summed over the split solves */
+  double par_grain_multi;
 } mo_ctx;
 
 /* 1 when the program was asked to stop (SIGINT, SIGTERM): the long loops of loading and
