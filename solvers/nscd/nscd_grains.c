@@ -351,12 +351,11 @@ int nscd_grains_prepare(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
 
 void nscd_grains_complete(nscd_state *S, const mo_contact_problem *P)
 {
+  const int split = S->gs != S->gi;
   int a;
   if (!S->gpart) return;
-  {
   /* the others' records as nscd_grains_prepare makes them on one process: the same numbers
-     (T277); the rank's own again where an interface body's mass was split (T332) */
-  const int split = S->gs != S->gi;
+     (T277); the rank's own W_aa again where an interface body's mass was divided (T332) */
   S->gs = S->gi;
   for (a = 0; a < S->nc; a++) {
     const int act = !P->active || P->active[a];
@@ -369,7 +368,6 @@ void nscd_grains_complete(nscd_state *S, const mo_contact_problem *P)
       if (S->d == 2) record_w(S, P, a, 2);
       else record_w(S, P, a, 3);
     }
-  }
   }
   S->gpart = 0;
 }
