@@ -138,7 +138,7 @@ grains_more() { # grains_more NAME NP CASE ARGS...
 grains_more disk-pile 3 "$MOREAU_SRCDIR/cases/disk-pile" --set bodies.grains.pack.count=60 --set time.end=0.22
 grains_more sphere-deposit 4 "$MOREAU_SRCDIR/cases/sphere-deposit" --set bodies.grains.pack.count=200 --set time.end=0.12
 # bodies where 3 or 4 parts meet (T332): the 2000-sphere deposit on 4 ranks, at the case's own
-# tolerance, whose split sweep summing 4 ranks' full increments diverged at step 191 (speeds of
+# tolerance, whose split sweep summing 4 ranks' full increments diverged at step 192 (speeds of
 # 1e116); it runs as the serial one does, its kinetic energy within 10 % of the serial run's at
 # every output (the two sweeps stop at different points within quad 1e-4: 3.4 % measured)
 c="$MOREAU_SRCDIR/cases/sphere-deposit"
