@@ -292,8 +292,10 @@ static double split_factor(int k)
 static int split_masses(nscd_state *S, int nfree, mo_ctx *ctx)
 {
   const int nk = NK(S->d);
-  int m, i;
+  int m, i, any = 0;
   if (!S->xchg) return MO_OK; /* 2 ranks: f = 1 for every body */
+  for (m = 0; m < S->nmine && !any; m++) any = S->msrc0[m + 1] - S->msrc0[m] > 2;
+  if (!any) return MO_OK; /* no copy: the sweep reads gi */
   if ((size_t)nfree + 1 > S->glcap) {
     void *p = mo_realloc(ctx, S->gl, ((size_t)nfree + 1) * sizeof *S->gl);
     if (!p) return MO_ENOMEM;
@@ -302,9 +304,9 @@ static int split_masses(nscd_state *S, int nfree, mo_ctx *ctx)
   }
   memcpy(S->gl, S->gi, (size_t)nfree * sizeof *S->gl);
   for (m = 0; m < S->nmine; m++) {
-    const int o = S->ifc[S->mj[m]], k = S->msrc0[m + 1] - S->msrc0[m];
-    if (k > 2)
-      for (i = 0; i < nk; i++) S->gl[o + i] = S->gi[o + i] * split_factor(k);
+    const int o = S->ifc[S->mj[m]];
+    const double f = split_factor(S->msrc0[m + 1] - S->msrc0[m]);
+    for (i = 0; i < nk; i++) S->gl[o + i] = S->gi[o + i] * f;
   }
   S->gs = S->gl;
   return MO_OK;
@@ -830,7 +832,8 @@ int nscd_grains_sync(nscd_state *S, double *parts, int nparts, double *maxparts,
   double *b = S->pbuf;
   if (S->xchg) {
     /* (T331): each shared body's increment to the ranks that share it; then, on every rank that
-       touches it, the ranks' increments summed in increasing rank order (the same sum on each) */
+       touches it, the ranks' increments summed in increasing rank order (the same sum on each),
+       divided by f_k (T332); the stopping rule's parts in a sum of their own */
     const int *pj = S->pj;
     int t, m, nv = S->poff[S->npeer] / nk;
     for (t = 0; t < nv; t++) {
@@ -840,27 +843,26 @@ int nscd_grains_sync(nscd_state *S, double *parts, int nparts, double *maxparts,
     if ((st = mo_par_exchange(S->npeer, S->peer, S->poff, S->sbuf, S->rbuf, ctx))) return st;
     for (m = 0; m < S->nmine; m++) {
       const int jm = S->mj[m], o = S->ifc[jm], s0 = S->msrc0[m], s1 = S->msrc0[m + 1];
+      const double f = split_factor(s1 - s0);
       double *base = S->ibase + (size_t)jm * nk;
       for (i = 0; i < nk; i++) {
         const double own = S->vb[o + i] - base[i];
         double sum = S->msrc[s0] < 0 ? own : S->rbuf[S->msrc[s0] + i];
         for (t = s0 + 1; t < s1; t++) sum += S->msrc[t] < 0 ? own : S->rbuf[S->msrc[t] + i];
-        S->vb[o + i] = base[i] + (s1 - s0 > 2 ? sum / split_factor(s1 - s0) : sum); /* (T332) */
+        S->vb[o + i] = base[i] + sum / f;
       }
     }
     if ((st = mo_par_sum(parts, nparts, ctx))) return st;
-    S->par_sweeps++;
-    ctx->par_grain_sweeps++;
-    return nmax ? mo_par_max(maxparts, nmax, ctx) : MO_OK;
+  } else {
+    /* one sum: the interface increments and the stopping rule's parts */
+    for (j = 0; j < S->nifc; j++)
+      for (i = 0; i < nk; i++) b[(size_t)j * nk + i] = S->vb[S->ifc[j] + i] - S->ibase[(size_t)j * nk + i];
+    memcpy(b + ni, parts, (size_t)nparts * sizeof *b);
+    if ((st = mo_par_sum(b, (long)(ni + nparts), ctx))) return st;
+    for (j = 0; j < S->nifc; j++)
+      for (i = 0; i < nk; i++) S->vb[S->ifc[j] + i] = S->ibase[(size_t)j * nk + i] + b[(size_t)j * nk + i];
+    memcpy(parts, b + ni, (size_t)nparts * sizeof *b);
   }
-  /* one sum: the interface increments and the stopping rule's parts */
-  for (j = 0; j < S->nifc; j++)
-    for (i = 0; i < nk; i++) b[(size_t)j * nk + i] = S->vb[S->ifc[j] + i] - S->ibase[(size_t)j * nk + i];
-  memcpy(b + ni, parts, (size_t)nparts * sizeof *b);
-  if ((st = mo_par_sum(b, (long)(ni + nparts), ctx))) return st;
-  for (j = 0; j < S->nifc; j++)
-    for (i = 0; i < nk; i++) S->vb[S->ifc[j] + i] = S->ibase[(size_t)j * nk + i] + b[(size_t)j * nk + i];
-  memcpy(parts, b + ni, (size_t)nparts * sizeof *b);
   S->par_sweeps++;
   ctx->par_grain_sweeps++;
   return nmax ? mo_par_max(maxparts, nmax, ctx) : MO_OK;
