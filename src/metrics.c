@@ -309,13 +309,15 @@ double mo_metrics_energy_ratio(const mo_metrics *M, const mo_state *s)
   return e0 != 0 ? e / e0 : NAN;
 }
 
-void mo_metrics_energies(const mo_metrics *M, const mo_state *s, double *ek, double *ee, double *ratio)
+void mo_metrics_energies(const mo_metrics *M, const mo_state *s, double *ek, double *ee, double *ratio, double *excess)
 {
-  double e0 = M->e0 + M->eshift;
+  double e0 = M->e0 + M->eshift, e;
   *ek = mo_energy_kinetic(M->sc, s, M->work);
   *ee = mo_energy_stored(M->sc, s, M->work);   /* elastic, and finite-strain bodies' stored */
   /* the plastic work is energy the bodies took (T65), as in mech_energy */
-  *ratio = e0 != 0 ? (*ek + *ee + (M->sc->nonlinear ? s->wplastic : 0) - s->wext - s->wsupport + M->eshift) / e0 : NAN;
+  e = *ek + *ee + (M->sc->nonlinear ? s->wplastic : 0) - s->wext - s->wsupport + M->eshift;
+  *ratio = e0 != 0 ? e / e0 : NAN;
+  if (excess) *excess = e - e0;
 }
 
 /* Squared L2 norms over the reference body (2-point Gauss per bar element) of u_h - u, u,

@@ -368,6 +368,47 @@ static const char *time_scheme_name(const mo_time_settings *T)
 /* A run warns when its mechanical energy exceeds this many times its initial value (minus the
    work given to it): no physical scene gains that much, an unstable scheme does in a few steps */
 #define MO_BLOWUP_GROWTH 1e12
+/* Blow-up of a scene at rest at t = 0 (E_ref = 0), where no ratio is defined: its bodies hold
+   more than this many times the larger of the work given them and load_scale (T49) */
+#define MO_BLOWUP_GIVEN 1e3
+/* The energy scale of a scene at rest at t = 0, the floor of its growth's denominator (T49):
+   the loads at t = 0 on the free dofs (every load is a force on translations), summed in
+   magnitude, times the diagonal of the bodies' bounding box: a pile's or an arch's weight times
+   its size. An arch that only settles is given almost no work (3.5e-9 J, its blocks rising by
+   the contact solve's round-off) and would read a growth of 1 over that. 0 when nothing is
+   loaded at t = 0 (a ramped load: the work given is the scale then). */
+static double load_scale(const mo_scene *sc)
+{
+  double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL}, f = 0, d2 = 0;
+  int b, l, k, a, i, D = sc->dim;
+  for (l = 0; l < sc->nload; l++) {
+    const mo_load *L = &sc->load[l];
+    double t = 0, amp = L->amp ? fabs(mo_expr_eval(L->amp, &t)) : 1, sum = 0;
+    for (k = 0; k < L->n; k++)
+      if (sc->free_of[L->dof[k]] >= 0) sum += fabs(L->val[k]);
+    f += amp * sum;
+  }
+  if (!(f > 0) || !isfinite(f)) return 0;
+  for (b = 0; b < sc->nbody; b++) {
+    const mo_body *B = &sc->body[b];
+    if (B->kind == MO_BODY_PLANE) continue;
+    if (B->kind == MO_BODY_DEFORMABLE) {
+      for (a = 0; a < B->mesh->nnode; a++)
+        for (i = 0; i < D; i++) {
+          lo[i] = fmin(lo[i], B->mesh->x[(size_t)a * D + i]);
+          hi[i] = fmax(hi[i], B->mesh->x[(size_t)a * D + i]);
+        }
+    } else
+      for (i = 0; i < D; i++) {
+        lo[i] = fmin(lo[i], B->xc0[i] - B->bound);
+        hi[i] = fmax(hi[i], B->xc0[i] + B->bound);
+      }
+  }
+  for (i = 0; i < D; i++)
+    if (hi[i] >= lo[i]) d2 += (hi[i] - lo[i]) * (hi[i] - lo[i]);
+  return isfinite(d2) ? f * sqrt(d2) : 0;
+}
+
 /* Warnings on the stability of the time scheme (doc/theory.md (T101)-(T103)), for the log and
    summary.json: a theta-scheme that is only conditionally stable (or not at all), and an
    explicit step above the critical one. Returns how many were written into w. */
@@ -1146,7 +1187,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   char **names = NULL, *namebuf = NULL, outdir[4096], path[4200];
   double *row = NULL, *work = NULL, *p0 = NULL, *pend = NULL, eratio_end = NAN;
   double start = mo_clock(), e0 = 0, e1 = 0, drift = 0, balance = 0;
-  double emax_growth = 0, first_step = -1, eratio0 = 0, inner_start = mo_phase_total(ctx), tloop = 0, iloop = 0;
+  double emax_growth = 0, egiven = 0, first_step = -1, eratio0 = 0, inner_start = mo_phase_total(ctx), tloop = 0, iloop = 0;
   int ratio_col = 1;
   int st, ncol = 0, nprobecol = 0, nexact = 0, k, p, complete = 0, ecol0 = 0, ccol0 = 0, table = 0, x0col;
   int nl = 0, necol = 0, ncol0 = 0, cutcol = 0, nvalcol = 0, nrigcol = 0, agcol = 0, pfcol = 0;
@@ -1291,7 +1332,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   mo_metrics_step(met, &s, NULL);
   {
     double ek0, ee0;
-    mo_metrics_energies(met, &s, &ek0, &ee0, &eratio0);
+    mo_metrics_energies(met, &s, &ek0, &ee0, &eratio0, NULL);
     ratio_col = isfinite(eratio0);
   }
   if (sc->out.energy && !ratio_col) mo_note_skip(ctx, "energy.ratio column (the initial energy is 0: no ratio)");
@@ -1401,6 +1442,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   mo_phase_rest(ctx, MO_PH_SETUP, start, inner_start);
   prog.start = prog.last = mo_clock();
   e0 = mo_energy_kinetic(sc, &s, work) + mo_energy_stored(sc, &s, work) + s.wplastic;
+  egiven = load_scale(sc);
   /* the bodies' momenta at the start, for summary.json's deformable bodies (none: no p0, and no
      momenta at the end either) */
   for (k = 0; k < sc->nbody && sc->body[k].kind != MO_BODY_DEFORMABLE; k++) {}
@@ -1414,10 +1456,10 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
 
   for (;;) {
     int last = s.step == sc->time.steps, write_row = s.step % sc->out.every == 0 || last;
-    double t0 = mo_clock(), ek = 0, ee = 0, eratio;
+    double t0 = mo_clock(), ek = 0, ee = 0, eratio, excess, growth;
     /* energies at every step, not only on the rows written: the growth and drift the summary
        reports (and `moreau compare` classifies runs on) must not depend on output.every */
-    mo_metrics_energies(met, &s, &ek, &ee, &eratio);
+    mo_metrics_energies(met, &s, &ek, &ee, &eratio, &excess);
     /* no NaN or infinity in the outputs: the state and the energies at every step, the row
        before it is written (finite.c, doc/theory.md §10.3) */
     if ((st = mo_finite_state(sc, &s, ctx)) ||
@@ -1427,15 +1469,27 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
     if (e0 > 0 && fabs(e1 - e0) / e0 > drift) drift = fabs(e1 - e0) / e0;
     /* an infinite growth is kept as the largest double: JSON has no infinity, and a blow-up
        must not read as "no growth" (doc/theory.md §1.7) */
-    if (eratio - 1 > emax_growth) emax_growth = fmin(eratio - 1, DBL_MAX);
+    /* the growth over E_ref; a scene at rest at t = 0 (E_ref = 0: a deposit, a body loaded from
+       rest) over the largest work given it so far, so that the energy its contacts or its scheme
+       made is growth there too (doc/theory.md (T49)): a pile whose contacts blew it up read 0 */
+    if (fabs(s.wext) + fabs(s.wsupport) > egiven) egiven = fabs(s.wext) + fabs(s.wsupport);
+    growth = isfinite(eratio) ? eratio - 1 : egiven > 0 ? excess / egiven : 0;
+    if (growth > emax_growth) emax_growth = fmin(growth, DBL_MAX);
     balance = e1 - e0 - s.wext - s.wsupport - s.wcontact;
-    if (!blowup[0] && eratio > MO_BLOWUP_GROWTH) {
-      /* a scheme past its stability limit (T101)-(T102): said once, in the log and summary.json
-         (the run goes on until its end or the NaN the stepper refuses) */
-      snprintf(blowup, sizeof blowup, "blow-up at step %ld (t = %.6g): the energy reached %.3g times its initial "
-               "value (more than %.0e): the time scheme is unstable at this step (dt = %.6g%s)", s.step, s.t, eratio,
-               MO_BLOWUP_GROWTH, mo_stepper_dt(S), sc->time.explicit_cd ? "; see dt_crit, doc/theory.md (T102)"
-               : "; doc/theory.md (T101)");
+    if (!blowup[0] && (isfinite(eratio) ? eratio > MO_BLOWUP_GROWTH : growth > MO_BLOWUP_GIVEN)) {
+      /* a scheme past its stability limit (T101)-(T102), or contacts that make energy: said
+         once, in the log and summary.json (the run goes on until its end or the NaN the stepper
+         refuses) */
+      if (isfinite(eratio))
+        snprintf(blowup, sizeof blowup, "blow-up at step %ld (t = %.6g): the energy reached %.3g times its initial "
+                 "value (more than %.0e): the time scheme is unstable at this step (dt = %.6g%s)", s.step, s.t, eratio,
+                 MO_BLOWUP_GROWTH, mo_stepper_dt(S), sc->time.explicit_cd ? "; see dt_crit, doc/theory.md (T102)"
+                 : "; doc/theory.md (T101)");
+      else
+        snprintf(blowup, sizeof blowup, "blow-up at step %ld (t = %.6g): the bodies were at rest at t = 0, and the "
+                 "energy they hold beyond the work given them reached %.3g times that work (more than %.0e): "
+                 "energy made by the contact solves or the time scheme (dt = %.6g; doc/theory.md (T49))", s.step, s.t, growth, MO_BLOWUP_GIVEN,
+                 mo_stepper_dt(S));
       mo_log(ctx, 1, "%s: warning: %s\n", mo_case_file(cs), blowup);
     }
     /* the probes with an exact value at every step (their errors), the others on the rows

@@ -25,6 +25,26 @@ is "$(json "$OUT/x3/summary.json" "d['time']['stability']")" "conditional" "summ
 t=$("$MOREAU" run "$W" --set time.theta=0.3 --set time.end=0.1 --out "$OUT/x4" 2>&1)
 contains "$t" "unstable at every time step" "theta = theta_f = 0.3: unstable at every step, says the log"
 
+# a bar at rest at t = 0 under its weight (E(0) = 0: no energy ratio): the growth is taken over the
+# work given (doc/theory.md (T49)); above dt_crit the blow-up is said and compare classes the run
+# unstable (before, max_growth read 0 and the run "failed" on its NaN)
+cat > "$OUT/weight.cfg" <<'CFG'
+title = "bar from rest under its weight";
+bodies = ( { name = "bar"; mesh = { generator = "bar"; length = 1.0; elements = 200; };
+  material = { E = 1.0; rho = 1.0; area = 1.0; }; fix = ( { set = "left"; dofs = ["x"]; } ); body_force = [1.0]; } );
+time = { scheme = "explicit"; dt = 0.005; end = 4.0; };
+CFG
+"$MOREAU" run "$OUT/weight.cfg" --out "$OUT/w1" --quiet; ok $? "bar from rest under its weight, explicit at dt_crit: runs"
+ok $(json "$OUT/w1/summary.json" "0 if 0 <= d['energy']['max_growth'] < 1e-12 and d['energy']['initial'] == 0 and 'warnings' not in d else 1") \
+  "no growth over the work given (max growth $(json "$OUT/w1/summary.json" "'%.2g' % d['energy']['max_growth']")), no warning"
+t=$("$MOREAU" run "$OUT/weight.cfg" --set time.dt=0.0055 --out "$OUT/w2" 2>&1); is $? 1 "at 1.1 dt_crit it fails"
+contains "$t" "were at rest at t = 0, and the energy they hold beyond the work given them reached" "the log says the blow-up"
+ok $(json "$OUT/w2/summary.json" "0 if d['energy']['max_growth'] > 1e3 and 'blow-up at step' in d['warnings'][1] else 1") \
+  "summary.json: max growth $(json "$OUT/w2/summary.json" "'%.2g' % d['energy']['max_growth']") and the warning"
+"$MOREAU" compare "$OUT/weight.cfg" --vary time.dt=0.005,0.0055 --out "$OUT/cmpw" --quiet >/dev/null 2>&1
+is "$(awk -F, 'NR > 1 { printf "%s:%s ", $3, $4 }' "$OUT/cmpw/stability.csv")" "0.005:stable 0.0055:unstable " \
+  "compare: stable at dt_crit, unstable above it"
+
 # the explicit map of cylinder-wall (Q4, contact, dt_crit = 9.87e-9 s): a run that overflows to an
 # infinite energy before its NaN is classed unstable (max_growth kept finite in summary.json);
 # below dt_crit the run is bounded but its forward-increment contact chatters (|U_n| while closed
