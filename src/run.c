@@ -330,6 +330,9 @@ static json_t *parallel_json(const mo_ctx *ctx, const mo_scene *sc)
   json_object_set_new(j, "collective_calls", json_integer(ctx->par_calls));
   json_object_set_new(j, "collective_seconds", jnum(ctx->par_time));
   json_object_set_new(j, "collective_bytes", jnum(ctx->par_bytes));
+  if (ctx->par_grain_whole)
+    /* the granular solves swept whole on every rank, too small to split (doc/theory.md (T333)) */
+    json_object_set_new(j, "grain_whole_solves", json_integer(ctx->par_grain_whole));
   if (ctx->par_grain_solves) {
     /* the granular sweep over the ranks: Gauss-Seidel within each rank's part of the contacts */
     double n = (double)ctx->par_grain_solves;

@@ -38,6 +38,10 @@ static const mo_option_spec nscd_options[] = {
    "When the sweeps stall (less than a factor 2 over 10 sweeps) with stable statuses, solve the linear problem "
    "of the closed contacts directly and keep its solution if it satisfies the law (T83); with the residual "
    "rules only."},
+  {"split_min", MO_OPT_INT, offsetof(nscd_params, split_min), NULL, 0, 1e9, "128",
+   "Over MPI ranks, granular scenes: the sweep is split over the ranks only when the solve has at least this many "
+   "active contacts a rank; a smaller set is swept whole on every rank, as one process sweeps it (T333). 0: "
+   "split every solve."},
 };
 
 void nscd_params_default(nscd_params *p)
@@ -52,6 +56,7 @@ void nscd_params_default(nscd_params *p)
   p->local_tol = 1e-13;
   p->local_iter = 20;
   p->accelerate = 1;
+  p->split_min = NSCD_SPLIT_MIN;
 }
 
 static void nscd_defaults(void *params) { nscd_params_default(params); }
@@ -695,6 +700,7 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
   double *r = x->r, quad = 0, maxm = 0, res = HUGE_VAL, rhist[10] = {HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL};
   const int scaled = p->stop == NSCD_STOP_SCALED;
   int repl = 0;        /* the split sweep stalled: the serial sweep replicated on every rank */
+  int whole = 0;       /* over the ranks, a set too small to split: the serial sweep on every rank (T333) */
   int pnu = 0, pnd = 0; /* the split solve's redundancy count, from its gather (T279) */
   double pstall = HUGE_VAL;
   int (*do_sweep)(nscd_state *, const mo_contact_problem *, double *, int *) =
@@ -749,7 +755,12 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
      so that each rank makes its own contacts' only (T274) */
   S->par = 0;
   if (S->grains) {
-    if (ctx->nranks > 1 && (st = nscd_grains_partition(S, P, ctx))) return st;
+    /* a set of fewer than split_min active contacts a rank is swept whole on every rank, as one
+       process sweeps it (T333): a split sweep pays a sync a sweep and converges slower than the
+       whole one, and on a hundred contacts a rank the sweep it splits costs about the sync */
+    whole = ctx->nranks > 1 && (double)S->nact < (double)p->split_min * ctx->nranks;
+    if (whole) ctx->par_grain_whole++;
+    else if (ctx->nranks > 1 && (st = nscd_grains_partition(S, P, ctx))) return st;
     if ((st = nscd_grains_prepare(S, P, ctx))) return st;
   }
   /* |q|^2 and the scaled |S q|^2 of the active contacts: over the ranks, the second over the rank's
@@ -803,7 +814,10 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
     else res = HUGE_VAL;
   }
   while (!conv && sweeps < p->max_sweeps) {
-    if (!S->par && !repl && ctx->interrupt && *ctx->interrupt) break;
+    /* the ranks sweeping the same data stop together: not on a signal one of them may see first */
+    if (!S->par && !repl && !whole && ctx->interrupt && *ctx->interrupt) break;
+    /* (a set swept whole on every rank draws its permutations as one process does: one seed, the
+       same draws on every rank) */
     if (sweeps && p->order == NSCD_ORDER_SHUFFLED && p->reshuffle && !S->par && !repl)
       gsl_ran_shuffle(&S->rng, S->ordown, (size_t)S->nact, sizeof(int));
     /* the 3D Newton solves to 1e-2 of the last residual (never looser than 1e-4, never tighter

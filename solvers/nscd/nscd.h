@@ -26,6 +26,8 @@ typedef struct {
   double local_tol;    /* 3D local Newton: |phi| <= local_tol (|r| + rho_n |q_n|) */
   int local_iter;      /* 3D local Newton iterations before the projection fallback */
   int accelerate;      /* the status-set step when the sweeps stall (T83) */
+  int split_min;       /* over MPI ranks: the granular sweep is split only from this many active
+                          contacts a rank, else run whole on every rank (T333) */
 } nscd_params;
 
 void nscd_params_default(nscd_params *p);
@@ -379,6 +381,10 @@ void nscd_grains_free(nscd_state *S);
 #define NSCD_ACCEL_MAX 5000
 /* Active contacts from which the first LU of a run is taken without waiting for a stall (T157) */
 #define NSCD_EARLY_LU 1000
+/* split_min's default (T333): the disk pile on 2 ranks of one machine, whole against split: the
+   whole sweep faster at 48 active contacts a rank, the two alike from 115 to 240, the split one
+   1.5 x faster at 490 (a sync a sweep of about 1 us here; a network's 5-20 us moves the point up) */
+#define NSCD_SPLIT_MIN 128
 #define NSCD_PAR_STALL 500 /* sweeps over which a split sweep over the ranks must halve its measure */
 /* Active frictionless contacts from which the first LU of a run is tried before any sweep, on the
    statuses the predictor's velocities give (T163) */

@@ -101,6 +101,9 @@ typedef struct mo_ctx {
   /* the granular sweep over more than 2 ranks: the interface bodies touched by the contacts of
      more than 2 ranks (doc/theory.md (T332)), summed over the split solves */
   double par_grain_multi;
+  /* granular solves over the ranks swept whole on every rank, their set too small to split
+     (nscd's split_min, doc/theory.md (T333)) */
+  long par_grain_whole;
 } mo_ctx;
 
 /* 1 when the program was asked to stop (SIGINT, SIGTERM): the long loops of loading and
