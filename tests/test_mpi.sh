@@ -139,6 +139,26 @@ grains_more() { # grains_more NAME NP CASE ARGS...
 }
 grains_more disk-pile 3 "$MOREAU_SRCDIR/cases/disk-pile" --set bodies.grains.pack.count=60 --set time.end=0.22
 grains_more sphere-deposit 4 "$MOREAU_SRCDIR/cases/sphere-deposit" --set bodies.grains.pack.count=200 --set time.end=0.12
+# Jean's rules over the ranks (T334): the sweep's sync is one sum, the maximum of a breakdown's
+# index and of |dU| |r| taken only under the maxm rule (and when a rank broke down); quad's
+# reported Maxm once after the last sweep. Against the serial runs under the same rule
+jean_pair() { # jean_pair RULE TOL
+  rule=$1
+  tol=$2
+  set -- --set bodies.grains.pack.count=60 --set time.end=0.22 --set contact.nscd.tol="$tol" --set "contact.nscd.stop=\"$rule\"" \
+    --set contact.nscd.max_sweeps=50000 --set contact.nscd.split_min=0
+  "$MOREAU" run "$MOREAU_SRCDIR/cases/disk-pile" --out "$OUT/jean-$rule-1" --quiet "$@" > "$OUT/jean-$rule-1.log" 2>&1
+  ran $? "$OUT/jean-$rule-1.log" "disk-pile under $rule $tol: the serial run completes"
+  mpi 2 "$MOREAU" run "$MOREAU_SRCDIR/cases/disk-pile" --out "$OUT/jean-$rule-2" --quiet "$@" > "$OUT/jean-$rule-2.log" 2>&1
+  ran $? "$OUT/jean-$rule-2.log" "disk-pile under $rule $tol: mpirun -np 2 completes"
+  check_runs "$OUT/jean-$rule-1" "$OUT/jean-$rule-2" 1e-8 "disk-pile under $rule" grains
+}
+jean_pair quad 1e-10
+ok $(json "$OUT/jean-quad-2/summary.json" "0 if d['parallel']['collective_calls'] < 1.2 * d['parallel']['grain_sweeps'] else 1") \
+  "quad: one collective a split sweep ($(json "$OUT/jean-quad-2/summary.json" "'%d collectives, %d sweeps' % (d['parallel']['collective_calls'], d['parallel']['grain_sweeps'])"))"
+jean_pair maxm 1e-12
+ok $(json "$OUT/jean-maxm-2/summary.json" "0 if d['parallel']['collective_calls'] >= 2 * d['parallel']['grain_sweeps'] else 1") \
+  "maxm: the sum and the maximum a split sweep ($(json "$OUT/jean-maxm-2/summary.json" "'%d collectives, %d sweeps' % (d['parallel']['collective_calls'], d['parallel']['grain_sweeps'])"))"
 # bodies where 3 or 4 parts meet (T332): the 2000-sphere deposit on 4 ranks, at the case's own
 # tolerance, whose split sweep summing 4 ranks' full increments diverged at step 192 (speeds of
 # 1e116); it runs as the serial one does, its kinetic energy within 10 % of the serial run's at

@@ -599,8 +599,8 @@ static int sweep_ranks(nscd_state *S, const mo_contact_problem *P, double *r, in
                        int *stop, double *quad, double *maxm, double *res, mo_ctx *ctx)
 {
   const nscd_params *p = &S->p;
-  double parts[5] = {0, 0, 0, 0, 0}, mx[2];
-  int st, natural = p->stop == NSCD_STOP_NATURAL || scaled, nparts = 4;
+  double parts[6] = {0, 0, 0, 0, 0, 0}, mx[2];
+  int st, natural = p->stop == NSCD_STOP_NATURAL || scaled, nparts = 5;
   *broke = nscd_grains_sweep_owned(S, P, r, status);
   if (!natural) { /* Jean's parts over the rank's contacts, summed by its sweep (T273) */
     parts[0] = S->jp[0];
@@ -610,16 +610,25 @@ static int sweep_ranks(nscd_state *S, const mo_contact_problem *P, double *r, in
   } else
     mx[1] = 0;
   parts[3] = ctx->interrupt && *ctx->interrupt;
+  /* the ranks that broke down, counted in the sum: the maximum below only when one did or the
+     rule stops on Jean's maximum; the reported maximum of the quad rule is taken once, after the
+     last sweep (T334) */
+  parts[4] = *broke >= 0;
   mx[0] = *broke;
+  S->jmax = mx[1];
   if (S->qs2part) { /* the first sync: the ranks' parts of |S q|^2 (T276) */
-    parts[4] = S->qs2;
-    nparts = 5;
+    parts[5] = S->qs2;
+    nparts = 6;
   }
-  if ((st = nscd_grains_sync(S, parts, nparts, mx, 2, ctx))) return st;
+  if ((st = nscd_grains_sync(S, parts, nparts, ctx))) return st;
   if (S->qs2part) {
-    S->qs2 = parts[4];
+    S->qs2 = parts[5];
     S->qs2part = 0;
   }
+  if (parts[4] > 0 || p->stop == NSCD_STOP_MAXM) {
+    if ((st = mo_par_max(mx, 2, ctx))) return st;
+  } else
+    mx[0] = -1;
   *broke = (int)mx[0];
   *stop = parts[3] > 0;
   if (natural) {
@@ -633,8 +642,13 @@ static int sweep_ranks(nscd_state *S, const mo_contact_problem *P, double *r, in
     if (sqrt(parts[1]) > den) den = sqrt(parts[1]);
     if (sqrt(parts[2]) > den) den = sqrt(parts[2]);
     *res = den > 1e-300 ? sqrt(parts[0]) / den : sqrt(parts[0]);
-  } else
+  } else {
     jean_from_parts(parts[0], parts[1], parts[2], mx[1], quad, maxm);
+    S->jparts[0] = parts[0];
+    S->jparts[1] = parts[1];
+    S->jparts[2] = parts[2];
+    S->jmaxed = parts[4] > 0 || p->stop == NSCD_STOP_MAXM;
+  }
   return MO_OK;
 }
 
@@ -925,6 +939,13 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
   }
   /* a fixed number of sweeps was asked for: done unless interrupted */
   if (p->stop == NSCD_STOP_SWEEPS && broke < 0 && sweeps == p->max_sweeps) conv = 1;
+  /* Jean's Maxm of the last split sweep, reported: its maximum over the ranks once, here, when the
+     sweeps' syncs did not take it (T334; the same decision on every rank: S->par, the rule and
+     jmaxed are) */
+  if (S->par && sweeps && !(p->stop == NSCD_STOP_NATURAL || scaled) && !S->jmaxed) {
+    if ((st = mo_par_max(&S->jmax, 1, ctx))) return st;
+    jean_from_parts(S->jparts[0], S->jparts[1], S->jparts[2], S->jmax, &quad, &maxm);
+  }
   /* over MPI ranks: every contact's reaction and status, every body's velocity, on every rank */
   /* with the redundancy count of the rank's contacts joined in the same sum (T279) */
   if (S->par && (st = nscd_grains_gather(S, P, r, x->status, broke < 0 ? &pnu : NULL, &pnd, ctx))) return st;

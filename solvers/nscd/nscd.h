@@ -251,6 +251,10 @@ typedef struct {
      the largest |dU| |r| (jean_parts in nscd.c) */
   int jwant;
   double jp[4];
+  /* over the ranks (T334): the rank's largest |dU| |r| of the last split sweep, the sums of its
+     Jean's parts, and whether that sweep's sync took the maximum over the ranks already */
+  double jmax, jparts[3];
+  int jmaxed;
   /* the granular path over MPI ranks (nscd_grains.c, doc/parallel.md §4): each rank sweeps the
      contacts of its slab of space (`own`, in the sweep's order: `oorder`), the velocities of the
      bodies that contacts of several ranks touch (`ifc`, their first velocity in vb) are summed
@@ -353,13 +357,13 @@ int nscd_grains_sweep(nscd_state *S, const mo_contact_problem *P, double *r, int
 /* Over MPI ranks (doc/parallel.md §4): the slabs and their interface bodies for this solve
    (after the sweep order is set); a sweep of the owned contacts; after it, the interface
    velocities summed over the ranks with the `nparts` partial sums of the stopping rule (parts, in
-   place), then `nmax` values maximized (maxparts, in place); U of the owned contacts from the
-   synchronized velocities; at the end, the reactions, statuses
-   and velocities of every contact and body on every rank. */
+   place; a breakdown's index and Jean's maximum are maximized by the caller only when needed,
+   (T334)); U of the owned contacts from the synchronized velocities; at the end, the reactions,
+   statuses and velocities of every contact and body on every rank. */
 int nscd_grains_partition(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx);
 int nscd_grains_sweep_owned(nscd_state *S, const mo_contact_problem *P, double *r, int *status);
 void nscd_grains_owned_U(nscd_state *S, const mo_contact_problem *P);
-int nscd_grains_sync(nscd_state *S, double *parts, int nparts, double *maxparts, int nmax, mo_ctx *ctx);
+int nscd_grains_sync(nscd_state *S, double *parts, int nparts, mo_ctx *ctx);
 /* The gather; with unknowns (not NULL), the redundancy count of nscd_grains_count over the rank's
    own contacts joined in the same sum (T279). */
 int nscd_grains_gather(nscd_state *S, const mo_contact_problem *P, double *r, int *status, int *unknowns,

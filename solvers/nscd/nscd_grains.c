@@ -824,7 +824,7 @@ void nscd_grains_owned_U(nscd_state *S, const mo_contact_problem *P)
   }
 }
 
-int nscd_grains_sync(nscd_state *S, double *parts, int nparts, double *maxparts, int nmax, mo_ctx *ctx)
+int nscd_grains_sync(nscd_state *S, double *parts, int nparts, mo_ctx *ctx)
 {
   const int nk = NK(S->d);
   const size_t ni = (size_t)S->nifc * nk;
@@ -865,7 +865,7 @@ int nscd_grains_sync(nscd_state *S, double *parts, int nparts, double *maxparts,
   }
   S->par_sweeps++;
   ctx->par_grain_sweeps++;
-  return nmax ? mo_par_max(maxparts, nmax, ctx) : MO_OK;
+  return MO_OK;
 }
 
 int nscd_grains_gather(nscd_state *S, const mo_contact_problem *P, double *r, int *status, int *unknowns,
