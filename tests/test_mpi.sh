@@ -152,6 +152,9 @@ jean_pair() { # jean_pair RULE TOL
   mpi 2 "$MOREAU" run "$MOREAU_SRCDIR/cases/disk-pile" --out "$OUT/jean-$rule-2" --quiet "$@" > "$OUT/jean-$rule-2.log" 2>&1
   ran $? "$OUT/jean-$rule-2.log" "disk-pile under $rule $tol: mpirun -np 2 completes"
   check_runs "$OUT/jean-$rule-1" "$OUT/jean-$rule-2" 1e-8 "disk-pile under $rule" grains
+  # the redundancy count, joined in the end-of-solve gather (T279, (T335))
+  is "$(json "$OUT/jean-$rule-2/summary.json" "d['contact']['redundancy']")" "$(json "$OUT/jean-$rule-1/summary.json" "d['contact']['redundancy']")" \
+    "disk-pile under $rule: the redundancy count of the serial run ($(json "$OUT/jean-$rule-1/summary.json" "d['contact']['redundancy']['last_unknowns']") closed unknowns)"
 }
 jean_pair quad 1e-10
 ok $(json "$OUT/jean-quad-2/summary.json" "0 if d['parallel']['collective_calls'] < 1.2 * d['parallel']['grain_sweeps'] else 1") \
@@ -195,6 +198,11 @@ mpi 2 "$MOREAU" run "$c" --out "$OUT/arch-2" --quiet --set contact.nscd.split_mi
 ran $? "$OUT/arch-2.log" "masonry-arch: mpirun -np 2 with every solve split completes"
 is "$(json "$OUT/arch-2/summary.json" "[d['contact']['failed_solves'], d['parallel']['grain_sweeps'] > 0, d['parallel']['grain_serial_fallbacks'] > 0]")" \
   "[0, True, True]" "masonry-arch: every solve of the 2-rank run converged, split sweeps that stalled went on serial"
+# the count over the ranks' closed contacts, gathered at the end of each split solve (T279, (T335)):
+# 40 redundant unknowns at every step, as the serial run finds
+is "$(json "$OUT/arch-2/summary.json" "[d['contact']['redundancy'][k] for k in ('max_redundant', 'steps_redundant')]")" \
+  "$(json "$OUT/arch-1/summary.json" "[d['contact']['redundancy'][k] for k in ('max_redundant', 'steps_redundant')]")" \
+  "masonry-arch split: the redundancy of the serial run ($(json "$OUT/arch-1/summary.json" "d['contact']['redundancy']['max_redundant']") unknowns at $(json "$OUT/arch-1/summary.json" "d['contact']['redundancy']['steps_redundant']") steps)"
 detected_split arch
 # the arch stands: its velocities are round-off (1e-11 m/s), so the runs are compared by the
 # voussoirs' final positions (to 1e-9 m) and both runs' largest speed (below 1e-8 m/s)

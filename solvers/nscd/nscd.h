@@ -288,6 +288,12 @@ typedef struct {
   int npeer, nmine, *peer, *poff, *pj, *mj, *msrc0, *msrc, *pe;
   double *sbuf, *rbuf;
   size_t xcap, xrcap;
+  /* the end-of-solve gather (T335): each rank's block (its active contacts' reactions and
+     statuses, its first-touched bodies' velocity changes, the count's numbers), gcnt[q] values
+     of rank q; gbuf every block in rank order, then the rank's own */
+  int *gcnt;
+  double *gbuf;
+  size_t gbcap;
   long par_sweeps;              /* sweeps synchronized, for the run's log */
   /* the set-up over the slab (doc/theory.md (T274)-(T279)): gpart, the records are those of the
      rank's own active contacts only (the others' made by nscd_grains_complete when a serial sweep

@@ -58,6 +58,8 @@ void nscd_grains_free(nscd_state *S)
   mo_free(S->pe);
   mo_free(S->sbuf);
   mo_free(S->rbuf);
+  mo_free(S->gcnt);
+  mo_free(S->gbuf);
 }
 
 /* Room for nc contacts and nfree velocities. */
@@ -644,6 +646,7 @@ static int par_reserve(nscd_state *S, int nfree, mo_ctx *ctx)
     GROW(S->peer, nr * sizeof *S->peer);
     GROW(S->poff, nr * sizeof *S->poff);
     GROW(S->pcnt, nr * sizeof *S->pcnt);
+    GROW(S->gcnt, nr * sizeof *S->gcnt);
   }
 #undef GROW
   return MO_OK;
@@ -871,62 +874,92 @@ int nscd_grains_sync(nscd_state *S, double *parts, int nparts, mo_ctx *ctx)
 int nscd_grains_gather(nscd_state *S, const mo_contact_problem *P, double *r, int *status, int *unknowns,
                        int *dofs, mo_ctx *ctx)
 {
-  const int d = S->d, nk = NK(d);
-  /* with the count: its 2 + nifc numbers after the velocities (T279) */
-  size_t m = (size_t)S->nc * d, n = m + (size_t)S->nc + (size_t)P->nfree, nv = n, k;
-  double *b;
-  int a, i, st, nu = 0, nd = 0;
-  if (unknowns) {
-    /* the rank's own closed contacts, before the sum (their r and coefficients are the rank's) */
-    if ((st = count_list(S, P, r, S->oorder, S->noact, &nu, &nd, ctx))) return st;
-    n += 2 + (size_t)S->nifc;
-  }
-  if (n + 1 > S->pbcap) {
-    void *p = mo_realloc(ctx, S->pbuf, (n + 1) * sizeof *S->pbuf);
-    if (!p) return MO_ENOMEM;
-    S->pbuf = p;
-    S->pbcap = n + 1;
-  }
-  b = S->pbuf;
-  /* each contact's reaction and status from its rank, each body's velocity change from the lowest
-     rank that touches it (interface bodies are the same on every rank after the last sync) */
-  for (a = 0; a < S->nc; a++) {
-    int mine = S->own[a];
-    for (i = 0; i < d; i++) b[(size_t)a * d + i] = mine ? r[(size_t)a * d + i] : 0;
-    b[m + a] = mine ? status[a] : 0;
-  }
-  for (k = 0; k < (size_t)P->nfree; k++) b[m + S->nc + k] = 0;
+  const int d = S->d, nk = NK(d), np = S->nranks, nx = unknowns ? 2 + S->nifc : 0;
+  size_t tot = 0, at = 0;
+  double *all, *mine;
+  int a, i, k, l, q, st, nu = 0, nd = 0, *cur = S->pcnt; /* pcnt: the pattern's scratch, free here */
+  /* the rank's own closed contacts, before the gather (their r and coefficients are the rank's) */
+  if (unknowns && (st = count_list(S, P, r, S->oorder, S->noact, &nu, &nd, ctx))) return st;
+  /* (T335) every value has one owner: a contact's reaction and status the rank of its part, a
+     body's velocity change the lowest rank that touches it (an interface body's is the same on
+     every rank after the last sync); each rank's block size follows from the parts every rank
+     holds. Contacts not active (r = 0, open) and bodies no contact touches (v = v_free) are the
+     same on every rank already and are not sent */
+  for (q = 0; q < np; q++) S->gcnt[q] = nx;
+  for (k = 0; k < S->nact; k++) S->gcnt[S->apart[k]] += d + 1;
   for (i = 0; i < P->nfree; i++)
-    if (S->bfirst[i] == S->rank) {
-      int l;
-      for (l = 0; l < nk && i + l < P->nfree; l++) b[m + S->nc + i + l] = S->vb[i + l] - P->xfree[i + l];
+    if (S->bfirst[i] >= 0) S->gcnt[S->bfirst[i]] += i + nk <= P->nfree ? nk : P->nfree - i;
+  for (q = 0; q < np; q++) {
+    cur[q] = (int)tot;
+    tot += (size_t)S->gcnt[q];
+  }
+  if (tot + (size_t)S->gcnt[S->rank] + 1 > S->gbcap) {
+    void *p = mo_realloc(ctx, S->gbuf, (tot + (size_t)S->gcnt[S->rank] + 1) * sizeof *S->gbuf);
+    if (!p) return MO_ENOMEM;
+    S->gbuf = p;
+    S->gbcap = tot + (size_t)S->gcnt[S->rank] + 1;
+  }
+  all = S->gbuf;
+  mine = S->gbuf + tot;
+  /* the block: the rank's contacts in the order of act, its bodies in dof order, then the count */
+  for (k = 0; k < S->nact; k++)
+    if (S->apart[k] == S->rank) {
+      a = S->act[k];
+      for (i = 0; i < d; i++) mine[at++] = r[(size_t)a * d + i];
+      mine[at++] = status[a];
     }
+  for (i = 0; i < P->nfree; i++)
+    if (S->bfirst[i] == S->rank)
+      for (l = 0; l < nk && i + l < P->nfree; l++) mine[at++] = S->vb[i + l] - P->xfree[i + l];
   if (unknowns) {
     /* a body that no other rank's contact touches is counted by one rank at most; an interface
-       body by every rank whose closed contacts move it: those are joined by their marks' sum */
-    double *c = b + nv;
+       body by every rank whose closed contacts move it: those are joined by their marks */
     for (i = 0; i < S->nifc; i++) {
-      c[2 + i] = S->bmark[S->ifc[i]];
+      mine[at + 2 + (size_t)i] = S->bmark[S->ifc[i]];
       if (S->bmark[S->ifc[i]]) nd -= nk;
     }
-    c[0] = nu;
-    c[1] = nd;
+    mine[at] = nu;
+    mine[at + 1] = nd;
   }
-  if ((st = mo_par_sum(b, (long)n, ctx))) return st;
-  if (unknowns) {
-    const double *c = b + nv;
-    *unknowns = (int)c[0];
-    *dofs = (int)c[1];
-    for (i = 0; i < S->nifc; i++)
-      if (c[2 + i] > 0) *dofs += nk;
-  }
-  for (a = 0; a < S->nc; a++) {
+  if ((st = mo_par_gatherv(mine, S->gcnt, all, ctx))) return st;
+  /* read in the order written, a cursor a rank; "+ 0.0" makes -0 the +0 the sum with the other
+     ranks' zeros made before (T335: the same numbers to the bit) */
+  for (k = 0; k < S->nact; k++) {
+    const double *b = all + cur[S->apart[k]];
+    a = S->act[k];
     if (!S->own[a]) {
-      for (i = 0; i < d; i++) r[(size_t)a * d + i] = b[(size_t)a * d + i];
-      status[a] = (int)b[m + a];
+      for (i = 0; i < d; i++) r[(size_t)a * d + i] = b[i] + 0.0;
+      status[a] = (int)b[d];
+    }
+    cur[S->apart[k]] += d + 1;
+  }
+  for (i = 0; i < P->nfree; i++) {
+    if (S->bfirst[i] < 0) {
+      S->vb[i] = P->xfree[i] + 0.0;
+      continue;
+    }
+    {
+      const double *b = all + cur[S->bfirst[i]];
+      for (l = 0; l < nk && i + l < P->nfree; l++) S->vb[i + l] = P->xfree[i + l] + (b[l] + 0.0);
+      cur[S->bfirst[i]] += l;
+      i += l - 1; /* a body's dofs follow its first: none of them has a bfirst of its own */
     }
   }
-  for (i = 0; i < P->nfree; i++) S->vb[i] = P->xfree[i] + b[m + S->nc + i];
+  if (unknowns) {
+    double su = 0, sd = 0;
+    *dofs = 0;
+    for (q = 0; q < np; q++) {
+      su += all[cur[q]];
+      sd += all[cur[q] + 1];
+    }
+    for (i = 0; i < S->nifc; i++) {
+      double m = 0;
+      for (q = 0; q < np; q++) m += all[cur[q] + 2 + i];
+      if (m > 0) *dofs += nk;
+    }
+    *unknowns = (int)su;
+    *dofs += (int)sd;
+  }
   return MO_OK;
 }
 
