@@ -28,7 +28,7 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
 double mo_metrics_energy_ratio(const mo_metrics *M, const mo_state *s);
 /* The kinetic and elastic energies of s and the ratio above, from one product by M and one by
    K (the run measures them at every step); excess (may be NULL): E(t) - E_ref, the numerator of
-   the growth, defined also where E_ref = 0 and the ratio is not (doc/theory.md (T49)). */
+   the growth, defined also where E_ref = 0 and the ratio is not (doc/theory.md (T49a)). */
 void mo_metrics_energies(const mo_metrics *M, const mo_state *s, double *ek, double *ee, double *ratio, double *excess);
 json_t *mo_metrics_json(const mo_metrics *M);
 /* Chatter of a persistent contact. The verdict is mo_chatter_verdict (T97), the one criterion of

@@ -372,9 +372,9 @@ static const char *time_scheme_name(const mo_time_settings *T)
    work given to it): no physical scene gains that much, an unstable scheme does in a few steps */
 #define MO_BLOWUP_GROWTH 1e12
 /* Blow-up of a scene at rest at t = 0 (E_ref = 0), where no ratio is defined: its bodies hold
-   more than this many times the larger of the work given them and load_scale (T49) */
+   more than this many times the larger of the work given them and load_scale (T49a) */
 #define MO_BLOWUP_GIVEN 1e3
-/* The energy scale of a scene at rest at t = 0, the floor of its growth's denominator (T49):
+/* The energy scale of a scene at rest at t = 0, the floor of its growth's denominator (T49a):
    the loads at t = 0 on the free dofs (every load is a force on translations), summed in
    magnitude, times the diagonal of the bodies' bounding box: a pile's or an arch's weight times
    its size. An arch that only settles is given almost no work (3.5e-9 J, its blocks rising by
@@ -1474,7 +1474,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
        must not read as "no growth" (doc/theory.md §1.7) */
     /* the growth over E_ref; a scene at rest at t = 0 (E_ref = 0: a deposit, a body loaded from
        rest) over the largest work given it so far, so that the energy its contacts or its scheme
-       made is growth there too (doc/theory.md (T49)): a pile whose contacts blew it up read 0 */
+       made is growth there too (doc/theory.md (T49a)): a pile whose contacts blew it up read 0 */
     if (fabs(s.wext) + fabs(s.wsupport) > egiven) egiven = fabs(s.wext) + fabs(s.wsupport);
     growth = isfinite(eratio) ? eratio - 1 : egiven > 0 ? excess / egiven : 0;
     if (growth > emax_growth) emax_growth = fmin(growth, DBL_MAX);
@@ -1491,8 +1491,8 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
       else
         snprintf(blowup, sizeof blowup, "blow-up at step %ld (t = %.6g): the bodies were at rest at t = 0, and the "
                  "energy they hold beyond the work given them reached %.3g times that work (more than %.0e): "
-                 "energy made by the contact solves or the time scheme (dt = %.6g; doc/theory.md (T49))", s.step, s.t, growth, MO_BLOWUP_GIVEN,
-                 mo_stepper_dt(S));
+                 "energy made by the contact solves or the time scheme (dt = %.6g; doc/theory.md (T49a))",
+                 s.step, s.t, growth, MO_BLOWUP_GIVEN, mo_stepper_dt(S));
       mo_log(ctx, 1, "%s: warning: %s\n", mo_case_file(cs), blowup);
     }
     /* the probes with an exact value at every step (their errors), the others on the rows

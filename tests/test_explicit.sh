@@ -26,7 +26,7 @@ t=$("$MOREAU" run "$W" --set time.theta=0.3 --set time.end=0.1 --out "$OUT/x4" 2
 contains "$t" "unstable at every time step" "theta = theta_f = 0.3: unstable at every step, says the log"
 
 # a bar at rest at t = 0 under its weight (E(0) = 0: no energy ratio): the growth is taken over the
-# work given (doc/theory.md (T49)); above dt_crit the blow-up is said and compare classes the run
+# work given (doc/theory.md (T49a)); above dt_crit the blow-up is said and compare classes the run
 # unstable (before, max_growth read 0 and the run "failed" on its NaN)
 cat > "$OUT/weight.cfg" <<'CFG'
 title = "bar from rest under its weight";

@@ -42,7 +42,7 @@ static double metric(const char *out, const char *name, const char *key)
 }
 
 /* energy.max_growth of summary.json: for a scene at rest at t = 0 over the larger of the work given
-   and the loads' scale (doc/theory.md (T49)) */
+   and the loads' scale (doc/theory.md (T49a)) */
 static double growth(const char *out)
 {
   json_t *j = tl_summary(out);
