@@ -191,6 +191,20 @@ is "$(json "$OUT/arch-w/summary.json" "[d['contact']['failed_solves'], d['parall
 for f in bodies.csv history.csv contact.csv; do
   cmp -s "$OUT/arch-1/$f" "$OUT/arch-w/$f"; ok $? "masonry-arch on 2 ranks: $f the serial run's to the byte"
 done
+# a set swept whole on every rank draws the one process's permutations (one seed, the same draws):
+# the 60-disk pile in shuffled order, reshuffled every sweep, on 2 and 3 ranks is the serial run
+c="$MOREAU_SRCDIR/cases/disk-pile"
+set -- --set bodies.grains.pack.count=60 --set time.end=0.3 --set 'contact.nscd.order="shuffled"' --set contact.nscd.reshuffle=true
+"$MOREAU" run "$c" --out "$OUT/shuf-1" --quiet "$@" > "$OUT/shuf-1.log" 2>&1
+ran $? "$OUT/shuf-1.log" "shuffled pile: the serial run completes"
+for np in 2 3; do
+  mpi $np "$MOREAU" run "$c" --out "$OUT/shuf-$np" --quiet "$@" > "$OUT/shuf-$np.log" 2>&1
+  ran $? "$OUT/shuf-$np.log" "shuffled pile: mpirun -np $np completes"
+  same=0
+  for f in bodies.csv history.csv contact.csv; do cmp -s "$OUT/shuf-1/$f" "$OUT/shuf-$np/$f" || same=1; done
+  ok $same "shuffled pile on $np ranks, every solve whole ($(json "$OUT/shuf-$np/summary.json" "d['parallel'].get('grain_whole_solves')")): bodies, history and contact.csv the serial run's to the byte"
+done
+c="$MOREAU_SRCDIR/cases/masonry-arch"
 # a split sweep that stalls goes on as the serial sweep on every rank (doc/parallel.md §4): on
 # masonry-arch at the case's own tolerance (scaled, 1e-11) the split sweep sat at 1.9e-9 and rank 1
 # failed at step 185 with 200 000 sweeps; the run now ends as the serial one does
