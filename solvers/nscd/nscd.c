@@ -647,7 +647,6 @@ static int sweep_ranks(nscd_state *S, const mo_contact_problem *P, double *r, in
     S->jparts[0] = parts[0];
     S->jparts[1] = parts[1];
     S->jparts[2] = parts[2];
-    S->jmaxed = parts[4] > 0 || p->stop == NSCD_STOP_MAXM;
   }
   return MO_OK;
 }
@@ -939,10 +938,10 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
   }
   /* a fixed number of sweeps was asked for: done unless interrupted */
   if (p->stop == NSCD_STOP_SWEEPS && broke < 0 && sweeps == p->max_sweeps) conv = 1;
-  /* Jean's Maxm of the last split sweep, reported: its maximum over the ranks once, here, when the
-     sweeps' syncs did not take it (T334; the same decision on every rank: S->par, the rule and
-     jmaxed are) */
-  if (S->par && sweeps && !(p->stop == NSCD_STOP_NATURAL || scaled) && !S->jmaxed) {
+  /* Jean's Maxm of the last split sweep, reported: its maximum over the ranks once, here, unless
+     that sweep's sync took it (a breakdown, the maxm rule) (T334; S->par, broke and the rule are
+     the same on every rank) */
+  if (S->par && sweeps && !(p->stop == NSCD_STOP_NATURAL || scaled) && broke < 0 && p->stop != NSCD_STOP_MAXM) {
     if ((st = mo_par_max(&S->jmax, 1, ctx))) return st;
     jean_from_parts(S->jparts[0], S->jparts[1], S->jparts[2], S->jmax, &quad, &maxm);
   }

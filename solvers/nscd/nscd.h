@@ -251,10 +251,9 @@ typedef struct {
      the largest |dU| |r| (jean_parts in nscd.c) */
   int jwant;
   double jp[4];
-  /* over the ranks (T334): the rank's largest |dU| |r| of the last split sweep, the sums of its
-     Jean's parts, and whether that sweep's sync took the maximum over the ranks already */
+  /* over the ranks (T334): the rank's largest |dU| |r| of the last split sweep and the sums of
+     its Jean's parts, for the Maxm reported after the last sweep */
   double jmax, jparts[3];
-  int jmaxed;
   /* the granular path over MPI ranks (nscd_grains.c, doc/parallel.md §4): each rank sweeps the
      contacts of its slab of space (`own`, in the sweep's order: `oorder`), the velocities of the
      bodies that contacts of several ranks touch (`ifc`, their first velocity in vb) are summed
