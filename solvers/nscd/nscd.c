@@ -799,7 +799,8 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
     /* the sweeps on body velocities read U from the velocities; the rules that do not stop on U
        need it exact only at the end; the split sweep's rule forms U of the rank's contacts after
        each sync, and a serial sweep after a switch forms its own (T278) */
-    if (S->grains) nscd_grains_velocities(S, P, r);
+    if (S->grains && S->par) nscd_grains_velocities_part(S, P, r); /* the rank's bodies' (T336) */
+    else if (S->grains) nscd_grains_velocities(S, P, r);
     else nscd_bodies_velocities(S, P, r);
   } else
     exact_U(S, P, r, 0);
@@ -869,7 +870,7 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
            ranks stay equal, and it converges wherever the serial run does (doc/parallel.md §4) */
         double now = p->stop == NSCD_STOP_NATURAL || scaled ? res : p->stop == NSCD_STOP_QUAD ? quad : maxm;
         if (!(now <= 0.5 * pstall)) {
-          if ((st = nscd_grains_gather(S, P, r, x->status, NULL, NULL, ctx))) return st;
+          if ((st = nscd_grains_gather(S, P, r, x->status, 0, NULL, NULL, ctx))) return st;
           nscd_grains_complete(S, P); /* the serial sweep reads every contact's record (T277) */
           S->par = 0;
           repl = 1;
@@ -945,16 +946,20 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
     if ((st = mo_par_max(&S->jmax, 1, ctx))) return st;
     jean_from_parts(S->jparts[0], S->jparts[1], S->jparts[2], S->jmax, &quad, &maxm);
   }
-  /* over MPI ranks: every contact's reaction and status, every body's velocity, on every rank */
-  /* with the redundancy count of the rank's contacts joined in the same sum (T279) */
-  if (S->par && (st = nscd_grains_gather(S, P, r, x->status, broke < 0 ? &pnu : NULL, &pnd, ctx))) return st;
+  /* over MPI ranks: every contact's reaction, status and exact U, every body's exact velocity, on
+     every rank, each rank forming its own part's (T336); with the redundancy count of the rank's
+     contacts joined in the same gather (T279) */
   /* a breakdown's message and a failed solve's residual and culprits read other ranks' contacts'
-     records (T277) */
+     records (T277): made before the gather writes U where q was (T240) */
   if (S->par && (broke >= 0 || !conv)) nscd_grains_complete(S, P);
-  /* U is exact already when a residual rule has just confirmed convergence */
-  if (S->par || !(conv && (scaled || p->stop == NSCD_STOP_NATURAL))) exact_U(S, P, r, 1);
-  /* the tangential U of frictionless contacts, unless the core measures U itself (T156) */
-  else if (!S->u_full && !P->u_measured) exact_U(S, P, r, 1);
+  if (S->par && (st = nscd_grains_gather(S, P, r, x->status, 1, broke < 0 ? &pnu : NULL, &pnd, ctx))) return st;
+  /* U is exact already after the split solve's gather, and when a residual rule has just
+     confirmed convergence; else the tangential U of frictionless contacts is, unless the core
+     measures U itself (T156) */
+  if (!S->par) {
+    if (!(conv && (scaled || p->stop == NSCD_STOP_NATURAL))) exact_U(S, P, r, 1);
+    else if (!S->u_full && !P->u_measured) exact_U(S, P, r, 1);
+  }
   /* redundancy (T84): the rank of the closed set's problem, measured by the status-set step when
      it converged, else here for quasi-static solves (one or a few per run; dynamic steps would pay a
      dense factorization each) */

@@ -265,6 +265,12 @@ typedef struct {
   int *ifc, nifc;               /* interface bodies */
   int *bfirst;                  /* nfree (by first velocity): the lowest rank touching the body, -1 none */
   unsigned char *bmulti;        /* nfree: touched by contacts of more than one rank */
+  /* (T336) per contact, whether it touches an interface body; the active contacts that do
+     (ilist) and those whose reactions reach the rank's bodies, its own and the interface ones
+     (vlist), both in the increasing order of act */
+  unsigned char *cifc;
+  int *ilist, nilist, *vlist, nvlist;
+  int *aside;                   /* 2 per act[k]: its sides' first velocities (-1: none) */
   double *pbuf;                 /* the sums of a sweep: interface increments, then the norms' parts */
   double *ibase;                /* the interface velocities at the start of the sweep (by ifc index) */
   size_t pcap, pncap, pbcap;
@@ -357,6 +363,9 @@ int nscd_bodies_count(nscd_state *S, const mo_contact_problem *P, const double *
    the arithmetic of the sweep on H to the bit. */
 int nscd_grains_prepare(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx);
 void nscd_grains_velocities(nscd_state *S, const mo_contact_problem *P, const double *r);
+/* Over the ranks (T336): the velocities of the bodies the rank's contacts touch, from r, to the
+   bit those of nscd_grains_velocities (the others' are left at v_free). */
+void nscd_grains_velocities_part(nscd_state *S, const mo_contact_problem *P, const double *r);
 void nscd_grains_exact_U(nscd_state *S, const mo_contact_problem *P);
 int nscd_grains_sweep(nscd_state *S, const mo_contact_problem *P, double *r, int *status);
 /* Over MPI ranks (doc/parallel.md §4): the slabs and their interface bodies for this solve
@@ -364,14 +373,16 @@ int nscd_grains_sweep(nscd_state *S, const mo_contact_problem *P, double *r, int
    velocities summed over the ranks with the `nparts` partial sums of the stopping rule (parts, in
    place; a breakdown's index and Jean's maximum are maximized by the caller only when needed,
    (T334)); U of the owned contacts from the synchronized velocities; at the end, the reactions,
-   statuses and velocities of every contact and body on every rank. */
+   statuses and velocities of every contact and body on every rank (with fin, the end of the
+   solve: the velocities and U exact, as nscd_grains_velocities and nscd_grains_exact_U make them
+   on one process, each rank forming its own part's (T336)). */
 int nscd_grains_partition(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx);
 int nscd_grains_sweep_owned(nscd_state *S, const mo_contact_problem *P, double *r, int *status);
 void nscd_grains_owned_U(nscd_state *S, const mo_contact_problem *P);
 int nscd_grains_sync(nscd_state *S, double *parts, int nparts, mo_ctx *ctx);
 /* The gather; with unknowns (not NULL), the redundancy count of nscd_grains_count over the rank's
    own contacts joined in the same sum (T279). */
-int nscd_grains_gather(nscd_state *S, const mo_contact_problem *P, double *r, int *status, int *unknowns,
+int nscd_grains_gather(nscd_state *S, const mo_contact_problem *P, double *r, int *status, int fin, int *unknowns,
                        int *dofs, mo_ctx *ctx);
 /* The records of the contacts other than the rank's own active ones (after a prepare over the
    slab: gpart), for a sweep over every contact or a report over them (T277); nothing otherwise. */

@@ -41,6 +41,10 @@ void nscd_grains_free(nscd_state *S)
   mo_free(S->ifc);
   mo_free(S->bfirst);
   mo_free(S->bmulti);
+  mo_free(S->cifc);
+  mo_free(S->ilist);
+  mo_free(S->vlist);
+  mo_free(S->aside);
   mo_free(S->pbuf);
   mo_free(S->ibase);
   mo_free(S->gl);
@@ -483,6 +487,42 @@ void nscd_grains_velocities(nscd_state *S, const mo_contact_problem *P, const do
   S->gs = split;
 }
 
+/* (T336) A body's velocity is v_free plus the pushes of the contacts that touch it, in the
+   contacts' order: the pushes of the contacts touching the rank's bodies (its own, and the
+   interface contacts touching its interface bodies), in that order, give its bodies' velocities
+   to the bit (the other bodies' are not read by its sweep). */
+void nscd_grains_velocities_part(nscd_state *S, const mo_contact_problem *P, const double *r)
+{
+  const double *split = S->gs;
+  const int d = S->d;
+  int k, i;
+  S->gs = S->gi;
+  memcpy(S->vb, P->xfree, (size_t)P->nfree * sizeof *S->vb);
+  for (k = 0; k < S->nvlist; k++) {
+    const int a = S->vlist[k];
+    int nz = 0;
+    for (i = 0; i < d; i++) nz |= r[(size_t)a * d + i] != 0;
+    if (!nz) continue;
+    if (d == 2) push_r(S, P, a, r + (size_t)a * 2, 2);
+    else push_r(S, P, a, r + (size_t)a * 3, 3);
+  }
+  S->gs = split;
+}
+
+/* The pushes of contact a on its interface bodies only (its other side's velocity is its owner's,
+   final already). */
+KERNEL void push_ifc(nscd_state *S, const mo_contact_problem *P, int a, const double *dr, const int d)
+{
+  double Waa[1], rot[2 * 3 * 3], F[9];
+  int gs[2], s;
+  sides(P->grains, a, gs);
+  geometry(d, S, P, a, gs, F, rot, 0, Waa, NULL);
+  for (s = 0; s < 2 && gs[s]; s++) {
+    const int o = SIDE_O(gs[s]);
+    if (S->bmulti[o]) side_push(d, F, rot + s * d * NR(d), S->gs + o, S->vb + o, gs[s] > 0, dr);
+  }
+}
+
 /* U_a without its record: c_a formed at the visit, in the operations of the record's (the same
    numbers, (T278)), then U_a = c_a + sum_s G_as v_s. */
 KERNEL void fresh_U(const nscd_state *S, const mo_contact_problem *P, int a, double *restrict U, const int d)
@@ -626,6 +666,10 @@ static int par_reserve(nscd_state *S, int nfree, mo_ctx *ctx)
     GROW(S->pj, 2 * nc * sizeof *S->pj);
     GROW(S->msrc, 2 * nc * sizeof *S->msrc);
     GROW(S->pe, 2 * nc * sizeof *S->pe);
+    GROW(S->cifc, nc);
+    GROW(S->ilist, nc * sizeof *S->ilist);
+    GROW(S->vlist, nc * sizeof *S->vlist);
+    GROW(S->aside, 2 * nc * sizeof *S->aside);
     S->pcap = nc;
   }
   if (nf > S->pncap) {
@@ -668,14 +712,11 @@ static int exchange_pattern(nscd_state *S, const mo_contact_problem *P, mo_ctx *
   int i, j, s, ns = 0;
   for (j = 0; j < S->nifc; j++) S->ipos[S->ifc[j]] = j;
   /* (interface body, rank) for every side of an active contact on an interface body */
-  for (k = 0; k < S->nact; k++) {
-    int gs[2];
-    sides(P->grains, S->act[k], gs);
-    for (s = 0; s < 2 && gs[s]; s++) {
-      int o = SIDE_O(gs[s]);
-      if (S->bmulti[o]) S->pkey[nkey++] = (long)S->ipos[o] * nr + S->apart[k];
+  for (k = 0; k < S->nact; k++)
+    for (s = 0; s < 2; s++) {
+      const int o = S->aside[2 * k + s];
+      if (o >= 0 && S->bmulti[o]) S->pkey[nkey++] = (long)S->ipos[o] * nr + S->apart[k];
     }
-  }
   qsort(S->pkey, (size_t)nkey, sizeof *S->pkey, cmp_long);
   /* per body of this rank: its ranks in increasing order; per entry to another rank, its peer */
   S->nmine = 0;
@@ -773,8 +814,10 @@ int nscd_grains_partition(nscd_state *S, const mo_contact_problem *P, mo_ctx *ct
     sides(G, a, gs);
     S->own[a] = q == S->rank;
     S->pcnt[q]++;
+    S->aside[2 * k] = S->aside[2 * k + 1] = -1;
     for (s = 0; s < 2 && gs[s]; s++) {
       int o = SIDE_O(gs[s]);
+      S->aside[2 * k + s] = o;
       if (S->bfirst[o] < 0) S->bfirst[o] = q;
       else if (S->bfirst[o] != q) {
         S->bmulti[o] = 1;
@@ -786,6 +829,14 @@ int nscd_grains_partition(nscd_state *S, const mo_contact_problem *P, mo_ctx *ct
     if (S->bmulti[i]) S->ifc[S->nifc++] = i;
   for (S->noact = 0, k = 0; k < S->nact; k++)
     if (S->own[S->order[k]]) S->oorder[S->noact++] = S->order[k];
+  /* (T336) the interface contacts, and those whose reactions reach the rank's bodies */
+  for (S->nilist = S->nvlist = 0, k = 0; k < S->nact; k++) {
+    const int a = S->act[k], o0 = S->aside[2 * k], o1 = S->aside[2 * k + 1];
+    const int f = (o0 >= 0 && S->bmulti[o0]) || (o1 >= 0 && S->bmulti[o1]);
+    S->cifc[a] = (unsigned char)f;
+    if (f) S->ilist[S->nilist++] = a;
+    if (f || S->own[a]) S->vlist[S->nvlist++] = a;
+  }
   {
     /* the parts' balance */
     long most = 0;
@@ -871,7 +922,65 @@ int nscd_grains_sync(nscd_state *S, double *parts, int nparts, mo_ctx *ctx)
   return MO_OK;
 }
 
-int nscd_grains_gather(nscd_state *S, const mo_contact_problem *P, double *r, int *status, int *unknowns,
+/* (T336) The end of a split solve, before the gather: the velocities of the bodies only the
+   rank's contacts touch, as nscd_grains_velocities makes them (the same pushes in the same order:
+   every contact touching such a body is the rank's), and U of the rank's contacts that touch no
+   interface body, as nscd_grains_exact_U makes it (contact_U: the numbers of the others' fresh_U,
+   (T278)); the gather carries both. The interface bodies' pushes land here too and are made
+   again after it. */
+static void finish_own(nscd_state *S, const mo_contact_problem *P, const double *r)
+{
+  const int d = S->d;
+  int k;
+  nscd_grains_velocities_part(S, P, r); /* the interface contacts of the others: overwritten */
+  for (k = 0; k < S->nvlist; k++) {
+    const int a = S->vlist[k];
+    if (!S->own[a] || S->cifc[a]) continue;
+    if (d == 2) contact_U(S, P, a, S->U + (size_t)a * 2, 2);
+    else contact_U(S, P, a, S->U + (size_t)a * 3, 3);
+  }
+}
+
+/* (T336) After the gather: the interface bodies' velocities from every interface contact's
+   reaction (their pushes in the contacts' order, as nscd_grains_velocities), U of the interface
+   contacts and of the candidates not active (U = c_a + G v: open, but their bodies moved); on
+   every rank, from the gathered reactions. */
+static void finish_interface(nscd_state *S, const mo_contact_problem *P, const double *r)
+{
+  const double *split = S->gs;
+  const int d = S->d, nk = NK(d);
+  int a, i, j, k;
+  S->gs = S->gi;
+  for (j = 0; j < S->nifc; j++)
+    for (i = 0; i < nk; i++) S->vb[S->ifc[j] + i] = P->xfree[S->ifc[j] + i];
+  for (k = 0; k < S->nilist; k++) {
+    int nz = 0;
+    a = S->ilist[k];
+    for (i = 0; i < d; i++) nz |= r[(size_t)a * d + i] != 0;
+    if (!nz) continue;
+    if (d == 2) push_ifc(S, P, a, r + (size_t)a * 2, 2);
+    else push_ifc(S, P, a, r + (size_t)a * 3, 3);
+  }
+  S->gs = split;
+  for (k = 0; k < S->nilist; k++) {
+    a = S->ilist[k];
+    if (d == 2) {
+      if (S->own[a]) contact_U(S, P, a, S->U + (size_t)a * 2, 2);
+      else fresh_U(S, P, a, S->U + (size_t)a * 2, 2);
+    } else if (S->own[a]) contact_U(S, P, a, S->U + (size_t)a * 3, 3);
+    else fresh_U(S, P, a, S->U + (size_t)a * 3, 3);
+  }
+  for (a = 0, k = 0; a < S->nc; a++) {
+    if (k < S->nact && S->act[k] == a) {
+      k++;
+      continue;
+    }
+    if (d == 2) fresh_U(S, P, a, S->U + (size_t)a * 2, 2);
+    else fresh_U(S, P, a, S->U + (size_t)a * 3, 3);
+  }
+}
+
+int nscd_grains_gather(nscd_state *S, const mo_contact_problem *P, double *r, int *status, int fin, int *unknowns,
                        int *dofs, mo_ctx *ctx)
 {
   const int d = S->d, nk = NK(d), np = S->nranks, nx = unknowns ? 2 + S->nifc : 0;
@@ -880,15 +989,18 @@ int nscd_grains_gather(nscd_state *S, const mo_contact_problem *P, double *r, in
   int a, i, k, l, q, st, nu = 0, nd = 0, *cur = S->pcnt; /* pcnt: the pattern's scratch, free here */
   /* the rank's own closed contacts, before the gather (their r and coefficients are the rank's) */
   if (unknowns && (st = count_list(S, P, r, S->oorder, S->noact, &nu, &nd, ctx))) return st;
+  if (fin) finish_own(S, P, r);
   /* (T335) every value has one owner: a contact's reaction and status the rank of its part, a
      body's velocity change the lowest rank that touches it (an interface body's is the same on
      every rank after the last sync); each rank's block size follows from the parts every rank
      holds. Contacts not active (r = 0, open) and bodies no contact touches (v = v_free) are the
      same on every rank already and are not sent */
+  /* with fin, U of the contacts that touch no interface body with their reactions, and no
+     interface body's velocity (made again on every rank after the gather) */
   for (q = 0; q < np; q++) S->gcnt[q] = nx;
-  for (k = 0; k < S->nact; k++) S->gcnt[S->apart[k]] += d + 1;
+  for (k = 0; k < S->nact; k++) S->gcnt[S->apart[k]] += d + 1 + (fin && !S->cifc[S->act[k]] ? d : 0);
   for (i = 0; i < P->nfree; i++)
-    if (S->bfirst[i] >= 0) S->gcnt[S->bfirst[i]] += i + nk <= P->nfree ? nk : P->nfree - i;
+    if (S->bfirst[i] >= 0 && !(fin && S->bmulti[i])) S->gcnt[S->bfirst[i]] += i + nk <= P->nfree ? nk : P->nfree - i;
   for (q = 0; q < np; q++) {
     cur[q] = (int)tot;
     tot += (size_t)S->gcnt[q];
@@ -907,10 +1019,12 @@ int nscd_grains_gather(nscd_state *S, const mo_contact_problem *P, double *r, in
       a = S->act[k];
       for (i = 0; i < d; i++) mine[at++] = r[(size_t)a * d + i];
       mine[at++] = status[a];
+      if (fin && !S->cifc[a])
+        for (i = 0; i < d; i++) mine[at++] = S->U[(size_t)a * d + i];
     }
   for (i = 0; i < P->nfree; i++)
-    if (S->bfirst[i] == S->rank)
-      for (l = 0; l < nk && i + l < P->nfree; l++) mine[at++] = S->vb[i + l] - P->xfree[i + l];
+    if (S->bfirst[i] == S->rank && !(fin && S->bmulti[i]))
+      for (l = 0; l < nk && i + l < P->nfree; l++) mine[at++] = fin ? S->vb[i + l] : S->vb[i + l] - P->xfree[i + l];
   if (unknowns) {
     /* a body that no other rank's contact touches is counted by one rank at most; an interface
        body by every rank whose closed contacts move it: those are joined by their marks */
@@ -926,21 +1040,31 @@ int nscd_grains_gather(nscd_state *S, const mo_contact_problem *P, double *r, in
      ranks' zeros made before (T335: the same numbers to the bit) */
   for (k = 0; k < S->nact; k++) {
     const double *b = all + cur[S->apart[k]];
+    const int wu = fin && !S->cifc[S->act[k]];
     a = S->act[k];
     if (!S->own[a]) {
       for (i = 0; i < d; i++) r[(size_t)a * d + i] = b[i] + 0.0;
       status[a] = (int)b[d];
+      if (wu)
+        for (i = 0; i < d; i++) S->U[(size_t)a * d + i] = b[d + 1 + i];
     }
-    cur[S->apart[k]] += d + 1;
+    cur[S->apart[k]] += d + 1 + (wu ? d : 0);
   }
   for (i = 0; i < P->nfree; i++) {
     if (S->bfirst[i] < 0) {
       S->vb[i] = P->xfree[i] + 0.0;
       continue;
     }
+    if (fin && S->bmulti[i]) { /* finish_interface's */
+      i += (i + nk <= P->nfree ? nk : P->nfree - i) - 1;
+      continue;
+    }
     {
       const double *b = all + cur[S->bfirst[i]];
-      for (l = 0; l < nk && i + l < P->nfree; l++) S->vb[i + l] = P->xfree[i + l] + (b[l] + 0.0);
+      if (fin) /* the exact velocities themselves (v_free + (v - v_free) is not v to the bit) */
+        for (l = 0; l < nk && i + l < P->nfree; l++) S->vb[i + l] = b[l];
+      else
+        for (l = 0; l < nk && i + l < P->nfree; l++) S->vb[i + l] = P->xfree[i + l] + (b[l] + 0.0);
       cur[S->bfirst[i]] += l;
       i += l - 1; /* a body's dofs follow its first: none of them has a bfirst of its own */
     }
@@ -960,6 +1084,7 @@ int nscd_grains_gather(nscd_state *S, const mo_contact_problem *P, double *r, in
     *unknowns = (int)su;
     *dofs += (int)sd;
   }
+  if (fin) finish_interface(S, P, r);
   return MO_OK;
 }
 
