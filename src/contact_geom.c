@@ -4,6 +4,7 @@
 #include <moreau/contact.h>
 #include "case_internal.h"
 #include "contact_internal.h"
+#include "parallel_detect.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -1786,6 +1787,7 @@ int mo_contact_build(const mo_scene *sc, mo_contact **out, mo_ctx *ctx)
       const char *vl = mo_cfg_string(cg, "verlet", "auto");
       C->verlet = !strcmp(vl, "global") ? 1 : !strcmp(vl, "blocks") ? 2 : 0;
     }
+    C->pd_min = mo_cfg_int(cg, "detect_split_min", MO_PDETECT_MIN);
     C->h = sc->time.dt;
     if ((st = mo_contact_detect_setup(C, ctx))) goto fail;
     C->compact_ok = compact_eligible(C);

@@ -165,6 +165,8 @@ struct mo_contact {
   double vl_reach;
   int vl_built;
   struct mo_pdetect *pd;      /* the detection split over MPI ranks (parallel_detect.c), or NULL */
+  int pd_min;                 /* contact.detect_split_min: the split's least bodies a rank (T337) */
+  int pd_whole;               /* the scene's detection runs whole on every rank (decided once, T337) */
 };
 
 /* dmask's bits: MO_DM_DYN on every body of the dynamic pairs, and the kind's flags the per-step

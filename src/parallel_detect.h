@@ -10,6 +10,11 @@
 
 struct mo_contact;
 
+/* The detection is split over the ranks only when the broad phase holds at least this many
+   bodies a rank (contact.detect_split_min; doc/theory.md (T337)); fewer are detected whole on
+   every rank, as one process detects them, with no message. */
+#define MO_PDETECT_MIN 64
+
 /* The split's state, per contact set (parallel_detect.c). */
 #define MO_PDETECT_NTAG 3
 struct mo_pdetect {

@@ -92,13 +92,15 @@ run_pair box-14 "$MOREAU_SRCDIR/cases/box-on-plane" --set 'bodies.box.mesh.eleme
 # Gauss-Seidel within a part and the interface velocities summed after each sweep. At a natural-map
 # tolerance of 1e-11 the motion equals the serial sweep's (the reactions of a pile are not unique:
 # compare_runs.py's `grains` mode); the windows end before the first step whose sweeps stall.
-# These sets (up to 400 contacts) are mostly below the 128 a rank from which a solve is split by
-# default (T333): split_min = 0 splits every solve
+# These sets (up to 400 contacts, 60-200 bodies) are mostly below the 128 contacts a rank from
+# which a solve is split by default (T333), and below the 64 bodies a rank from which the
+# detection is (T337): split_min = 0 and detect_split_min = 0 split every solve and detection
 grains_pair() { # grains_pair NAME CASE ARGS...
   name=$1
   c=$2
   shift 2
-  set -- --set contact.nscd.tol=1e-11 --set 'contact.nscd.stop="natural"' --set contact.nscd.max_sweeps=50000 --set contact.nscd.split_min=0 "$@"
+  set -- --set contact.nscd.tol=1e-11 --set 'contact.nscd.stop="natural"' --set contact.nscd.max_sweeps=50000 --set contact.nscd.split_min=0 \
+    --set contact.detect_split_min=0 "$@"
   "$MOREAU" run "$c" --out "$OUT/$name-1" --quiet "$@" > "$OUT/$name-1.log" 2>&1
   ran $? "$OUT/$name-1.log" "$name: the serial run completes"
   mpi 2 "$MOREAU" run "$c" --out "$OUT/$name-2" --quiet "$@" > "$OUT/$name-2.log" 2>&1
@@ -121,6 +123,18 @@ detected_split() { # detected_split NAME
     "[True, True]" "$1: each rank detected a part, the largest rank $(json "$OUT/$1-2/summary.json" "d['parallel'].get('grain_detected_largest_rank')") of the $(json "$OUT/$1-2/summary.json" "d['parallel'].get('grain_detected')") candidates"
 }
 grains_pair disk-pile "$MOREAU_SRCDIR/cases/disk-pile" --set bodies.grains.pack.count=60 --set time.end=0.22
+# (T337) 60 bodies on 2 ranks, below detect_split_min's 64 a rank: detected whole on every rank,
+# as one process detects them. The candidates are the split detection's, so the run is the one
+# above to the byte, without the detection's messages (its gather, the list's validity)
+mpi 2 "$MOREAU" run "$MOREAU_SRCDIR/cases/disk-pile" --out "$OUT/dwhole-2" --quiet --set contact.nscd.tol=1e-11 \
+  --set 'contact.nscd.stop="natural"' --set contact.nscd.max_sweeps=50000 --set contact.nscd.split_min=0 \
+  --set bodies.grains.pack.count=60 --set time.end=0.22 > "$OUT/dwhole-2.log" 2>&1
+ran $? "$OUT/dwhole-2.log" "disk-pile, the detection whole: mpirun -np 2 completes"
+same=0
+for f in bodies.csv history.csv contact.csv; do cmp -s "$OUT/disk-pile-2/$f" "$OUT/dwhole-2/$f" || same=1; done
+ok $same "disk-pile, the detection whole on every rank: bodies, history and contact.csv those of the split detection to the byte"
+is "$(json "$OUT/dwhole-2/summary.json" "[d['parallel'].get('grain_detected', 0), d['parallel']['collective_calls'] + 3 * 220 <= $(json "$OUT/disk-pile-2/summary.json" "d['parallel']['collective_calls']")]")" \
+  "[0, True]" "disk-pile, the detection whole: no candidate gathered, $(json "$OUT/dwhole-2/summary.json" "d['parallel']['collective_calls']") collectives against $(json "$OUT/disk-pile-2/summary.json" "d['parallel']['collective_calls']") (3 a step fewer at least)"
 grains_pair sphere-deposit "$MOREAU_SRCDIR/cases/sphere-deposit" --set bodies.grains.pack.count=200 --set time.end=0.12
 # more than 2 ranks ((T330)-(T331)): the parts boxes cut by recursive bisection (3 ranks: unequal
 # halves), the interface velocities sent point to point between the ranks that share bodies and
@@ -130,7 +144,8 @@ grains_more() { # grains_more NAME NP CASE ARGS...
   np=$2
   c=$3
   shift 3
-  set -- --set contact.nscd.tol=1e-11 --set 'contact.nscd.stop="natural"' --set contact.nscd.max_sweeps=50000 --set contact.nscd.split_min=0 "$@"
+  set -- --set contact.nscd.tol=1e-11 --set 'contact.nscd.stop="natural"' --set contact.nscd.max_sweeps=50000 --set contact.nscd.split_min=0 \
+    --set contact.detect_split_min=0 "$@"
   mpi "$np" "$MOREAU" run "$c" --out "$OUT/$name-$np" --quiet "$@" > "$OUT/$name-$np.log" 2>&1
   ran $? "$OUT/$name-$np.log" "$name: mpirun -np $np completes"
   is "$(json "$OUT/$name-$np/summary.json" "[d['parallel']['ranks'], d['contact']['failed_solves'], d['parallel']['grain_sweeps'] > 0, d['parallel']['grain_interface_exchange'], d['parallel']['grain_detected_largest_rank'] <= 0.6 * d['parallel']['grain_detected'] / $np * 2]")" \
@@ -208,7 +223,8 @@ c="$MOREAU_SRCDIR/cases/masonry-arch"
 # a split sweep that stalls goes on as the serial sweep on every rank (doc/parallel.md §4): on
 # masonry-arch at the case's own tolerance (scaled, 1e-11) the split sweep sat at 1.9e-9 and rank 1
 # failed at step 185 with 200 000 sweeps; the run now ends as the serial one does
-mpi 2 "$MOREAU" run "$c" --out "$OUT/arch-2" --quiet --set contact.nscd.split_min=0 > "$OUT/arch-2.log" 2>&1
+mpi 2 "$MOREAU" run "$c" --out "$OUT/arch-2" --quiet --set contact.nscd.split_min=0 --set contact.detect_split_min=0 \
+  > "$OUT/arch-2.log" 2>&1
 ran $? "$OUT/arch-2.log" "masonry-arch: mpirun -np 2 with every solve split completes"
 is "$(json "$OUT/arch-2/summary.json" "[d['contact']['failed_solves'], d['parallel']['grain_sweeps'] > 0, d['parallel']['grain_serial_fallbacks'] > 0]")" \
   "[0, True, True]" "masonry-arch: every solve of the 2-rank run converged, split sweeps that stalled went on serial"
