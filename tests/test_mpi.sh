@@ -150,6 +150,10 @@ grains_more() { # grains_more NAME NP CASE ARGS...
   ran $? "$OUT/$name-$np.log" "$name: mpirun -np $np completes"
   is "$(json "$OUT/$name-$np/summary.json" "[d['parallel']['ranks'], d['contact']['failed_solves'], d['parallel']['grain_sweeps'] > 0, d['parallel']['grain_interface_exchange'], d['parallel']['grain_detected_largest_rank'] <= 0.6 * d['parallel']['grain_detected'] / $np * 2]")" \
     "[$np, 0, True, 'point to point', True]" "$name on $np ranks: every solve converged, the sweep and the detection split, the interface point to point"
+  # (T339) under the natural rule the residual's parts join the sweep's one sum, after the
+  # exchange: 2 calls a sweep (the exchange and the sum), 3 before
+  ok $(json "$OUT/$name-$np/summary.json" "0 if d['parallel']['collective_calls'] < 2.2 * d['parallel']['grain_sweeps'] else 1") \
+    "$name on $np ranks: $(json "$OUT/$name-$np/summary.json" "d['parallel']['collective_calls']") calls for $(json "$OUT/$name-$np/summary.json" "d['parallel']['grain_sweeps']") split sweeps, fewer than 2.2 a sweep"
   check_runs "$OUT/$name-1" "$OUT/$name-$np" 1e-8 "$name on $np ranks" grains
 }
 grains_more disk-pile 3 "$MOREAU_SRCDIR/cases/disk-pile" --set bodies.grains.pack.count=60 --set time.end=0.22

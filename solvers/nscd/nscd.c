@@ -600,7 +600,7 @@ static int sweep_ranks(nscd_state *S, const mo_contact_problem *P, double *r, in
 {
   const nscd_params *p = &S->p;
   double parts[6] = {0, 0, 0, 0, 0, 0}, mx[2];
-  int st, natural = p->stop == NSCD_STOP_NATURAL || scaled, nparts = 5;
+  int st, natural = p->stop == NSCD_STOP_NATURAL || scaled, nparts = 5, joined = 0;
   *broke = nscd_grains_sweep_owned(S, P, r, status);
   if (!natural) { /* Jean's parts over the rank's contacts, summed by its sweep (T273) */
     parts[0] = S->jp[0];
@@ -620,6 +620,14 @@ static int sweep_ranks(nscd_state *S, const mo_contact_problem *P, double *r, in
     parts[5] = S->qs2;
     nparts = 6;
   }
+  /* on more than 2 ranks the interface goes point to point before the parts' sum: the residual's
+     parts of the rank's contacts, from the synced velocities, join that sum (T339) */
+  if ((st = nscd_grains_exchange(S, ctx))) return st;
+  if (natural && S->xchg) {
+    nscd_grains_owned_U(S, P);
+    natural_parts(S, S->oorder, S->noact, r, scaled, parts);
+    joined = 1;
+  }
   if ((st = nscd_grains_sync(S, parts, nparts, ctx))) return st;
   if (S->qs2part) {
     S->qs2 = parts[5];
@@ -633,12 +641,14 @@ static int sweep_ranks(nscd_state *S, const mo_contact_problem *P, double *r, in
   *stop = parts[3] > 0;
   if (natural) {
     /* the residual of the state every rank now holds: U of the owned contacts from the summed
-       interface velocities (a second, 3-number sum; U taken before the first would miss the other
-       ranks' last increments and could declare convergence early) */
+       interface velocities (on 2 ranks a second, 3-number sum: U taken before the first would
+       miss the other rank's last increments and could declare convergence early) */
     double den = sqrt(scaled ? S->qs2 : S->qn2);
-    nscd_grains_owned_U(S, P);
-    natural_parts(S, S->oorder, S->noact, r, scaled, parts);
-    if ((st = mo_par_sum(parts, 3, ctx))) return st;
+    if (!joined) {
+      nscd_grains_owned_U(S, P);
+      natural_parts(S, S->oorder, S->noact, r, scaled, parts);
+      if ((st = mo_par_sum(parts, 3, ctx))) return st;
+    }
     if (sqrt(parts[1]) > den) den = sqrt(parts[1]);
     if (sqrt(parts[2]) > den) den = sqrt(parts[2]);
     *res = den > 1e-300 ? sqrt(parts[0]) / den : sqrt(parts[0]);

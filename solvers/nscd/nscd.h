@@ -380,6 +380,9 @@ int nscd_grains_partition(nscd_state *S, const mo_contact_problem *P, mo_ctx *ct
 int nscd_grains_sweep_owned(nscd_state *S, const mo_contact_problem *P, double *r, int *status);
 void nscd_grains_owned_U(nscd_state *S, const mo_contact_problem *P);
 int nscd_grains_sync(nscd_state *S, double *parts, int nparts, mo_ctx *ctx);
+/* On more than 2 ranks, before nscd_grains_sync: the interface increments point to point, the
+   rank's interface velocities synced ((T331); nothing on 2 ranks, whose sync carries them). */
+int nscd_grains_exchange(nscd_state *S, mo_ctx *ctx);
 /* The gather; with unknowns (not NULL), the redundancy count of nscd_grains_count over the rank's
    own contacts joined in the same sum (T279). */
 int nscd_grains_gather(nscd_state *S, const mo_contact_problem *P, double *r, int *status, int fin, int *unknowns,

@@ -878,16 +878,14 @@ void nscd_grains_owned_U(nscd_state *S, const mo_contact_problem *P)
   }
 }
 
-int nscd_grains_sync(nscd_state *S, double *parts, int nparts, mo_ctx *ctx)
+int nscd_grains_exchange(nscd_state *S, mo_ctx *ctx)
 {
   const int nk = NK(S->d);
-  const size_t ni = (size_t)S->nifc * nk;
-  int j, i, st;
-  double *b = S->pbuf;
+  int i, st;
   if (S->xchg) {
     /* (T331): each shared body's increment to the ranks that share it; then, on every rank that
        touches it, the ranks' increments summed in increasing rank order (the same sum on each),
-       divided by f_k (T332); the stopping rule's parts in a sum of their own */
+       divided by f_k (T332) */
     const int *pj = S->pj;
     int t, m, nv = S->poff[S->npeer] / nk;
     for (t = 0; t < nv; t++) {
@@ -906,6 +904,17 @@ int nscd_grains_sync(nscd_state *S, double *parts, int nparts, mo_ctx *ctx)
         S->vb[o + i] = base[i] + sum / f;
       }
     }
+  }
+  return MO_OK;
+}
+
+int nscd_grains_sync(nscd_state *S, double *parts, int nparts, mo_ctx *ctx)
+{
+  const int nk = NK(S->d);
+  const size_t ni = (size_t)S->nifc * nk;
+  int j, i, st;
+  double *b = S->pbuf;
+  if (S->xchg) { /* the interface went point to point (nscd_grains_exchange): the parts alone */
     if ((st = mo_par_sum(parts, nparts, ctx))) return st;
   } else {
     /* one sum: the interface increments and the stopping rule's parts */
