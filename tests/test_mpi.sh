@@ -108,6 +108,10 @@ grains_pair() { # grains_pair NAME CASE ARGS...
   is "$(json "$OUT/$name-2/summary.json" "d['contact']['failed_solves']")" "0" "$name: every solve of the 2-rank run converged"
   ok $([ "$(json "$OUT/$name-2/summary.json" "d['parallel'].get('grain_sweeps', 0) > 0")" = True ] && echo 0 || echo 1) \
     "$name: the 2-rank run swept its grains split over the ranks"
+  # (T340) the natural rule's residual joins the sweep's one sum on 2 ranks: about 1 collective
+  # a sweep (2 before)
+  ok $(json "$OUT/$name-2/summary.json" "0 if d['parallel']['collective_calls'] < 1.2 * d['parallel']['grain_sweeps'] else 1") \
+    "$name: $(json "$OUT/$name-2/summary.json" "d['parallel']['collective_calls']") collectives for $(json "$OUT/$name-2/summary.json" "d['parallel']['grain_sweeps']") split sweeps on 2 ranks, fewer than 1.2 a sweep"
   detected_split "$name"
   check_runs "$OUT/$name-1" "$OUT/$name-2" 1e-8 "$name" grains
 }

@@ -404,7 +404,18 @@ static void exact_U(nscd_state *S, const mo_contact_problem *P, const double *r,
 
 /* The natural-map residual over the active candidates: as the core computes it (T10), or of the
    problem whose local velocities are scaled contact by contact by 1 / W_aa,nn (T42). */
-static void natural_parts(const nscd_state *S, const int *list, int n, const double *r, int scaled, double *parts);
+static void natural_parts_rk(const nscd_state *S, const int *list, int n, const double *r, const double *rk,
+                             const double *Uk, int scaled, double *parts);
+static inline void natural_parts(const nscd_state *S, const int *list, int n, const double *r, int scaled,
+                                 double *parts)
+{
+  natural_parts_rk(S, list, n, r, NULL, NULL, scaled, parts);
+}
+static inline void natural_parts_at(const nscd_state *S, const int *list, int n, const double *rk, const double *Uk,
+                                    int scaled, double *parts)
+{
+  natural_parts_rk(S, list, n, NULL, rk, Uk, scaled, parts);
+}
 static double residual(const nscd_state *S, const double *r, int scaled)
 {
   if (scaled && !S->scale) { /* the granular path: the scaling from the records (the same sums) */
@@ -574,13 +585,17 @@ static void sweep_jean(const nscd_state *S, const double *r, double *quad, doubl
 
 /* The parts of the natural-map residual (T10) over list[0 .. n-1]: the units' sum, |r|^2, |U|^2
    (U scaled by (T42) when scaled). */
-static void natural_parts(const nscd_state *S, const int *list, int n, const double *r, int scaled, double *parts)
+/* The residual's parts over list[0 .. n-1]: with rk and Uk, contact list[k]'s reaction and U at
+   rk + k d and Uk + k d. */
+static void natural_parts_rk(const nscd_state *S, const int *list, int n, const double *r, const double *rk,
+                             const double *Uk, int scaled, double *parts)
 {
   int d = S->d, k, i;
   parts[0] = parts[1] = parts[2] = 0;
   for (k = 0; k < n; k++) {
     int a = list[k];
-    const double *ra = r + (size_t)a * d, *Ua = S->U + (size_t)a * d;
+    const double *ra = rk ? rk + (size_t)k * d : r + (size_t)a * d;
+    const double *Ua = Uk ? Uk + (size_t)k * d : S->U + (size_t)a * d;
     double Us[3], sa = scaled ? nscd_scale(S, a) : 1;
     for (i = 0; i < d; i++) Us[i] = scaled ? sa * Ua[i] : Ua[i];
     parts[0] += mo_fc_natural_map_unit(d, nscd_mu(S, a), ra, Us);
@@ -601,6 +616,7 @@ static int sweep_ranks(nscd_state *S, const mo_contact_problem *P, double *r, in
   const nscd_params *p = &S->p;
   double parts[6] = {0, 0, 0, 0, 0, 0}, mx[2];
   int st, natural = p->stop == NSCD_STOP_NATURAL || scaled, nparts = 5, joined = 0;
+  double xn[3] = {0, 0, 0};
   *broke = nscd_grains_sweep_owned(S, P, r, status);
   if (!natural) { /* Jean's parts over the rank's contacts, summed by its sweep (T273) */
     parts[0] = S->jp[0];
@@ -628,7 +644,30 @@ static int sweep_ranks(nscd_state *S, const mo_contact_problem *P, double *r, in
     natural_parts(S, S->oorder, S->noact, r, scaled, parts);
     joined = 1;
   }
-  if ((st = nscd_grains_sync(S, parts, nparts, ctx))) return st;
+  if (natural && !S->xchg) {
+    /* (T340) on 2 ranks the sum syncs the velocities: the residual's parts of the rank's contacts
+       off the interface (their U final already: only its own contacts move their bodies) and the
+       reactions of its interface contacts join it; after it every rank forms the interface
+       contacts' parts, the same on each (their records made on both ranks) */
+    double *ex = S->nbuf;
+    nscd_grains_list_U(S, P, S->onil, S->nonil);
+    natural_parts(S, S->onil, S->nonil, r, scaled, ex);
+    nscd_grains_ifc_pack(S, P, r, ex + 3);
+    if ((st = nscd_grains_sync(S, parts, nparts, ex, 3 + nscd_grains_ifc_count(S), ctx))) return st;
+    nscd_grains_ifc_unpack(S, P, ex + 3);
+    {
+      /* the reactions as summed (the same on both ranks), read in place of r */
+      double pi[3];
+      double *Uk = ex + 3 + nscd_grains_ifc_count(S);
+      nscd_grains_ifc_U(S, P, Uk);
+      natural_parts_at(S, S->ilist, S->nilist, ex + 3, Uk, scaled, pi);
+      xn[0] = ex[0] + pi[0];
+      xn[1] = ex[1] + pi[1];
+      xn[2] = ex[2] + pi[2];
+    }
+    joined = 2;
+  } else if ((st = nscd_grains_sync(S, parts, nparts, NULL, 0, ctx)))
+    return st;
   if (S->qs2part) {
     S->qs2 = parts[5];
     S->qs2part = 0;
@@ -648,7 +687,8 @@ static int sweep_ranks(nscd_state *S, const mo_contact_problem *P, double *r, in
       nscd_grains_owned_U(S, P);
       natural_parts(S, S->oorder, S->noact, r, scaled, parts);
       if ((st = mo_par_sum(parts, 3, ctx))) return st;
-    }
+    } else if (joined == 2)
+      memcpy(parts, xn, sizeof xn);
     if (sqrt(parts[1]) > den) den = sqrt(parts[1]);
     if (sqrt(parts[2]) > den) den = sqrt(parts[2]);
     *res = den > 1e-300 ? sqrt(parts[0]) / den : sqrt(parts[0]);

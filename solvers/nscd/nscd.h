@@ -271,6 +271,9 @@ typedef struct {
   unsigned char *cifc;
   int *ilist, nilist, *vlist, nvlist;
   int *aside;                   /* 2 per act[k]: its sides' first velocities (-1: none) */
+  int *onil, nonil;             /* (T340) the rank's own contacts off the interface, in the sweep's order */
+  double *nbuf;                 /* (T340) the residual's parts and the interface reactions joined to the sum */
+  size_t nbcap;
   double *pbuf;                 /* the sums of a sweep: interface increments, then the norms' parts */
   double *ibase;                /* the interface velocities at the start of the sweep (by ifc index) */
   size_t pcap, pncap, pbcap;
@@ -379,7 +382,14 @@ int nscd_grains_sweep(nscd_state *S, const mo_contact_problem *P, double *r, int
 int nscd_grains_partition(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx);
 int nscd_grains_sweep_owned(nscd_state *S, const mo_contact_problem *P, double *r, int *status);
 void nscd_grains_owned_U(nscd_state *S, const mo_contact_problem *P);
-int nscd_grains_sync(nscd_state *S, double *parts, int nparts, mo_ctx *ctx);
+int nscd_grains_sync(nscd_state *S, double *parts, int nparts, double *extra, int nextra, mo_ctx *ctx);
+/* U of the contacts list[0 .. n-1] from their records (2 ranks: the interface contacts' too, T340). */
+void nscd_grains_list_U(nscd_state *S, const mo_contact_problem *P, const int *list, int n);
+int nscd_grains_ifc_count(const nscd_state *S);
+/* U of the interface contacts (ilist order, d each) from their records, into Uk (2 ranks, T340). */
+void nscd_grains_ifc_U(nscd_state *S, const mo_contact_problem *P, double *Uk);
+void nscd_grains_ifc_pack(const nscd_state *S, const mo_contact_problem *P, const double *r, double *x);
+void nscd_grains_ifc_unpack(nscd_state *S, const mo_contact_problem *P, const double *x);
 /* On more than 2 ranks, before nscd_grains_sync: the interface increments point to point, the
    rank's interface velocities synced ((T331); nothing on 2 ranks, whose sync carries them). */
 int nscd_grains_exchange(nscd_state *S, mo_ctx *ctx);

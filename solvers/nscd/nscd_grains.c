@@ -45,6 +45,8 @@ void nscd_grains_free(nscd_state *S)
   mo_free(S->ilist);
   mo_free(S->vlist);
   mo_free(S->aside);
+  mo_free(S->onil);
+  mo_free(S->nbuf);
   mo_free(S->pbuf);
   mo_free(S->ibase);
   mo_free(S->gl);
@@ -278,9 +280,13 @@ KERNEL void record_w(nscd_state *S, const mo_contact_problem *P, int a, const in
 KERNEL int prepare_d(nscd_state *S, const mo_contact_problem *P, const int d)
 {
   int a, k, differ = 0;
-  if (S->gpart)
+  if (S->gpart) {
     for (k = 0; k < S->noact; k++) differ |= record(S, P, S->oorder[k], 1, d);
-  else
+    /* on 2 ranks, the other rank's interface contacts too: every rank forms their residual (T340) */
+    if (S->nranks == 2)
+      for (k = 0; k < S->nilist; k++)
+        if (!S->own[S->ilist[k]]) differ |= record(S, P, S->ilist[k], 1, d);
+  } else
     for (a = 0; a < S->nc; a++) differ |= record(S, P, a, !P->active || P->active[a], d);
   return differ;
 }
@@ -670,6 +676,7 @@ static int par_reserve(nscd_state *S, int nfree, mo_ctx *ctx)
     GROW(S->ilist, nc * sizeof *S->ilist);
     GROW(S->vlist, nc * sizeof *S->vlist);
     GROW(S->aside, 2 * nc * sizeof *S->aside);
+    GROW(S->onil, nc * sizeof *S->onil);
     S->pcap = nc;
   }
   if (nf > S->pncap) {
@@ -837,6 +844,26 @@ int nscd_grains_partition(nscd_state *S, const mo_contact_problem *P, mo_ctx *ct
     if (f) S->ilist[S->nilist++] = a;
     if (f || S->own[a]) S->vlist[S->nvlist++] = a;
   }
+  /* (T340) the rank's own contacts off the interface, in the sweep's order */
+  for (S->nonil = 0, k = 0; k < S->noact; k++)
+    if (!S->cifc[S->oorder[k]]) S->onil[S->nonil++] = S->oorder[k];
+  {
+    /* the sum of a sweep: the interface increments, the rule's parts, and on 2 ranks (T340) the
+       residual's parts off the interface and the interface contacts' reactions */
+    size_t need = (size_t)S->nifc * NK(S->d) + 16 + (size_t)(S->d + NK(S->d)) * S->nilist;
+    void *p;
+    if (need > S->pbcap) {
+      if (!(p = mo_realloc(ctx, S->pbuf, need * sizeof *S->pbuf))) return MO_ENOMEM;
+      S->pbuf = p;
+      S->pbcap = need;
+    }
+    need = 3 + (size_t)(2 * S->d + NK(S->d)) * S->nilist + 1;
+    if (need > S->nbcap) {
+      if (!(p = mo_realloc(ctx, S->nbuf, need * sizeof *S->nbuf))) return MO_ENOMEM;
+      S->nbuf = p;
+      S->nbcap = need;
+    }
+  }
   {
     /* the parts' balance */
     long most = 0;
@@ -866,6 +893,66 @@ int nscd_grains_sweep_owned(nscd_state *S, const mo_contact_problem *P, double *
       for (i = 0; i < nk; i++) S->ibase[(size_t)j * nk + i] = S->vb[S->ifc[j] + i];
   return S->d == 2 ? sweep_d(S, P, r, status, S->oorder, S->noact, 2)
                    : sweep_d(S, P, r, status, S->oorder, S->noact, 3);
+}
+
+/* (T340) The interface contacts' values joined to a 2-rank sum, d + NK(d) a contact: the reactions
+   (d each, first), then the velocity of the side off the interface (an interface contact touches
+   at most one such body, whose velocity only its rank's contacts change); the rank's own contacts'
+   values, zeros for the other's. After the sum, the other rank's velocities written in vb (a body
+   this rank's sweep does not read): every rank then forms the same U of every interface contact. */
+int nscd_grains_ifc_count(const nscd_state *S) { return (S->d + NK(S->d)) * S->nilist; }
+
+void nscd_grains_ifc_pack(const nscd_state *S, const mo_contact_problem *P, const double *r, double *x)
+{
+  const int d = S->d, nk = NK(d);
+  double *xv = x + (size_t)d * S->nilist;
+  int k, i, s, gs[2];
+  for (k = 0; k < S->nilist; k++) {
+    const int a = S->ilist[k];
+    for (i = 0; i < d; i++) x[(size_t)k * d + i] = S->own[a] ? r[(size_t)a * d + i] : 0;
+    for (i = 0; i < nk; i++) xv[(size_t)k * nk + i] = 0;
+    if (!S->own[a]) continue;
+    sides(P->grains, a, gs);
+    for (s = 0; s < 2 && gs[s]; s++)
+      if (!S->bmulti[SIDE_O(gs[s])])
+        for (i = 0; i < nk; i++) xv[(size_t)k * nk + i] = S->vb[SIDE_O(gs[s]) + i];
+  }
+}
+
+void nscd_grains_ifc_unpack(nscd_state *S, const mo_contact_problem *P, const double *x)
+{
+  const int d = S->d, nk = NK(d);
+  const double *xv = x + (size_t)d * S->nilist;
+  int k, i, s, gs[2];
+  for (k = 0; k < S->nilist; k++) {
+    const int a = S->ilist[k];
+    if (S->own[a]) continue;
+    sides(P->grains, a, gs);
+    /* (the owner keeps its own: the same value, but for the sign of a zero, which no product
+       below changes) */
+    for (s = 0; s < 2 && gs[s]; s++)
+      if (!S->bmulti[SIDE_O(gs[s])])
+        for (i = 0; i < nk; i++) S->vb[SIDE_O(gs[s]) + i] = xv[(size_t)k * nk + i];
+  }
+}
+
+void nscd_grains_ifc_U(nscd_state *S, const mo_contact_problem *P, double *Uk)
+{
+  int k;
+  for (k = 0; k < S->nilist; k++) { /* not in S->U: the other's would write over its q (T240) */
+    if (S->d == 2) contact_U(S, P, S->ilist[k], Uk + (size_t)k * 2, 2);
+    else contact_U(S, P, S->ilist[k], Uk + (size_t)k * 3, 3);
+  }
+}
+
+void nscd_grains_list_U(nscd_state *S, const mo_contact_problem *P, const int *list, int n)
+{
+  int k;
+  for (k = 0; k < n; k++) {
+    const int a = list[k];
+    if (S->d == 2) contact_U(S, P, a, S->U + (size_t)a * 2, 2);
+    else contact_U(S, P, a, S->U + (size_t)a * 3, 3);
+  }
 }
 
 void nscd_grains_owned_U(nscd_state *S, const mo_contact_problem *P)
@@ -908,23 +995,26 @@ int nscd_grains_exchange(nscd_state *S, mo_ctx *ctx)
   return MO_OK;
 }
 
-int nscd_grains_sync(nscd_state *S, double *parts, int nparts, mo_ctx *ctx)
+int nscd_grains_sync(nscd_state *S, double *parts, int nparts, double *extra, int nextra, mo_ctx *ctx)
 {
   const int nk = NK(S->d);
   const size_t ni = (size_t)S->nifc * nk;
   int j, i, st;
   double *b = S->pbuf;
   if (S->xchg) { /* the interface went point to point (nscd_grains_exchange): the parts alone */
+    if (nextra) return mo_error(ctx, MO_EINTERNAL, "nscd: values joined to a point-to-point sync");
     if ((st = mo_par_sum(parts, nparts, ctx))) return st;
   } else {
-    /* one sum: the interface increments and the stopping rule's parts */
+    /* one sum: the interface increments, the stopping rule's parts, the caller's extra values */
     for (j = 0; j < S->nifc; j++)
       for (i = 0; i < nk; i++) b[(size_t)j * nk + i] = S->vb[S->ifc[j] + i] - S->ibase[(size_t)j * nk + i];
     memcpy(b + ni, parts, (size_t)nparts * sizeof *b);
-    if ((st = mo_par_sum(b, (long)(ni + nparts), ctx))) return st;
+    if (nextra) memcpy(b + ni + nparts, extra, (size_t)nextra * sizeof *b);
+    if ((st = mo_par_sum(b, (long)(ni + nparts + nextra), ctx))) return st;
     for (j = 0; j < S->nifc; j++)
       for (i = 0; i < nk; i++) S->vb[S->ifc[j] + i] = S->ibase[(size_t)j * nk + i] + b[(size_t)j * nk + i];
     memcpy(parts, b + ni, (size_t)nparts * sizeof *b);
+    if (nextra) memcpy(extra, b + ni + nparts, (size_t)nextra * sizeof *b);
   }
   S->par_sweeps++;
   ctx->par_grain_sweeps++;
