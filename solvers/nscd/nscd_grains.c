@@ -957,12 +957,7 @@ void nscd_grains_list_U(nscd_state *S, const mo_contact_problem *P, const int *l
 
 void nscd_grains_owned_U(nscd_state *S, const mo_contact_problem *P)
 {
-  int k;
-  for (k = 0; k < S->noact; k++) {
-    const int a = S->oorder[k];
-    if (S->d == 2) contact_U(S, P, a, S->U + (size_t)a * 2, 2);
-    else contact_U(S, P, a, S->U + (size_t)a * 3, 3);
-  }
+  nscd_grains_list_U(S, P, S->oorder, S->noact);
 }
 
 int nscd_grains_exchange(nscd_state *S, mo_ctx *ctx)
@@ -1029,15 +1024,8 @@ int nscd_grains_sync(nscd_state *S, double *parts, int nparts, double *extra, in
    again after it. */
 static void finish_own(nscd_state *S, const mo_contact_problem *P, const double *r)
 {
-  const int d = S->d;
-  int k;
   nscd_grains_velocities_part(S, P, r); /* the interface contacts of the others: overwritten */
-  for (k = 0; k < S->nvlist; k++) {
-    const int a = S->vlist[k];
-    if (!S->own[a] || S->cifc[a]) continue;
-    if (d == 2) contact_U(S, P, a, S->U + (size_t)a * 2, 2);
-    else contact_U(S, P, a, S->U + (size_t)a * 3, 3);
-  }
+  nscd_grains_list_U(S, P, S->onil, S->nonil);
 }
 
 /* (T336) After the gather: the interface bodies' velocities from every interface contact's
