@@ -92,20 +92,11 @@ int mo_pdetect_active(mo_contact *C, mo_ctx *ctx)
     if (Q->dynamic && !rr && !(sc->body[Q->mb[0]].type->flags & MO_BODY_F_OBSTACLE)) return 0;
   }
   {
-    /* (T337) a small scene is detected whole on every rank: the bodies of the pairs between rigid
-       shapes, the broad phase's, fewer than detect_split_min a rank (the same count on every
-       rank: the scene's) */
-    unsigned char *in = mo_calloc(ctx, (size_t)sc->nbody + 1, 1);
+    /* (T337) a small scene is detected whole on every rank: the broad phase's bodies (bmask, those
+       of the pairs between rigid shapes), fewer than detect_split_min a rank (the same count on
+       every rank: the scene's) */
     long nb = 0;
-    int i;
-    if (!in) return -1;
-    for (r = 0; r < C->nrr; r++) {
-      const mo_contact_pair *Q = &C->pair[C->rr[r]];
-      for (i = 0; i < Q->ns; i++) in[Q->sb[i]] = 1;
-      for (i = 0; i < Q->nm; i++) in[Q->mb[i]] = 1;
-    }
-    for (k = 0; k < sc->nbody; k++) nb += in[k] && !(sc->body[k].type->flags & MO_BODY_F_OBSTACLE);
-    mo_free(in);
+    for (k = 0; k < sc->nbody; k++) nb += C->bmask[k] != 0;
     if ((double)nb < (double)C->pd_min * ctx->nranks) {
       C->pd_whole = 1;
       mo_note_skip(ctx, "the detection's split over the %d ranks (%ld bodies, fewer than contact.detect_split_min = %d "
