@@ -559,7 +559,7 @@ static int assemble_counts(mo_scene *sc, long mine, double secs, mo_ctx *ctx)
 static int assemble(mo_scene *sc, int with_mass, mo_ctx *ctx)
 {
   mo_triplet TK, TM;
-  int b, e, a, c, st = MO_OK, D = sc->dim;
+  int b, e, a, c, st = MO_OK, D = sc->dim, fe = 0;
   /* over MPI ranks each computes its block of elements (element_block) */
   int split = ctx->nranks > 1 && mo_parallel_started(ctx);
   long g = 0, lo = 0, hi = 0, mine = 0;
@@ -569,12 +569,15 @@ static int assemble(mo_scene *sc, int with_mass, mo_ctx *ctx)
   /* (T200): a linear scene keeps each rank's part (its elements' entries only): no rank holds K or M
      whole, and every product with them is summed over the ranks (mo_scene_gaxpy). Finite-strain
      bodies' tangents (tangent.c) still take K and M whole: their scenes take the sums. */
-  sc->kpart = split && !sc->nonlinear;
   for (b = 0; b < sc->nbody; b++)
     if (sc->body[b].kind == MO_BODY_DEFORMABLE) {
       int nd = sc->body[b].mesh->nen * D;
       hint += (size_t)sc->body[b].mesh->nelem * (size_t)nd * (size_t)nd;
+      fe = 1;
     }
+  /* a scene of rigid bodies has no element: nothing to keep in parts, and K and M in parts would
+     make every product and energy with them a pass over the dofs of empty parts on every rank */
+  sc->kpart = split && !sc->nonlinear && fe;
   if (sc->kpart) hint = hint / (size_t)ctx->nranks + 1;
   memset(&TM, 0, sizeof TM);
   if ((st = mo_triplet_init(&TK, sc->ndof, sc->ndof, hint, ctx))) return st;
