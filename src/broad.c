@@ -468,3 +468,15 @@ int mo_broad_pairs(mo_broad *B, int dim, int n, const double *c, const double *r
   *npairs = B->npair;
   return MO_OK;
 }
+
+long mo_broad_keep(mo_broad *B, int (*keep)(void *arg, int i, int j), void *arg)
+{
+  long q, m = 0;
+  for (q = 0; q < B->npair; q++)
+    if (keep(arg, B->pair[2 * q], B->pair[2 * q + 1])) {
+      B->pair[2 * m] = B->pair[2 * q];
+      B->pair[2 * m + 1] = B->pair[2 * q + 1];
+      m++;
+    }
+  return B->npair = m;
+}

@@ -31,6 +31,9 @@ void mo_broad_free(mo_broad *B);
    MO_ENOMEM. On error *npairs is 0. */
 int mo_broad_pairs(mo_broad *B, int dim, int n, const double *c, const double *r, const unsigned char *mask,
                    double alert, const int **pairs, long *npairs, mo_ctx *ctx);
+/* Keeps the pairs (i, j) of the last list for which keep(arg, i, j) is not 0, in their order, and
+   returns their count: the list's new length (the list itself stays where mo_broad_pairs put it). */
+long mo_broad_keep(mo_broad *B, int (*keep)(void *arg, int i, int j), void *arg);
 
 /* Release what B holds but keep B: its next call allocates again (a broad phase called seldom,
    vblocks.c's whole builds, need not hold its arrays between calls). The pairs of the last call

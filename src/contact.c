@@ -5,6 +5,7 @@
 #include <moreau/backend.h>
 #include "case_internal.h"
 #include "contact_internal.h"
+#include "parallel_detect.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -376,6 +377,7 @@ static int grow(mo_contact_driver *D, int nc, mo_ctx *ctx)
   if (!D->pmu || D->mu) {
     GROW(D->mu, cap);
   }
+  if (D->C->act_of == D->active) D->C->act_of = NULL; /* moved: the detection's next cut reads none (T341) */
   GROW(D->active, cap); GROW(D->act, cap + 1);
   GROW(D->status, cap); GROW(D->itmp, (size_t)cap + 1);
   if (!D->dmap) {
@@ -774,6 +776,7 @@ void mo_contact_driver_free(mo_contact_driver *D)
   mo_free(D->pcwork); mo_free(D->pc_momentum);
   mo_free(D->gvel); mo_free(D->gcentre);
   mo_keymap_free(&D->kmap);
+  if (D->C && D->C->act_of == D->active) D->C->act_of = NULL; /* the driver goes before its set */
   mo_free(D->active);
   mo_free(D->act);
   mo_free(D->status);
@@ -1085,6 +1088,8 @@ static double local_problem(mo_contact_driver *D, const mo_state *s, const doubl
   }
   if (D->qu) {
     granular_q(D, s, x, u0h, rstep, dtpos, any_out);
+    C->act_of = D->active; /* the points of the split detection's next boxes (T341) */
+    C->act_set = mo_contact_set_version(C);
     return c;
   }
   mo_contact_Htx(C, s, x, 0, nc, NULL, D->q);
@@ -1265,6 +1270,7 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
     D->grains.key = C->key;
     D->grains.x = C->x;
     D->grains.n = mo_contact_normals(C); /* the frames' normals alone (T225) */
+    D->grains.cown = mo_contact_detect_owners(C); /* the detection's owners: the sweep's parts (T341) */
   } else if ((st = mo_contact_H_ensure(C, s, ctx)))
     return st;
   if (D->wused) {

@@ -764,6 +764,14 @@ static int pair_list_blocks(mo_contact *C, const mo_state *s, mo_ctx *ctx)
    it stays valid while every body's displacement relative to the bodies' mean
    displacement since the build, plus what it can close at its relative speed now, stays within
    half the skin plus its e_b. Grains falling together move with the mean: their list stays. */
+/* Whether this rank detects the pair of bodies i and j: its point at the build (C->bc) is in the
+   rank's box (T341). */
+static int pair_owned(void *arg, int i, int j)
+{
+  const mo_contact *C = arg;
+  return mo_pdetect_owns_pair(C->pd, C->sc->dim, C->bc, C->bR, i, j);
+}
+
 static int pair_list(mo_contact *C, const mo_state *s, mo_ctx *ctx)
 {
   const mo_scene *sc = C->sc;
@@ -831,6 +839,9 @@ static int pair_list(mo_contact *C, const mo_state *s, mo_ctx *ctx)
     C->vl_n = 0;
     return st;
   }
+  /* split over the ranks, the rank's own pairs only: those whose point at this build lies in its
+     box (T341) */
+  if (C->pd) np = mo_broad_keep(C->broad, pair_owned, C);
   C->vl = pairs; /* the broad phase's own list, valid until its next call */
   C->vl_n = np;
   C->vl_built = 1;
@@ -866,7 +877,7 @@ static int rigid_pairs(mo_contact *C, const mo_state *s, double t, mo_ctx *ctx)
     unsigned long long ij = C->rcm[ci] & C->rcs[cj], ji = C->rcm[cj] & C->rcs[ci];
     unsigned long long any = ij | ji;
     if (!any) continue;
-    if (C->pd && !mo_pdetect_owns(C->pd, i)) continue; /* another rank's pair (T215) */
+    /* (split over the ranks, the list holds this rank's pairs only: pair_list, (T341)) */
     /* two balls: their flags and radii from the compact arrays, no body record read (T310) */
     if ((C->dmask[i] & C->dmask[j] & MO_DM_BALL) && balls_apart(C, s, i, j, sc->dim)) continue;
     for (r = 0; !(any >> r & 1ULL); r++) {}

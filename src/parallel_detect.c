@@ -23,35 +23,34 @@ static inline int with_map(const mo_contact *C)
 }
 
 
-int mo_pdetect_slabs(int dim, int n, const double *c, const double *r, const unsigned char *mask, double reach,
-                     int nranks, int rank, int *owner, unsigned char *rmask, int *idx)
+int mo_pdetect_boxes(int dim, int n, const double *c, const double *r, const unsigned char *mask, double reach,
+                     long npts, const double *pts, int nranks, int rank, mo_rcb_tree *T, int *owner,
+                     unsigned char *rmask, int *idx, int *ppart)
 {
-  double rmax = 0, slo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, shi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL}, halo;
-  int b, k, ax;
-  /* (T215), (T330): the bodies' centres cut into boxes of equal counts, the same on every rank */
-  ax = mo_rcb(dim, n, c, NULL, mask, nranks, owner, idx);
+  double rmax = 0, lo[3], hi[3], halo;
+  int b, k;
+  /* (T341) the boxes cut from the points, or (T215), (T330) from the bodies' centres; a body's box
+     its centre's */
+  if (npts > 0) {
+    if (mo_rcb_tree_make(dim, (int)npts, pts, NULL, NULL, nranks, ppart, idx, T) < 0) return -1;
+    for (b = 0; b < n; b++) owner[b] = !mask || mask[b] ? mo_rcb_locate(T, c + (size_t)dim * b) : -1;
+  } else if (mo_rcb_tree_make(dim, n, c, NULL, mask, nranks, owner, idx, T) < 0)
+    return -1;
   for (b = 0; b < n; b++)
-    if (owner[b] >= 0) {
-      rmax = fmax(rmax, r[b]);
-      if (owner[b] == rank)
-        for (k = 0; k < dim; k++) {
-          slo[k] = fmin(slo[k], c[(size_t)dim * b + k]);
-          shi[k] = fmax(shi[k], c[(size_t)dim * b + k]);
-        }
-    }
-  /* (T216): a pair within reach is within 2 r_max + reach along every axis: the halo is the
-     rank's box of centres grown by it */
+    if (owner[b] >= 0 && r[b] > rmax) rmax = r[b];
+  /* (T216), (T341): a pair within reach whose point (on the segment between the centres) lies in
+     the box has both centres within 2 r_max + reach of it */
   halo = (2 * rmax + reach) * (1 + 1e-9);
+  mo_rcb_box(T, rank, lo, hi);
   for (b = 0; b < n; b++) {
     int in = owner[b] >= 0;
-    if (in && owner[b] != rank)
-      for (k = 0; k < dim && in; k++) {
-        double x = c[(size_t)dim * b + k];
-        in = x >= slo[k] - halo && x <= shi[k] + halo;
-      }
+    for (k = 0; k < dim && in && owner[b] != rank; k++) {
+      const double x = c[(size_t)dim * b + k];
+      in = x >= lo[k] - halo && x <= hi[k] + halo;
+    }
     rmask[b] = (unsigned char)in;
   }
-  return ax;
+  return 0;
 }
 
 void mo_pdetect_free(mo_contact *C)
@@ -74,6 +73,10 @@ void mo_pdetect_free(mo_contact *C)
   mo_free(P->wall);
   mo_free(P->wall0);
   mo_free(P->up);
+  mo_free(P->pts);
+  mo_free(P->pidx);
+  mo_free(P->ppart);
+  mo_free(P->cown);
   mo_free(P);
   C->pd = NULL;
 }
@@ -153,15 +156,57 @@ int mo_pdetect_begin(mo_contact *C, mo_ctx *ctx)
   return MO_OK;
 }
 
+/* (T341) The boxes of a build (mo_pdetect_boxes): cut from the points (mo_pdetect_point's, at
+   this build's centres) of the candidates active in the driver's last solve, the points the
+   sweep's parts balance, when there are at least MO_PDETECT_PTS a rank, else from the bodies'
+   centres. The same data on every rank, so the same boxes. */
+#define MO_PDETECT_PTS 16
+static int build_boxes(mo_contact *C, mo_ctx *ctx)
+{
+  struct mo_pdetect *P = C->pd;
+  const mo_scene *sc = C->sc;
+  const int D = sc->dim;
+  long np = 0;
+  int k, i;
+  const size_t need = (size_t)(C->knold > sc->nbody ? C->knold : sc->nbody) + 1;
+  if (need > P->ptcap) { /* points (D each), the cut's scratch and parts: one capacity */
+    void *q;
+    if (!(q = mo_realloc(ctx, P->pts, need * (size_t)D * sizeof *P->pts))) return MO_ENOMEM;
+    P->pts = q;
+    if (!(q = mo_realloc(ctx, P->pidx, need * sizeof *P->pidx))) return MO_ENOMEM;
+    P->pidx = q;
+    if (!(q = mo_realloc(ctx, P->ppart, need * sizeof *P->ppart))) return MO_ENOMEM;
+    P->ppart = q;
+    P->ptcap = need;
+  }
+  /* the last solve's active candidates (still the keys from nc_static to knold: the detection
+     writes the new set after the build) */
+  if (C->act_of && C->act_set == C->cset_version)
+    for (i = C->nc_static; i < C->knold; i++) {
+      const int *key = C->key + (size_t)i * MO_KEY, s = key[1], m = key[2];
+      const int si = s >= 0 && s < sc->nbody && C->bmask[s], mi = m >= 0 && m < sc->nbody && C->bmask[m];
+      if (!C->act_of[i] || (!si && !mi)) continue;
+      if (si && mi) mo_pdetect_point(D, C->bc, C->bR, s, m, P->pts + (size_t)D * np);
+      else
+        for (k = 0; k < D; k++) P->pts[(size_t)D * np + k] = C->bc[(size_t)D * (si ? s : m) + k];
+      np++;
+    }
+  ctx->par_detect_builds++;
+  if (np < (long)MO_PDETECT_PTS * P->nranks) np = 0; /* too few: the bodies' centres */
+  else ctx->par_detect_boxpts++;
+  if (mo_pdetect_boxes(D, sc->nbody, C->bc, C->br, C->bmask, C->vl_reach, np, P->pts, P->nranks, P->rank, &P->tree,
+                       P->owner, P->rmask, P->pidx, P->ppart) < 0)
+    return mo_error(ctx, MO_ELIMIT, "contact detection over %d ranks (at most %d)", P->nranks, MO_RCB_MAXPARTS);
+  return MO_OK;
+}
+
 int mo_pdetect_build(mo_contact *C, mo_ctx *ctx)
 {
   struct mo_pdetect *P = C->pd;
   const mo_scene *sc = C->sc;
   size_t nw = 0;
-  int b, k, i;
-  /* P->own is the cut's scratch before it lists the rank's own bodies */
-  mo_pdetect_slabs(sc->dim, sc->nbody, C->bc, C->br, C->bmask, C->vl_reach, P->nranks, P->rank, P->owner, P->rmask,
-                   P->own);
+  int b, k, i, st;
+  if ((st = build_boxes(C, ctx))) return st;
   /* (T230): the bodies whose validity this rank decides, whose speeds it needs, and the others */
   P->nown = P->nnear = P->nrest = 0;
   for (b = 0; b < sc->nbody; b++) {
@@ -183,6 +228,12 @@ int mo_pdetect_build(mo_contact *C, mo_ctx *ctx)
 }
 
 const unsigned char *mo_pdetect_mask(const mo_contact *C) { return C->pd->rmask; }
+
+const int *mo_contact_detect_owners(const mo_contact *C)
+{
+  const struct mo_pdetect *P = C->pd;
+  return P && P->cown && P->cown_set == C->cset_version ? P->cown : NULL;
+}
 
 
 
@@ -304,8 +355,11 @@ int mo_pdetect_finish(mo_contact *C, const mo_state *s, int st, mo_ctx *ctx)
   /* the set's arrays and the map for the merged set (their contents kept) */
   if ((st = mo_contact_reserve(C, P->nc0 + (int)total, ctx)) ||
       (with_map(C) && (st = mo_setmap_reserve(&C->smap, P->nc0 + (int)total + 1, ctx))) ||
-      (st = room((void **)&P->up, &P->upcap, (size_t)C->dim * ((size_t)P->nc0 + total) + 1, sizeof *P->up, ctx)))
+      (st = room((void **)&P->up, &P->upcap, (size_t)C->dim * ((size_t)P->nc0 + total) + 1, sizeof *P->up, ctx)) ||
+      (st = room((void **)&P->cown, &P->cowncap, (size_t)P->nc0 + total + 1, sizeof *P->cown, ctx)))
     return st;
+  P->cown_set = -1; /* until sealed with the new set's version */
+  for (a = 0; a < (size_t)P->nc0; a++) P->cown[a] = -1;
   /* U- = H^T v + U0 of this rank's candidates at the state of the detection (T300): the driver's
      sum (fresh_uprev's, mo_contact_Htx over the same records, points, normals and obstacle
      velocities at the same state), made for this rank's part only and carried by the gather */
@@ -360,6 +414,7 @@ int mo_pdetect_finish(mo_contact *C, const mo_state *s, int st, mo_ctx *ctx)
       h = lo;
     }
     copy_fields(C, &B[best], head[best], (size_t)P->nc0 + a, h - head[best], 1);
+    for (size_t t = 0; t < h - head[best]; t++) P->cown[(size_t)P->nc0 + a + t] = best;
     a += h - head[best];
     head[best] = h;
   }

@@ -8,6 +8,8 @@
 #include <moreau/ctx.h>
 #include <moreau/step.h>
 
+#include "partition.h"
+
 struct mo_contact;
 
 /* The detection is split over the ranks only when the broad phase holds at least this many
@@ -19,7 +21,15 @@ struct mo_contact;
 #define MO_PDETECT_NTAG 3
 struct mo_pdetect {
   int rank, nranks;
-  int *owner;              /* per body: its slab at the last build of the pair list (-1: none) */
+  int *owner;              /* per body: its box at the last build of the pair list (-1: none) */
+  mo_rcb_tree tree;        /* the boxes of the last build (T341): a point's owner, the same on every rank */
+  double *pts;             /* the points the boxes were cut from (D each), and the cut's scratch */
+  int *pidx, *ppart;
+  size_t ptcap;
+  int *cown;               /* per candidate of the merged set: the rank that detected it (-1: before the
+                              split part), of set cown_set (T341) */
+  size_t cowncap;
+  long cown_set;
   unsigned char *rmask;    /* per body: in this rank's broad phase (its slab and halo) */
   int nc0;                 /* the first candidate of the split part of the detection */
   int *okey;               /* the previous set's keys from nc0 on (knold - nc0 of them); not kept when
@@ -52,23 +62,35 @@ struct mo_pdetect {
   int up_nc;
 };
 
-/* Whether this rank detects the pairs of body b (it owns its slab); a body in no pair between
-   shapes (a shape against obstacles only) is rank 0's. */
+/* Whether this rank detects body b's candidates against obstacles (it owns its box); a body in no
+   pair between shapes (a shape against obstacles only) is rank 0's. */
 static inline int mo_pdetect_owns(const struct mo_pdetect *P, int b)
 {
   return P->owner[b] == P->rank || (P->owner[b] < 0 && P->rank == 0);
 }
 
-/* The parts of the broad phase's bodies (T215)-(T216), (T330), the same on every rank from the
-   same data: the n balls (centres c: dim * n, radii r) with mask[b] != 0 cut into `nranks` boxes of
-   about equal counts by recursive bisection across the largest extent (mo_rcb: with 2 ranks one
-   cut, two slabs); owner[b] the part of body b (-1 when mask[b] is 0). A pair (i, j), i < j, of
-   balls within `reach` (|c_i - c_j| - r_i - r_j <= reach) is owned by owner[i]. rmask[b] = 1 for
-   the bodies rank `rank` needs to find every pair it owns: its own and those whose centres lie in
-   the box of its own centres grown by 2 max r + reach (its halo). idx: n ints of scratch. Returns
-   the axis of the first cut. */
-int mo_pdetect_slabs(int dim, int n, const double *c, const double *r, const unsigned char *mask, double reach,
-                     int nranks, int rank, int *owner, unsigned char *rmask, int *idx);
+/* A pair's point (T341): between shapes i and j, the point of the segment between their centres
+   (cen, D each) at the ratio of their bounding radii R, from the lower index (the contact point of
+   two balls that touch); a shape against an obstacle, its centre. The same on every rank. */
+static inline void mo_pdetect_point(int D, const double *cen, const double *R, int i, int j, double *p)
+{
+  const int lo = i < j ? i : j, hi = i < j ? j : i;
+  const double t = R[lo] + R[hi] > 0 ? R[lo] / (R[lo] + R[hi]) : 0.5;
+  int k;
+  for (k = 0; k < D; k++) p[k] = cen[(size_t)D * lo + k] + t * (cen[(size_t)D * hi + k] - cen[(size_t)D * lo + k]);
+}
+
+/* The boxes of a build (T215)-(T216), (T330), (T341), the same on every rank from the same data:
+   the npts points pts (dim each) cut into `nranks` boxes of about equal counts by recursive
+   bisection (mo_rcb_tree_make), or with npts = 0 the centres c of the n bodies with mask[b] != 0;
+   owner[b] the box of body b's centre (-1 when mask[b] is 0). A pair of bodies within `reach`
+   (|c_i - c_j| - r_i - r_j <= reach) is detected by the box of its point (mo_pdetect_point):
+   rmask[b] = 1 for the bodies rank `rank` needs to find every such pair, its own and those whose
+   centres lie in its box grown by 2 max r + reach (its halo). T: the cuts, for the pairs' owners
+   (mo_rcb_locate). idx, ppart: max(n, npts) ints of scratch. -1 past MO_RCB_MAXPARTS ranks. */
+int mo_pdetect_boxes(int dim, int n, const double *c, const double *r, const unsigned char *mask, double reach,
+                     long npts, const double *pts, int nranks, int rank, mo_rcb_tree *T, int *owner,
+                     unsigned char *rmask, int *idx, int *ppart);
 
 /* Whether the detection of C is split over the ranks of ctx: more than one rank, the granular
    path's compact records, pairs between rigid shapes, and every other dynamic pair a shape
@@ -106,6 +128,18 @@ static inline int mo_pdetect_walls(const struct mo_pdetect *P, int k, const int 
 }
 /* This rank's broad-phase mask. */
 const unsigned char *mo_pdetect_mask(const struct mo_contact *C);
+/* Whether this rank detects the pair of shapes i and j at centres cen: its point's box is the rank's
+   (T341). */
+static inline int mo_pdetect_owns_pair(const struct mo_pdetect *P, int D, const double *cen, const double *R, int i,
+                                       int j)
+{
+  double p[3];
+  mo_pdetect_point(D, cen, R, i, j, p);
+  return mo_rcb_locate(&P->tree, p) == P->rank;
+}
+/* Per candidate of C's current set, the rank that detected it (-1: none), or NULL when the
+   detection is not split or its owners are not of this set (T341). */
+const int *mo_contact_detect_owners(const struct mo_contact *C);
 /* The candidates this rank just appended (from `from` to C->nc) carry the order key (s0, s1, s2)
    of the serial detection: (pair, slave index, 0) against an obstacle, (npair, i, j) between two
    shapes. */
@@ -118,6 +152,7 @@ int mo_pdetect_finish(struct mo_contact *C, const mo_state *s, int st, mo_ctx *c
 static inline void mo_pdetect_seal(struct mo_pdetect *P, long set)
 {
   P->up_set = set;
+  P->cown_set = set;
 }
 void mo_pdetect_free(struct mo_contact *C);
 

@@ -15,4 +15,25 @@
 int mo_rcb(int dim, int n, const double *x, const int *sel, const unsigned char *mask, int nparts, int *part,
            int *idx);
 
+/* The cuts of a partition kept (doc/theory.md (T341)): one node a cut, in the order the recursion
+   makes them (a box's node, then its first half's nodes, then its second half's: nparts - 1 in
+   all), so that any point, not only those cut, finds its part by the same tests. */
+#define MO_RCB_MAXPARTS 64
+typedef struct {
+  int ax, bcut;   /* the axis, and the first bin above the cut (MO_RCB_BINS + 1: every point below) */
+  double lo, w;   /* the bins' origin and width along ax */
+} mo_rcb_node;
+typedef struct {
+  int nparts, dim;
+  mo_rcb_node node[MO_RCB_MAXPARTS - 1];
+} mo_rcb_tree;
+/* mo_rcb's partition (the same parts), its cuts kept in T; -1 past MO_RCB_MAXPARTS parts. */
+int mo_rcb_tree_make(int dim, int n, const double *x, const int *sel, const unsigned char *mask, int nparts,
+                     int *part, int *idx, mo_rcb_tree *T);
+/* The part of point p (dim coordinates): for the points T was made from, their part. */
+int mo_rcb_locate(const mo_rcb_tree *T, const double *p);
+/* The box of a part: lo[k] <= p[k] <= hi[k] for k < 3 of every point the part holds (infinite
+   where no cut bounds it), to the rounding of a cut's abscissa. */
+void mo_rcb_box(const mo_rcb_tree *T, int part, double *lo, double *hi);
+
 #endif

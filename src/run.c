@@ -346,12 +346,19 @@ static json_t *parallel_json(const mo_ctx *ctx, const mo_scene *sc)
     json_object_set_new(j, "grain_interface_exchange", json_string(ctx->nranks > 2 ? "point to point" : "sum"));
     /* of them, those of more than 2 ranks: swept as bodies of mass 2 m / k (T332) */
     json_object_set_new(j, "grain_interface_bodies_over_2_ranks_mean", jnum(ctx->par_grain_multi / n));
+    /* of them, those swept in the detection's parts, each contact by the rank that detected it
+       (doc/theory.md (T341)); the others cut at the solve */
+    json_object_set_new(j, "grain_solves_in_detection_parts", json_integer(ctx->par_grain_detparts));
   }
   if (ctx->par_detect_total) {
     /* the detection split over the ranks (doc/parallel.md §4, (T215)): the candidates the largest
        rank detected itself over the run, and every rank's */
     json_object_set_new(j, "grain_detected_largest_rank", json_integer(ctx->par_detect_largest));
     json_object_set_new(j, "grain_detected", json_integer(ctx->par_detect_total));
+    /* the pair list's builds over the ranks, and those whose boxes were cut from the points of
+       the last solve's active contacts (T341; the others from the bodies' centres) */
+    json_object_set_new(j, "grain_detect_builds", json_integer(ctx->par_detect_builds));
+    json_object_set_new(j, "grain_detect_builds_on_contacts", json_integer(ctx->par_detect_boxpts));
   }
   return j;
 }

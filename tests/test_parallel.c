@@ -364,22 +364,28 @@ done:
   mo_ctx_clear_error(ctx);
 }
 
-/* The detection's parts (T215)-(T216), (T330) against a brute-force enumeration: random balls
-   (radii of ratio 3, a pile's density, some stacked at one abscissa) in a box 4 long (`cube` 0) or
-   a cube, for 1-8 ranks every pair within reach (all n (n - 1) / 2 tested) found by its owner's
-   broad phase on that rank's part and halo, and the ranks' owned pairs together every pair exactly
-   once; every rank's cut the same; the parts of equal counts; in the cube, boxes and not slabs. */
-static void slab_checks(int dim, int n, int nranks, int cube, unsigned seed, mo_ctx *ctx)
+/* The detection's boxes (T215)-(T216), (T330), (T341) against a brute-force enumeration: random
+   balls (radii of ratio 3, a pile's density, some stacked at one abscissa) in a box 4 long (`cube`
+   0) or a cube, for 1-8 ranks, the boxes cut from the bodies' centres (`onpts` 0) or from the
+   points of the pairs within reach (1, as the last solve's contacts): every pair within reach
+   (all n (n - 1) / 2 tested) found by the broad phase of the rank whose box holds its point, on
+   that rank's box and halo, and the ranks' owned pairs together every pair exactly once; every
+   rank's boxes the same; the parts of equal counts of what they were cut from; in the cube, boxes
+   and not slabs. */
+static void box_checks(int dim, int n, int nranks, int cube, int onpts, unsigned seed, mo_ctx *ctx)
 {
   double *c = malloc((size_t)dim * n * sizeof *c), *r = malloc((size_t)n * sizeof *r), reach = 0.05;
+  double *pts = malloc((size_t)dim * n * n / 2 * sizeof *pts + 1);
   int *owner = malloc((size_t)n * sizeof *owner), *own0 = malloc((size_t)n * sizeof *own0);
-  int *idx = malloc((size_t)n * sizeof *idx);
+  int *idx = malloc(((size_t)n * n / 2 + n) * sizeof *idx), *ppart = malloc(((size_t)n * n / 2 + n) * sizeof *ppart);
   int *seen = calloc((size_t)n * n, sizeof *seen);
   unsigned char *rmask = malloc((size_t)n), *mask = malloc((size_t)n);
-  long near = 0, twice = 0, missed = 0, far = 0, found = 0, maxmine = 0, q, np;
+  long near = 0, twice = 0, missed = 0, far = 0, found = 0, maxmine = 0, q, np, npts = 0;
   int i, j, k, rank, same = 1, bad_owner = 0;
+  mo_rcb_tree T, T0;
   mo_broad *B = NULL;
   const int *pairs;
+  const char *from = onpts ? "pair points" : "centres";
   srand(seed);
   for (i = 0; i < n; i++) {
     for (k = 0; k < dim; k++) c[(size_t)dim * i + k] = (double)rand() / RAND_MAX * (k == 0 && !cube ? 4.0 : 1.0);
@@ -387,21 +393,34 @@ static void slab_checks(int dim, int n, int nranks, int cube, unsigned seed, mo_
     r[i] = 0.02 + 0.04 * (double)rand() / RAND_MAX;
     mask[i] = i % 23 != 5; /* some bodies out of the broad phase */
   }
+  for (i = 0; i < n && onpts; i++)
+    for (j = i + 1; j < n; j++) {
+      double d2 = 0;
+      for (k = 0; k < dim; k++) d2 += (c[(size_t)dim * j + k] - c[(size_t)dim * i + k]) * (c[(size_t)dim * j + k] - c[(size_t)dim * i + k]);
+      if (mask[i] && mask[j] && sqrt(d2) - r[i] - r[j] <= reach) mo_pdetect_point(dim, c, r, i, j, pts + (size_t)dim * npts++);
+    }
   mo_broad_create(&B, ctx);
+  memset(&T0, 0, sizeof T0);
   for (rank = 0; rank < nranks; rank++) {
     long mine = 0;
-    mo_pdetect_slabs(dim, n, c, r, mask, reach, nranks, rank, owner, rmask, idx);
+    memset(&T, 0, sizeof T);
+    mo_pdetect_boxes(dim, n, c, r, mask, reach, npts, pts, nranks, rank, &T, owner, rmask, idx, ppart);
+    if (rank == 0) T0 = T;
+    else same &= !memcmp(&T, &T0, sizeof T);
     for (i = 0; i < n; i++) {
       if (rank == 0) own0[i] = owner[i];
       else same &= own0[i] == owner[i];
       bad_owner += mask[i] ? owner[i] < 0 || owner[i] >= nranks : owner[i] != -1 || rmask[i];
     }
     if (mo_broad_pairs(B, dim, n, c, r, rmask, reach, &pairs, &np, ctx)) break;
-    for (q = 0; q < np; q++)
-      if (owner[pairs[2 * q]] == rank) {
+    for (q = 0; q < np; q++) {
+      double p[3];
+      mo_pdetect_point(dim, c, r, pairs[2 * q], pairs[2 * q + 1], p);
+      if (mo_rcb_locate(&T, p) == rank) {
         seen[(size_t)pairs[2 * q] * n + pairs[2 * q + 1]]++;
         mine++;
       }
+    }
     if (mine > maxmine) maxmine = mine;
   }
   for (i = 0; i < n; i++)
@@ -417,13 +436,13 @@ static void slab_checks(int dim, int n, int nranks, int cube, unsigned seed, mo_
       if (!in && seen[(size_t)i * n + j]) far++;
     }
   ok(rank == nranks && same && !bad_owner && near > 0 && found == near && !missed && !twice && !far,
-     "detection parts, %dD %s, %d balls, %d rank(s): each of the %ld pairs within reach owned and found by exactly "
-     "one rank (missed %ld, twice %ld, out of reach %ld), the same cut on every rank, the largest rank %ld pairs",
-     dim, cube ? "cube" : "bar", n, nranks, near, missed, twice, far, maxmine);
+     "detection boxes from %s, %dD %s, %d balls, %d rank(s): each of the %ld pairs within reach found by exactly "
+     "one rank, its point's (missed %ld, twice %ld, out of reach %ld), the same boxes on every rank, the largest "
+     "rank %ld pairs", from, dim, cube ? "cube" : "bar", n, nranks, near, missed, twice, far, maxmine);
   {
-    /* the parts' balance: equal counts of bodies, but for the bins' granularity (a bin of 1/4096
-       of the extent whole on one side, at most 3 cuts deep) and the bin holding the tied abscissa
-       (one body in 17) */
+    /* the parts' balance: equal counts of what was cut (bodies, or the pairs' points), but for the
+       bins' granularity (a bin of 1/4096 of the extent whole on one side, at most 3 cuts deep) and
+       the bin holding the tied abscissa (one body in 17) */
     long cnt[8] = {0}, m = 0, most = 0;
     double lo[8][3], hi[8][3], wide = 0;
     for (k = 0; k < nranks; k++)
@@ -433,30 +452,38 @@ static void slab_checks(int dim, int n, int nranks, int cube, unsigned seed, mo_
       }
     for (i = 0; i < n; i++)
       if (mask[i]) {
-        cnt[own0[i]]++;
-        m++;
+        if (!onpts) {
+          cnt[own0[i]]++;
+          m++;
+        }
         for (j = 0; j < dim; j++) {
           lo[own0[i]][j] = fmin(lo[own0[i]][j], c[(size_t)dim * i + j]);
           hi[own0[i]][j] = fmax(hi[own0[i]][j], c[(size_t)dim * i + j]);
         }
       }
+    for (q = 0; q < npts; q++) {
+      cnt[mo_rcb_locate(&T0, pts + (size_t)dim * q)]++;
+      m++;
+    }
     for (k = 0; k < nranks; k++) {
       most = cnt[k] > most ? cnt[k] : most;
       for (j = 0; j < dim; j++) wide = fmax(wide, hi[k][j] - lo[k][j]);
     }
-    ok(most <= m / nranks + n / 17 + 6, "detection parts, %dD %s, %d rank(s): the largest part %ld of %ld bodies", dim,
-       cube ? "cube" : "bar", nranks, most, m);
+    ok(most <= m / nranks + m / 17 + 6, "detection boxes from %s, %dD %s, %d rank(s): the largest part %ld of %ld %s",
+       from, dim, cube ? "cube" : "bar", nranks, most, m, onpts ? "points" : "bodies");
     /* in the unit cube, 2^dim ranks take boxes of side 1/2 (slabs would be 1 wide) */
     if (cube && nranks == (dim == 2 ? 4 : 8))
-      ok(wide < 0.6, "detection parts, %dD cube, %d ranks: boxes, the widest side of a part's centres %.3f", dim,
-         nranks, wide);
+      ok(wide < 0.6, "detection boxes from %s, %dD cube, %d ranks: boxes, the widest side of a part's centres %.3f",
+         from, dim, nranks, wide);
   }
   mo_broad_free(B);
   free(c);
   free(r);
+  free(pts);
   free(owner);
   free(own0);
   free(idx);
+  free(ppart);
   free(seen);
   free(rmask);
   free(mask);
@@ -470,10 +497,12 @@ int main(int argc, char **argv)
     /* the detection's slabs are plain arithmetic: checked in every build */
     int p;
     for (p = 1; p <= 8; p++) {
-      slab_checks(2, 700, p, 0, 11u + p, &ctx);
-      slab_checks(3, 500, p, 0, 29u + p, &ctx);
-      slab_checks(2, 700, p, 1, 41u + p, &ctx);
-      slab_checks(3, 500, p, 1, 53u + p, &ctx);
+      box_checks(2, 700, p, 0, 0, 11u + p, &ctx);
+      box_checks(3, 500, p, 0, 0, 29u + p, &ctx);
+      box_checks(2, 700, p, 1, 0, 41u + p, &ctx);
+      box_checks(3, 500, p, 1, 0, 53u + p, &ctx);
+      box_checks(2, 700, p, 0, 1, 67u + p, &ctx);
+      box_checks(3, 500, p, 1, 1, 71u + p, &ctx);
     }
     printf("# the rest skipped: this build has no PETSc (configure --with-petsc)\n");
     return done_testing();
@@ -505,10 +534,12 @@ int main(int argc, char **argv)
   {
     int p;
     for (p = 1; p <= 8; p++) {
-      slab_checks(2, 700, p, 0, 11u + p, &ctx);
-      slab_checks(3, 500, p, 0, 29u + p, &ctx);
-      slab_checks(2, 700, p, 1, 41u + p, &ctx);
-      slab_checks(3, 500, p, 1, 53u + p, &ctx);
+      box_checks(2, 700, p, 0, 0, 11u + p, &ctx);
+      box_checks(3, 500, p, 0, 0, 29u + p, &ctx);
+      box_checks(2, 700, p, 1, 0, 41u + p, &ctx);
+      box_checks(3, 500, p, 1, 0, 53u + p, &ctx);
+      box_checks(2, 700, p, 0, 1, 67u + p, &ctx);
+      box_checks(3, 500, p, 1, 1, 71u + p, &ctx);
     }
   }
   solver_checks(&ctx, "preonly", "cholesky", 1e-12, 0);

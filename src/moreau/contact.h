@@ -345,6 +345,9 @@ typedef struct mo_grains {
   const double *centre;      /* D per body: its centre at the step's start (moving bodies) */
   const double *pmu;         /* per pair its friction coefficient: contact a's is pmu[key[a MO_KEY]]
                                 (the problem's mu is NULL on this path, doc/theory.md (T189)) */
+  const int *cown;           /* over MPI ranks, when the detection is split: per candidate the rank that
+                                detected it, its point's box (doc/theory.md (T341)), the same on every
+                                rank; the sweep's parts then. NULL: none */
 } mo_grains;
 
 /* The contact problem of one step, built by the core and handed to a back end. Everything is

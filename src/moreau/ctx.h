@@ -86,9 +86,12 @@ typedef struct mo_ctx {
   long par_grain_solves, par_grain_sweeps;
   long par_grain_serial; /* split sweeps that stalled and went on as the serial sweep on every rank */
   double par_grain_interface, par_grain_imbalance;
+  long par_grain_detparts; /* split solves whose parts were the detection's owners (T341) */
   /* the granular detection split over the ranks (doc/parallel.md §4, (T215)): the candidates the
      largest rank detected itself, and every rank's, over the run */
   long par_detect_largest, par_detect_total;
+  long par_detect_builds, par_detect_boxpts; /* builds of the split list; those whose boxes were cut
+                                                 from the last solve's contact points (T341) */
   /* the Delassus build's columns What^-1 H^T (doc/parallel.md §2, (T210)): the most nodal rows of
      them one rank held (the largest rank's, over the builds), the nodal rows whole, the columns */
   long par_column_rows, par_column_dofs, par_columns;
