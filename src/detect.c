@@ -757,13 +757,6 @@ static int pair_list_blocks(mo_contact *C, const mo_state *s, mo_ctx *ctx)
   return MO_OK;
 }
 
-/* The broad phase's pair list, kept while it holds every pair closer than its alert distance
-   (pair_alert; doc/theory.md (T110)): built with each body's bounding ball grown by what it could
-   close relative to the others' mean motion at its speed then (e_b = 2 h s'_b, s'_b its speed
-   relative to the bodies' mean velocity plus what its rotation adds) and a skin (contact.skin),
-   it stays valid while every body's displacement relative to the bodies' mean
-   displacement since the build, plus what it can close at its relative speed now, stays within
-   half the skin plus its e_b. Grains falling together move with the mean: their list stays. */
 /* Whether this rank detects the pair of bodies i and j: its point at the build (C->bc) is in the
    rank's box (T341). */
 static int pair_owned(void *arg, int i, int j)
@@ -772,6 +765,13 @@ static int pair_owned(void *arg, int i, int j)
   return mo_pdetect_owns_pair(C->pd, C->sc->dim, C->bc, C->bR, i, j);
 }
 
+/* The broad phase's pair list, kept while it holds every pair closer than its alert distance
+   (pair_alert; doc/theory.md (T110)): built with each body's bounding ball grown by what it could
+   close relative to the others' mean motion at its speed then (e_b = 2 h s'_b, s'_b its speed
+   relative to the bodies' mean velocity plus what its rotation adds) and a skin (contact.skin),
+   it stays valid while every body's displacement relative to the bodies' mean
+   displacement since the build, plus what it can close at its relative speed now, stays within
+   half the skin plus its e_b. Grains falling together move with the mean: their list stays. */
 static int pair_list(mo_contact *C, const mo_state *s, mo_ctx *ctx)
 {
   const mo_scene *sc = C->sc;
