@@ -489,21 +489,27 @@ static void box_checks(int dim, int n, int nranks, int cube, int onpts, unsigned
   free(mask);
 }
 
+/* The boxes for 1-8 ranks: bars and cubes in 2D and 3D, cut from the centres and from pairs' points. */
+static void all_box_checks(mo_ctx *ctx)
+{
+  int p;
+  for (p = 1; p <= 8; p++) {
+    box_checks(2, 700, p, 0, 0, 11u + p, ctx);
+    box_checks(3, 500, p, 0, 0, 29u + p, ctx);
+    box_checks(2, 700, p, 1, 0, 41u + p, ctx);
+    box_checks(3, 500, p, 1, 0, 53u + p, ctx);
+    box_checks(2, 700, p, 0, 1, 67u + p, ctx);
+    box_checks(3, 500, p, 1, 1, 71u + p, ctx);
+  }
+}
+
 int main(int argc, char **argv)
 {
   mo_ctx ctx;
   mo_ctx_init(&ctx);
   if (!mo_parallel_available()) {
-    /* the detection's slabs are plain arithmetic: checked in every build */
-    int p;
-    for (p = 1; p <= 8; p++) {
-      box_checks(2, 700, p, 0, 0, 11u + p, &ctx);
-      box_checks(3, 500, p, 0, 0, 29u + p, &ctx);
-      box_checks(2, 700, p, 1, 0, 41u + p, &ctx);
-      box_checks(3, 500, p, 1, 0, 53u + p, &ctx);
-      box_checks(2, 700, p, 0, 1, 67u + p, &ctx);
-      box_checks(3, 500, p, 1, 1, 71u + p, &ctx);
-    }
+    /* the detection's boxes are plain arithmetic: checked in every build */
+    all_box_checks(&ctx);
     printf("# the rest skipped: this build has no PETSc (configure --with-petsc)\n");
     return done_testing();
   }
@@ -531,17 +537,7 @@ int main(int argc, char **argv)
        "a status of one rank reaches every rank (%s)", ctx.errmsg);
     mo_ctx_clear_error(&ctx);
   }
-  {
-    int p;
-    for (p = 1; p <= 8; p++) {
-      box_checks(2, 700, p, 0, 0, 11u + p, &ctx);
-      box_checks(3, 500, p, 0, 0, 29u + p, &ctx);
-      box_checks(2, 700, p, 1, 0, 41u + p, &ctx);
-      box_checks(3, 500, p, 1, 0, 53u + p, &ctx);
-      box_checks(2, 700, p, 0, 1, 67u + p, &ctx);
-      box_checks(3, 500, p, 1, 1, 71u + p, &ctx);
-    }
-  }
+  all_box_checks(&ctx);
   solver_checks(&ctx, "preonly", "cholesky", 1e-12, 0);
   solver_checks(&ctx, "preonly", "lu", 1e-12, 0);
   solver_checks(&ctx, "cg", "jacobi", 1e-9, 0);
