@@ -762,6 +762,10 @@ static int pair_list_blocks(mo_contact *C, const mo_state *s, mo_ctx *ctx)
 static int pair_owned(void *arg, int i, int j)
 {
   const mo_contact *C = arg;
+  const int oi = C->pd->owner[i];
+  /* two bodies of one box: their point lies between their centres, in that box (a box is where
+     every cut's bin test passes, and a bin is monotone in the abscissa): no point formed */
+  if (oi >= 0 && oi == C->pd->owner[j]) return oi == C->pd->rank;
   return mo_pdetect_owns_pair(C->pd, C->sc->dim, C->bc, C->bR, i, j);
 }
 
