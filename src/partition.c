@@ -140,14 +140,17 @@ void mo_rcb_box(const mo_rcb_tree *T, int part, double *lo, double *hi)
     const int ql = q / 2;
     const mo_rcb_node *N = &T->node[ni];
     /* the plane between the bins: a point of bin < bcut is below it (rounding aside: callers
-       grow the box by a margin) */
-    const double at = N->bcut > MO_RCB_BINS ? HUGE_VAL : N->lo + N->w * N->bcut;
+       grow the box by a margin). A point beyond the bins takes the first or last bin: with the cut
+       after the last bin (or before the first) the half below (above) reaches to infinity */
+    const double at = N->lo + N->w * N->bcut;
     if (part < q0 + ql) {
-      if (at < hi[N->ax]) hi[N->ax] = at;
+      if (N->bcut <= 0) hi[N->ax] = -HUGE_VAL; /* no bin below the cut: the half below is empty */
+      else if (N->bcut < MO_RCB_BINS && at < hi[N->ax]) hi[N->ax] = at;
       ni += 1;
       q = ql;
     } else {
-      if (at > lo[N->ax]) lo[N->ax] = at;
+      if (N->bcut > MO_RCB_BINS) lo[N->ax] = HUGE_VAL; /* every point below: the half above is empty */
+      else if (N->bcut > 0 && at > lo[N->ax]) lo[N->ax] = at;
       ni += ql;
       q0 += ql;
       q -= ql;

@@ -32,8 +32,9 @@ int mo_rcb_tree_make(int dim, int n, const double *x, const int *sel, const unsi
                      int *part, int *idx, mo_rcb_tree *T);
 /* The part of point p (dim coordinates): for the points T was made from, their part. */
 int mo_rcb_locate(const mo_rcb_tree *T, const double *p);
-/* The box of a part: lo[k] <= p[k] <= hi[k] for k < 3 of every point the part holds (infinite
-   where no cut bounds it), to the rounding of a cut's abscissa. */
+/* The box of a part: lo[k] <= p[k] <= hi[k] for k < 3 of every point mo_rcb_locate gives it,
+   the points beyond the bins included (infinite where no cut bounds it; lo = +infinity for a part
+   no point reaches), to the rounding of a cut's abscissa. */
 void mo_rcb_box(const mo_rcb_tree *T, int part, double *lo, double *hi);
 
 #endif

@@ -489,10 +489,50 @@ static void box_checks(int dim, int n, int nranks, int cube, int onpts, unsigned
   free(mask);
 }
 
+/* The cuts kept (T341): point sets with most points tied at one end of an axis (the cut then falls
+   after the last bin, every point below it), and probes within and beyond the points' range on
+   every axis: each probe's part (mo_rcb_locate) is the part of the points it coincides with, and
+   lies in that part's box (mo_rcb_box); a part no point reaches has an empty box. */
+static void rcb_edge_checks(void)
+{
+  double x[3 * 200], p[3];
+  int part[200], idx[200], d, q, np, k, i, bad = 0, probes = 0, same = 0, fell = 0;
+  mo_rcb_tree T;
+  for (d = 2; d <= 3; d++)
+    for (np = 2; np <= 8; np++)
+      for (k = 0; k < 3; k++) { /* ties at the high end, the low end, none */
+        srand(7u * (unsigned)(d * 100 + np * 10 + k));
+        for (i = 0; i < 200; i++)
+          for (q = 0; q < d; q++) {
+            double v = (double)rand() / RAND_MAX;
+            if (q == 0 && k == 0 && i >= 20) v = 1.0;
+            if (q == 0 && k == 1 && i >= 20) v = 0.0;
+            x[d * i + q] = q == 1 ? 0.2 * v : v; /* the first axis the longest */
+          }
+        mo_rcb_tree_make(d, 200, x, NULL, NULL, np, part, idx, &T);
+        for (i = 0; i < T.nparts - 1; i++) fell += T.node[i].bcut >= MO_RCB_BINS;
+        for (i = 0; i < 200; i++) same += mo_rcb_locate(&T, x + d * i) == part[i];
+        for (i = 0; i < 2000; i++) {
+          double lo[3], hi[3];
+          int r, in = 1;
+          for (q = 0; q < d; q++) p[q] = -2.0 + 5.0 * (double)rand() / RAND_MAX;
+          r = mo_rcb_locate(&T, p);
+          mo_rcb_box(&T, r, lo, hi);
+          for (q = 0; q < d; q++) in &= p[q] >= lo[q] - 1e-12 && p[q] <= hi[q] + 1e-12;
+          bad += !in || r < 0 || r >= np;
+          probes++;
+        }
+      }
+  ok(same == 2 * 7 * 3 * 200 && !bad && fell > 0,
+     "kept cuts: every point cut located in its part (%d of %d), %d probes within and beyond the points each in its "
+     "part's box (%d outside), %d cuts after the last bin among them", same, 2 * 7 * 3 * 200, probes, bad, fell);
+}
+
 /* The boxes for 1-8 ranks: bars and cubes in 2D and 3D, cut from the centres and from pairs' points. */
 static void all_box_checks(mo_ctx *ctx)
 {
   int p;
+  rcb_edge_checks();
   for (p = 1; p <= 8; p++) {
     box_checks(2, 700, p, 0, 0, 11u + p, ctx);
     box_checks(3, 500, p, 0, 0, 29u + p, ctx);
