@@ -167,18 +167,12 @@ static int build_boxes(mo_contact *C, mo_ctx *ctx)
   const mo_scene *sc = C->sc;
   const int D = sc->dim;
   long np = 0;
-  int k, i;
+  int i;
   const size_t need = (size_t)(C->knold > sc->nbody ? C->knold : sc->nbody) + 1;
-  if (need > P->ptcap) { /* points (D each), the cut's scratch and parts: one capacity */
-    void *q;
-    if (!(q = mo_realloc(ctx, P->pts, need * (size_t)D * sizeof *P->pts))) return MO_ENOMEM;
-    P->pts = q;
-    if (!(q = mo_realloc(ctx, P->pidx, need * sizeof *P->pidx))) return MO_ENOMEM;
-    P->pidx = q;
-    if (!(q = mo_realloc(ctx, P->ppart, need * sizeof *P->ppart))) return MO_ENOMEM;
-    P->ppart = q;
-    P->ptcap = need;
-  }
+  if (room((void **)&P->pts, &P->ptcap, need * (size_t)D, sizeof *P->pts, ctx) ||
+      room((void **)&P->pidx, &P->pidxcap, need, sizeof *P->pidx, ctx) ||
+      room((void **)&P->ppart, &P->ppartcap, need, sizeof *P->ppart, ctx))
+    return MO_ENOMEM;
   /* the last solve's active candidates (still the keys from nc_static to knold: the detection
      writes the new set after the build) */
   if (C->act_of && C->act_set == C->cset_version)
@@ -186,10 +180,8 @@ static int build_boxes(mo_contact *C, mo_ctx *ctx)
       const int *key = C->key + (size_t)i * MO_KEY, s = key[1], m = key[2];
       const int si = s >= 0 && s < sc->nbody && C->bmask[s], mi = m >= 0 && m < sc->nbody && C->bmask[m];
       if (!C->act_of[i] || (!si && !mi)) continue;
-      if (si && mi) mo_pdetect_point(D, C->bc, C->bR, s, m, P->pts + (size_t)D * np);
-      else
-        for (k = 0; k < D; k++) P->pts[(size_t)D * np + k] = C->bc[(size_t)D * (si ? s : m) + k];
-      np++;
+      /* against an obstacle the shape's own centre (i == j) */
+      mo_pdetect_point(D, C->bc, C->bR, si ? s : m, mi ? m : s, P->pts + (size_t)D * np++);
     }
   ctx->par_detect_builds++;
   if (np < (long)MO_PDETECT_PTS * P->nranks) np = 0; /* too few: the bodies' centres */
@@ -382,7 +374,7 @@ int mo_pdetect_finish(mo_contact *C, const mo_state *s, int st, mo_ctx *ctx)
   for (a = 0; a < total;) {
     int best = -1, next = -1;
     mo_setmap_ord ob = {0, 0}, on = {0, 0}, o;
-    size_t h;
+    size_t h, c;
     for (r = 0; r < P->nranks; r++)
       if (head[r] < end[r] && (o = order_at(C, &B[r], head[r]), best < 0 || mo_setmap_cmp(o, ob) < 0)) {
         best = r;
@@ -414,7 +406,7 @@ int mo_pdetect_finish(mo_contact *C, const mo_state *s, int st, mo_ctx *ctx)
       h = lo;
     }
     copy_fields(C, &B[best], head[best], (size_t)P->nc0 + a, h - head[best], 1);
-    for (size_t t = 0; t < h - head[best]; t++) P->cown[(size_t)P->nc0 + a + t] = best;
+    for (c = 0; c < h - head[best]; c++) P->cown[(size_t)P->nc0 + a + c] = best;
     a += h - head[best];
     head[best] = h;
   }

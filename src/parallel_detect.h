@@ -25,7 +25,7 @@ struct mo_pdetect {
   mo_rcb_tree tree;        /* the boxes of the last build (T341): a point's owner, the same on every rank */
   double *pts;             /* the points the boxes were cut from (D each), and the cut's scratch */
   int *pidx, *ppart;
-  size_t ptcap;
+  size_t ptcap, pidxcap, ppartcap;
   int *cown;               /* per candidate of the merged set: the rank that detected it (-1: before the
                               split part), of set cown_set (T341) */
   size_t cowncap;
@@ -71,7 +71,8 @@ static inline int mo_pdetect_owns(const struct mo_pdetect *P, int b)
 
 /* A pair's point (T341): between shapes i and j, the point of the segment between their centres
    (cen, D each) at the ratio of their bounding radii R, from the lower index (the contact point of
-   two balls that touch); a shape against an obstacle, its centre. The same on every rank. */
+   two balls that touch); with i == j (a shape against an obstacle) its centre. The same on every
+   rank. */
 static inline void mo_pdetect_point(int D, const double *cen, const double *R, int i, int j, double *p)
 {
   const int lo = i < j ? i : j, hi = i < j ? j : i;

@@ -808,15 +808,13 @@ int nscd_grains_partition(nscd_state *S, const mo_contact_problem *P, mo_ctx *ct
   S->par = ctx->nranks > 1;
   if (!S->par) return MO_OK;
   if ((st = par_reserve(S, P->nfree, ctx))) return st;
-  if (G->cown) {
-    /* (T341) each contact swept by the rank that detected it: its point's box, cut at the list's
-       build from the points of the last solve's active contacts */
-    for (k = 0; k < S->nact && G->cown[S->act[k]] >= 0 && G->cown[S->act[k]] < S->nranks; k++)
-      S->apart[k] = G->cown[S->act[k]];
-    if (k < S->nact) mo_rcb(G->D, S->nact, G->x, S->act, NULL, S->nranks, S->apart, S->ridx);
-    else ctx->par_grain_detparts++;
-  } else
-    mo_rcb(G->D, S->nact, G->x, S->act, NULL, S->nranks, S->apart, S->ridx);
+  /* (T341) each contact swept by the rank that detected it (its point's box, cut at the list's
+     build from the points of the last solve's active contacts); without the detection's owners,
+     the active contacts' points cut here */
+  for (k = 0; G->cown && k < S->nact && G->cown[S->act[k]] >= 0 && G->cown[S->act[k]] < S->nranks; k++)
+    S->apart[k] = G->cown[S->act[k]];
+  if (G->cown && k == S->nact) ctx->par_grain_detparts++;
+  else mo_rcb(G->D, S->nact, G->x, S->act, NULL, S->nranks, S->apart, S->ridx);
   memset(S->own, 0, (size_t)S->nc);
   for (i = 0; i < P->nfree; i++) {
     S->bfirst[i] = -1;
