@@ -1788,6 +1788,7 @@ int mo_contact_build(const mo_scene *sc, mo_contact **out, mo_ctx *ctx)
       C->verlet = !strcmp(vl, "global") ? 1 : !strcmp(vl, "blocks") ? 2 : 0;
     }
     C->pd_min = mo_cfg_int(cg, "detect_split_min", MO_PDETECT_MIN);
+    C->pd_dist = mo_cfg_bool(cg, "distributed_set", 0);
     C->h = sc->time.dt;
     if ((st = mo_contact_detect_setup(C, ctx))) goto fail;
     C->compact_ok = compact_eligible(C);

@@ -167,6 +167,8 @@ struct mo_contact {
   struct mo_pdetect *pd;      /* the detection split over MPI ranks (parallel_detect.c), or NULL */
   int pd_min;                 /* contact.detect_split_min: the split's least bodies a rank (T337) */
   int pd_whole;               /* the scene's detection runs whole on every rank (decided once, T337) */
+  int pd_dist;                /* contact.distributed_set: with the split detection, each rank keeps
+                                 the candidates it detected only (doc/scaling.md §4) */
   const unsigned char *act_of; /* the driver's index set of its last solve, per candidate of set act_set
                                   (NULL: none yet): the points the split detection's parts balance (T341) */
   long act_set;

@@ -221,6 +221,8 @@ int mo_pdetect_build(mo_contact *C, mo_ctx *ctx)
 
 const unsigned char *mo_pdetect_mask(const mo_contact *C) { return C->pd->rmask; }
 
+int mo_contact_distributed(const mo_contact *C) { return C->pd != NULL && C->pd_dist; }
+
 const int *mo_contact_detect_owners(const mo_contact *C)
 {
   const struct mo_pdetect *P = C->pd;

@@ -143,6 +143,12 @@ size_t mo_contact_bytes(const mo_contact *C, size_t *per_candidate);
 void mo_contact_cand_bodies(const mo_contact *C, int a, int *sb, int *mb);
 /* 1 when the detected candidates are compact records (no points, H on demand). */
 int mo_contact_is_compact(const mo_contact *C);
+/* 1 when the set is distributed over the MPI ranks (contact.distributed_set, doc/scaling.md §4):
+   each rank's candidates 0 .. nc-1 are those it detected, no other rank holds them, and their
+   union over the ranks is the set one process finds; the bodies' state is whole on every rank.
+   What reads the set (metrics, outputs) joins the ranks' parts by collectives every rank calls at
+   the same points. The same on every rank; fixed from the set's first detection on. */
+int mo_contact_distributed(const mo_contact *C);
 /* H of the last geometry at its state s, built now when the granular path left it out: for
    back ends and outputs that need H (a no-op otherwise). */
 int mo_contact_H_ensure(mo_contact *C, const mo_state *s, mo_ctx *ctx);
