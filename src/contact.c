@@ -6,6 +6,7 @@
 #include "case_internal.h"
 #include "contact_internal.h"
 #include "parallel_detect.h"
+#include <moreau/parallel.h>
 
 #include <math.h>
 #include <stdio.h>
@@ -66,10 +67,10 @@ double mo_fc_natural_map_subset(int d, int n, const int *idx, const double *mu, 
   return mo_fc_natural_map_subset_pairs(d, n, idx, mu, NULL, NULL, scale, r, U, qnorm);
 }
 
-double mo_fc_natural_map_subset_pairs(int d, int n, const int *idx, const double *mu, const int *key, const double *pmu,
-                                      const double *scale, const double *r, const double *U, double qnorm)
+void mo_fc_natural_map_parts(int d, int n, const int *idx, const double *mu, const int *key, const double *pmu,
+                             const double *scale, const double *r, const double *U, double *out)
 {
-  double e = 0, rn = 0, un = 0, den;
+  double e = 0, rn = 0, un = 0;
   int k, i;
   for (k = 0; k < n; k++) {
     int a = idx ? idx[k] : k;
@@ -85,11 +86,26 @@ double mo_fc_natural_map_subset_pairs(int d, int n, const int *idx, const double
       un += Ua[i] * Ua[i];
     }
   }
+  out[0] = e;
+  out[1] = rn;
+  out[2] = un;
+}
+
+double mo_fc_natural_map_join(const double *parts, double qnorm)
+{
   /* relative to the largest of |q|, |r|, |U|: what Debian's Siconos 4.4 does */
-  den = qnorm;
-  if (sqrt(rn) > den) den = sqrt(rn);
-  if (sqrt(un) > den) den = sqrt(un);
-  return den > 1e-300 ? sqrt(e) / den : sqrt(e);
+  double den = qnorm;
+  if (sqrt(parts[1]) > den) den = sqrt(parts[1]);
+  if (sqrt(parts[2]) > den) den = sqrt(parts[2]);
+  return den > 1e-300 ? sqrt(parts[0]) / den : sqrt(parts[0]);
+}
+
+double mo_fc_natural_map_subset_pairs(int d, int n, const int *idx, const double *mu, const int *key, const double *pmu,
+                                      const double *scale, const double *r, const double *U, double qnorm)
+{
+  double parts[3];
+  mo_fc_natural_map_parts(d, n, idx, mu, key, pmu, scale, r, U, parts);
+  return mo_fc_natural_map_join(parts, qnorm);
 }
 
 double mo_fc_natural_map(int d, int nc, const double *mu, const double *r, const double *U,
@@ -320,6 +336,7 @@ struct mo_contact_driver {
   long sweeps;               /* smoother sweeps inside the back end's Newton method (levelset's hybrid) */
   long index_added;          /* candidates added to velocity-level index sets after a solve (§5) */
   int nc_max;                /* the most candidates a step had */
+  long nc_all, nc_all_max;   /* the distributed set: the candidates of every rank at the last solve, the most */
   double max_residual;
   double *eqf, *eqk;         /* quasi-static linear scenes: f + H r and K u (the equilibrium check, T82) */
   double eq_residual, max_eq_residual;
@@ -702,7 +719,11 @@ const int *mo_contact_driver_remap(const mo_contact_driver *D, long from, long t
 }
 
 long mo_contact_driver_index_added(const mo_contact_driver *D) { return D->index_added; }
-int mo_contact_driver_candidates_max(const mo_contact_driver *D) { return D->nc_max > D->nc ? D->nc_max : D->nc; }
+int mo_contact_driver_candidates_max(const mo_contact_driver *D)
+{
+  if (D->grains.dist) return (int)D->nc_all_max; /* every rank's, at the solves */
+  return D->nc_max > D->nc ? D->nc_max : D->nc;
+}
 
 int mo_contact_driver_redundancy(const mo_contact_driver *D, int *constraints, int *redundant, int *redundant_max,
                                  int *redundant_steps, double *rcond, double *rcond_min, int *min_norm)
@@ -1014,17 +1035,24 @@ static inline __attribute__((always_inline)) int law_offset(const mo_contact_dri
    the index set has no solve, and U keeps the values the step started with: q_a is formed aside,
    for bn. The index set does not read b here: a granular candidate's law is Moreau's or the gap's
    (rigid shapes only), whose prediction reads g and U- alone. */
-static void granular_q(mo_contact_driver *D, const mo_state *s, const double *x, double u0h, const double *rstep,
-                       double dtpos, int *any_out)
+static int granular_q(mo_contact_driver *D, const mo_state *s, const double *x, double u0h, const double *rstep,
+                      double dtpos, int *any_out, mo_ctx *ctx)
 {
   mo_contact *C = D->C;
   const double *U0 = mo_contact_U0(C), *g = mo_contact_gaps(C), h = mo_stepper_dt(D->S);
-  int d = D->d, nc = D->nc, a, i, any = 0;
+  int d = D->d, nc = D->nc, a, i, any = 0, st;
   D->nact = 0;
   D->qn2 = 0;
   for (a = 0; a < nc && !any; a++) {
     double qa[3] = {0, 0, 0};
     any = law_offset(D, a, g, rstep, 0, dtpos, h, qa);
+  }
+  if (D->grains.dist) {
+    /* the distributed set: a solve when some rank's candidate is in its index set; a rank with none
+       takes part in it with its q formed (its candidates' U at the end read it) */
+    double g1 = any;
+    if ((st = mo_par_max(&g1, 1, ctx))) return st;
+    any = g1 > 0;
   }
   *any_out = any;
   if (!any) {
@@ -1037,7 +1065,7 @@ static void granular_q(mo_contact_driver *D, const mo_state *s, const double *x,
       D->active[a] = (unsigned char)law_offset(D, a, g, rstep, bn, dtpos, h, qa);
       D->bn[a] = qa[0] - bn;
     }
-    return;
+    return MO_OK;
   }
   mo_contact_Htx(C, s, x, 0, nc, NULL, D->U);
   if (U0)
@@ -1052,12 +1080,14 @@ static void granular_q(mo_contact_driver *D, const mo_state *s, const double *x,
       for (i = 0; i < d; i++) D->qn2 += qa[i] * qa[i];
     }
   }
+  return MO_OK;
 }
 
 /* Steps 3-4 (doc/theory.md §5, §12.4): the local free kinematics b from the unconstrained
    iterate, then q = b with the offset of each candidate's law, and the index set. rstep: the
    reactions of the previous step. Returns the scale c of W (du = c dx). */
-static double local_problem(mo_contact_driver *D, const mo_state *s, const double *rstep, int *any_out)
+static double local_problem(mo_contact_driver *D, const mo_state *s, const double *rstep, int *any_out, int *st_out,
+                            mo_ctx *ctx)
 {
   const mo_scene *sc = D->sc;
   mo_contact *C = D->C;
@@ -1066,6 +1096,7 @@ static double local_problem(mo_contact_driver *D, const mo_state *s, const doubl
   double h = mo_stepper_dt(D->S), theta = sc->time.theta, c, dtpos, u0h;
   const double *g = mo_contact_gaps(C), *x;
   mo_scheme scheme = sc->time.scheme;
+  *st_out = MO_OK;
   if (D->gk) memcpy(D->gk, g, (size_t)nc * sizeof(double));
   if (scheme == MO_SCHEME_THETA) {
     x = D->xfull;
@@ -1087,7 +1118,7 @@ static double local_problem(mo_contact_driver *D, const mo_state *s, const doubl
     dtpos = 1;
   }
   if (D->qu) {
-    granular_q(D, s, x, u0h, rstep, dtpos, any_out);
+    *st_out = granular_q(D, s, x, u0h, rstep, dtpos, any_out, ctx);
     C->act_of = D->active; /* the points of the split detection's next boxes (T341) */
     C->act_set = mo_contact_set_version(C);
     return c;
@@ -1250,7 +1281,13 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
   /* q formed in U on the granular path (T240), in an array of its own elsewhere */
   D->qu = grains && !D->qb && !mo_stepper_nonlinear(S);
   if (!D->qu && !D->q && !(D->q = mo_malloc(ctx, ((size_t)D->cap * d + 1) * sizeof *D->q))) return MO_ENOMEM;
-  c = local_problem(D, s, rstep, &any);
+  /* the distributed set (doc/scaling.md §4) on the granular path only */
+  D->grains.dist = mo_contact_distributed(C);
+  if (D->grains.dist && !D->qu)
+    return mo_error(ctx, MO_EUNSUPPORTED, "contact.distributed_set needs the granular path (rigid shapes, back end "
+                    "nscd, a linear step)");
+  c = local_problem(D, s, rstep, &any, &st, ctx);
+  if (st) return st;
   *any_out = any;
   if (grains) {
     const int D3 = sc->dim;
@@ -1332,14 +1369,15 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
   for (a = 0; a < nc; a++)
     if (!D->active[a]) for (i = 0; i < d; i++) D->r[a * d + i] = 0;
   t0 = mo_clock();
-  if (!D->initialised && nc) {
+  /* (a rank of the distributed set with no candidate takes part in the solves: its back end set up) */
+  if (!D->initialised && (nc || D->grains.dist)) {
     if (D->T->init && (st = D->T->init(D->state, D->params, P, ctx))) {
       mo_phase_add(ctx, MO_PH_CONTACT, t0);
       return st;
     }
     D->initialised = 1;
     D->reinit = 0;
-  } else if (D->reinit && nc) {
+  } else if (D->reinit && (nc || D->grains.dist)) {
     if ((st = D->T->reinit(D->state, P, ctx))) {
       mo_phase_add(ctx, MO_PH_CONTACT, t0);
       return st;
@@ -1366,6 +1404,44 @@ resolve:
   D->factorizations += rep->factorizations;
   D->factor_reuses += rep->factor_reuses;
   D->sweeps += rep->sweeps;
+  if (D->grains.dist && any) {
+    /* the distributed set: the solve's measures over every rank's candidates, in one sum (a
+       non-finite reaction anywhere fails every rank) */
+    double v[9];
+    int bad = 0;
+    for (i = 0; i < m && !bad; i++) bad = !isfinite(D->r[i]);
+    for (a = 0; a < nc; a++) {
+      if (!D->active[a]) D->status[a] = MO_CS_OPEN;
+      rep->nopen += D->status[a] == MO_CS_OPEN;
+      rep->nstick += D->status[a] == MO_CS_STICK;
+      rep->nslide += D->status[a] == MO_CS_SLIDE;
+    }
+    mo_fc_natural_map_parts(d, D->nact, D->act, D->mu, D->C->key, D->pmu, NULL, D->r, D->U, v);
+    v[3] = D->qn2;
+    v[4] = bad;
+    v[5] = rep->nopen;
+    v[6] = rep->nstick;
+    v[7] = rep->nslide;
+    v[8] = nc;
+    if ((st = mo_par_sum(v, 9, ctx))) return st;
+    if (v[4] > 0) {
+      char who[200] = "on another rank";
+      for (i = 0; i < m; i++)
+        if (!isfinite(D->r[i])) {
+          describe(D, i / d, who, sizeof who);
+          break;
+        }
+      return mo_error(ctx, MO_ENAN, "step %ld (t = %.6g): contact back end %s returned a non-finite reaction at "
+                      "candidate %s", P->step, s->t + h, D->T->name, who);
+    }
+    rep->residual = mo_fc_natural_map_join(v, sqrt(v[3]));
+    rep->nopen = (int)v[5];
+    rep->nstick = (int)v[6];
+    rep->nslide = (int)v[7];
+    D->nc_all = (long)v[8];
+    if (D->nc_all > D->nc_all_max) D->nc_all_max = D->nc_all;
+    goto measured;
+  }
   for (i = 0; i < m; i++)
     if (!isfinite(D->r[i])) {
       char who[200];
@@ -1418,6 +1494,7 @@ resolve:
     rep->nstick += D->status[a] == MO_CS_STICK;
     rep->nslide += D->status[a] == MO_CS_SLIDE;
   }
+measured:
   if (any) {
     if (newton < 0) { /* a nonlinear step counts its Newton iterations' solves as one */
       D->steps++;
@@ -1630,7 +1707,6 @@ static int contact_finish(mo_contact_driver *D, mo_state *s, const double *x, mo
     for (i = 0; i < m; i++)
       w += D->r[i] * (scheme == MO_SCHEME_THETA ? 0.5 * (Ukin[i] + D->Uprev[i]) : Ukin[i]);
   }
-  s->wcontact += w;
   /* the end-of-step gaps of the Signorini candidates for the position correction (T94): g_k +
      h (theta U+_n + (1 - theta) U-_n), before U- becomes U+ */
   corr = D->C->poscorr && D->C->signorini == MO_SIGNORINI_VELOCITY && scheme == MO_SCHEME_THETA && D->wused &&
@@ -1659,7 +1735,20 @@ static int contact_finish(mo_contact_driver *D, mo_state *s, const double *x, mo
       for (i = 0; i < d; i++)
         for (j = 0; j < dim && d == dim; j++) f[j] += D->r[a * d + i] * fs * F[(size_t)i * d + j];
     }
+    if (D->grains.dist && D->C->npair < 64) {
+      /* the distributed set: the work and the resultants summed over the ranks' candidates */
+      double v[2 + 3 * 64];
+      v[0] = w;
+      v[1] = D->fn_step;
+      memcpy(v + 2, D->pforce, 3 * (size_t)D->C->npair * sizeof *v);
+      if ((st = mo_par_sum(v, 2 + 3 * (long)D->C->npair, ctx))) return st;
+      w = v[0];
+      D->fn_step = v[1];
+      memcpy(D->pforce, v + 2, 3 * (size_t)D->C->npair * sizeof *v);
+    } else if (D->grains.dist)
+      return mo_error(ctx, MO_ELIMIT, "contact.distributed_set with %d contact pairs (at most 63)", D->C->npair);
   }
+  s->wcontact += w;
   if ((st = mo_stepper_finish(D->S, s, x, ctx))) return st;
   if (corr && (st = position_correction(D, s, D->tmp, ctx))) return st;
   if ((st = mo_contact_geometry(D->C, s, s->t, D->C->repair, ctx))) return st;

@@ -183,6 +183,26 @@ static int build_boxes(mo_contact *C, mo_ctx *ctx)
       /* against an obstacle the shape's own centre (i == j) */
       mo_pdetect_point(D, C->bc, C->bR, si ? s : m, mi ? m : s, P->pts + (size_t)D * np++);
     }
+  if (C->pd_dist) {
+    /* the distributed set: each rank holds its own candidates' activities, the points gathered
+       (every rank cuts the same boxes from the same points, in the ranks' order) */
+    int st, r;
+    long tot = 0;
+    double mine = (double)(np * D);
+    if ((st = mo_par_gatherv(&mine, P->one, P->rc, ctx))) return st;
+    for (r = 0; r < P->nranks; r++) {
+      P->cnt[r] = (int)P->rc[r];
+      tot += (long)P->rc[r];
+    }
+    if ((st = room((void **)&P->all, &P->allcap, (size_t)tot + 1, sizeof *P->all, ctx)) ||
+        (st = room((void **)&P->pidx, &P->pidxcap, (size_t)tot / D + (size_t)sc->nbody + 1, sizeof *P->pidx, ctx)) ||
+        (st = room((void **)&P->ppart, &P->ppartcap, (size_t)tot / D + (size_t)sc->nbody + 1, sizeof *P->ppart, ctx)) ||
+        (st = mo_par_gatherv(P->pts, P->cnt, P->all, ctx)))
+      return st;
+    if ((st = room((void **)&P->pts, &P->ptcap, (size_t)tot + 1, sizeof *P->pts, ctx))) return st;
+    memcpy(P->pts, P->all, (size_t)tot * sizeof *P->pts);
+    np = tot / D;
+  }
   ctx->par_detect_builds++;
   if (np < (long)MO_PDETECT_PTS * P->nranks) np = 0; /* too few: the bodies' centres */
   else ctx->par_detect_boxpts++;
@@ -322,7 +342,49 @@ static inline mo_setmap_ord order_at(const mo_contact *C, const struct block *B,
   return o;
 }
 
-int mo_pdetect_finish(mo_contact *C, const mo_state *s, int st, mo_ctx *ctx)
+/* The distributed set (contact.distributed_set, doc/scaling.md §4): the rank keeps the candidates it
+   detected, nothing is gathered but the counts (a rank's failure fails every rank). Its part is in
+   the serial order already and mapped against its own previous part (the map's keys, (T270)); its
+   U- made here as for the gather (T300). */
+static int finish_own(mo_contact *C, const mo_state *s, int st, mo_ctx *ctx)
+{
+  struct mo_pdetect *P = C->pd;
+  const size_t n = (size_t)(C->nc - P->nc0);
+  double mine = st ? -1 : (double)n, largest = 0;
+  size_t a;
+  int r, st2;
+  P->up_nc = -1;
+  if ((st2 = mo_par_gatherv(&mine, P->one, P->rc, ctx))) return st ? st : st2;
+  for (r = 0; r < P->nranks; r++)
+    if (P->rc[r] < 0) return st ? st : mo_error(ctx, MO_EINPUT, "contact detection failed on rank %d", r);
+  for (r = 0; r < P->nranks; r++) {
+    P->tot[r] += (long)P->rc[r];
+    ctx->par_detect_total += (long)P->rc[r];
+    if ((double)P->tot[r] > largest) largest = (double)P->tot[r];
+  }
+  ctx->par_detect_largest = (long)largest;
+  if ((st = room((void **)&P->up, &P->upcap, (size_t)C->dim * (size_t)C->nc + 1, sizeof *P->up, ctx)) ||
+      (st = room((void **)&P->cown, &P->cowncap, (size_t)C->nc + 1, sizeof *P->cown, ctx)))
+    return st;
+  P->cown_set = -1;
+  for (a = 0; a < (size_t)C->nc; a++) P->cown[a] = a < (size_t)P->nc0 ? -1 : P->rank;
+  if (n && s->v) mo_contact_Htx(C, s, s->v, P->nc0, C->nc, C->U0, P->up);
+  else if (n) memset(P->up + (size_t)P->nc0 * C->dim, 0, n * (size_t)C->dim * sizeof *P->up);
+  C->ksame = P->ksame && C->nc <= P->knold;
+  if (with_map(C))
+    for (a = (size_t)P->nc0; a < (size_t)C->nc && C->ksame; a++) C->ksame = C->smap.map[a] == (int)a;
+  else
+    C->ksame = C->ksame && !memcmp(C->key + (size_t)P->nc0 * MO_KEY, P->okey, n * MO_KEY * sizeof *C->key);
+  if (s->v) {
+    P->up_u = s->u;
+    P->up_v = s->v;
+    P->up_step = s->step;
+    P->up_nc = C->nc;
+  }
+  return MO_OK;
+}
+
+static int finish_merge(mo_contact *C, const mo_state *s, int st, mo_ctx *ctx)
 {
   struct mo_pdetect *P = C->pd;
   size_t n = (size_t)(C->nc - P->nc0), total = 0, off = 0, head[64], end[64], a;
@@ -427,6 +489,11 @@ int mo_pdetect_finish(mo_contact *C, const mo_state *s, int st, mo_ctx *ctx)
     P->up_nc = C->nc;
   }
   return MO_OK;
+}
+
+int mo_pdetect_finish(mo_contact *C, const mo_state *s, int st, mo_ctx *ctx)
+{
+  return C->pd_dist ? finish_own(C, s, st, ctx) : finish_merge(C, s, st, ctx);
 }
 
 const double *mo_contact_detect_uprev(const mo_contact *C, const mo_state *s, int *a0)

@@ -614,7 +614,7 @@ static int sweep_ranks(nscd_state *S, const mo_contact_problem *P, double *r, in
                        int *stop, double *quad, double *maxm, double *res, mo_ctx *ctx)
 {
   const nscd_params *p = &S->p;
-  double parts[6] = {0, 0, 0, 0, 0, 0}, mx[2];
+  double parts[7] = {0, 0, 0, 0, 0, 0, 0}, mx[2];
   int st, natural = p->stop == NSCD_STOP_NATURAL || scaled, nparts = 5, joined = 0;
   double xn[3] = {0, 0, 0};
   *broke = nscd_grains_sweep_owned(S, P, r, status);
@@ -632,9 +632,11 @@ static int sweep_ranks(nscd_state *S, const mo_contact_problem *P, double *r, in
   parts[4] = *broke >= 0;
   mx[0] = *broke;
   S->jmax = mx[1];
-  if (S->qs2part) { /* the first sync: the ranks' parts of |S q|^2 (T276) */
+  if (S->qs2part) { /* the first sync: the ranks' parts of |S q|^2 (T276), and of |q|^2 where each rank
+                       holds its own contacts only (the distributed set) */
     parts[5] = S->qs2;
-    nparts = 6;
+    parts[6] = S->qn2;
+    nparts = S->dist ? 7 : 6;
   }
   /* on more than 2 ranks the interface goes point to point before the parts' sum: the residual's
      parts of the rank's contacts, from the synced velocities, join that sum (T339) */
@@ -670,6 +672,7 @@ static int sweep_ranks(nscd_state *S, const mo_contact_problem *P, double *r, in
     return st;
   if (S->qs2part) {
     S->qs2 = parts[5];
+    if (S->dist) S->qn2 = parts[6];
     S->qs2part = 0;
   }
   if (parts[4] > 0 || p->stop == NSCD_STOP_MAXM) {
@@ -821,9 +824,12 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
     /* a set of fewer than split_min active contacts a rank is swept whole on every rank, as one
        process sweeps it (T333): a split sweep pays a sync a sweep and converges slower than the
        whole one, and on a hundred contacts a rank the sweep it splits costs about the sync */
-    whole = ctx->nranks > 1 && (double)S->nact < (double)p->split_min * ctx->nranks;
+    /* (the distributed set is split whatever its size: no rank holds the others' contacts) */
+    S->dist = P->grains->dist && ctx->nranks > 1;
+    whole = !S->dist && ctx->nranks > 1 && (double)S->nact < (double)p->split_min * ctx->nranks;
     if (whole) ctx->par_grain_whole++;
-    else if (ctx->nranks > 1 && (st = nscd_grains_partition(S, P, ctx))) return st;
+    else if (S->dist && (st = nscd_grains_partition_dist(S, P, ctx))) return st;
+    else if (!S->dist && ctx->nranks > 1 && (st = nscd_grains_partition(S, P, ctx))) return st;
     if ((st = nscd_grains_prepare(S, P, ctx))) return st;
   }
   /* |q|^2 and the scaled |S q|^2 of the active contacts: over the ranks, the second over the rank's
@@ -849,7 +855,10 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
     /* the sweeps on body velocities read U from the velocities; the rules that do not stop on U
        need it exact only at the end; the split sweep's rule forms U of the rank's contacts after
        each sync, and a serial sweep after a switch forms its own (T278) */
-    if (S->grains && S->par) nscd_grains_velocities_part(S, P, r); /* the rank's bodies' (T336) */
+    if (S->grains && S->dist) {
+      if ((st = nscd_grains_velocities_dist(S, P, r, ctx))) return st;
+    } else if (S->grains && S->par)
+      nscd_grains_velocities_part(S, P, r); /* the rank's bodies' (T336) */
     else if (S->grains) nscd_grains_velocities(S, P, r);
     else nscd_bodies_velocities(S, P, r);
   } else
@@ -912,7 +921,8 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
         conv = 1;
         break;
       }
-      if (p->stop != NSCD_STOP_SWEEPS && sweeps % NSCD_PAR_STALL == 0) {
+      /* (the distributed set has no serial sweep to go on with: no rank holds the whole set) */
+      if (!S->dist && p->stop != NSCD_STOP_SWEEPS && sweeps % NSCD_PAR_STALL == 0) {
         /* a split sweep that stalls (its measure, the same on every rank, not halved over the last
            NSCD_PAR_STALL sweeps: the slabs' interfaces on a hyperstatic set such as masonry-arch at
            1e-11, where the split sweep sat at 1.9e-9) goes on as the serial sweep on every rank,
@@ -1002,7 +1012,10 @@ static int nscd_solve(void *state, const mo_contact_problem *P, mo_contact_vars 
   /* a breakdown's message and a failed solve's residual and culprits read other ranks' contacts'
      records (T277): made before the gather writes U where q was (T240) */
   if (S->par && (broke >= 0 || !conv)) nscd_grains_complete(S, P);
-  if (S->par && (st = nscd_grains_gather(S, P, r, x->status, 1, broke < 0 ? &pnu : NULL, &pnd, ctx))) return st;
+  if (S->par && S->dist) {
+    if ((st = nscd_grains_gather_dist(S, P, r, broke < 0 ? &pnu : NULL, &pnd, ctx))) return st;
+  } else if (S->par && (st = nscd_grains_gather(S, P, r, x->status, 1, broke < 0 ? &pnu : NULL, &pnd, ctx)))
+    return st;
   /* U is exact already after the split solve's gather, and when a residual rule has just
      confirmed convergence; else the tangential U of frictionless contacts is, unless the core
      measures U itself (T156) */

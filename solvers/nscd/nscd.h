@@ -296,6 +296,12 @@ typedef struct {
   int npeer, nmine, *peer, *poff, *pj, *mj, *msrc0, *msrc, *pe;
   double *sbuf, *rbuf;
   size_t xcap, xrcap;
+  size_t kwant, kcap;           /* the pattern's entries wanted (the distributed set's), and their room */
+  /* the distributed set (P->grains->dist, doc/scaling.md §4): per body (slot o / nk) the sum over the
+     ranks whose active contacts touch it of 2^rank, then each rank's active contacts (bm[nslot + q]) */
+  double *bm;
+  size_t bmscap;
+  int dist;
   /* the end-of-solve gather (T335): each rank's block (its active contacts' reactions and
      statuses, its first-touched bodies' velocity changes, the count's numbers), gcnt[q] values
      of rank q; gbuf every block in rank order, then the rank's own */
@@ -393,6 +399,13 @@ void nscd_grains_ifc_unpack(nscd_state *S, const mo_contact_problem *P, const do
 /* On more than 2 ranks, before nscd_grains_sync: the interface increments point to point, the
    rank's interface velocities synced ((T331); nothing on 2 ranks, whose sync carries them). */
 int nscd_grains_exchange(nscd_state *S, mo_ctx *ctx);
+/* The distributed set (doc/scaling.md §4): the parts (every active contact the rank's), the
+   velocities of the rank's bodies from the reactions with the interface summed, and the end of the
+   solve (the bodies' velocities gathered, U of the rank's candidates). */
+int nscd_grains_partition_dist(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx);
+int nscd_grains_velocities_dist(nscd_state *S, const mo_contact_problem *P, const double *r, mo_ctx *ctx);
+int nscd_grains_gather_dist(nscd_state *S, const mo_contact_problem *P, double *r, int *unknowns, int *dofs,
+                            mo_ctx *ctx);
 /* The gather; with unknowns (not NULL), the redundancy count of nscd_grains_count over the rank's
    own contacts joined in the same sum (T279). */
 int nscd_grains_gather(nscd_state *S, const mo_contact_problem *P, double *r, int *status, int fin, int *unknowns,

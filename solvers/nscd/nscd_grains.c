@@ -46,6 +46,7 @@ void nscd_grains_free(nscd_state *S)
   mo_free(S->vlist);
   mo_free(S->aside);
   mo_free(S->onil);
+  mo_free(S->bm);
   mo_free(S->nbuf);
   mo_free(S->pbuf);
   mo_free(S->ibase);
@@ -668,16 +669,23 @@ static int par_reserve(nscd_state *S, int nfree, mo_ctx *ctx)
     GROW(S->oorder, nc * sizeof *S->oorder);
     GROW(S->apart, nc * sizeof *S->apart);
     GROW(S->ridx, nc * sizeof *S->ridx);
-    GROW(S->pkey, 2 * nc * sizeof *S->pkey);
-    GROW(S->pj, 2 * nc * sizeof *S->pj);
-    GROW(S->msrc, 2 * nc * sizeof *S->msrc);
-    GROW(S->pe, 2 * nc * sizeof *S->pe);
     GROW(S->cifc, nc);
     GROW(S->ilist, nc * sizeof *S->ilist);
     GROW(S->vlist, nc * sizeof *S->vlist);
     GROW(S->aside, 2 * nc * sizeof *S->aside);
     GROW(S->onil, nc * sizeof *S->onil);
     S->pcap = nc;
+  }
+  {
+    /* the pattern's entries: 2 a contact (its sides), or those the distributed set's masks give */
+    const size_t nkw = 2 * nc > S->kwant ? 2 * nc : S->kwant;
+    if (nkw > S->kcap) {
+      GROW(S->pkey, nkw * sizeof *S->pkey);
+      GROW(S->pj, nkw * sizeof *S->pj);
+      GROW(S->msrc, nkw * sizeof *S->msrc);
+      GROW(S->pe, nkw * sizeof *S->pe);
+      S->kcap = nkw;
+    }
   }
   if (nf > S->pncap) {
     GROW(S->ifc, nf * sizeof *S->ifc);
@@ -712,11 +720,14 @@ static int cmp_long(const void *a, const void *b)
 /* The point-to-point pattern of the interface sums on more than 2 ranks (T331), from the parts
    every rank holds: each interface body's ranks (the parts of the active contacts touching it),
    the peers this rank shares bodies with, and the order of their values. */
+static int pattern_of_keys(nscd_state *S, long nkey, mo_ctx *ctx);
+
 static int exchange_pattern(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
 {
-  const int nk = NK(S->d), me = S->rank, nr = S->nranks;
-  long nkey = 0, k, e = 0, t;
-  int i, j, s, ns = 0;
+  const int nr = S->nranks;
+  long nkey = 0, k;
+  int j, s;
+  (void)P;
   for (j = 0; j < S->nifc; j++) S->ipos[S->ifc[j]] = j;
   /* (interface body, rank) for every side of an active contact on an interface body */
   for (k = 0; k < S->nact; k++)
@@ -724,6 +735,15 @@ static int exchange_pattern(nscd_state *S, const mo_contact_problem *P, mo_ctx *
       const int o = S->aside[2 * k + s];
       if (o >= 0 && S->bmulti[o]) S->pkey[nkey++] = (long)S->ipos[o] * nr + S->apart[k];
     }
+  return pattern_of_keys(S, nkey, ctx);
+}
+
+/* The pattern from its keys pkey[0 .. nkey) (ifc index x nranks + rank, repeats allowed). */
+static int pattern_of_keys(nscd_state *S, long nkey, mo_ctx *ctx)
+{
+  const int nk = NK(S->d), me = S->rank, nr = S->nranks;
+  long k, e = 0, t;
+  int i, j, ns = 0;
   qsort(S->pkey, (size_t)nkey, sizeof *S->pkey, cmp_long);
   /* per body of this rank: its ranks in increasing order; per entry to another rank, its peer */
   S->nmine = 0;
@@ -881,6 +901,220 @@ int nscd_grains_partition(nscd_state *S, const mo_contact_problem *P, mo_ctx *ct
   }
   S->xchg = S->nranks > 2;
   return S->xchg ? exchange_pattern(S, P, ctx) : MO_OK;
+}
+
+/* --- the distributed set (doc/scaling.md §4) ------------------------------------------------------
+   Every active contact of the problem is the rank's own: no rank holds another's. The bodies its
+   contacts touch are told the other ranks by one sum over the bodies (2^rank from each rank that
+   touches a body: the set of its ranks, exact in a double up to 52 ranks), the interface then
+   goes point to point between the ranks that share each body as on more than 2 ranks (T331), and
+   the end of the solve gathers the bodies' velocities, each from the lowest rank that touches it:
+   no contact's values leave its rank. */
+#define DIST_MAX_RANKS 52
+
+int nscd_grains_partition_dist(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
+{
+  const mo_grains *G = P->grains;
+  const int nk = NK(S->d), me = ctx->rank, nr = ctx->nranks, nslot = P->nfree / nk;
+  const double bit = ldexp(1.0, me);
+  long nkey = 0, most = 0, total = 0;
+  int k, i, j, st;
+  S->nranks = nr;
+  S->rank = me;
+  S->par = 1;
+  S->dist = 1;
+  if (nr > DIST_MAX_RANKS)
+    return mo_error(ctx, MO_ELIMIT, "contact.distributed_set over %d ranks (at most %d)", nr, DIST_MAX_RANKS);
+  if ((st = par_reserve(S, P->nfree, ctx))) return st;
+  if ((size_t)(nslot + nr) + 1 > S->bmscap) {
+    void *p = mo_realloc(ctx, S->bm, ((size_t)(nslot + nr) + 1) * sizeof *S->bm);
+    if (!p) return MO_ENOMEM;
+    S->bm = p;
+    S->bmscap = (size_t)(nslot + nr) + 1;
+  }
+  memset(S->bm, 0, (size_t)(nslot + nr) * sizeof *S->bm);
+  memset(S->own, 0, (size_t)S->nc);
+  for (k = 0; k < S->nact; k++) {
+    const int a = S->act[k];
+    int gs[2], s;
+    sides(G, a, gs);
+    S->own[a] = 1;
+    S->apart[k] = me;
+    S->aside[2 * k] = S->aside[2 * k + 1] = -1;
+    for (s = 0; s < 2 && gs[s]; s++) {
+      const int o = SIDE_O(gs[s]);
+      if (o % nk) return mo_error(ctx, MO_EINTERNAL, "nscd: a body's velocities at %d, not a multiple of %d", o, nk);
+      S->aside[2 * k + s] = o;
+      S->bm[o / nk] = bit;
+    }
+  }
+  S->bm[nslot + me] = S->nact;
+  if ((st = mo_par_sum(S->bm, nslot + nr, ctx))) return st;
+  for (i = 0; i < P->nfree; i++) {
+    S->bfirst[i] = -1;
+    S->bmulti[i] = 0;
+  }
+  S->nifc = 0;
+  for (j = 0; j < nslot; j++)
+    if (S->bm[j] > 0) {
+      const unsigned long long msk = (unsigned long long)S->bm[j];
+      const int o = j * nk;
+      S->bfirst[o] = __builtin_ctzll(msk);
+      if (msk & (msk - 1)) {
+        S->bmulti[o] = 1;
+        S->ifc[S->nifc++] = o;
+      }
+    }
+  for (S->noact = 0, k = 0; k < S->nact; k++) S->oorder[S->noact++] = S->order[k];
+  for (S->nilist = S->nvlist = 0, k = 0; k < S->nact; k++) {
+    const int a = S->act[k], o0 = S->aside[2 * k], o1 = S->aside[2 * k + 1];
+    const int f = (o0 >= 0 && S->bmulti[o0]) || (o1 >= 0 && S->bmulti[o1]);
+    S->cifc[a] = (unsigned char)f;
+    if (f) S->ilist[S->nilist++] = a;
+    S->vlist[S->nvlist++] = a;
+  }
+  for (S->nonil = 0, k = 0; k < S->noact; k++)
+    if (!S->cifc[S->oorder[k]]) S->onil[S->nonil++] = S->oorder[k];
+  {
+    size_t need = (size_t)S->nifc * nk + 16;
+    void *p;
+    if (need > S->pbcap) {
+      if (!(p = mo_realloc(ctx, S->pbuf, need * sizeof *S->pbuf))) return MO_ENOMEM;
+      S->pbuf = p;
+      S->pbcap = need;
+    }
+  }
+  for (i = 0; i < nr; i++) {
+    const long c = (long)S->bm[nslot + i];
+    total += c;
+    if (c > most) most = c;
+  }
+  ctx->par_grain_solves++;
+  ctx->par_grain_detparts++;
+  ctx->par_grain_interface += S->nifc;
+  ctx->par_grain_imbalance += total ? (double)most * nr / (double)total : 1.0;
+  /* the pattern: (interface body, rank) for each rank touching each interface body this rank
+     touches, from the masks */
+  for (j = 0; j < S->nifc; j++) {
+    const unsigned long long msk = (unsigned long long)S->bm[S->ifc[j] / nk];
+    if (msk >> me & 1) nkey += __builtin_popcountll(msk);
+  }
+  if ((size_t)nkey > S->kcap) {
+    S->kwant = (size_t)nkey;
+    if ((st = par_reserve(S, P->nfree, ctx))) return st;
+  }
+  nkey = 0;
+  for (j = 0; j < S->nifc; j++) {
+    const unsigned long long msk = (unsigned long long)S->bm[S->ifc[j] / nk];
+    int q;
+    if (!(msk >> me & 1)) continue;
+    for (q = 0; q < nr; q++)
+      if (msk >> q & 1) S->pkey[nkey++] = (long)j * nr + q;
+  }
+  S->xchg = 1;
+  return pattern_of_keys(S, nkey, ctx);
+}
+
+/* The velocities of the rank's interface bodies summed over the ranks that touch them, from their
+   increments over the free velocities, each rank's made with the bodies' own masses: v = v_free +
+   the sum of every rank's pushes, the same on each (the ranks' increments in increasing order). */
+static int exchange_plain(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
+{
+  const int nk = NK(S->d);
+  int m, i, t, st, nv = S->poff[S->npeer] / nk;
+  for (t = 0; t < nv; t++) {
+    const int o = S->ifc[S->pj[t]];
+    for (i = 0; i < nk; i++) S->sbuf[(size_t)t * nk + i] = S->vb[o + i] - P->xfree[o + i];
+  }
+  if ((st = mo_par_exchange(S->npeer, S->peer, S->poff, S->sbuf, S->rbuf, ctx))) return st;
+  for (m = 0; m < S->nmine; m++) {
+    const int o = S->ifc[S->mj[m]], s0 = S->msrc0[m], s1 = S->msrc0[m + 1];
+    for (i = 0; i < nk; i++) {
+      const double own = S->vb[o + i] - P->xfree[o + i];
+      double sum = S->msrc[s0] < 0 ? own : S->rbuf[S->msrc[s0] + i];
+      for (t = s0 + 1; t < s1; t++) sum += S->msrc[t] < 0 ? own : S->rbuf[S->msrc[t] + i];
+      S->vb[o + i] = P->xfree[o + i] + sum;
+    }
+  }
+  return MO_OK;
+}
+
+int nscd_grains_velocities_dist(nscd_state *S, const mo_contact_problem *P, const double *r, mo_ctx *ctx)
+{
+  nscd_grains_velocities_part(S, P, r);
+  return exchange_plain(S, P, ctx);
+}
+
+/* The end of a solve over the distributed set: the exact velocities of the bodies the rank's
+   contacts touch (its pushes from v_free with the bodies' masses, the interface's summed), U of
+   its candidates (records for the active ones, c_a formed for the others), then every body's
+   velocity gathered from the lowest rank touching it; with unknowns, the redundancy count joined
+   as in nscd_grains_gather. */
+int nscd_grains_gather_dist(nscd_state *S, const mo_contact_problem *P, double *r, int *unknowns, int *dofs,
+                            mo_ctx *ctx)
+{
+  const int nk = NK(S->d), np = S->nranks, nx = unknowns ? 2 + S->nifc : 0;
+  size_t tot = 0, at = 0;
+  double *all, *mine;
+  int i, l, q, st, nu = 0, nd = 0, *cur = S->pcnt;
+  if (unknowns && (st = count_list(S, P, r, S->oorder, S->noact, &nu, &nd, ctx))) return st;
+  if ((st = nscd_grains_velocities_dist(S, P, r, ctx))) return st;
+  nscd_grains_exact_U(S, P);
+  for (q = 0; q < np; q++) S->gcnt[q] = nx;
+  for (i = 0; i < P->nfree; i++)
+    if (S->bfirst[i] >= 0) S->gcnt[S->bfirst[i]] += i + nk <= P->nfree ? nk : P->nfree - i;
+  for (q = 0; q < np; q++) {
+    cur[q] = (int)tot;
+    tot += (size_t)S->gcnt[q];
+  }
+  if (tot + (size_t)S->gcnt[S->rank] + 1 > S->gbcap) {
+    void *p = mo_realloc(ctx, S->gbuf, (tot + (size_t)S->gcnt[S->rank] + 1) * sizeof *S->gbuf);
+    if (!p) return MO_ENOMEM;
+    S->gbuf = p;
+    S->gbcap = tot + (size_t)S->gcnt[S->rank] + 1;
+  }
+  all = S->gbuf;
+  mine = S->gbuf + tot;
+  for (i = 0; i < P->nfree; i++)
+    if (S->bfirst[i] == S->rank)
+      for (l = 0; l < nk && i + l < P->nfree; l++) mine[at++] = S->vb[i + l];
+  if (unknowns) {
+    for (i = 0; i < S->nifc; i++) {
+      mine[at + 2 + (size_t)i] = S->bmark[S->ifc[i]];
+      if (S->bmark[S->ifc[i]]) nd -= nk;
+    }
+    mine[at] = nu;
+    mine[at + 1] = nd;
+  }
+  if ((st = mo_par_gatherv(mine, S->gcnt, all, ctx))) return st;
+  for (i = 0; i < P->nfree; i++) {
+    if (S->bfirst[i] < 0) {
+      S->vb[i] = P->xfree[i] + 0.0;
+      continue;
+    }
+    {
+      const double *b = all + cur[S->bfirst[i]];
+      for (l = 0; l < nk && i + l < P->nfree; l++) S->vb[i + l] = b[l];
+      cur[S->bfirst[i]] += l;
+      i += l - 1;
+    }
+  }
+  if (unknowns) {
+    double su = 0, sd = 0;
+    *dofs = 0;
+    for (q = 0; q < np; q++) {
+      su += all[cur[q]];
+      sd += all[cur[q] + 1];
+    }
+    for (i = 0; i < S->nifc; i++) {
+      double m = 0;
+      for (q = 0; q < np; q++) m += all[cur[q] + 2 + i];
+      if (m > 0) *dofs += nk;
+    }
+    *unknowns = (int)su;
+    *dofs += (int)sd;
+  }
+  return MO_OK;
 }
 
 int nscd_grains_sweep_owned(nscd_state *S, const mo_contact_problem *P, double *r, int *status)

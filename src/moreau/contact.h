@@ -314,6 +314,12 @@ double mo_fc_natural_map(int d, int nc, const double *mu, const double *r, const
    (scaled likewise). Back ends that stop on the core's measure call this one. */
 double mo_fc_natural_map_subset(int d, int n, const int *idx, const double *mu, const double *scale,
                                 const double *r, const double *U, double qnorm);
+/* The sums of mo_fc_natural_map_subset_pairs without its quotient: out[0] the squared natural map,
+   out[1] |r|^2, out[2] |U|^2 over the listed candidates, to be added over MPI ranks (each its own
+   candidates) and joined by mo_fc_natural_map_join. */
+void mo_fc_natural_map_parts(int d, int n, const int *idx, const double *mu, const int *key, const double *pmu,
+                             const double *scale, const double *r, const double *U, double *out);
+double mo_fc_natural_map_join(const double *parts, double qnorm);
 /* The same with contact a's coefficient pmu[key[a MO_KEY]] (its pair's) where mu is NULL (the
    granular path, doc/theory.md (T189)); both NULL: 0. */
 double mo_fc_natural_map_subset_pairs(int d, int n, const int *idx, const double *mu, const int *key, const double *pmu,
@@ -354,6 +360,8 @@ typedef struct mo_grains {
   const int *cown;           /* over MPI ranks, when the detection is split: per candidate the rank that
                                 detected it, its point's box (doc/theory.md (T341)), the same on every
                                 rank; the sweep's parts then. NULL: none */
+  int dist;                  /* the set is distributed (mo_contact_distributed): every contact is this
+                                rank's, no rank holds another's; the bodies' state whole on each */
 } mo_grains;
 
 /* The contact problem of one step, built by the core and handed to a back end. Everything is
