@@ -104,6 +104,9 @@ int mo_pdetect_active(mo_contact *C, mo_ctx *ctx)
       C->pd_whole = 1;
       mo_note_skip(ctx, "the detection's split over the %d ranks (%ld bodies, fewer than contact.detect_split_min = %d "
                    "a rank: detected whole on every rank, doc/theory.md (T337))", ctx->nranks, nb, C->pd_min);
+      if (C->pd_dist)
+        mo_note_skip(ctx, "contact.distributed_set: the set is kept whole on every rank, its detection being whole "
+                     "(contact.detect_split_min)");
       return 0;
     }
   }
@@ -363,6 +366,7 @@ static int finish_own(mo_contact *C, const mo_state *s, int st, mo_ctx *ctx)
     if ((double)P->tot[r] > largest) largest = (double)P->tot[r];
   }
   ctx->par_detect_largest = (long)largest;
+  ctx->par_dset = 1;
   if ((st = room((void **)&P->up, &P->upcap, (size_t)C->dim * (size_t)C->nc + 1, sizeof *P->up, ctx)) ||
       (st = room((void **)&P->cown, &P->cowncap, (size_t)C->nc + 1, sizeof *P->cown, ctx)))
     return st;

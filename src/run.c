@@ -343,7 +343,8 @@ static json_t *parallel_json(const mo_ctx *ctx, const mo_scene *sc)
     json_object_set_new(j, "grain_slab_imbalance_mean", jnum(ctx->par_grain_imbalance / n));
     /* the interface velocities after each sweep: one sum on 2 ranks, point to point between the
        ranks that share bodies on more (doc/theory.md (T331)) */
-    json_object_set_new(j, "grain_interface_exchange", json_string(ctx->nranks > 2 ? "point to point" : "sum"));
+    json_object_set_new(j, "grain_interface_exchange",
+                        json_string(ctx->nranks > 2 || ctx->par_dset ? "point to point" : "sum"));
     /* of them, those of more than 2 ranks: swept as bodies of mass 2 m / k (T332) */
     json_object_set_new(j, "grain_interface_bodies_over_2_ranks_mean", jnum(ctx->par_grain_multi / n));
     /* of them, those swept in the detection's parts, each contact by the rank that detected it
@@ -359,6 +360,8 @@ static json_t *parallel_json(const mo_ctx *ctx, const mo_scene *sc)
        the last solve's active contacts (T341; the others from the bodies' centres) */
     json_object_set_new(j, "grain_detect_builds", json_integer(ctx->par_detect_builds));
     json_object_set_new(j, "grain_detect_builds_on_contacts", json_integer(ctx->par_detect_boxpts));
+    /* the distributed set (doc/scaling.md §4): each rank held the candidates it detected only */
+    json_object_set_new(j, "contact_set", json_string(ctx->par_dset ? "distributed" : "whole on every rank"));
   }
   return j;
 }

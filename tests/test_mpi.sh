@@ -165,6 +165,28 @@ grains_more() { # grains_more NAME NP CASE ARGS...
 }
 grains_more disk-pile 3 "$MOREAU_SRCDIR/cases/disk-pile" --set bodies.grains.pack.count=60 --set time.end=0.22
 grains_more sphere-deposit 4 "$MOREAU_SRCDIR/cases/sphere-deposit" --set bodies.grains.pack.count=200 --set time.end=0.12
+# the distributed set (contact.distributed_set, doc/scaling.md §4): each rank keeps only the
+# contacts it detected (nothing of the set gathered: the sweep's interface found from one sum of
+# body masks and exchanged point to point, the solve's end gathering the bodies' velocities, the
+# outputs the ranks' contacts merged on rank 0); against the serial runs above
+grains_dist() { # grains_dist NAME NP CASE ARGS...
+  name=$1
+  np=$2
+  c=$3
+  shift 3
+  set -- --set contact.nscd.tol=1e-11 --set 'contact.nscd.stop="natural"' --set contact.nscd.max_sweeps=50000 \
+    --set contact.detect_split_min=0 --set contact.distributed_set=true "$@"
+  mpi "$np" "$MOREAU" run "$c" --out "$OUT/$name-d$np" --quiet "$@" > "$OUT/$name-d$np.log" 2>&1
+  ran $? "$OUT/$name-d$np.log" "$name, the set distributed: mpirun -np $np completes"
+  is "$(json "$OUT/$name-d$np/summary.json" "(lambda p: [p['ranks'], d['contact']['failed_solves'], p['contact_set'], p['grain_interface_exchange'], p['grain_sweeps'] > 0, p['grain_solves_in_detection_parts'] == p['grain_solves'], p['grain_detected_largest_rank'] < 0.75 * p['grain_detected'] if $np == 2 else p['grain_detected_largest_rank'] < 0.6 * p['grain_detected']])(d['parallel'])")" \
+    "[$np, 0, 'distributed', 'point to point', True, True, True]" \
+    "$name, the set distributed on $np ranks: every solve converged and split, each rank holding $(json "$OUT/$name-d$np/summary.json" "round(d['parallel']['grain_detected_largest_rank'] / d['parallel']['grain_detected'], 3)") of the candidates at most"
+  check_runs "$OUT/$name-1" "$OUT/$name-d$np" 1e-8 "$name, the set distributed on $np ranks" grains
+}
+grains_dist disk-pile 2 "$MOREAU_SRCDIR/cases/disk-pile" --set bodies.grains.pack.count=60 --set time.end=0.22
+grains_dist disk-pile 3 "$MOREAU_SRCDIR/cases/disk-pile" --set bodies.grains.pack.count=60 --set time.end=0.22
+grains_dist sphere-deposit 2 "$MOREAU_SRCDIR/cases/sphere-deposit" --set bodies.grains.pack.count=200 --set time.end=0.12
+grains_dist sphere-deposit 4 "$MOREAU_SRCDIR/cases/sphere-deposit" --set bodies.grains.pack.count=200 --set time.end=0.12
 # Jean's rules over the ranks (T334): the sweep's sync is one sum, the maximum of a breakdown's
 # index and of |dU| |r| taken only under the maxm rule (and when a rank broke down); quad's
 # reported Maxm once after the last sweep. Against the serial runs under the same rule

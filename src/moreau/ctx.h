@@ -90,6 +90,7 @@ typedef struct mo_ctx {
   /* the granular detection split over the ranks (doc/parallel.md §4, (T215)): the candidates the
      largest rank detected itself, and every rank's, over the run */
   long par_detect_largest, par_detect_total;
+  int par_dset;              /* the contact set distributed over the ranks (contact.distributed_set) */
   long par_detect_builds, par_detect_boxpts; /* builds of the split list; those whose boxes were cut
                                                  from the last solve's contact points (T341) */
   /* the Delassus build's columns What^-1 H^T (doc/parallel.md §2, (T210)): the most nodal rows of
