@@ -336,7 +336,7 @@ struct mo_contact_driver {
   long sweeps;               /* smoother sweeps inside the back end's Newton method (levelset's hybrid) */
   long index_added;          /* candidates added to velocity-level index sets after a solve (§5) */
   int nc_max;                /* the most candidates a step had */
-  long nc_all, nc_all_max;   /* the distributed set: the candidates of every rank at the last solve, the most */
+  long nc_all, nc_all_max;   /* the distributed set: every rank's candidates of the last step, the most */
   double max_residual;
   double *eqf, *eqk;         /* quasi-static linear scenes: f + H r and K u (the equilibrium check, T82) */
   double eq_residual, max_eq_residual;
@@ -721,7 +721,7 @@ const int *mo_contact_driver_remap(const mo_contact_driver *D, long from, long t
 long mo_contact_driver_index_added(const mo_contact_driver *D) { return D->index_added; }
 int mo_contact_driver_candidates_max(const mo_contact_driver *D)
 {
-  if (D->grains.dist) return (int)D->nc_all_max; /* every rank's, at the solves */
+  if (D->grains.dist) return (int)D->nc_all_max; /* every rank's, summed at the end of each step */
   return D->nc_max > D->nc ? D->nc_max : D->nc;
 }
 
@@ -1407,7 +1407,7 @@ resolve:
   if (D->grains.dist && any) {
     /* the distributed set: the solve's measures over every rank's candidates, in one sum (a
        non-finite reaction anywhere fails every rank) */
-    double v[9];
+    double v[8];
     int bad = 0;
     for (i = 0; i < m && !bad; i++) bad = !isfinite(D->r[i]);
     for (a = 0; a < nc; a++) {
@@ -1422,8 +1422,7 @@ resolve:
     v[5] = rep->nopen;
     v[6] = rep->nstick;
     v[7] = rep->nslide;
-    v[8] = nc;
-    if ((st = mo_par_sum(v, 9, ctx))) return st;
+    if ((st = mo_par_sum(v, 8, ctx))) return st;
     if (v[4] > 0) {
       char who[200] = "on another rank";
       for (i = 0; i < m; i++)
@@ -1438,8 +1437,6 @@ resolve:
     rep->nopen = (int)v[5];
     rep->nstick = (int)v[6];
     rep->nslide = (int)v[7];
-    D->nc_all = (long)v[8];
-    if (D->nc_all > D->nc_all_max) D->nc_all_max = D->nc_all;
     goto measured;
   }
   for (i = 0; i < m; i++)
@@ -1737,14 +1734,17 @@ static int contact_finish(mo_contact_driver *D, mo_state *s, const double *x, mo
     }
     if (D->grains.dist && D->C->npair < 64) {
       /* the distributed set: the work and the resultants summed over the ranks' candidates */
-      double v[2 + 3 * 64];
+      double v[3 + 3 * 64];
       v[0] = w;
       v[1] = D->fn_step;
-      memcpy(v + 2, D->pforce, 3 * (size_t)D->C->npair * sizeof *v);
-      if ((st = mo_par_sum(v, 2 + 3 * (long)D->C->npair, ctx))) return st;
+      v[2] = D->nc;
+      memcpy(v + 3, D->pforce, 3 * (size_t)D->C->npair * sizeof *v);
+      if ((st = mo_par_sum(v, 3 + 3 * (long)D->C->npair, ctx))) return st;
       w = v[0];
       D->fn_step = v[1];
-      memcpy(D->pforce, v + 2, 3 * (size_t)D->C->npair * sizeof *v);
+      D->nc_all = (long)v[2];
+      if (D->nc_all > D->nc_all_max) D->nc_all_max = D->nc_all;
+      memcpy(D->pforce, v + 3, 3 * (size_t)D->C->npair * sizeof *v);
     } else if (D->grains.dist)
       return mo_error(ctx, MO_ELIMIT, "contact.distributed_set with %d contact pairs (at most 63)", D->C->npair);
   }
