@@ -13,9 +13,10 @@
 # build did not take them: CHOLMOD's contact dofs last). Strong scaling: the same scene on 1 and NP
 # ranks; weak: a scene NP times larger on NP ranks.
 #
-#   bench/mpi_scaling.sh [--np 2] [--steps 11] [--moreau build/moreau] [--out DIR] [SCENE...]
+#   bench/mpi_scaling.sh [--np 2] [--steps 11] [--moreau build/moreau] [--out DIR] [--set KEY=VALUE]... [SCENE...]
 #   bench/mpi_scaling.sh --assembly [--np 2] [box:N ...]
 #
+# --set KEY=VALUE: passed to every run (e.g. --set contact.distributed_set=true, doc/scaling.md §4).
 # --assembly: K and M of each box on 1 and NP ranks, the scene's assembly (each rank its block of
 # elements, then the sums: K and M whole on every rank) against the distributed one (each rank its
 # elements straight into PETSc's matrices, its own rows only; doc/parallel.md §3), by
@@ -39,6 +40,7 @@ assembly=0
 moreau="$root/build/moreau"
 out=""
 scenes=""
+extra=""
 while [ $# -gt 0 ]; do
   case "$1" in
   --np) np=$2; shift ;;
@@ -46,6 +48,7 @@ while [ $# -gt 0 ]; do
   --moreau) moreau=$2; shift ;;
   --out) out=$2; shift ;;
   --assembly) assembly=1 ;;
+  --set) extra="$extra --set $2"; shift ;;
   -h|--help) sed -n '2,30p' "$0"; exit 0 ;;
   box:*|pile:*|spheres:*) scenes="$scenes $1" ;;
   *) echo "mpi_scaling.sh: unknown argument '$1' (--help)" >&2; exit 2 ;;
@@ -118,7 +121,7 @@ one() {
   [ -x /usr/bin/time ] && timer="/usr/bin/time -a -f %M -o $o_dir.rss"
   # shellcheck disable=SC2086
   mpirun -np "$2" --mca pml_monitoring_enable 1 --mca pml_monitoring_enable_output 1 $timer \
-    "$moreau" run $o_args --out "$o_dir" --quiet --set "linear_solver.type=\"$3\"" > "$o_dir.log" 2>&1 ||
+    "$moreau" run $o_args --out "$o_dir" --quiet --set "linear_solver.type=\"$3\"" $extra > "$o_dir.log" 2>&1 ||
     { echo "mpi_scaling.sh: $1 failed:" >&2; tail -5 "$o_dir.log" >&2; return 1; }
 }
 
