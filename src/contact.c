@@ -337,6 +337,7 @@ struct mo_contact_driver {
   long index_added;          /* candidates added to velocity-level index sets after a solve (§5) */
   int nc_max;                /* the most candidates a step had */
   long nc_all, nc_all_max;   /* the distributed set: every rank's candidates of the last step, the most */
+  long bearing_all;          /* the distributed set: every rank's candidates with r_n > 0 at the last step */
   double max_residual;
   double *eqf, *eqk;         /* quasi-static linear scenes: f + H r and K u (the equilibrium check, T82) */
   double eq_residual, max_eq_residual;
@@ -719,6 +720,8 @@ const int *mo_contact_driver_remap(const mo_contact_driver *D, long from, long t
 }
 
 long mo_contact_driver_index_added(const mo_contact_driver *D) { return D->index_added; }
+long mo_contact_driver_bearing_all(const mo_contact_driver *D) { return D->bearing_all; }
+
 int mo_contact_driver_candidates_max(const mo_contact_driver *D)
 {
   if (D->grains.dist) return (int)D->nc_all_max; /* every rank's, summed at the end of each step */
@@ -1734,17 +1737,20 @@ static int contact_finish(mo_contact_driver *D, mo_state *s, const double *x, mo
     }
     if (D->grains.dist && D->C->npair < 64) {
       /* the distributed set: the work and the resultants summed over the ranks' candidates */
-      double v[3 + 3 * 64];
+      double v[4 + 3 * 64], nb = 0;
+      for (a = 0; a < D->nc; a++) nb += D->r[a * d] > 0;
       v[0] = w;
       v[1] = D->fn_step;
       v[2] = D->nc;
-      memcpy(v + 3, D->pforce, 3 * (size_t)D->C->npair * sizeof *v);
-      if ((st = mo_par_sum(v, 3 + 3 * (long)D->C->npair, ctx))) return st;
+      v[3] = nb;
+      memcpy(v + 4, D->pforce, 3 * (size_t)D->C->npair * sizeof *v);
+      if ((st = mo_par_sum(v, 4 + 3 * (long)D->C->npair, ctx))) return st;
       w = v[0];
       D->fn_step = v[1];
       D->nc_all = (long)v[2];
       if (D->nc_all > D->nc_all_max) D->nc_all_max = D->nc_all;
-      memcpy(D->pforce, v + 3, 3 * (size_t)D->C->npair * sizeof *v);
+      D->bearing_all = (long)v[3];
+      memcpy(D->pforce, v + 4, 3 * (size_t)D->C->npair * sizeof *v);
     } else if (D->grains.dist)
       return mo_error(ctx, MO_ELIMIT, "contact.distributed_set with %d contact pairs (at most 63)", D->C->npair);
   }

@@ -5,6 +5,7 @@
 #include <moreau/contact.h>
 #include <moreau/output.h>
 #include "contact_internal.h"
+#include <moreau/parallel.h>
 
 #include <gsl/gsl_linalg.h>
 #include <errno.h>
@@ -163,6 +164,9 @@ static int cand_closed(const cand_values *v, int d, int a)
   return any;
 }
 
+static int write_csv_dist(const char *path, const mo_scene *sc, const mo_contact *C, const mo_contact_driver *Dr,
+                          const mo_state *s, mo_ctx *ctx);
+
 int mo_contact_write_csv(const char *path, const mo_scene *sc, const mo_contact *C,
                          const mo_contact_driver *Dr, const mo_state *s, mo_ctx *ctx)
 {
@@ -172,6 +176,7 @@ int mo_contact_write_csv(const char *path, const mo_scene *sc, const mo_contact 
   int *has_other = NULL;
   mo_atomic_file A;
   A.f = NULL;
+  if (mo_contact_distributed(C)) return write_csv_dist(path, sc, C, Dr, s, ctx);
   cand_values_get(sc, C, Dr, &v);
   /* the other representation's columns: only pairs with facets (P*) have one */
   for (k = 0; k < C->npair; k++) {
@@ -211,6 +216,132 @@ done:
   if (A.f) mo_atomic_commit(&A, 0, ctx); /* an error above: the old file stays */
   mo_free(other);
   mo_free(has_other);
+  return st;
+}
+
+/* --- the distributed set (doc/scaling.md §4) --------------------------------------------------------
+   Each rank lists its own candidates; rank 0 gathers every rank's entries, each led by its
+   candidate's place in the detection's order (T220) as four 32-bit halves, and merges them in that
+   order: the order of one process's set, so that the candidates are numbered as its. */
+#define ORDW 4
+/* a point's entry: the order, then x, x0, disp, normal, R, U, force, vrel (3 each), gap, lambda,
+   measure, pair, node, status, slave, master, closed */
+#define PTW (ORDW + 24 + 3 + 5 + 1)
+/* a line's: the order, then end (6), point (3), rn, rt, gap, status, slave, master */
+#define NETW (ORDW + 15)
+
+static int points_dist(const mo_scene *sc, const mo_contact *C, const mo_contact_driver *Dr, const mo_state *s,
+                       int closed_only, mo_vtk_points *P, mo_ctx *ctx);
+
+static void order_put(const mo_contact *C, int a, double *o)
+{
+  const mo_setmap_ord k = mo_setmap_order(C->krr, mo_contact_key(C, a));
+  o[0] = (double)(k.hi >> 32);
+  o[1] = (double)(k.hi & 0xffffffffu);
+  o[2] = (double)(k.lo >> 32);
+  o[3] = (double)(k.lo & 0xffffffffu);
+}
+
+static int order_before(const double *a, const double *b)
+{
+  int i;
+  for (i = 0; i < ORDW; i++)
+    if (a[i] != b[i]) return a[i] < b[i];
+  return 0;
+}
+
+/* n entries of w numbers from every rank (each in the order) into src->rec on rank 0, merged; *total
+   their count there (0 elsewhere). A collective. */
+static int gather_merge(mo_vtk_source *src, const double *mine, long n, int w, int failed, long *total, mo_ctx *ctx)
+{
+  const int np = ctx->nranks;
+  /* (the distributed set runs on at most 52 ranks: nscd_grains.c) */
+  double c = (double)n * w, cnt_d[64], *all = NULL, bad = failed ? 1 : 0;
+  int cnt[64] = {0}, one[64] = {0}, r, st = MO_OK;
+  long tot = 0, head[64], lim[64], k;
+  *total = 0;
+  if (np > 64) return mo_error(ctx, MO_ELIMIT, "contact output over %d ranks (at most 64)", np);
+  for (r = 0; r < np; r++) one[r] = 1;
+  /* every rank's count; then whether every rank has its room (a rank that has not: no gather) */
+  if ((st = mo_par_gatherv(&c, one, cnt_d, ctx))) return st;
+  for (r = 0; r < np; r++) {
+    if (cnt_d[r] > 0x7fffffff) bad = 2;
+    cnt[r] = (int)cnt_d[r];
+    head[r] = tot;
+    tot += cnt[r];
+    lim[r] = tot;
+  }
+  if (!bad && ctx->rank == 0) {
+    void *p;
+    if (!(all = mo_malloc(ctx, ((size_t)tot + 1) * sizeof *all))) bad = 1;
+    else if ((size_t)tot + 1 > src->reccap) {
+      if (!(p = mo_realloc(ctx, src->rec, ((size_t)tot + 1) * sizeof *src->rec))) bad = 1;
+      else {
+        src->rec = p;
+        src->reccap = (size_t)tot + 1;
+      }
+    }
+  }
+  if ((st = mo_par_max(&bad, 1, ctx))) goto done;
+  if (bad) {
+    st = bad > 1 ? mo_error(ctx, MO_ELIMIT, "contact output: more than 2^31 values from one rank")
+                 : mo_error(ctx, MO_ENOMEM, "contact output: no memory to gather the ranks' contacts");
+    goto done;
+  }
+  if ((st = mo_par_gather0(mine, cnt, all, ctx))) goto done;
+  if (ctx->rank == 0) {
+    /* the ranks' runs merged: the rank whose next entry comes first */
+    for (k = 0; k < tot; k += w) {
+      int best = -1;
+      for (r = 0; r < np; r++)
+        if (head[r] < lim[r] && (best < 0 || order_before(all + head[r], all + head[best]))) best = r;
+      memcpy(src->rec + k, all + head[best], (size_t)w * sizeof *src->rec);
+      head[best] += w;
+    }
+    src->recw = w;
+    *total = tot / w;
+  }
+done:
+  mo_free(all);
+  return st;
+}
+
+/* contact.csv over the distributed set: every rank's candidates gathered to rank 0 as the VTK
+   points' entries (points_dist), written there with their numbers in one process's set; path is
+   read on rank 0 only. A collective. */
+static int write_csv_dist(const char *path, const mo_scene *sc, const mo_contact *C, const mo_contact_driver *Dr,
+                          const mo_state *s, mo_ctx *ctx)
+{
+  mo_vtk_points P;
+  mo_atomic_file A;
+  const int d = C->dim, D = sc->dim;
+  long a;
+  int st, i;
+  memset(&P, 0, sizeof P);
+  A.f = NULL;
+  if ((st = points_dist(sc, C, Dr, s, 0, &P, ctx)) || ctx->rank != 0) goto done;
+  if ((st = mo_atomic_open(&A, path, ctx))) goto done;
+  csv_header(A.f, D, d, 1);
+  for (a = 0; a < P.src.nrec; a++) {
+    const double *e = P.src.rec + (size_t)a * PTW + ORDW;
+    const mo_contact_pair *Q = &C->pair[(int)e[27]];
+    const int sb = (int)e[30], mb = (int)e[31];
+    fprintf(A.f, "%s,%ld,%d", Q->name, a, (int)e[28]);
+    for (i = 0; i < D; i++) fprintf(A.f, ",%.10g", e[3 + i]);
+    for (i = 0; i < D; i++) fprintf(A.f, ",%.10g", e[6 + i]);
+    fprintf(A.f, ",%.10g", e[24]);
+    for (i = 0; i < d; i++) fprintf(A.f, ",%.10g", e[15 + i]);
+    for (i = 0; i < d; i++) fprintf(A.f, ",%.10g", e[12 + i]);
+    fprintf(A.f, ",%s,%.10g,%s", mo_contact_status_name((int)e[29]), e[26],
+            Q->reactions == MO_REACT_WEIGHTED ? "weighted" : "concentrated");
+    for (i = 0; i < d; i++) fprintf(A.f, ",");
+    fprintf(A.f, ",%.10g,%s,%s\n", e[25], sc->body[sb].name, mb >= 0 ? sc->body[mb].name : "");
+  }
+  st = mo_atomic_commit(&A, 1, ctx);
+  A.f = NULL;
+done:
+  if (A.f) mo_atomic_commit(&A, 0, ctx);
+  mo_vtk_points_release(&P);
   return st;
 }
 
@@ -427,6 +558,75 @@ static long frame_source(mo_vtk_source *src, const mo_scene *sc, const mo_contac
   return total;
 }
 
+/* The next chunk of the network from the gathered lines (rank 0). */
+static int network_fill_rec(mo_vtk_contacts *N, mo_ctx *ctx)
+{
+  long want = N->total - N->first, a;
+  int i;
+  (void)ctx;
+  if (want > N->cap) want = N->cap;
+  for (a = N->src.cursor; a < N->src.nrec && N->n < want; a++) {
+    const double *e = N->src.rec + (size_t)a * NETW + ORDW;
+    const int n = N->n;
+    for (i = 0; i < 6; i++) N->end[6 * n + i] = e[i];
+    for (i = 0; i < 3; i++) N->point[3 * n + i] = e[6 + i];
+    N->rn[n] = e[9];
+    N->rt[n] = e[10];
+    N->gap[n] = e[11];
+    N->status[n] = (int)e[12];
+    N->body[2 * n] = (int)e[13];
+    N->body[2 * n + 1] = (int)e[14];
+    N->n++;
+  }
+  N->src.cursor = a;
+  return MO_OK;
+}
+
+/* mo_contact_network over the distributed set: every rank's lines to rank 0 (a collective). */
+static int network_dist(const mo_scene *sc, const mo_contact *C, const mo_contact_driver *Dr, const mo_state *s,
+                        mo_vtk_contacts *N, mo_ctx *ctx)
+{
+  long own = frame_source(&N->src, sc, C, Dr, s, 1), total = 0, k;
+  double *mine = NULL;
+  int st, failed, a, i;
+  const int *status = mo_contact_statuses(Dr);
+  const double *r = mo_contact_reactions(Dr);
+  failed = mo_vtk_contacts_reserve(N, (int)own + 1, ctx) != MO_OK ||
+           !(mine = mo_malloc(ctx, ((size_t)own * NETW + 1) * sizeof *mine));
+  if (!failed) {
+    N->total = own;
+    network_fill(N, ctx);
+    /* the candidates of the lines, in order: those network_fill took */
+    for (a = 0, k = 0; a < C->nc && k < N->n; a++) {
+      int any = status[a] != MO_CS_OPEN;
+      double *e = mine + (size_t)k * NETW;
+      for (i = 0; i < C->dim; i++) any |= r[a * C->dim + i] != 0;
+      if (!any) continue;
+      order_put(C, a, e);
+      e += ORDW;
+      for (i = 0; i < 6; i++) e[i] = N->end[6 * k + i];
+      for (i = 0; i < 3; i++) e[6 + i] = N->point[3 * k + i];
+      e[9] = N->rn[k];
+      e[10] = N->rt[k];
+      e[11] = N->gap[k];
+      e[12] = N->status[k];
+      e[13] = N->body[2 * k];
+      e[14] = N->body[2 * k + 1];
+      k++;
+    }
+  }
+  N->total = 0;
+  mo_vtk_contacts_rewind(N);
+  st = gather_merge(&N->src, mine, failed ? 0 : own, NETW, failed, &total, ctx);
+  mo_free(mine);
+  if (st) return st;
+  N->src.nrec = total;
+  N->total = total;
+  N->fill = network_fill_rec;
+  return MO_OK;
+}
+
+
 int mo_contact_network(const mo_scene *sc, const mo_contact *C, const mo_contact_driver *Dr,
                        const mo_state *s, mo_vtk_contacts *N, mo_ctx *ctx)
 {
@@ -436,6 +636,7 @@ int mo_contact_network(const mo_scene *sc, const mo_contact *C, const mo_contact
   N->fill = NULL;
   mo_vtk_contacts_rewind(N);
   if (!C || !Dr) return MO_OK;
+  if (mo_contact_distributed(C)) return network_dist(sc, C, Dr, s, N, ctx);
   total = frame_source(&N->src, sc, C, Dr, s, 1);
   if ((st = mo_vtk_contacts_reserve(N, total < MO_VTK_CHUNK ? (int)total : MO_VTK_CHUNK, ctx))) return st;
   N->total = total;
@@ -501,6 +702,106 @@ static int points_fill(mo_vtk_points *P, mo_ctx *ctx)
   return MO_OK;
 }
 
+/* A point's entry from the filled arrays (entry k of P, candidate a). */
+static void point_pack(const mo_contact *C, const mo_vtk_points *P, int k, int a, int closed, double *e)
+{
+  int i;
+  order_put(C, a, e);
+  e += ORDW;
+  for (i = 0; i < 3; i++) {
+    e[i] = P->x[3 * k + i];
+    e[3 + i] = P->x0[3 * k + i];
+    e[6 + i] = P->disp[3 * k + i];
+    e[9 + i] = P->normal[3 * k + i];
+    e[12 + i] = P->R[3 * k + i];
+    e[15 + i] = P->U[3 * k + i];
+    e[18 + i] = P->force[3 * k + i];
+    e[21 + i] = P->vrel[3 * k + i];
+  }
+  e[24] = P->gap[k];
+  e[25] = P->lambda[k];
+  e[26] = P->measure[k];
+  e[27] = P->pair[k];
+  e[28] = P->node[k];
+  e[29] = P->status[k];
+  e[30] = P->body[2 * k];
+  e[31] = P->body[2 * k + 1];
+  e[32] = closed;
+}
+
+/* The next chunk from the gathered entries (rank 0): their place in the merge is the candidate's
+   number; with closed_only the others skipped. */
+static int points_fill_rec(mo_vtk_points *P, mo_ctx *ctx)
+{
+  const long nrec = P->src.nrec;
+  long want = P->total - P->first, a;
+  int i;
+  (void)ctx;
+  if (want > P->cap) want = P->cap;
+  for (a = P->src.cursor; a < nrec && P->n < want; a++) {
+    const double *e = P->src.rec + (size_t)a * PTW + ORDW;
+    const int n = P->n;
+    if (P->src.closed_only && !e[32]) continue;
+    for (i = 0; i < 3; i++) {
+      P->x[3 * n + i] = e[i];
+      P->x0[3 * n + i] = e[3 + i];
+      P->disp[3 * n + i] = e[6 + i];
+      P->normal[3 * n + i] = e[9 + i];
+      P->R[3 * n + i] = e[12 + i];
+      P->U[3 * n + i] = e[15 + i];
+      P->force[3 * n + i] = e[18 + i];
+      P->vrel[3 * n + i] = e[21 + i];
+    }
+    P->gap[n] = e[24];
+    P->lambda[n] = e[25];
+    P->measure[n] = e[26];
+    P->cand[n] = (int)a;
+    P->pair[n] = (int)e[27];
+    P->node[n] = (int)e[28];
+    P->status[n] = (int)e[29];
+    P->body[2 * n] = (int)e[30];
+    P->body[2 * n + 1] = (int)e[31];
+    P->n++;
+  }
+  P->src.cursor = a;
+  return MO_OK;
+}
+
+/* mo_contact_points over the distributed set: every rank's candidates to rank 0, in the order of
+   one process's set (a collective; P empty on the other ranks). */
+static int points_dist(const mo_scene *sc, const mo_contact *C, const mo_contact_driver *Dr, const mo_state *s,
+                       int closed_only, mo_vtk_points *P, mo_ctx *ctx)
+{
+  const int n = C->nc, d = C->dim;
+  double *mine = NULL;
+  long total = 0, k, sel = 0;
+  int st, failed, a;
+  cand_values v;
+  P->total = 0;
+  P->fill = NULL;
+  mo_vtk_points_rewind(P);
+  frame_source(&P->src, sc, C, Dr, s, 0);
+  failed = mo_vtk_points_reserve(P, n + 1, d, ctx) != MO_OK ||
+           !(mine = mo_malloc(ctx, ((size_t)n * PTW + 1) * sizeof *mine));
+  if (!failed) {
+    cand_values_get(sc, C, Dr, &v);
+    P->total = n;
+    points_fill(P, ctx);
+    for (a = 0; a < n; a++) point_pack(C, P, a, a, cand_closed(&v, d, a), mine + (size_t)a * PTW);
+  }
+  P->total = 0;
+  mo_vtk_points_rewind(P);
+  st = gather_merge(&P->src, mine, failed ? 0 : n, PTW, failed, &total, ctx);
+  mo_free(mine);
+  if (st) return st;
+  P->src.closed_only = closed_only;
+  P->src.nrec = total;
+  for (k = 0; k < total; k++) sel += !closed_only || P->src.rec[(size_t)k * PTW + ORDW + 32] != 0;
+  P->total = sel;
+  P->fill = points_fill_rec;
+  return MO_OK;
+}
+
 int mo_contact_points(const mo_scene *sc, const mo_contact *C, const mo_contact_driver *Dr, const mo_state *s,
                       int closed_only, mo_vtk_points *P, mo_ctx *ctx)
 {
@@ -510,6 +811,7 @@ int mo_contact_points(const mo_scene *sc, const mo_contact *C, const mo_contact_
   P->fill = NULL;
   mo_vtk_points_rewind(P);
   if (!C || !Dr) return MO_OK;
+  if (mo_contact_distributed(C)) return points_dist(sc, C, Dr, s, closed_only, P, ctx);
   total = frame_source(&P->src, sc, C, Dr, s, closed_only);
   if ((st = mo_vtk_points_reserve(P, total < MO_VTK_CHUNK ? (int)total : MO_VTK_CHUNK, C->dim, ctx))) return st;
   P->total = total;

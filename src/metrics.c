@@ -3,6 +3,7 @@
    flips, release time, impulse, energy after each impact (doc/theory.md §10). */
 #include "config.h"
 #include "metrics.h"
+#include <moreau/parallel.h>
 
 #include <math.h>
 #include <stdlib.h>
@@ -472,6 +473,9 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
       if (r && s->step > 0)
         M->impulse += r[a * d] * fimp;
     }
+    /* the distributed set: every rank's bearing candidates, summed at the step's end (each rank
+       measures its own candidates; doc/scaling.md §4) */
+    if (D && mo_contact_distributed(C)) closed = s->step > 0 ? (int)mo_contact_driver_bearing_all(D) : 0;
     /* the end of an impact: every candidate open again after some were closed */
     if (M->closed_prev > 0 && closed == 0) {
       M->last_impact_energy = mo_metrics_energy_ratio(M, s);
@@ -484,6 +488,61 @@ void mo_metrics_step(mo_metrics *M, const mo_state *s, const mo_contact_driver *
     }
     M->closed_prev = closed;
   }
+}
+
+int mo_metrics_join(mo_metrics *M, mo_ctx *ctx)
+{
+  /* maxima (a minimum as its negation, none as -inf), then sums; the per-candidate maxima of the
+     reports folded into their "gone" fields first, so that each rank's own candidates count */
+  double x[16], y[4];
+  int a, st;
+  if (!M->C || !mo_contact_distributed(M->C)) return MO_OK;
+  for (a = 0; a < M->nc; a++) {
+    if (M->hist[a].tv > M->tv_gone) M->tv_gone = M->hist[a].tv;
+    if ((int)M->hf[a].nsign > M->nsign_gone) M->nsign_gone = (int)M->hf[a].nsign;
+    if (M->alt && M->alt[a] > M->alt_max) M->alt_max = M->alt[a];
+  }
+  x[0] = M->max_pen;
+  x[1] = M->final_pen;
+  x[2] = M->max_vn_closed;
+  x[3] = M->vscale;
+  x[4] = M->uscale;
+  x[5] = M->vround;
+  x[6] = M->vland;
+  x[7] = M->alt_max;
+  x[8] = M->max_vn_watch;
+  x[9] = M->vscale_watch;
+  x[10] = M->vfloor;
+  x[11] = M->vimpact;
+  x[12] = M->nsign_gone;
+  x[13] = M->tv_gone;
+  x[14] = isnan(M->first_release) ? -HUGE_VAL : -M->first_release;
+  x[15] = 0;
+  y[0] = M->impulse;
+  y[1] = (double)M->flips;
+  y[2] = (double)M->unmeasured;
+  y[3] = (double)M->restarts;
+  if ((st = mo_par_max(x, 16, ctx)) || (st = mo_par_sum(y, 4, ctx))) return st;
+  M->max_pen = x[0];
+  M->final_pen = x[1];
+  M->max_vn_closed = x[2];
+  M->vscale = x[3];
+  M->uscale = x[4];
+  M->vround = x[5];
+  M->vland = x[6];
+  M->alt_max = x[7];
+  M->max_vn_watch = x[8];
+  M->vscale_watch = x[9];
+  M->vfloor = x[10];
+  M->vimpact = x[11];
+  M->nsign_gone = (int)x[12];
+  M->tv_gone = x[13];
+  M->first_release = x[14] == -HUGE_VAL ? NAN : -x[14];
+  M->impulse = y[0];
+  M->flips = (long)y[1];
+  M->unmeasured = (long)y[2];
+  M->restarts = (long)y[3];
+  return MO_OK;
 }
 
 void mo_metrics_chatter(const mo_metrics *M, mo_chatter *ch)

@@ -30,6 +30,10 @@ double mo_metrics_energy_ratio(const mo_metrics *M, const mo_state *s);
    K (the run measures them at every step); excess (may be NULL): E(t) - E_ref, the numerator of
    the growth, defined also where E_ref = 0 and the ratio is not (doc/theory.md (T49a)). */
 void mo_metrics_energies(const mo_metrics *M, const mo_state *s, double *ek, double *ee, double *ratio, double *excess);
+/* Over MPI ranks with the set distributed (mo_contact_distributed): each rank's measures of its own
+   candidates joined into the whole set's (maxima, sums), on every rank: a collective, called once
+   after the last step and before the reports read them; nothing otherwise. */
+int mo_metrics_join(mo_metrics *M, mo_ctx *ctx);
 json_t *mo_metrics_json(const mo_metrics *M);
 /* Chatter of a persistent contact. The verdict is mo_chatter_verdict (T97), the one criterion of
    a run's warning and of compare's class. Reported beside it (T93), over the candidates of the

@@ -575,6 +575,7 @@ void mo_vtk_contacts_release(mo_vtk_contacts *N)
   mo_free(N->gap);
   mo_free(N->status);
   mo_free(N->body);
+  mo_free(N->src.rec);
   memset(N, 0, sizeof *N);
 }
 
@@ -616,6 +617,7 @@ void mo_vtk_points_release(mo_vtk_points *P)
   mo_free(P->x); mo_free(P->x0); mo_free(P->disp); mo_free(P->normal); mo_free(P->R); mo_free(P->U);
   mo_free(P->force); mo_free(P->vrel); mo_free(P->gap); mo_free(P->lambda); mo_free(P->measure);
   mo_free(P->cand); mo_free(P->pair); mo_free(P->node); mo_free(P->status); mo_free(P->body);
+  mo_free(P->src.rec);
   memset(P, 0, sizeof *P);
 }
 

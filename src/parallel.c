@@ -198,6 +198,16 @@ int mo_par_gatherv(const double *mine, const int *n, double *all, mo_ctx *ctx)
   return MO_OK;
 }
 
+int mo_par_gather0(const double *mine, const int *n, double *all, mo_ctx *ctx)
+{
+#ifdef HAVE_PETSC
+  if (PARALLEL(ctx)) return MODULE(ctx)->gatherv0(mine, n, all, ctx);
+#endif
+  memmove(all, mine, (size_t)n[0] * sizeof *all);
+  (void)ctx;
+  return MO_OK;
+}
+
 int mo_par_exchange(int npeer, const int *peer, const int *off, const double *send, double *recv, mo_ctx *ctx)
 {
 #ifdef HAVE_PETSC

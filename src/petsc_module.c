@@ -142,6 +142,27 @@ static int allgatherv(const double *mine, const int *n, double *all, mo_ctx *ctx
   return MO_OK;
 }
 
+static int gatherv0(const double *mine, const int *n, double *all, mo_ctx *ctx)
+{
+  double t0 = mo_clock();
+  int *displ, r, rc;
+  long tot = 0;
+  if (!(displ = mo_malloc(ctx, (size_t)ctx->nranks * sizeof *displ))) return MO_ENOMEM;
+  for (r = 0; r < ctx->nranks; r++) {
+    displ[r] = (int)tot;
+    tot += n[r];
+  }
+  if (tot > 0x7fffffffL) {
+    mo_free(displ);
+    return mo_error(ctx, MO_ELIMIT, "MPI gather of %ld values", tot);
+  }
+  rc = MPI_Gatherv(mine, n[ctx->rank], MPI_DOUBLE, all, n, displ, MPI_DOUBLE, 0, PETSC_COMM_WORLD);
+  mo_free(displ);
+  if (rc != MPI_SUCCESS) return mpi_fail(ctx, rc, "gather");
+  traffic(ctx, t0, 8.0 * n[ctx->rank]);
+  return MO_OK;
+}
+
 static int agree(int st, mo_ctx *ctx)
 {
   /* (status, -rank) pairs: the largest status, and the lowest rank that has it */
@@ -1289,4 +1310,4 @@ static void dmat_counts(void *h, long *nnz, long *allocated, long *sent)
 extern const mo_petsc_module mo_petsc_module_v1;
 const mo_petsc_module mo_petsc_module_v1 = {MO_PETSC_ABI, PETSC_VERSION_GIT, start, started, finish, allreduce,
                                             bcast, allgatherv, agree, exchange, &petsc_type, dmat_create, dmat_add,
-                                            dmat_assemble, dmat_mult, dmat_row, dmat_counts, dmat_free};
+                                            dmat_assemble, dmat_mult, dmat_row, dmat_counts, dmat_free, gatherv0};

@@ -14,7 +14,7 @@
 #include <moreau/sparse.h>
 
 /* Raised whenever a member changes meaning or position. */
-#define MO_PETSC_ABI 8
+#define MO_PETSC_ABI 9
 #define MO_PETSC_SYMBOL "mo_petsc_module_v1"
 #define MO_PETSC_MODULE_NAME "moreau_petsc.so"
 
@@ -73,6 +73,8 @@ typedef struct mo_petsc_module {
      sent to other ranks' rows (through the stash). */
   void (*dmat_counts)(void *A, long *nnz, long *allocated, long *sent);
   void (*dmat_free)(void *A);
+  /* allgatherv's blocks to rank 0 only (all read on rank 0 alone). */
+  int (*gatherv0)(const double *mine, const int *n, double *all, mo_ctx *ctx);
 } mo_petsc_module;
 
 #endif

@@ -1436,6 +1436,11 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
     if ((st = mo_vtk_open(outdir, sc, C != NULL, &vtk, ctx))) goto done;
   } else
     mo_note_skip(ctx, "field output (no output.vtk group)");
+  if (sc->out.contact_history && C && mo_contact_distributed(C)) {
+    st = mo_error(ctx, MO_EUNSUPPORTED, "%s: output.contact_history is not written with contact.distributed_set "
+                  "(doc/scaling.md §4): leave one of them out", mo_case_file(cs));
+    goto done;
+  }
   if (sc->out.contact_history && C && io) {
     snprintf(path, sizeof path, "%s/contact_history.csv", outdir);
     if ((st = mo_contact_history_open(path, sc, C, sc->out.contact_history_closed, &chist, ctx))) goto done;
@@ -1584,8 +1589,12 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
       /* fields and drawings, with the contact network of the step when they need it */
       int vframe = vtk && (s.step % sc->out.vtk_every == 0 || last);
       int dframe = draw && mo_draw_wants(draw, s.step);
-      if ((vframe || dframe) && (st = mo_contact_network(sc, C, drv, &s, &net, ctx))) goto done;
-      if (vframe && mo_vtk_wants_points(vtk) &&
+      int want[2] = {vframe || dframe, vframe && mo_vtk_wants_points(vtk)};
+      /* the distributed set: rank 0's frames, and every rank's contacts gathered to them (doc/scaling.md
+         §4) */
+      if (C && mo_contact_distributed(C) && (st = mo_par_bcast(want, (long)sizeof want, 0, ctx))) goto done;
+      if (want[0] && (st = mo_contact_network(sc, C, drv, &s, &net, ctx))) goto done;
+      if (want[1] &&
           (st = mo_contact_points(sc, C, drv, &s, sc->out.vtk_contacts == MO_VTK_CONTACTS_CLOSED, &pts, ctx)))
         goto done;
       if (vframe && (st = mo_vtk_frame(vtk, sc, &s, &net, &pts, ctx))) goto done;
@@ -1655,6 +1664,16 @@ done:
   /* what summary.json reports from products with K and M, by every rank (over the ranks they
      are sums: doc/parallel.md §3), before rank 0 writes it */
   if (sc && s.u && met) eratio_end = mo_metrics_energy_ratio(met, &s);
+  if (C && mo_contact_distributed(C)) {
+    /* the distributed set (doc/scaling.md §4): the ranks' contact measures joined on every rank, and
+       their contacts sent to rank 0's contact.csv (rank 0 gathers them in mo_contact_write_csv) */
+    int stj = met ? mo_metrics_join(met, ctx) : MO_OK;
+    if (stj && !st) {
+      st = stj;
+      complete = 0;
+    }
+    if (!io && drv && s.u && s.step > 0) mo_contact_write_csv(NULL, sc, C, drv, &s, ctx);
+  }
   if (sc && s.u && p0 && sc->M && work && (pend = mo_malloc(ctx, (3 * (size_t)sc->nbody + 1) * sizeof *pend)))
     body_momenta(sc, s.v, work, pend);
   if (cs && sc && od.fd >= 0) {
@@ -1666,7 +1685,8 @@ done:
       snprintf(path, sizeof path, "%s/contact.csv", outdir);
       st2 = mo_contact_write_csv(path, sc, C, drv, &s, ctx);
       if (!st2) res->outputs |= MO_OUT_CONTACT;
-      if (!st2 && table && ctx->verbosity >= 1) mo_contact_print_table(stdout, sc, C, drv, &s, ctx);
+      if (!st2 && table && ctx->verbosity >= 1 && !mo_contact_distributed(C))
+        mo_contact_print_table(stdout, sc, C, drv, &s, ctx);
     }
     /* the drawings of the frames taken, also after a failure (the error kept is the run's) */
     if (draw) {

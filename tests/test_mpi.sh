@@ -182,11 +182,32 @@ grains_dist() { # grains_dist NAME NP CASE ARGS...
     "[$np, 0, 'distributed', 'point to point', True, True, True]" \
     "$name, the set distributed on $np ranks: every solve converged and split, each rank holding $(json "$OUT/$name-d$np/summary.json" "round(d['parallel']['grain_detected_largest_rank'] / d['parallel']['grain_detected'], 3)") of the candidates at most"
   check_runs "$OUT/$name-1" "$OUT/$name-d$np" 1e-8 "$name, the set distributed on $np ranks" grains
+  # the VTK contact points gathered to rank 0 in the serial run's order: the same candidates,
+  # numbers, pairs and bodies, their points and gaps to 1e-8 of the largest
+  is "$(/usr/bin/python3 -c "
+import sys
+sys.path.insert(0, '$MOREAU_SRCDIR/tests')
+import vtkread
+f = [vtkread.read('$OUT/$name-%s/contact_points_00001.vtu' % k)[2] for k in ('1', 'd$np')]
+same = all(f[0][k] == f[1][k] for k in ('candidate', 'pair', 'slave', 'master'))
+def near(k):
+    a, b = f[0][k][1], f[1][k][1]
+    s = max([abs(v) for v in a] + [1e-300])
+    return len(a) == len(b) and max([abs(x - y) for x, y in zip(a, b)] + [0]) <= 1e-8 * s
+print([len(f[0]['candidate'][1]) > 0, same, near('points'), near('gap')])")" "[True, True, True, True]" \
+    "$name, the set distributed on $np ranks: the VTK contact points the serial run's, in its order"
 }
 grains_dist disk-pile 2 "$MOREAU_SRCDIR/cases/disk-pile" --set bodies.grains.pack.count=60 --set time.end=0.22
 grains_dist disk-pile 3 "$MOREAU_SRCDIR/cases/disk-pile" --set bodies.grains.pack.count=60 --set time.end=0.22
 grains_dist sphere-deposit 2 "$MOREAU_SRCDIR/cases/sphere-deposit" --set bodies.grains.pack.count=200 --set time.end=0.12
 grains_dist sphere-deposit 4 "$MOREAU_SRCDIR/cases/sphere-deposit" --set bodies.grains.pack.count=200 --set time.end=0.12
+# contact_history.csv is not gathered: the run is refused, naming both keys, before any step
+mpi 2 "$MOREAU" run "$MOREAU_SRCDIR/cases/disk-pile" --out "$OUT/dhist" --quiet --set contact.detect_split_min=0 \
+  --set contact.distributed_set=true --set 'output.contact_history={every=10;}' --set bodies.grains.pack.count=60 \
+  > "$OUT/dhist.log" 2>&1
+rc=$?
+ok $([ $rc -ne 0 ] && grep -q "output.contact_history is not written with contact.distributed_set" "$OUT/dhist.log" && echo 0 || echo 1) \
+  "the set distributed with output.contact_history: refused with a message naming both keys (exit $rc)"
 # Jean's rules over the ranks (T334): the sweep's sync is one sum, the maximum of a breakdown's
 # index and of |dU| |r| taken only under the maxm rule (and when a rank broke down); quad's
 # reported Maxm once after the last sweep. Against the serial runs under the same rule

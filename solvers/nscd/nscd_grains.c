@@ -1046,10 +1046,10 @@ int nscd_grains_velocities_dist(nscd_state *S, const mo_contact_problem *P, cons
 }
 
 /* The end of a solve over the distributed set: the exact velocities of the bodies the rank's
-   contacts touch (its pushes from v_free with the bodies' masses, the interface's summed), U of
-   its candidates (records for the active ones, c_a formed for the others), then every body's
-   velocity gathered from the lowest rank touching it; with unknowns, the redundancy count joined
-   as in nscd_grains_gather. */
+   contacts touch (its pushes from v_free with the bodies' masses, the interface's summed), every
+   body's velocity gathered from the lowest rank touching it, then U of the rank's candidates
+   (records for the active ones, c_a formed for the others); with unknowns, the redundancy count
+   joined as in nscd_grains_gather. */
 int nscd_grains_gather_dist(nscd_state *S, const mo_contact_problem *P, double *r, int *unknowns, int *dofs,
                             mo_ctx *ctx)
 {
@@ -1059,7 +1059,6 @@ int nscd_grains_gather_dist(nscd_state *S, const mo_contact_problem *P, double *
   int i, l, q, st, nu = 0, nd = 0, *cur = S->pcnt;
   if (unknowns && (st = count_list(S, P, r, S->oorder, S->noact, &nu, &nd, ctx))) return st;
   if ((st = nscd_grains_velocities_dist(S, P, r, ctx))) return st;
-  nscd_grains_exact_U(S, P);
   for (q = 0; q < np; q++) S->gcnt[q] = nx;
   for (i = 0; i < P->nfree; i++)
     if (S->bfirst[i] >= 0) S->gcnt[S->bfirst[i]] += i + nk <= P->nfree ? nk : P->nfree - i;
@@ -1114,6 +1113,9 @@ int nscd_grains_gather_dist(nscd_state *S, const mo_contact_problem *P, double *
     *unknowns = (int)su;
     *dofs += (int)sd;
   }
+  /* U of the rank's candidates from every body's velocity: an open candidate may touch a body only
+     another rank's contacts move */
+  nscd_grains_exact_U(S, P);
   return MO_OK;
 }
 

@@ -540,6 +540,8 @@ void mo_local_solver_free(mo_local_solver *L);
 /* --- the contact step ---------------------------------------------------------------------- */
 
 typedef struct mo_contact_driver mo_contact_driver;
+/* The distributed set: every rank's candidates bearing (r_n > 0) at the end of the last step. */
+long mo_contact_driver_bearing_all(const mo_contact_driver *D);
 
 /* Let the case's back end choose its time scheme (before mo_stepper_create). Notes the change
    in the run's log when it changes the scheme. */

@@ -69,6 +69,12 @@ typedef struct mo_vtk_source {
   const void *sc, *C, *D, *s;
   long cursor;          /* the source's next item (a candidate) */
   int closed_only;
+  /* the distributed set (doc/scaling.md §4): on rank 0 every rank's entries gathered, recw
+     numbers each, in contact.csv's order; cursor then counts them */
+  double *rec;
+  size_t reccap;
+  long nrec;
+  int recw;
 } mo_vtk_source;
 
 /* The contact network: one line per candidate that is closed or carries a reaction. cap is the

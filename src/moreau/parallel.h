@@ -35,6 +35,8 @@ int mo_par_bcast(void *buf, long bytes, int root, mo_ctx *ctx);
 /* Allgather of variable-sized double blocks: rank r contributes n[r] values from mine; all[] gets
    the blocks in rank order (sum n values). */
 int mo_par_gatherv(const double *mine, const int *n, double *all, mo_ctx *ctx);
+/* The same blocks to rank 0 only: all is read (and must hold sum n values) on rank 0 alone. */
+int mo_par_gather0(const double *mine, const int *n, double *all, mo_ctx *ctx);
 /* Point to point with the npeer ranks peer[k] (not collective: only the ranks named take part):
    send[off[k] .. off[k + 1]) goes to peer[k], as many values from it arrive in recv[off[k] ..
    off[k + 1]). Each peer must name this rank with the same count. No-op on one rank. */
