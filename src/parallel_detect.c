@@ -345,6 +345,38 @@ static inline mo_setmap_ord order_at(const mo_contact *C, const struct block *B,
   return o;
 }
 
+/* Every rank's count of candidates (n here, or -1 when st: then every rank fails) in P->rc, and the
+   run's counts; *total their sum. */
+static int gather_counts(mo_contact *C, size_t n, int st, size_t *total, mo_ctx *ctx)
+{
+  struct mo_pdetect *P = C->pd;
+  double mine = st ? -1 : (double)n, largest = 0;
+  int r, st2;
+  *total = 0;
+  if ((st2 = mo_par_gatherv(&mine, P->one, P->rc, ctx))) return st ? st : st2;
+  for (r = 0; r < P->nranks; r++)
+    if (P->rc[r] < 0) return st ? st : mo_error(ctx, MO_EINPUT, "contact detection failed on rank %d", r);
+  if (P->nranks > 64) return mo_error(ctx, MO_ELIMIT, "contact detection over %d ranks (at most 64)", P->nranks);
+  for (r = 0; r < P->nranks; r++) {
+    *total += (size_t)P->rc[r];
+    P->tot[r] += (long)P->rc[r];
+    if ((double)P->tot[r] > largest) largest = (double)P->tot[r];
+  }
+  ctx->par_detect_largest = (long)largest;
+  ctx->par_detect_total += (long)*total;
+  return MO_OK;
+}
+
+/* The detection's U- are of state s (T301). */
+static void up_of_state(struct mo_pdetect *P, const mo_contact *C, const mo_state *s)
+{
+  if (!s->v) return;
+  P->up_u = s->u;
+  P->up_v = s->v;
+  P->up_step = s->step;
+  P->up_nc = C->nc;
+}
+
 /* The distributed set (contact.distributed_set, doc/scaling.md §4): the rank keeps the candidates it
    detected, nothing is gathered but the counts (a rank's failure fails every rank). Its part is in
    the serial order already and mapped against its own previous part (the map's keys, (T270)); its
@@ -353,19 +385,9 @@ static int finish_own(mo_contact *C, const mo_state *s, int st, mo_ctx *ctx)
 {
   struct mo_pdetect *P = C->pd;
   const size_t n = (size_t)(C->nc - P->nc0);
-  double mine = st ? -1 : (double)n, largest = 0;
-  size_t a;
-  int r, st2;
+  size_t a, total;
   P->up_nc = -1;
-  if ((st2 = mo_par_gatherv(&mine, P->one, P->rc, ctx))) return st ? st : st2;
-  for (r = 0; r < P->nranks; r++)
-    if (P->rc[r] < 0) return st ? st : mo_error(ctx, MO_EINPUT, "contact detection failed on rank %d", r);
-  for (r = 0; r < P->nranks; r++) {
-    P->tot[r] += (long)P->rc[r];
-    ctx->par_detect_total += (long)P->rc[r];
-    if ((double)P->tot[r] > largest) largest = (double)P->tot[r];
-  }
-  ctx->par_detect_largest = (long)largest;
+  if ((st = gather_counts(C, n, st, &total, ctx))) return st;
   ctx->par_dset = 1;
   if ((st = room((void **)&P->up, &P->upcap, (size_t)C->dim * (size_t)C->nc + 1, sizeof *P->up, ctx)) ||
       (st = room((void **)&P->cown, &P->cowncap, (size_t)C->nc + 1, sizeof *P->cown, ctx)))
@@ -379,12 +401,7 @@ static int finish_own(mo_contact *C, const mo_state *s, int st, mo_ctx *ctx)
     for (a = (size_t)P->nc0; a < (size_t)C->nc && C->ksame; a++) C->ksame = C->smap.map[a] == (int)a;
   else
     C->ksame = C->ksame && !memcmp(C->key + (size_t)P->nc0 * MO_KEY, P->okey, n * MO_KEY * sizeof *C->key);
-  if (s->v) {
-    P->up_u = s->u;
-    P->up_v = s->v;
-    P->up_step = s->step;
-    P->up_nc = C->nc;
-  }
+  up_of_state(P, C, s);
   return MO_OK;
 }
 
@@ -392,23 +409,12 @@ static int finish_merge(mo_contact *C, const mo_state *s, int st, mo_ctx *ctx)
 {
   struct mo_pdetect *P = C->pd;
   size_t n = (size_t)(C->nc - P->nc0), total = 0, off = 0, head[64], end[64], a;
-  double mine = st ? -1 : (double)n, largest = 0;
   struct block B[64], own;
-  int r, st2;
+  int r;
   P->up_nc = -1; /* until this detection's U- are gathered (T300) */
   /* every rank's count, or -1 for a rank that failed: then every rank fails */
-  if ((st2 = mo_par_gatherv(&mine, P->one, P->rc, ctx))) return st ? st : st2;
-  for (r = 0; r < P->nranks; r++)
-    if (P->rc[r] < 0) return st ? st : mo_error(ctx, MO_EINPUT, "contact detection failed on rank %d", r);
-  if (P->nranks > 64) return mo_error(ctx, MO_ELIMIT, "contact detection over %d ranks (at most 64)", P->nranks);
-  for (r = 0; r < P->nranks; r++) {
-    P->cnt[r] = (int)block_size(C, (size_t)P->rc[r]);
-    total += (size_t)P->rc[r];
-    P->tot[r] += (long)P->rc[r];
-    if ((double)P->tot[r] > largest) largest = (double)P->tot[r];
-  }
-  ctx->par_detect_largest = (long)largest;
-  ctx->par_detect_total += (long)total;
+  if ((st = gather_counts(C, n, st, &total, ctx))) return st;
+  for (r = 0; r < P->nranks; r++) P->cnt[r] = (int)block_size(C, (size_t)P->rc[r]);
   if ((st = room((void **)&P->buf, &P->bufcap, block_size(C, n) + 1, sizeof *P->buf, ctx)) ||
       (st = room((void **)&P->all, &P->allcap, block_size(C, total) + (size_t)P->nranks + 1, sizeof *P->all, ctx)))
     return st;
@@ -486,12 +492,7 @@ static int finish_merge(mo_contact *C, const mo_state *s, int st, mo_ctx *ctx)
   else
     C->ksame = C->ksame && !memcmp(C->key + (size_t)P->nc0 * MO_KEY, P->okey, total * MO_KEY * sizeof *C->key);
   C->nc = P->nc0 + (int)total;
-  if (s->v) {
-    P->up_u = s->u;
-    P->up_v = s->v;
-    P->up_step = s->step;
-    P->up_nc = C->nc;
-  }
+  up_of_state(P, C, s);
   return MO_OK;
 }
 

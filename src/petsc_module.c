@@ -121,7 +121,8 @@ static int bcast(void *buf, long bytes, int root, mo_ctx *ctx)
   return MO_OK;
 }
 
-static int allgatherv(const double *mine, const int *n, double *all, mo_ctx *ctx)
+/* The ranks' blocks of n[r] values to every rank (root < 0) or to root only. */
+static int gather_blocks(const double *mine, const int *n, double *all, int root, mo_ctx *ctx)
 {
   double t0 = mo_clock();
   int *displ, r, rc;
@@ -135,32 +136,22 @@ static int allgatherv(const double *mine, const int *n, double *all, mo_ctx *ctx
     mo_free(displ);
     return mo_error(ctx, MO_ELIMIT, "MPI gather of %ld values", tot);
   }
-  rc = MPI_Allgatherv(mine, n[ctx->rank], MPI_DOUBLE, all, n, displ, MPI_DOUBLE, PETSC_COMM_WORLD);
+  rc = root < 0 ? MPI_Allgatherv(mine, n[ctx->rank], MPI_DOUBLE, all, n, displ, MPI_DOUBLE, PETSC_COMM_WORLD)
+                : MPI_Gatherv(mine, n[ctx->rank], MPI_DOUBLE, all, n, displ, MPI_DOUBLE, root, PETSC_COMM_WORLD);
   mo_free(displ);
   if (rc != MPI_SUCCESS) return mpi_fail(ctx, rc, "gather");
   traffic(ctx, t0, 8.0 * n[ctx->rank]);
   return MO_OK;
 }
 
+static int allgatherv(const double *mine, const int *n, double *all, mo_ctx *ctx)
+{
+  return gather_blocks(mine, n, all, -1, ctx);
+}
+
 static int gatherv0(const double *mine, const int *n, double *all, mo_ctx *ctx)
 {
-  double t0 = mo_clock();
-  int *displ, r, rc;
-  long tot = 0;
-  if (!(displ = mo_malloc(ctx, (size_t)ctx->nranks * sizeof *displ))) return MO_ENOMEM;
-  for (r = 0; r < ctx->nranks; r++) {
-    displ[r] = (int)tot;
-    tot += n[r];
-  }
-  if (tot > 0x7fffffffL) {
-    mo_free(displ);
-    return mo_error(ctx, MO_ELIMIT, "MPI gather of %ld values", tot);
-  }
-  rc = MPI_Gatherv(mine, n[ctx->rank], MPI_DOUBLE, all, n, displ, MPI_DOUBLE, 0, PETSC_COMM_WORLD);
-  mo_free(displ);
-  if (rc != MPI_SUCCESS) return mpi_fail(ctx, rc, "gather");
-  traffic(ctx, t0, 8.0 * n[ctx->rank]);
-  return MO_OK;
+  return gather_blocks(mine, n, all, 0, ctx);
 }
 
 static int agree(int st, mo_ctx *ctx)

@@ -903,6 +903,63 @@ int nscd_grains_partition(nscd_state *S, const mo_contact_problem *P, mo_ctx *ct
   return S->xchg ? exchange_pattern(S, P, ctx) : MO_OK;
 }
 
+/* The gather's layout from the blocks' sizes S->gcnt: each rank's block's start in cur, the room in
+   S->gbuf for every block and the rank's own after them; *all and *mine in it. */
+static int gather_room(nscd_state *S, int *cur, double **all, double **mine, mo_ctx *ctx)
+{
+  size_t tot = 0;
+  int q;
+  for (q = 0; q < S->nranks; q++) {
+    cur[q] = (int)tot;
+    tot += (size_t)S->gcnt[q];
+  }
+  if (tot + (size_t)S->gcnt[S->rank] + 1 > S->gbcap) {
+    void *p = mo_realloc(ctx, S->gbuf, (tot + (size_t)S->gcnt[S->rank] + 1) * sizeof *S->gbuf);
+    if (!p) return MO_ENOMEM;
+    S->gbuf = p;
+    S->gbcap = tot + (size_t)S->gcnt[S->rank] + 1;
+  }
+  *all = S->gbuf;
+  *mine = S->gbuf + tot;
+  return MO_OK;
+}
+
+/* The count's numbers at the end of a block (T279): the rank's closed unknowns and dofs, then the
+   interface bodies its closed contacts move (a body that no other rank's contact touches is counted
+   by one rank at most; an interface body by every rank whose closed contacts move it: joined by
+   their marks). */
+static void count_pack(const nscd_state *S, double *at, int nu, int nd)
+{
+  const int nk = NK(S->d);
+  int i;
+  for (i = 0; i < S->nifc; i++) {
+    at[2 + i] = S->bmark[S->ifc[i]];
+    if (S->bmark[S->ifc[i]]) nd -= nk;
+  }
+  at[0] = nu;
+  at[1] = nd;
+}
+
+/* The count over the ranks from the gathered blocks, cur[q] at rank q's numbers. */
+static void count_join(const nscd_state *S, const double *all, const int *cur, int *unknowns, int *dofs)
+{
+  const int nk = NK(S->d);
+  double su = 0, sd = 0;
+  int q, i;
+  *dofs = 0;
+  for (q = 0; q < S->nranks; q++) {
+    su += all[cur[q]];
+    sd += all[cur[q] + 1];
+  }
+  for (i = 0; i < S->nifc; i++) {
+    double m = 0;
+    for (q = 0; q < S->nranks; q++) m += all[cur[q] + 2 + i];
+    if (m > 0) *dofs += nk;
+  }
+  *unknowns = (int)su;
+  *dofs += (int)sd;
+}
+
 /* --- the distributed set (doc/scaling.md §4) ------------------------------------------------------
    Every active contact of the problem is the rank's own: no rank holds another's. The bodies its
    contacts touch are told the other ranks by one sum over the bodies (2^rank from each rank that
@@ -1054,7 +1111,7 @@ int nscd_grains_gather_dist(nscd_state *S, const mo_contact_problem *P, double *
                             mo_ctx *ctx)
 {
   const int nk = NK(S->d), np = S->nranks, nx = unknowns ? 2 + S->nifc : 0;
-  size_t tot = 0, at = 0;
+  size_t at = 0;
   double *all, *mine;
   int i, l, q, st, nu = 0, nd = 0, *cur = S->pcnt;
   if (unknowns && (st = count_list(S, P, r, S->oorder, S->noact, &nu, &nd, ctx))) return st;
@@ -1062,29 +1119,11 @@ int nscd_grains_gather_dist(nscd_state *S, const mo_contact_problem *P, double *
   for (q = 0; q < np; q++) S->gcnt[q] = nx;
   for (i = 0; i < P->nfree; i++)
     if (S->bfirst[i] >= 0) S->gcnt[S->bfirst[i]] += i + nk <= P->nfree ? nk : P->nfree - i;
-  for (q = 0; q < np; q++) {
-    cur[q] = (int)tot;
-    tot += (size_t)S->gcnt[q];
-  }
-  if (tot + (size_t)S->gcnt[S->rank] + 1 > S->gbcap) {
-    void *p = mo_realloc(ctx, S->gbuf, (tot + (size_t)S->gcnt[S->rank] + 1) * sizeof *S->gbuf);
-    if (!p) return MO_ENOMEM;
-    S->gbuf = p;
-    S->gbcap = tot + (size_t)S->gcnt[S->rank] + 1;
-  }
-  all = S->gbuf;
-  mine = S->gbuf + tot;
+  if ((st = gather_room(S, cur, &all, &mine, ctx))) return st;
   for (i = 0; i < P->nfree; i++)
     if (S->bfirst[i] == S->rank)
       for (l = 0; l < nk && i + l < P->nfree; l++) mine[at++] = S->vb[i + l];
-  if (unknowns) {
-    for (i = 0; i < S->nifc; i++) {
-      mine[at + 2 + (size_t)i] = S->bmark[S->ifc[i]];
-      if (S->bmark[S->ifc[i]]) nd -= nk;
-    }
-    mine[at] = nu;
-    mine[at + 1] = nd;
-  }
+  if (unknowns) count_pack(S, mine + at, nu, nd);
   if ((st = mo_par_gatherv(mine, S->gcnt, all, ctx))) return st;
   for (i = 0; i < P->nfree; i++) {
     if (S->bfirst[i] < 0) {
@@ -1098,21 +1137,7 @@ int nscd_grains_gather_dist(nscd_state *S, const mo_contact_problem *P, double *
       i += l - 1;
     }
   }
-  if (unknowns) {
-    double su = 0, sd = 0;
-    *dofs = 0;
-    for (q = 0; q < np; q++) {
-      su += all[cur[q]];
-      sd += all[cur[q] + 1];
-    }
-    for (i = 0; i < S->nifc; i++) {
-      double m = 0;
-      for (q = 0; q < np; q++) m += all[cur[q] + 2 + i];
-      if (m > 0) *dofs += nk;
-    }
-    *unknowns = (int)su;
-    *dofs += (int)sd;
-  }
+  if (unknowns) count_join(S, all, cur, unknowns, dofs);
   /* U of the rank's candidates from every body's velocity: an open candidate may touch a body only
      another rank's contacts move */
   nscd_grains_exact_U(S, P);
@@ -1313,7 +1338,7 @@ int nscd_grains_gather(nscd_state *S, const mo_contact_problem *P, double *r, in
                        int *dofs, mo_ctx *ctx)
 {
   const int d = S->d, nk = NK(d), np = S->nranks, nx = unknowns ? 2 + S->nifc : 0;
-  size_t tot = 0, at = 0;
+  size_t at = 0;
   double *all, *mine;
   int a, i, k, l, q, st, nu = 0, nd = 0, *cur = S->pcnt; /* pcnt: the pattern's scratch, free here */
   /* the rank's own closed contacts, before the gather (their r and coefficients are the rank's) */
@@ -1330,18 +1355,7 @@ int nscd_grains_gather(nscd_state *S, const mo_contact_problem *P, double *r, in
   for (k = 0; k < S->nact; k++) S->gcnt[S->apart[k]] += d + 1 + (fin && !S->cifc[S->act[k]] ? d : 0);
   for (i = 0; i < P->nfree; i++)
     if (S->bfirst[i] >= 0 && !(fin && S->bmulti[i])) S->gcnt[S->bfirst[i]] += i + nk <= P->nfree ? nk : P->nfree - i;
-  for (q = 0; q < np; q++) {
-    cur[q] = (int)tot;
-    tot += (size_t)S->gcnt[q];
-  }
-  if (tot + (size_t)S->gcnt[S->rank] + 1 > S->gbcap) {
-    void *p = mo_realloc(ctx, S->gbuf, (tot + (size_t)S->gcnt[S->rank] + 1) * sizeof *S->gbuf);
-    if (!p) return MO_ENOMEM;
-    S->gbuf = p;
-    S->gbcap = tot + (size_t)S->gcnt[S->rank] + 1;
-  }
-  all = S->gbuf;
-  mine = S->gbuf + tot;
+  if ((st = gather_room(S, cur, &all, &mine, ctx))) return st;
   /* the block: the rank's contacts in the order of act, its bodies in dof order, then the count */
   for (k = 0; k < S->nact; k++)
     if (S->apart[k] == S->rank) {
@@ -1354,16 +1368,7 @@ int nscd_grains_gather(nscd_state *S, const mo_contact_problem *P, double *r, in
   for (i = 0; i < P->nfree; i++)
     if (S->bfirst[i] == S->rank && !(fin && S->bmulti[i]))
       for (l = 0; l < nk && i + l < P->nfree; l++) mine[at++] = fin ? S->vb[i + l] : S->vb[i + l] - P->xfree[i + l];
-  if (unknowns) {
-    /* a body that no other rank's contact touches is counted by one rank at most; an interface
-       body by every rank whose closed contacts move it: those are joined by their marks */
-    for (i = 0; i < S->nifc; i++) {
-      mine[at + 2 + (size_t)i] = S->bmark[S->ifc[i]];
-      if (S->bmark[S->ifc[i]]) nd -= nk;
-    }
-    mine[at] = nu;
-    mine[at + 1] = nd;
-  }
+  if (unknowns) count_pack(S, mine + at, nu, nd);
   if ((st = mo_par_gatherv(mine, S->gcnt, all, ctx))) return st;
   /* read in the order written, a cursor a rank; "+ 0.0" makes -0 the +0 the sum with the other
      ranks' zeros made before (T335: the same numbers to the bit) */
@@ -1398,21 +1403,7 @@ int nscd_grains_gather(nscd_state *S, const mo_contact_problem *P, double *r, in
       i += l - 1; /* a body's dofs follow its first: none of them has a bfirst of its own */
     }
   }
-  if (unknowns) {
-    double su = 0, sd = 0;
-    *dofs = 0;
-    for (q = 0; q < np; q++) {
-      su += all[cur[q]];
-      sd += all[cur[q] + 1];
-    }
-    for (i = 0; i < S->nifc; i++) {
-      double m = 0;
-      for (q = 0; q < np; q++) m += all[cur[q] + 2 + i];
-      if (m > 0) *dofs += nk;
-    }
-    *unknowns = (int)su;
-    *dofs += (int)sd;
-  }
+  if (unknowns) count_join(S, all, cur, unknowns, dofs);
   if (fin) finish_interface(S, P, r);
   return MO_OK;
 }
