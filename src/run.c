@@ -178,9 +178,9 @@ static int moving_rigid(const mo_scene *sc)
    rigid.coordination: closed contacts per moving rigid body, a contact with two of them counted
    for both; rigid.xmax, .ymax (, .zmax): the extent of the moving bodies, centre plus bounding
    radius: a pile's height, a collapse's front). */
-static void rigid_aggregates(const mo_scene *sc, const mo_state *s, const contact_view *cv, double *out)
+static int rigid_aggregates(const mo_scene *sc, const mo_state *s, const contact_view *cv, double *out, mo_ctx *ctx)
 {
-  int k, i, n = 0, D = sc->dim;
+  int k, i, n = 0, D = sc->dim, err;
   double vmax = 0, z = 0, ext[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
   for (k = 0; k < sc->nrigid; k++) {
     const mo_body *B = &sc->body[sc->rigid[k]];
@@ -201,11 +201,14 @@ static void rigid_aggregates(const mo_scene *sc, const mo_state *s, const contac
       z += (sc->body[sb].type->flags & MO_BODY_F_RIGID) && !sc->body[sb].fixed;
       z += mb >= 0 && (sc->body[mb].type->flags & MO_BODY_F_RIGID) && !sc->body[mb].fixed;
     }
+    /* the distributed set: each rank's contacts counted, summed (every rank writes the row) */
+    if (mo_contact_distributed(cv->C) && (err = mo_par_sum(&z, 1, ctx))) return err;
   }
   out[0] = mo_rigid_kinetic(sc, s);
   out[1] = vmax;
   out[2] = n ? z / n : 0;
   for (i = 0; i < D; i++) out[3 + i] = n ? ext[i] : 0;
+  return MO_OK;
 }
 
 /* The energies of a step, finite or the run stops (finite.c). */
@@ -450,7 +453,7 @@ static int time_warnings(const mo_scene *sc, char w[TIME_WARN_MAX][512])
   return n;
 }
 
-static json_t *contact_json(const mo_contact *C, const mo_contact_driver *D);
+static json_t *contact_json(const mo_contact *C, const mo_contact_driver *D, long ncand);
 
 /* contact.signorini = "position" in the case (the default is velocity level). */
 static int position_level(const mo_case *cs)
@@ -641,7 +644,8 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
                          const char *const *names, double e0, double e1, double drift,
                          double balance, double growth, int complete, const char *reason,
                          double wall, double steps_wall, double first_step, const double *p0, const double *pend,
-                         double eratio_end, long cuts, double dtmin, const char *blowup, double *work, mo_ctx *ctx)
+                         double eratio_end, long cuts, double dtmin, const char *blowup, double *work, long ncand,
+                         mo_ctx *ctx)
 {
   double *pw = NULL, *p1 = NULL, *pcm = NULL;
   int pw_fail = 0;
@@ -795,7 +799,7 @@ static int write_summary(const char *dir, const mo_case *cs, const mo_scene *sc,
     }
   }
   json_object_set_new(root, "energy", energy);
-  if (C && drv) json_object_set_new(root, "contact", contact_json(C, drv));
+  if (C && drv) json_object_set_new(root, "contact", contact_json(C, drv, ncand));
   for (k = 0; k < ncol; k++) {
     json_t *m;
     if (!cols[k].has_ref || cols[k].n == 0) continue;
@@ -955,7 +959,8 @@ static int dump_fclib(const char *dir, const mo_contact_driver *D, long step, mo
   return st;
 }
 
-static json_t *contact_json(const mo_contact *C, const mo_contact_driver *D)
+/* ncand: the set's candidates (with the set distributed, every rank's). */
+static json_t *contact_json(const mo_contact *C, const mo_contact_driver *D, long ncand)
 {
   json_t *j = json_object();
   long steps, it, maxit, wb;
@@ -965,10 +970,10 @@ static json_t *contact_json(const mo_contact *C, const mo_contact_driver *D)
   mo_contact_driver_totals(D, &steps, &it, &maxit, &wb, &maxres);
   json_object_set_new(j, "solver", json_string(mo_contact_driver_type(D)->name));
   json_object_set_new(j, "pairs", json_integer(mo_contact_npairs(C)));
-  json_object_set_new(j, "candidates", json_integer(mo_contact_ncandidates(C)));
-  if (mo_contact_ncandidates(C) > mo_contact_nstatic(C) || mo_contact_alert(C) > 0) {
+  json_object_set_new(j, "candidates", json_integer(ncand));
+  if (ncand > mo_contact_nstatic(C) || mo_contact_alert(C) > 0) {
     /* detected candidates (rigid shapes): the last step's, and the alert distance */
-    json_object_set_new(j, "candidates_detected", json_integer(mo_contact_ncandidates(C) - mo_contact_nstatic(C)));
+    json_object_set_new(j, "candidates_detected", json_integer(ncand - mo_contact_nstatic(C)));
     if (D) json_object_set_new(j, "candidates_max", json_integer(mo_contact_driver_candidates_max(D)));
     json_object_set_new(j, "alert", jnum(mo_contact_alert(C)));
     {
@@ -1205,6 +1210,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   int st, ncol = 0, nprobecol = 0, nexact = 0, k, p, complete = 0, ecol0 = 0, ccol0 = 0, table = 0, x0col;
   int nl = 0, necol = 0, ncol0 = 0, cutcol = 0, nvalcol = 0, nrigcol = 0, agcol = 0, pfcol = 0;
   int io = ctx->rank == 0, agreed = 0;
+  long ncand = 0;                   /* the set's candidates at the end (summary.json) */
   char reason[MO_ERRMSG_MAX] = "", blowup[512] = "";
   progress prog;
   stepping stepper;
@@ -1324,8 +1330,20 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
                       mo_case_file(cs), P->name, mo_quantity_name(P->q[q]));
         goto done;
       }
+      if (P->q[q] >= MO_Q_CX && P->q[q] <= MO_Q_LAM && mo_contact_distributed(C)) {
+        st = mo_error(ctx, MO_EUNSUPPORTED, "%s: probe '%s' asks for '%s', a contact value no rank holds whole "
+                      "with contact.distributed_set (doc/scaling.md §4): drop the quantity, or the key",
+                      mo_case_file(cs), P->name, mo_quantity_name(P->q[q]));
+        goto done;
+      }
       if (P->q[q] >= MO_Q_CX && P->q[q] <= MO_Q_CZ) cv.need_R = 1;
     }
+  }
+  if (C && mo_contact_distributed(C) && opt->dump_fclib) {
+    st = mo_error(ctx, MO_EUNSUPPORTED, "%s: --dump-fclib writes the whole contact set's problems, which no rank "
+                  "holds with contact.distributed_set (doc/scaling.md §4): run without one or the other",
+                  mo_case_file(cs));
+    goto done;
   }
   for (p = 0; nrigcol && p < sc->nrigid; p++) {
     int b = sc->rigid[p], q;
@@ -1453,6 +1471,12 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   } else if (io && (st = mo_draw_open(outdir, sc, cs, &draw, ctx))) goto done;
   if (!sc->nprobe) mo_note_skip(ctx, "probe histories (no output.probes)");
   if (!C) mo_note_skip(ctx, "contact (no contact pairs)");
+  /* the distributed set: the steps' outputs gather to rank 0 (collectives), so the ranks start only
+     once rank 0's files are open (a rank 0 that failed to open one waits in done) */
+  if (C && mo_contact_distributed(C) && (st = mo_par_agree(MO_OK, ctx))) {
+    agreed = 1;
+    goto done;
+  }
 
   prog.on = io && opt->progress && isatty(2) && ctx->verbosity >= 1;
   /* everything before the first step that no phase took (reading and checking the case, the
@@ -1581,7 +1605,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
             for (i = 0; i < sc->dim; i++) row[q++] = pf && s.step ? pf[3 * k + i] : 0;
       }
       if (cutcol) row[cutcol] = (double)stepper.cuts;
-      if (agcol) rigid_aggregates(sc, &s, &cv, row + agcol);
+      if (agcol && (st = rigid_aggregates(sc, &s, &cv, row + agcol, ctx))) goto done;
       if ((st = mo_finite_row(sc, &s, row, (const char *const *)names, ncol, ctx))) goto done;
       if (csv && (st = mo_csv_row(csv, row, ctx))) goto done;
     }
@@ -1664,10 +1688,15 @@ done:
   /* what summary.json reports from products with K and M, by every rank (over the ranks they
      are sums: doc/parallel.md §3), before rank 0 writes it */
   if (sc && s.u && met) eratio_end = mo_metrics_energy_ratio(met, &s);
+  ncand = C ? mo_contact_ncandidates(C) : 0;
   if (C && mo_contact_distributed(C)) {
-    /* the distributed set (doc/scaling.md §4): the ranks' contact measures joined on every rank, and
-       their contacts sent to rank 0's contact.csv (rank 0 gathers them in mo_contact_write_csv) */
+    /* the distributed set (doc/scaling.md §4): the ranks' contact measures joined on every rank, the
+       set's candidates summed, and their contacts sent to rank 0's contact.csv (rank 0 gathers them
+       in mo_contact_write_csv) */
+    double nsum = (double)ncand;
     int stj = met ? mo_metrics_join(met, ctx) : MO_OK;
+    if (!stj) stj = mo_par_sum(&nsum, 1, ctx);
+    ncand = (long)nsum;
     if (stj && !st) {
       st = stj;
       complete = 0;
@@ -1704,7 +1733,7 @@ done:
     st2 = write_summary(outdir, cs, sc, S, s.u ? &s : NULL, C, drv, met, cols, cols ? nvalcol : 0,
                         (const char *const *)names, e0, e1, drift, balance, emax_growth, complete, reason,
                         res->wall, res->step_wall, first_step, p0, pend, eratio_end, stepper.cuts, stepper.hmin,
-                        blowup, work, ctx);
+                        blowup, work, ncand, ctx);
     if (st2) {
       /* the "running" summary must not outlive the run */
       snprintf(path, sizeof path, "%s/summary.json", outdir);
