@@ -208,6 +208,11 @@ mpi 2 "$MOREAU" run "$MOREAU_SRCDIR/cases/disk-pile" --out "$OUT/dhist" --quiet 
 rc=$?
 ok $([ $rc -ne 0 ] && grep -q "output.contact_history is not written with contact.distributed_set" "$OUT/dhist.log" && echo 0 || echo 1) \
   "the set distributed with output.contact_history: refused with a message naming both keys (exit $rc)"
+mpi 2 "$MOREAU" run "$MOREAU_SRCDIR/cases/disk-pile" --out "$OUT/dfcl" --quiet --set contact.detect_split_min=0 \
+  --set contact.distributed_set=true --set bodies.grains.pack.count=60 --dump-fclib "$OUT/dfcl-dump" > "$OUT/dfcl.log" 2>&1
+rc=$?
+ok $([ $rc -ne 0 ] && grep -q "dump-fclib.*contact.distributed_set" "$OUT/dfcl.log" && echo 0 || echo 1) \
+  "the set distributed with --dump-fclib: refused, naming the key (exit $rc)"
 # Jean's rules over the ranks (T334): the sweep's sync is one sum, the maximum of a breakdown's
 # index and of |dU| |r| taken only under the maxm rule (and when a rank broke down); quad's
 # reported Maxm once after the last sweep. Against the serial runs under the same rule
