@@ -1007,6 +1007,8 @@ static json_t *contact_json(const mo_contact *C, const mo_contact_driver *D, lon
         json_object_set_new(mem, "driver", json_integer((json_int_t)dr));
         json_object_set_new(mem, "driver_candidates", json_integer((json_int_t)(dr - pd)));
       }
+      /* the distributed set: rank 0's own part (the process that writes the summary) */
+      if (mo_contact_distributed(C)) json_object_set_new(mem, "held", json_string("rank 0's part of the set"));
       json_object_set_new(j, "memory", mem);
     }
   }
