@@ -258,8 +258,9 @@ static int gather_merge(mo_vtk_source *src, const double *mine, long n, int w, i
   /* (the distributed set runs on at most 52 ranks: nscd_grains.c) */
   double c = (double)n * w, cnt_d[64], *all = NULL, bad = failed ? 1 : 0;
   int cnt[64] = {0}, one[64] = {0}, r, st = MO_OK;
-  long tot = 0, head[64], lim[64], k;
+  long tot = 0, head[64], lim[64], k, *ord = NULL;
   *total = 0;
+  mo_vtk_source_drop(src);
   if (np > 64) return mo_error(ctx, MO_ELIMIT, "contact output over %d ranks (at most 64)", np);
   for (r = 0; r < np; r++) one[r] = 1;
   /* every rank's count; then whether every rank has its room (a rank that has not: no gather) */
@@ -271,17 +272,10 @@ static int gather_merge(mo_vtk_source *src, const double *mine, long n, int w, i
     tot += cnt[r];
     lim[r] = tot;
   }
-  if (!bad && ctx->rank == 0) {
-    void *p;
-    if (!(all = mo_malloc(ctx, ((size_t)tot + 1) * sizeof *all))) bad = 1;
-    else if ((size_t)tot + 1 > src->reccap) {
-      if (!(p = mo_realloc(ctx, src->rec, ((size_t)tot + 1) * sizeof *src->rec))) bad = 1;
-      else {
-        src->rec = p;
-        src->reccap = (size_t)tot + 1;
-      }
-    }
-  }
+  if (!bad && ctx->rank == 0 &&
+      (!(all = mo_malloc(ctx, ((size_t)tot + 1) * sizeof *all)) ||
+       !(ord = mo_malloc(ctx, ((size_t)tot / (size_t)w + 1) * sizeof *ord))))
+    bad = 1;
   if ((st = mo_par_max(&bad, 1, ctx))) goto done;
   if (bad) {
     st = bad > 1 ? mo_error(ctx, MO_ELIMIT, "contact output: more than 2^31 values from one rank")
@@ -290,19 +284,25 @@ static int gather_merge(mo_vtk_source *src, const double *mine, long n, int w, i
   }
   if ((st = mo_par_gather0(mine, cnt, all, ctx))) goto done;
   if (ctx->rank == 0) {
-    /* the ranks' runs merged: the rank whose next entry comes first */
-    for (k = 0; k < tot; k += w) {
+    /* the ranks' runs merged (the rank whose next entry comes first), as places in rec */
+    for (k = 0; k < tot / w; k++) {
       int best = -1;
       for (r = 0; r < np; r++)
         if (head[r] < lim[r] && (best < 0 || order_before(all + head[r], all + head[best]))) best = r;
-      memcpy(src->rec + k, all + head[best], (size_t)w * sizeof *src->rec);
+      ord[k] = head[best];
       head[best] += w;
     }
+    src->rec = all;
+    src->ord = ord;
     src->recw = w;
+    src->nrec = tot / w;
     *total = tot / w;
+    all = NULL;
+    ord = NULL;
   }
 done:
   mo_free(all);
+  mo_free(ord);
   return st;
 }
 
@@ -323,7 +323,7 @@ static int write_csv_dist(const char *path, const mo_scene *sc, const mo_contact
   if ((st = mo_atomic_open(&A, path, ctx))) goto done;
   csv_header(A.f, D, d, 1);
   for (a = 0; a < P.src.nrec; a++) {
-    const double *e = P.src.rec + (size_t)a * PTW + ORDW;
+    const double *e = P.src.rec + P.src.ord[a] + ORDW;
     const mo_contact_pair *Q = &C->pair[(int)e[27]];
     const int sb = (int)e[30], mb = (int)e[31];
     fprintf(A.f, "%s,%ld,%d", Q->name, a, (int)e[28]);
@@ -566,7 +566,7 @@ static int network_fill_rec(mo_vtk_contacts *N, mo_ctx *ctx)
   (void)ctx;
   if (want > N->cap) want = N->cap;
   for (a = N->src.cursor; a < N->src.nrec && N->n < want; a++) {
-    const double *e = N->src.rec + (size_t)a * NETW + ORDW;
+    const double *e = N->src.rec + N->src.ord[a] + ORDW;
     const int n = N->n;
     for (i = 0; i < 6; i++) N->end[6 * n + i] = e[i];
     for (i = 0; i < 3; i++) N->point[3 * n + i] = e[6 + i];
@@ -591,36 +591,42 @@ static int network_dist(const mo_scene *sc, const mo_contact *C, const mo_contac
   int st, failed, a, i;
   const int *status = mo_contact_statuses(Dr);
   const double *r = mo_contact_reactions(Dr);
-  failed = mo_vtk_contacts_reserve(N, (int)own + 1, ctx) != MO_OK ||
+  failed = mo_vtk_contacts_reserve(N, MO_VTK_CHUNK, ctx) != MO_OK ||
            !(mine = mo_malloc(ctx, ((size_t)own * NETW + 1) * sizeof *mine));
   if (!failed) {
+    /* chunk by chunk; the candidates of the lines, in order: those network_fill takes */
+    long at = 0;
+    a = 0;
     N->total = own;
-    network_fill(N, ctx);
-    /* the candidates of the lines, in order: those network_fill took */
-    for (a = 0, k = 0; a < C->nc && k < N->n; a++) {
-      int any = status[a] != MO_CS_OPEN;
-      double *e = mine + (size_t)k * NETW;
-      for (i = 0; i < C->dim; i++) any |= r[a * C->dim + i] != 0;
-      if (!any) continue;
-      order_put(C, a, e);
-      e += ORDW;
-      for (i = 0; i < 6; i++) e[i] = N->end[6 * k + i];
-      for (i = 0; i < 3; i++) e[6 + i] = N->point[3 * k + i];
-      e[9] = N->rn[k];
-      e[10] = N->rt[k];
-      e[11] = N->gap[k];
-      e[12] = N->status[k];
-      e[13] = N->body[2 * k];
-      e[14] = N->body[2 * k + 1];
-      k++;
-    }
+    do {
+      N->first += N->n;
+      N->n = 0;
+      network_fill(N, ctx);
+      for (k = 0; k < N->n; k++, at++) {
+        double *e = mine + (size_t)at * NETW;
+        for (;; a++) {
+          int any = status[a] != MO_CS_OPEN;
+          for (i = 0; i < C->dim; i++) any |= r[a * C->dim + i] != 0;
+          if (any) break;
+        }
+        order_put(C, a++, e);
+        e += ORDW;
+        for (i = 0; i < 6; i++) e[i] = N->end[6 * k + i];
+        for (i = 0; i < 3; i++) e[6 + i] = N->point[3 * k + i];
+        e[9] = N->rn[k];
+        e[10] = N->rt[k];
+        e[11] = N->gap[k];
+        e[12] = N->status[k];
+        e[13] = N->body[2 * k];
+        e[14] = N->body[2 * k + 1];
+      }
+    } while (N->n > 0 && N->first + N->n < own);
   }
   N->total = 0;
   mo_vtk_contacts_rewind(N);
   st = gather_merge(&N->src, mine, failed ? 0 : own, NETW, failed, &total, ctx);
   mo_free(mine);
   if (st) return st;
-  N->src.nrec = total;
   N->total = total;
   N->fill = network_fill_rec;
   return MO_OK;
@@ -739,7 +745,7 @@ static int points_fill_rec(mo_vtk_points *P, mo_ctx *ctx)
   (void)ctx;
   if (want > P->cap) want = P->cap;
   for (a = P->src.cursor; a < nrec && P->n < want; a++) {
-    const double *e = P->src.rec + (size_t)a * PTW + ORDW;
+    const double *e = P->src.rec + P->src.ord[a] + ORDW;
     const int n = P->n;
     if (P->src.closed_only && !e[32]) continue;
     for (i = 0; i < 3; i++) {
@@ -781,13 +787,21 @@ static int points_dist(const mo_scene *sc, const mo_contact *C, const mo_contact
   P->fill = NULL;
   mo_vtk_points_rewind(P);
   frame_source(&P->src, sc, C, Dr, s, 0);
-  failed = mo_vtk_points_reserve(P, n + 1, d, ctx) != MO_OK ||
+  failed = mo_vtk_points_reserve(P, MO_VTK_CHUNK, d, ctx) != MO_OK ||
            !(mine = mo_malloc(ctx, ((size_t)n * PTW + 1) * sizeof *mine));
   if (!failed) {
+    /* chunk by chunk, each entry packed at its candidate's place */
     cand_values_get(sc, C, Dr, &v);
     P->total = n;
-    points_fill(P, ctx);
-    for (a = 0; a < n; a++) point_pack(C, P, a, a, cand_closed(&v, d, a), mine + (size_t)a * PTW);
+    do {
+      P->first += P->n;
+      P->n = 0;
+      points_fill(P, ctx);
+      for (k = 0; k < P->n; k++) {
+        a = P->cand[k];
+        point_pack(C, P, (int)k, a, cand_closed(&v, d, a), mine + (size_t)a * PTW);
+      }
+    } while (P->n > 0 && P->first + P->n < n);
   }
   P->total = 0;
   mo_vtk_points_rewind(P);
@@ -795,8 +809,7 @@ static int points_dist(const mo_scene *sc, const mo_contact *C, const mo_contact
   mo_free(mine);
   if (st) return st;
   P->src.closed_only = closed_only;
-  P->src.nrec = total;
-  for (k = 0; k < total; k++) sel += !closed_only || P->src.rec[(size_t)k * PTW + ORDW + 32] != 0;
+  for (k = 0; k < total; k++) sel += !closed_only || P->src.rec[P->src.ord[k] + ORDW + 32] != 0;
   P->total = sel;
   P->fill = points_fill_rec;
   return MO_OK;

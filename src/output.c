@@ -565,6 +565,15 @@ int mo_vtk_contacts_reserve(mo_vtk_contacts *N, int n, mo_ctx *ctx)
   return MO_OK;
 }
 
+void mo_vtk_source_drop(mo_vtk_source *src)
+{
+  mo_free(src->rec);
+  mo_free(src->ord);
+  src->rec = NULL;
+  src->ord = NULL;
+  src->nrec = 0;
+}
+
 void mo_vtk_contacts_release(mo_vtk_contacts *N)
 {
   if (!N) return;
@@ -575,7 +584,7 @@ void mo_vtk_contacts_release(mo_vtk_contacts *N)
   mo_free(N->gap);
   mo_free(N->status);
   mo_free(N->body);
-  mo_free(N->src.rec);
+  mo_vtk_source_drop(&N->src);
   memset(N, 0, sizeof *N);
 }
 
@@ -617,7 +626,7 @@ void mo_vtk_points_release(mo_vtk_points *P)
   mo_free(P->x); mo_free(P->x0); mo_free(P->disp); mo_free(P->normal); mo_free(P->R); mo_free(P->U);
   mo_free(P->force); mo_free(P->vrel); mo_free(P->gap); mo_free(P->lambda); mo_free(P->measure);
   mo_free(P->cand); mo_free(P->pair); mo_free(P->node); mo_free(P->status); mo_free(P->body);
-  mo_free(P->src.rec);
+  mo_vtk_source_drop(&P->src);
   memset(P, 0, sizeof *P);
 }
 

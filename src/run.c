@@ -1629,6 +1629,9 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
           (st = mo_contact_history_write(chist, sc, C, drv, &s, ctx)))
         goto done;
       if (dframe && (st = mo_draw_frame(draw, sc, &s, &net, ctx))) goto done;
+      /* (the distributed set: the frame's gathered contacts freed once written) */
+      mo_vtk_source_drop(&net.src);
+      mo_vtk_source_drop(&pts.src);
     }
     progress_draw(&prog, s.step, sc->time.steps, s.t, last, drv);
     {

@@ -71,11 +71,14 @@ typedef struct mo_vtk_source {
   int closed_only;
   /* the distributed set (doc/scaling.md §4): on rank 0 every rank's entries gathered, recw
      numbers each, in contact.csv's order; cursor then counts them */
-  double *rec;
-  size_t reccap;
+  double *rec;          /* every rank's entries as received (rank by rank) */
+  long *ord;            /* rec's entries in that order: the place of each in rec */
   long nrec;
   int recw;
 } mo_vtk_source;
+
+/* The gathered entries of a source freed (the distributed set's, once its frame is written). */
+void mo_vtk_source_drop(mo_vtk_source *src);
 
 /* The contact network: one line per candidate that is closed or carries a reaction. cap is the
    room of the arrays (entries). The owner releases them with mo_vtk_contacts_release. */
