@@ -502,42 +502,24 @@ int mo_metrics_join(mo_metrics *M, mo_ctx *ctx)
     if ((int)M->hf[a].nsign > M->nsign_gone) M->nsign_gone = (int)M->hf[a].nsign;
     if (M->alt && M->alt[a] > M->alt_max) M->alt_max = M->alt[a];
   }
-  x[0] = M->max_pen;
-  x[1] = M->final_pen;
-  x[2] = M->max_vn_closed;
-  x[3] = M->vscale;
-  x[4] = M->uscale;
-  x[5] = M->vround;
-  x[6] = M->vland;
-  x[7] = M->alt_max;
-  x[8] = M->max_vn_watch;
-  x[9] = M->vscale_watch;
-  x[10] = M->vfloor;
-  x[11] = M->vimpact;
-  x[12] = M->nsign_gone;
-  x[13] = M->tv_gone;
-  x[14] = isnan(M->first_release) ? -HUGE_VAL : -M->first_release;
-  x[15] = 0;
-  y[0] = M->impulse;
-  y[1] = (double)M->flips;
-  y[2] = (double)M->unmeasured;
-  y[3] = (double)M->restarts;
-  if ((st = mo_par_max(x, 16, ctx)) || (st = mo_par_sum(y, 4, ctx))) return st;
-  M->max_pen = x[0];
-  M->final_pen = x[1];
-  M->max_vn_closed = x[2];
-  M->vscale = x[3];
-  M->uscale = x[4];
-  M->vround = x[5];
-  M->vland = x[6];
-  M->alt_max = x[7];
-  M->max_vn_watch = x[8];
-  M->vscale_watch = x[9];
-  M->vfloor = x[10];
-  M->vimpact = x[11];
-  M->nsign_gone = (int)x[12];
-  M->tv_gone = x[13];
-  M->first_release = x[14] == -HUGE_VAL ? NAN : -x[14];
+  {
+    /* the maxima of doubles, through one table */
+    double *const mx[] = {&M->max_pen, &M->final_pen, &M->max_vn_closed, &M->vscale, &M->uscale, &M->vround,
+                          &M->vland, &M->alt_max, &M->max_vn_watch, &M->vscale_watch, &M->vfloor, &M->vimpact,
+                          &M->tv_gone};
+    const int nm = (int)(sizeof mx / sizeof *mx);
+    for (a = 0; a < nm; a++) x[a] = *mx[a];
+    x[nm] = M->nsign_gone;
+    x[nm + 1] = isnan(M->first_release) ? -HUGE_VAL : -M->first_release;
+    y[0] = M->impulse;
+    y[1] = (double)M->flips;
+    y[2] = (double)M->unmeasured;
+    y[3] = (double)M->restarts;
+    if ((st = mo_par_max(x, nm + 2, ctx)) || (st = mo_par_sum(y, 4, ctx))) return st;
+    for (a = 0; a < nm; a++) *mx[a] = x[a];
+    M->nsign_gone = (int)x[nm];
+    M->first_release = x[nm + 1] == -HUGE_VAL ? NAN : -x[nm + 1];
+  }
   M->impulse = y[0];
   M->flips = (long)y[1];
   M->unmeasured = (long)y[2];
