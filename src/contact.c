@@ -1256,6 +1256,34 @@ static int split_step(const mo_contact_driver *D)
   return D->W && !bodies_only(D, mo_stepper_inverse(D->S)) && mo_stepper_split_covers(D->S, D->C->H);
 }
 
+/* The statuses after a solve: open outside the index set; their counts in the report. */
+static void count_statuses(mo_contact_driver *D, mo_contact_report *rep)
+{
+  int a;
+  for (a = 0; a < D->nc; a++) {
+    if (!D->active[a]) D->status[a] = MO_CS_OPEN;
+    rep->nopen += D->status[a] == MO_CS_OPEN;
+    rep->nstick += D->status[a] == MO_CS_STICK;
+    rep->nslide += D->status[a] == MO_CS_SLIDE;
+  }
+}
+
+/* A non-finite reaction of this rank's candidates, or (elsewhere) of another rank's, fails the
+   step: no NaN leaves the back end. */
+static int check_finite(const mo_contact_driver *D, int elsewhere, long step, double t, mo_ctx *ctx)
+{
+  char who[200] = "on another rank";
+  int i;
+  for (i = 0; i < D->m; i++)
+    if (!isfinite(D->r[i])) {
+      describe(D, i / D->d, who, sizeof who);
+      break;
+    }
+  if (i == D->m && !elsewhere) return MO_OK;
+  return mo_error(ctx, MO_ENAN, "step %ld (t = %.6g): contact back end %s returned a non-finite reaction at "
+                  "candidate %s", step, t, D->T->name, who);
+}
+
 /* Steps 2-7 of a step (doc/theory.md §5): from the unconstrained iterate D->xfull (full; D->xf
    its free part) and the gaps at the start of the step, the local problem, the back end's
    solve, the core's measure, and the correction dx (free dofs) added to D->xfull. rstep: the
@@ -1413,42 +1441,21 @@ resolve:
     double v[8];
     int bad = 0;
     for (i = 0; i < m && !bad; i++) bad = !isfinite(D->r[i]);
-    for (a = 0; a < nc; a++) {
-      if (!D->active[a]) D->status[a] = MO_CS_OPEN;
-      rep->nopen += D->status[a] == MO_CS_OPEN;
-      rep->nstick += D->status[a] == MO_CS_STICK;
-      rep->nslide += D->status[a] == MO_CS_SLIDE;
-    }
+    count_statuses(D, rep);
     mo_fc_natural_map_parts(d, D->nact, D->act, D->mu, D->C->key, D->pmu, NULL, D->r, D->U, v);
     v[3] = D->qn2;
     v[4] = bad;
     v[5] = rep->nopen;
     v[6] = rep->nstick;
     v[7] = rep->nslide;
-    if ((st = mo_par_sum(v, 8, ctx))) return st;
-    if (v[4] > 0) {
-      char who[200] = "on another rank";
-      for (i = 0; i < m; i++)
-        if (!isfinite(D->r[i])) {
-          describe(D, i / d, who, sizeof who);
-          break;
-        }
-      return mo_error(ctx, MO_ENAN, "step %ld (t = %.6g): contact back end %s returned a non-finite reaction at "
-                      "candidate %s", P->step, s->t + h, D->T->name, who);
-    }
+    if ((st = mo_par_sum(v, 8, ctx)) || (st = check_finite(D, v[4] > 0, P->step, s->t + h, ctx))) return st;
     rep->residual = mo_fc_natural_map_join(v, sqrt(v[3]));
     rep->nopen = (int)v[5];
     rep->nstick = (int)v[6];
     rep->nslide = (int)v[7];
     goto measured;
   }
-  for (i = 0; i < m; i++)
-    if (!isfinite(D->r[i])) {
-      char who[200];
-      describe(D, i / d, who, sizeof who);
-      return mo_error(ctx, MO_ENAN, "step %ld (t = %.6g): contact back end %s returned a non-finite "
-                      "reaction at candidate %s", P->step, s->t + h, D->T->name, who);
-    }
+  if ((st = check_finite(D, 0, P->step, s->t + h, ctx))) return st;
   /* 6. the core's measure: U' = W r + q when W is known, else the back end's U; W r is kept
      for contact_finish */
   if (D->wused) {
@@ -1488,12 +1495,7 @@ resolve:
                                                    sqrt(qn));
   }
   if (D->wkeep && (st = keep_solved(D, newton, ctx))) return st;
-  for (a = 0; a < nc; a++) {
-    if (!D->active[a]) D->status[a] = MO_CS_OPEN;
-    rep->nopen += D->status[a] == MO_CS_OPEN;
-    rep->nstick += D->status[a] == MO_CS_STICK;
-    rep->nslide += D->status[a] == MO_CS_SLIDE;
-  }
+  count_statuses(D, rep);
 measured:
   if (any) {
     if (newton < 0) { /* a nonlinear step counts its Newton iterations' solves as one */

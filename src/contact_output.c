@@ -589,8 +589,8 @@ static int network_dist(const mo_scene *sc, const mo_contact *C, const mo_contac
   long own = frame_source(&N->src, sc, C, Dr, s, 1), total = 0, k;
   double *mine = NULL;
   int st, failed, a, i;
-  const int *status = mo_contact_statuses(Dr);
-  const double *r = mo_contact_reactions(Dr);
+  cand_values v;
+  cand_values_get(sc, C, Dr, &v);
   failed = mo_vtk_contacts_reserve(N, MO_VTK_CHUNK, ctx) != MO_OK ||
            !(mine = mo_malloc(ctx, ((size_t)own * NETW + 1) * sizeof *mine));
   if (!failed) {
@@ -604,11 +604,7 @@ static int network_dist(const mo_scene *sc, const mo_contact *C, const mo_contac
       network_fill(N, ctx);
       for (k = 0; k < N->n; k++, at++) {
         double *e = mine + (size_t)at * NETW;
-        for (;; a++) {
-          int any = status[a] != MO_CS_OPEN;
-          for (i = 0; i < C->dim; i++) any |= r[a * C->dim + i] != 0;
-          if (any) break;
-        }
+        while (!cand_closed(&v, C->dim, a)) a++;
         order_put(C, a++, e);
         e += ORDW;
         for (i = 0; i < 6; i++) e[i] = N->end[6 * k + i];

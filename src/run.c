@@ -1213,6 +1213,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   int nl = 0, necol = 0, ncol0 = 0, cutcol = 0, nvalcol = 0, nrigcol = 0, agcol = 0, pfcol = 0;
   int io = ctx->rank == 0, agreed = 0;
   long ncand = 0;                   /* the set's candidates at the end (summary.json) */
+  int drawing = 0;                  /* the case draws (rank 0 decides the frames) */
   char reason[MO_ERRMSG_MAX] = "", blowup[512] = "";
   progress prog;
   stepping stepper;
@@ -1470,7 +1471,10 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   if (opt->no_draw) {
     if (config_lookup(&cs->cfg, "output.draw"))
       mo_note_skip(ctx, "drawings (output.draw: left to single runs, not the runs of a comparison)");
-  } else if (io && (st = mo_draw_open(outdir, sc, cs, &draw, ctx))) goto done;
+  } else {
+    if (io && (st = mo_draw_open(outdir, sc, cs, &draw, ctx))) goto done;
+    drawing = config_lookup(&cs->cfg, "output.draw") != NULL; /* on every rank (draw: rank 0's) */
+  }
   if (!sc->nprobe) mo_note_skip(ctx, "probe histories (no output.probes)");
   if (!C) mo_note_skip(ctx, "contact (no contact pairs)");
   /* the distributed set: the steps' outputs gather to rank 0 (collectives), so the ranks start only
@@ -1615,20 +1619,25 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
       /* fields and drawings, with the contact network of the step when they need it */
       int vframe = vtk && (s.step % sc->out.vtk_every == 0 || last);
       int dframe = draw && mo_draw_wants(draw, s.step);
-      int want[2] = {vframe || dframe, vframe && mo_vtk_wants_points(vtk)};
-      /* the distributed set: rank 0's frames, and every rank's contacts gathered to them (doc/scaling.md
-         §4) */
-      if (C && mo_contact_distributed(C) && (st = mo_par_bcast(want, (long)sizeof want, 0, ctx))) goto done;
-      if (want[0] && (st = mo_contact_network(sc, C, drv, &s, &net, ctx))) goto done;
-      if (want[1] &&
+      int vpoints = vframe && mo_vtk_wants_points(vtk);
+      if (C && mo_contact_distributed(C)) {
+        /* the distributed set: every rank's contacts gathered to rank 0's frames (doc/scaling.md §4),
+           the series' frames the case's, the drawing's rank 0's (its schedule depends on its
+           gnuplot), told to the others only where the case draws */
+        vframe = sc->out.vtk && (s.step % sc->out.vtk_every == 0 || last);
+        vpoints = vframe && sc->out.vtk_contacts != MO_VTK_CONTACTS_NONE;
+        if (drawing && (st = mo_par_bcast(&dframe, (long)sizeof dframe, 0, ctx))) goto done;
+      }
+      if ((vframe || dframe) && (st = mo_contact_network(sc, C, drv, &s, &net, ctx))) goto done;
+      if (vpoints &&
           (st = mo_contact_points(sc, C, drv, &s, sc->out.vtk_contacts == MO_VTK_CONTACTS_CLOSED, &pts, ctx)))
         goto done;
-      if (vframe && (st = mo_vtk_frame(vtk, sc, &s, &net, &pts, ctx))) goto done;
+      if (vframe && vtk && (st = mo_vtk_frame(vtk, sc, &s, &net, &pts, ctx))) goto done;
       /* the candidates of the step, every output.contact_history.every steps */
       if (chist && drv && (s.step % sc->out.contact_history_every == 0 || last) &&
           (st = mo_contact_history_write(chist, sc, C, drv, &s, ctx)))
         goto done;
-      if (dframe && (st = mo_draw_frame(draw, sc, &s, &net, ctx))) goto done;
+      if (dframe && draw && (st = mo_draw_frame(draw, sc, &s, &net, ctx))) goto done;
       /* (the distributed set: the frame's gathered contacts freed once written) */
       mo_vtk_source_drop(&net.src);
       mo_vtk_source_drop(&pts.src);
