@@ -212,6 +212,28 @@ double mo_rigid_kinetic(const mo_scene *sc, const mo_state *s)
   return e;
 }
 
+double mo_rigid_kinetic_list(const mo_scene *sc, const mo_state *s, const int *list, int n, const unsigned char *mask)
+{
+  double e = 0, M[36];
+  int k, i, j, nd = mo_rigid_ndof(sc->dim);
+  for (k = 0; k < n; k++) {
+    const mo_body *B = &sc->body[list[k]];
+    const double *v = s->v + B->dof0;
+    if ((mask && !mask[list[k]]) || !(B->type->flags & MO_BODY_F_RIGID)) continue;
+    if (sc->dim == 2) {
+      e += 0.5 * v[0] * B->mass * v[0];
+      e += 0.5 * v[1] * B->mass * v[1];
+      e += 0.5 * v[2] * B->J[0] * v[2];
+      if (!isfinite(v[0]) || !isfinite(v[1]) || !isfinite(v[2])) e += NAN;
+      continue;
+    }
+    mo_rigid_mass(sc, B, s, M);
+    for (i = 0; i < nd; i++)
+      for (j = 0; j < nd; j++) e += 0.5 * v[i] * M[i * nd + j] * v[j];
+  }
+  return e;
+}
+
 double mo_rigid_bound(const mo_body *B) { return B->bound; }
 
 void mo_polygon_world(const mo_scene *sc, const mo_body *B, const mo_state *s, double *v)

@@ -1314,6 +1314,11 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
   if (!D->qu && !D->q && !(D->q = mo_malloc(ctx, ((size_t)D->cap * d + 1) * sizeof *D->q))) return MO_ENOMEM;
   /* the distributed set (doc/scaling.md §4) on the granular path only */
   D->grains.dist = mo_contact_distributed(C);
+  if (!mo_contact_held(C, &D->grains.hold, &D->grains.hlist, &D->grains.nhlist, NULL)) {
+    D->grains.hold = NULL;
+    D->grains.hlist = NULL;
+    D->grains.nhlist = 0;
+  }
   if (D->grains.dist && !D->qu)
     return mo_error(ctx, MO_EUNSUPPORTED, "contact.distributed_set needs the granular path (rigid shapes, back end "
                     "nscd, a linear step)");
@@ -1757,6 +1762,11 @@ static int contact_finish(mo_contact_driver *D, mo_state *s, const double *x, mo
       return mo_error(ctx, MO_ELIMIT, "contact.distributed_set with %d contact pairs (at most 63)", D->C->npair);
   }
   s->wcontact += w;
+  {
+    /* the bodies' state per rank: the external work of each body on the rank that counts it */
+    const unsigned char *cnt = NULL;
+    mo_stepper_count_bodies(D->S, mo_contact_held(D->C, NULL, NULL, NULL, &cnt) ? cnt : NULL);
+  }
   if ((st = mo_stepper_finish(D->S, s, x, ctx))) return st;
   if (corr && (st = position_correction(D, s, D->tmp, ctx))) return st;
   if ((st = mo_contact_geometry(D->C, s, s->t, D->C->repair, ctx))) return st;

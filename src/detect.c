@@ -769,6 +769,14 @@ static int pair_owned(void *arg, int i, int j)
   return mo_pdetect_owns_pair(C->pd, C->sc->dim, C->bc, C->bR, i, j);
 }
 
+/* Body b's snapshot at a build: its centre, margin e_b and grown radius. */
+static inline void snapshot(mo_contact *C, int D, int b)
+{
+  memcpy(C->bc + (size_t)D * b, C->bcur + (size_t)D * b, (size_t)D * sizeof *C->bc);
+  C->be[b] = 2 * C->h * C->bs2[b];
+  C->br[b] = C->sc->body[b].bound + C->be[b];
+}
+
 /* The broad phase's pair list, kept while it holds every pair closer than its alert distance
    (pair_alert; doc/theory.md (T110)): built with each body's bounding ball grown by what it could
    close relative to the others' mean motion at its speed then (e_b = 2 h s'_b, s'_b its speed
@@ -798,11 +806,20 @@ static int pair_list(mo_contact *C, const mo_state *s, mo_ctx *ctx)
     C->bc = C->br = C->be = C->bs2 = NULL;
   }
   if (!C->pd && C->verlet == 2) return pair_list_blocks(C, s, ctx);
-  if (C->pd && valid) {
+  if (C->pd && (valid || C->pd->held)) {
     /* split over the ranks: each rank its own bodies (T230); at a build, the speeds of the bodies
-       outside its slab and halo, then every body's relative speed */
-    if ((st = valid_split(C, D, vm, &valid, ctx))) return st;
-    if (!valid) {
+       outside its slab and halo, then every body's relative speed. With the bodies' state per rank
+       (§13.18) the means from the own bodies even when the list is to be made again, and only the
+       bodies this rank holds: the others' state is not current here */
+    const int held = C->pd->held;
+    int ok;
+    if ((st = valid_split(C, D, vm, &ok, ctx))) return st;
+    valid = valid && ok;
+    if (!valid && held) {
+      const int *hl = C->pd->hlist;
+      for (b = 0; b < C->pd->nhlist; b++)
+        if (C->bmask[hl[b]]) relative_speed(C, D, vm, hl[b]);
+    } else if (!valid) {
       const int *rest;
       const int nr = mo_pdetect_rest(C->pd, &rest);
       for (b = 0; b < nr; b++) body_speed(C, s, rest[b]);
@@ -827,16 +844,28 @@ static int pair_list(mo_contact *C, const mo_state *s, mo_ctx *ctx)
     mo_phase_add(ctx, MO_PH_BROAD, t0);
     return MO_OK;
   }
-  for (b = 0; b < sc->nbody; b++)
-    if (C->bmask[b]) {
-      memcpy(C->bc + (size_t)D * b, C->bcur + (size_t)D * b, (size_t)D * sizeof *C->bc);
-      C->be[b] = 2 * C->h * C->bs2[b];
-      C->br[b] = sc->body[b].bound + C->be[b];
+  if (C->pd && C->pd->held)
+    for (k = 0; k < C->pd->nhlist; k++) {
+      if (C->bmask[b = C->pd->hlist[k]]) snapshot(C, D, b);
     }
+  else
+    for (b = 0; b < sc->nbody; b++)
+      if (C->bmask[b]) snapshot(C, D, b);
   C->vl_reach = C->alert + C->skin;
   /* split over the ranks: the slabs of this build, and the broad phase on this rank's slab and
      its halo (T215)-(T216) */
-  if (C->pd && (st = mo_pdetect_build(C, ctx))) return st;
+  if (C->pd && (st = mo_pdetect_build(C, s, ctx))) return st;
+  if (C->pd && C->pd->held) {
+    /* the bodies this rank received at the build: their speeds and snapshot from the state they
+       came with (the sender's, to the bit) */
+    const int *rl;
+    const int nr = mo_pdetect_received(C->pd, &rl);
+    for (k = 0; k < nr; k++) {
+      body_speed(C, s, rl[k]);
+      relative_speed(C, D, vm, rl[k]);
+      snapshot(C, D, rl[k]);
+    }
+  }
   if ((st = mo_broad_pairs(C->broad, D, sc->nbody, C->bc, C->br, C->pd ? mo_pdetect_mask(C) : C->bmask, C->vl_reach,
                            &pairs, &np, ctx))) {
     C->vl_built = 0;

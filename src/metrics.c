@@ -313,7 +313,7 @@ double mo_metrics_energy_ratio(const mo_metrics *M, const mo_state *s)
 void mo_metrics_energies(const mo_metrics *M, const mo_state *s, double *ek, double *ee, double *ratio, double *excess)
 {
   double e0 = M->e0 + M->eshift, e;
-  *ek = mo_energy_kinetic(M->sc, s, M->work);
+  if (isnan(*ek)) *ek = mo_energy_kinetic(M->sc, s, M->work);
   *ee = mo_energy_stored(M->sc, s, M->work);   /* elastic, and finite-strain bodies' stored */
   /* the plastic work is energy the bodies took (T65), as in mech_energy */
   e = *ek + *ee + (M->sc->nonlinear ? s->wplastic : 0) - s->wext - s->wsupport + M->eshift;

@@ -29,6 +29,7 @@ double mo_metrics_energy_ratio(const mo_metrics *M, const mo_state *s);
 /* The kinetic and elastic energies of s and the ratio above, from one product by M and one by
    K (the run measures them at every step); excess (may be NULL): E(t) - E_ref, the numerator of
    the growth, defined also where E_ref = 0 and the ratio is not (doc/theory.md (T49a)). */
+/* *ek on entry: NaN, or the kinetic energy given (the bodies' state per rank: the ranks' sum). */
 void mo_metrics_energies(const mo_metrics *M, const mo_state *s, double *ek, double *ee, double *ratio, double *excess);
 /* Over MPI ranks with the set distributed (mo_contact_distributed): each rank's measures of its own
    candidates joined into the whole set's (maxima, sums), on every rank: a collective, called once

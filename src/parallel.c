@@ -222,6 +222,27 @@ int mo_par_exchange(int npeer, const int *peer, const int *off, const double *se
   return MO_OK;
 }
 
+int mo_par_alltoall(const double *send, double *recv, mo_ctx *ctx)
+{
+#ifdef HAVE_PETSC
+  if (PARALLEL(ctx)) return MODULE(ctx)->alltoall(send, recv, ctx);
+#endif
+  recv[0] = send[0];
+  (void)ctx;
+  return MO_OK;
+}
+
+int mo_par_exchangev(int nsend, const int *speer, const int *soff, const double *send, int nrecv, const int *rpeer,
+                     const int *roff, double *recv, mo_ctx *ctx)
+{
+#ifdef HAVE_PETSC
+  if (PARALLEL(ctx) && nsend + nrecv > 0)
+    return MODULE(ctx)->exchangev(nsend, speer, soff, send, nrecv, rpeer, roff, recv, ctx);
+#endif
+  (void)nsend; (void)speer; (void)soff; (void)send; (void)nrecv; (void)rpeer; (void)roff; (void)recv; (void)ctx;
+  return MO_OK;
+}
+
 int mo_par_agree(int st, mo_ctx *ctx)
 {
 #ifdef HAVE_PETSC

@@ -12,6 +12,7 @@
 #include <moreau/parallel.h>
 
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 #define NTAG MO_PDETECT_NTAG
@@ -23,11 +24,13 @@ static inline int with_map(const mo_contact *C)
 }
 
 
-int mo_pdetect_boxes(int dim, int n, const double *c, const double *r, const unsigned char *mask, double reach,
-                     long npts, const double *pts, int nranks, int rank, mo_rcb_tree *T, int *owner,
-                     unsigned char *rmask, int *idx, int *ppart)
+/* mo_pdetect_boxes with the largest radius given (rmax >= 0: the bodies' state per rank, where a rank
+   knows only its own bodies' radii: their maximum over the ranks) and the halo returned. */
+static int boxes(int dim, int n, const double *c, const double *r, const unsigned char *mask, double reach, long npts,
+                 const double *pts, int nranks, int rank, mo_rcb_tree *T, int *owner, unsigned char *rmask, int *idx,
+                 int *ppart, double rmax, double *halo_out)
 {
-  double rmax = 0, lo[3], hi[3], halo;
+  double lo[3], hi[3], halo;
   int b, k;
   /* (T341) the boxes cut from the points, or (T215), (T330) from the bodies' centres; a body's box
      its centre's */
@@ -36,8 +39,9 @@ int mo_pdetect_boxes(int dim, int n, const double *c, const double *r, const uns
     for (b = 0; b < n; b++) owner[b] = !mask || mask[b] ? mo_rcb_locate(T, c + (size_t)dim * b) : -1;
   } else if (mo_rcb_tree_make(dim, n, c, NULL, mask, nranks, owner, idx, T) < 0)
     return -1;
-  for (b = 0; b < n; b++)
-    if (owner[b] >= 0 && r[b] > rmax) rmax = r[b];
+  if (rmax < 0)
+    for (rmax = 0, b = 0; b < n; b++)
+      if (owner[b] >= 0 && r[b] > rmax) rmax = r[b];
   /* (T216), (T341): a pair within reach whose point (on the segment between the centres) lies in
      the box has both centres within 2 r_max + reach of it */
   halo = (2 * rmax + reach) * (1 + 1e-9);
@@ -50,7 +54,15 @@ int mo_pdetect_boxes(int dim, int n, const double *c, const double *r, const uns
     }
     rmask[b] = (unsigned char)in;
   }
+  if (halo_out) *halo_out = halo;
   return 0;
+}
+
+int mo_pdetect_boxes(int dim, int n, const double *c, const double *r, const unsigned char *mask, double reach,
+                     long npts, const double *pts, int nranks, int rank, mo_rcb_tree *T, int *owner,
+                     unsigned char *rmask, int *idx, int *ppart)
+{
+  return boxes(dim, n, c, r, mask, reach, npts, pts, nranks, rank, T, owner, rmask, idx, ppart, -1, NULL);
 }
 
 void mo_pdetect_free(mo_contact *C)
@@ -77,6 +89,16 @@ void mo_pdetect_free(mo_contact *C)
   mo_free(P->pidx);
   mo_free(P->ppart);
   mo_free(P->cown);
+  mo_free(P->hold);
+  mo_free(P->hlist);
+  mo_free(P->count);
+  mo_free(P->mig_old);
+  mo_free(P->mig_box);
+  mo_free(P->mig_m);
+  mo_free(P->rlist);
+  mo_free(P->mig_s);
+  mo_free(P->mig_r);
+  mo_free(P->mig_cnt);
   mo_free(P);
   C->pd = NULL;
 }
@@ -164,13 +186,14 @@ int mo_pdetect_begin(mo_contact *C, mo_ctx *ctx)
    sweep's parts balance, when there are at least MO_PDETECT_PTS a rank, else from the bodies'
    centres. The same data on every rank, so the same boxes. */
 #define MO_PDETECT_PTS 16
-static int build_boxes(mo_contact *C, mo_ctx *ctx)
+static int build_boxes(mo_contact *C, int nold, mo_ctx *ctx)
 {
   struct mo_pdetect *P = C->pd;
   const mo_scene *sc = C->sc;
   const int D = sc->dim;
   long np = 0;
-  int i;
+  int i, centres = 0;
+  double rmax = -1;
   const size_t need = (size_t)(C->knold > sc->nbody ? C->knold : sc->nbody) + 1;
   if (room((void **)&P->pts, &P->ptcap, need * (size_t)D, sizeof *P->pts, ctx) ||
       room((void **)&P->pidx, &P->pidxcap, need, sizeof *P->pidx, ctx) ||
@@ -186,6 +209,28 @@ static int build_boxes(mo_contact *C, mo_ctx *ctx)
       /* against an obstacle the shape's own centre (i == j) */
       mo_pdetect_point(D, C->bc, C->bR, si ? s : m, mi ? m : s, P->pts + (size_t)D * np++);
     }
+  if (P->held) {
+    /* the bodies' state per rank: the largest radius over the ranks' own bodies (the others' are
+       not current here); with too few points, the own bodies' centres gathered as the points */
+    long tot = np;
+    rmax = 0;
+    for (i = 0; i < nold; i++)
+      if (C->br[P->mig_old[i]] > rmax) rmax = C->br[P->mig_old[i]];
+    {
+      double v[2] = {rmax, 0};
+      int st;
+      if ((st = mo_par_max(v, 1, ctx))) return st;
+      rmax = v[0];
+      v[0] = (double)np;
+      if ((st = mo_par_sum(v, 1, ctx))) return st;
+      tot = (long)v[0];
+    }
+    if (tot < (long)MO_PDETECT_PTS * P->nranks) {
+      for (np = 0; np < nold; np++)
+        memcpy(P->pts + (size_t)D * np, C->bc + (size_t)D * P->mig_old[np], (size_t)D * sizeof *P->pts);
+      centres = 1;
+    }
+  }
   if (C->pd_dist) {
     /* the distributed set: each rank holds its own candidates' activities, the points gathered
        (every rank cuts the same boxes from the same points, in the ranks' order) */
@@ -207,21 +252,312 @@ static int build_boxes(mo_contact *C, mo_ctx *ctx)
     np = tot / D;
   }
   ctx->par_detect_builds++;
-  if (np < (long)MO_PDETECT_PTS * P->nranks) np = 0; /* too few: the bodies' centres */
-  else ctx->par_detect_boxpts++;
-  if (mo_pdetect_boxes(D, sc->nbody, C->bc, C->br, C->bmask, C->vl_reach, np, P->pts, P->nranks, P->rank, &P->tree,
-                       P->owner, P->rmask, P->pidx, P->ppart) < 0)
+  if (np < (long)MO_PDETECT_PTS * P->nranks && !P->held) np = 0; /* too few: the bodies' centres */
+  else if (!centres) ctx->par_detect_boxpts++;
+  if (boxes(D, sc->nbody, C->bc, C->br, C->bmask, C->vl_reach, np, P->pts, P->nranks, P->rank, &P->tree, P->owner,
+            P->rmask, P->pidx, P->ppart, rmax, &P->halo) < 0)
     return mo_error(ctx, MO_ELIMIT, "contact detection over %d ranks (at most %d)", P->nranks, MO_RCB_MAXPARTS);
   return MO_OK;
 }
 
-int mo_pdetect_build(mo_contact *C, mo_ctx *ctx)
+/* --- the bodies' state per rank (doc/theory.md §13.18) --------------------------------------------- */
+
+/* Whether the scene's bodies can be held per rank: the distributed set, rigid bodies and obstacles
+   only, every dof free (no prescribed motion to follow, whose reactions every rank would sum), no
+   step cutting (a cut step's state is restored from a copy the builds of the cut step did not
+   write), at most 52 ranks (the hold masks travel in doubles). The same answer on every rank. */
+static int held_eligible(const mo_contact *C, const mo_ctx *ctx)
+{
+  const mo_scene *sc = C->sc;
+  return C->pd_dist && sc->nfe_dof == 0 && sc->nfree == sc->ndof && ctx->nranks <= 52 && sc->nrigid > 0 &&
+         sc->time.max_cuts <= 0;
+}
+
+/* The ranks whose boxes grown by the halo hold the centre c of a body whose box is `owner` (the
+   test of boxes(), so that a rank holds a body exactly when its own mask says so). */
+static unsigned long long holders(const struct mo_pdetect *P, int D, const double *c, int owner)
+{
+  unsigned long long m = 0;
+  double lo[3], hi[3];
+  int k, i;
+  for (k = 0; k < P->nranks; k++) {
+    int in = 1;
+    if (k != owner) {
+      mo_rcb_box(&P->tree, k, lo, hi);
+      for (i = 0; i < D && in; i++) in = c[i] >= lo[i] - P->halo && c[i] <= hi[i] + P->halo;
+    }
+    if (in) m |= 1ULL << k;
+  }
+  return m;
+}
+
+/* A body's record: its index, box, hold mask, then u and v of its dofs (and a: Newmark), and its
+   orientation (3D). */
+static int record_size(const mo_scene *sc, const mo_state *s)
+{
+  const int nd = sc->dim == 3 ? 6 : 3;
+  return 3 + nd * (s->a ? 3 : 2) + (sc->dim == 3 ? 4 : 0);
+}
+
+static void record_pack(const mo_scene *sc, const mo_state *s, int b, int owner, unsigned long long m, double *x)
+{
+  const mo_body *B = &sc->body[b];
+  const int nd = sc->dim == 3 ? 6 : 3;
+  int i, k = 3;
+  x[0] = b;
+  x[1] = owner;
+  x[2] = (double)m;
+  for (i = 0; i < nd; i++) x[k++] = s->u[B->dof0 + i];
+  for (i = 0; i < nd; i++) x[k++] = s->v[B->dof0 + i];
+  for (i = 0; i < nd && s->a; i++) x[k++] = s->a[B->dof0 + i];
+  for (i = 0; i < 4 && sc->dim == 3; i++) x[k++] = s->orient[4 * (size_t)B->orient + i];
+}
+
+static int record_unpack(const mo_scene *sc, mo_state *s, const double *x, int *owner, unsigned long long *m)
+{
+  const int b = (int)x[0], nd = sc->dim == 3 ? 6 : 3;
+  const mo_body *B = &sc->body[b];
+  int i, k = 3;
+  *owner = (int)x[1];
+  *m = (unsigned long long)x[2];
+  for (i = 0; i < nd; i++) s->u[B->dof0 + i] = x[k++];
+  for (i = 0; i < nd; i++) s->v[B->dof0 + i] = x[k++];
+  for (i = 0; i < nd && s->a; i++) s->a[B->dof0 + i] = x[k++];
+  for (i = 0; i < 4 && sc->dim == 3; i++) s->orient[4 * (size_t)B->orient + i] = x[k++];
+  return b;
+}
+
+/* The tests' check that no rank reads a body it does not hold (MOREAU_TEST_POISON_UNHELD set): the
+   state of every such body made absurd (1e30 in each value, finite so that nothing stops on it),
+   so that a stale read shows in the results compared with the serial run's. Not at step 0, where
+   every rank's state is still whole and current (the run's initial energies and momenta read it). */
+static void poison_unheld(mo_contact *C, mo_state *s)
+{
+  const mo_scene *sc = C->sc;
+  const int nd = sc->dim == 3 ? 6 : 3;
+  const char *e = getenv("MOREAU_TEST_POISON_UNHELD");
+  int b, i;
+  if (!e || !*e || !s || s->step == 0) return;
+  for (b = 0; b < sc->nbody; b++) {
+    const mo_body *B = &sc->body[b];
+    if (!C->bmask[b] || C->pd->rmask[b]) continue;
+    for (i = 0; i < nd; i++) s->u[B->dof0 + i] = s->v[B->dof0 + i] = 1e30;
+    for (i = 0; i < nd && s->a; i++) s->a[B->dof0 + i] = 1e30;
+    for (i = 0; i < 4 && sc->dim == 3; i++) s->orient[4 * (size_t)B->orient + i] = 1e30;
+  }
+}
+
+/* The lists that follow the hold: the bodies this rank holds, ascending, and those it counts. */
+static void hold_lists(mo_contact *C)
+{
+  struct mo_pdetect *P = C->pd;
+  const mo_scene *sc = C->sc;
+  const unsigned long long all = P->nranks >= 64 ? ~0ULL : (1ULL << P->nranks) - 1;
+  int b;
+  P->nhlist = 0;
+  for (b = 0; b < sc->nbody; b++) {
+    if (!C->bmask[b]) {
+      /* outside the broad phase: every rank's, counted by rank 0 */
+      P->hold[b] = all;
+      P->count[b] = P->rank == 0;
+      if ((sc->body[b].type->flags & MO_BODY_F_RIGID) && !sc->body[b].fixed) P->hlist[P->nhlist++] = b;
+      continue;
+    }
+    P->count[b] = P->owner[b] == P->rank;
+    if (P->rmask[b]) P->hlist[P->nhlist++] = b;
+  }
+}
+
+static int held_start(mo_contact *C, mo_state *s, mo_ctx *ctx)
+{
+  struct mo_pdetect *P = C->pd;
+  const mo_scene *sc = C->sc;
+  int b;
+  if (!(P->hold = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *P->hold)) ||
+      !(P->hlist = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *P->hlist)) ||
+      !(P->count = mo_calloc(ctx, (size_t)sc->nbody + 1, 1)) ||
+      !(P->mig_old = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *P->mig_old)) ||
+      !(P->mig_box = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *P->mig_box)) ||
+      !(P->mig_m = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *P->mig_m)) ||
+      !(P->mig_cnt = mo_calloc(ctx, 7 * (size_t)P->nranks + 2, sizeof *P->mig_cnt)))
+    return MO_ENOMEM;
+  /* every rank holds every body now: each its box's and halo's from here on */
+  for (b = 0; b < sc->nbody; b++)
+    if (C->bmask[b] && P->rmask[b]) P->hold[b] = holders(P, sc->dim, C->bc + (size_t)sc->dim * b, P->owner[b]);
+  P->held = 1;
+  ctx->par_held = 1;
+  P->nrecv = 0;
+  hold_lists(C);
+  poison_unheld(C, s);
+  return MO_OK;
+}
+
+/* At a build: each body this rank owned at the last build (its centre in its box then; mig_old) goes
+   to the ranks that hold it now, its state with it; the others' bodies arrive. Then this rank's mask
+   and boxes of the bodies are those the records say (a body it does not hold: owner -2). */
+static int migrate(mo_contact *C, mo_state *s, int nold, mo_ctx *ctx)
+{
+  struct mo_pdetect *P = C->pd;
+  const mo_scene *sc = C->sc;
+  const int D = sc->dim, np = P->nranks, me = P->rank, R = record_size(sc, s);
+  int *scnt = P->mig_cnt, *rcnt = scnt + np, *soff = rcnt + np, *roff = soff + np + 1;
+  int i, k, b, st, nsend = 0, nrecv = 0;
+  double *cs, *cr;
+  long ts = 0, tr = 0;
+  /* the counts */
+  for (k = 0; k < np; k++) scnt[k] = 0;
+  for (i = 0; i < nold; i++) {
+    const unsigned long long m = holders(P, D, C->bc + (size_t)D * P->mig_old[i], P->owner[P->mig_old[i]]);
+    P->mig_m[i] = m;
+    for (k = 0; k < np; k++)
+      if (k != me && (m >> k & 1)) scnt[k]++;
+  }
+  if (!(cs = mo_malloc(ctx, 2 * (size_t)np * sizeof *cs))) return MO_ENOMEM;
+  cr = cs + np;
+  for (k = 0; k < np; k++) cs[k] = scnt[k];
+  if ((st = mo_par_alltoall(cs, cr, ctx))) {
+    mo_free(cs);
+    return st;
+  }
+  for (k = 0; k < np; k++) {
+    rcnt[k] = (int)cr[k];
+    ts += scnt[k];
+    tr += rcnt[k];
+  }
+  mo_free(cs);
+  if (room((void **)&P->mig_s, &P->mig_scap, (size_t)(ts * R) + 1, sizeof *P->mig_s, ctx) ||
+      room((void **)&P->mig_r, &P->mig_rcap, (size_t)(tr * R) + 1, sizeof *P->mig_r, ctx) ||
+      room((void **)&P->rlist, &P->rlistcap, (size_t)tr + 1, sizeof *P->rlist, ctx))
+    return MO_ENOMEM;
+  /* the peers and their offsets (values), then the records in the ranks' blocks */
+  {
+    int *speer = roff + np + 1, *rpeer = speer + np, *sat = rpeer + np;
+    int so = 0, ro = 0;
+    for (k = 0; k < np; k++) {
+      sat[k] = so;
+      if (scnt[k]) {
+        speer[nsend] = k;
+        soff[nsend++] = so;
+        so += scnt[k] * R;
+      }
+      if (rcnt[k]) {
+        rpeer[nrecv] = k;
+        roff[nrecv++] = ro;
+        ro += rcnt[k] * R;
+      }
+    }
+    soff[nsend] = so;
+    roff[nrecv] = ro;
+    for (i = 0; i < nold; i++) {
+      const int bb = P->mig_old[i], o = P->owner[bb];
+      const unsigned long long m = P->mig_m[i];
+      for (k = 0; k < np; k++)
+        if (k != me && (m >> k & 1)) {
+          record_pack(sc, s, bb, o, m, P->mig_s + sat[k]);
+          sat[k] += R;
+        }
+    }
+    if ((st = mo_par_exchangev(nsend, speer, soff, P->mig_s, nrecv, rpeer, roff, P->mig_r, ctx))) return st;
+  }
+  ctx->par_state_moved += ts;
+  /* this rank's mask and boxes from the records: its own old bodies it still holds, and those it
+     received (written into the state) */
+  for (i = 0; i < nold; i++) P->mig_box[i] = P->mig_m[i] >> me & 1 ? P->owner[P->mig_old[i]] : -3;
+  for (b = 0; b < sc->nbody; b++)
+    if (C->bmask[b]) {
+      P->rmask[b] = 0;
+      P->owner[b] = -2;
+    }
+  for (i = 0; i < nold; i++) {
+    const int bb = P->mig_old[i];
+    if (P->mig_box[i] == -3) continue; /* no longer held here */
+    P->owner[bb] = P->mig_box[i];
+    P->hold[bb] = P->mig_m[i];
+    P->rmask[bb] = 1;
+  }
+  for (i = 0; i < (int)tr; i++) {
+    int o;
+    unsigned long long m;
+    b = record_unpack(sc, s, P->mig_r + (size_t)i * R, &o, &m);
+    P->owner[b] = o;
+    P->hold[b] = m;
+    P->rmask[b] = 1;
+    P->rlist[i] = b;
+  }
+  P->nrecv = (int)tr;
+  hold_lists(C);
+  poison_unheld(C, s);
+  return MO_OK;
+}
+
+int mo_contact_held(const mo_contact *C, const unsigned long long **hold, const int **hlist, int *nhlist,
+                    const unsigned char **count)
+{
+  const struct mo_pdetect *P = C->pd;
+  if (!P || !P->held) return 0;
+  if (hold) *hold = P->hold;
+  if (hlist) *hlist = P->hlist;
+  if (nhlist) *nhlist = P->nhlist;
+  if (count) *count = P->count;
+  return 1;
+}
+
+int mo_contact_state_join(mo_contact *C, mo_state *s, mo_ctx *ctx)
+{
+  struct mo_pdetect *P = C->pd;
+  const mo_scene *sc = C->sc;
+  int i, k, st, R, n;
+  long tot = 0;
+  double mine;
+  if (!P || !P->held) return MO_OK;
+  R = record_size(sc, s);
+  n = P->nown;
+  if (room((void **)&P->mig_s, &P->mig_scap, (size_t)n * R + 1, sizeof *P->mig_s, ctx)) return MO_ENOMEM;
+  for (i = 0; i < P->nown; i++)
+    record_pack(sc, s, P->own[i], P->rank, P->hold[P->own[i]], P->mig_s + (size_t)i * R);
+  mine = (double)n * R;
+  if ((st = mo_par_gatherv(&mine, P->one, P->rc, ctx))) return st;
+  for (k = 0; k < P->nranks; k++) {
+    P->cnt[k] = (int)P->rc[k];
+    tot += P->cnt[k];
+  }
+  if (room((void **)&P->mig_r, &P->mig_rcap, (size_t)tot + 1, sizeof *P->mig_r, ctx)) return MO_ENOMEM;
+  if ((st = mo_par_gatherv(P->mig_s, P->cnt, P->mig_r, ctx))) return st;
+  for (i = 0; i < (int)(tot / R); i++) {
+    /* every body's state as its owner has it; what this rank holds stays as its masks say */
+    int o;
+    unsigned long long m;
+    record_unpack(sc, s, P->mig_r + (size_t)i * R, &o, &m);
+  }
+  ctx->par_state_joins++;
+  return MO_OK;
+}
+
+int mo_pdetect_received(const struct mo_pdetect *P, const int **b)
+{
+  *b = P->rlist;
+  return P->nrecv;
+}
+
+int mo_pdetect_build(mo_contact *C, const mo_state *s, mo_ctx *ctx)
 {
   struct mo_pdetect *P = C->pd;
   const mo_scene *sc = C->sc;
   size_t nw = 0;
-  int b, k, i, st;
-  if ((st = build_boxes(C, ctx))) return st;
+  int b, k, i, st, nold = 0;
+  /* the bodies' state per rank: the senders of this build are the bodies this rank owned at the last */
+  if (P->held) {
+    memcpy(P->mig_old, P->own, (size_t)P->nown * sizeof *P->mig_old);
+    nold = P->nown;
+  }
+  if ((st = build_boxes(C, nold, ctx))) return st;
+  P->nrecv = 0;
+  if (P->held) {
+    /* the state the detection reads is the caller's own (contact_finish's): the bodies received
+       are written into it */
+    if ((st = migrate(C, (mo_state *)s, nold, ctx))) return st;
+  } else if (held_eligible(C, ctx) && (st = held_start(C, (mo_state *)s, ctx)))
+    return st;
   /* (T230): the bodies whose validity this rank decides, whose speeds it needs, and the others */
   P->nown = P->nnear = P->nrest = 0;
   for (b = 0; b < sc->nbody; b++) {

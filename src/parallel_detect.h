@@ -60,13 +60,30 @@ struct mo_pdetect {
   const double *up_u, *up_v;
   long up_step, up_set;
   int up_nc;
+  /* The bodies' state per rank (doc/theory.md §13.18): with the distributed set on a scene of rigid
+     bodies and obstacles only, from the second build of the list each rank keeps current only the
+     bodies of its box and halo (rmask) and those outside the broad phase (every rank's); at each
+     build the owner of each body sends its state to every rank that newly or still holds it. */
+  int held;                /* on from the first build (then every rank holds every body) */
+  unsigned long long *hold;/* per body this rank holds: the ranks that hold it (bit r: rank r) */
+  int *hlist, nhlist;      /* the bodies this rank holds (broad phase's and others, ascending) */
+  unsigned char *count;    /* per body: 1 when this rank counts it in the sums over bodies (its own,
+                              and rank 0 the dynamic bodies outside the broad phase) */
+  double halo;             /* the halo of the last build's boxes */
+  int *mig_old, *mig_box;  /* scratch: the own list of the last build (the senders' bodies), their boxes */
+  unsigned long long *mig_m; /* scratch: their hold masks now */
+  int *rlist, nrecv;       /* the bodies received at the last build */
+  size_t rlistcap;
+  double *mig_s, *mig_r;   /* the records sent and received at a build */
+  size_t mig_scap, mig_rcap;
+  int *mig_cnt;            /* 7 nranks + 2: counts sent, received; offsets, peers, cursors */
 };
 
 /* Whether this rank detects body b's candidates against obstacles (it owns its box); a body in no
    pair between shapes (a shape against obstacles only) is rank 0's. */
 static inline int mo_pdetect_owns(const struct mo_pdetect *P, int b)
 {
-  return P->owner[b] == P->rank || (P->owner[b] < 0 && P->rank == 0);
+  return P->owner[b] == P->rank || (P->owner[b] == -1 && P->rank == 0);
 }
 
 /* A pair's point (T341): between shapes i and j, the point of the segment between their centres
@@ -101,7 +118,10 @@ int mo_pdetect_active(struct mo_contact *C, mo_ctx *ctx);
 int mo_pdetect_begin(struct mo_contact *C, mo_ctx *ctx);
 /* After a broad-phase build: the slabs and this rank's mask of the bodies (from C->bc, C->br),
    and its lists of bodies and shapes (T230)-(T231). */
-int mo_pdetect_build(struct mo_contact *C, mo_ctx *ctx);
+int mo_pdetect_build(struct mo_contact *C, const mo_state *s, mo_ctx *ctx);
+/* The bodies received at the last build, whose detection data (speeds, snapshot) the caller forms
+   from the state (their count; *b the list). */
+int mo_pdetect_received(const struct mo_pdetect *P, const int **b);
 /* This rank's own bodies of the broad phase at the last build (their count; *b the list). */
 static inline int mo_pdetect_own(const struct mo_pdetect *P, const int **b)
 {

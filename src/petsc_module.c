@@ -197,6 +197,34 @@ static int exchange(int npeer, const int *peer, const int *off, const double *se
   return MO_OK;
 }
 
+static int alltoall(const double *send, double *recv, mo_ctx *ctx)
+{
+  double t0 = mo_clock();
+  int rc = MPI_Alltoall((void *)send, 1, MPI_DOUBLE, recv, 1, MPI_DOUBLE, PETSC_COMM_WORLD);
+  if (rc != MPI_SUCCESS) return mpi_fail(ctx, rc, "all-to-all");
+  traffic(ctx, t0, 8.0 * ctx->nranks);
+  return MO_OK;
+}
+
+static int exchangev(int nsend, const int *speer, const int *soff, const double *send, int nrecv, const int *rpeer,
+                     const int *roff, double *recv, mo_ctx *ctx)
+{
+  MPI_Request few[32], *req = few;
+  double t0 = mo_clock();
+  int k, rc = MPI_SUCCESS;
+  if (nsend + nrecv > 32 && !(req = mo_malloc(ctx, (size_t)(nsend + nrecv) * sizeof *req))) return MO_ENOMEM;
+  for (k = 0; k < nrecv && rc == MPI_SUCCESS; k++)
+    rc = MPI_Irecv(recv + roff[k], roff[k + 1] - roff[k], MPI_DOUBLE, rpeer[k], 0x6d70, PETSC_COMM_WORLD, req + k);
+  for (k = 0; k < nsend && rc == MPI_SUCCESS; k++)
+    rc = MPI_Isend((void *)(send + soff[k]), soff[k + 1] - soff[k], MPI_DOUBLE, speer[k], 0x6d70, PETSC_COMM_WORLD,
+                   req + nrecv + k);
+  if (rc == MPI_SUCCESS) rc = MPI_Waitall(nsend + nrecv, req, MPI_STATUSES_IGNORE);
+  if (req != few) mo_free(req);
+  if (rc != MPI_SUCCESS) return mpi_fail(ctx, rc, "exchange");
+  traffic(ctx, t0, 8.0 * soff[nsend]);
+  return MO_OK;
+}
+
 /* --- the linear-solver type ----------------------------------------------------------------------- */
 
 typedef struct {
@@ -1301,4 +1329,5 @@ static void dmat_counts(void *h, long *nnz, long *allocated, long *sent)
 extern const mo_petsc_module mo_petsc_module_v1;
 const mo_petsc_module mo_petsc_module_v1 = {MO_PETSC_ABI, PETSC_VERSION_GIT, start, started, finish, allreduce,
                                             bcast, allgatherv, agree, exchange, &petsc_type, dmat_create, dmat_add,
-                                            dmat_assemble, dmat_mult, dmat_row, dmat_counts, dmat_free, gatherv0};
+                                            dmat_assemble, dmat_mult, dmat_row, dmat_counts, dmat_free, gatherv0,
+                                            alltoall, exchangev};

@@ -14,7 +14,7 @@
 #include <moreau/sparse.h>
 
 /* Raised whenever a member changes meaning or position. */
-#define MO_PETSC_ABI 9
+#define MO_PETSC_ABI 10
 #define MO_PETSC_SYMBOL "mo_petsc_module_v1"
 #define MO_PETSC_MODULE_NAME "moreau_petsc.so"
 
@@ -75,6 +75,12 @@ typedef struct mo_petsc_module {
   void (*dmat_free)(void *A);
   /* allgatherv's blocks to rank 0 only (all read on rank 0 alone). */
   int (*gatherv0)(const double *mine, const int *n, double *all, mo_ctx *ctx);
+  /* One value to each rank: send[r] to rank r, recv[r] from it (MPI_Alltoall). */
+  int (*alltoall)(const double *send, double *recv, mo_ctx *ctx);
+  /* Point to point, the counts apart: send[soff[k] .. soff[k + 1]) to speer[k] (nsend of them),
+     recv[roff[k] .. roff[k + 1]) from rpeer[k] (nrecv); each sender's count is its receiver's. */
+  int (*exchangev)(int nsend, const int *speer, const int *soff, const double *send, int nrecv, const int *rpeer,
+                   const int *roff, double *recv, mo_ctx *ctx);
 } mo_petsc_module;
 
 #endif

@@ -178,19 +178,28 @@ static int moving_rigid(const mo_scene *sc)
    rigid.coordination: closed contacts per moving rigid body, a contact with two of them counted
    for both; rigid.xmax, .ymax (, .zmax): the extent of the moving bodies, centre plus bounding
    radius: a pile's height, a collapse's front). */
-static int rigid_aggregates(const mo_scene *sc, const mo_state *s, const contact_view *cv, double *out, mo_ctx *ctx)
+static int rigid_aggregates(const mo_scene *sc, const mo_state *s, const contact_view *cv, const unsigned char *count,
+                            double ek, double *out, mo_ctx *ctx)
 {
   int k, i, n = 0, D = sc->dim, err;
   double vmax = 0, z = 0, ext[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
   for (k = 0; k < sc->nrigid; k++) {
     const mo_body *B = &sc->body[sc->rigid[k]];
     double v2 = 0, xc[3];
-    if (B->fixed) continue;
+    /* the bodies' state per rank: each rank its counted bodies, joined below */
+    if (B->fixed || (count && !count[sc->rigid[k]])) continue;
     n++;
     for (i = 0; i < D; i++) v2 += s->v[B->dof0 + i] * s->v[B->dof0 + i];
     vmax = fmax(vmax, sqrt(v2));
     mo_rigid_center(sc, B, s, xc);
     for (i = 0; i < D; i++) ext[i] = fmax(ext[i], xc[i] + B->bound);
+  }
+  if (count) {
+    double sm[1] = {n}, mx[4] = {vmax, ext[0], ext[1], ext[2]};
+    if ((err = mo_par_sum(sm, 1, ctx)) || (err = mo_par_max(mx, 4, ctx))) return err;
+    n = (int)sm[0];
+    vmax = mx[0];
+    for (i = 0; i < 3; i++) ext[i] = mx[1 + i];
   }
   if (cv->C && cv->D) {
     const int *st = mo_contact_statuses(cv->D);
@@ -204,7 +213,7 @@ static int rigid_aggregates(const mo_scene *sc, const mo_state *s, const contact
     /* the distributed set: each rank's contacts counted, summed (every rank writes the row) */
     if (mo_contact_distributed(cv->C) && (err = mo_par_sum(&z, 1, ctx))) return err;
   }
-  out[0] = mo_rigid_kinetic(sc, s);
+  out[0] = count ? ek : mo_rigid_kinetic(sc, s);
   out[1] = vmax;
   out[2] = n ? z / n : 0;
   for (i = 0; i < D; i++) out[3 + i] = n ? ext[i] : 0;
@@ -365,6 +374,14 @@ static json_t *parallel_json(const mo_ctx *ctx, const mo_scene *sc)
     json_object_set_new(j, "grain_detect_builds_on_contacts", json_integer(ctx->par_detect_boxpts));
     /* the distributed set (doc/scaling.md §4): each rank held the candidates it detected only */
     json_object_set_new(j, "contact_set", json_string(ctx->par_dset ? "distributed" : "whole on every rank"));
+    /* the bodies' state (doc/theory.md §13.18): each rank its box's and halo's bodies, the records
+       of the bodies sent at the builds to the ranks that hold them next (this rank's), and the
+       joins of every body's state for the outputs */
+    json_object_set_new(j, "bodies_state", json_string(ctx->par_held ? "per rank" : "whole on every rank"));
+    if (ctx->par_held) {
+      json_object_set_new(j, "state_records_sent", json_integer(ctx->par_state_moved));
+      json_object_set_new(j, "state_joins", json_integer(ctx->par_state_joins));
+    }
   }
   return j;
 }
@@ -1365,7 +1382,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   /* energy.ratio only where it is defined: E0 != 0 (doc/case-format.md) */
   mo_metrics_step(met, &s, NULL);
   {
-    double ek0, ee0;
+    double ek0 = NAN, ee0;
     mo_metrics_energies(met, &s, &ek0, &ee0, &eratio0, NULL);
     ratio_col = isfinite(eratio0);
   }
@@ -1504,7 +1521,28 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
 
   for (;;) {
     int last = s.step == sc->time.steps, write_row = s.step % sc->out.every == 0 || last;
-    double t0 = mo_clock(), ek = 0, ee = 0, eratio, excess, growth;
+    double t0 = mo_clock(), ek = NAN, ee = 0, eratio, excess, growth;
+    int vframe = vtk && (s.step % sc->out.vtk_every == 0 || last), dframe = draw && mo_draw_wants(draw, s.step);
+    const int *hlist = NULL;
+    const unsigned char *hcount = NULL;
+    int nhlist = 0;
+    const int held = C && mo_contact_held(C, NULL, &hlist, &nhlist, &hcount);
+    if (C && mo_contact_distributed(C)) {
+      /* the distributed set: every rank's contacts gathered to rank 0's frames (doc/scaling.md §4),
+         the series' frames the case's, the drawing's rank 0's (its schedule depends on its
+         gnuplot), told to the others only where the case draws */
+      vframe = sc->out.vtk && (s.step % sc->out.vtk_every == 0 || last);
+      if (drawing && (st = mo_par_bcast(&dframe, (long)sizeof dframe, 0, ctx))) goto done;
+    }
+    if (held) {
+      /* the bodies' state per rank (doc/theory.md §13.18): the kinetic energy summed over the
+         ranks' counted bodies; every body's state joined where an output reads it (the frames, the
+         probes' and the bodies' columns, the run's end) */
+      ek = mo_rigid_kinetic_list(sc, &s, hlist, nhlist, hcount);
+      if ((st = mo_par_sum(&ek, 1, ctx))) goto done;
+      if ((last || vframe || dframe || ((write_row || nexact) && nvalcol)) && (st = mo_contact_state_join(C, &s, ctx)))
+        goto done;
+    }
     /* energies at every step, not only on the rows written: the growth and drift the summary
        reports (and `moreau compare` classifies runs on) must not depend on output.every */
     mo_metrics_energies(met, &s, &ek, &ee, &eratio, &excess);
@@ -1611,23 +1649,15 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
             for (i = 0; i < sc->dim; i++) row[q++] = pf && s.step ? pf[3 * k + i] : 0;
       }
       if (cutcol) row[cutcol] = (double)stepper.cuts;
-      if (agcol && (st = rigid_aggregates(sc, &s, &cv, row + agcol, ctx))) goto done;
+      if (agcol && (st = rigid_aggregates(sc, &s, &cv, held ? hcount : NULL, ek, row + agcol, ctx))) goto done;
       if ((st = mo_finite_row(sc, &s, row, (const char *const *)names, ncol, ctx))) goto done;
       if (csv && (st = mo_csv_row(csv, row, ctx))) goto done;
     }
     {
-      /* fields and drawings, with the contact network of the step when they need it */
-      int vframe = vtk && (s.step % sc->out.vtk_every == 0 || last);
-      int dframe = draw && mo_draw_wants(draw, s.step);
-      int vpoints = vframe && mo_vtk_wants_points(vtk);
-      if (C && mo_contact_distributed(C)) {
-        /* the distributed set: every rank's contacts gathered to rank 0's frames (doc/scaling.md §4),
-           the series' frames the case's, the drawing's rank 0's (its schedule depends on its
-           gnuplot), told to the others only where the case draws */
-        vframe = sc->out.vtk && (s.step % sc->out.vtk_every == 0 || last);
-        vpoints = vframe && sc->out.vtk_contacts != MO_VTK_CONTACTS_NONE;
-        if (drawing && (st = mo_par_bcast(&dframe, (long)sizeof dframe, 0, ctx))) goto done;
-      }
+      /* fields and drawings (frames decided above), with the contact network of the step when
+         they need it */
+      int vpoints = vframe && (C && mo_contact_distributed(C) ? sc->out.vtk_contacts != MO_VTK_CONTACTS_NONE
+                                                              : vtk && mo_vtk_wants_points(vtk));
       if ((vframe || dframe) && (st = mo_contact_network(sc, C, drv, &s, &net, ctx))) goto done;
       if (vpoints &&
           (st = mo_contact_points(sc, C, drv, &s, sc->out.vtk_contacts == MO_VTK_CONTACTS_CLOSED, &pts, ctx)))
@@ -1674,6 +1704,13 @@ done:
   if (!agreed && ctx->nranks > 1) {
     st = mo_par_agree(st, ctx);
     if (st) complete = 0;
+  }
+  /* the bodies' state per rank: a run stopped early writes its summary and bodies.csv from every
+     body's state too (every rank is here, past the agreement; a complete run joined at its last
+     step) */
+  if (!complete && C && mo_contact_held(C, NULL, NULL, NULL, NULL)) {
+    int sj = mo_contact_state_join(C, &s, ctx);
+    if (sj && !st) st = sj;
   }
   if (prog.on && !complete) fputc('\n', stderr);
   if (csv) mo_csv_close(csv, ctx);

@@ -1385,6 +1385,13 @@ static int nan_diagnosis(const mo_stepper *S, const mo_state *s, const double *x
 
 /* The theta-scheme's increment of u at dof i over the step, u_k+1 - u_k, formed before u moves
    from the same operations as the update (T247): the value u_k+1 - uprev gives, to the bit. */
+/* Whether dof i's body is counted on this rank (mo_stepper_count_bodies: a scene of rigid bodies
+   only, dof i of rigid body i / nd). */
+static inline int counted(const mo_stepper *S, int i)
+{
+  return !S->bcount || S->bcount[S->sc->rigid[i / mo_rigid_ndof(S->sc->dim)]];
+}
+
 static inline double theta_du(const mo_stepper *S, const mo_state *s, const double *x, int i)
 {
   return (s->u[i] + S->h * (S->theta * x[i] + (1 - S->theta) * s->v[i])) - s->u[i];
@@ -1406,10 +1413,13 @@ static double ahead_of_update(const mo_stepper *S, mo_state *s, const double *x)
   for (l = 0; l < sc->nload; l++) {
     const mo_load *L = &sc->load[l];
     double a0 = L->amp ? mo_expr_eval(L->amp, &s->t) : 1, a1 = L->amp ? mo_expr_eval(L->amp, &tn) : 1;
-    for (k = 0; k < L->n; k++) dw += 0.5 * (a0 + a1) * L->val[k] * theta_du(S, s, x, L->dof[k]);
+    for (k = 0; k < L->n; k++)
+      if (counted(S, L->dof[k])) dw += 0.5 * (a0 + a1) * L->val[k] * theta_du(S, s, x, L->dof[k]);
   }
   return dw;
 }
+
+void mo_stepper_count_bodies(mo_stepper *S, const unsigned char *count) { S->bcount = count; }
 
 int mo_stepper_finish(mo_stepper *S, mo_state *s, const double *x, mo_ctx *ctx)
 {
@@ -1471,7 +1481,12 @@ int mo_stepper_finish(mo_stepper *S, mo_state *s, const double *x, mo_ctx *ctx)
   for (l = 0; l < sc->nload && S->uprev; l++) {
     const mo_load *L = &sc->load[l];
     double a0 = L->amp ? mo_expr_eval(L->amp, &s->t) : 1, a1 = L->amp ? mo_expr_eval(L->amp, &tn) : 1;
-    for (k = 0; k < L->n; k++) dw += 0.5 * (a0 + a1) * L->val[k] * (s->u[L->dof[k]] - S->uprev[L->dof[k]]);
+    for (k = 0; k < L->n; k++)
+      if (counted(S, L->dof[k])) dw += 0.5 * (a0 + a1) * L->val[k] * (s->u[L->dof[k]] - S->uprev[L->dof[k]]);
+  }
+  if (S->bcount) {
+    int st = mo_par_sum(&dw, 1, ctx);
+    if (st) return st;
   }
   s->wext += dw;
   s->t = tn;

@@ -20,6 +20,9 @@ struct mo_stepper {
   double *w1, *w2, *w3; /* full-size work (w2 not made with alias under the theta-scheme when K
                            is empty: its one use is K's product) */
   double *uprev, *vprev, *fprev; /* previous state for reactions (vprev, fprev: prescribed dofs only) */
+  const unsigned char *bcount;   /* with the bodies' state per rank (mo_contact_held): per body whether
+                                    this rank counts it; the external work is then summed over the
+                                    ranks' counted bodies (NULL: every body here) */
   /* nonlinear scenes (newton.c); all NULL for linear ones */
   int nl;
   double *Wlin;         /* values of cm M + ck K on the pattern of W (the linear bodies' part) */

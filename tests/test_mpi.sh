@@ -167,8 +167,12 @@ grains_more disk-pile 3 "$MOREAU_SRCDIR/cases/disk-pile" --set bodies.grains.pac
 grains_more sphere-deposit 4 "$MOREAU_SRCDIR/cases/sphere-deposit" --set bodies.grains.pack.count=200 --set time.end=0.12
 # the distributed set (contact.distributed_set, doc/scaling.md §4): each rank keeps only the
 # contacts it detected (nothing of the set gathered: the sweep's interface found from one sum of
-# body masks and exchanged point to point, the solve's end gathering the bodies' velocities, the
-# outputs the ranks' contacts merged on rank 0); against the serial runs above
+# body masks and exchanged point to point, the outputs the ranks' contacts merged on rank 0), and
+# from the second build of the list only the bodies of its box and halo (doc/theory.md §13.18: the
+# solve's end sends each body's velocity to the ranks that hold it, the builds each body's state
+# to its next holders); against the serial runs above. Every body a rank does not hold is made
+# absurd at each build (MOREAU_TEST_POISON_UNHELD: 1e30 in its state), so that a rank reading one
+# would part from the serial run
 grains_dist() { # grains_dist NAME NP CASE ARGS...
   name=$1
   np=$2
@@ -176,8 +180,12 @@ grains_dist() { # grains_dist NAME NP CASE ARGS...
   shift 3
   set -- --set contact.nscd.tol=1e-11 --set 'contact.nscd.stop="natural"' --set contact.nscd.max_sweeps=50000 \
     --set contact.detect_split_min=0 --set contact.distributed_set=true "$@"
-  mpi "$np" "$MOREAU" run "$c" --out "$OUT/$name-d$np" --quiet "$@" > "$OUT/$name-d$np.log" 2>&1
+  MOREAU_TEST_POISON_UNHELD=1 mpi "$np" "$MOREAU" run "$c" --out "$OUT/$name-d$np" --quiet "$@" \
+    > "$OUT/$name-d$np.log" 2>&1
   ran $? "$OUT/$name-d$np.log" "$name, the set distributed: mpirun -np $np completes"
+  is "$(json "$OUT/$name-d$np/summary.json" "(lambda p: [p['bodies_state'], p['state_records_sent'] > 0, p['state_joins'] > 0])(d['parallel'])")" \
+    "['per rank', True, True]" \
+    "$name, the set distributed on $np ranks: each rank held its box's bodies only ($(json "$OUT/$name-d$np/summary.json" "d['parallel']['state_records_sent']") records sent by rank 0 at the builds), the others' state absurd on it"
   is "$(json "$OUT/$name-d$np/summary.json" "(lambda p: [p['ranks'], d['contact']['failed_solves'], p['contact_set'], p['grain_interface_exchange'], p['grain_sweeps'] > 0, p['grain_solves_in_detection_parts'] == p['grain_solves'], p['grain_detected_largest_rank'] < 0.75 * p['grain_detected'] if $np == 2 else p['grain_detected_largest_rank'] < 0.6 * p['grain_detected']])(d['parallel'])")" \
     "[$np, 0, 'distributed', 'point to point', True, True, True]" \
     "$name, the set distributed on $np ranks: every solve converged and split, each rank holding $(json "$OUT/$name-d$np/summary.json" "round(d['parallel']['grain_detected_largest_rank'] / d['parallel']['grain_detected'], 3)") of the candidates at most"
@@ -303,12 +311,13 @@ vm = max(abs(float(p[c])) for p in a + b for c in ('vx', 'vy'))
 print([len(a) == len(b) == 38, dx < 1e-9, vm < 1e-8])")" "[True, True, True]" \
   "masonry-arch: the 2-rank arch stands where the serial one does, the voussoirs within 1e-9 m"
 # the set distributed (doc/scaling.md §4): no serial sweep to go on with when the split sweep
-# stalls, the arch converges split (each rank its own blocks' contacts, the interface point to point)
+# stalls, the arch converges split (each rank its own blocks' contacts, the interface point to point);
+# the bodies' state whole on every rank (the abutments' prescribed dofs: doc/theory.md §13.18)
 mpi 2 "$MOREAU" run "$c" --out "$OUT/arch-d2" --quiet --set contact.detect_split_min=0 --set contact.distributed_set=true \
   > "$OUT/arch-d2.log" 2>&1
 ran $? "$OUT/arch-d2.log" "masonry-arch, the set distributed: mpirun -np 2 completes"
-is "$(json "$OUT/arch-d2/summary.json" "[d['contact']['failed_solves'], d['parallel']['contact_set'], d['parallel']['grain_serial_fallbacks']] + [d['contact']['redundancy'][k] for k in ('max_redundant', 'steps_redundant')]")" \
-  "[0, 'distributed', 0, $(json "$OUT/arch-1/summary.json" "', '.join(str(d['contact']['redundancy'][k]) for k in ('max_redundant', 'steps_redundant'))")]" \
+is "$(json "$OUT/arch-d2/summary.json" "[d['contact']['failed_solves'], d['parallel']['contact_set'], d['parallel']['bodies_state'], d['parallel']['grain_serial_fallbacks']] + [d['contact']['redundancy'][k] for k in ('max_redundant', 'steps_redundant')]")" \
+  "[0, 'distributed', 'whole on every rank', 0, $(json "$OUT/arch-1/summary.json" "', '.join(str(d['contact']['redundancy'][k]) for k in ('max_redundant', 'steps_redundant'))")]" \
   "masonry-arch, the set distributed: every solve converged split, the serial run's redundancy"
 is "$(/usr/bin/python3 -c "
 import csv

@@ -306,6 +306,11 @@ typedef struct {
      statuses, its first-touched bodies' velocity changes, the count's numbers), gcnt[q] values
      of rank q; gbuf every block in rank order, then the rank's own */
   int *gcnt;
+  /* the end of a solve with the bodies' state per rank: counts, offsets, peers; the values */
+  int *hx;
+  size_t hxcap;
+  double *hbuf;
+  size_t hbcap;
   double *gbuf;
   size_t gbcap;
   long par_sweeps;              /* sweeps synchronized, for the run's log */

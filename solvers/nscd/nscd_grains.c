@@ -66,6 +66,8 @@ void nscd_grains_free(nscd_state *S)
   mo_free(S->sbuf);
   mo_free(S->rbuf);
   mo_free(S->gcnt);
+  mo_free(S->hx);
+  mo_free(S->hbuf);
   mo_free(S->gbuf);
 }
 
@@ -1102,6 +1104,8 @@ int nscd_grains_velocities_dist(nscd_state *S, const mo_contact_problem *P, cons
   return exchange_plain(S, P, ctx);
 }
 
+static int end_held(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx);
+
 /* The end of a solve over the distributed set: the exact velocities of the bodies the rank's
    contacts touch (its pushes from v_free with the bodies' masses, the interface's summed), every
    body's velocity gathered from the lowest rank touching it, then U of the rank's candidates
@@ -1116,6 +1120,20 @@ int nscd_grains_gather_dist(nscd_state *S, const mo_contact_problem *P, double *
   int i, l, q, st, nu = 0, nd = 0, *cur = S->pcnt;
   if (unknowns && (st = count_list(S, P, r, S->oorder, S->noact, &nu, &nd, ctx))) return st;
   if ((st = nscd_grains_velocities_dist(S, P, r, ctx))) return st;
+  if (P->grains->hold) {
+    /* the bodies' state per rank: the held bodies' velocities point to point; the count's numbers
+       alone gathered */
+    if ((st = end_held(S, P, ctx))) return st;
+    if (unknowns) {
+      for (q = 0; q < np; q++) S->gcnt[q] = nx;
+      if ((st = gather_room(S, cur, &all, &mine, ctx))) return st;
+      count_pack(S, mine, nu, nd);
+      if ((st = mo_par_gatherv(mine, S->gcnt, all, ctx))) return st;
+      count_join(S, all, cur, unknowns, dofs);
+    }
+    nscd_grains_exact_U(S, P);
+    return MO_OK;
+  }
   for (q = 0; q < np; q++) S->gcnt[q] = nx;
   for (i = 0; i < P->nfree; i++)
     if (S->bfirst[i] >= 0) S->gcnt[S->bfirst[i]] += i + nk <= P->nfree ? nk : P->nfree - i;
@@ -1141,6 +1159,91 @@ int nscd_grains_gather_dist(nscd_state *S, const mo_contact_problem *P, double *
   /* U of the rank's candidates from every body's velocity: an open candidate may touch a body only
      another rank's contacts move */
   nscd_grains_exact_U(S, P);
+  return MO_OK;
+}
+
+/* The end of a solve with the bodies' state per rank (doc/theory.md §13.18): each body a rank holds
+   takes its velocity from the lowest rank whose contacts touch it, sent point to point to the
+   holders that do not touch it (the rank touching it has it exact already; a body no contact
+   touches keeps its free velocity, which every holder computed). No body's velocity goes to a rank
+   that does not hold it. */
+static int end_held(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
+{
+  const mo_grains *G = P->grains;
+  const int nk = NK(S->d), np = S->nranks, me = S->rank;
+  int *sc, *rc, *so, *ro, *sp, *rp, ns = 0, nr = 0, k, q, i, st;
+  size_t ts = 0, tr = 0;
+  if ((size_t)(6 * np + 2) > S->hxcap) {
+    void *p = mo_realloc(ctx, S->hx, (size_t)(6 * np + 2) * sizeof *S->hx);
+    if (!p) return MO_ENOMEM;
+    S->hx = p;
+    S->hxcap = (size_t)(6 * np + 2);
+  }
+  sc = S->hx;
+  rc = sc + np;
+  so = rc + np;
+  ro = so + np + 1;
+  sp = ro + np + 1;
+  rp = sp + np;
+  for (q = 0; q < np; q++) sc[q] = rc[q] = 0;
+  for (k = 0; k < G->nhlist; k++) {
+    const int b = G->hlist[k], o = G->vel[b];
+    unsigned long long t, send;
+    if (o < 0) continue;
+    t = (unsigned long long)S->bm[o / nk];
+    if (!t) continue;
+    if (S->bfirst[o] == me) {
+      send = G->hold[b] & ~t;
+      for (q = 0; q < np; q++) sc[q] += (int)(send >> q & 1);
+    } else if (!(t >> me & 1))
+      rc[S->bfirst[o]]++;
+  }
+  for (q = 0; q < np; q++) {
+    if (sc[q]) {
+      sp[ns] = q;
+      so[ns++] = (int)ts;
+      ts += (size_t)sc[q] * nk;
+    }
+    if (rc[q]) {
+      rp[nr] = q;
+      ro[nr++] = (int)tr;
+      tr += (size_t)rc[q] * nk;
+    }
+  }
+  so[ns] = (int)ts;
+  ro[nr] = (int)tr;
+  if (ts + tr + 1 > S->hbcap) {
+    void *p = mo_realloc(ctx, S->hbuf, (ts + tr + 1) * sizeof *S->hbuf);
+    if (!p) return MO_ENOMEM;
+    S->hbuf = p;
+    S->hbcap = ts + tr + 1;
+  }
+  /* each peer's cursor (values): sends from their block's start, receives likewise */
+  for (q = 0, k = 0; q < np; q++) sc[q] = sc[q] ? so[k++] : 0;
+  for (q = 0, k = 0; q < np; q++) rc[q] = rc[q] ? ro[k++] : 0;
+  for (k = 0; k < G->nhlist; k++) {
+    const int b = G->hlist[k], o = G->vel[b];
+    unsigned long long t, send;
+    if (o < 0 || S->bfirst[o] != me) continue;
+    t = (unsigned long long)S->bm[o / nk];
+    send = G->hold[b] & ~t;
+    for (q = 0; q < np; q++)
+      if (send >> q & 1) {
+        for (i = 0; i < nk; i++) S->hbuf[sc[q] + i] = S->vb[o + i];
+        sc[q] += nk;
+      }
+  }
+  if ((st = mo_par_exchangev(ns, sp, so, S->hbuf, nr, rp, ro, S->hbuf + ts, ctx))) return st;
+  for (k = 0; k < G->nhlist; k++) {
+    const int b = G->hlist[k], o = G->vel[b];
+    unsigned long long t;
+    if (o < 0) continue;
+    t = (unsigned long long)S->bm[o / nk];
+    if (!t || (t >> me & 1)) continue;
+    q = S->bfirst[o];
+    for (i = 0; i < nk; i++) S->vb[o + i] = S->hbuf[ts + rc[q] + i];
+    rc[q] += nk;
+  }
   return MO_OK;
 }
 

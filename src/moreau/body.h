@@ -90,6 +90,9 @@ void mo_quat_rotate(double *q, const double *phi);
 void mo_quat_matrix(const double *q, double *R);
 /* Kinetic energy of every rigid body at state s. */
 double mo_rigid_kinetic(const mo_scene *sc, const struct mo_state *s);
+/* The kinetic energy of the rigid bodies list[0 .. n) with mask[b] != 0 (mask NULL: all of them). */
+double mo_rigid_kinetic_list(const mo_scene *sc, const struct mo_state *s, const int *list, int n,
+                             const unsigned char *mask);
 /* Bounding radius of a rigid body about its centroid (disk, sphere: R; polygon, mesh: the
    farthest vertex). */
 double mo_rigid_bound(const mo_body *B);

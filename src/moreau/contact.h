@@ -145,10 +145,21 @@ void mo_contact_cand_bodies(const mo_contact *C, int a, int *sb, int *mb);
 int mo_contact_is_compact(const mo_contact *C);
 /* 1 when the set is distributed over the MPI ranks (contact.distributed_set, doc/scaling.md §4):
    each rank's candidates 0 .. nc-1 are those it detected, no other rank holds them, and their
-   union over the ranks is the set one process finds; the bodies' state is whole on every rank.
+   union over the ranks is the set one process finds; the bodies' state is whole on every rank
+   until the second build of the detection's list, then each rank's own (mo_contact_held).
    What reads the set (metrics, outputs) joins the ranks' parts by collectives every rank calls at
    the same points. The same on every rank; fixed from the set's first detection on. */
 int mo_contact_distributed(const mo_contact *C);
+/* With the distributed set on a scene of rigid bodies and obstacles, from the second build of the
+   detection's list each rank keeps current only the bodies it holds (doc/theory.md §13.18): 1 then,
+   with per body its holders' mask (bit r: rank r; valid for the bodies this rank holds), the held
+   bodies ascending, and per body whether this rank counts it in sums over the bodies (each body on
+   exactly one rank). 0 while every rank holds every body (the pointers left alone). */
+int mo_contact_held(const mo_contact *C, const unsigned long long **hold, const int **hlist, int *nhlist,
+                    const unsigned char **count);
+/* Every body's state made current on every rank (one gather of each body from the rank that counts
+   it; a no-op unless mo_contact_held): before the outputs that read every body. Collective. */
+int mo_contact_state_join(mo_contact *C, struct mo_state *s, mo_ctx *ctx);
 /* H of the last geometry at its state s, built now when the granular path left it out: for
    back ends and outputs that need H (a no-op otherwise). */
 int mo_contact_H_ensure(mo_contact *C, const mo_state *s, mo_ctx *ctx);
@@ -361,7 +372,12 @@ typedef struct mo_grains {
                                 detected it, its point's box (doc/theory.md (T341)), the same on every
                                 rank; the sweep's parts then. NULL: none */
   int dist;                  /* the set is distributed (mo_contact_distributed): every contact is this
-                                rank's, no rank holds another's; the bodies' state whole on each */
+                                rank's, no rank holds another's */
+  /* with the bodies' state per rank (mo_contact_held; NULL and 0 otherwise): per body the ranks that
+     hold it, and the bodies this rank holds, ascending; the others' velocities are not current here */
+  const unsigned long long *hold;
+  const int *hlist;
+  int nhlist;
 } mo_grains;
 
 /* The contact problem of one step, built by the core and handed to a back end. Everything is

@@ -91,6 +91,9 @@ typedef struct mo_ctx {
      largest rank detected itself, and every rank's, over the run */
   long par_detect_largest, par_detect_total;
   int par_dset;              /* the contact set distributed over the ranks (contact.distributed_set) */
+  int par_held;                          /* the bodies' state was held per rank (doc/theory.md §13.18) */
+  long par_state_moved, par_state_joins; /* the bodies' state per rank: records sent at the builds,
+                                            joins of every body's state (the outputs') */
   long par_detect_builds, par_detect_boxpts; /* builds of the split list; those whose boxes were cut
                                                  from the last solve's contact points (T341) */
   /* the Delassus build's columns What^-1 H^T (doc/parallel.md §2, (T210)): the most nodal rows of

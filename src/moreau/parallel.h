@@ -41,6 +41,14 @@ int mo_par_gather0(const double *mine, const int *n, double *all, mo_ctx *ctx);
    send[off[k] .. off[k + 1]) goes to peer[k], as many values from it arrive in recv[off[k] ..
    off[k + 1]). Each peer must name this rank with the same count. No-op on one rank. */
 int mo_par_exchange(int npeer, const int *peer, const int *off, const double *send, double *recv, mo_ctx *ctx);
+/* One value to each rank and one from each (collective): send[r] goes to rank r, recv[r] comes from
+   it. On one rank recv[0] = send[0]. */
+int mo_par_alltoall(const double *send, double *recv, mo_ctx *ctx);
+/* Point to point with the counts apart (only the ranks named take part): send[soff[k] ..
+   soff[k + 1]) to speer[k] for k < nsend, recv[roff[k] .. roff[k + 1]) from rpeer[k] for k <
+   nrecv; what a rank sends another is what that one expects from it. No-op on one rank. */
+int mo_par_exchangev(int nsend, const int *speer, const int *soff, const double *send, int nrecv, const int *rpeer,
+                     const int *roff, double *recv, mo_ctx *ctx);
 /* The worst status of the ranks: each rank passes its own; every rank gets the largest, and when
    it is another rank's, the message names that rank (so that a rank that failed alone, rank 0 on a
    full disk say, does not leave the others waiting in the next collective call). */
