@@ -1762,11 +1762,6 @@ static int contact_finish(mo_contact_driver *D, mo_state *s, const double *x, mo
       return mo_error(ctx, MO_ELIMIT, "contact.distributed_set with %d contact pairs (at most 63)", D->C->npair);
   }
   s->wcontact += w;
-  {
-    /* the bodies' state per rank: the external work of each body on the rank that counts it */
-    const unsigned char *cnt = NULL;
-    mo_stepper_count_bodies(D->S, mo_contact_held(D->C, NULL, NULL, NULL, &cnt) ? cnt : NULL);
-  }
   if ((st = mo_stepper_finish(D->S, s, x, ctx))) return st;
   if (corr && (st = position_correction(D, s, D->tmp, ctx))) return st;
   if ((st = mo_contact_geometry(D->C, s, s->t, D->C->repair, ctx))) return st;
@@ -1834,6 +1829,16 @@ static int step_body(mo_contact_driver *D, mo_state *s, mo_ctx *ctx)
   /* 1. the unconstrained step (bodies), 2-7. the contact problem, its solve and the correction;
      split (T153): the forward solve and the contact dofs first, one backward solve at the end */
   D->split = split_step(D);
+  {
+    /* the bodies' state per rank (doc/theory.md §13.18): the step of the bodies this rank holds,
+       the external work of those it counts; the list is the last build's (the step's end may build
+       the list again: it keeps its own until the next step) */
+    const int *hl;
+    const unsigned char *cnt;
+    int nh;
+    if (mo_contact_held(D->C, NULL, &hl, &nh, &cnt)) mo_stepper_hold(S, hl, nh, cnt);
+    else mo_stepper_hold(S, NULL, 0, NULL);
+  }
   if ((st = D->split ? mo_stepper_predict_split(S, s, D->xfull, ctx) : mo_stepper_predict(S, s, D->xfull, ctx)))
     return st;
   t0 = mo_clock();

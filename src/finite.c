@@ -110,6 +110,23 @@ int mo_finite_error(const mo_scene *sc, long step, double t, const char *what, d
                   "non-finite value. %s", step, t, what, value, cause);
 }
 
+int mo_finite_bodies(const mo_scene *sc, const mo_state *s, const int *list, int n, mo_ctx *ctx)
+{
+  int k, i, nd = sc->dim == 3 ? 6 : 3;
+  char what[200];
+  for (k = 0; k < n; k++) {
+    const mo_body *B = &sc->body[list[k]];
+    if (!(B->type->flags & MO_BODY_F_RIGID) || B->dof0 < 0) continue;
+    for (i = B->dof0; i < B->dof0 + nd; i++)
+      if (!isfinite(s->u[i]) || !isfinite(s->v[i])) {
+        snprintf(what, sizeof what, "the %s of dof %d (body '%s')", !isfinite(s->u[i]) ? "displacement" : "velocity",
+                 i, B->name);
+        return mo_finite_error(sc, s->step, s->t, what, !isfinite(s->u[i]) ? s->u[i] : s->v[i], ctx);
+      }
+  }
+  return MO_OK;
+}
+
 int mo_finite_state(const mo_scene *sc, const mo_state *s, mo_ctx *ctx)
 {
   int k, b;

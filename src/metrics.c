@@ -314,7 +314,7 @@ void mo_metrics_energies(const mo_metrics *M, const mo_state *s, double *ek, dou
 {
   double e0 = M->e0 + M->eshift, e;
   if (isnan(*ek)) *ek = mo_energy_kinetic(M->sc, s, M->work);
-  *ee = mo_energy_stored(M->sc, s, M->work);   /* elastic, and finite-strain bodies' stored */
+  if (isnan(*ee)) *ee = mo_energy_stored(M->sc, s, M->work); /* elastic, and finite-strain bodies' stored */
   /* the plastic work is energy the bodies took (T65), as in mech_energy */
   e = *ek + *ee + (M->sc->nonlinear ? s->wplastic : 0) - s->wext - s->wsupport + M->eshift;
   *ratio = e0 != 0 ? e / e0 : NAN;

@@ -29,7 +29,8 @@ double mo_metrics_energy_ratio(const mo_metrics *M, const mo_state *s);
 /* The kinetic and elastic energies of s and the ratio above, from one product by M and one by
    K (the run measures them at every step); excess (may be NULL): E(t) - E_ref, the numerator of
    the growth, defined also where E_ref = 0 and the ratio is not (doc/theory.md (T49a)). */
-/* *ek on entry: NaN, or the kinetic energy given (the bodies' state per rank: the ranks' sum). */
+/* *ek and *ee on entry: NaN, or the kinetic and stored energies given (the bodies' state per rank:
+   the ranks' sum, and 0 on its scenes of rigid bodies only). */
 void mo_metrics_energies(const mo_metrics *M, const mo_state *s, double *ek, double *ee, double *ratio, double *excess);
 /* Over MPI ranks with the set distributed (mo_contact_distributed): each rank's measures of its own
    candidates joined into the whole set's (maxima, sums), on every rank: a collective, called once
@@ -83,6 +84,8 @@ int mo_chatter_verdict(const mo_chatter_input *in, char *why, size_t n);
 void mo_finite_cause(const mo_scene *sc, double t, char *buf, size_t n);
 int mo_finite_error(const mo_scene *sc, long step, double t, const char *what, double value, mo_ctx *ctx);
 int mo_finite_state(const mo_scene *sc, const mo_state *s, mo_ctx *ctx);
+/* The same over the rigid bodies list[0 .. n) (the bodies' state per rank: those this rank holds). */
+int mo_finite_bodies(const mo_scene *sc, const mo_state *s, const int *list, int n, mo_ctx *ctx);
 /* The first dof whose initial displacement or velocity (sc->u0, sc->v0) is extreme, or -1 (also
    when the scene no longer holds them: they were released only when none was, T248). */
 int mo_finite_initial(const mo_scene *sc);

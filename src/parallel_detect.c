@@ -291,12 +291,12 @@ static unsigned long long holders(const struct mo_pdetect *P, int D, const doubl
   return m;
 }
 
-/* A body's record: its index, box, hold mask, then u and v of its dofs (and a: Newmark), and its
-   orientation (3D). */
+/* A body's record: its index, box, hold mask, then u, v and f_ext of its dofs (and a: Newmark), and
+   its orientation (3D). */
 static int record_size(const mo_scene *sc, const mo_state *s)
 {
   const int nd = sc->dim == 3 ? 6 : 3;
-  return 3 + nd * (s->a ? 3 : 2) + (sc->dim == 3 ? 4 : 0);
+  return 3 + nd * (s->a ? 4 : 3) + (sc->dim == 3 ? 4 : 0);
 }
 
 static void record_pack(const mo_scene *sc, const mo_state *s, int b, int owner, unsigned long long m, double *x)
@@ -309,6 +309,7 @@ static void record_pack(const mo_scene *sc, const mo_state *s, int b, int owner,
   x[2] = (double)m;
   for (i = 0; i < nd; i++) x[k++] = s->u[B->dof0 + i];
   for (i = 0; i < nd; i++) x[k++] = s->v[B->dof0 + i];
+  for (i = 0; i < nd; i++) x[k++] = s->f[B->dof0 + i];
   for (i = 0; i < nd && s->a; i++) x[k++] = s->a[B->dof0 + i];
   for (i = 0; i < 4 && sc->dim == 3; i++) x[k++] = s->orient[4 * (size_t)B->orient + i];
 }
@@ -322,14 +323,15 @@ static int record_unpack(const mo_scene *sc, mo_state *s, const double *x, int *
   *m = (unsigned long long)x[2];
   for (i = 0; i < nd; i++) s->u[B->dof0 + i] = x[k++];
   for (i = 0; i < nd; i++) s->v[B->dof0 + i] = x[k++];
+  for (i = 0; i < nd; i++) s->f[B->dof0 + i] = x[k++];
   for (i = 0; i < nd && s->a; i++) s->a[B->dof0 + i] = x[k++];
   for (i = 0; i < 4 && sc->dim == 3; i++) s->orient[4 * (size_t)B->orient + i] = x[k++];
   return b;
 }
 
 /* The tests' check that no rank reads a body it does not hold (MOREAU_TEST_POISON_UNHELD set): the
-   state of every such body made absurd (1e30 in each value, finite so that nothing stops on it),
-   so that a stale read shows in the results compared with the serial run's. Not at step 0, where
+   state of every such body made NaN, so that a read of it shows (a NaN stops the run where a check
+   sees it, or parts the results from the serial run's). Not at step 0, where
    every rank's state is still whole and current (the run's initial energies and momenta read it). */
 static void poison_unheld(mo_contact *C, mo_state *s)
 {
@@ -341,9 +343,9 @@ static void poison_unheld(mo_contact *C, mo_state *s)
   for (b = 0; b < sc->nbody; b++) {
     const mo_body *B = &sc->body[b];
     if (!C->bmask[b] || C->pd->rmask[b]) continue;
-    for (i = 0; i < nd; i++) s->u[B->dof0 + i] = s->v[B->dof0 + i] = 1e30;
-    for (i = 0; i < nd && s->a; i++) s->a[B->dof0 + i] = 1e30;
-    for (i = 0; i < 4 && sc->dim == 3; i++) s->orient[4 * (size_t)B->orient + i] = 1e30;
+    for (i = 0; i < nd; i++) s->u[B->dof0 + i] = s->v[B->dof0 + i] = s->f[B->dof0 + i] = NAN;
+    for (i = 0; i < nd && s->a; i++) s->a[B->dof0 + i] = NAN;
+    for (i = 0; i < 4 && sc->dim == 3; i++) s->orient[4 * (size_t)B->orient + i] = NAN;
   }
 }
 

@@ -1382,7 +1382,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
   /* energy.ratio only where it is defined: E0 != 0 (doc/case-format.md) */
   mo_metrics_step(met, &s, NULL);
   {
-    double ek0 = NAN, ee0;
+    double ek0 = NAN, ee0 = NAN;
     mo_metrics_energies(met, &s, &ek0, &ee0, &eratio0, NULL);
     ratio_col = isfinite(eratio0);
   }
@@ -1521,7 +1521,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
 
   for (;;) {
     int last = s.step == sc->time.steps, write_row = s.step % sc->out.every == 0 || last;
-    double t0 = mo_clock(), ek = NAN, ee = 0, eratio, excess, growth;
+    double t0 = mo_clock(), ek = NAN, ee = NAN, eratio, excess, growth;
     int vframe = vtk && (s.step % sc->out.vtk_every == 0 || last), dframe = draw && mo_draw_wants(draw, s.step);
     const int *hlist = NULL;
     const unsigned char *hcount = NULL;
@@ -1539,6 +1539,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
          ranks' counted bodies; every body's state joined where an output reads it (the frames, the
          probes' and the bodies' columns, the run's end) */
       ek = mo_rigid_kinetic_list(sc, &s, hlist, nhlist, hcount);
+      ee = 0; /* rigid bodies only */
       if ((st = mo_par_sum(&ek, 1, ctx))) goto done;
       if ((last || vframe || dframe || ((write_row || nexact) && nvalcol)) && (st = mo_contact_state_join(C, &s, ctx)))
         goto done;
@@ -1548,7 +1549,7 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
     mo_metrics_energies(met, &s, &ek, &ee, &eratio, &excess);
     /* no NaN or infinity in the outputs: the state and the energies at every step, the row
        before it is written (finite.c, doc/theory.md §10.3) */
-    if ((st = mo_finite_state(sc, &s, ctx)) ||
+    if ((st = held ? mo_finite_bodies(sc, &s, hlist, nhlist, ctx) : mo_finite_state(sc, &s, ctx)) ||
         (st = check_energies(sc, &s, ek, ee, ctx)))
       goto done;
     e1 = ek + ee + s.wplastic; /* (T65): the plastic work is energy the body took */

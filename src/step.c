@@ -136,6 +136,11 @@ void mo_stepper_free(mo_stepper *S)
   mo_free(S->w2);
   mo_free(S->w3);
   mo_free(S->uprev);
+  mo_free(S->ld_lo);
+  mo_free(S->ld_l);
+  mo_free(S->ld_v);
+  mo_free(S->ld_a);
+  mo_free(S->ld_a0);
   mo_free(S->vprev);
   mo_free(S->fprev);
   mo_tangent_release(S);
@@ -913,27 +918,35 @@ void mo_stepper_presc_unknown(const mo_stepper *S, double t, double *x)
 /* The rigid rows of the right-hand side (T70): theta: M_b v- + h g(v-) (the explicit
    gyroscopic force), Newmark: g; both minus M_fp x_p, the coupling with the body's prescribed
    dofs at their values x_p of t+. f1's rigid rows (added by the caller) hold the loads. */
-static void rigid_rhs(const mo_stepper *S, const mo_state *s, const double *x, double *rhs)
+/* Whether the 2D grains' path of rigid_rhs holds: every dof free, diagonal blocks from the scene's
+   (m, I), theta without gyroscopic forces. */
+static inline int rigid_rhs_fast(const mo_stepper *S)
+{
+  const double h0 = S->h * 0.0; /* h g, g = 0 without gyroscopic forces */
+  return S->blk_diag && !S->rig_M && S->sc->rigid_md && !S->blk_loc && S->scheme == MO_SCHEME_THETA && !S->gyro &&
+         h0 == 0 && !signbit(h0);
+}
+
+/* Block k's rows of rigid_rhs (fast: rigid_rhs_fast(S)). */
+static inline void rigid_rhs_block(const mo_stepper *S, const mo_state *s, const double *x, double *rhs, int k,
+                                   int fast)
 {
   const mo_scene *sc = S->sc;
-  const double h0 = S->h * 0.0; /* h g, g = 0 without gyroscopic forces */
-  int nd = mo_rigid_ndof(sc->dim), k, i, j, r;
-  if (S->blk_diag && !S->rig_M && sc->rigid_md && !S->blk_loc && S->scheme == MO_SCHEME_THETA && !S->gyro && h0 == 0 &&
-      !signbit(h0)) {
+  const double h0 = S->h * 0.0;
+  int nd = mo_rigid_ndof(sc->dim), i, j, r;
+  if (fast) {
     /* 2D bodies with every dof free (the grains): each row's h g + m_i v_i below (its first
        branch), with (m, I) from the scene's rigid_md and the dofs number_dofs's, no body record
        read (T311) */
-    for (k = 0; k < S->nblk; k++) {
-      const int o = S->blk_off[k];
-      const size_t rk = (size_t)blk_rank(S, k);
-      const double *v = s->v + sc->nfe_dof + 3 * rk, *md = sc->rigid_md + 2 * rk;
-      rhs[o] += h0 + md[0] * v[0];
-      rhs[o + 1] += h0 + md[0] * v[1];
-      rhs[o + 2] += h0 + md[1] * v[2];
-    }
+    const int o = S->blk_off[k];
+    const size_t rk = (size_t)blk_rank(S, k);
+    const double *v = s->v + sc->nfe_dof + 3 * rk, *md = sc->rigid_md + 2 * rk;
+    rhs[o] += h0 + md[0] * v[0];
+    rhs[o + 1] += h0 + md[0] * v[1];
+    rhs[o + 2] += h0 + md[1] * v[2];
     return;
   }
-  for (k = 0; k < S->nblk; k++) {
+  {
     const mo_body *B = &sc->body[blk_bodyof(S, k)];
     int o = S->blk_off[k], nk = S->blk_off[k + 1] - o, d0;
     const int *loc = blk_local(S, o);
@@ -969,6 +982,104 @@ static void rigid_rhs(const mo_stepper *S, const mo_state *s, const double *x, d
       rhs[o + i] += acc;
     }
   }
+}
+
+/* The rigid rows of the right-hand side (T70): theta: M_b v- + h g(v-) (the explicit
+   gyroscopic force), Newmark: g; both minus M_fp x_p, the coupling with the body's prescribed
+   dofs at their values x_p of t+. f1's rigid rows (added by the caller) hold the loads. */
+static void rigid_rhs(const mo_stepper *S, const mo_state *s, const double *x, double *rhs)
+{
+  const int fast = rigid_rhs_fast(S);
+  int k;
+  for (k = 0; k < S->nblk; k++) rigid_rhs_block(S, s, x, rhs, k, fast);
+}
+
+/* --- the bodies' state per rank (doc/theory.md §13.18) ------------------------------------------
+   The step of the bodies this rank holds only: their free velocities and their update, each to the
+   bit what the step of every body gives them, the others' state left as it is (not current here). */
+
+/* Whether the held path applies: rigid bodies only, each with its own block of free dofs (block k
+   rigid body k), the theta scheme without central differences, no stiffness term, no prescribed
+   dof, a linear scene. */
+static int held_path(const mo_stepper *S)
+{
+  const mo_scene *sc = S->sc;
+  return S->hlist && S->alias && S->scheme == MO_SCHEME_THETA && !sc->time.explicit_cd && !S->nl && !sc->npresc &&
+         !S->w2 && S->nblk == sc->nrigid && !S->blk_body && sc->nfe_dof == 0 && !S->Wfull;
+}
+
+/* The loads by dof (once): for dof d the entries lo[d] .. lo[d + 1] of (load, value), in the order
+   mo_scene_fext sums them. */
+static int loads_by_dof(mo_stepper *S, mo_ctx *ctx)
+{
+  const mo_scene *sc = S->sc;
+  int l, k, n = 0, d;
+  if (S->ld_lo) return MO_OK;
+  for (l = 0; l < sc->nload; l++) n += sc->load[l].n;
+  if (!(S->ld_lo = mo_calloc(ctx, (size_t)sc->ndof + 2, sizeof *S->ld_lo)) ||
+      !(S->ld_l = mo_malloc(ctx, ((size_t)n + 1) * sizeof *S->ld_l)) ||
+      !(S->ld_v = mo_malloc(ctx, ((size_t)n + 1) * sizeof *S->ld_v)) ||
+      !(S->ld_a = mo_malloc(ctx, ((size_t)sc->nload + 1) * sizeof *S->ld_a)) ||
+      !(S->ld_a0 = mo_malloc(ctx, ((size_t)sc->nload + 1) * sizeof *S->ld_a0)))
+    return MO_ENOMEM;
+  for (l = 0; l < sc->nload; l++)
+    for (k = 0; k < sc->load[l].n; k++) S->ld_lo[sc->load[l].dof[k] + 2]++;
+  for (d = 0; d < sc->ndof; d++) S->ld_lo[d + 2] += S->ld_lo[d + 1];
+  for (l = 0; l < sc->nload; l++)
+    for (k = 0; k < sc->load[l].n; k++) {
+      const int e = S->ld_lo[sc->load[l].dof[k] + 1]++;
+      S->ld_l[e] = l;
+      S->ld_v[e] = sc->load[l].val[k];
+    }
+  return MO_OK;
+}
+
+/* The loads' amplitudes at t into a. */
+static void load_amps(const mo_scene *sc, double t, double *a)
+{
+  int l;
+  for (l = 0; l < sc->nload; l++) a[l] = sc->load[l].amp ? mo_expr_eval(sc->load[l].amp, &t) : 1;
+}
+
+/* f_ext at dof d with the amplitudes a: mo_scene_fext's sum, to the bit. */
+static inline double fext_dof(const mo_stepper *S, const double *a, int d)
+{
+  double f = 0;
+  int e;
+  for (e = S->ld_lo[d]; e < S->ld_lo[d + 1]; e++)
+    if (a[S->ld_l[e]] != 0) f += a[S->ld_l[e]] * S->ld_v[e];
+  return f;
+}
+
+/* The unconstrained step of the held bodies (predict_rhs and the blocks' solve, theta path). */
+static void predict_held(mo_stepper *S, const mo_state *s, double *x)
+{
+  const mo_scene *sc = S->sc;
+  const int nd = mo_rigid_ndof(sc->dim), fast = rigid_rhs_fast(S);
+  const double h = S->h, tf = S->theta_f;
+  double *rhs = S->rhs;
+  int k, i;
+  load_amps(sc, s->t + h, S->ld_a);
+  for (k = 0; k < S->nhl; k++) {
+    const mo_body *B = &sc->body[S->hlist[k]];
+    int d0, r;
+    if (!(B->type->flags & MO_BODY_F_RIGID) || B->dof0 < 0) continue;
+    d0 = B->dof0;
+    r = d0 / nd;
+    for (i = 0; i < nd; i++) rhs[d0 + i] = h * (tf * fext_dof(S, S->ld_a, d0 + i) + (1 - tf) * s->f[d0 + i]);
+    rigid_rhs_block(S, s, x, rhs, r, fast);
+    block_apply(&S->Wi, r, rhs, x, 0);
+  }
+}
+
+/* mo_stepper_finish for the held bodies (theta path, no uprev: ahead_of_update's). */
+static int finish_held(mo_stepper *S, mo_state *s, const double *x, mo_ctx *ctx);
+
+void mo_stepper_hold(mo_stepper *S, const int *hlist, int n, const unsigned char *count)
+{
+  S->hlist = hlist;
+  S->nhl = n;
+  S->bcount = count;
 }
 
 int mo_stepper_init_state(mo_stepper *S, mo_state *s, mo_ctx *ctx)
@@ -1126,7 +1237,15 @@ static int predict_rhs(mo_stepper *S, const mo_state *s, double *x, mo_ctx *ctx)
 int mo_stepper_predict(mo_stepper *S, const mo_state *s, double *x, mo_ctx *ctx)
 {
   double t0 = mo_clock();
-  int st = predict_rhs(S, s, x, ctx);
+  int st;
+  if (held_path(S)) {
+    if ((st = loads_by_dof(S, ctx))) return st;
+    predict_held(S, s, x);
+    S->split_state = 0;
+    mo_phase_add(ctx, MO_PH_SOLVE, t0);
+    return MO_OK;
+  }
+  st = predict_rhs(S, s, x, ctx);
   S->split_state = 0;
   if (!st) st = mo_stepper_what_solve(S, 1, S->rhs, S->alias ? x : S->xf, ctx);
   if (!st && !S->alias) mo_stepper_scatter(S, S->xf, x);
@@ -1383,15 +1502,15 @@ static int nan_diagnosis(const mo_stepper *S, const mo_state *s, const double *x
                   "scheme cannot resolve)", s->step + 1, tn, nbad, dof, where);
 }
 
-/* The theta-scheme's increment of u at dof i over the step, u_k+1 - u_k, formed before u moves
-   from the same operations as the update (T247): the value u_k+1 - uprev gives, to the bit. */
-/* Whether dof i's body is counted on this rank (mo_stepper_count_bodies: a scene of rigid bodies
-   only, dof i of rigid body i / nd). */
+/* Whether dof i's body is counted on this rank (mo_stepper_hold: a scene of rigid bodies only, dof
+   i of rigid body i / nd). */
 static inline int counted(const mo_stepper *S, int i)
 {
   return !S->bcount || S->bcount[S->sc->rigid[i / mo_rigid_ndof(S->sc->dim)]];
 }
 
+/* The theta-scheme's increment of u at dof i over the step, u_k+1 - u_k, formed before u moves
+   from the same operations as the update (T247): the value u_k+1 - uprev gives, to the bit. */
 static inline double theta_du(const mo_stepper *S, const mo_state *s, const double *x, int i)
 {
   return (s->u[i] + S->h * (S->theta * x[i] + (1 - S->theta) * s->v[i])) - s->u[i];
@@ -1419,13 +1538,64 @@ static double ahead_of_update(const mo_stepper *S, mo_state *s, const double *x)
   return dw;
 }
 
-void mo_stepper_count_bodies(mo_stepper *S, const unsigned char *count) { S->bcount = count; }
+
+
+static int finish_held(mo_stepper *S, mo_state *s, const double *x, mo_ctx *ctx)
+{
+  const mo_scene *sc = S->sc;
+  const int nd = mo_rigid_ndof(sc->dim);
+  const double h = S->h, tn = s->t + h, t0 = mo_clock();
+  double dw = 0;
+  int k, i, st;
+  if ((st = loads_by_dof(S, ctx))) return st;
+  for (k = 0; k < S->nhl; k++) {
+    const mo_body *B = &sc->body[S->hlist[k]];
+    if (!(B->type->flags & MO_BODY_F_RIGID) || B->dof0 < 0) continue;
+    for (i = 0; i < nd; i++)
+      if (!isfinite(x[B->dof0 + i])) return nan_diagnosis(S, s, x, B->dof0 + i, ctx);
+  }
+  /* ahead_of_update's: the 3D rotations and the loads' work over the step, before u moves */
+  load_amps(sc, s->t, S->ld_a0);
+  load_amps(sc, tn, S->ld_a);
+  for (k = 0; k < S->nhl; k++) {
+    const mo_body *B = &sc->body[S->hlist[k]];
+    const int d0 = B->dof0;
+    int e;
+    if (!(B->type->flags & MO_BODY_F_RIGID) || d0 < 0) continue;
+    if (sc->dim == 3) {
+      double phi[3];
+      for (i = 0; i < 3; i++) phi[i] = theta_du(S, s, x, d0 + 3 + i);
+      mo_quat_rotate(s->orient + 4 * B->orient, phi);
+    }
+    if (S->bcount && !S->bcount[S->hlist[k]]) continue;
+    for (i = 0; i < nd; i++)
+      for (e = S->ld_lo[d0 + i]; e < S->ld_lo[d0 + i + 1]; e++)
+        dw += 0.5 * (S->ld_a0[S->ld_l[e]] + S->ld_a[S->ld_l[e]]) * S->ld_v[e] * theta_du(S, s, x, d0 + i);
+  }
+  for (k = 0; k < S->nhl; k++) {
+    const mo_body *B = &sc->body[S->hlist[k]];
+    const int d0 = B->dof0;
+    if (!(B->type->flags & MO_BODY_F_RIGID) || d0 < 0) continue;
+    for (i = d0; i < d0 + nd; i++) {
+      s->u[i] += h * (S->theta * x[i] + (1 - S->theta) * s->v[i]);
+      s->v[i] = x[i];
+      s->f[i] = fext_dof(S, S->ld_a, i);
+    }
+  }
+  if (S->bcount && (st = mo_par_sum(&dw, 1, ctx))) return st;
+  s->wext += dw;
+  s->t = tn;
+  s->step++;
+  mo_phase_add(ctx, MO_PH_SOLVE, t0);
+  return MO_OK;
+}
 
 int mo_stepper_finish(mo_stepper *S, mo_state *s, const double *x, mo_ctx *ctx)
 {
   const mo_scene *sc = S->sc;
   int n = sc->ndof, i, l, k;
   double h = S->h, tn = s->t + h, t0 = mo_clock(), dw = 0, ws = 0;
+  if (held_path(S) && !S->uprev) return finish_held(S, s, x, ctx);
   for (i = 0; i < n; i++)
     if (!isfinite(x[i])) return nan_diagnosis(S, s, x, i, ctx);
   if (S->uprev) memcpy(S->uprev, s->u, (size_t)n * sizeof(double));

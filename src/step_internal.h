@@ -20,9 +20,13 @@ struct mo_stepper {
   double *w1, *w2, *w3; /* full-size work (w2 not made with alias under the theta-scheme when K
                            is empty: its one use is K's product) */
   double *uprev, *vprev, *fprev; /* previous state for reactions (vprev, fprev: prescribed dofs only) */
-  const unsigned char *bcount;   /* with the bodies' state per rank (mo_contact_held): per body whether
-                                    this rank counts it; the external work is then summed over the
-                                    ranks' counted bodies (NULL: every body here) */
+  /* the bodies' state per rank (mo_stepper_hold): the bodies this rank steps (NULL: every one), and
+     per body whether it counts it (the external work summed over the ranks' counted bodies) */
+  const int *hlist;
+  int nhl;
+  const unsigned char *bcount;
+  int *ld_lo, *ld_l;             /* the loads by dof (loads_by_dof): entries lo[d] .. lo[d + 1] */
+  double *ld_v, *ld_a, *ld_a0;   /* their values; the loads' amplitudes at t_k+1 and t_k */
   /* nonlinear scenes (newton.c); all NULL for linear ones */
   int nl;
   double *Wlin;         /* values of cm M + ck K on the pattern of W (the linear bodies' part) */

@@ -170,9 +170,9 @@ grains_more sphere-deposit 4 "$MOREAU_SRCDIR/cases/sphere-deposit" --set bodies.
 # body masks and exchanged point to point, the outputs the ranks' contacts merged on rank 0), and
 # from the second build of the list only the bodies of its box and halo (doc/theory.md §13.18: the
 # solve's end sends each body's velocity to the ranks that hold it, the builds each body's state
-# to its next holders); against the serial runs above. Every body a rank does not hold is made
-# absurd at each build (MOREAU_TEST_POISON_UNHELD: 1e30 in its state), so that a rank reading one
-# would part from the serial run
+# to its next holders); against the serial runs above. Every body a rank does not hold is made NaN
+# at each build (MOREAU_TEST_POISON_UNHELD), so that a rank reading one would stop on it or part from
+# the serial run
 grains_dist() { # grains_dist NAME NP CASE ARGS...
   name=$1
   np=$2
@@ -185,7 +185,7 @@ grains_dist() { # grains_dist NAME NP CASE ARGS...
   ran $? "$OUT/$name-d$np.log" "$name, the set distributed: mpirun -np $np completes"
   is "$(json "$OUT/$name-d$np/summary.json" "(lambda p: [p['bodies_state'], p['state_records_sent'] > 0, p['state_joins'] > 0])(d['parallel'])")" \
     "['per rank', True, True]" \
-    "$name, the set distributed on $np ranks: each rank held its box's bodies only ($(json "$OUT/$name-d$np/summary.json" "d['parallel']['state_records_sent']") records sent by rank 0 at the builds), the others' state absurd on it"
+    "$name, the set distributed on $np ranks: each rank held its box's bodies only ($(json "$OUT/$name-d$np/summary.json" "d['parallel']['state_records_sent']") records sent by rank 0 at the builds), the others' state NaN on it"
   is "$(json "$OUT/$name-d$np/summary.json" "(lambda p: [p['ranks'], d['contact']['failed_solves'], p['contact_set'], p['grain_interface_exchange'], p['grain_sweeps'] > 0, p['grain_solves_in_detection_parts'] == p['grain_solves'], p['grain_detected_largest_rank'] < 0.75 * p['grain_detected'] if $np == 2 else p['grain_detected_largest_rank'] < 0.6 * p['grain_detected']])(d['parallel'])")" \
     "[$np, 0, 'distributed', 'point to point', True, True, True]" \
     "$name, the set distributed on $np ranks: every solve converged and split, each rank holding $(json "$OUT/$name-d$np/summary.json" "round(d['parallel']['grain_detected_largest_rank'] / d['parallel']['grain_detected'], 3)") of the candidates at most"

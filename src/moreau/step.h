@@ -84,10 +84,13 @@ int mo_stepper_correct(mo_stepper *S, const double *imp_full, double *dx_full, m
       reactions. Refuses a non-finite unknown (MO_ENAN naming the dof). For a nonlinear scene x
       must be the solution mo_stepper_solve returned: its material states are committed. */
 int mo_stepper_finish(mo_stepper *S, mo_state *s, const double *x_full, mo_ctx *ctx);
-/* With the bodies' state per rank (a scene of rigid bodies only, mo_contact_held): per body whether
-   this rank counts it, so that mo_stepper_finish sums the external work over each body once, on the
-   rank that counts it (a sum over the ranks: collective). NULL: every body counted here. */
-void mo_stepper_count_bodies(mo_stepper *S, const unsigned char *count);
+/* With the bodies' state per rank (a scene of rigid bodies only, mo_contact_held): the bodies this
+   rank steps (hlist[0 .. n), ascending; NULL: every body), and per body whether it counts it, so
+   that mo_stepper_finish sums the external work over each body once, on the rank that counts it (a
+   sum over the ranks: collective). mo_stepper_predict and mo_stepper_finish then compute the listed
+   bodies only, where the scene allows (rigid bodies only, theta, no prescribed dof), the others'
+   state left as it is. */
+void mo_stepper_hold(mo_stepper *S, const int *hlist, int n, const unsigned char *count);
 /* 4. (optional) a position correction after finish: u += du on the free dofs, v unchanged, the
       external work and the support reactions updated (linear scenes; doc/theory.md (T95)). */
 int mo_stepper_shift(mo_stepper *S, mo_state *s, const double *du_free, mo_ctx *ctx);
