@@ -1314,10 +1314,12 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
   if (!D->qu && !D->q && !(D->q = mo_malloc(ctx, ((size_t)D->cap * d + 1) * sizeof *D->q))) return MO_ENOMEM;
   /* the distributed set (doc/scaling.md §4) on the granular path only */
   D->grains.dist = mo_contact_distributed(C);
-  if (!mo_contact_held(C, &D->grains.hold, &D->grains.hlist, &D->grains.nhlist, NULL)) {
+  if (!mo_contact_held(C, &D->grains.hold, &D->grains.hlist, &D->grains.nhlist, NULL) ||
+      !mo_contact_held_shared(C, &D->grains.sh_off, &D->grains.sh_b)) {
     D->grains.hold = NULL;
     D->grains.hlist = NULL;
     D->grains.nhlist = 0;
+    D->grains.sh_off = D->grains.sh_b = NULL;
   }
   if (D->grains.dist && !D->qu)
     return mo_error(ctx, MO_EUNSUPPORTED, "contact.distributed_set needs the granular path (rigid shapes, back end "
@@ -1327,7 +1329,7 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
   *any_out = any;
   if (grains) {
     const int D3 = sc->dim;
-    int b;
+    int b, k;
     int q;
     /* the detection's centres of this state (the same sums), current for every body of a dynamic
        pair, which holds every body of a candidate: no copy of them (16 bytes a 2D grain, T261) */
@@ -1335,9 +1337,16 @@ static int contact_solve(mo_contact_driver *D, const mo_state *s, const double *
     if (!D->grains.centre) { /* over several ranks: a copy of its own */
       if (!D->gcentre && !(D->gcentre = mo_calloc(ctx, (size_t)D3 * sc->nbody + 1, sizeof *D->gcentre)))
         return MO_ENOMEM;
-      for (b = 0; b < sc->nbody; b++)
-        if (D->grains.vel[b] >= 0) /* as mo_rigid_center, D values */
-          for (q = 0; q < D3; q++) D->gcentre[(size_t)D3 * b + q] = sc->body[b].xc0[q] + s->u[sc->body[b].dof0 + q];
+      if (D->grains.hlist) /* the bodies' state per rank: the held bodies' */
+        for (k = 0; k < D->grains.nhlist; k++) {
+          b = D->grains.hlist[k];
+          if (D->grains.vel[b] >= 0)
+            for (q = 0; q < D3; q++) D->gcentre[(size_t)D3 * b + q] = sc->body[b].xc0[q] + s->u[sc->body[b].dof0 + q];
+        }
+      else
+        for (b = 0; b < sc->nbody; b++)
+          if (D->grains.vel[b] >= 0) /* as mo_rigid_center, D values */
+            for (q = 0; q < D3; q++) D->gcentre[(size_t)D3 * b + q] = sc->body[b].xc0[q] + s->u[sc->body[b].dof0 + q];
       D->grains.centre = D->gcentre;
     }
     D->grains.key = C->key;

@@ -94,6 +94,8 @@ void mo_pdetect_free(mo_contact *C)
   mo_free(P->count);
   mo_free(P->mig_old);
   mo_free(P->mig_box);
+  mo_free(P->sh_off);
+  mo_free(P->sh_b);
   mo_free(P->mig_m);
   mo_free(P->rlist);
   mo_free(P->mig_s);
@@ -350,12 +352,13 @@ static void poison_unheld(mo_contact *C, mo_state *s)
 }
 
 /* The lists that follow the hold: the bodies this rank holds, ascending, and those it counts. */
-static void hold_lists(mo_contact *C)
+static int hold_lists(mo_contact *C, mo_ctx *ctx)
 {
   struct mo_pdetect *P = C->pd;
   const mo_scene *sc = C->sc;
   const unsigned long long all = P->nranks >= 64 ? ~0ULL : (1ULL << P->nranks) - 1;
   int b;
+  int k, q, *off = P->sh_off;
   P->nhlist = 0;
   for (b = 0; b < sc->nbody; b++) {
     if (!C->bmask[b]) {
@@ -368,28 +371,45 @@ static void hold_lists(mo_contact *C)
     P->count[b] = P->owner[b] == P->rank;
     if (P->rmask[b]) P->hlist[P->nhlist++] = b;
   }
+  /* per other rank, the held bodies it holds too, ascending (the same list on both sides) */
+  for (q = 0; q <= P->nranks; q++) off[q] = 0;
+  for (k = 0; k < P->nhlist; k++) {
+    const unsigned long long m = P->hold[P->hlist[k]] & ~(1ULL << P->rank);
+    for (q = 0; q < P->nranks; q++) off[q + 1] += (int)(m >> q & 1);
+  }
+  for (q = 0; q < P->nranks; q++) off[q + 1] += off[q];
+  if (room((void **)&P->sh_b, &P->sh_bcap, (size_t)off[P->nranks] + 1, sizeof *P->sh_b, ctx)) return MO_ENOMEM;
+  for (q = 0; q < P->nranks; q++) P->sh_at[q] = off[q];
+  for (k = 0; k < P->nhlist; k++) {
+    const unsigned long long m = P->hold[P->hlist[k]] & ~(1ULL << P->rank);
+    for (q = 0; q < P->nranks; q++)
+      if (m >> q & 1) P->sh_b[P->sh_at[q]++] = P->hlist[k];
+  }
+  return MO_OK;
 }
 
 static int held_start(mo_contact *C, mo_state *s, mo_ctx *ctx)
 {
   struct mo_pdetect *P = C->pd;
   const mo_scene *sc = C->sc;
-  int b;
+  int b, st;
   if (!(P->hold = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *P->hold)) ||
       !(P->hlist = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *P->hlist)) ||
       !(P->count = mo_calloc(ctx, (size_t)sc->nbody + 1, 1)) ||
       !(P->mig_old = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *P->mig_old)) ||
       !(P->mig_box = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *P->mig_box)) ||
       !(P->mig_m = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *P->mig_m)) ||
-      !(P->mig_cnt = mo_calloc(ctx, 7 * (size_t)P->nranks + 2, sizeof *P->mig_cnt)))
+      !(P->mig_cnt = mo_calloc(ctx, 7 * (size_t)P->nranks + 2, sizeof *P->mig_cnt)) ||
+      !(P->sh_off = mo_calloc(ctx, 2 * (size_t)P->nranks + 2, sizeof *P->sh_off)))
     return MO_ENOMEM;
+  P->sh_at = P->sh_off + P->nranks + 1;
   /* every rank holds every body now: each its box's and halo's from here on */
   for (b = 0; b < sc->nbody; b++)
     if (C->bmask[b] && P->rmask[b]) P->hold[b] = holders(P, sc->dim, C->bc + (size_t)sc->dim * b, P->owner[b]);
   P->held = 1;
   ctx->par_held = 1;
   P->nrecv = 0;
-  hold_lists(C);
+  if ((st = hold_lists(C, ctx))) return st;
   poison_unheld(C, s);
   return MO_OK;
 }
@@ -487,9 +507,18 @@ static int migrate(mo_contact *C, mo_state *s, int nold, mo_ctx *ctx)
     P->rlist[i] = b;
   }
   P->nrecv = (int)tr;
-  hold_lists(C);
+  if ((st = hold_lists(C, ctx))) return st;
   poison_unheld(C, s);
   return MO_OK;
+}
+
+int mo_contact_held_shared(const mo_contact *C, const int **off, const int **b)
+{
+  const struct mo_pdetect *P = C->pd;
+  if (!P || !P->held) return 0;
+  *off = P->sh_off;
+  *b = P->sh_b;
+  return 1;
 }
 
 int mo_contact_held(const mo_contact *C, const unsigned long long **hold, const int **hlist, int *nhlist,

@@ -73,6 +73,9 @@ struct mo_pdetect {
   int *mig_old, *mig_box;  /* scratch: the own list of the last build (the senders' bodies), their boxes */
   unsigned long long *mig_m; /* scratch: their hold masks now */
   int *rlist, nrecv;       /* the bodies received at the last build */
+  int *sh_off, *sh_at, *sh_b; /* per rank q, the held bodies it holds too: sh_b[sh_off[q] ..
+                              sh_off[q + 1]), ascending (sh_at: scratch) */
+  size_t sh_bcap;
   size_t rlistcap;
   double *mig_s, *mig_r;   /* the records sent and received at a build */
   size_t mig_scap, mig_rcap;

@@ -309,6 +309,7 @@ typedef struct {
   /* the end of a solve with the bodies' state per rank: counts, offsets, peers; the values */
   int *hx;
   size_t hxcap;
+  int nifc_all;                 /* the interface bodies over every rank (held: nifc is this rank's) */
   double *hbuf;
   size_t hbcap;
   double *gbuf;

@@ -713,6 +713,12 @@ static int par_reserve(nscd_state *S, int nfree, mo_ctx *ctx)
   return MO_OK;
 }
 
+static int cmp_int(const void *a, const void *b)
+{
+  int x = *(const int *)a, y = *(const int *)b;
+  return x < y ? -1 : x > y;
+}
+
 static int cmp_long(const void *a, const void *b)
 {
   long x = *(const long *)a, y = *(const long *)b;
@@ -971,6 +977,67 @@ static void count_join(const nscd_state *S, const double *all, const int *cur, i
    no contact's values leave its rank. */
 #define DIST_MAX_RANKS 52
 
+/* The bodies' state per rank: the ranks whose contacts touch each held body (bm, 2^rank each),
+   from this rank's own touches (set by the caller) and a flag from each rank that holds the body
+   too (sh_b's lists, the same on both sides: one value each way a shared body); the active
+   contacts' counts of the ranks (bm[nslot ..], the balance's figure) by one sum of a value a rank. */
+static int touch_held(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
+{
+  const mo_grains *G = P->grains;
+  const int nk = NK(S->d), np = S->nranks, *off = G->sh_off;
+  const size_t tot = (size_t)off[np];
+  int q, t, st, npeer = 0;
+  if ((size_t)(3 * np + 2) > S->hxcap) {
+    void *p = mo_realloc(ctx, S->hx, (size_t)(6 * np + 2) * sizeof *S->hx);
+    if (!p) return MO_ENOMEM;
+    S->hx = p;
+    S->hxcap = (size_t)(6 * np + 2);
+  }
+  if (2 * tot + (size_t)np + 1 > S->hbcap) {
+    void *p = mo_realloc(ctx, S->hbuf, (2 * tot + (size_t)np + 1) * sizeof *S->hbuf);
+    if (!p) return MO_ENOMEM;
+    S->hbuf = p;
+    S->hbcap = 2 * tot + (size_t)np + 1;
+  }
+  {
+    int *peer = S->hx, *poff = S->hx + np;
+    double *snd = S->hbuf, *rcv = S->hbuf + tot;
+    for (q = 0; q < np; q++)
+      if (off[q + 1] > off[q]) {
+        peer[npeer] = q;
+        poff[npeer++] = off[q];
+      }
+    poff[npeer] = (int)tot;
+    for (t = 0; t < (int)tot; t++) {
+      const int o = G->vel[G->sh_b[t]];
+      snd[t] = o >= 0 && S->bm[o / nk] > 0;
+    }
+    if ((st = mo_par_exchange(npeer, peer, poff, snd, rcv, ctx))) return st;
+    for (q = 0; q < np; q++)
+      for (t = off[q]; t < off[q + 1]; t++) {
+        const int o = G->vel[G->sh_b[t]];
+        if (o >= 0 && rcv[t] != 0) S->bm[o / nk] += ldexp(1.0, q);
+      }
+  }
+  return MO_OK;
+}
+
+/* The figures of the balance with the bodies' state per rank: each rank's active contacts
+   (bm[nslot + q]) and the interface bodies each counted by its lowest rank, in one sum. */
+static int touch_counts(nscd_state *S, const mo_contact_problem *P, int nfirst, mo_ctx *ctx)
+{
+  const int nk = NK(S->d), np = S->nranks, nslot = P->nfree / nk;
+  double *cnt = S->hbuf;
+  int q, st;
+  for (q = 0; q <= np; q++) cnt[q] = 0;
+  cnt[S->rank] = S->nact;
+  cnt[np] = nfirst;
+  if ((st = mo_par_sum(cnt, np + 1, ctx))) return st;
+  for (q = 0; q < np; q++) S->bm[nslot + q] = cnt[q];
+  S->nifc_all = (int)cnt[np];
+  return MO_OK;
+}
+
 int nscd_grains_partition_dist(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx)
 {
   const mo_grains *G = P->grains;
@@ -991,7 +1058,17 @@ int nscd_grains_partition_dist(nscd_state *S, const mo_contact_problem *P, mo_ct
     S->bm = p;
     S->bmscap = (size_t)(nslot + nr) + 1;
   }
-  memset(S->bm, 0, (size_t)(nslot + nr) * sizeof *S->bm);
+  if (G->hold)
+    /* the bodies' state per rank: only the held bodies' masks are read (§13.18) */
+    for (k = 0; k < G->nhlist; k++) {
+      const int o = G->vel[G->hlist[k]];
+      if (o < 0) continue;
+      S->bm[o / nk] = 0;
+      S->bfirst[o] = -1;
+      S->bmulti[o] = 0;
+    }
+  else
+    memset(S->bm, 0, (size_t)(nslot + nr) * sizeof *S->bm);
   memset(S->own, 0, (size_t)S->nc);
   for (k = 0; k < S->nact; k++) {
     const int a = S->act[k];
@@ -1007,23 +1084,45 @@ int nscd_grains_partition_dist(nscd_state *S, const mo_contact_problem *P, mo_ct
       S->bm[o / nk] = bit;
     }
   }
-  S->bm[nslot + me] = S->nact;
-  if ((st = mo_par_sum(S->bm, nslot + nr, ctx))) return st;
-  for (i = 0; i < P->nfree; i++) {
-    S->bfirst[i] = -1;
-    S->bmulti[i] = 0;
-  }
   S->nifc = 0;
-  for (j = 0; j < nslot; j++)
-    if (S->bm[j] > 0) {
-      const unsigned long long msk = (unsigned long long)S->bm[j];
-      const int o = j * nk;
+  if (G->hold) {
+    /* the bodies' state per rank: each held body's ranks from the ranks that hold it too, a flag
+       each way for every body two ranks both hold (point to point), not a sum over every body */
+    int nfirst = 0;
+    if ((st = touch_held(S, P, ctx))) return st;
+    for (k = 0; k < G->nhlist; k++) {
+      const int o = G->vel[G->hlist[k]];
+      unsigned long long msk;
+      if (o < 0 || !(S->bm[o / nk] > 0)) continue;
+      msk = (unsigned long long)S->bm[o / nk];
       S->bfirst[o] = __builtin_ctzll(msk);
       if (msk & (msk - 1)) {
         S->bmulti[o] = 1;
         S->ifc[S->nifc++] = o;
+        nfirst += S->bfirst[o] == me;
       }
     }
+    /* in the bodies' order on every rank (the pattern pairs two ranks' entries by it) */
+    qsort(S->ifc, (size_t)S->nifc, sizeof *S->ifc, cmp_int);
+    if ((st = touch_counts(S, P, nfirst, ctx))) return st;
+  } else {
+    S->bm[nslot + me] = S->nact;
+    if ((st = mo_par_sum(S->bm, nslot + nr, ctx))) return st;
+    for (i = 0; i < P->nfree; i++) {
+      S->bfirst[i] = -1;
+      S->bmulti[i] = 0;
+    }
+    for (j = 0; j < nslot; j++)
+      if (S->bm[j] > 0) {
+        const unsigned long long msk = (unsigned long long)S->bm[j];
+        const int o = j * nk;
+        S->bfirst[o] = __builtin_ctzll(msk);
+        if (msk & (msk - 1)) {
+          S->bmulti[o] = 1;
+          S->ifc[S->nifc++] = o;
+        }
+      }
+  }
   for (S->noact = 0, k = 0; k < S->nact; k++) S->oorder[S->noact++] = S->order[k];
   for (S->nilist = S->nvlist = 0, k = 0; k < S->nact; k++) {
     const int a = S->act[k], o0 = S->aside[2 * k], o1 = S->aside[2 * k + 1];
@@ -1050,7 +1149,7 @@ int nscd_grains_partition_dist(nscd_state *S, const mo_contact_problem *P, mo_ct
   }
   ctx->par_grain_solves++;
   ctx->par_grain_detparts++;
-  ctx->par_grain_interface += S->nifc;
+  ctx->par_grain_interface += G->hold ? S->nifc_all : S->nifc;
   ctx->par_grain_imbalance += total ? (double)most * nr / (double)total : 1.0;
   /* the pattern: (interface body, rank) for each rank touching each interface body this rank
      touches, from the masks */
@@ -1106,6 +1205,36 @@ int nscd_grains_velocities_dist(nscd_state *S, const mo_contact_problem *P, cons
 
 static int end_held(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx);
 
+/* The redundancy count's join with the bodies' state per rank (T279; each rank's interface list its
+   own): the marks of the interface bodies each rank's closed contacts move, to the ranks touching
+   them (the sweep's pattern), each such body's dofs counted once, by the lowest rank touching it,
+   when any rank marks it; then one sum of the ranks' unknowns and dofs. */
+static int count_held(nscd_state *S, int nu, int nd, int *unknowns, int *dofs, mo_ctx *ctx)
+{
+  const int nk = NK(S->d), nv = S->poff[S->npeer] / nk;
+  double v[2];
+  int t, m, st;
+  for (t = 0; t < nv; t++) {
+    S->sbuf[(size_t)t * nk] = S->bmark[S->ifc[S->pj[t]]];
+    for (m = 1; m < nk; m++) S->sbuf[(size_t)t * nk + m] = 0;
+  }
+  if ((st = mo_par_exchange(S->npeer, S->peer, S->poff, S->sbuf, S->rbuf, ctx))) return st;
+  for (t = 0; t < S->nifc; t++)
+    if (S->bmark[S->ifc[t]]) nd -= nk;
+  for (m = 0; m < S->nmine; m++) {
+    const int o = S->ifc[S->mj[m]];
+    int any = S->bmark[o] != 0;
+    for (t = S->msrc0[m]; t < S->msrc0[m + 1] && !any; t++) any = S->msrc[t] >= 0 && S->rbuf[S->msrc[t]] != 0;
+    if (any && S->bfirst[o] == S->rank) nd += nk;
+  }
+  v[0] = nu;
+  v[1] = nd;
+  if ((st = mo_par_sum(v, 2, ctx))) return st;
+  *unknowns = (int)v[0];
+  *dofs = (int)v[1];
+  return MO_OK;
+}
+
 /* The end of a solve over the distributed set: the exact velocities of the bodies the rank's
    contacts touch (its pushes from v_free with the bodies' masses, the interface's summed), every
    body's velocity gathered from the lowest rank touching it, then U of the rank's candidates
@@ -1124,13 +1253,7 @@ int nscd_grains_gather_dist(nscd_state *S, const mo_contact_problem *P, double *
     /* the bodies' state per rank: the held bodies' velocities point to point; the count's numbers
        alone gathered */
     if ((st = end_held(S, P, ctx))) return st;
-    if (unknowns) {
-      for (q = 0; q < np; q++) S->gcnt[q] = nx;
-      if ((st = gather_room(S, cur, &all, &mine, ctx))) return st;
-      count_pack(S, mine, nu, nd);
-      if ((st = mo_par_gatherv(mine, S->gcnt, all, ctx))) return st;
-      count_join(S, all, cur, unknowns, dofs);
-    }
+    if (unknowns && (st = count_held(S, nu, nd, unknowns, dofs, ctx))) return st;
     nscd_grains_exact_U(S, P);
     return MO_OK;
   }

@@ -157,6 +157,9 @@ int mo_contact_distributed(const mo_contact *C);
    exactly one rank). 0 while every rank holds every body (the pointers left alone). */
 int mo_contact_held(const mo_contact *C, const unsigned long long **hold, const int **hlist, int *nhlist,
                     const unsigned char **count);
+/* With mo_contact_held: per rank q, the bodies this rank holds that q holds too, b[off[q] ..
+   off[q + 1]) ascending (none for this rank), the same list on q. 0 otherwise. */
+int mo_contact_held_shared(const mo_contact *C, const int **off, const int **b);
 /* Every body's state made current on every rank (one gather of each body from the rank that counts
    it; a no-op unless mo_contact_held): before the outputs that read every body. Collective. */
 int mo_contact_state_join(mo_contact *C, struct mo_state *s, mo_ctx *ctx);
@@ -378,6 +381,7 @@ typedef struct mo_grains {
   const unsigned long long *hold;
   const int *hlist;
   int nhlist;
+  const int *sh_off, *sh_b;  /* per rank q the held bodies q holds too (mo_contact_held_shared) */
 } mo_grains;
 
 /* The contact problem of one step, built by the core and handed to a back end. Everything is
