@@ -1570,7 +1570,15 @@ measured:
       if (!D->free_alias) mo_stepper_gather(S, D->dxfull, D->dx);
     }
   }
-  for (i = 0; i < sc->nfree; i++) D->xfull[sc->full_of[i]] += D->dx[i];
+  if (D->grains.hold) {
+    /* the bodies' state per rank: the held bodies' (every dof free, doc/theory.md §13.18) */
+    const int *vel = D->grains.vel;
+    int k, j;
+    for (k = 0; k < D->grains.nhlist; k++)
+      if (vel[D->grains.hlist[k]] >= 0)
+        for (j = 0; j < mo_rigid_ndof(sc->dim); j++) D->xfull[vel[D->grains.hlist[k]] + j] += D->dx[vel[D->grains.hlist[k]] + j];
+  } else
+    for (i = 0; i < sc->nfree; i++) D->xfull[sc->full_of[i]] += D->dx[i];
   if (D->eqf && (st = equilibrium_check(D, s, ctx))) return st;
   return MO_OK;
 }

@@ -377,6 +377,8 @@ int nscd_bodies_count(nscd_state *S, const mo_contact_problem *P, const double *
 /* The same on the compact records of the granular path (nscd_grains.c, doc/theory.md §12.9), with
    the arithmetic of the sweep on H to the bit. */
 int nscd_grains_prepare(nscd_state *S, const mo_contact_problem *P, mo_ctx *ctx);
+/* vb = v_free: every body's, or with the bodies' state per rank the held bodies' only. */
+void nscd_grains_free_velocities(nscd_state *S, const mo_contact_problem *P);
 void nscd_grains_velocities(nscd_state *S, const mo_contact_problem *P, const double *r);
 /* Over the ranks (T336): the velocities of the bodies the rank's contacts touch, from r, to the
    bit those of nscd_grains_velocities (the others' are left at v_free). */

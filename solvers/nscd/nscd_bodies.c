@@ -251,8 +251,18 @@ int nscd_bodies_sweep(nscd_state *S, const mo_contact_problem *P, double *r, int
 
 void nscd_bodies_dx(const nscd_state *S, const mo_contact_problem *P, double *dx)
 {
-  int i;
-  for (i = 0; i < P->nfree; i++) dx[i] = S->vb[i] - P->xfree[i];
+  const mo_grains *G = P->grains;
+  int i, k;
+  if (!G || !G->hold) {
+    for (i = 0; i < P->nfree; i++) dx[i] = S->vb[i] - P->xfree[i];
+    return;
+  }
+  /* the bodies' state per rank: the held bodies' (doc/theory.md §13.18) */
+  for (k = 0; k < G->nhlist; k++) {
+    const int o = G->vel[G->hlist[k]];
+    if (o >= 0)
+      for (i = o; i < o + NK(S->d); i++) dx[i] = S->vb[i] - P->xfree[i];
+  }
 }
 
 int nscd_marks_clear(nscd_state *S, size_t n, mo_ctx *ctx)

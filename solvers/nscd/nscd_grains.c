@@ -480,6 +480,22 @@ KERNEL void push_r(nscd_state *S, const mo_contact_problem *P, int a, const doub
   push(S, gs, F, rot, dr, d);
 }
 
+void nscd_grains_free_velocities(nscd_state *S, const mo_contact_problem *P)
+{
+  const mo_grains *G = P->grains;
+  const int nk = NK(S->d);
+  int k;
+  if (!G || !G->hold) {
+    memcpy(S->vb, P->xfree, (size_t)P->nfree * sizeof *S->vb);
+    return;
+  }
+  /* the bodies' state per rank: the held bodies' (doc/theory.md §13.18) */
+  for (k = 0; k < G->nhlist; k++) {
+    const int o = G->vel[G->hlist[k]];
+    if (o >= 0) memcpy(S->vb + o, P->xfree + o, (size_t)nk * sizeof *S->vb);
+  }
+}
+
 void nscd_grains_velocities(nscd_state *S, const mo_contact_problem *P, const double *r)
 {
   const double *split = S->gs;
@@ -506,7 +522,7 @@ void nscd_grains_velocities_part(nscd_state *S, const mo_contact_problem *P, con
   const int d = S->d;
   int k, i;
   S->gs = S->gi;
-  memcpy(S->vb, P->xfree, (size_t)P->nfree * sizeof *S->vb);
+  nscd_grains_free_velocities(S, P);
   for (k = 0; k < S->nvlist; k++) {
     const int a = S->vlist[k];
     int nz = 0;
