@@ -28,10 +28,18 @@ static inline int with_map(const mo_contact *C)
    knows only its own bodies' radii: their maximum over the ranks) and the halo returned. */
 static int boxes(int dim, int n, const double *c, const double *r, const unsigned char *mask, double reach, long npts,
                  const double *pts, int nranks, int rank, mo_rcb_tree *T, int *owner, unsigned char *rmask, int *idx,
-                 int *ppart, double rmax, double *halo_out)
+                 int *ppart, double rmax, double *halo_out, const int *list, int nlist)
 {
   double lo[3], hi[3], halo;
   int b, k;
+  if (list) {
+    /* the bodies' state per rank: the boxes from the points, the boxes of the listed bodies (the
+       rank's own; the masks are the records', migrate) and the halo from the radius given */
+    if (mo_rcb_tree_make(dim, (int)npts, pts, NULL, NULL, nranks, ppart, idx, T) < 0) return -1;
+    for (k = 0; k < nlist; k++) owner[list[k]] = mo_rcb_locate(T, c + (size_t)dim * list[k]);
+    *halo_out = (2 * rmax + reach) * (1 + 1e-9);
+    return 0;
+  }
   /* (T341) the boxes cut from the points, or (T215), (T330) from the bodies' centres; a body's box
      its centre's */
   if (npts > 0) {
@@ -62,7 +70,7 @@ int mo_pdetect_boxes(int dim, int n, const double *c, const double *r, const uns
                      long npts, const double *pts, int nranks, int rank, mo_rcb_tree *T, int *owner,
                      unsigned char *rmask, int *idx, int *ppart)
 {
-  return boxes(dim, n, c, r, mask, reach, npts, pts, nranks, rank, T, owner, rmask, idx, ppart, -1, NULL);
+  return boxes(dim, n, c, r, mask, reach, npts, pts, nranks, rank, T, owner, rmask, idx, ppart, -1, NULL, NULL, 0);
 }
 
 void mo_pdetect_free(mo_contact *C)
@@ -91,6 +99,8 @@ void mo_pdetect_free(mo_contact *C)
   mo_free(P->cown);
   mo_free(P->hold);
   mo_free(P->hlist);
+  mo_free(P->xlist);
+  mo_free(P->xdm);
   mo_free(P->count);
   mo_free(P->mig_old);
   mo_free(P->mig_box);
@@ -256,8 +266,9 @@ static int build_boxes(mo_contact *C, int nold, mo_ctx *ctx)
   ctx->par_detect_builds++;
   if (np < (long)MO_PDETECT_PTS * P->nranks && !P->held) np = 0; /* too few: the bodies' centres */
   else if (!centres) ctx->par_detect_boxpts++;
+  if (P->held && np == 0) return mo_error(ctx, MO_EINTERNAL, "the bodies' state per rank: no body in the broad phase");
   if (boxes(D, sc->nbody, C->bc, C->br, C->bmask, C->vl_reach, np, P->pts, P->nranks, P->rank, &P->tree, P->owner,
-            P->rmask, P->pidx, P->ppart, rmax, &P->halo) < 0)
+            P->rmask, P->pidx, P->ppart, rmax, &P->halo, P->held ? P->mig_old : NULL, nold) < 0)
     return mo_error(ctx, MO_ELIMIT, "contact detection over %d ranks (at most %d)", P->nranks, MO_RCB_MAXPARTS);
   return MO_OK;
 }
@@ -352,24 +363,50 @@ static void poison_unheld(mo_contact *C, mo_state *s)
 }
 
 /* The lists that follow the hold: the bodies this rank holds, ascending, and those it counts. */
-static int hold_lists(mo_contact *C, mo_ctx *ctx)
+static int cmp_int(const void *a, const void *b)
+{
+  int x = *(const int *)a, y = *(const int *)b;
+  return x < y ? -1 : x > y;
+}
+
+/* first: every body looked at (the first build; the outside bodies' list made); else the held list
+   from the old own bodies still held (mig_old with their boxes in mig_box), those received (rlist)
+   and the bodies outside the broad phase, sorted: no pass over every body. */
+static int hold_lists(mo_contact *C, int first, int nold, mo_ctx *ctx)
 {
   struct mo_pdetect *P = C->pd;
   const mo_scene *sc = C->sc;
   const unsigned long long all = P->nranks >= 64 ? ~0ULL : (1ULL << P->nranks) - 1;
   int b;
   int k, q, *off = P->sh_off;
-  P->nhlist = 0;
-  for (b = 0; b < sc->nbody; b++) {
-    if (!C->bmask[b]) {
-      /* outside the broad phase: every rank's, counted by rank 0 */
-      P->hold[b] = all;
-      P->count[b] = P->rank == 0;
-      if ((sc->body[b].type->flags & MO_BODY_F_RIGID) && !sc->body[b].fixed) P->hlist[P->nhlist++] = b;
-      continue;
+  if (first) {
+    P->nhlist = P->nxlist = P->nxdm = 0;
+    for (b = 0; b < sc->nbody; b++) {
+      if (!C->bmask[b]) {
+        /* outside the broad phase: every rank's, counted by rank 0 */
+        P->hold[b] = all;
+        P->count[b] = P->rank == 0;
+        if (C->dmask[b]) P->xdm[P->nxdm++] = b;
+        if ((sc->body[b].type->flags & MO_BODY_F_RIGID) && !sc->body[b].fixed) {
+          P->hlist[P->nhlist++] = b;
+          P->xlist[P->nxlist++] = b;
+        }
+        continue;
+      }
+      P->count[b] = P->owner[b] == P->rank;
+      if (P->rmask[b]) P->hlist[P->nhlist++] = b;
     }
-    P->count[b] = P->owner[b] == P->rank;
-    if (P->rmask[b]) P->hlist[P->nhlist++] = b;
+  } else {
+    for (k = 0; k < P->nhlist; k++)
+      if (C->bmask[P->hlist[k]]) P->count[P->hlist[k]] = 0;
+    P->nhlist = 0;
+    for (k = 0; k < nold; k++)
+      if (P->mig_box[k] != -3) P->hlist[P->nhlist++] = P->mig_old[k];
+    for (k = 0; k < P->nrecv; k++) P->hlist[P->nhlist++] = P->rlist[k];
+    for (k = 0; k < P->nxlist; k++) P->hlist[P->nhlist++] = P->xlist[k];
+    qsort(P->hlist, (size_t)P->nhlist, sizeof *P->hlist, cmp_int);
+    for (k = 0; k < P->nhlist; k++)
+      if (C->bmask[P->hlist[k]]) P->count[P->hlist[k]] = P->owner[P->hlist[k]] == P->rank;
   }
   /* per other rank, the held bodies it holds too, ascending (the same list on both sides) */
   for (q = 0; q <= P->nranks; q++) off[q] = 0;
@@ -395,6 +432,8 @@ static int held_start(mo_contact *C, mo_state *s, mo_ctx *ctx)
   int b, st;
   if (!(P->hold = mo_calloc(ctx, (size_t)sc->nbody + 1, sizeof *P->hold)) ||
       !(P->hlist = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *P->hlist)) ||
+      !(P->xlist = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *P->xlist)) ||
+      !(P->xdm = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *P->xdm)) ||
       !(P->count = mo_calloc(ctx, (size_t)sc->nbody + 1, 1)) ||
       !(P->mig_old = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *P->mig_old)) ||
       !(P->mig_box = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *P->mig_box)) ||
@@ -409,7 +448,7 @@ static int held_start(mo_contact *C, mo_state *s, mo_ctx *ctx)
   P->held = 1;
   ctx->par_held = 1;
   P->nrecv = 0;
-  if ((st = hold_lists(C, ctx))) return st;
+  if ((st = hold_lists(C, 1, 0, ctx))) return st;
   poison_unheld(C, s);
   return MO_OK;
 }
@@ -485,8 +524,8 @@ static int migrate(mo_contact *C, mo_state *s, int nold, mo_ctx *ctx)
   /* this rank's mask and boxes from the records: its own old bodies it still holds, and those it
      received (written into the state) */
   for (i = 0; i < nold; i++) P->mig_box[i] = P->mig_m[i] >> me & 1 ? P->owner[P->mig_old[i]] : -3;
-  for (b = 0; b < sc->nbody; b++)
-    if (C->bmask[b]) {
+  for (i = 0; i < P->nhlist; i++) /* the bodies held until now (no other's mask is set) */
+    if (C->bmask[b = P->hlist[i]]) {
       P->rmask[b] = 0;
       P->owner[b] = -2;
     }
@@ -507,7 +546,7 @@ static int migrate(mo_contact *C, mo_state *s, int nold, mo_ctx *ctx)
     P->rlist[i] = b;
   }
   P->nrecv = (int)tr;
-  if ((st = hold_lists(C, ctx))) return st;
+  if ((st = hold_lists(C, 0, nold, ctx))) return st;
   poison_unheld(C, s);
   return MO_OK;
 }
@@ -591,12 +630,23 @@ int mo_pdetect_build(mo_contact *C, const mo_state *s, mo_ctx *ctx)
     return st;
   /* (T230): the bodies whose validity this rank decides, whose speeds it needs, and the others */
   P->nown = P->nnear = P->nrest = 0;
-  for (b = 0; b < sc->nbody; b++) {
-    if (C->bmask[b] && P->owner[b] == P->rank) P->own[P->nown++] = b;
-    if (!C->dmask[b]) continue;
-    if (!C->bmask[b] || P->rmask[b]) P->near[P->nnear++] = b;
-    else P->rest[P->nrest++] = b;
-  }
+  if (P->held) {
+    /* the bodies' state per rank: from the held bodies (and the dynamic ones outside the broad
+       phase); no other body's speed is needed here */
+    for (k = 0; k < P->nhlist; k++) {
+      b = P->hlist[k];
+      if (!C->bmask[b]) continue;
+      if (P->owner[b] == P->rank) P->own[P->nown++] = b;
+      if (C->dmask[b]) P->near[P->nnear++] = b;
+    }
+    for (k = 0; k < P->nxdm; k++) P->near[P->nnear++] = P->xdm[k];
+  } else
+    for (b = 0; b < sc->nbody; b++) {
+      if (C->bmask[b] && P->owner[b] == P->rank) P->own[P->nown++] = b;
+      if (!C->dmask[b]) continue;
+      if (!C->bmask[b] || P->rmask[b]) P->near[P->nnear++] = b;
+      else P->rest[P->nrest++] = b;
+    }
   /* (T231): per pair, the shapes of this rank's slab */
   for (k = 0; k < C->npair; k++) nw += (size_t)C->pair[k].ns;
   if (room((void **)&P->wall, &P->wallcap, nw + 1, sizeof *P->wall, ctx)) return MO_ENOMEM;

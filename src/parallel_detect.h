@@ -67,6 +67,8 @@ struct mo_pdetect {
   int held;                /* on from the first build (then every rank holds every body) */
   unsigned long long *hold;/* per body this rank holds: the ranks that hold it (bit r: rank r) */
   int *hlist, nhlist;      /* the bodies this rank holds (broad phase's and others, ascending) */
+  int *xlist, nxlist;      /* the rigid bodies outside the broad phase (every rank's) */
+  int *xdm, nxdm;          /* the dynamic bodies outside the broad phase (their speeds every rank's) */
   unsigned char *count;    /* per body: 1 when this rank counts it in the sums over bodies (its own,
                               and rank 0 the dynamic bodies outside the broad phase) */
   double halo;             /* the halo of the last build's boxes */
