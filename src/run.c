@@ -178,16 +178,17 @@ static int moving_rigid(const mo_scene *sc)
    rigid.coordination: closed contacts per moving rigid body, a contact with two of them counted
    for both; rigid.xmax, .ymax (, .zmax): the extent of the moving bodies, centre plus bounding
    radius: a pile's height, a collapse's front). */
-static int rigid_aggregates(const mo_scene *sc, const mo_state *s, const contact_view *cv, const unsigned char *count,
-                            double ek, double *out, mo_ctx *ctx)
+static int rigid_aggregates(const mo_scene *sc, const mo_state *s, const contact_view *cv, const int *hlist, int nh,
+                            const unsigned char *count, double ek, double *out, mo_ctx *ctx)
 {
   int k, i, n = 0, D = sc->dim, err;
   double vmax = 0, z = 0, ext[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
-  for (k = 0; k < sc->nrigid; k++) {
-    const mo_body *B = &sc->body[sc->rigid[k]];
+  /* the bodies' state per rank: each rank its counted bodies among those it holds, joined below */
+  for (k = 0; k < (count ? nh : sc->nrigid); k++) {
+    const int b = count ? hlist[k] : sc->rigid[k];
+    const mo_body *B = &sc->body[b];
     double v2 = 0, xc[3];
-    /* the bodies' state per rank: each rank its counted bodies, joined below */
-    if (B->fixed || (count && !count[sc->rigid[k]])) continue;
+    if (B->fixed || (count && (!count[b] || !(B->type->flags & MO_BODY_F_RIGID)))) continue;
     n++;
     for (i = 0; i < D; i++) v2 += s->v[B->dof0 + i] * s->v[B->dof0 + i];
     vmax = fmax(vmax, sqrt(v2));
@@ -1650,7 +1651,8 @@ int mo_run(const mo_run_options *opt, mo_run_result *res, mo_ctx *ctx)
             for (i = 0; i < sc->dim; i++) row[q++] = pf && s.step ? pf[3 * k + i] : 0;
       }
       if (cutcol) row[cutcol] = (double)stepper.cuts;
-      if (agcol && (st = rigid_aggregates(sc, &s, &cv, held ? hcount : NULL, ek, row + agcol, ctx))) goto done;
+      if (agcol && (st = rigid_aggregates(sc, &s, &cv, hlist, nhlist, held ? hcount : NULL, ek, row + agcol, ctx)))
+        goto done;
       if ((st = mo_finite_row(sc, &s, row, (const char *const *)names, ncol, ctx))) goto done;
       if (csv && (st = mo_csv_row(csv, row, ctx))) goto done;
     }
