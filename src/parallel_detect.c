@@ -28,18 +28,10 @@ static inline int with_map(const mo_contact *C)
    knows only its own bodies' radii: their maximum over the ranks) and the halo returned. */
 static int boxes(int dim, int n, const double *c, const double *r, const unsigned char *mask, double reach, long npts,
                  const double *pts, int nranks, int rank, mo_rcb_tree *T, int *owner, unsigned char *rmask, int *idx,
-                 int *ppart, double rmax, double *halo_out, const int *list, int nlist)
+                 int *ppart, double rmax, double *halo_out)
 {
   double lo[3], hi[3], halo;
   int b, k;
-  if (list) {
-    /* the bodies' state per rank: the boxes from the points, the boxes of the listed bodies (the
-       rank's own; the masks are the records', migrate) and the halo from the radius given */
-    if (mo_rcb_tree_make(dim, (int)npts, pts, NULL, NULL, nranks, ppart, idx, T) < 0) return -1;
-    for (k = 0; k < nlist; k++) owner[list[k]] = mo_rcb_locate(T, c + (size_t)dim * list[k]);
-    *halo_out = (2 * rmax + reach) * (1 + 1e-9);
-    return 0;
-  }
   /* (T341) the boxes cut from the points, or (T215), (T330) from the bodies' centres; a body's box
      its centre's */
   if (npts > 0) {
@@ -70,7 +62,7 @@ int mo_pdetect_boxes(int dim, int n, const double *c, const double *r, const uns
                      long npts, const double *pts, int nranks, int rank, mo_rcb_tree *T, int *owner,
                      unsigned char *rmask, int *idx, int *ppart)
 {
-  return boxes(dim, n, c, r, mask, reach, npts, pts, nranks, rank, T, owner, rmask, idx, ppart, -1, NULL, NULL, 0);
+  return boxes(dim, n, c, r, mask, reach, npts, pts, nranks, rank, T, owner, rmask, idx, ppart, -1, NULL);
 }
 
 void mo_pdetect_free(mo_contact *C)
@@ -193,6 +185,155 @@ int mo_pdetect_begin(mo_contact *C, mo_ctx *ctx)
   return MO_OK;
 }
 
+/* (T347) mo_rcb_tree_make's tree from the points each rank holds of its own (n of them, D each,
+   reordered in place), none gathered: cut by cut, level by level of the recursion, each node's
+   count and bounding box (one maximum a level), its histogram along the cut's axis in 64 coarse
+   bins (one sum), then the 64 fine bins of the coarse bin the cut falls in (one sum): the counts
+   cut() reads are sums of integers, exact, so the cuts are the gathered points' to the bit. */
+#define RCB_COARSE 64
+static int rcb_tree_dist(int D, long n, double *pts, int nparts, mo_rcb_tree *T, mo_ctx *ctx)
+{
+  struct nd {
+    int q, ni;
+    long a, b;
+    double lo, w, m;
+    int ax, c;
+  } cur[MO_RCB_MAXPARTS], nxt[MO_RCB_MAXPARTS];
+  const int per = 1 + 2 * D;
+  double v[MO_RCB_MAXPARTS * (RCB_COARSE + 1)], before[MO_RCB_MAXPARTS];
+  int ncur = 0, k, i, st;
+  if (nparts > MO_RCB_MAXPARTS) return -1;
+  T->nparts = nparts;
+  T->dim = D;
+  if (nparts > 1) cur[ncur++] = (struct nd){nparts, 0, 0, n, 0, 1, 0, 0, 0};
+  while (ncur) {
+    int nnext = 0;
+    /* each node's count and box: the maximum of (count, -lo, hi) */
+    for (k = 0; k < ncur; k++) {
+      double *x = v + (size_t)k * per;
+      long t;
+      x[0] = (double)(cur[k].b - cur[k].a);
+      for (i = 0; i < D; i++) x[1 + i] = x[1 + D + i] = -HUGE_VAL;
+      for (t = cur[k].a; t < cur[k].b; t++)
+        for (i = 0; i < D; i++) {
+          const double c = pts[(size_t)D * t + i];
+          if (-c > x[1 + i]) x[1 + i] = -c;
+          if (c > x[1 + D + i]) x[1 + D + i] = c;
+        }
+    }
+    if ((st = mo_par_max(v, (long)ncur * per, ctx))) return st;
+    for (k = 0; k < ncur; k++) {
+      const double *x = v + (size_t)k * per;
+      double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
+      int ax = 0;
+      for (i = 0; i < D; i++) {
+        lo[i] = -x[1 + i];
+        hi[i] = x[1 + D + i];
+      }
+      cur[k].m = x[0]; /* 0 when no rank has a point; the sum follows */
+      for (i = 1; i < D; i++)
+        if (hi[i] - lo[i] > hi[ax] - lo[ax]) ax = i;
+      cur[k].ax = ax;
+      cur[k].lo = lo[ax];
+      cur[k].w = hi[ax] > lo[ax] ? (hi[ax] - lo[ax]) / MO_RCB_BINS : 1;
+    }
+    /* the coarse histogram and the count */
+    memset(v, 0, (size_t)ncur * (RCB_COARSE + 1) * sizeof *v);
+    for (k = 0; k < ncur; k++) {
+      double *h = v + (size_t)k * (RCB_COARSE + 1);
+      long t;
+      h[RCB_COARSE] = (double)(cur[k].b - cur[k].a);
+      if (cur[k].m == 0) continue;
+      for (t = cur[k].a; t < cur[k].b; t++)
+        h[mo_rcb_bin(pts[(size_t)D * t + cur[k].ax], cur[k].lo, cur[k].w) / (MO_RCB_BINS / RCB_COARSE)]++;
+    }
+    if ((st = mo_par_sum(v, (long)ncur * (RCB_COARSE + 1), ctx))) return st;
+    for (k = 0; k < ncur; k++) {
+      const double *h = v + (size_t)k * (RCB_COARSE + 1);
+      const long m = (long)h[RCB_COARSE], ql = cur[k].q / 2, q = cur[k].q;
+      long cum = 0;
+      int c;
+      cur[k].m = (double)m;
+      cur[k].c = 0;
+      if (m == 0) continue;
+      /* the first coarse bin whose count before it puts the cut at or before it (cut()'s rule) */
+      for (c = 0; c < RCB_COARSE; c++) {
+        if (cum * q / m >= ql) break;
+        cum += (long)h[c];
+      }
+      cur[k].c = c; /* the cut in (64 (c - 1), 64 c], or 0 with c = 0 */
+      before[k] = c > 0 ? (double)cum - h[c - 1] : 0; /* the count before coarse bin c - 1 */
+    }
+    /* the fine bins of coarse bin c - 1 */
+    memset(v, 0, (size_t)ncur * RCB_COARSE * sizeof *v);
+    for (k = 0; k < ncur; k++) {
+      double *h = v + (size_t)k * RCB_COARSE;
+      const int b0 = (cur[k].c - 1) * (MO_RCB_BINS / RCB_COARSE);
+      long t;
+      if (cur[k].m == 0 || cur[k].c == 0) continue;
+      for (t = cur[k].a; t < cur[k].b; t++) {
+        const int b = mo_rcb_bin(pts[(size_t)D * t + cur[k].ax], cur[k].lo, cur[k].w);
+        if (b >= b0 && b < b0 + RCB_COARSE) h[b - b0]++;
+      }
+    }
+    if ((st = mo_par_sum(v, (long)ncur * RCB_COARSE, ctx))) return st;
+    {
+      struct nd child[2 * MO_RCB_MAXPARTS];
+      int nchild = 0;
+      for (k = 0; k < ncur; k++) {
+        mo_rcb_node *N = &T->node[cur[k].ni];
+        const long m = (long)cur[k].m, ql = cur[k].q / 2, q = cur[k].q;
+        long t, nl = cur[k].a;
+        int bcut;
+        if (m == 0) {
+          N->ax = 0;
+          N->lo = 0;
+          N->w = 1;
+          bcut = MO_RCB_BINS + 1;
+        } else if (cur[k].c == 0)
+          bcut = 0;
+        else {
+          const double *h = v + (size_t)k * RCB_COARSE;
+          const int b0 = (cur[k].c - 1) * (MO_RCB_BINS / RCB_COARSE);
+          long cum = (long)before[k];
+          for (bcut = b0 + 1; bcut < b0 + RCB_COARSE; bcut++) {
+            cum += (long)h[bcut - 1 - b0];
+            if (cum * q / m >= ql) break;
+          }
+        }
+        if (m) {
+          N->ax = cur[k].ax;
+          N->lo = cur[k].lo;
+          N->w = cur[k].w;
+        }
+        N->bcut = bcut;
+        /* this rank's points below the cut first */
+        for (t = cur[k].a; t < cur[k].b; t++)
+          if (m && mo_rcb_bin(pts[(size_t)D * t + N->ax], N->lo, N->w) < bcut) {
+            double tmp[3];
+            memcpy(tmp, pts + (size_t)D * nl, (size_t)D * sizeof *tmp);
+            memcpy(pts + (size_t)D * nl, pts + (size_t)D * t, (size_t)D * sizeof *tmp);
+            memcpy(pts + (size_t)D * t, tmp, (size_t)D * sizeof *tmp);
+            nl++;
+          }
+        if (!m) nl = cur[k].b; /* empty everywhere: every point (none) below */
+        child[nchild++] = (struct nd){(int)ql, cur[k].ni + 1, cur[k].a, nl, 0, 1, 0, 0, 0};
+        child[nchild++] = (struct nd){(int)(q - ql), cur[k].ni + (int)ql, nl, cur[k].b, 0, 1, 0, 0, 0};
+      }
+      for (k = 0; k < nchild; k++)
+        if (child[k].q > 1) nxt[nnext++] = child[k];
+    }
+    memcpy(cur, nxt, (size_t)nnext * sizeof *cur);
+    ncur = nnext;
+  }
+  return 0;
+}
+
+int mo_pdetect_tree_dist(int D, long n, double *pts, int nparts, mo_rcb_tree *T, mo_ctx *ctx)
+{
+  return rcb_tree_dist(D, n, pts, nparts, T, ctx);
+}
+
 /* (T341) The boxes of a build (mo_pdetect_boxes): cut from the points (mo_pdetect_point's, at
    this build's centres) of the candidates active in the driver's last solve, the points the
    sweep's parts balance, when there are at least MO_PDETECT_PTS a rank, else from the bodies'
@@ -242,6 +383,18 @@ static int build_boxes(mo_contact *C, int nold, mo_ctx *ctx)
         memcpy(P->pts + (size_t)D * np, C->bc + (size_t)D * P->mig_old[np], (size_t)D * sizeof *P->pts);
       centres = 1;
     }
+    /* (T347) the boxes cut from every rank's points without gathering them; each own body's box */
+    ctx->par_detect_builds++;
+    if (!centres) ctx->par_detect_boxpts++;
+    {
+      int st = rcb_tree_dist(D, np, P->pts, P->nranks, &P->tree, ctx);
+      if (st < 0)
+        return mo_error(ctx, MO_ELIMIT, "contact detection over %d ranks (at most %d)", P->nranks, MO_RCB_MAXPARTS);
+      if (st) return st;
+    }
+    for (i = 0; i < nold; i++) P->owner[P->mig_old[i]] = mo_rcb_locate(&P->tree, C->bc + (size_t)D * P->mig_old[i]);
+    P->halo = (2 * rmax + C->vl_reach) * (1 + 1e-9);
+    return MO_OK;
   }
   if (C->pd_dist) {
     /* the distributed set: each rank holds its own candidates' activities, the points gathered
@@ -264,11 +417,10 @@ static int build_boxes(mo_contact *C, int nold, mo_ctx *ctx)
     np = tot / D;
   }
   ctx->par_detect_builds++;
-  if (np < (long)MO_PDETECT_PTS * P->nranks && !P->held) np = 0; /* too few: the bodies' centres */
-  else if (!centres) ctx->par_detect_boxpts++;
-  if (P->held && np == 0) return mo_error(ctx, MO_EINTERNAL, "the bodies' state per rank: no body in the broad phase");
+  if (np < (long)MO_PDETECT_PTS * P->nranks) np = 0; /* too few: the bodies' centres */
+  else ctx->par_detect_boxpts++;
   if (boxes(D, sc->nbody, C->bc, C->br, C->bmask, C->vl_reach, np, P->pts, P->nranks, P->rank, &P->tree, P->owner,
-            P->rmask, P->pidx, P->ppart, rmax, &P->halo, P->held ? P->mig_old : NULL, nold) < 0)
+            P->rmask, P->pidx, P->ppart, rmax, &P->halo) < 0)
     return mo_error(ctx, MO_ELIMIT, "contact detection over %d ranks (at most %d)", P->nranks, MO_RCB_MAXPARTS);
   return MO_OK;
 }

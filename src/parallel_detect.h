@@ -115,6 +115,11 @@ int mo_pdetect_boxes(int dim, int n, const double *c, const double *r, const uns
                      long npts, const double *pts, int nranks, int rank, mo_rcb_tree *T, int *owner,
                      unsigned char *rmask, int *idx, int *ppart);
 
+/* (T347) mo_rcb_tree_make's tree of the points of every rank, each rank passing its own n (D each,
+   reordered in place), none gathered: the same tree to the bit (collective; -1 past
+   MO_RCB_MAXPARTS parts, else MO_OK or an MPI error). */
+int mo_pdetect_tree_dist(int D, long n, double *pts, int nparts, mo_rcb_tree *T, mo_ctx *ctx);
+
 /* Whether the detection of C is split over the ranks of ctx: more than one rank, the granular
    path's compact records, pairs between rigid shapes, and every other dynamic pair a shape
    against an obstacle. The state is made on the first call. */

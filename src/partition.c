@@ -10,11 +10,7 @@ static inline const double *point(int dim, const double *x, const int *sel, int 
   return x + (size_t)dim * (size_t)(sel ? sel[k] : k);
 }
 
-static inline int bin_of(double v, double lo, double w)
-{
-  long b = (long)((v - lo) / w);
-  return (int)(b < 0 ? 0 : b >= MO_RCB_BINS ? MO_RCB_BINS - 1 : b);
-}
+static inline int bin_of(double v, double lo, double w) { return mo_rcb_bin(v, lo, w); }
 
 /* The m items idx[0 .. m-1] into parts q0 .. q0 + q - 1, the cuts recorded in T from node *nn on
    (T: NULL, none). Returns the axis of the cut. */

@@ -30,6 +30,13 @@ typedef struct {
 /* mo_rcb's partition (the same parts), its cuts kept in T; -1 past MO_RCB_MAXPARTS parts. */
 int mo_rcb_tree_make(int dim, int n, const double *x, const int *sel, const unsigned char *mask, int nparts,
                      int *part, int *idx, mo_rcb_tree *T);
+/* The bin of abscissa v in the histogram of origin lo and width w (cut()'s own, for a cut made
+   elsewhere from the same counts). */
+static inline int mo_rcb_bin(double v, double lo, double w)
+{
+  long b = (long)((v - lo) / w);
+  return (int)(b < 0 ? 0 : b >= MO_RCB_BINS ? MO_RCB_BINS - 1 : b);
+}
 /* The part of point p (dim coordinates): for the points T was made from, their part. */
 int mo_rcb_locate(const mo_rcb_tree *T, const double *p);
 /* The box of a part: lo[k] <= p[k] <= hi[k] for k < 3 of every point mo_rcb_locate gives it,

@@ -543,6 +543,46 @@ static void all_box_checks(mo_ctx *ctx)
   }
 }
 
+/* (T347) The boxes' tree cut from each rank's own points equals the tree of all the points
+   gathered (mo_rcb_tree_make), node by node: random points, ties on an abscissa, a rank without
+   points, and no point anywhere. */
+static void tree_dist_checks(mo_ctx *ctx)
+{
+  static const int parts[] = {2, 3, 4, 5, 7, 8, 13};
+  const int n = 3000;
+  double *all = malloc(3 * (size_t)n * sizeof *all), *mine = malloc(3 * (size_t)n * sizeof *mine);
+  int *idx = malloc((size_t)n * sizeof *idx), *part = malloc((size_t)n * sizeof *part);
+  int dim, p, c, i, k, bad = 0, runs = 0;
+  for (c = 0; c < 3; c++)
+    for (dim = 2; dim <= 3; dim++)
+      for (p = 0; p < (int)(sizeof parts / sizeof *parts); p++) {
+        mo_rcb_tree T0, T1;
+        long m = 0, na = c == 2 ? 0 : n;
+        srand(1000u + 7u * (unsigned)c + 3u * (unsigned)dim);
+        for (i = 0; i < na; i++)
+          for (k = 0; k < dim; k++) {
+            all[(size_t)dim * i + k] = (double)rand() / RAND_MAX * (k == 0 ? 3.0 : 1.0);
+            if (i % 11 == 0 && k == 0) all[(size_t)dim * i] = 1.5; /* ties */
+          }
+        /* c = 0: the points dealt round the ranks; c = 1: all on the last rank; c = 2: none */
+        for (i = 0; i < na; i++)
+          if (c == 0 ? i % ctx->nranks == ctx->rank : ctx->rank == ctx->nranks - 1)
+            memcpy(mine + (size_t)dim * m++, all + (size_t)dim * i, (size_t)dim * sizeof *all);
+        memset(&T0, 0, sizeof T0);
+        memset(&T1, 0, sizeof T1);
+        mo_rcb_tree_make(dim, (int)na, all, NULL, NULL, parts[p], part, idx, &T0);
+        if (mo_pdetect_tree_dist(dim, m, mine, parts[p], &T1, ctx) != MO_OK) bad++;
+        bad += T0.nparts != T1.nparts || memcmp(T0.node, T1.node, (size_t)(parts[p] - 1) * sizeof *T0.node) != 0;
+        runs++;
+      }
+  ok(agree_all(!bad, ctx), "detection boxes cut from each rank's own points (T347): %d trees equal the gathered points' "
+     "node by node on %d rank(s) (%d differ)", runs, ctx->nranks, bad);
+  free(all);
+  free(mine);
+  free(idx);
+  free(part);
+}
+
 int main(int argc, char **argv)
 {
   mo_ctx ctx;
@@ -550,6 +590,7 @@ int main(int argc, char **argv)
   if (!mo_parallel_available()) {
     /* the detection's boxes are plain arithmetic: checked in every build */
     all_box_checks(&ctx);
+    tree_dist_checks(&ctx);
     printf("# the rest skipped: this build has no PETSc (configure --with-petsc)\n");
     return done_testing();
   }
@@ -578,6 +619,7 @@ int main(int argc, char **argv)
     mo_ctx_clear_error(&ctx);
   }
   all_box_checks(&ctx);
+  tree_dist_checks(&ctx);
   solver_checks(&ctx, "preonly", "cholesky", 1e-12, 0);
   solver_checks(&ctx, "preonly", "lu", 1e-12, 0);
   solver_checks(&ctx, "cg", "jacobi", 1e-9, 0);
