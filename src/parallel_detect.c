@@ -11,6 +11,7 @@
 #include "partition.h"
 #include <moreau/parallel.h>
 
+#include <limits.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -93,6 +94,8 @@ void mo_pdetect_free(mo_contact *C)
   mo_free(P->hlist);
   mo_free(P->xlist);
   mo_free(P->xdm);
+  mo_free(P->xnb);
+  mo_free(P->winv);
   mo_free(P->count);
   mo_free(P->mig_old);
   mo_free(P->mig_box);
@@ -532,9 +535,10 @@ static int hold_lists(mo_contact *C, int first, int nold, mo_ctx *ctx)
   int b;
   int k, q, *off = P->sh_off;
   if (first) {
-    P->nhlist = P->nxlist = P->nxdm = 0;
+    P->nhlist = P->nxlist = P->nxdm = P->nxnb = 0;
     for (b = 0; b < sc->nbody; b++) {
       if (!C->bmask[b]) {
+        P->xnb[P->nxnb++] = b;
         /* outside the broad phase: every rank's, counted by rank 0 */
         P->hold[b] = all;
         P->count[b] = P->rank == 0;
@@ -551,12 +555,24 @@ static int hold_lists(mo_contact *C, int first, int nold, mo_ctx *ctx)
   } else {
     for (k = 0; k < P->nhlist; k++)
       if (C->bmask[P->hlist[k]]) P->count[P->hlist[k]] = 0;
+    /* three ascending lists merged: the old own bodies kept (the own list's order), those received
+       (each sender's block ascending: sorted), those outside */
+    int a = 0, r = 0, x = 0;
+    qsort(P->rlist, (size_t)P->nrecv, sizeof *P->rlist, cmp_int);
     P->nhlist = 0;
-    for (k = 0; k < nold; k++)
-      if (P->mig_box[k] != -3) P->hlist[P->nhlist++] = P->mig_old[k];
-    for (k = 0; k < P->nrecv; k++) P->hlist[P->nhlist++] = P->rlist[k];
-    for (k = 0; k < P->nxlist; k++) P->hlist[P->nhlist++] = P->xlist[k];
-    qsort(P->hlist, (size_t)P->nhlist, sizeof *P->hlist, cmp_int);
+    for (;;) {
+      int ba, br, bx, m;
+      while (a < nold && P->mig_box[a] == -3) a++;
+      ba = a < nold ? P->mig_old[a] : INT_MAX;
+      br = r < P->nrecv ? P->rlist[r] : INT_MAX;
+      bx = x < P->nxlist ? P->xlist[x] : INT_MAX;
+      m = ba < br ? (ba < bx ? ba : bx) : (br < bx ? br : bx);
+      if (m == INT_MAX) break;
+      P->hlist[P->nhlist++] = m;
+      if (m == ba) a++;
+      else if (m == br) r++;
+      else x++;
+    }
     for (k = 0; k < P->nhlist; k++)
       if (C->bmask[P->hlist[k]]) P->count[P->hlist[k]] = P->owner[P->hlist[k]] == P->rank;
   }
@@ -586,6 +602,7 @@ static int held_start(mo_contact *C, mo_state *s, mo_ctx *ctx)
       !(P->hlist = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *P->hlist)) ||
       !(P->xlist = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *P->xlist)) ||
       !(P->xdm = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *P->xdm)) ||
+      !(P->xnb = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *P->xnb)) ||
       !(P->count = mo_calloc(ctx, (size_t)sc->nbody + 1, 1)) ||
       !(P->mig_old = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *P->mig_old)) ||
       !(P->mig_box = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *P->mig_box)) ||
@@ -594,6 +611,29 @@ static int held_start(mo_contact *C, mo_state *s, mo_ctx *ctx)
       !(P->sh_off = mo_calloc(ctx, 2 * (size_t)P->nranks + 2, sizeof *P->sh_off)))
     return MO_ENOMEM;
   P->sh_at = P->sh_off + P->nranks + 1;
+  {
+    /* per pair, each body's index among its slaves (the wall lists from the own bodies); left out
+       when a pair lists a body twice (the lists then looked for over every slave) */
+    size_t tot = (size_t)C->npair * sc->nbody;
+    int k, i, twice = 0;
+    if (!(P->winv = mo_malloc(ctx, (tot + 1) * sizeof *P->winv))) return MO_ENOMEM;
+    for (i = 0; i < (int)tot; i++) P->winv[i] = -1;
+    for (k = 0; k < C->npair && !twice; k++)
+      for (i = 0; i < C->pair[k].ns; i++) {
+        int *w = P->winv + (size_t)k * sc->nbody + C->pair[k].sb[i];
+        if (C->pair[k].sb[i] < 0 || C->pair[k].sb[i] >= sc->nbody) continue;
+        if (*w >= 0) twice = 1;
+        *w = i;
+      }
+    if (twice) {
+      mo_free(P->winv);
+      P->winv = NULL;
+    }
+    /* each pair's slaves in the bodies' order (a group's): the own bodies' indices come ascending */
+    P->winv_up = 1;
+    for (k = 0; k < C->npair && P->winv_up; k++)
+      for (i = 1; i < C->pair[k].ns && P->winv_up; i++) P->winv_up = C->pair[k].sb[i] > C->pair[k].sb[i - 1];
+  }
   /* every rank holds every body now: each its box's and halo's from here on */
   for (b = 0; b < sc->nbody; b++)
     if (C->bmask[b] && P->rmask[b]) P->hold[b] = holders(P, sc->dim, C->bc + (size_t)sc->dim * b, P->owner[b]);
@@ -802,11 +842,24 @@ int mo_pdetect_build(mo_contact *C, const mo_state *s, mo_ctx *ctx)
   /* (T231): per pair, the shapes of this rank's slab */
   for (k = 0; k < C->npair; k++) nw += (size_t)C->pair[k].ns;
   if (room((void **)&P->wall, &P->wallcap, nw + 1, sizeof *P->wall, ctx)) return MO_ENOMEM;
-  for (k = 0, nw = 0; k < C->npair; k++) {
-    P->wall0[k] = (int)nw;
-    for (i = 0; i < C->pair[k].ns; i++)
-      if (mo_pdetect_owns(P, C->pair[k].sb[i])) P->wall[nw++] = i;
-  }
+  if (P->held && P->winv) {
+    /* the bodies' state per rank: from the own bodies (and rank 0's outside the broad phase) by
+       each pair's index of its slaves, no pass over every slave */
+    for (k = 0, nw = 0; k < C->npair; k++) {
+      const int *inv = P->winv + (size_t)k * sc->nbody;
+      P->wall0[k] = (int)nw;
+      for (i = 0; i < P->nown; i++)
+        if (inv[P->own[i]] >= 0) P->wall[nw++] = inv[P->own[i]];
+      for (i = 0; i < P->nxnb && P->rank == 0; i++)
+        if (inv[P->xnb[i]] >= 0 && P->owner[P->xnb[i]] == -1) P->wall[nw++] = inv[P->xnb[i]];
+      if (!P->winv_up) qsort(P->wall + P->wall0[k], nw - (size_t)P->wall0[k], sizeof *P->wall, cmp_int);
+    }
+  } else
+    for (k = 0, nw = 0; k < C->npair; k++) {
+      P->wall0[k] = (int)nw;
+      for (i = 0; i < C->pair[k].ns; i++)
+        if (mo_pdetect_owns(P, C->pair[k].sb[i])) P->wall[nw++] = i;
+    }
   P->wall0[C->npair] = (int)nw;
   return MO_OK;
 }

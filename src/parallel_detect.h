@@ -69,6 +69,10 @@ struct mo_pdetect {
   int *hlist, nhlist;      /* the bodies this rank holds (broad phase's and others, ascending) */
   int *xlist, nxlist;      /* the rigid bodies outside the broad phase (every rank's) */
   int *xdm, nxdm;          /* the dynamic bodies outside the broad phase (their speeds every rank's) */
+  int *xnb, nxnb;          /* every body outside the broad phase (rank 0 detects their contacts) */
+  int *winv;               /* per pair k and body b, b's index among k's slaves (-1: none; NULL: not
+                              made, a pair listing a body twice) */
+  int winv_up;             /* every pair's slaves in increasing body order */
   unsigned char *count;    /* per body: 1 when this rank counts it in the sums over bodies (its own,
                               and rank 0 the dynamic bodies outside the broad phase) */
   double halo;             /* the halo of the last build's boxes */

@@ -137,6 +137,8 @@ void mo_stepper_free(mo_stepper *S)
   mo_free(S->w3);
   mo_free(S->uprev);
   mo_free(S->ld_lo);
+  mo_free(S->hd0);
+  mo_free(S->fconst);
   mo_free(S->ld_l);
   mo_free(S->ld_v);
   mo_free(S->ld_a);
@@ -1016,6 +1018,11 @@ static int loads_by_dof(mo_stepper *S, mo_ctx *ctx)
   int l, k, n = 0, d;
   if (S->ld_lo) return MO_OK;
   for (l = 0; l < sc->nload; l++) n += sc->load[l].n;
+  if (!(S->hd0 = mo_malloc(ctx, ((size_t)sc->nbody + 1) * sizeof *S->hd0))) return MO_ENOMEM;
+  /* per body its first dof, -1 but for a rigid body with dofs: the held loops read no body record
+     (T311) */
+  for (d = 0; d < sc->nbody; d++)
+    S->hd0[d] = (sc->body[d].type->flags & MO_BODY_F_RIGID) && sc->body[d].dof0 >= 0 ? sc->body[d].dof0 : -1;
   if (!(S->ld_lo = mo_calloc(ctx, (size_t)sc->ndof + 2, sizeof *S->ld_lo)) ||
       !(S->ld_l = mo_malloc(ctx, ((size_t)n + 1) * sizeof *S->ld_l)) ||
       !(S->ld_v = mo_malloc(ctx, ((size_t)n + 1) * sizeof *S->ld_v)) ||
@@ -1031,6 +1038,12 @@ static int loads_by_dof(mo_stepper *S, mo_ctx *ctx)
       S->ld_l[e] = l;
       S->ld_v[e] = sc->load[l].val[k];
     }
+  /* every load constant (gravity): f_ext once, mo_scene_fext's values at any time */
+  for (l = 0; l < sc->nload && !sc->load[l].amp; l++) {}
+  if (l == sc->nload) {
+    if (!(S->fconst = mo_malloc(ctx, ((size_t)sc->ndof + 1) * sizeof *S->fconst))) return MO_ENOMEM;
+    mo_scene_fext(sc, 0, S->fconst);
+  }
   return MO_OK;
 }
 
@@ -1061,12 +1074,10 @@ static void predict_held(mo_stepper *S, const mo_state *s, double *x)
   int k, i;
   load_amps(sc, s->t + h, S->ld_a);
   for (k = 0; k < S->nhl; k++) {
-    const mo_body *B = &sc->body[S->hlist[k]];
-    int d0, r;
-    if (!(B->type->flags & MO_BODY_F_RIGID) || B->dof0 < 0) continue;
-    d0 = B->dof0;
-    r = d0 / nd;
-    for (i = 0; i < nd; i++) rhs[d0 + i] = h * (tf * fext_dof(S, S->ld_a, d0 + i) + (1 - tf) * s->f[d0 + i]);
+    const int d0 = S->hd0[S->hlist[k]], r = d0 / nd;
+    if (d0 < 0) continue;
+    for (i = 0; i < nd; i++)
+      rhs[d0 + i] = h * (tf * (S->fconst ? S->fconst[d0 + i] : fext_dof(S, S->ld_a, d0 + i)) + (1 - tf) * s->f[d0 + i]);
     rigid_rhs_block(S, s, x, rhs, r, fast);
     block_apply(&S->Wi, r, rhs, x, 0);
   }
@@ -1544,42 +1555,37 @@ static int finish_held(mo_stepper *S, mo_state *s, const double *x, mo_ctx *ctx)
 {
   const mo_scene *sc = S->sc;
   const int nd = mo_rigid_ndof(sc->dim);
-  const double h = S->h, tn = s->t + h, t0 = mo_clock();
-  double dw = 0;
-  int k, i, st;
+  const double h = S->h, tn = s->t + h, t0 = mo_clock(), th = S->theta;
+  double dw = 0, *c = S->ld_a0;
+  int k, i, l, st;
   if ((st = loads_by_dof(S, ctx))) return st;
   for (k = 0; k < S->nhl; k++) {
-    const mo_body *B = &sc->body[S->hlist[k]];
-    if (!(B->type->flags & MO_BODY_F_RIGID) || B->dof0 < 0) continue;
-    for (i = 0; i < nd; i++)
-      if (!isfinite(x[B->dof0 + i])) return nan_diagnosis(S, s, x, B->dof0 + i, ctx);
+    const int d0 = S->hd0[S->hlist[k]];
+    for (i = 0; i < nd && d0 >= 0; i++)
+      if (!isfinite(x[d0 + i])) return nan_diagnosis(S, s, x, d0 + i, ctx);
   }
-  /* ahead_of_update's: the 3D rotations and the loads' work over the step, before u moves */
-  load_amps(sc, s->t, S->ld_a0);
+  /* the loads' amplitudes at t_k+1, and their trapezoid's factors 0.5 (a_k + a_k+1) */
+  load_amps(sc, s->t, c);
   load_amps(sc, tn, S->ld_a);
+  for (l = 0; l < sc->nload; l++) c[l] = 0.5 * (c[l] + S->ld_a[l]);
   for (k = 0; k < S->nhl; k++) {
-    const mo_body *B = &sc->body[S->hlist[k]];
-    const int d0 = B->dof0;
+    const int b = S->hlist[k], d0 = S->hd0[b], cnt = !S->bcount || S->bcount[b];
     int e;
-    if (!(B->type->flags & MO_BODY_F_RIGID) || d0 < 0) continue;
+    if (d0 < 0) continue;
+    /* ahead_of_update's, before u moves: the 3D rotation, the loads' work over the step */
     if (sc->dim == 3) {
       double phi[3];
       for (i = 0; i < 3; i++) phi[i] = theta_du(S, s, x, d0 + 3 + i);
-      mo_quat_rotate(s->orient + 4 * B->orient, phi);
+      mo_quat_rotate(s->orient + 4 * sc->body[b].orient, phi);
     }
-    if (S->bcount && !S->bcount[S->hlist[k]]) continue;
-    for (i = 0; i < nd; i++)
-      for (e = S->ld_lo[d0 + i]; e < S->ld_lo[d0 + i + 1]; e++)
-        dw += 0.5 * (S->ld_a0[S->ld_l[e]] + S->ld_a[S->ld_l[e]]) * S->ld_v[e] * theta_du(S, s, x, d0 + i);
-  }
-  for (k = 0; k < S->nhl; k++) {
-    const mo_body *B = &sc->body[S->hlist[k]];
-    const int d0 = B->dof0;
-    if (!(B->type->flags & MO_BODY_F_RIGID) || d0 < 0) continue;
     for (i = d0; i < d0 + nd; i++) {
-      s->u[i] += h * (S->theta * x[i] + (1 - S->theta) * s->v[i]);
+      if (cnt && S->ld_lo[i] < S->ld_lo[i + 1]) {
+        const double du = theta_du(S, s, x, i);
+        for (e = S->ld_lo[i]; e < S->ld_lo[i + 1]; e++) dw += c[S->ld_l[e]] * S->ld_v[e] * du;
+      }
+      s->u[i] += h * (th * x[i] + (1 - th) * s->v[i]);
       s->v[i] = x[i];
-      s->f[i] = fext_dof(S, S->ld_a, i);
+      s->f[i] = S->fconst ? S->fconst[i] : fext_dof(S, S->ld_a, i);
     }
   }
   if (S->bcount && (st = mo_par_sum(&dw, 1, ctx))) return st;

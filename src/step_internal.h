@@ -26,7 +26,10 @@ struct mo_stepper {
   int nhl;
   const unsigned char *bcount;
   int *ld_lo, *ld_l;             /* the loads by dof (loads_by_dof): entries lo[d] .. lo[d + 1] */
-  double *ld_v, *ld_a, *ld_a0;   /* their values; the loads' amplitudes at t_k+1 and t_k */
+  int *hd0;                      /* per body: its first dof (a rigid body with dofs), else -1 */
+  double *fconst;                /* f_ext when every load is constant (NULL otherwise) */
+  double *ld_v, *ld_a, *ld_a0;   /* their values; the loads' amplitudes at t_k+1; scratch (at t_k, then
+                                    the trapezoid's factors) */
   /* nonlinear scenes (newton.c); all NULL for linear ones */
   int nl;
   double *Wlin;         /* values of cm M + ck K on the pattern of W (the linear bodies' part) */
