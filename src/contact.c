@@ -1572,11 +1572,12 @@ measured:
   }
   if (D->grains.hold) {
     /* the bodies' state per rank: the held bodies' (every dof free, doc/theory.md §13.18) */
-    const int *vel = D->grains.vel;
+    const int *vel = D->grains.vel, nd = mo_rigid_ndof(sc->dim);
     int k, j;
-    for (k = 0; k < D->grains.nhlist; k++)
-      if (vel[D->grains.hlist[k]] >= 0)
-        for (j = 0; j < mo_rigid_ndof(sc->dim); j++) D->xfull[vel[D->grains.hlist[k]] + j] += D->dx[vel[D->grains.hlist[k]] + j];
+    for (k = 0; k < D->grains.nhlist; k++) {
+      const int o = vel[D->grains.hlist[k]];
+      for (j = 0; j < nd && o >= 0; j++) D->xfull[o + j] += D->dx[o + j];
+    }
   } else
     for (i = 0; i < sc->nfree; i++) D->xfull[sc->full_of[i]] += D->dx[i];
   if (D->eqf && (st = equilibrium_check(D, s, ctx))) return st;

@@ -252,6 +252,7 @@ int nscd_bodies_sweep(nscd_state *S, const mo_contact_problem *P, double *r, int
 void nscd_bodies_dx(const nscd_state *S, const mo_contact_problem *P, double *dx)
 {
   const mo_grains *G = P->grains;
+  const int nk = NK(S->d);
   int i, k;
   if (!G || !G->hold) {
     for (i = 0; i < P->nfree; i++) dx[i] = S->vb[i] - P->xfree[i];
@@ -261,7 +262,7 @@ void nscd_bodies_dx(const nscd_state *S, const mo_contact_problem *P, double *dx
   for (k = 0; k < G->nhlist; k++) {
     const int o = G->vel[G->hlist[k]];
     if (o >= 0)
-      for (i = o; i < o + NK(S->d); i++) dx[i] = S->vb[i] - P->xfree[i];
+      for (i = o; i < o + nk; i++) dx[i] = S->vb[i] - P->xfree[i];
   }
 }
 
