@@ -241,7 +241,7 @@ static int rcb_tree_dist(int D, long n, double *pts, int nparts, mo_rcb_tree *T,
       cur[k].w = hi[ax] > lo[ax] ? (hi[ax] - lo[ax]) / MO_RCB_BINS : 1;
     }
     /* the coarse histogram and the count */
-    memset(v, 0, (size_t)ncur * (RCB_COARSE + 1) * sizeof *v);
+    for (i = 0; i < ncur * (RCB_COARSE + 1); i++) v[i] = 0;
     for (k = 0; k < ncur; k++) {
       double *h = v + (size_t)k * (RCB_COARSE + 1);
       long t;
@@ -268,7 +268,7 @@ static int rcb_tree_dist(int D, long n, double *pts, int nparts, mo_rcb_tree *T,
       before[k] = c > 0 ? (double)cum - h[c - 1] : 0; /* the count before coarse bin c - 1 */
     }
     /* the fine bins of coarse bin c - 1 */
-    memset(v, 0, (size_t)ncur * RCB_COARSE * sizeof *v);
+    for (i = 0; i < ncur * RCB_COARSE; i++) v[i] = 0;
     for (k = 0; k < ncur; k++) {
       double *h = v + (size_t)k * RCB_COARSE;
       const int b0 = (cur[k].c - 1) * (MO_RCB_BINS / RCB_COARSE);
